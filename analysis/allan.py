@@ -1,0 +1,574 @@
+"""Allan variance of gyro rate records: estimators, tau grids and confidence intervals.
+
+Two estimators are provided, both for one axis (``N``) or several (``N x k``):
+
+* :func:`cluster_allan_variance`, the non-overlapping cluster form (Lv et al. 2015,
+  eq. 1-2), with the number of clusters ``J = floor(N / m)`` that the weighted fit needs;
+* :func:`overlapping_allan_variance`, the fully overlapping form written on the
+  cumulative angle (Zhang et al. 2015, eq. 5), O(N) per tau.
+
+Both work on the cumulative angle ``theta`` (one leading zero, ``N + 1`` points), so a
+cluster sum or a second difference is a difference of ``theta`` values and the all-m
+grid of the cluster form costs O(N log N) in total.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+from analysis.errors import (
+    InvalidSampleRateError,
+    InvalidTauError,
+    NonFiniteSamplesError,
+    TooFewSamplesError,
+)
+
+Estimator = Literal["overlapping", "clusters"]
+InputKind = Literal["rate", "angle_increment"]
+TauGrid = Literal["log", "octave", "all"]
+
+#: Confidence level of a +-1 sigma interval of a normal variable.
+ONE_SIGMA = 0.6826894921370859
+
+
+@dataclass(frozen=True)
+class AllanResult:
+    """Allan variance at a set of averaging times.
+
+    Attributes
+    ----------
+    tau_s : ndarray, shape (n_tau,)
+        Averaging times in seconds, ``tau = m / sample_rate_hz``.
+    m : ndarray of int, shape (n_tau,)
+        Averaging factors (samples per cluster).
+    avar : ndarray, shape (n_tau,) or (n_tau, k)
+        Allan variance in (input unit)^2, e.g. (deg/s)^2. One column per axis when the
+        input had several axes.
+    n_clusters : ndarray of int, shape (n_tau,)
+        Number of whole clusters ``J = floor(N / m)`` (Lv 2015, section 2.2).
+    n_terms : ndarray of int, shape (n_tau,)
+        Number of squared differences summed: ``J - 1`` for the cluster estimator,
+        ``N + 1 - 2m`` for the overlapping one.
+    edf : ndarray, same shape as ``avar``
+        Equivalent degrees of freedom behind the confidence interval.
+    ci_low, ci_high : ndarray, same shape as ``avar``
+        Chi-square confidence interval of the Allan variance at level ``confidence``.
+    confidence : float
+        Two-sided confidence level of ``ci_low``/``ci_high`` (0.683 is +-1 sigma).
+    estimator : str
+        ``"clusters"`` or ``"overlapping"``.
+    sample_rate_hz : float
+        Sample rate of the input record in Hz.
+    n_samples : int
+        Number of samples per axis in the input record.
+    """
+
+    tau_s: NDArray[np.float64]
+    m: NDArray[np.int64]
+    avar: NDArray[np.float64]
+    n_clusters: NDArray[np.int64]
+    n_terms: NDArray[np.int64]
+    edf: NDArray[np.float64]
+    ci_low: NDArray[np.float64]
+    ci_high: NDArray[np.float64]
+    confidence: float
+    estimator: str
+    sample_rate_hz: float
+    n_samples: int
+
+    @property
+    def adev(self) -> NDArray[np.float64]:
+        """Allan deviation, in the input unit (e.g. deg/s)."""
+        return np.sqrt(self.avar)
+
+    @property
+    def adev_ci_low(self) -> NDArray[np.float64]:
+        """Lower confidence bound of the Allan deviation (input unit)."""
+        return np.sqrt(self.ci_low)
+
+    @property
+    def adev_ci_high(self) -> NDArray[np.float64]:
+        """Upper confidence bound of the Allan deviation (input unit)."""
+        return np.sqrt(self.ci_high)
+
+    @property
+    def relative_error(self) -> NDArray[np.float64]:
+        """1-sigma relative error of the root Allan variance, ``1/sqrt(2(J-1))``.
+
+        Lv et al. 2015, eq. 8 (as a fraction, not per cent); ``inf`` where ``J < 2``.
+        """
+        j = self.n_clusters.astype(float)
+        with np.errstate(divide="ignore"):
+            return np.where(j > 1, 1.0 / np.sqrt(2.0 * np.maximum(j - 1.0, 1e-300)), np.inf)
+
+    def axis(self, index: int) -> AllanResult:
+        """The result of one axis of a multi-axis result (a 1-D result for ``index``)."""
+        if self.avar.ndim == 1:
+            if index != 0:
+                raise IndexError(f"a single-axis result has no axis {index}")
+            return self
+        return AllanResult(
+            tau_s=self.tau_s,
+            m=self.m,
+            avar=self.avar[:, index],
+            n_clusters=self.n_clusters,
+            n_terms=self.n_terms,
+            edf=self.edf[:, index],
+            ci_low=self.ci_low[:, index],
+            ci_high=self.ci_high[:, index],
+            confidence=self.confidence,
+            estimator=self.estimator,
+            sample_rate_hz=self.sample_rate_hz,
+            n_samples=self.n_samples,
+        )
+
+
+# --------------------------------------------------------------------------- input checks
+
+
+def check_sample_rate(sample_rate_hz: float) -> float:
+    """Return ``sample_rate_hz`` as a float, or raise :class:`InvalidSampleRateError`."""
+    try:
+        fs = float(sample_rate_hz)
+    except (TypeError, ValueError) as exc:
+        raise InvalidSampleRateError(f"sample rate {sample_rate_hz!r} is not a number") from exc
+    if not np.isfinite(fs) or fs <= 0:
+        raise InvalidSampleRateError(
+            f"sample rate must be a finite positive number of Hz, got {sample_rate_hz!r}"
+        )
+    return fs
+
+
+def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
+    """Return samples as a 2-D float64 array (N x k), refusing NaN and inf with their position.
+
+    Raises
+    ------
+    NonFiniteSamplesError
+        If any sample is NaN or infinite; the message names the first few sample indices.
+    ValueError
+        If the array has more than two dimensions.
+    """
+    arr = np.asarray(samples, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise ValueError(f"samples must be 1-D (N) or 2-D (N x axes), got shape {arr.shape}")
+    finite = np.isfinite(arr)
+    if not finite.all():
+        rows, cols = np.nonzero(~finite)
+        where = ", ".join(f"sample {r} axis {c} ({arr[r, c]})" for r, c in zip(rows[:5], cols[:5], strict=True))
+        more = f" and {len(rows) - 5} more" if len(rows) > 5 else ""
+        raise NonFiniteSamplesError(
+            f"{len(rows)} non-finite sample(s): {where}{more}; remove or interpolate them first"
+        )
+    return arr
+
+
+def cumulative_angle(
+    samples: ArrayLike, sample_rate_hz: float, *, input_kind: InputKind = "rate"
+) -> NDArray[np.float64]:
+    """Cumulative angle ``theta`` (N + 1 x k, leading zero) of a rate or angle-increment record.
+
+    The record's mean is removed first: a constant rate adds a straight line to ``theta``,
+    which every Allan difference cancels, and leaving it in costs float64 precision.
+
+    Parameters
+    ----------
+    samples : array_like, shape (N,) or (N, k)
+        Rate in (unit)/s, or angle increments in (unit) per sample when
+        ``input_kind="angle_increment"``.
+    sample_rate_hz : float
+        Sample rate in Hz.
+    input_kind : {"rate", "angle_increment"}
+        What the samples are.
+
+    Returns
+    -------
+    ndarray, shape (N + 1, k)
+        Angle in (unit) of the mean-free record, ``theta[0] = 0``.
+    """
+    fs = check_sample_rate(sample_rate_hz)
+    arr = as_samples(samples)
+    if input_kind == "angle_increment":
+        increments = arr - arr.mean(axis=0)
+    elif input_kind == "rate":
+        increments = (arr - arr.mean(axis=0)) / fs
+    else:
+        raise ValueError(f"input_kind must be 'rate' or 'angle_increment', got {input_kind!r}")
+    theta = np.empty((arr.shape[0] + 1, arr.shape[1]))
+    theta[0] = 0.0
+    np.cumsum(increments, axis=0, out=theta[1:])
+    return theta
+
+
+# ------------------------------------------------------------------------------ tau grids
+
+
+def all_m(n_samples: int) -> NDArray[np.int64]:
+    """Every averaging factor ``m = 1 .. floor(N/2)`` (Lv 2015, section 2.2, step 1)."""
+    return np.arange(1, n_samples // 2 + 1, dtype=np.int64)
+
+
+def octave_m(n_samples: int, *, min_clusters: int = 2) -> NDArray[np.int64]:
+    """Averaging factors ``m = 1, 2, 4, ...`` with at least ``min_clusters`` clusters."""
+    m_max = n_samples // min_clusters
+    if m_max < 1:
+        return np.zeros(0, dtype=np.int64)
+    return 2 ** np.arange(int(np.log2(m_max)) + 1, dtype=np.int64)
+
+
+def log_m(
+    n_samples: int,
+    *,
+    ratio: float | None = None,
+    n_points: int = 100,
+    min_clusters: int = 9,
+) -> NDArray[np.int64]:
+    """Log-spaced averaging factors, ``m_i = round(ratio**(i-1))`` (Zhang 2015, eq. 20).
+
+    The largest ``m`` keeps at least ``min_clusters`` clusters (eq. 20 takes 9, a 25 %
+    error by eq. 4). When ``ratio`` (the paper's tau_g) is not given it is chosen so that
+    ``n_points`` values span ``1 .. N/min_clusters`` before rounding; repeated ``m`` after
+    rounding are removed, so fewer points may come back.
+    """
+    m_max = n_samples // min_clusters
+    if m_max < 1:
+        return np.zeros(0, dtype=np.int64)
+    if ratio is None:
+        if n_points < 2 or m_max == 1:
+            return np.array([1], dtype=np.int64)
+        ratio = m_max ** (1.0 / (n_points - 1))
+    if not ratio > 1.0:
+        raise ValueError(f"tau ratio must be > 1, got {ratio}")
+    count = int(np.floor(np.log(m_max) / np.log(ratio) + 1e-9)) + 1
+    m = np.unique(np.rint(ratio ** np.arange(count)).astype(np.int64))
+    return m[(m >= 1) & (m <= m_max)]
+
+
+def m_from_tau(tau_s: ArrayLike, sample_rate_hz: float, *, rtol: float = 1e-6) -> NDArray[np.int64]:
+    """Averaging factors of explicit averaging times, checked to be multiples of 1/fs.
+
+    Raises
+    ------
+    InvalidTauError
+        If a tau is not positive or not a multiple of the sample period.
+    """
+    fs = check_sample_rate(sample_rate_hz)
+    taus = np.atleast_1d(np.asarray(tau_s, dtype=np.float64))
+    exact = taus * fs
+    m = np.rint(exact).astype(np.int64)
+    bad = (m < 1) | (np.abs(exact - m) > rtol * np.maximum(1.0, np.abs(exact)))
+    if bad.any():
+        tau = taus[np.argmax(bad)]
+        raise InvalidTauError(
+            f"tau {tau} s is not a positive multiple of the sample period {1 / fs} s "
+            f"({fs} Hz); pick tau = m / {fs} for a whole m"
+        )
+    return np.unique(m)
+
+
+def resolve_m(
+    taus: TauGrid | ArrayLike, n_samples: int, sample_rate_hz: float
+) -> NDArray[np.int64]:
+    """Averaging factors of a named grid (``"log"``, ``"octave"``, ``"all"``) or explicit taus (s).
+
+    Raises
+    ------
+    TooFewSamplesError
+        If the record is too short for any requested tau (it needs ``2 m`` samples).
+    """
+    if isinstance(taus, str):
+        grids = {"log": log_m, "octave": octave_m, "all": all_m}
+        if taus not in grids:
+            raise ValueError(f"tau grid must be one of {sorted(grids)} or an array of taus in s")
+        m = grids[taus](n_samples)
+        if m.size == 0:
+            raise TooFewSamplesError(
+                f"{n_samples} samples are too few for the {taus!r} tau grid; record longer"
+            )
+        return m
+    m = m_from_tau(taus, sample_rate_hz)
+    too_long = m > n_samples // 2
+    if too_long.any():
+        raise TooFewSamplesError(
+            f"tau {m[too_long][0] / sample_rate_hz} s needs at least {2 * m[too_long][0]} "
+            f"samples, the record has {n_samples}"
+        )
+    return m
+
+
+# --------------------------------------------------------------------------------- kernels
+
+
+def overlapping_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Sum of squared second differences ``theta[n+2m] - 2 theta[n+m] + theta[n]`` per m.
+
+    ``theta`` is (N + 1) x k; the sum runs over the ``N + 1 - 2m`` available ``n``.
+    Returns an (n_m, k) array. One pass over ``theta`` per m, in place.
+    """
+    n_points = theta.shape[0]
+    out = np.empty((len(m_values), theta.shape[1]))
+    buf = np.empty_like(theta)
+    for i, m in enumerate(m_values):
+        length = n_points - 2 * m
+        d = buf[:length]
+        np.subtract(theta[2 * m :], theta[m : m + length], out=d)
+        d -= theta[m : m + length]
+        d += theta[:length]
+        out[i] = np.einsum("ij,ij->j", d, d)
+    return out
+
+
+def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Sum of squared differences of adjacent cluster angles (tau x cluster mean; eq. 2) per m.
+
+    ``theta`` is (N + 1) x k. The clusters of size m are read off ``theta`` at multiples
+    of m, and m values are handled in blocks ``[a, 2a)`` gathered at once, so the work of
+    a block is O(N) and the whole all-m grid is O(N log N).
+    """
+    n = theta.shape[0] - 1
+    order = np.argsort(m_values)
+    ms_sorted = np.asarray(m_values, dtype=np.int64)[order]
+    out = np.empty((len(ms_sorted), theta.shape[1]))
+    start = 0
+    while start < len(ms_sorted):
+        a = ms_sorted[start]
+        stop = int(np.searchsorted(ms_sorted, 2 * a, side="left"))
+        block = ms_sorted[start:stop]
+        j = n // block
+        j_max = int(j.max())
+        k = np.arange(j_max + 1)
+        idx = np.minimum(block[:, None] * k[None, :], n)
+        cluster_angles = np.diff(theta[idx], axis=1)
+        d = np.diff(cluster_angles, axis=1)
+        valid = k[None, : j_max - 1] < (j - 1)[:, None]
+        out[start:stop] = np.einsum("bjk,bjk,bj->bk", d, d, valid.astype(float))
+        start = stop
+    result = np.empty_like(out)
+    result[order] = out
+    return result
+
+
+# ---------------------------------------------------------------- confidence (edf, chi2)
+
+
+def local_noise_alpha(m: NDArray[np.int64], avar: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Dominant power-law noise per tau, from the local log-log slope of the Allan variance.
+
+    The slope ``mu`` of AVAR over about one octave either side of each m maps to the
+    frequency-noise exponent ``alpha`` (S_y ~ f^alpha): mu = -2 -> 2 (white angle,
+    quantization), -1 -> 0 (white rate, ARW), 0 -> -1 (flicker rate, bias instability),
+    +1 or more -> -2 (rate random walk, ramp). Returns an int array shaped like ``avar``.
+    """
+    logm = np.log(m.astype(float))
+    loga = np.log(np.maximum(avar, np.finfo(float).tiny))
+    if loga.ndim == 1:
+        loga = loga[:, None]
+    mu = np.empty_like(loga)
+    for c in range(loga.shape[1]):
+        if len(m) < 2:
+            mu[:, c] = -1.0
+            continue
+        lo = np.interp(logm - np.log(2), logm, loga[:, c])
+        hi = np.interp(logm + np.log(2), logm, loga[:, c])
+        span = np.minimum(logm + np.log(2), logm[-1]) - np.maximum(logm - np.log(2), logm[0])
+        mu[:, c] = (hi - lo) / np.where(span > 0, span, 1.0)
+    alpha = np.select([mu <= -1.5, mu <= -0.5, mu <= 0.5], [2, 0, -1], default=-2)
+    return alpha.reshape(avar.shape).astype(np.int64)
+
+
+def overlapping_edf(n_samples: int, m: ArrayLike, alpha: ArrayLike) -> NDArray[np.float64]:
+    """Equivalent degrees of freedom of the overlapping Allan variance.
+
+    The "simple" approximations for the fully overlapping estimator by power-law noise
+    type, as tabulated in W. J. Riley, *Handbook of Frequency Stability Analysis*,
+    NIST SP 1065 (2008), section 5.3 (after Howe, Allan and Barnes 1981), with
+    ``N = n_samples + 1`` phase (angle) points. ``alpha`` is the exponent of the rate
+    PSD (2, 1, 0, -1, -2). The result is clipped to ``[1, N - 2m]``.
+    """
+    n = float(n_samples + 1)
+    m_arr, a_arr = np.broadcast_arrays(np.asarray(m, dtype=float), np.asarray(alpha))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        white_pm = (n + 1) * (n - 2 * m_arr) / (2 * (n - m_arr))
+        flicker_pm = np.exp(
+            np.sqrt(
+                np.log(np.maximum((n - 1) / (2 * m_arr), 1.0))
+                * np.log(np.maximum((2 * m_arr + 1) * (n - 1) / 4, 1.0))
+            )
+        )
+        white_fm = (3 * (n - 1) / (2 * m_arr) - 2 * (n - 2) / n) * 4 * m_arr**2 / (4 * m_arr**2 + 5)
+        flicker_fm = np.where(
+            m_arr == 1, 2 * (n - 2) / (2.3 * n - 4.9), 5 * n**2 / (4 * m_arr * (n + 3 * m_arr))
+        )
+        rw_fm = (n - 2) / m_arr * ((n - 1) ** 2 - 3 * m_arr * (n - 1) + 4 * m_arr**2) / (n - 3) ** 2
+    edf = np.select(
+        [a_arr == 2, a_arr == 1, a_arr == 0, a_arr == -1], [white_pm, flicker_pm, white_fm, flicker_fm],
+        default=rw_fm,
+    )
+    return np.clip(np.nan_to_num(edf, nan=1.0), 1.0, np.maximum(n - 2 * m_arr, 1.0))
+
+
+def chi2_interval(
+    variance: ArrayLike, edf: ArrayLike, confidence: float = ONE_SIGMA
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two-sided chi-square confidence interval of a variance estimate with ``edf`` dof.
+
+    ``low = v * edf / chi2.ppf((1 + c)/2, edf)``, ``high = v * edf / chi2.ppf((1 - c)/2, edf)``.
+    """
+    if not 0 < confidence < 1:
+        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
+    v = np.asarray(variance, dtype=float)
+    e = np.asarray(edf, dtype=float)
+    low = v * e / stats.chi2.ppf(0.5 + confidence / 2, e)
+    high = v * e / stats.chi2.ppf(0.5 - confidence / 2, e)
+    return low, high
+
+
+# ---------------------------------------------------------------------------- estimators
+
+
+def _finish(
+    sums: NDArray[np.float64],
+    m: NDArray[np.int64],
+    n_terms: NDArray[np.int64],
+    edf_fn,
+    *,
+    estimator: str,
+    fs: float,
+    n_samples: int,
+    squeeze: bool,
+    confidence: float,
+) -> AllanResult:
+    avar = sums / (2.0 * (m[:, None].astype(float) / fs) ** 2 * n_terms[:, None])
+    edf = edf_fn(avar)
+    low, high = chi2_interval(avar, edf, confidence)
+    if squeeze:
+        avar, edf, low, high = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0]
+    return AllanResult(
+        tau_s=m / fs,
+        m=m,
+        avar=avar,
+        n_clusters=(n_samples // m).astype(np.int64),
+        n_terms=n_terms.astype(np.int64),
+        edf=edf,
+        ci_low=low,
+        ci_high=high,
+        confidence=confidence,
+        estimator=estimator,
+        sample_rate_hz=fs,
+        n_samples=n_samples,
+    )
+
+
+def overlapping_allan_variance(
+    samples: ArrayLike,
+    sample_rate_hz: float,
+    *,
+    taus: TauGrid | ArrayLike = "log",
+    input_kind: InputKind = "rate",
+    confidence: float = ONE_SIGMA,
+) -> AllanResult:
+    """Fully overlapping Allan variance from the cumulative angle.
+
+    ``avar(m) = sum_n (theta[n+2m] - 2 theta[n+m] + theta[n])^2 / (2 tau^2 (N + 1 - 2m))``
+    with ``tau = m / fs`` (Zhang et al. 2015, eq. 5; the phase convention of a leading
+    zero angle, ``N + 1`` points, is that of IEEE Std 1139 and allantools' ``oadev``).
+
+    Parameters
+    ----------
+    samples : array_like, shape (N,) or (N, k)
+        Rate samples (e.g. deg/s), or angle increments per sample with
+        ``input_kind="angle_increment"`` (the result is then in the same rate unit
+        per second, e.g. deg -> (deg/s)^2).
+    sample_rate_hz : float
+        Sample rate in Hz.
+    taus : {"log", "octave", "all"} or array_like
+        Tau grid: log-spaced (eq. 20), octaves, every m, or explicit taus in seconds.
+    input_kind : {"rate", "angle_increment"}
+        What the samples are.
+    confidence : float
+        Two-sided level of the chi-square interval (default +-1 sigma). The edf is
+        :func:`overlapping_edf` for the noise type seen at each tau.
+
+    Returns
+    -------
+    AllanResult
+
+    Raises
+    ------
+    NonFiniteSamplesError, TooFewSamplesError, InvalidSampleRateError, InvalidTauError
+
+    References
+    ----------
+    IEEE Std 952-1997, Annex C; Zhang et al., Acta Optica Sinica 35(4), 2015, eq. 5.
+    """
+    fs = check_sample_rate(sample_rate_hz)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    n = theta.shape[0] - 1
+    m = resolve_m(taus, n, fs)
+    sums = overlapping_sums(theta, m)
+    n_terms = n + 1 - 2 * m
+    squeeze = np.ndim(samples) == 1
+
+    def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
+        return overlapping_edf(n, m[:, None], local_noise_alpha(m, avar))
+
+    return _finish(sums, m, n_terms, edf_fn, estimator="overlapping", fs=fs, n_samples=n,
+                   squeeze=squeeze, confidence=confidence)
+
+
+def cluster_allan_variance(
+    samples: ArrayLike,
+    sample_rate_hz: float,
+    *,
+    taus: TauGrid | ArrayLike = "all",
+    input_kind: InputKind = "rate",
+    confidence: float = ONE_SIGMA,
+) -> AllanResult:
+    """Non-overlapping (cluster) Allan variance, Lv et al. 2015, eq. 1-2.
+
+    The N samples are cut into ``J = floor(N/m)`` clusters of m samples; the variance is
+    ``sum_k (mean_{k+1} - mean_k)^2 / (2 (J - 1))``. The confidence interval takes
+    ``edf = J - 1``, the same assumption behind the 1-sigma error of eq. 8.
+
+    Parameters and raised errors are those of :func:`overlapping_allan_variance`; the
+    default grid is every m (``"all"``), as in the paper.
+    """
+    fs = check_sample_rate(sample_rate_hz)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    n = theta.shape[0] - 1
+    m = resolve_m(taus, n, fs)
+    sums = cluster_sums(theta, m)
+    n_terms = n // m - 1
+    squeeze = np.ndim(samples) == 1
+
+    def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.broadcast_to(n_terms[:, None].astype(float), avar.shape).copy()
+
+    return _finish(sums, m, n_terms, edf_fn, estimator="clusters", fs=fs, n_samples=n,
+                   squeeze=squeeze, confidence=confidence)
+
+
+def allan_variance(
+    samples: ArrayLike,
+    sample_rate_hz: float,
+    *,
+    estimator: Estimator = "overlapping",
+    taus: TauGrid | ArrayLike = "log",
+    input_kind: InputKind = "rate",
+    confidence: float = ONE_SIGMA,
+) -> AllanResult:
+    """Allan variance with the named estimator (``"overlapping"`` or ``"clusters"``)."""
+    if estimator == "overlapping":
+        fn = overlapping_allan_variance
+    elif estimator == "clusters":
+        fn = cluster_allan_variance
+    else:
+        raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")
+    return fn(samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence)

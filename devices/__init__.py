@@ -1,0 +1,1 @@
+"""Gyro device adapters: codecs (pure), transports, simulated devices."""

@@ -1,0 +1,1 @@
+"""The station: runs, recording, grading, reports, the command line and the TUI."""
