@@ -11,10 +11,9 @@ import sys
 from collections.abc import Sequence
 
 from analysis.errors import AnalysisError
-from station.commands import analyze, demo, reproduce
 from station.errors import StationError
 
-COMMANDS = (demo, analyze, reproduce)
+COMMANDS: tuple = ()
 
 
 def build_parser() -> argparse.ArgumentParser:
