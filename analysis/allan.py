@@ -19,8 +19,15 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
+from analysis import kernels
+from analysis.confidence import (  # noqa: F401  (re-exported: part of this module's API)
+    ONE_SIGMA,
+    allan_edf_grid,
+    chi2_interval,
+    local_noise_alpha,
+    overlapping_edf,
+)
 from analysis.errors import (
     InvalidSampleRateError,
     InvalidTauError,
@@ -31,9 +38,6 @@ from analysis.errors import (
 Estimator = Literal["overlapping", "clusters"]
 InputKind = Literal["rate", "angle_increment"]
 TauGrid = Literal["log", "octave", "all"]
-
-#: Confidence level of a +-1 sigma interval of a normal variable.
-ONE_SIGMA = 0.6826894921370859
 
 
 @dataclass(frozen=True)
@@ -310,19 +314,10 @@ def overlapping_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) ->
     """Sum of squared second differences ``theta[n+2m] - 2 theta[n+m] + theta[n]`` per m.
 
     ``theta`` is (N + 1) x k; the sum runs over the ``N + 1 - 2m`` available ``n``.
-    Returns an (n_m, k) array. One pass over ``theta`` per m, in place.
+    Returns an (n_m, k) array. One streaming pass over ``theta`` per m: the compiled
+    kernel of :mod:`analysis.kernels` when numba is installed, else cache-blocked numpy.
     """
-    n_points = theta.shape[0]
-    out = np.empty((len(m_values), theta.shape[1]))
-    buf = np.empty_like(theta)
-    for i, m in enumerate(m_values):
-        length = n_points - 2 * m
-        d = buf[:length]
-        np.subtract(theta[2 * m :], theta[m : m + length], out=d)
-        d -= theta[m : m + length]
-        d += theta[:length]
-        out[i] = np.einsum("ij,ij->j", d, d)
-    return out
+    return kernels.overlapping_sums(theta, m_values)
 
 
 def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -353,81 +348,6 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
     result = np.empty_like(out)
     result[order] = out
     return result
-
-
-# ---------------------------------------------------------------- confidence (edf, chi2)
-
-
-def local_noise_alpha(m: NDArray[np.int64], avar: NDArray[np.float64]) -> NDArray[np.int64]:
-    """Dominant power-law noise per tau, from the local log-log slope of the Allan variance.
-
-    The slope ``mu`` of AVAR over about one octave either side of each m maps to the
-    frequency-noise exponent ``alpha`` (S_y ~ f^alpha): mu = -2 -> 2 (white angle,
-    quantization), -1 -> 0 (white rate, ARW), 0 -> -1 (flicker rate, bias instability),
-    +1 or more -> -2 (rate random walk, ramp). Returns an int array shaped like ``avar``.
-    """
-    logm = np.log(m.astype(float))
-    loga = np.log(np.maximum(avar, np.finfo(float).tiny))
-    if loga.ndim == 1:
-        loga = loga[:, None]
-    mu = np.empty_like(loga)
-    for c in range(loga.shape[1]):
-        if len(m) < 2:
-            mu[:, c] = -1.0
-            continue
-        lo = np.interp(logm - np.log(2), logm, loga[:, c])
-        hi = np.interp(logm + np.log(2), logm, loga[:, c])
-        span = np.minimum(logm + np.log(2), logm[-1]) - np.maximum(logm - np.log(2), logm[0])
-        mu[:, c] = (hi - lo) / np.where(span > 0, span, 1.0)
-    alpha = np.select([mu <= -1.5, mu <= -0.5, mu <= 0.5], [2, 0, -1], default=-2)
-    return alpha.reshape(avar.shape).astype(np.int64)
-
-
-def overlapping_edf(n_samples: int, m: ArrayLike, alpha: ArrayLike) -> NDArray[np.float64]:
-    """Equivalent degrees of freedom of the overlapping Allan variance.
-
-    The "simple" approximations for the fully overlapping estimator by power-law noise
-    type, as tabulated in W. J. Riley, *Handbook of Frequency Stability Analysis*,
-    NIST SP 1065 (2008), section 5.3 (after Howe, Allan and Barnes 1981), with
-    ``N = n_samples + 1`` phase (angle) points. ``alpha`` is the exponent of the rate
-    PSD (2, 1, 0, -1, -2). The result is clipped to ``[1, N - 2m]``.
-    """
-    n = float(n_samples + 1)
-    m_arr, a_arr = np.broadcast_arrays(np.asarray(m, dtype=float), np.asarray(alpha))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        white_pm = (n + 1) * (n - 2 * m_arr) / (2 * (n - m_arr))
-        flicker_pm = np.exp(
-            np.sqrt(
-                np.log(np.maximum((n - 1) / (2 * m_arr), 1.0))
-                * np.log(np.maximum((2 * m_arr + 1) * (n - 1) / 4, 1.0))
-            )
-        )
-        white_fm = (3 * (n - 1) / (2 * m_arr) - 2 * (n - 2) / n) * 4 * m_arr**2 / (4 * m_arr**2 + 5)
-        flicker_fm = np.where(
-            m_arr == 1, 2 * (n - 2) / (2.3 * n - 4.9), 5 * n**2 / (4 * m_arr * (n + 3 * m_arr))
-        )
-        rw_fm = (n - 2) / m_arr * ((n - 1) ** 2 - 3 * m_arr * (n - 1) + 4 * m_arr**2) / (n - 3) ** 2
-    edf = np.select(
-        [a_arr == 2, a_arr == 1, a_arr == 0, a_arr == -1], [white_pm, flicker_pm, white_fm, flicker_fm],
-        default=rw_fm,
-    )
-    return np.clip(np.nan_to_num(edf, nan=1.0), 1.0, np.maximum(n - 2 * m_arr, 1.0))
-
-
-def chi2_interval(
-    variance: ArrayLike, edf: ArrayLike, confidence: float = ONE_SIGMA
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Two-sided chi-square confidence interval of a variance estimate with ``edf`` dof.
-
-    ``low = v * edf / chi2.ppf((1 + c)/2, edf)``, ``high = v * edf / chi2.ppf((1 - c)/2, edf)``.
-    """
-    if not 0 < confidence < 1:
-        raise ValueError(f"confidence must be in (0, 1), got {confidence}")
-    v = np.asarray(variance, dtype=float)
-    e = np.asarray(edf, dtype=float)
-    low = v * e / stats.chi2.ppf(0.5 + confidence / 2, e)
-    high = v * e / stats.chi2.ppf(0.5 - confidence / 2, e)
-    return low, high
 
 
 # ---------------------------------------------------------------------------- estimators
@@ -494,7 +414,7 @@ def overlapping_allan_variance(
         What the samples are.
     confidence : float
         Two-sided level of the chi-square interval (default +-1 sigma). The edf is
-        :func:`overlapping_edf` for the noise type seen at each tau.
+        computed for the noise type seen at each tau (:mod:`analysis.confidence`).
 
     Returns
     -------
@@ -517,7 +437,7 @@ def overlapping_allan_variance(
     squeeze = np.ndim(samples) == 1
 
     def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
-        return overlapping_edf(n, m[:, None], local_noise_alpha(m, avar))
+        return allan_edf_grid(n, m, local_noise_alpha(m, avar, n), overlapping=True)
 
     return _finish(sums, m, n_terms, edf_fn, estimator="overlapping", fs=fs, n_samples=n,
                    squeeze=squeeze, confidence=confidence)
@@ -534,8 +454,10 @@ def cluster_allan_variance(
     """Non-overlapping (cluster) Allan variance, Lv et al. 2015, eq. 1-2.
 
     The N samples are cut into ``J = floor(N/m)`` clusters of m samples; the variance is
-    ``sum_k (mean_{k+1} - mean_k)^2 / (2 (J - 1))``. The confidence interval takes
-    ``edf = J - 1``, the same assumption behind the 1-sigma error of eq. 8.
+    ``sum_k (mean_{k+1} - mean_k)^2 / (2 (J - 1))``. The confidence interval's edf is
+    computed for the noise type seen at each tau (:mod:`analysis.confidence`); eq. 8's
+    ``1/sqrt(2(J-1))`` (``relative_error``) assumes ``J - 1`` independent differences,
+    which adjacent cluster differences are not (white rate noise: edf about 2(J-1)/3).
 
     Parameters and raised errors are those of :func:`overlapping_allan_variance`; the
     default grid is every m (``"all"``), as in the paper.
@@ -549,7 +471,7 @@ def cluster_allan_variance(
     squeeze = np.ndim(samples) == 1
 
     def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.broadcast_to(n_terms[:, None].astype(float), avar.shape).copy()
+        return allan_edf_grid(n, m, local_noise_alpha(m, avar, n), overlapping=False)
 
     return _finish(sums, m, n_terms, edf_fn, estimator="clusters", fs=fs, n_samples=n,
                    squeeze=squeeze, confidence=confidence)

@@ -29,3 +29,11 @@ class InvalidTauError(AnalysisError, ValueError):
 
 class FitError(AnalysisError, ValueError):
     """A noise-term fit cannot be made with the values given (too few taus, unknown term)."""
+
+
+class ModelError(AnalysisError, ValueError):
+    """A noise model or one of its terms is invalid (unknown term or key, bad value, bad TOML)."""
+
+
+class InvalidWindowError(AnalysisError, ValueError):
+    """A DAVAR window or step is not a positive whole number of samples that fits the record."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 import gzip
 import io
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -138,7 +139,9 @@ def read_csv_record(
                 f"columns (e.g. 'time,gyro_x'), got {','.join(header)!r}"
             )
         try:
-            data = np.loadtxt(fh, delimiter=",", comments="#", ndmin=2, dtype=np.float64)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # "no data": reported below
+                data = np.loadtxt(fh, delimiter=",", comments="#", ndmin=2, dtype=np.float64)
         except ValueError as exc:
             raise RecordFormatError(f"{path}: cannot parse the values after line {header_line}: {exc}") from exc
     if data.shape[0] == 0:

@@ -1,0 +1,41 @@
+"""``station reproduce lv2015``: re-run a paper's Monte Carlo and print its table beside ours."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+
+from station.reproduce import format_reproduction, reproduce_lv2015
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``reproduce`` sub-command."""
+    p = sub.add_parser("reproduce", help="re-run a published Monte Carlo (lv2015: WLS Allan fit)",
+                       description=__doc__)
+    p.add_argument("paper", choices=("lv2015",), help="which study to re-run")
+    p.add_argument("--runs", type=int, default=30, help="simulated runs per gyro (default 30, as the paper)")
+    p.add_argument("--seed", type=int, default=1, help="seed of the whole study (default 1)")
+    p.add_argument("--workers", type=int, default=2, help="processes to use (default 2)")
+    p.add_argument("--json", action="store_true", help="print the table as JSON")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the study with a progress line on stderr, print the table."""
+    start = time.monotonic()
+
+    def progress(done: int, total: int) -> None:
+        if sys.stderr.isatty() or done == total:
+            elapsed = time.monotonic() - start
+            print(f"\r{done}/{total} runs, {elapsed:.1f} s", end="" if done < total else "\n",
+                  file=sys.stderr, flush=True)
+
+    table = reproduce_lv2015(args.runs, args.seed, workers=args.workers, progress=progress)
+    if args.json:
+        json.dump(table, sys.stdout)
+        sys.stdout.write("\n")
+    else:
+        print(format_reproduction(table))
+    return 0

@@ -1,0 +1,63 @@
+"""CSV rate records: the file format other commands rely on."""
+
+from __future__ import annotations
+
+import gzip
+import math
+
+import numpy as np
+import pytest
+
+from station.errors import RecordFormatError
+from station.record_files import read_csv_record, read_record, write_csv_record
+
+
+def test_round_trip_gzip_with_time_column(tmp_path) -> None:
+    rate = np.random.default_rng(0).standard_normal((500, 3))
+    path = write_csv_record(tmp_path / "r.csv.gz", rate, 25.0, comment="two\nlines")
+    rec = read_record(path)
+    assert rec.sample_rate_hz == pytest.approx(25.0)
+    assert rec.axis_names == ("gyro_x", "gyro_y", "gyro_z")
+    np.testing.assert_array_equal(rec.rate_deg_s, rate)
+    assert rec.select("gyro_y").rate_deg_s.shape == (500, 1)
+    assert rec.slice_time(4.0).n_samples == 400
+
+
+def test_units_comments_and_missing_rate(tmp_path) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text("# a comment\nwx,wy\n0.1,0.2\n# mid-file comment\n0.3,0.4\n")
+    with pytest.raises(RecordFormatError, match="--rate"):
+        read_csv_record(path)
+    rec = read_csv_record(path, sample_rate_hz=10.0, units="rad/s")
+    np.testing.assert_allclose(rec.rate_deg_s[:, 0], np.array([0.1, 0.3]) * 180 / math.pi)
+    assert rec.n_samples == 2
+    with pytest.raises(RecordFormatError, match="unknown rate unit"):
+        read_csv_record(path, sample_rate_hz=10.0, units="rpm")
+
+
+@pytest.mark.parametrize(
+    ("text", "match"),
+    [
+        ("# only a comment\n", "no header"),
+        ("0.1,0.2\n0.3,0.4\n", "header"),
+        ("time,x\n0,1\n0.1,2\n0.3,3\n0.4,4\n", "irregular time"),
+        ("time,x\n0,1\n0.1,abc\n", "cannot parse"),
+        ("time,x\n", "no data"),
+        ("time,x\n0,nan\n0.1,1\n", "non-finite"),
+    ],
+)
+def test_malformed_files_say_what_is_wrong(tmp_path, text: str, match: str) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(RecordFormatError, match=match):
+        read_csv_record(path)
+
+
+def test_gzip_file_is_read_directly(tmp_path) -> None:
+    path = tmp_path / "g.csv.gz"
+    with gzip.open(path, "wt") as fh:
+        fh.write("time,gyro\n0,1\n0.5,2\n1.0,3\n")
+    rec = read_record(path)
+    assert rec.sample_rate_hz == pytest.approx(2.0)
+    with pytest.raises(FileNotFoundError):
+        read_record(tmp_path / "missing.csv")
