@@ -126,10 +126,11 @@ def read_csv_record(
     with _open_text(path) as fh:
         header: list[str] | None = None
         header_line = 0
-        for header_line, line in enumerate(fh, start=1):
+        for lineno, line in enumerate(fh, start=1):
             stripped = line.strip()
             if stripped and not stripped.startswith("#"):
                 header = [h.strip() for h in stripped.split(",")]
+                header_line = lineno
                 break
         if header is None:
             raise RecordFormatError(f"{path}: no header line (only comments or empty)")
