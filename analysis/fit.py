@@ -22,9 +22,10 @@ Methods (``method=``):
     variance term comes out negative;
 ``logwls``
     least squares on ``log avar`` under ``beta >= 0``, each value weighted by its own
-    precision (``edf / 2``, the inverse variance of the log of a chi-square estimate)
-    and by its share of an octave of tau, so that a dense grid of strongly correlated
-    values does not outvote the sparse short taus (see :func:`_fit_log`).
+    precision (``edf / 2``, the inverse variance of the log of a chi-square estimate,
+    with a 2 % model-error floor) and by its share of an octave of tau, so that a dense
+    grid of strongly correlated values does not outvote the sparse short taus (see
+    :func:`_fit_log`).
 
 Coefficients are returned in data-sheet units (urad, deg/sqrt(h), deg/h, deg/h^1.5,
 deg/h^2) with a standard error each (covariance of beta from the weighted residuals,
@@ -70,6 +71,8 @@ COEFFICIENT_NAMES = {
     "R": "R_deg_h2",
 }
 OLS40_MAX_ERROR = 0.40
+#: Relative error floor of the five-term model assumed by ``logwls`` (2 % of avar).
+DEFAULT_MODEL_ERROR = 0.02
 
 
 @dataclass(frozen=True)
@@ -190,7 +193,8 @@ def _weighted_system(
 
 
 def fit_noise_terms(
-    result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS
+    result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS,
+    model_error: float = DEFAULT_MODEL_ERROR,
 ) -> NoiseCoefficients:
     """Fit the five-term model (Lv 2015 eq. 3) to a single-axis Allan variance.
 
@@ -203,6 +207,11 @@ def fit_noise_terms(
         eq. 14, eq. 14 under beta >= 0, or log-domain weighted least squares.
     terms : str
         Which of ``"QNBKR"`` to fit; the others are held at zero.
+    model_error : float
+        ``logwls`` only: relative error floor of the five-term model (fraction of the
+        Allan variance, default 2 %), added in quadrature to each value's sampling error
+        in the log domain. Without it the very precise short-tau values of a long real
+        record decide every term, and a small misfit there pulls B off the plateau.
 
     Returns
     -------
@@ -228,7 +237,9 @@ def fit_noise_terms(
         )
     x, y = x[keep], y[keep]
     if method == "logwls":
-        b, cov, iterations = _fit_log(result, keep, x_full[keep], avar[keep])
+        if not model_error >= 0:
+            raise FitError(f"model_error must be >= 0, got {model_error}")
+        b, cov, iterations = _fit_log(result, keep, x_full[keep], avar[keep], model_error)
     else:
         b, cov = _solve(x, y, nonnegative=method == "nnls")
         iterations = 1
@@ -252,12 +263,14 @@ def log_tau_share(tau_s: ArrayLike) -> NDArray[np.float64]:
 
 
 def _fit_log(
-    result: AllanResult, keep: NDArray[np.bool_], x: NDArray[np.float64], avar: NDArray[np.float64]
+    result: AllanResult, keep: NDArray[np.bool_], x: NDArray[np.float64], avar: NDArray[np.float64],
+    model_error: float,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
     """Weighted least squares of ``log avar`` under ``beta >= 0`` (the ``logwls`` method).
 
-    Residual ``r_i = sqrt(s_i edf_i / 2) (log a_i - c_i - log m_i(beta))``: the variance
-    of the log of a chi-square estimate with ``edf`` dof is about ``2 / edf``, and
+    Residual ``r_i = sqrt(s_i / (2 / edf_i + e^2)) (log a_i - c_i - log m_i(beta))``: the
+    variance of the log of a chi-square estimate with ``edf`` dof is about ``2 / edf``,
+    ``e`` (``model_error``) is the relative error floor of the model itself, and
     ``c_i = psi(edf/2) - log(edf/2)`` removes its mean offset; ``s_i`` is the value's
     share of an octave (:func:`log_tau_share`), so a dense grid of correlated values
     counts once per octave. Log residuals penalize a model above and below the data
@@ -265,7 +278,9 @@ def _fit_log(
     """
     edf = np.asarray(result.edf, dtype=float)[keep]
     share = log_tau_share(result.tau_s[keep])
-    sw = np.sqrt(share * edf / 2.0)
+    # var(log a_i) = 2 / edf_i from sampling, plus model_error^2 because no gyro follows
+    # eq. 3 to the 0.1 % that a million-sample record resolves at short tau
+    sw = np.sqrt(share / (2.0 / edf + model_error**2))
     target = np.log(avar) - (special.digamma(edf / 2.0) - np.log(edf / 2.0))
     scale = np.linalg.norm(x / avar[:, None] * sw[:, None], axis=0)
     scale[scale == 0] = 1.0

@@ -37,6 +37,9 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
                 ax.loglog(tau, curve, ":", lw=1, color=c)
                 j = len(tau) // 2 if term == "B" else (0 if term in "QN" else len(tau) - 1)
                 ax.annotate(term, (tau[j], curve[j]), color=c, fontsize=8)
+    floor = min(float(np.min(a.allan.adev_ci_low)) for a in axes) * 3600 / 5
+    ceiling = max(float(np.max(a.allan.adev_ci_high)) for a in axes) * 3600 * 2
+    ax.set_ylim(floor, ceiling)  # term lines far below the data say nothing
     ax.set_xlabel("averaging time tau [s]")
     ax.set_ylabel("Allan deviation [deg/h]")
     ax.grid(True, which="both", alpha=0.3)

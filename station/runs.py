@@ -1,0 +1,93 @@
+"""A recorded run as the analysis, grading and report code see it: units, records, metadata.
+
+:func:`open_run` reads any run file the station knows (a recorder HDF5 file, or a plain
+CSV record, which becomes a run of one unit with no metadata) into a :class:`RunInfo`.
+Grading, reports and the TUI use only this, never the file layout.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from station.record_files import RateRecord, read_record
+
+
+@dataclass(frozen=True)
+class RunEvent:
+    """One entry of a run's event log (connect, disconnect, crc_error, resync, gap, ...).
+
+    ``time_s`` is station time from the run start (s); ``missing_samples`` is set for gaps.
+    """
+
+    unit_id: str
+    kind: str
+    time_s: float
+    count: int = 1
+    missing_samples: int = 0
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class UnitRun:
+    """One gyro of a run: who it is and what it recorded."""
+
+    unit_id: str
+    model: str
+    serial_number: str
+    record: RateRecord
+    protocol: str = ""
+    transport: str = ""
+    settings: dict[str, str] = field(default_factory=dict)
+    events: tuple[RunEvent, ...] = ()
+
+    @property
+    def n_gaps(self) -> int:
+        """Number of gaps in this unit's record."""
+        return sum(1 for e in self.events if e.kind == "gap")
+
+    @property
+    def missing_samples(self) -> int:
+        """Samples lost in gaps, in total."""
+        return sum(e.missing_samples for e in self.events if e.kind == "gap")
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """A run: its metadata (strings in UTC ISO 8601 for times) and its units."""
+
+    path: str
+    units: tuple[UnitRun, ...]
+    profile: str = ""
+    operator: str = ""
+    lot: str = ""
+    station_host: str = ""
+    software_version: str = ""
+    start_utc: str = ""
+    stop_utc: str = ""
+    stop_reason: str = ""
+    interrupted: bool = False
+
+    def unit(self, unit_id: str) -> UnitRun:
+        """The unit with this id (or serial number)."""
+        for u in self.units:
+            if unit_id in (u.unit_id, u.serial_number):
+                return u
+        ids = ", ".join(u.unit_id for u in self.units)
+        raise KeyError(f"no unit {unit_id!r} in {self.path}; units: {ids}")
+
+
+def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s") -> RunInfo:
+    """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
+
+    ``sample_rate_hz`` and ``units`` apply to CSV records only (see
+    :func:`station.record_files.read_csv_record`).
+    """
+    path = Path(path)
+    if path.suffix.lower() in (".h5", ".hdf5"):
+        from station.hdf5 import read_run  # the recorder's layout
+
+        return read_run(path)
+    record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
+    unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
+    return RunInfo(path=str(path), units=(unit,))
