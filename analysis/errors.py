@@ -37,3 +37,8 @@ class ModelError(AnalysisError, ValueError):
 
 class InvalidWindowError(AnalysisError, ValueError):
     """A DAVAR window or step is not a positive whole number of samples that fits the record."""
+
+
+class ReconcileError(AnalysisError, ValueError):
+    """Model versus measurement cannot be compared with the inputs given (record too short for
+    the tau grid, a model without any Allan variance, a temperature channel of the wrong length)."""
