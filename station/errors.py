@@ -13,3 +13,57 @@ class RecordFormatError(StationError, ValueError):
 
 class UsageError(StationError, ValueError):
     """Command-line arguments that do not fit together."""
+
+
+class ProfileError(StationError, ValueError):
+    """A product profile that cannot be used; the message names the file, line and key at fault.
+
+    Attributes
+    ----------
+    path : str
+        The profile file.
+    line : int or None
+        1-based line of the offending key (None when the fault has no line, e.g. a missing key).
+    key : str
+        Dotted TOML key at fault (``"figures.arw.limits.navigation"``), "" for the whole file.
+    """
+
+    def __init__(self, message: str, *, path: str = "", line: int | None = None, key: str = "") -> None:
+        where = path + (f":{line}" if line else "")
+        prefix = f"{where}: " if where else ""
+        if key:
+            prefix += f"key '{key}': "
+        super().__init__(prefix + message)
+        self.path = path
+        self.line = line
+        self.key = key
+
+
+class ResultsDatabaseError(StationError, RuntimeError):
+    """The results database cannot be opened, migrated or written."""
+
+
+class RecorderError(StationError, RuntimeError):
+    """A recording that cannot start or go on; the message says what to fix."""
+
+
+class RunConfigurationError(RecorderError, ValueError):
+    """A run refused before it starts: every problem found, one per line, each with its fix.
+
+    Attributes
+    ----------
+    problems : tuple of str
+        One message per unit or setting at fault.
+    """
+
+    def __init__(self, problems: list[str] | tuple[str, ...]) -> None:
+        self.problems = tuple(problems)
+        super().__init__("the run was not started:\n  " + "\n  ".join(self.problems))
+
+
+class DiskSpaceError(RecorderError, OSError):
+    """The run's file will not fit on the disk (before the start), or the disk filled up."""
+
+
+class RunInProgressError(RecorderError):
+    """A run file that a live recorder is still writing (``station recover`` refuses it)."""

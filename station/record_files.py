@@ -230,13 +230,35 @@ def write_csv_record(
 
 
 def read_record(
-    path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s"
+    path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s",
+    unit: str | None = None,
 ) -> RateRecord:
-    """Read a rate record from any supported file type (CSV now; HDF5 runs join later)."""
+    """Read a rate record from any supported file type: CSV (plain or gzip'd) or a run file.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.csv``, ``.csv.gz``, ``.txt``, or a recorder run file (``.h5``/``.hdf5``).
+    sample_rate_hz, units
+        For CSV records only (see :func:`read_csv_record`); a run file carries both.
+    unit : str, optional
+        For run files: the unit id (``unit2``) or serial number; default the first unit.
+
+    Raises
+    ------
+    RecordFormatError
+        Unknown file type, unreadable file, or no such unit.
+    """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
+    if path.suffix.lower() in (".h5", ".hdf5"):
+        from station.hdf5 import read_run_record  # the recorder's layout (imports this module)
+
+        return read_run_record(path, unit)
+    if unit is not None:
+        raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
     suffixes = "".join(path.suffixes[-2:]).lower()
     if suffixes.endswith(".csv") or suffixes.endswith(".csv.gz") or path.suffix.lower() == ".txt":
         return read_csv_record(path, sample_rate_hz=sample_rate_hz, units=units)
-    raise RecordFormatError(f"{path}: unknown record type; expected .csv or .csv.gz")
+    raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")

@@ -1,31 +1,37 @@
-"""``station demo``: the main job on a simulated gyro, start to finish, in under a minute.
+"""``station demo``: the main job on simulated gyros, start to finish, in under a minute.
 
-Simulates a static run of a three-axis tactical-grade gyro with known noise terms,
-analyzes it exactly as ``station analyze`` would, prints the spec figures beside the
-true values, and writes the record (CSV) and the Allan deviation plot (PNG).
+Records a time-warped run of two simulated tactical-grade gyros (the VG951 noise model
+of Lv 2015 table 3) over their real transports (two Xsens Xbus streams, each on its own
+pseudo-terminal, a real tty for pyserial) into an HDF5 run file, exactly as
+``station record`` would, then analyzes each unit as ``station analyze`` would, prints
+the spec figures beside the true values, and writes the Allan deviation plot (PNG).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
-from station.analyze import analyze_record, format_analysis
+from station.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.record_files import RateRecord, write_csv_record
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
 DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}
 DEMO_BIAS_DEG_H = 3.6
+#: Wall-clock time the recording of one simulated hour takes, s (the time warp follows).
+DEMO_WALL_S_PER_H = 40.0
 
 
 def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) -> RateRecord:
-    """A simulated three-axis static record of the demo gyro (deg/s)."""
+    """A simulated three-axis static record of the demo gyro (deg/s), without devices."""
     n = int(duration_s * sample_rate_hz)
     rng = np.random.default_rng(seed)
     rate = (DEMO_BIAS_DEG_H / 3600.0
@@ -35,38 +41,83 @@ def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) ->
     return RateRecord(rate, sample_rate_hz, ("gyro_x", "gyro_y", "gyro_z"), "simulated demo gyro")
 
 
+def demo_model() -> str:
+    """The noise model the simulated units draw from: the VG951 model file, else the preset."""
+    from station.profiles import PROFILE_DIR
+
+    path = PROFILE_DIR / "models" / "VG951.toml"
+    return str(path) if path.is_file() else "VG951"
+
+
+def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
+    """Device URLs of the two simulated units, warped to record ``duration_s`` (s) in about
+    5..20 s of wall time (half an hour in 20 s: warp 90)."""
+    wall_s = min(max(duration_s / 3600.0 * DEMO_WALL_S_PER_H, 5.0), 20.0)
+    warp = max(1.0, duration_s / wall_s)
+    query = f"model={quote(demo_model())}&rate={rate_hz:g}&warp={warp:g}"
+    return (f"sim+serial://VG951?protocol=xbus&{query}&seed={seed}",
+            f"sim+serial://VG951?protocol=xbus&{query}&seed={seed + 1}")
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``demo`` sub-command."""
-    p = sub.add_parser("demo", help="simulate a gyro, analyze it, print its spec figures",
+    p = sub.add_parser("demo", help="record two simulated gyros, analyze them, print spec figures",
                        description=__doc__)
-    p.add_argument("--duration", type=float, default=4.0, metavar="HOURS",
-                   help="simulated run length in hours (default 4)")
+    p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
+                   help="simulated run length in hours (default 0.5; recorded in about 20 s)")
     p.add_argument("--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--out", type=Path, default=Path("station-demo"),
-                   help="folder for the record and the plot (default ./station-demo)")
+                   help="folder for the run file and the plot (default ./station-demo)")
     p.set_defaults(handler=run)
 
 
+def record_demo_run(args: argparse.Namespace, path: Path) -> None:
+    """Record the two simulated units into ``path`` with the real recorder."""
+    from station.progress import ProgressLine
+    from station.recorder import Recorder, RunConfig
+
+    urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
+    recorder = Recorder(RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
+                        [ProgressLine(sys.stderr, plain_interval_s=5.0)])
+    recorder.prepare()
+    stop = recorder.run()
+    for t in stop.totals:
+        print(f"{t.unit_id}: {t.samples_recorded} samples recorded, "
+              f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
+              f"simulator sent {t.samples_sent}")
+
+
 def run(args: argparse.Namespace) -> int:
-    """Simulate, analyze, print, write files."""
+    """Record, analyze, print, plot."""
+    from station.hdf5 import read_run_record
+
     t0 = time.monotonic()
-    print(f"simulating {args.duration:g} h of a 3-axis gyro at {args.rate:g} Hz "
-          f"(true Q {DEMO_TRUE['Q']} urad, N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h, "
-          f"bias {DEMO_BIAS_DEG_H} deg/h) ...", file=sys.stderr)
-    record = simulate_demo_record(args.duration * 3600.0, args.rate, args.seed)
-    print(f"analyzing {record.n_samples} samples per axis ...", file=sys.stderr)
-    axes = analyze_record(record)
-    print(format_analysis(axes))
-    print(f"\ntrue values: Q {DEMO_TRUE['Q']} urad, N {DEMO_TRUE['N']} deg/sqrt(h), "
-          f"B {DEMO_TRUE['B']} deg/h, bias {DEMO_BIAS_DEG_H} deg/h")
     args.out.mkdir(parents=True, exist_ok=True)
-    csv_path = write_csv_record(args.out / "demo-record.csv.gz", record.rate_deg_s, record.sample_rate_hz,
-                                axis_names=record.axis_names,
-                                comment="simulated demo gyro (station demo), deg/s")
+    path = args.out / "demo-run.h5"
+    path.unlink(missing_ok=True)
+    print(f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
+          f"{args.rate:g} Hz over two Xbus serial links into {path} ...", file=sys.stderr)
+    record_demo_run(args, path)
+    plotted: list[AxisAnalysis] = []
+    for unit in ("unit1", "unit2"):
+        record = read_run_record(path, unit)
+        print(f"\n{unit}: analyzing {record.n_samples} samples per axis ...", file=sys.stderr)
+        axes = analyze_record(record)
+        print(f"{unit} ({record.source})")
+        print(format_analysis(axes))
+        plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
+        if unit == "unit1":
+            csv_path = write_csv_record(
+                args.out / "demo-record.csv.gz", record.rate_deg_s, record.sample_rate_hz,
+                axis_names=record.axis_names, comment=f"station demo, {record.source}, deg/s",
+                temperature_c=record.temperature_c)
+    print(f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
+          f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h")
     from station.plots import plot_allan  # matplotlib: imported only when a plot is made
 
-    png_path = plot_allan(axes, args.out / "demo-allan.png", title="station demo: simulated gyro")
-    print(f"wrote {csv_path} (try: station analyze {csv_path}) and {png_path}")
+    png_path = plot_allan(plotted, args.out / "demo-allan.png",
+                          title="station demo: two simulated VG951 gyros, axis x")
+    print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and {png_path}")
     print(f"done in {time.monotonic() - t0:.1f} s")
     return 0

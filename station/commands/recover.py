@@ -1,0 +1,44 @@
+"""``station recover FILE``: close a run file whose recorder was killed or crashed.
+
+Keeps every sample and log entry committed at the recorder's last flush, trims what was
+written after it, clears the file's open-for-write flags (so any HDF5 tool opens it
+again without SWMR) and records the run as interrupted. A file still being recorded is
+refused (``--force`` overrides); a file closed properly is left as it is.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from station.hdf5 import REASON_RECOVERED
+from station.hdf5_recover import recover_run
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``recover`` sub-command."""
+    p = sub.add_parser("recover", help="close a run file left open by a killed recorder",
+                       description=__doc__)
+    p.add_argument("file", type=Path, help="the run's .h5 file")
+    p.add_argument("--force", action="store_true",
+                   help="recover even if a recorder on this host seems to be writing it")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Recover the file and say what was kept."""
+    result = recover_run(args.file, force=args.force)
+    if result.already_closed:
+        print(f"{result.path}: closed properly already (stopped {result.stop_utc}: "
+              f"{result.stop_reason}); nothing to do")
+        return 0
+    if result.stop_reason == REASON_RECOVERED:
+        print(f"{result.path}: recovered; run marked interrupted at {result.stop_utc} "
+              f"(last flush)")
+    else:
+        print(f"{result.path}: repaired (its recorder stopped at {result.stop_utc}: "
+              f"{result.stop_reason}, but could not close the file)")
+    for uid, kept in result.kept.items():
+        print(f"  {uid}: {kept} samples kept, {result.trimmed[uid]} written after the last "
+              f"flush dropped")
+    return 0

@@ -1,0 +1,268 @@
+"""Run documents: what a recording emits, and what its file writer, live views and TUI consume.
+
+A run is a stream of documents, as in bluesky: one :class:`RunStart`, one
+:class:`Descriptor` per unit (its data keys with dtype, shape and unit), then
+:class:`EventBatch` es (samples and link-log entries of one unit), and one
+:class:`RunStop`. Subscribers are plain callables ``subscriber(document)``; nothing
+downstream of the recorder reaches into a device.
+
+Times inside documents are seconds on the unit's own time base, counted from the moment
+the recorder started reading that unit (simulated seconds for a time-warped simulation);
+wall-clock instants are UTC ISO 8601 strings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+
+import numpy as np
+from numpy.typing import NDArray
+
+from devices.protocols import DeviceDescription, Gap, SampleBatch
+
+#: Kinds of event-log entries: the adapters' link events, plus the recorder's own.
+LOG_KINDS = ("connect", "disconnect", "reconnect", "crc_error", "resync", "timeout", "gap",
+             "error", "end")
+
+
+def utc_now() -> str:
+    """The current time, UTC, ISO 8601 with microseconds (``2026-11-21T23:40:01.123456Z``)."""
+    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+@dataclass(frozen=True)
+class DataKey:
+    """One per-sample quantity of a unit: its name, dtype, per-sample shape and unit."""
+
+    name: str
+    dtype: str
+    shape: tuple[int, ...]
+    unit: str
+    description: str
+
+
+def data_keys(description: DeviceDescription) -> tuple[DataKey, ...]:
+    """The data keys a unit records, from what its device describes (shape per sample)."""
+    keys = [
+        DataKey("rate", "float64", (description.n_axes,), description.rate_unit,
+                "angular rate per axis, columns in the order of the axes attribute"),
+        DataKey("counter", "int64", (), "1",
+                "device sample counter, unwrapped (monotonic across wraps and gaps)"),
+        DataKey("receive_time", "float64", (), description.time_unit,
+                "station receive time since the unit's start, on the unit's time base"),
+        DataKey("status", "uint32", (), "1", "device status flags as sent (0 = all good)"),
+    ]
+    if description.has_device_time:
+        keys.append(DataKey("device_time", "float64", (), description.time_unit,
+                            "device time stamp as sent"))
+    if description.has_temperature:
+        keys.append(DataKey("temperature", "float64", (), description.temperature_unit,
+                            "sensor temperature as reported by the device"))
+    return tuple(keys)
+
+
+@dataclass(frozen=True)
+class RunStart:
+    """The run's metadata, emitted once before anything else.
+
+    Attributes
+    ----------
+    uid : str
+        Unique id of the run.
+    start_utc : str
+        Start of the run, UTC.
+    unit_ids : tuple of str
+        The units, in the order given.
+    duration_s : float
+        Requested duration, s (on each unit's own time base).
+    profile, profile_version, profile_sha256 : str
+        The product profile ("" when none was given).
+    operator, lot, station_host, software_version : str
+        Who, which lot, where, with what.
+    file : str
+        Path of the run file.
+    """
+
+    uid: str
+    start_utc: str
+    unit_ids: tuple[str, ...]
+    duration_s: float
+    file: str
+    profile: str = ""
+    profile_version: str = ""
+    profile_sha256: str = ""
+    operator: str = ""
+    lot: str = ""
+    station_host: str = ""
+    software_version: str = ""
+
+
+@dataclass(frozen=True)
+class Descriptor:
+    """One unit: the device's description, its URL, its data keys and its time base.
+
+    ``time_warp`` is the unit clock's seconds per wall second (1 for real hardware).
+    """
+
+    unit_id: str
+    url: str
+    description: DeviceDescription
+    keys: tuple[DataKey, ...]
+    start_utc: str
+    time_base: str
+    time_warp: float = 1.0
+
+
+@dataclass(frozen=True)
+class LogEntry:
+    """One entry of a unit's event log.
+
+    Attributes
+    ----------
+    kind : str
+        One of :data:`LOG_KINDS`.
+    time_s : float
+        Unit time, s since the unit's start.
+    count : int
+        How many (CRC errors, bytes skipped); 1 otherwise.
+    missing_samples : int
+        For a gap: exact number of samples lost.
+    after_counter : int
+        For a gap: unwrapped counter of the last sample before it (-1 otherwise).
+    method : str
+        For a gap: how it was counted (``counter``, ``counter+elapsed``, ``device_time``).
+    detail : str
+        Free text.
+    """
+
+    kind: str
+    time_s: float
+    count: int = 1
+    missing_samples: int = 0
+    after_counter: int = -1
+    method: str = ""
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class EventBatch:
+    """Samples and log entries of one unit since its previous batch (units as in its keys)."""
+
+    unit_id: str
+    seq: int
+    rate_deg_s: NDArray[np.float64]
+    counter: NDArray[np.int64]
+    receive_time_s: NDArray[np.float64]
+    status: NDArray[np.uint32]
+    device_time_s: NDArray[np.float64] | None = None
+    temperature_c: NDArray[np.float64] | None = None
+    log: tuple[LogEntry, ...] = ()
+
+    def __len__(self) -> int:
+        return int(self.counter.shape[0])
+
+    @classmethod
+    def from_samples(cls, unit_id: str, seq: int, batch: SampleBatch, t0_s: float,
+                     extra_log: Sequence[LogEntry] = ()) -> EventBatch:
+        """A document from an adapter's batch; adapter times (s) are shifted by ``-t0_s``."""
+        log = [LogEntry(e.kind, e.receive_time_s - t0_s, e.count, detail=e.detail)
+               for e in batch.events]
+        log += [LogEntry("gap", _gap_time_s(batch, g) - t0_s, 1, g.missing_samples,
+                         g.after_counter, g.method) for g in batch.gaps]
+        log += list(extra_log)
+        log.sort(key=lambda e: e.time_s)
+        return cls(unit_id, seq, batch.rate_deg_s, batch.counter, batch.receive_time_s - t0_s,
+                   batch.status, batch.device_time_s, batch.temperature_c, tuple(log))
+
+
+def _gap_time_s(batch: SampleBatch, gap: Gap) -> float:
+    """Receive time (s, adapter clock) of the first sample after ``gap``: the moment the
+    gap became known, on the same clock as every other sample of the unit (the adapter's
+    own stamp is used only when that sample is not in the batch)."""
+    after = gap.after_counter + gap.missing_samples + 1
+    i = int(np.searchsorted(batch.counter, after))
+    if i < len(batch) and int(batch.counter[i]) == after:
+        return float(batch.receive_time_s[i])
+    return gap.receive_time_s
+
+
+@dataclass(frozen=True)
+class UnitTotals:
+    """What one unit recorded, for the stop document and ``--json-summary``.
+
+    ``samples_sent`` is the simulator's own count of samples it generated (None for real
+    hardware): ``samples_recorded + samples_missing_declared`` must equal it.
+    """
+
+    unit_id: str
+    url: str
+    samples_recorded: int
+    samples_missing_declared: int
+    gaps: int
+    crc_errors: int
+    reconnects: int
+    samples_sent: int | None = None
+
+
+@dataclass(frozen=True)
+class RunStop:
+    """The end of the run: when, why, and each unit's totals."""
+
+    stop_utc: str
+    reason: str
+    totals: tuple[UnitTotals, ...] = ()
+
+
+Document = RunStart | Descriptor | EventBatch | RunStop
+Subscriber = Callable[[Document], None]
+
+
+@dataclass
+class UnitTally:
+    """Running counts of one unit, kept from its event batches (progress line, totals)."""
+
+    samples: int = 0
+    missing: int = 0
+    gaps: int = 0
+    crc_errors: int = 0
+    reconnects: int = 0
+    disconnects: int = 0
+    last_time_s: float = 0.0
+    connected: bool = True
+
+    def add(self, batch: EventBatch) -> None:
+        """Count a batch's samples and log entries."""
+        self.samples += len(batch)
+        if len(batch):
+            self.last_time_s = float(batch.receive_time_s[-1])
+            self.connected = True
+        for entry in batch.log:
+            if entry.kind == "gap":
+                self.gaps += 1
+                self.missing += entry.missing_samples
+            elif entry.kind == "crc_error":
+                self.crc_errors += entry.count
+            elif entry.kind == "reconnect":
+                self.reconnects += 1
+                self.connected = True
+            elif entry.kind == "disconnect":
+                self.disconnects += 1
+                self.connected = False
+
+
+@dataclass
+class Dispatcher:
+    """Sends each document to every subscriber, in order."""
+
+    subscribers: list[Subscriber] = field(default_factory=list)
+
+    def subscribe(self, subscriber: Subscriber) -> None:
+        """Add a subscriber (it sees documents emitted from now on)."""
+        self.subscribers.append(subscriber)
+
+    def emit(self, document: Document) -> None:
+        """Send ``document`` to every subscriber."""
+        for subscriber in self.subscribers:
+            subscriber(document)

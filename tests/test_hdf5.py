@@ -1,0 +1,202 @@
+"""The run file: layout and units, SWMR reading while writing, the reader and the analysis
+commands on it, the superblock checksum, and a disk that fills during a run."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import resource
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from devices.protocols import DeviceDescription
+from station.cli import main
+from station.documents import (
+    Descriptor,
+    EventBatch,
+    LogEntry,
+    RunStart,
+    RunStop,
+    data_keys,
+    utc_now,
+)
+from station.hdf5 import RunFileWriter, read_run, read_run_record
+from station.hdf5_recover import lookup3
+from station.record_files import read_record
+from tests.test_recorder_helpers import (
+    check_unit_against_signal,
+    start_recorder,
+    summaries,
+    wait_for_samples,
+)
+
+RATE_HZ = 100.0
+
+
+def _description(serial: str, *, temperature: bool) -> DeviceDescription:
+    return DeviceDescription(model="TEST", serial_number=serial, protocol="stim300",
+                             transport="serial", axes=("x", "y", "z"),
+                             sample_rate_hz=RATE_HZ, has_counter=True, counter_modulus=256,
+                             has_device_time=False, has_temperature=temperature,
+                             settings=(("port", "/dev/null"),))
+
+
+def _batch(unit: str, seq: int, start: int, n: int, log: tuple[LogEntry, ...] = ()
+           ) -> EventBatch:
+    counter = np.arange(start, start + n, dtype=np.int64)
+    rate = np.column_stack([counter * 1e-3, -counter * 1e-3, np.full(n, 0.5)])
+    return EventBatch(unit, seq, rate, counter, counter / RATE_HZ, np.zeros(n, np.uint32),
+                      temperature_c=np.full(n, 25.0), log=log)
+
+
+@pytest.fixture
+def written(tmp_path: Path) -> Path:
+    """A two-unit run written from documents, read live by a SWMR reader between flushes."""
+    path = tmp_path / "run.h5"
+    writer = RunFileWriter(path, flush_interval_s=0.5)
+    writer(RunStart("uid1", utc_now(), ("unit1", "unit2"), 10.0, str(path), profile="P",
+                    profile_version="3", operator="ann", lot="L1", station_host="bench",
+                    software_version="0.1.0"))
+    for uid, serial in (("unit1", "A1"), ("unit2", "B2")):
+        d = _description(serial, temperature=True)
+        writer(Descriptor(uid, f"sim+serial://{serial}", d, data_keys(d), utc_now(),
+                          "simulated device clock, warp x1", 1.0))
+    writer(_batch("unit1", 0, 0, 300))
+    writer(_batch("unit2", 0, 0, 200))
+    writer.flush()
+    with h5py.File(path, "r", swmr=True) as live:  # a reader while the writer is open
+        assert live["units/unit1/committed"][0] == 300
+        gap = (LogEntry("gap", 5.0, 1, 12, 299, "counter+elapsed"),)
+        writer(_batch("unit1", 1, 312, 100, gap))
+        writer.flush()
+        for name in ("committed", "rate", "counter"):
+            live[f"units/unit1/{name}"].refresh()
+        assert live["units/unit1/committed"][0] == 400
+        assert live["units/unit1/counter"][399] == 411
+    writer(RunStop(utc_now(), "duration"))
+    assert writer.stopped
+    return path
+
+
+def test_every_dataset_has_units_and_the_run_its_metadata(written: Path) -> None:
+    missing = []
+    with h5py.File(written, "r") as f:
+        def visit(name: str, obj: object) -> None:
+            if isinstance(obj, h5py.Dataset) and "units" not in obj.attrs:
+                missing.append(name)
+        f.visititems(visit)
+        assert missing == ["run_state"] or missing == []
+        for key in ("profile", "operator", "lot", "station_host", "software_version",
+                    "start_utc", "stop_utc", "stop_reason", "run_uid"):
+            assert key in f.attrs, key
+        g = f["units/unit1"]
+        assert g["rate"].attrs["units"] == "deg/s" and g["temperature"].attrs["units"] == "degC"
+        assert g["receive_time"].attrs["units"] == "s" and g.attrs["sample_rate_hz"] == RATE_HZ
+        assert g["rate"].maxshape == (None, 3) and g["rate"].chunks[0] >= 256
+        assert "device_time" not in g  # the protocol has none: no empty dataset
+        assert json.loads(g["events"].attrs["units"])["time_s"] == "s"
+
+
+def test_reader_returns_the_run_with_its_gap_counts(written: Path) -> None:
+    run = read_run(written)
+    assert not run.interrupted and run.stop_reason == "duration" and run.operator == "ann"
+    u1, u2 = run.units
+    assert (u1.serial_number, u1.record.n_samples, u2.record.n_samples) == ("A1", 400, 200)
+    assert u1.n_gaps == 1 and u1.missing_samples == 12
+    assert "counter+elapsed" in u1.events[0].detail
+    assert u1.record.temperature_c is not None and u1.record.rate_deg_s[-1, 2] == 0.5
+    assert read_run_record(written, "B2").n_samples == 200  # by serial number
+    assert read_record(written, unit="unit2").axis_names == ("x", "y", "z")
+
+
+def test_analyze_reads_a_unit_an_axis_and_a_time_slice_of_a_run(
+        written: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["analyze", str(written), "--unit", "unit1", "--axis", "y", "--start-s", "0.5",
+                 "--stop-s", "3.5", "--warmup-s", "1.0", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["axes"][0]["name"] == "y"
+    assert out["axes"][0]["n_samples"] == 250  # 1.0 .. 3.5 s at 100 Hz
+    assert out["selection"] == {"unit": "unit1", "axis": "y", "start_s": 1.0, "stop_s": 3.5,
+                                "warmup_s": 1.0, "warmup_from": "--warmup-s"}
+    assert main(["analyze", str(written), "--unit", "nope"]) == 2
+    assert "no unit 'nope'" in capsys.readouterr().err
+
+
+def test_lookup3_matches_jenkins_reference_values() -> None:
+    # Bob Jenkins, lookup3.c, driver5()
+    assert lookup3(b"") == 0xDEADBEEF
+    assert lookup3(b"", 0xDEADBEEF) == 0xBD5B7DDE
+    assert lookup3(b"Four score and seven years ago") == 0x17770551
+    assert lookup3(b"Four score and seven years ago", 1) == 0xCD628161
+
+
+DISK_URL = "sim+serial://STIM300?protocol=xbus&rate=500&seed={seed}"
+
+
+@pytest.fixture(scope="module")
+def full_disk_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple]:
+    """Two recorders whose disk fills mid-run (their file-size limit is lowered to what
+    they have written plus 60 kB): one with the default reserve (stops before the end of
+    the space), one with none (writes until a write fails with EFBIG)."""
+    runs = {}
+    for name, extra in (("reserve", []), ("no reserve", ["--reserve-mb", "0"])):
+        folder = tmp_path_factory.mktemp(name.replace(" ", "-"))
+        url = DISK_URL.format(seed=len(runs) + 3)
+        proc = start_recorder("--unit", url, "--duration", "1h", "--out", str(folder),
+                              "--quiet", "--json-summary", *extra)
+        runs[name] = (proc, folder, url)
+    out = {}
+    try:
+        for name, (proc, folder, url) in runs.items():
+            path = wait_for_samples(folder, 200)
+            with h5py.File(path, "r", swmr=True) as f:
+                before = int(f["units/unit1/committed"][0])
+            limit = path.stat().st_size + 60_000
+            resource.prlimit(proc.pid, resource.RLIMIT_FSIZE, (limit, limit))
+            t0 = time.monotonic()
+            stdout, stderr = proc.communicate(timeout=60)
+            out[name] = (proc.returncode, stdout, stderr, path, url, before,
+                         time.monotonic() - t0, limit)
+    finally:
+        for proc, _, _ in runs.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.communicate()
+    return out
+
+
+@pytest.mark.parametrize("name", ["reserve", "no reserve"])
+def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
+        full_disk_runs: dict[str, tuple], name: str) -> None:
+    code, stdout, stderr, path, url, before, stop_after_s, limit = full_disk_runs[name]
+    assert code == 1, stderr  # stopped on its own, reporting the failure
+    assert stop_after_s < 30.0
+    assert path.stat().st_size <= limit
+    run = read_run(path)
+    assert run.interrupted
+    if name == "reserve":  # stopped before the space ran out: closed, reason in the file
+        assert run.stop_reason.startswith("disk full: disk nearly full"), run.stop_reason
+        h5py.File(path, "r").close()
+    else:  # a write failed: the reason is reported, the file is left for recover
+        assert "disk full" in stderr and f"station recover {path}" in stderr
+        with contextlib.redirect_stdout(io.StringIO()):
+            assert main(["recover", str(path)]) == 0
+        with h5py.File(path, "r") as f:
+            assert int(f["units/unit1/committed"][0]) == f["units/unit1/rate"].shape[0]
+    n = check_unit_against_signal(path, "unit1", url)  # everything committed is intact
+    assert n >= before
+    print(f"{name}: limit {limit} B, stopped {stop_after_s:.2f} s later with {n} samples "
+          f"intact ({before} when the limit was set): {run.stop_reason[:60]}")
+    assert summaries(stdout)[0]["samples_recorded"] == n
+
+
+def test_davar_reads_a_run_file(written: Path) -> None:
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["davar", str(written), "--window-s", "1.0", "--json"]) == 0
+    assert len(json.loads(buf.getvalue())["axes"]) == 3

@@ -1,0 +1,91 @@
+"""Disconnects and damaged frames: recorded + declared missing == sent, for every unit.
+
+Four simulated units over their real transports (STIM300 and KVH DSP-1750 on ptys, a
+raw-CAN node on python-can's virtual bus, a Modbus TCP server on 127.0.0.1) record
+together, time-warped, while their simulators drop, corrupt and garble frames and go
+away for 1 s to 1 min (the pty closes, the CAN node falls silent, the Modbus server shuts
+down). The 60 s and 40 s outages are longer than the 8-bit and 7-bit counters can count
+alone: their gaps must be counted with the elapsed time and say so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from station.hdf5 import open_run_file, read_run, read_unit
+from station.recorder import Recorder, RunConfig
+
+WARP = 8
+#: name -> (device URL, sample rate Hz, the outage it suffers, simulated s). Rates are low
+#: so that half a counter period (12.8 s on both wrapping counters) is over 1.5 s of wall
+#: time: a loaded machine's stalls must not alias into counter wraps.
+UNITS = {
+    "stim300": (f"sim+serial://STIM300?protocol=stim300&rate=10&warp={WARP}&seed=1"
+                "&disconnect_every_s=10&disconnect_for_s=60&drop=0.01&corrupt=0.01"
+                "&garbage=0.01", 10.0, 60.0),
+    "kvh1750": (f"sim+serial://DSP-1750?protocol=kvh1750&rate=5&warp={WARP}&seed=2"
+                "&disconnect_every_s=15&disconnect_for_s=40&drop=0.02", 5.0, 40.0),
+    "can": (f"sim+can://STIM300?rate=20&warp={WARP}&seed=3&disconnect_every_s=15"
+            "&disconnect_for_s=1&drop=0.01&corrupt=0.01", 20.0, 1.0),
+    "modbus": (f"sim+modbus+tcp://STIM300?rate=10&warp={WARP}&seed=4&disconnect_every_s=30"
+               "&disconnect_for_s=5&drop=0.02", 10.0, 5.0),
+}
+DURATION_S = 80.0
+
+
+@pytest.fixture(scope="module")
+def faulty_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Recorder, object]:
+    out = tmp_path_factory.mktemp("faults") / "run.h5"
+    config = RunConfig(tuple(url for url, _, _ in UNITS.values()), DURATION_S, out,
+                       backoff_max_s=0.2)
+    recorder = Recorder(config)
+    stop = recorder.run()
+    for name, t in zip(UNITS, stop.totals, strict=True):  # shown with pytest -s
+        print(f"{name}: recorded {t.samples_recorded} + declared missing "
+              f"{t.samples_missing_declared} (gaps {t.gaps}) = sent {t.samples_sent}; "
+              f"CRC errors {t.crc_errors}, reconnects {t.reconnects}")
+    return recorder, stop
+
+
+def test_every_unit_accounts_for_every_sample_it_sent(faulty_run) -> None:
+    recorder, stop = faulty_run
+    assert stop.reason == "duration"
+    run = read_run(recorder.path)
+    for name, totals, unit in zip(UNITS, stop.totals, run.units, strict=True):
+        assert totals.samples_sent is not None and totals.samples_sent > 0
+        # the file says the same as the recorder's own count
+        assert unit.record.n_samples == totals.samples_recorded, name
+        assert unit.missing_samples == totals.samples_missing_declared, name
+        assert (totals.samples_recorded + totals.samples_missing_declared
+                == totals.samples_sent), (name, totals)
+        assert totals.samples_missing_declared > 0, name  # the faults did happen
+
+
+@pytest.mark.parametrize("name", ["stim300", "kvh1750"])
+def test_long_outages_on_wrapping_counters_are_counted_with_elapsed_time(faulty_run,
+                                                                          name: str) -> None:
+    recorder, _ = faulty_run
+    _, rate_hz, outage_s = UNITS[name]
+    unit = read_run(recorder.path).units[list(UNITS).index(name)]
+    kinds = [e.kind for e in unit.events]
+    assert "disconnect" in kinds and "reconnect" in kinds
+    long_gaps = [e for e in unit.events if e.kind == "gap" and e.missing_samples > 128]
+    assert long_gaps, unit.events
+    assert all("counter+elapsed" in e.detail for e in long_gaps)
+    # the outage itself is inside the gap; a wrong wrap count would be 128 or 256 off
+    expected = outage_s * rate_hz
+    assert any(expected <= e.missing_samples < expected + 64 for e in long_gaps), long_gaps
+
+
+def test_other_units_keep_recording_while_one_is_disconnected(faulty_run) -> None:
+    recorder, _ = faulty_run
+    with open_run_file(recorder.path) as f:
+        stim, can = read_unit(f, "unit1"), read_unit(f, "unit3")
+    # the STIM300 is away from 10 s to 70 s (its own time base) ...
+    t_stim = stim.receive_time_s
+    assert not np.any((t_stim > 15.0) & (t_stim < 65.0))
+    # ... while the CAN unit (20 Hz, 1 s outages every 15 s) records through it
+    t_can = can.receive_time_s
+    during = int(np.count_nonzero((t_can > 15.0) & (t_can < 65.0)))
+    assert during > 0.8 * 20 * 50.0, during

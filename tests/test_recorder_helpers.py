@@ -1,0 +1,111 @@
+"""Helpers of the recorder tests: run ``station`` in a real process, wait for its file, and
+check a recorded unit against the simulated signal it came from."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from urllib.parse import parse_qsl, urlsplit
+
+import h5py
+import numpy as np
+
+from devices.sim.signal import SignalSource
+from station.hdf5 import open_run_file, read_unit, run_state
+
+#: Keys of one ``--json-summary`` object, exactly (issue 6).
+SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_sent", "gaps",
+                "crc_errors", "reconnects", "file"}
+#: Rate resolution per protocol: (absolute deg/s, relative); STIM300 sends value / 2^14
+#: deg/s, Xbus float32 rad/s.
+RESOLUTION = {"stim300": (2.0 ** -14, 0.0), "xbus": (1e-12, 2.0 ** -22)}
+
+
+def station_cmd(*args: str) -> list[str]:
+    """The command line of ``station ARGS`` in this interpreter."""
+    return [sys.executable, "-m", "station.cli", *args]
+
+
+def run_station(*args: str, timeout_s: float = 120.0,
+                preexec_fn: Callable[[], None] | None = None) -> subprocess.CompletedProcess:
+    """Run ``station ARGS`` to completion."""
+    return subprocess.run(station_cmd(*args), capture_output=True, text=True, timeout=timeout_s,
+                          preexec_fn=preexec_fn, check=False)
+
+
+def recorder_cmd(*args: str) -> list[str]:
+    """``station record ARGS`` through the recorder's own entry point (fewer imports)."""
+    return [sys.executable, "-m", "station.commands.record", *args]
+
+
+def start_recorder(*args: str, preexec_fn: Callable[[], None] | None = None
+                   ) -> subprocess.Popen:
+    """Start a recorder process, ``station record ARGS`` (the caller must end it)."""
+    return subprocess.Popen(recorder_cmd(*args), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, preexec_fn=preexec_fn)
+
+
+def summaries(stdout: str) -> list[dict]:
+    """The ``--json-summary`` objects of a ``station record`` output."""
+    out = [json.loads(line) for line in stdout.splitlines() if line.strip()]
+    for obj in out:
+        assert set(obj) == SUMMARY_KEYS, obj
+    return out
+
+
+def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) -> Path:
+    """The run file in ``folder`` once every unit has ``min_samples`` committed samples."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        files = list(folder.glob("*.h5"))
+        if files:
+            try:
+                with h5py.File(files[0], "r", swmr=True) as f:
+                    units = f["units"]
+                    if len(units) and all(int(units[u]["committed"][0]) >= min_samples
+                                          for u in units):
+                        return files[0]
+            except (OSError, KeyError):
+                pass  # not created or not in SWMR mode yet
+        time.sleep(0.05)
+    raise TimeoutError(f"no run file with {min_samples} samples in {folder}")
+
+
+def last_flush_age_s(path: Path, at_utc_s: float) -> float:
+    """Seconds between the file's last flush and ``at_utc_s`` (a ``time.time()``)."""
+    from datetime import UTC, datetime
+
+    with open_run_file(path) as f:
+        stamp = run_state(f)["last_flush_utc"]
+    flushed = datetime.strptime(stamp, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=UTC)
+    return at_utc_s - flushed.timestamp()
+
+
+def check_unit_against_signal(path: Path, unit_id: str, url: str) -> int:
+    """Assert that a simulated serial unit's committed samples are the simulated signal at
+    their counters (to the protocol's resolution) and that counters and gaps agree; returns
+    the number of samples checked."""
+    query = dict(parse_qsl(urlsplit(url).query))
+    atol, rtol = RESOLUTION[query["protocol"]]
+    with open_run_file(path) as f:
+        unit = read_unit(f, unit_id)
+    counter = unit.counter
+    assert len(counter) > 0
+    steps = np.diff(counter)
+    assert np.all(steps >= 1)
+    gaps = unit.events[unit.events["kind"] == b"gap"]
+    # every counter jump is a declared gap; so are the samples before the first one (a
+    # simulated device starts at counter 0)
+    assert int(gaps["missing_samples"].sum()) == int((steps - 1).sum()) + int(counter[0])
+    assert np.all(np.diff(unit.receive_time_s) >= 0)
+    truth = SignalSource(urlsplit(url).netloc, float(query["rate"]), n_axes=3,
+                         seed=int(query["seed"])).read(int(counter[-1]) + 1).rate_deg_s
+    error = np.abs(unit.rate_deg_s - truth[counter]) - rtol * np.abs(truth[counter])
+    bad = np.flatnonzero(error.max(axis=1) > atol)
+    assert len(bad) == 0, (f"{len(bad)} samples differ from the signal, first at counter "
+                           f"{counter[bad[0]]}; gaps: {gaps[:5]}")
+    return len(counter)
