@@ -1,0 +1,117 @@
+"""``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
+
+Prints a table per unit (or, with ``--json``, the document of
+:meth:`station.grading.RunGrade.as_json`) and stores each graded unit in the results
+database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
+``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+from station.errors import UsageError
+from station.grading import RunGrade, grade_run
+from station.profiles import load_profile
+from station.record_files import UNIT_TO_DEG_S
+from station.results import ResultsDatabase, default_database_path
+from station.runs import RunInfo, open_run
+
+
+def add_grading_arguments(p: argparse.ArgumentParser) -> None:
+    """Arguments shared by the commands that grade a run (grade, report)."""
+    p.add_argument("run", help="run file: a recorder HDF5 run or a CSV record (one unit)")
+    p.add_argument("--profile", default=None, metavar="P",
+                   help="product profile: a name in profiles/ or a TOML file (default: the run's)")
+    p.add_argument("--rate", type=float, default=None, metavar="HZ",
+                   help="sample rate of a CSV record without a time column, Hz")
+    p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
+                   help="rate unit of a CSV record (default deg/s)")
+    p.add_argument("--unit", action="append", default=[], metavar="ID",
+                   help="grade only this unit (id or serial number); repeatable")
+    p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
+    p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
+    p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
+    p.add_argument("--db", type=Path, default=None, metavar="FILE",
+                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
+
+
+def load_run(args: argparse.Namespace) -> RunInfo:
+    """The run the arguments name, with --serial/--lot/--operator applied."""
+    run = open_run(args.run, sample_rate_hz=args.rate, units=args.units)
+    if args.serial is not None:
+        if len(run.units) != 1:
+            raise UsageError(f"--serial applies to a run of one unit; {args.run} has {len(run.units)}")
+        run = replace(run, units=(replace(run.units[0], serial_number=args.serial),))
+    changes = {k: v for k, v in (("lot", args.lot), ("operator", args.operator)) if v is not None}
+    return replace(run, **changes) if changes else run
+
+
+def grade_from_args(args: argparse.Namespace) -> RunGrade:
+    """Open the run, load the profile (given or the run's) and grade it."""
+    run = load_run(args)
+    ref = args.profile or run.profile
+    if not ref:
+        raise UsageError(f"{args.run} names no profile; pass --profile NAME")
+    return grade_run(run, load_profile(ref), units=tuple(args.unit))
+
+
+def database_path(args: argparse.Namespace) -> Path:
+    """The results database the arguments name."""
+    return args.db or default_database_path()
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``grade`` sub-command."""
+    p = sub.add_parser("grade", help="grade a run against a product profile", description=__doc__)
+    add_grading_arguments(p)
+    p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Grade, store, print."""
+    graded = grade_from_args(args)
+    if args.json:
+        json.dump(graded.as_json(), sys.stdout, indent=1, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        print(format_grade(graded))
+    sys.stdout.flush()  # the grades are shown even when the database cannot take them
+    if not args.no_store:
+        with ResultsDatabase(database_path(args)) as db:
+            db.store(graded)
+    return 0
+
+
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def format_grade(graded: RunGrade) -> str:
+    """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict."""
+    p = graded.profile
+    lines = [f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
+             f"grades {' > '.join(p.grades)} > {p.reject}"]
+    for u in graded.units:
+        lines.append("")
+        lines.append(f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
+                     f"{u.unit.serial_number or '-'}  GRADE {u.grade}")
+        for note in u.notes:
+            lines.append(f"  note: {note}")
+        for a in u.axes:
+            reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
+            lines.append(f"  axis {a.axis}: {a.grade}{reach}; limits of grade {a.deciding_grade}")
+            lines.append(f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict")
+            for f in a.figures:
+                limit = f.spec.limits.get(a.deciding_grade)
+                verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else "(info)"
+                label = f"{f.spec.label} [{f.spec.unit}]"
+                interval = f"[{_num(f.ci_low)}, {_num(f.ci_high)}]"
+                lines.append(f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  {verdict}")
+    return "\n".join(lines)

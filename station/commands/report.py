@@ -1,0 +1,47 @@
+"""``station report RUN --format pdf|html|json|csv --out DIR``: spec sheets of a graded run.
+
+Grades the run with the profile (given, or the run's) exactly as ``station grade`` does,
+writes the report file (PDF: one page per unit; HTML: self-contained; JSON: the schema of
+docs/report-json-schema.md; CSV: one row per unit and axis) and records it in the results
+database against each unit's grading (storing the grading first when it is not there yet).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from station.commands.grade import add_grading_arguments, database_path, grade_from_args
+from station.report import FORMATS, write_report
+from station.results import ResultsDatabase
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``report`` sub-command."""
+    p = sub.add_parser("report", help="write spec-sheet reports (PDF, HTML, JSON, CSV) of a run",
+                       description=__doc__)
+    add_grading_arguments(p)
+    p.add_argument("--format", dest="formats", action="append", choices=FORMATS, default=None,
+                   help="report format; repeatable (default pdf)")
+    p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
+                   help="directory to write into (created; default the current directory)")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Grade, write each report, record the files, print their paths."""
+    graded = grade_from_args(args)
+    paths = [(fmt, write_report(graded, fmt, args.out)) for fmt in (args.formats or ["pdf"])]
+    if not args.no_store:
+        with ResultsDatabase(database_path(args)) as db:
+            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
+                   for u in graded.units]
+            if any(i is None for i in ids):
+                ids = db.store(graded)
+            for grading_id in ids:
+                for fmt, path in paths:
+                    assert grading_id is not None
+                    db.add_report(grading_id, fmt, path)
+    for _, path in paths:
+        print(path)
+    return 0

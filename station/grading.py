@@ -1,0 +1,420 @@
+"""End-of-line grading: every figure of a profile with its confidence interval, and the grade.
+
+For each unit and axis of a run, :func:`grade_run` discards the profile's warm-up, runs the
+Allan analysis (:func:`station.analyze.analyze_record`) and computes every figure the
+profile names with a two-sided interval at the profile's confidence level:
+
+``bias``
+    ``|mean|``; interval from 10 batch means (Student t, 9 dof), folded to the magnitude.
+``bias_stability_<T>s``
+    std of T-second averages; chi-square interval with ``n_averages - 1`` dof.
+``arw``, ``bias_instability``, ``adev_min``
+    read-offs of the Allan deviation (IEEE 952 Annex C); chi-square interval with the edf
+    of the Allan value they are read from (for ``arw`` the best-determined tau of the -1/2
+    region).
+``quantization``, ``arw_fit``, ``bias_instability_fit``, ``rrw``, ``rate_ramp``
+    the fitted Q, N, B, K, R; interval ``value +- z stderr`` (normal quantile), clipped at 0.
+
+Each limit is an upper limit and is decided by the profile's rule (see :func:`decide`).
+An axis gets the best grade whose every limit it passes; the unit gets its worst axis.
+Grading reads only a :class:`~station.runs.RunInfo`, so a stored run is re-graded with any
+profile without the device.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from importlib import metadata
+from typing import Literal
+
+import numpy as np
+from scipy import stats
+
+from analysis.allan import AllanResult
+from analysis.confidence import chi2_interval
+from analysis.figures import arw_readoff, bias_instability_readoff, bias_stability
+from analysis.fit import NoiseCoefficients
+from analysis.units import S_PER_H
+from station.analyze import AxisAnalysis, analyze_record
+from station.errors import StationError
+from station.profiles import FigureSpec, Profile, bias_stability_average_s
+from station.record_files import RateRecord
+from station.runs import RunInfo, UnitRun
+
+Verdict = Literal["pass", "fail", "indeterminate"]
+VERDICTS: tuple[str, ...] = ("pass", "fail", "indeterminate")
+INDETERMINATE = "indeterminate"
+#: Batches of the batch-means interval of the bias.
+BIAS_BATCHES = 10
+#: Fewest samples left after the warm-up for grading to proceed.
+MIN_SAMPLES = 1000
+_FIT_TERM = {"quantization": "Q", "arw_fit": "N", "bias_instability_fit": "B", "rrw": "K",
+             "rate_ramp": "R"}
+
+
+class GradingError(StationError, ValueError):
+    """A run that cannot be graded with a profile (too short, axes missing, ...)."""
+
+
+@dataclass(frozen=True)
+class Interval:
+    """A figure in its canonical unit with its two-sided confidence interval (None if unknown)."""
+
+    value: float | None
+    low: float | None
+    high: float | None
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class FigureResult:
+    """One graded figure of one axis, in the profile's unit for that figure.
+
+    ``verdicts`` maps each grade that limits this figure to its verdict.
+    """
+
+    spec: FigureSpec
+    value: float | None
+    ci_low: float | None
+    ci_high: float | None
+    verdicts: dict[str, str]
+    note: str = ""
+
+    @property
+    def name(self) -> str:
+        """The figure's profile key."""
+        return self.spec.name
+
+    def as_json(self, grade: str | None) -> dict[str, object]:
+        """JSON object of the figure; ``limit``/``verdict`` are those of ``grade``.
+
+        A grade that places no limit on the figure gives ``limit: null, verdict: "pass"``.
+        """
+        limit = self.spec.limits.get(grade) if grade else None
+        verdict = self.verdicts.get(grade, "pass") if grade else None
+        return {"label": self.spec.label, "unit": self.spec.unit, "value": self.value,
+                "ci_low": self.ci_low, "ci_high": self.ci_high, "limit": limit, "verdict": verdict,
+                "limits": dict(self.spec.limits), "verdicts": dict(self.verdicts), "note": self.note}
+
+
+@dataclass(frozen=True)
+class AxisGrade:
+    """The grade of one axis: its figures, its analysis, and which grade decided it.
+
+    ``deciding_grade`` is the grade whose limits the reported ``limit``/``verdict`` are:
+    the grade assigned, the first indeterminate grade when the axis is indeterminate, or
+    the loosest grade when it is rejected. ``could_reach`` names a better grade the axis
+    was indeterminate at (a re-test might reach it).
+    """
+
+    axis: str
+    grade: str
+    deciding_grade: str
+    figures: tuple[FigureResult, ...]
+    analysis: AxisAnalysis
+    could_reach: str | None = None
+
+    @property
+    def graded_figures(self) -> tuple[FigureResult, ...]:
+        """Figures with at least one limit."""
+        return tuple(f for f in self.figures if f.spec.graded)
+
+    def as_json(self) -> dict[str, object]:
+        """JSON object of the axis (the ``station grade --json`` interface)."""
+        return {
+            "grade": self.grade,
+            "deciding_grade": self.deciding_grade,
+            "could_reach": self.could_reach,
+            "sample_rate_hz": self.analysis.sample_rate_hz,
+            "n_samples": self.analysis.n_samples,
+            "duration_s": self.analysis.n_samples / self.analysis.sample_rate_hz,
+            "figures": {f.name: f.as_json(self.deciding_grade) for f in self.graded_figures},
+            "info": {f.name: f.as_json(None) for f in self.figures if not f.spec.graded},
+        }
+
+
+@dataclass(frozen=True)
+class UnitGrade:
+    """The grade of one unit (its worst axis) and everything it was decided from."""
+
+    unit: UnitRun
+    grade: str
+    axes: tuple[AxisGrade, ...]
+    warmup_discarded_s: float
+    notes: tuple[str, ...] = ()
+
+    def axis(self, name: str) -> AxisGrade:
+        """The axis named ``name``."""
+        for a in self.axes:
+            if a.axis == name:
+                return a
+        raise KeyError(f"unit {self.unit.unit_id} has no axis {name!r}")
+
+    def as_json(self) -> dict[str, object]:
+        """JSON object of the unit."""
+        u = self.unit
+        return {"unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
+                "grade": self.grade, "warmup_discarded_s": self.warmup_discarded_s,
+                "notes": list(self.notes), "axes": {a.axis: a.as_json() for a in self.axes}}
+
+
+@dataclass(frozen=True)
+class RunGrade:
+    """A run graded with a profile."""
+
+    run: RunInfo
+    profile: Profile
+    units: tuple[UnitGrade, ...]
+    graded_utc: str
+    software_version: str
+    extra: dict[str, str] = field(default_factory=dict)
+
+    def as_json(self) -> dict[str, object]:
+        """The ``station grade --json`` document (see docs/report-json-schema.md)."""
+        p, r = self.profile, self.run
+        return {
+            "schema": "gyro-station/grade",
+            "schema_version": 1,
+            "graded_utc": self.graded_utc,
+            "software_version": self.software_version,
+            "profile": {"name": p.name, "version": p.version, "model": p.model, "path": p.path,
+                        "sha256": p.sha256, "rule": p.rule, "confidence": p.confidence,
+                        "grades": list(p.grades), "reject": p.reject},
+            "run": {"path": r.path, "start_utc": r.start_utc, "stop_utc": r.stop_utc,
+                    "operator": r.operator, "lot": r.lot, "station": r.station_host,
+                    "software_version": r.software_version, "profile": r.profile,
+                    "interrupted": r.interrupted},
+            "units": [u.as_json() for u in self.units],
+        }
+
+
+def software_version() -> str:
+    """Version of the installed station package (``"unknown"`` when not installed)."""
+    try:
+        return metadata.version("gyro-station")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+# --- decision ------------------------------------------------------------------------------
+
+
+def decide(value: float | None, low: float | None, high: float | None, limit: float, rule: str) -> Verdict:
+    """Verdict of one figure against an upper ``limit`` under a decision rule.
+
+    ``simple``: pass when the value is within the limit, else fail (the interval is
+    ignored). ``guard-banded``: pass when the upper confidence bound is within the limit,
+    fail when the lower bound is beyond it, indeterminate when the interval straddles it.
+    ``strict``: pass only when the upper bound is within the limit, fail otherwise.
+    A figure that could not be computed is indeterminate under every rule.
+    """
+    if value is None:
+        return INDETERMINATE
+    if rule == "simple":
+        return "pass" if value <= limit else "fail"
+    if high is None or low is None:
+        return INDETERMINATE
+    if high <= limit:
+        return "pass"
+    if rule == "strict" or low > limit:
+        return "fail"
+    return INDETERMINATE
+
+
+def assign_grade(figures: tuple[FigureResult, ...], grades: tuple[str, ...], reject: str
+                 ) -> tuple[str, str, str | None]:
+    """(grade, deciding grade, could_reach) of an axis from its figures' verdicts.
+
+    The grade is the best grade at which every limited figure passes; when none does and
+    some grade had no fail but an indeterminate verdict, the axis is ``indeterminate``;
+    otherwise it is ``reject``.
+    """
+    first_open: str | None = None
+    for grade in grades:
+        verdicts = [f.verdicts[grade] for f in figures if grade in f.verdicts]
+        if all(v == "pass" for v in verdicts):
+            return grade, grade, first_open
+        if "fail" not in verdicts and first_open is None:
+            first_open = grade
+    if first_open is not None:
+        return INDETERMINATE, first_open, None
+    return reject, grades[-1], None
+
+
+def grade_rank(grade: str, profile: Profile) -> int:
+    """Order of grades, best first: the profile's grades, then indeterminate, then reject."""
+    if grade in profile.grades:
+        return profile.grades.index(grade)
+    return len(profile.grades) + (0 if grade == INDETERMINATE else 1)
+
+
+# --- figures -------------------------------------------------------------------------------
+
+
+def _z(confidence: float) -> float:
+    return float(stats.norm.ppf(0.5 + confidence / 2))
+
+
+def _chi2_scaled(value: float, edf: float, confidence: float) -> tuple[float, float]:
+    """Interval of a deviation ``value`` whose variance has ``edf`` degrees of freedom."""
+    low, high = chi2_interval(1.0, edf, confidence)
+    return value * math.sqrt(float(low)), value * math.sqrt(float(high))
+
+
+def bias_interval(x: np.ndarray, confidence: float) -> Interval:
+    """``|mean|`` (deg/h) of a rate record (deg/s) with its batch-means interval."""
+    mean = float(np.mean(x)) * S_PER_H
+    size = len(x) // BIAS_BATCHES
+    means = x[: size * BIAS_BATCHES].reshape(BIAS_BATCHES, size).mean(axis=1) * S_PER_H
+    half = float(stats.t.ppf(0.5 + confidence / 2, BIAS_BATCHES - 1)) * float(
+        np.std(means, ddof=1)) / math.sqrt(BIAS_BATCHES)
+    low, high = mean - half, mean + half
+    if low <= 0 <= high:
+        return Interval(abs(mean), 0.0, max(-low, high), "interval includes zero bias")
+    return Interval(abs(mean), min(abs(low), abs(high)), max(abs(low), abs(high)))
+
+
+def _readoff_interval(allan: AllanResult, name: str, confidence: float) -> Interval:
+    edf = np.asarray(allan.edf, dtype=float)
+    if name == "arw":
+        r = arw_readoff(allan)
+        if r.value is None:
+            return Interval(None, None, None, r.note)
+        region = (allan.tau_s >= r.tau_low_s) & (allan.tau_s <= r.tau_high_s)
+        low, high = _chi2_scaled(r.value, float(edf[region].max()), confidence)
+        return Interval(r.value, low, high, r.note)
+    r = bias_instability_readoff(allan)
+    if r.value is None:
+        return Interval(None, None, None, r.note)
+    i = int(np.argmin(allan.avar))
+    value = r.value * (0.664 if name == "adev_min" else 1.0)
+    low, high = _chi2_scaled(value, float(edf[i]), confidence)
+    return Interval(value, low, high, r.note or f"at tau {allan.tau_s[i]:.3g} s")
+
+
+def _fit_interval(fit: NoiseCoefficients, term: str, confidence: float) -> Interval:
+    value, err = fit.values[term], fit.stderr[term]
+    if value is None:
+        why = "negative variance term" if term in fit.negative_terms else "not fitted"
+        return Interval(None, None, None, f"not estimable ({why})")
+    if err is None or not math.isfinite(err):
+        return Interval(value, None, None, "no standard error")
+    half = _z(confidence) * err
+    return Interval(value, max(value - half, 0.0), value + half)
+
+
+def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence: float) -> Interval:
+    """A figure (canonical unit) with its interval from one axis' rate (deg/s) and analysis."""
+    average_s = bias_stability_average_s(name)
+    if average_s is not None:
+        bs = bias_stability(x, analysis.sample_rate_hz, average_s)
+        if bs.value_deg_h is None:
+            return Interval(None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3")
+        low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
+        return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
+    if name == "bias":
+        return bias_interval(x, confidence)
+    if name in ("arw", "bias_instability", "adev_min"):
+        return _readoff_interval(analysis.allan, name, confidence)
+    return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
+
+
+def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile) -> FigureResult:
+    """Convert a canonical interval to the spec's unit and decide it at every limited grade."""
+    factor = spec.unit_factor
+
+    def conv(v: float | None) -> float | None:
+        return None if v is None or not math.isfinite(v) else v / factor
+
+    value, low, high = conv(interval.value), conv(interval.low), conv(interval.high)
+    verdicts = {g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()}
+    return FigureResult(spec, value, low, high, verdicts, interval.note)
+
+
+# --- runs ----------------------------------------------------------------------------------
+
+
+def _axis_token(name: str) -> str:
+    return re.split(r"[_\-. ]", name.lower())[-1]
+
+
+def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> dict[str, int]:
+    """Column index of each profile axis in a record: by name, by last name token (``gyro_x``
+    is ``x``), or one to one when both have a single axis.
+
+    Raises
+    ------
+    GradingError
+        When an axis of the profile is not in the record.
+    """
+    out: dict[str, int] = {}
+    tokens = [_axis_token(a) for a in record_axes]
+    for axis in profile_axes:
+        if axis in record_axes:
+            out[axis] = record_axes.index(axis)
+        elif tokens.count(axis.lower()) == 1:
+            out[axis] = tokens.index(axis.lower())
+        elif len(profile_axes) == 1 and len(record_axes) == 1:
+            out[axis] = 0
+        else:
+            raise GradingError(f"the profile grades axis {axis!r}, the record has "
+                               f"{', '.join(record_axes)}")
+    return out
+
+
+def grade_unit(unit: UnitRun, profile: Profile) -> UnitGrade:
+    """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
+
+    Raises
+    ------
+    GradingError
+        When the record is too short after the warm-up or lacks a profile axis.
+    """
+    record = unit.record
+    fs = record.sample_rate_hz
+    skip = int(round(profile.warmup_s * fs))
+    if record.n_samples - skip < MIN_SAMPLES:
+        raise GradingError(f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
+                           f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up")
+    columns = match_axes(profile.axes, record.axis_names)
+    rate = record.rate_deg_s[skip:, list(columns.values())]
+    trimmed = RateRecord(rate, fs, tuple(columns), record.source)
+    notes = []
+    if unit.model and unit.model != profile.model:
+        notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
+    if record.duration_s < profile.duration_s * 0.99:
+        notes.append(f"record {record.duration_s:.0f} s is shorter than the profile's test "
+                     f"({profile.duration_s:.0f} s)")
+    if unit.n_gaps:
+        notes.append(f"{unit.n_gaps} gaps ({unit.missing_samples} samples missing): the samples are "
+                     "analysed as one contiguous record")
+    if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
+        notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
+    axes = []
+    for i, analysis in enumerate(analyze_record(trimmed, method=profile.fit_method)):  # type: ignore[arg-type]
+        x = trimmed.rate_deg_s[:, i]
+        figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence), profile)
+                        for spec in profile.figures)
+        grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
+        axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could))
+    worst = max(axes, key=lambda a: grade_rank(a.grade, profile)).grade
+    return UnitGrade(unit, worst, tuple(axes), skip / fs, tuple(notes))
+
+
+def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = ()) -> RunGrade:
+    """Grade every unit of ``run`` (or those named in ``units``) with ``profile``.
+
+    Works on any stored run: nothing here talks to a device.
+    """
+    chosen = [run.unit(u) for u in units] if units else list(run.units)
+    graded = tuple(grade_unit(u, profile) for u in chosen)
+    now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+    return RunGrade(run, profile, graded, now, software_version())
+
+
+def regrade(previous: RunGrade, profile: Profile) -> RunGrade:
+    """The same run graded with another profile (the run's records, no device)."""
+    return replace(grade_run(previous.run, profile), extra={"regraded_from": previous.profile.ref})

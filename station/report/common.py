@@ -1,0 +1,137 @@
+"""What every spec-sheet format shows, computed once: header, figure rows, event summary.
+
+The format writers (:mod:`~station.report.pdf`, :mod:`~station.report.html`,
+:mod:`~station.report.json_report`, :mod:`~station.report.csv_report`) lay these out; none of
+them computes a figure.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+from station.grading import AxisGrade, RunGrade, UnitGrade
+from station.runs import UnitRun
+
+#: Verdict -> colour (reports, plots); None is an informational figure.
+VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
+#: How many individual events a report lists before it only counts them.
+MAX_EVENTS_LISTED = 12
+
+
+def fmt(value: float | None, digits: int = 4) -> str:
+    """A number for a table: ``digits`` significant digits, ``-`` when missing."""
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def fmt_interval(low: float | None, high: float | None) -> str:
+    """``[low, high]`` or ``-``."""
+    return "-" if low is None or high is None else f"[{fmt(low, 3)}, {fmt(high, 3)}]"
+
+
+@dataclass(frozen=True)
+class FigureRow:
+    """One line of a spec sheet's figures table (values in ``unit``)."""
+
+    axis: str
+    name: str
+    label: str
+    unit: str
+    value: float | None
+    ci_low: float | None
+    ci_high: float | None
+    limit: float | None
+    grade: str
+    verdict: str | None
+    note: str
+
+
+def figure_rows(axis: AxisGrade) -> list[FigureRow]:
+    """Rows of one axis: graded figures with the deciding grade's limit, then informational ones."""
+    rows = []
+    for f in sorted(axis.figures, key=lambda f: not f.spec.graded):
+        graded = f.spec.graded
+        rows.append(FigureRow(
+            axis.axis, f.name, f.spec.label, f.spec.unit, f.value, f.ci_low, f.ci_high,
+            f.spec.limits.get(axis.deciding_grade) if graded else None,
+            axis.deciding_grade if graded else "", f.verdicts.get(axis.deciding_grade, "pass") if graded else None,
+            f.note))
+    return rows
+
+
+def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
+    """(label, text) pairs of a spec sheet's header."""
+    run, p, u = graded.run, graded.profile, unit.unit
+    duration = u.record.duration_s
+    return [
+        ("Model", u.model or p.model),
+        ("Serial number", u.serial_number or f"({u.unit_id})"),
+        ("Test date (UTC)", run.start_utc or "not recorded"),
+        ("Duration", f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
+                     f"discarded"),
+        ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
+        ("Station", run.station_host or "-"),
+        ("Operator", run.operator or "-"),
+        ("Lot", run.lot or "-"),
+        ("Software version", f"{graded.software_version} (recorded with {run.software_version or '-'})"),
+        ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
+        ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
+        ("Graded (UTC)", graded.graded_utc),
+        ("Run file", Path(run.path).name),
+    ]
+
+
+@dataclass(frozen=True)
+class EventSummary:
+    """A unit's event log in brief: counts per kind, gaps and samples lost, the first events."""
+
+    counts: dict[str, int]
+    n_gaps: int
+    missing_samples: int
+    listed: tuple[str, ...]
+    has_log: bool
+    stop_reason: str
+    interrupted: bool
+
+    def lines(self, *, brief: bool = False) -> list[str]:
+        """Text lines for reports; ``brief`` leaves out the individual events."""
+        if not self.has_log:
+            out = ["no event log (a record without run metadata, e.g. CSV)"]
+        else:
+            kinds = ", ".join(f"{k} {n}" for k, n in sorted(self.counts.items())) or "none"
+            out = [f"events: {kinds}", f"gaps: {self.n_gaps}, samples missing: {self.missing_samples}"]
+            out += [] if brief else list(self.listed)
+        if self.stop_reason or self.interrupted:
+            out.append(f"run stop: {self.stop_reason or '-'}{' (interrupted)' if self.interrupted else ''}")
+        return out
+
+    def as_json(self) -> dict[str, object]:
+        """JSON form."""
+        return {"has_log": self.has_log, "counts": dict(self.counts), "gaps": self.n_gaps,
+                "missing_samples": self.missing_samples, "stop_reason": self.stop_reason,
+                "interrupted": self.interrupted}
+
+
+def event_summary(unit: UnitRun, graded: RunGrade) -> EventSummary:
+    """Summarize a unit's event log (gaps, resyncs, reconnects, CRC errors, ...)."""
+    counts: Counter[str] = Counter()
+    for e in unit.events:
+        counts[e.kind] += e.count
+    listed = tuple(
+        f"{e.time_s:9.1f} s  {e.kind}" + (f" x{e.count}" if e.count != 1 else "")
+        + (f", {e.missing_samples} samples missing" if e.missing_samples else "")
+        + (f" ({e.detail})" if e.detail else "")
+        for e in unit.events[:MAX_EVENTS_LISTED])
+    if len(unit.events) > MAX_EVENTS_LISTED:
+        listed += (f"... and {len(unit.events) - MAX_EVENTS_LISTED} more events",)
+    has_log = bool(unit.events) or Path(graded.run.path).suffix.lower() in (".h5", ".hdf5")
+    return EventSummary(dict(counts), unit.n_gaps, unit.missing_samples, listed, has_log,
+                        graded.run.stop_reason, graded.run.interrupted)
+
+
+def report_stem(graded: RunGrade) -> str:
+    """File stem of a run's report: ``<run file stem>_<profile name>``, filesystem-safe."""
+    stem = Path(graded.run.path).name.split(".")[0]
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{stem}_{graded.profile.name}")

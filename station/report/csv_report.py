@@ -1,0 +1,48 @@
+"""The spec sheet as CSV: one row per unit and axis, five columns per figure.
+
+Columns: run, unit_id, model, serial_number, lot, test_date, profile, rule, confidence,
+unit_grade, axis, axis_grade, deciding_grade, then for every figure of the profile
+``<figure>_unit``, ``<figure>_value``, ``<figure>_ci_low``, ``<figure>_ci_high``,
+``<figure>_limit`` (of the deciding grade, empty for informational figures) and
+``<figure>_verdict`` (``pass``, ``fail``, ``indeterminate``, or ``info``).
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+from station.grading import RunGrade
+from station.report.common import figure_rows
+
+FIXED = ["run", "unit_id", "model", "serial_number", "lot", "test_date", "profile", "rule", "confidence",
+         "unit_grade", "axis", "axis_grade", "deciding_grade"]
+PER_FIGURE = ["unit", "value", "ci_low", "ci_high", "limit", "verdict"]
+
+
+def _cell(value: object) -> object:
+    return "" if value is None else value
+
+
+def write_csv(graded: RunGrade, path: str | Path) -> Path:
+    """Write one row per unit and axis (numbers in full precision, each figure in its unit)."""
+    path = Path(path)
+    p, run = graded.profile, graded.run
+    names = [f.name for f in p.figures]
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(FIXED + [f"{n}_{c}" for n in names for c in PER_FIGURE])
+        for unit in graded.units:
+            u = unit.unit
+            for axis in unit.axes:
+                rows = {r.name: r for r in figure_rows(axis)}
+                fixed = [run.path, u.unit_id, u.model or p.model, u.serial_number, run.lot,
+                         run.start_utc or graded.graded_utc, p.ref, p.rule, p.confidence, unit.grade,
+                         axis.axis, axis.grade, axis.deciding_grade]
+                cells = []
+                for n in names:
+                    r = rows[n]
+                    cells += [r.unit, _cell(r.value), _cell(r.ci_low), _cell(r.ci_high), _cell(r.limit),
+                              r.verdict or "info"]
+                writer.writerow(fixed + cells)
+    return path

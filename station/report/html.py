@@ -1,0 +1,91 @@
+"""The spec sheet as one self-contained HTML file: inline CSS, PNG plots embedded as data URIs.
+
+Each unit is a ``<section class="unit">`` (a new page when printed) holding the header
+table, the figures table (``<table class="figures">``, one ``<tr>`` per axis and figure
+with ``data-axis``, ``data-figure`` and ``data-verdict`` attributes for machines), the
+Allan and DAVAR images and the event summary.
+"""
+
+from __future__ import annotations
+
+import base64
+import re
+from html import escape
+from pathlib import Path
+
+from station.grading import RunGrade, UnitGrade
+from station.report.common import (
+    VERDICT_COLORS,
+    event_summary,
+    figure_rows,
+    fmt,
+    fmt_interval,
+    header_fields,
+)
+from station.report.panels import allan_png, davar_png
+
+CSS = """
+body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
+section.unit { page-break-before: always; margin-bottom: 3em; }
+section.unit:first-of-type { page-break-before: auto; }
+h1 { font-size: 16pt; } h2 { font-size: 13pt; }
+.grade { display: inline-block; padding: 0.2em 0.6em; border-radius: 0.3em; color: white;
+         font-weight: bold; background: #2e7d32; }
+.grade.reject { background: #d9534f; } .grade.indeterminate { background: #e0a800; }
+table { border-collapse: collapse; margin: 0.5em 0; }
+td, th { border: 1px solid #bbb; padding: 0.15em 0.5em; text-align: left; }
+th { background: #eee; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+img { max-width: 100%; }
+""" + "".join(f"tr.{v} td.verdict {{ background: {c}; }}\n" for v, c in VERDICT_COLORS.items() if v)
+
+
+def _img(png: bytes, alt: str) -> str:
+    data = base64.b64encode(png).decode("ascii")
+    return f'<img alt="{escape(alt)}" src="data:image/png;base64,{data}">'
+
+
+def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
+    """The HTML ``<section>`` of one unit."""
+    u = unit.unit
+    grade_class = "reject" if unit.grade == graded.profile.reject else re.sub(r"\W+", "-", unit.grade)
+    parts = [f'<section class="unit" id="unit-{escape(u.unit_id)}" data-grade="{escape(unit.grade)}">',
+             f"<h1>Gyro spec sheet: {escape(u.model or graded.profile.model)} s/n "
+             f"{escape(u.serial_number or u.unit_id)} "
+             f'<span class="grade {escape(grade_class)}">GRADE {escape(unit.grade.upper())}</span></h1>',
+             '<table class="header">']
+    parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in header_fields(graded, unit)]
+    parts.append("</table><h2>Figures</h2>")
+    parts.append('<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
+                 "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th><th>note</th></tr>")
+    for axis in unit.axes:
+        for r in figure_rows(axis):
+            verdict = r.verdict or "info"
+            parts.append(
+                f'<tr class="{verdict}" data-axis="{escape(r.axis)}" data-figure="{escape(r.name)}" '
+                f'data-value="{"" if r.value is None else repr(r.value)}" data-verdict="{verdict}">'
+                f"<td>{escape(r.axis)}</td><td>{escape(r.label)}</td><td>{escape(r.unit)}</td>"
+                f'<td class="num">{fmt(r.value)}</td><td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
+                f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
+                f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
+    parts.append("</table><p>")
+    parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
+              + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
+              for a in unit.axes]
+    parts.append("</p><h2>Allan deviation</h2>")
+    parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms and limits"))
+    parts.append("<h2>Dynamic Allan deviation</h2>")
+    parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
+    parts.append('<h2>Events</h2><ul class="events">')
+    parts += [f"<li>{escape(line)}</li>" for line in event_summary(u, graded).lines() + list(unit.notes)]
+    parts.append("</ul></section>")
+    return "\n".join(parts)
+
+
+def write_html(graded: RunGrade, path: str | Path) -> Path:
+    """Write one self-contained HTML file with a section per unit."""
+    path = Path(path)
+    body = "\n".join(unit_section(graded, u) for u in graded.units)
+    title = escape(f"Spec sheets {graded.profile.ref}: {Path(graded.run.path).name}")
+    path.write_text(f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
+                    f"<style>{CSS}</style></head>\n<body>\n{body}\n</body></html>\n", encoding="utf-8")
+    return path

@@ -1,0 +1,44 @@
+"""The spec sheet as JSON for a factory MES; the schema is docs/report-json-schema.md.
+
+The document is :meth:`station.grading.RunGrade.as_json` (schema ``gyro-station/spec-sheet``)
+with, per unit, the header, the event summary, and per axis the Allan curve and the fit.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from analysis.units import S_PER_H
+from station.grading import RunGrade
+from station.report.common import event_summary, header_fields
+
+SCHEMA = "gyro-station/spec-sheet"
+SCHEMA_VERSION = 1
+
+
+def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
+    """The JSON document of a graded run's spec sheets."""
+    doc = graded.as_json()
+    doc["schema"], doc["schema_version"] = SCHEMA, SCHEMA_VERSION
+    units = doc["units"]
+    assert isinstance(units, list)
+    for unit_doc, unit in zip(units, graded.units, strict=True):
+        unit_doc["header"] = dict(header_fields(graded, unit))
+        unit_doc["events"] = event_summary(unit.unit, graded).as_json()
+        for axis in unit.axes:
+            al = axis.analysis.allan
+            unit_doc["axes"][axis.axis]["allan"] = {
+                "estimator": al.estimator, "confidence": al.confidence, "tau_s": al.tau_s.tolist(),
+                "adev_deg_h": (al.adev * S_PER_H).tolist(),
+                "adev_ci_low_deg_h": (al.adev_ci_low * S_PER_H).tolist(),
+                "adev_ci_high_deg_h": (al.adev_ci_high * S_PER_H).tolist()}
+            unit_doc["axes"][axis.axis]["fit"] = axis.analysis.fit.as_dict()
+    return doc
+
+
+def write_json(graded: RunGrade, path: str | Path) -> Path:
+    """Write the JSON spec sheet document (NaN/inf are not allowed: they become errors)."""
+    path = Path(path)
+    path.write_text(json.dumps(spec_sheet_json(graded), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    return path

@@ -1,0 +1,159 @@
+"""The plots of a spec sheet, drawn into matplotlib axes the format writers place.
+
+* :func:`draw_allan`: Allan deviation (deg/h) per axis with its confidence band, the fitted
+  noise terms as their slope lines, and the profile's ARW and bias-instability limits;
+* :func:`draw_davar`: the dynamic Allan deviation heat map of one axis
+  (:func:`analysis.davar.dynamic_allan_variance`), warm-up discarded marked;
+* :func:`unit_png`: both for one unit as PNG bytes (HTML embeds them).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Sequence
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+from analysis.errors import AnalysisError  # noqa: E402
+from analysis.fit import TERMS  # noqa: E402
+from analysis.units import S_PER_H  # noqa: E402
+from station.grading import AxisGrade, UnitGrade  # noqa: E402
+
+TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
+#: Number of DAVAR windows across a record (window = duration / this, step = window / 4).
+DAVAR_WINDOWS = 8
+
+
+def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> None:
+    """Allan deviation of each axis (deg/h) with band, fit, term lines and limit lines."""
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    lows, highs = [], []
+    for i, a in enumerate(axes):
+        c = colors[i % len(colors)]
+        al, fit = a.analysis.allan, a.analysis.fit
+        tau = al.tau_s
+        ax.fill_between(tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0)
+        ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured")
+        ax.loglog(tau, np.sqrt(fit.model_avar(tau)) * S_PER_H, "-", lw=1.3, color=c, alpha=0.85,
+                  label=f"{a.axis} fit ({fit.method})")
+        for term in TERMS:
+            curve = np.sqrt(fit.term_avar(term, tau)) * S_PER_H
+            if np.any(curve > 0):
+                ax.loglog(tau, curve, ":", lw=1, color=c)
+                j = {"Q": 0, "N": len(tau) // 5, "B": len(tau) // 2}.get(term, len(tau) - 1)
+                ax.annotate(TERM_STYLE[term][0], (tau[j], curve[j]), color=c, fontsize=fontsize,
+                            xytext=(2, 2), textcoords="offset points")
+        lows.append(float(np.min(al.adev_ci_low)) * S_PER_H)
+        highs.append(float(np.max(al.adev_ci_high)) * S_PER_H)
+    if axes:
+        _draw_limits(ax, axes[0], fontsize)
+        ax.set_ylim(min(lows) / 4, max(highs) * 2.5)
+    ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
+    ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
+    ax.tick_params(labelsize=fontsize)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=fontsize - 1, loc="upper right", ncol=2 if len(axes) > 1 else 1)
+
+
+def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
+    """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum limit."""
+    tau = axis.analysis.allan.tau_s
+    for f in axis.figures:
+        limit = f.spec.limits.get(axis.deciding_grade)
+        if limit is None:
+            continue
+        canonical = limit * f.spec.unit_factor
+        if f.name in ("arw", "arw_fit"):  # deg/sqrt(h) -> deg/h at tau: N / sqrt(tau) * 60
+            ax.loglog(tau, canonical * math.sqrt(S_PER_H) / np.sqrt(tau), "--", color="0.3", lw=0.9,
+                      label=f"{f.spec.label} limit ({axis.deciding_grade})")
+        elif f.name in ("bias_instability", "bias_instability_fit", "adev_min"):
+            level = canonical * (0.664 if f.name != "adev_min" else 1.0)
+            ax.axhline(level, ls="-.", color="0.3", lw=0.9,
+                       label=f"{f.spec.label} limit ({axis.deciding_grade})")
+
+
+def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 8) -> bool:
+    """Heat map of log10 dynamic Allan deviation (deg/h) of one axis over time and tau.
+
+    The whole record is used (the warm-up is what it shows); the discarded warm-up is
+    marked. Returns False (and writes why into the panel) when the record is too short.
+    """
+    from analysis.davar import dynamic_allan_variance
+
+    record = unit.unit.record
+    axis = unit.axes[axis_index]
+    column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
+    window_s = record.duration_s / DAVAR_WINDOWS
+    try:
+        result = dynamic_allan_variance(record.rate_deg_s[:, column], record.sample_rate_hz,
+                                        window_s=window_s, step_s=window_s / 4)
+    except AnalysisError as exc:
+        placeholder(ax, f"DAVAR not available: {exc}", fontsize=fontsize)
+        return False
+    hours = record.duration_s > 3 * 3600
+    scale, unit_name = (3600.0, "h") if hours else (60.0, "min")
+    t_edges = _edges(result.t_s / scale, log=False)
+    tau_edges = _edges(result.tau_s, log=True)
+    log_adev = np.log10(np.maximum(result.adev * S_PER_H, np.finfo(float).tiny))
+    mesh = ax.pcolormesh(t_edges, tau_edges, log_adev.T, shading="flat", cmap="viridis",
+                         rasterized=True)  # an image in the PDF, not thousands of paths
+    ax.set_yscale("log")
+    if unit.warmup_discarded_s:
+        ax.axvline(unit.warmup_discarded_s / scale, color="w", ls="--", lw=1)
+    ax.set_title(f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {window_s:.0f} s", fontsize=fontsize)
+    ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
+    ax.set_ylabel("tau [s]", fontsize=fontsize)
+    ax.tick_params(labelsize=fontsize - 1)
+    bar = ax.figure.colorbar(mesh, ax=ax, pad=0.02)
+    bar.ax.tick_params(labelsize=fontsize - 1)
+    return True
+
+
+def _edges(centres: np.ndarray, *, log: bool) -> np.ndarray:
+    """Cell edges around sorted centres (geometric midpoints when ``log``)."""
+    c = np.log(centres) if log else np.asarray(centres, dtype=float)
+    if len(c) == 1:
+        edges = np.array([c[0] - 0.5, c[0] + 0.5])
+    else:
+        mid = (c[1:] + c[:-1]) / 2
+        edges = np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
+    return np.exp(edges) if log else edges
+
+
+def placeholder(ax: Axes, text: str, *, fontsize: float = 8) -> None:
+    """A clearly labelled empty panel."""
+    ax.set_xticks([])
+    ax.set_yticks([])
+    ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True, fontsize=fontsize, transform=ax.transAxes)
+
+
+def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
+    """A figure as PNG bytes (the figure is closed)."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+def allan_png(unit: UnitGrade) -> bytes:
+    """The Allan panel of a unit as a PNG."""
+    fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
+    draw_allan(ax, unit.axes, fontsize=9)
+    ax.set_title("Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10)
+    return figure_png(fig)
+
+
+def davar_png(unit: UnitGrade) -> bytes:
+    """The DAVAR heat maps of a unit (one per axis) as a PNG."""
+    n = len(unit.axes)
+    fig, axs = plt.subplots(1, n, figsize=(4.2 * n, 3.2), squeeze=False, layout="constrained")
+    for i in range(n):
+        draw_davar(axs[0, i], unit, i)
+    return figure_png(fig)

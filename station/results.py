@@ -1,0 +1,379 @@
+"""The results database: every graded unit, its figures, verdicts and report files, in SQLite.
+
+One file holds the station's history (default :func:`default_database_path`, or the path in
+``$STATION_RESULTS_DB``). Tables::
+
+    schema_migrations (version, applied_utc)     which migrations ran
+    profiles   (name, version, sha256, rule, confidence, grades, text)   one row per profile file
+    runs       (path, start_utc, stop_utc, operator, lot, station, software_version)
+    units      (model, serial_number)                                   one row per gyro
+    gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes)
+    axis_grades(grading, axis, grade, deciding_grade, n_samples, sample_rate_hz)
+    figures    (grading, axis, name, unit, value, ci_low, ci_high, limit, verdict)
+    reports    (grading, format, path, created_utc)
+
+Robustness: every write is one ``BEGIN IMMEDIATE`` transaction (a station killed mid-write
+leaves the database as it was before that grading); the journal is WAL with a busy timeout,
+so several stations can write the same file at once; migrations are numbered, run in order
+inside a transaction, and recorded in ``schema_migrations`` and ``PRAGMA user_version``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import sqlite3
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from station.errors import ResultsDatabaseError
+
+if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
+    from station.grading import RunGrade, UnitGrade
+
+#: Environment variable naming the database file.
+DB_ENV = "STATION_RESULTS_DB"
+BUSY_TIMEOUT_S = 60.0
+
+#: Numbered migrations; index + 1 is the schema version each brings the database to.
+MIGRATIONS: tuple[str, ...] = (
+    # 1: the first schema
+    """
+    CREATE TABLE profiles (
+        id INTEGER PRIMARY KEY, name TEXT NOT NULL, version TEXT NOT NULL, sha256 TEXT NOT NULL,
+        model TEXT NOT NULL, path TEXT, rule TEXT NOT NULL, confidence REAL NOT NULL,
+        grades TEXT NOT NULL, text TEXT, UNIQUE (name, version, sha256));
+    CREATE TABLE runs (
+        id INTEGER PRIMARY KEY, path TEXT NOT NULL, start_utc TEXT NOT NULL DEFAULT '',
+        stop_utc TEXT, operator TEXT, lot TEXT, station TEXT, software_version TEXT,
+        interrupted INTEGER NOT NULL DEFAULT 0, UNIQUE (path, start_utc));
+    CREATE TABLE units (
+        id INTEGER PRIMARY KEY, model TEXT NOT NULL, serial_number TEXT NOT NULL,
+        UNIQUE (model, serial_number));
+    CREATE TABLE gradings (
+        id INTEGER PRIMARY KEY, run_id INTEGER NOT NULL REFERENCES runs(id),
+        unit_id INTEGER NOT NULL REFERENCES units(id),
+        profile_id INTEGER NOT NULL REFERENCES profiles(id), run_unit TEXT NOT NULL,
+        graded_utc TEXT NOT NULL, lot TEXT NOT NULL DEFAULT '', grade TEXT NOT NULL,
+        verdict TEXT NOT NULL CHECK (verdict IN ('pass', 'fail', 'indeterminate')),
+        software_version TEXT, notes TEXT);
+    CREATE TABLE figures (
+        grading_id INTEGER NOT NULL REFERENCES gradings(id) ON DELETE CASCADE,
+        axis TEXT NOT NULL, name TEXT NOT NULL, unit TEXT NOT NULL, value REAL, ci_low REAL,
+        ci_high REAL, limit_value REAL, verdict TEXT, PRIMARY KEY (grading_id, axis, name));
+    CREATE TABLE reports (
+        id INTEGER PRIMARY KEY, grading_id INTEGER NOT NULL REFERENCES gradings(id),
+        format TEXT NOT NULL, path TEXT NOT NULL, created_utc TEXT NOT NULL);
+    """,
+    # 2: per-axis grades, the test date, and the indexes the browser filters on
+    """
+    CREATE TABLE axis_grades (
+        grading_id INTEGER NOT NULL REFERENCES gradings(id) ON DELETE CASCADE,
+        axis TEXT NOT NULL, grade TEXT NOT NULL, deciding_grade TEXT NOT NULL,
+        n_samples INTEGER NOT NULL, sample_rate_hz REAL NOT NULL, PRIMARY KEY (grading_id, axis));
+    ALTER TABLE gradings ADD COLUMN test_date TEXT NOT NULL DEFAULT '';
+    CREATE INDEX gradings_lot ON gradings (lot);
+    CREATE INDEX gradings_test_date ON gradings (test_date);
+    CREATE INDEX gradings_unit ON gradings (unit_id);
+    CREATE INDEX units_model ON units (model);
+    """,
+)
+SCHEMA_VERSION = len(MIGRATIONS)
+
+
+def default_database_path() -> Path:
+    """``$STATION_RESULTS_DB``, else ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
+    if os.environ.get(DB_ENV):
+        return Path(os.environ[DB_ENV])
+    base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
+    return base / "gyro-station" / "results.sqlite"
+
+
+def _now() -> str:
+    return datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
+
+
+def verdict_of(grade: str, reject: str) -> str:
+    """pass / fail / indeterminate of a unit grade."""
+    if grade == "indeterminate":  # station.grading.INDETERMINATE
+        return grade
+    return "fail" if grade == reject else "pass"
+
+
+@dataclass(frozen=True)
+class GradingRow:
+    """One stored grading of one unit (what ``station results`` lists)."""
+
+    id: int
+    test_date: str
+    graded_utc: str
+    model: str
+    serial_number: str
+    lot: str
+    grade: str
+    verdict: str
+    profile: str
+    run_path: str
+    run_unit: str
+
+
+@dataclass(frozen=True)
+class LotYield:
+    """Units of a lot by verdict (latest grading of each unit); ``yield_fraction`` is pass/total."""
+
+    lot: str
+    model: str
+    total: int
+    passed: int
+    failed: int
+    indeterminate: int
+
+    @property
+    def yield_fraction(self) -> float:
+        """Fraction of the lot's units that pass (0..1)."""
+        return self.passed / self.total if self.total else 0.0
+
+
+@dataclass(frozen=True)
+class TrendPoint:
+    """A figure of one unit and axis at one test date, in ``unit``."""
+
+    test_date: str
+    serial_number: str
+    axis: str
+    value: float | None
+    ci_low: float | None
+    ci_high: float | None
+    unit: str
+    verdict: str | None
+    limit: float | None = None
+
+
+class ResultsDatabase:
+    """A results database file, migrated to :data:`SCHEMA_VERSION` on open.
+
+    Use as a context manager, or call :meth:`close`.
+
+    Raises
+    ------
+    ResultsDatabaseError
+        When the file is not a database or was written by a newer schema.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._con = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+        except (OSError, sqlite3.Error) as exc:
+            raise ResultsDatabaseError(f"cannot open the results database {self.path}: {exc}") from exc
+        try:
+            self._con.row_factory = sqlite3.Row
+            self._con.execute("PRAGMA journal_mode=WAL")
+            self._con.execute("PRAGMA foreign_keys=ON")
+            self._con.execute("PRAGMA synchronous=NORMAL")
+            self._migrate()
+        except sqlite3.DatabaseError as exc:
+            self._con.close()
+            raise ResultsDatabaseError(f"{self.path}: {exc}") from exc
+        except ResultsDatabaseError:
+            self._con.close()
+            raise
+
+    def __enter__(self) -> ResultsDatabase:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Close the connection."""
+        self._con.close()
+
+    @contextmanager
+    def transaction(self) -> Iterator[sqlite3.Connection]:
+        """One write transaction (``BEGIN IMMEDIATE``): committed whole, or not at all."""
+        self._con.execute("BEGIN IMMEDIATE")
+        try:
+            yield self._con
+        except BaseException:
+            self._con.execute("ROLLBACK")
+            raise
+        self._con.execute("COMMIT")
+
+    @property
+    def schema_version(self) -> int:
+        """The schema version of the file (``PRAGMA user_version``)."""
+        return int(self._con.execute("PRAGMA user_version").fetchone()[0])
+
+    def _migrate(self) -> None:
+        if self.schema_version == SCHEMA_VERSION:
+            return
+        with self.transaction() as con:  # re-read inside the lock: another station may have migrated
+            version = self.schema_version
+            if version > SCHEMA_VERSION:
+                raise ResultsDatabaseError(f"{self.path}: schema version {version} is newer than this "
+                                           f"station's {SCHEMA_VERSION}; update the station")
+            con.execute("CREATE TABLE IF NOT EXISTS schema_migrations "
+                        "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
+            for number in range(version + 1, SCHEMA_VERSION + 1):
+                for statement in MIGRATIONS[number - 1].split(";"):
+                    if statement.strip():
+                        con.execute(statement)
+                con.execute("INSERT INTO schema_migrations VALUES (?, ?)", (number, _now()))
+                con.execute(f"PRAGMA user_version = {number}")
+
+    # --- writing ------------------------------------------------------------------------
+
+    def _id(self, con: sqlite3.Connection, table: str, keys: dict[str, object],
+            extra: dict[str, object] | None = None) -> int:
+        where = " AND ".join(f"{k} = ?" for k in keys)
+        row = con.execute(f"SELECT id FROM {table} WHERE {where}", tuple(keys.values())).fetchone()
+        if row:
+            return int(row[0])
+        cols = {**keys, **(extra or {})}
+        cur = con.execute(f"INSERT INTO {table} ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
+                          tuple(cols.values()))
+        return int(cur.lastrowid or 0)
+
+    def store(self, graded: RunGrade) -> list[int]:
+        """Store every unit of a graded run in one transaction; returns the grading ids."""
+        p, r = graded.profile, graded.run
+        try:
+            text = Path(p.path).read_text(encoding="utf-8") if p.path else None
+        except OSError:
+            text = None
+        with self.transaction() as con:
+            profile_id = self._id(con, "profiles", {"name": p.name, "version": p.version, "sha256": p.sha256},
+                                  {"model": p.model, "path": p.path, "rule": p.rule,
+                                   "confidence": p.confidence, "grades": json.dumps(list(p.grades)),
+                                   "text": text})
+            run_id = self._id(con, "runs", {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
+                              {"stop_utc": r.stop_utc, "operator": r.operator, "lot": r.lot,
+                               "station": r.station_host, "software_version": r.software_version,
+                               "interrupted": int(r.interrupted)})
+            return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
+
+    def _store_unit(self, con: sqlite3.Connection, graded: RunGrade, u: UnitGrade, profile_id: int,
+                    run_id: int) -> int:
+        model = u.unit.model or graded.profile.model
+        serial = u.unit.serial_number or u.unit.unit_id
+        unit_id = self._id(con, "units", {"model": model, "serial_number": serial})
+        test_date = graded.run.start_utc or graded.graded_utc
+        cur = con.execute(
+            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
+            " verdict, software_version, notes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.lot,
+             u.grade, verdict_of(u.grade, graded.profile.reject), graded.software_version,
+             "\n".join(u.notes)))
+        grading_id = int(cur.lastrowid or 0)
+        for a in u.axes:
+            con.execute("INSERT INTO axis_grades VALUES (?, ?, ?, ?, ?, ?)",
+                        (grading_id, a.axis, a.grade, a.deciding_grade, a.analysis.n_samples,
+                         a.analysis.sample_rate_hz))
+            for f in a.figures:
+                limit = f.spec.limits.get(a.deciding_grade)
+                verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else None
+                con.execute("INSERT INTO figures VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            (grading_id, a.axis, f.name, f.spec.unit, f.value, f.ci_low, f.ci_high,
+                             limit, verdict))
+        return grading_id
+
+    def add_report(self, grading_id: int, fmt: str, path: str | Path) -> None:
+        """Record a report file written for a grading."""
+        with self.transaction() as con:
+            con.execute("INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
+                        (grading_id, fmt, str(Path(path).resolve()), _now()))
+
+    # --- reading ------------------------------------------------------------------------
+
+    def gradings(self, *, model: str | None = None, lot: str | None = None, since: str | None = None,
+                 until: str | None = None, verdict: str | None = None, serial: str | None = None,
+                 latest: bool = False) -> list[GradingRow]:
+        """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
+        includes that whole day). ``latest`` keeps only each unit's newest grading."""
+        clauses, params = [], []
+        for column, value in (("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
+                              ("u.serial_number", serial)):
+            if value is not None:
+                clauses.append(f"{column} = ?")
+                params.append(value)
+        if since:
+            clauses.append("g.test_date >= ?")
+            params.append(since)
+        if until:
+            clauses.append("g.test_date < ?")
+            params.append(until + "\uffff")
+        if latest:
+            clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
+        where = ("WHERE " + " AND ".join(clauses)) if clauses else ""
+        rows = self._con.execute(
+            "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, g.verdict,"
+            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit FROM gradings g"
+            " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
+            f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id", params).fetchall()
+        return [GradingRow(*row) for row in rows]
+
+    def latest_grading(self, run_path: str | Path, run_unit: str, profile_sha256: str) -> int | None:
+        """Id of the newest grading of one unit of a run with one profile file, if stored."""
+        row = self._con.execute(
+            "SELECT MAX(g.id) FROM gradings g JOIN runs r ON r.id = g.run_id JOIN profiles p"
+            " ON p.id = g.profile_id WHERE r.path = ? AND g.run_unit = ? AND p.sha256 = ?",
+            (str(Path(run_path).resolve()), run_unit, profile_sha256)).fetchone()
+        return None if row[0] is None else int(row[0])
+
+    def figures(self, grading_id: int) -> list[sqlite3.Row]:
+        """The figure rows of one grading."""
+        return self._con.execute("SELECT * FROM figures WHERE grading_id = ? ORDER BY axis, rowid",
+                                 (grading_id,)).fetchall()
+
+    def reports(self, grading_id: int) -> list[sqlite3.Row]:
+        """The report files recorded for one grading."""
+        return self._con.execute("SELECT * FROM reports WHERE grading_id = ? ORDER BY id",
+                                 (grading_id,)).fetchall()
+
+    def yield_by_lot(self, *, model: str | None = None) -> list[LotYield]:
+        """Per lot (and model), the latest grading of each unit counted by verdict."""
+        rows = self._con.execute(
+            "SELECT g.lot, u.model, COUNT(*), SUM(g.verdict = 'pass'), SUM(g.verdict = 'fail'),"
+            " SUM(g.verdict = 'indeterminate') FROM gradings g JOIN units u ON u.id = g.unit_id"
+            " WHERE g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)"
+            + (" AND u.model = ?" if model else "") + " GROUP BY g.lot, u.model ORDER BY g.lot, u.model",
+            (model,) if model else ()).fetchall()
+        return [LotYield(*row) for row in rows]
+
+    def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
+              lot: str | None = None) -> list[TrendPoint]:
+        """A figure over test dates, one point per grading and axis, oldest first."""
+        clauses, params = ["f.name = ?"], [figure]
+        for column, value in (("u.model", model), ("f.axis", axis), ("g.lot", lot)):
+            if value is not None:
+                clauses.append(f"{column} = ?")
+                params.append(value)
+        rows = self._con.execute(
+            "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, f.verdict,"
+            " f.limit_value"
+            " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = g.unit_id"
+            f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis", params).fetchall()
+        return [TrendPoint(*row) for row in rows]
+
+    def integrity_check(self) -> str:
+        """SQLite's ``PRAGMA integrity_check`` answer ("ok" when sound)."""
+        return str(self._con.execute("PRAGMA integrity_check").fetchone()[0])
+
+
+def export_csv(rows: Sequence[GradingRow], path: str | Path) -> Path:
+    """Write grading rows as CSV (header of :class:`GradingRow` field names)."""
+    path = Path(path)
+    fields = list(GradingRow.__dataclass_fields__)
+    with path.open("w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(fields)
+        for row in rows:
+            writer.writerow([getattr(row, f) for f in fields])
+    return path

@@ -1,0 +1,187 @@
+"""Spec-sheet reports: PDF pages, HTML and JSON figures, CSV rows, as written to real files."""
+
+from __future__ import annotations
+
+import csv
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+from pypdf import PdfReader
+
+from station.cli import main
+from station.grading import RunGrade, grade_run
+from station.profiles import load_profile
+from station.record_files import read_record
+from station.report import FORMATS, write_report
+from station.report.json_report import SCHEMA, SCHEMA_VERSION
+from station.runs import RunEvent, RunInfo, UnitRun
+from tests.test_grading import make_record, profile_text, write_profile
+
+FIGURES = """
+[figures.arw]
+unit = "deg/sqrt(h)"
+limits = { A = 0.06, B = 0.2 }
+
+[figures.bias_instability]
+unit = "deg/h"
+limits = { A = 1.0, B = 3.0 }
+
+[figures.rrw]
+unit = "deg/h^1.5"
+"""
+
+
+@pytest.fixture(scope="module")
+def graded(tmp_path_factory) -> RunGrade:
+    """A run of two units (x and y axes each), the second with gaps and a resync in its log."""
+    d = tmp_path_factory.mktemp("reports")
+    profile = load_profile(write_profile(d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES)))
+    units = []
+    for i, serial in enumerate(("SN-1001", "SN-1002")):
+        record = read_record(make_record(d / f"u{i}.csv", n=9_000, seed=20 + i, n_axes=2))
+        events = () if i == 0 else (
+            RunEvent(f"u{i}", "gap", 120.5, missing_samples=40), RunEvent(f"u{i}", "resync", 120.6),
+            RunEvent(f"u{i}", "gap", 400.0, missing_samples=3))
+        units.append(UnitRun(f"u{i}", "TG-1", serial, record, events=events))
+    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), profile="TEST", operator="A. Tester",
+                  lot="LOT-7", station_host="bench-3", software_version="0.1.0",
+                  start_utc="2026-11-20T08:00:00Z", stop_utc="2026-11-20T08:15:00Z")
+    return grade_run(run, profile)
+
+
+def test_pdf_has_one_page_per_unit(graded: RunGrade, tmp_path: Path) -> None:
+    path = write_report(graded, "pdf", tmp_path)
+    reader = PdfReader(path)
+    assert len(reader.pages) == 2
+    for page, unit in zip(reader.pages, graded.units, strict=True):
+        text = page.extract_text()
+        assert unit.unit.serial_number in text and f"GRADE {unit.grade.upper()}" in text
+        assert "LOT-7" in text and "A. Tester" in text and "bench-3" in text and "TEST@7" in text
+        assert "ARW (read-off)" in text and "deg/sqrt(h)" in text
+        assert "DAVAR" in text and "Allan deviation" in text
+        arw = unit.axis("x").figures[0]
+        assert f"{arw.value:.4g}" in text  # the figure itself is printed
+        width, height = float(page.mediabox.width), float(page.mediabox.height)
+        assert (round(width), round(height)) == (595, 842)  # A4 portrait, points
+    assert "samples missing: 43" in reader.pages[1].extract_text()
+    assert "resync 1" in reader.pages[1].extract_text()
+
+
+class _FigureTable(HTMLParser):
+    """Collects the data-* attributes of the figure rows and the image sources."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.rows: list[dict[str, str]] = []
+        self.images: list[str] = []
+        self.sections: list[dict[str, str]] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if tag == "tr" and "data-figure" in a:
+            self.rows.append(a)
+        elif tag == "img":
+            self.images.append(a["src"])
+        elif tag == "section":
+            self.sections.append(a)
+
+
+def test_html_is_self_contained_with_the_figures(graded: RunGrade, tmp_path: Path) -> None:
+    path = write_report(graded, "html", tmp_path)
+    parser = _FigureTable()
+    parser.feed(path.read_text(encoding="utf-8"))
+    assert [s["data-grade"] for s in parser.sections] == [u.grade for u in graded.units]
+    assert len(parser.images) == 4 and all(src.startswith("data:image/png;base64,") for src in parser.images)
+    assert len(parser.rows) == 2 * 2 * 3  # units x axes x figures
+    first = graded.units[0].axis("x")
+    row = next(r for r in parser.rows if r["data-axis"] == "x" and r["data-figure"] == "arw")
+    arw = first.figures[0]
+    assert float(row["data-value"]) == pytest.approx(arw.value)
+    assert row["data-verdict"] == arw.verdicts.get(first.deciding_grade, "pass")
+    assert {r["data-verdict"] for r in parser.rows if r["data-figure"] == "rrw"} == {"info"}
+    assert "http://" not in path.read_text() and "https://" not in path.read_text()
+
+
+def test_json_follows_the_schema(graded: RunGrade, tmp_path: Path) -> None:
+    doc = json.loads(write_report(graded, "json", tmp_path).read_text())
+    assert doc["schema"] == SCHEMA and doc["schema_version"] == SCHEMA_VERSION
+    assert doc["profile"]["name"] == "TEST" and doc["profile"]["rule"] == "guard-banded"
+    assert doc["run"]["lot"] == "LOT-7"
+    assert [u["serial_number"] for u in doc["units"]] == ["SN-1001", "SN-1002"]
+    for unit_doc, unit in zip(doc["units"], graded.units, strict=True):
+        assert unit_doc["grade"] == unit.grade
+        assert unit_doc["header"]["Operator"] == "A. Tester"
+        for axis in unit.axes:
+            a = unit_doc["axes"][axis.axis]
+            assert a["grade"] == axis.grade
+            for f in axis.figures:
+                section = a["figures"] if f.spec.graded else a["info"]
+                assert section[f.name]["value"] == pytest.approx(f.value)
+                assert section[f.name]["ci_low"] == pytest.approx(f.ci_low)
+                assert section[f.name]["unit"] == f.spec.unit
+            assert a["figures"]["arw"]["verdict"] in ("pass", "fail", "indeterminate")
+            assert len(a["allan"]["tau_s"]) == len(a["allan"]["adev_deg_h"]) > 10
+            assert "N_deg_rt_h" in a["fit"]
+    assert doc["units"][1]["events"] == {"has_log": True, "counts": {"gap": 2, "resync": 1}, "gaps": 2,
+                                         "missing_samples": 43, "stop_reason": "", "interrupted": False}
+    doc_text = (Path(__file__).resolve().parents[1] / "docs" / "report-json-schema.md").read_text()
+    for key in ("schema_version", "ci_low", "deciding_grade", "could_reach", "adev_deg_h", "missing_samples"):
+        assert f"`{key}`" in doc_text, key  # every key the document has is documented
+
+
+def test_csv_has_one_row_per_unit_and_axis(graded: RunGrade, tmp_path: Path) -> None:
+    with write_report(graded, "csv", tmp_path).open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [(r["serial_number"], r["axis"]) for r in rows] == [
+        ("SN-1001", "x"), ("SN-1001", "y"), ("SN-1002", "x"), ("SN-1002", "y")]
+    y = graded.units[1].axis("y")
+    assert float(rows[3]["arw_value"]) == pytest.approx(y.figures[0].value)
+    assert rows[3]["arw_unit"] == "deg/sqrt(h)" and rows[3]["rrw_verdict"] == "info"
+    assert rows[3]["axis_grade"] == y.grade and rows[3]["unit_grade"] == graded.units[1].grade
+
+
+def test_report_command_writes_every_format(tmp_path: Path, capsys) -> None:
+    record = make_record(tmp_path / "bench.csv", n=6_000, seed=4)
+    profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
+    out = tmp_path / "out"
+    args = ["report", str(record), "--profile", str(profile), "--out", str(out), "--no-store", "--serial", "S9"]
+    for fmt in ("pdf", "json"):  # html and csv: written the same way, checked above
+        args += ["--format", fmt]
+    assert main(args) == 0
+    written = capsys.readouterr().out.split()
+    assert sorted(Path(p).suffix for p in written) == [".json", ".pdf"]
+    assert set(FORMATS) == {"pdf", "html", "json", "csv"}
+    assert len(PdfReader(out / "bench_TEST.pdf").pages) == 1
+    assert "no event log" in PdfReader(out / "bench_TEST.pdf").pages[0].extract_text()
+
+
+def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
+    """A run the recorder wrote (two simulated CRG20 units, one dropping frames), graded with the
+    shipped CRG20 profile and reported: one page per unit, header and events from the file."""
+    import subprocess
+    import sys
+
+    models = Path(__file__).resolve().parents[1] / "profiles" / "models" / "CRG20.toml"
+    urls = [f"sim+serial://CRG20?model={models}&protocol=stim300&rate=10&warp=100&seed={seed}{extra}"
+            for seed, extra in ((1, "&drop=0.002"), (2, ""))]
+    cmd = [sys.executable, "-m", "station.commands.record", "--duration", "5m", "--out", str(tmp_path / "runs"),
+           "--lot", "LOT-H5", "--operator", "recorder-test", "--quiet"]
+    for url in urls:
+        cmd += ["--unit", url]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    run_file = next((tmp_path / "runs").glob("*.h5"))
+    out = tmp_path / "out"
+    assert main(["report", str(run_file), "--profile", "CRG20", "--format", "pdf", "--format", "json",
+                 "--out", str(out), "--no-store"]) == 0
+    doc = json.loads(next(out.glob("*.json")).read_text())
+    assert [u["header"]["Lot"] for u in doc["units"]] == ["LOT-H5", "LOT-H5"]
+    assert all(u["serial_number"] and u["events"]["has_log"] for u in doc["units"])
+    assert doc["units"][0]["events"]["counts"].get("connect") == 1
+    reader = PdfReader(next(out.glob("*.pdf")))
+    assert len(reader.pages) == 2
+    for page, unit in zip(reader.pages, doc["units"], strict=True):
+        text = page.extract_text()
+        assert unit["serial_number"] in text and "recorder-test" in text and "events: " in text
