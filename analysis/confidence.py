@@ -37,6 +37,8 @@ ONE_SIGMA = 0.6826894921370859
 NOISE_ALPHAS = (2, 0, -1, -2)
 #: Lags beyond this many m are dropped from the flicker sum (its c(k) falls as k^-2).
 FLICKER_LAG_LIMIT_M = 64
+#: Lags per m at which a long overlapping lag sum is sampled (c(k) is smooth on that scale).
+LAG_SAMPLES_PER_M = 64
 #: Above this many taus, the edf is computed at this many and interpolated in log m.
 EDF_EXACT_POINTS = 160
 
@@ -116,14 +118,29 @@ def allan_edf(n_terms: int, m: int, alpha: int, *, stride: int = 1) -> float:
         return 1.0
     max_lag = 2 * m if alpha != -1 else FLICKER_LAG_LIMIT_M * m
     count = min(n_terms - 1, max_lag // stride)
-    i = np.arange(count + 1)
-    c = second_difference_autocovariance(alpha, m, i * stride)
-    weights = (n_terms - i).astype(float)
-    weights[1:] *= 2.0
-    denom = float(np.sum(weights * c**2))
+    c0 = float(second_difference_autocovariance(alpha, m, [0])[0])
+    step = max(1, m // LAG_SAMPLES_PER_M) if stride == 1 else 1
+    if count == 0:
+        tail = 0.0
+    elif alpha == 2:
+        # white angle noise: the second differences overlap only at lags m and 2m
+        lags = np.array([m, 2 * m])
+        i = lags[(lags % stride == 0) & (lags // stride <= count)] // stride
+        tail = float(np.sum((n_terms - i) * second_difference_autocovariance(alpha, m, i * stride) ** 2))
+    elif step == 1:
+        i = np.arange(1, count + 1)
+        tail = float(np.sum((n_terms - i) * second_difference_autocovariance(alpha, m, i * stride) ** 2))
+    else:
+        # c(k) varies on the scale of m: sum (L - i) c(i)^2 over i = 1..count by the
+        # trapezoid rule on every step-th lag (Euler-Maclaurin: the sum is the integral
+        # minus half the first term plus half the last)
+        i = np.append(np.arange(0, count, step), count)
+        f = (n_terms - i) * second_difference_autocovariance(alpha, m, i) ** 2
+        tail = float(np.trapezoid(f, i)) - 0.5 * f[0] + 0.5 * f[-1]
+    denom = n_terms * c0**2 + 2.0 * tail
     if denom <= 0:
         return float(n_terms)
-    return float(min(max(n_terms**2 * c[0] ** 2 / denom, 1.0), n_terms))
+    return float(min(max(n_terms**2 * c0**2 / denom, 1.0), n_terms))
 
 
 def allan_edf_grid(
