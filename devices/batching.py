@@ -1,0 +1,112 @@
+"""Collecting decoded readings into a :class:`~devices.protocols.SampleBatch`.
+
+Every adapter, whatever its transport, feeds readings here; the gap accounting and the
+batch layout are therefore the same for all protocols.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from devices.codecs.base import Reading
+from devices.gaps import CounterTracker
+from devices.protocols import DeviceEvent, EventKind, Gap, SampleBatch
+
+
+def wall_minus_monotonic(tries: int = 5) -> float:
+    """``time.time() - time.monotonic()`` (s), the least disturbed of a few readings.
+
+    Converts a bus's wall-clock frame stamps to the monotonic time base once, instead of
+    reading both clocks per frame (a thread preempted between the two readings would
+    shift that frame's time).
+    """
+    best = None
+    for _ in range(tries):
+        t0 = time.monotonic()
+        wall = time.time()
+        t1 = time.monotonic()
+        if best is None or t1 - t0 < best[0]:
+            best = (t1 - t0, wall - (t0 + t1) / 2)
+    assert best is not None
+    return best[1]
+
+
+class BatchBuilder:
+    """Accumulates readings, unwraps their counters and records gaps and link events.
+
+    Parameters
+    ----------
+    n_axes : int
+        Columns of the rate array.
+    tracker : CounterTracker
+        The device's counter tracker (kept across reconnects so gaps span them).
+    has_device_time, has_temperature : bool
+        Whether the batch carries those arrays (None otherwise).
+    """
+
+    def __init__(self, n_axes: int, tracker: CounterTracker, *, has_device_time: bool,
+                 has_temperature: bool) -> None:
+        self.n_axes = n_axes
+        self.tracker = tracker
+        self.has_device_time = has_device_time
+        self.has_temperature = has_temperature
+        self._clear()
+
+    def _clear(self) -> None:
+        self._rates: list[tuple[float, ...]] = []
+        self._counters: list[int] = []
+        self._times: list[float] = []
+        self._status: list[int] = []
+        self._device_time: list[float] = []
+        self._temperature: list[float] = []
+        self._gaps: list[Gap] = []
+        self._events: list[DeviceEvent] = []
+        self._crc_errors = 0
+
+    def add(self, reading: Reading, receive_time_s: float, sent_time_s: float | None = None
+            ) -> None:
+        """Append one reading received at ``receive_time_s`` (station clock, s).
+
+        ``sent_time_s`` is the best estimate of when the device sent it (station clock,
+        s), used to count the wraps of a long gap; default: the receive time.
+        """
+        counter, gap = self.tracker.update(
+            reading.counter, receive_time_s if sent_time_s is None else sent_time_s,
+            reading.device_time_s)
+        if gap is not None:
+            self._gaps.append(gap)
+        self._rates.append(reading.rate_deg_s)
+        self._counters.append(counter)
+        self._times.append(receive_time_s)
+        self._status.append(reading.status)
+        self._device_time.append(np.nan if reading.device_time_s is None
+                                 else reading.device_time_s)
+        self._temperature.append(np.nan if reading.temperature_c is None
+                                 else reading.temperature_c)
+
+    def event(self, kind: EventKind, receive_time_s: float, count: int = 1,
+              detail: str = "") -> None:
+        """Record a link event; CRC errors also add to the batch's ``crc_errors``."""
+        if kind == "crc_error":
+            self._crc_errors += count
+        self._events.append(DeviceEvent(kind, receive_time_s, count, detail))
+
+    def take(self) -> SampleBatch:
+        """The batch collected since the last call (possibly empty)."""
+        n = len(self._counters)
+        rates = np.asarray(self._rates, dtype=np.float64).reshape(n, self.n_axes)
+        batch = SampleBatch(
+            rate_deg_s=rates,
+            counter=np.asarray(self._counters, dtype=np.int64),
+            receive_time_s=np.asarray(self._times, dtype=np.float64),
+            status=np.asarray(self._status, dtype=np.uint32),
+            device_time_s=(np.asarray(self._device_time, dtype=np.float64)
+                           if self.has_device_time else None),
+            temperature_c=(np.asarray(self._temperature, dtype=np.float64)
+                           if self.has_temperature else None),
+            gaps=tuple(self._gaps), events=tuple(self._events), crc_errors=self._crc_errors,
+        )
+        self._clear()
+        return batch

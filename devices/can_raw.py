@@ -1,0 +1,124 @@
+"""Adapter for gyros that broadcast rates in periodic raw CAN frames."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from devices.batching import BatchBuilder, wall_minus_monotonic
+from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
+from devices.errors import CodecError, CrcError, DeviceDisconnectedError
+from devices.gaps import CounterTracker
+from devices.protocols import DeviceDescription, SampleBatch
+from devices.transports.can import CanTransport
+
+
+class CanRateSource:
+    """A rate source from an injected CAN transport and a frame layout.
+
+    Frames of one sample (one per arbitration ID of the layout) are matched by their
+    rolling counter; a sample with a frame missing is dropped and shows as a gap.
+    A node silent for ``silence_timeout_s`` is reported lost (DeviceDisconnectedError)
+    and "reconnect" is logged when its frames come back.
+
+    Parameters
+    ----------
+    transport : CanTransport
+        The bus.
+    layout : CanFrameLayout
+        Where the values sit in the frames.
+    model, serial_number : str
+        For :meth:`describe`.
+    sample_rate_hz : float
+        Nominal rate, Hz.
+    clock : callable
+        Station clock, s.
+    silence_timeout_s : float
+        Node-loss limit, wall s.
+    clock_scale : float
+        Clock seconds per wall second (the time-warp factor of a simulation), to turn
+        the bus's wall-clock frame time stamps into the clock's time base.
+    """
+
+    def __init__(self, transport: CanTransport, layout: CanFrameLayout, *, model: str,
+                 serial_number: str, sample_rate_hz: float,
+                 clock: Callable[[], float] = time.monotonic,
+                 silence_timeout_s: float = 0.5, clock_scale: float = 1.0) -> None:
+        self.transport = transport
+        self.layout = layout
+        self.clock = clock
+        self.silence_timeout_s = silence_timeout_s
+        self.clock_scale = clock_scale
+        has_temp = layout.temperature is not None
+        self._description = DeviceDescription(
+            model=model, serial_number=serial_number, protocol="can", transport="can",
+            axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
+            has_counter=True, counter_modulus=layout.counter_modulus, has_device_time=False,
+            has_temperature=has_temp, settings=transport.settings)
+        self._builder = BatchBuilder(len(layout.axes),
+                                     CounterTracker(layout.counter_modulus, sample_rate_hz),
+                                     has_device_time=False, has_temperature=has_temp)
+        self._ids = set(layout.arbitration_ids)
+        self._pending: dict[int, dict[int, CanFrameValues]] = {}
+        self._lost = False
+        self._open = False
+        self._last_frame_wall = 0.0
+        self._wall_offset_s = 0.0
+
+    def describe(self) -> DeviceDescription:
+        return self._description
+
+    def open(self) -> None:
+        self.transport.open()
+        self._open = True
+        self._wall_offset_s = wall_minus_monotonic()
+        self._last_frame_wall = time.monotonic()
+        self._builder.event("connect", self.clock())
+
+    def close(self) -> None:
+        self.transport.close()
+        self._open = False
+
+    def _take(self, arbitration_id: int, data: bytes, now: float, sent: float) -> None:
+        try:
+            values = self.layout.decode(arbitration_id, data)
+        except CrcError:
+            self._builder.event("crc_error", now)
+            return
+        except CodecError:
+            return  # another node's frame
+        if self._lost:
+            self._lost = False
+            self._builder.event("reconnect", now)
+        self._last_frame_wall = time.monotonic()
+        frames = self._pending.setdefault(values.counter, {})
+        frames[arbitration_id] = values
+        if set(frames) == self._ids:
+            # Older incomplete samples can no longer complete: their loss shows as a gap.
+            for counter in list(self._pending):
+                del self._pending[counter]
+                if counter == values.counter:
+                    break
+            self._builder.add(self.layout.to_reading(frames), now, sent)
+
+    def read(self, timeout_s: float = 0.1, max_frames: int = 20_000) -> SampleBatch:
+        """Samples received since the last call (see :meth:`RateSource.read`)."""
+        if not self._open:
+            self.open()
+        msg = self.transport.recv(timeout_s)
+        for _ in range(max_frames):
+            if msg is None:
+                break
+            if not (msg.is_error_frame or msg.is_remote_frame):
+                # The bus stamps each frame (wall clock, s) when it is sent or received:
+                # that stamp, not when this thread got to it, times the gap arithmetic.
+                sent = (msg.timestamp - self._wall_offset_s) * self.clock_scale
+                self._take(msg.arbitration_id, bytes(msg.data), self.clock(), sent)
+            msg = self.transport.recv(0.0)
+        now = self.clock()
+        silent_s = time.monotonic() - self._last_frame_wall
+        if not self._lost and silent_s > self.silence_timeout_s:
+            self._lost = True
+            self._builder.event("disconnect", now, detail="node silent")
+            raise DeviceDisconnectedError(f"CAN node silent for {self.silence_timeout_s} s")
+        return self._builder.take()

@@ -1,0 +1,216 @@
+"""Adapter for a CANopen rate gyro: SDO configuration, NMT start, TPDO reception,
+heartbeat supervision (canopen's ``RemoteNode`` over an injected python-can bus)."""
+
+from __future__ import annotations
+
+import queue
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import canopen
+
+from devices.batching import BatchBuilder, wall_minus_monotonic
+from devices.codecs.base import Reading
+from devices.errors import DeviceDisconnectedError, DeviceProtocolError
+from devices.gaps import CounterTracker
+from devices.protocols import DeviceDescription, SampleBatch
+from devices.transports.can import CanTransport
+
+COUNTER_MODULUS = 65536
+#: (TPDO number, mapped objects) the adapter writes over SDO.
+TPDO_MAPPING: tuple[tuple[int, tuple[int, ...]], ...] = (
+    (1, (0x2000, 0x2001)),            # rate X, rate Y
+    (2, (0x2002, 0x2005, 0x2004)),    # rate Z, sample counter, temperature
+)
+
+
+class CanopenRateSource:
+    """A rate source from a CANopen node described by an EDS.
+
+    :meth:`open` waits for the node's heartbeat, writes over SDO the heartbeat time
+    (0x1017), the output rate (0x2006) and the TPDO1/TPDO2 mapping with event-timer
+    transmission, reads the rate scale (0x2003) and the serial number (0x1018:4), and
+    starts the node with NMT. :meth:`read` pairs TPDO1 with the following TPDO2 (CAN
+    keeps one sender's frames in order; TPDO2 holds the sample counter) and reports the
+    node lost when no heartbeat came for ``heartbeat_timeout_s``.
+
+    Parameters
+    ----------
+    transport : CanTransport
+        The bus (opened by :meth:`open`).
+    node_id : int
+        CANopen node id.
+    eds : str or Path
+        The node's EDS file.
+    sample_rate_hz : float
+        Output rate to configure, Hz.
+    model : str
+        For :meth:`describe`.
+    heartbeat_ms : int
+        Producer heartbeat time to configure, ms (wall clock).
+    heartbeat_timeout_s : float
+        Node-loss limit, wall s (default three heartbeats).
+    clock : callable
+        Station clock, s.
+    clock_scale : float
+        Clock seconds per wall second (a simulation's time warp).
+    sync : bool
+        Synchronous TPDOs (transmission type 1) driven by a SYNC producer the adapter
+        runs at the sample rate, instead of event-timer TPDOs (type 254).
+    """
+
+    def __init__(self, transport: CanTransport, node_id: int, eds: str | Path, *,
+                 sample_rate_hz: float, model: str = "CANopen gyro", heartbeat_ms: int = 50,
+                 heartbeat_timeout_s: float | None = None,
+                 clock: Callable[[], float] = time.monotonic, clock_scale: float = 1.0,
+                 sync: bool = False) -> None:
+        self.transport = transport
+        self.node_id = node_id
+        self.eds = str(eds)
+        self.sample_rate_hz = sample_rate_hz
+        self.model = model
+        self.heartbeat_ms = heartbeat_ms
+        self.heartbeat_timeout_s = heartbeat_timeout_s or 3 * heartbeat_ms / 1000.0
+        self.clock = clock
+        self.clock_scale = clock_scale
+        self.sync = sync
+        self.network: canopen.Network | None = None
+        self.node: canopen.RemoteNode | None = None
+        self._serial = "unknown"
+        self._scale = 1.0
+        self._queue: queue.SimpleQueue[tuple[int, tuple[int, ...], float]] = queue.SimpleQueue()
+        self._tpdo1_since: list[tuple[int, ...]] = []
+        self._last_counter: int | None = None
+        self._last_heartbeat = 0.0
+        self._lost = False
+        self._wall_offset_s = 0.0
+        self._builder = BatchBuilder(3, CounterTracker(COUNTER_MODULUS, sample_rate_hz),
+                                     has_device_time=False, has_temperature=True)
+
+    def describe(self) -> DeviceDescription:
+        return DeviceDescription(
+            model=self.model, serial_number=self._serial, protocol="canopen",
+            transport="canopen", axes=("x", "y", "z"), sample_rate_hz=self.sample_rate_hz,
+            has_counter=True, counter_modulus=COUNTER_MODULUS, has_device_time=False,
+            has_temperature=True,
+            settings=(*self.transport.settings, ("node_id", str(self.node_id)),
+                      ("eds", Path(self.eds).name)))
+
+    # -- connection --------------------------------------------------------------------
+    def open(self) -> None:
+        """Connect, configure over SDO and start the node (see the class docstring).
+
+        Raises
+        ------
+        DeviceDisconnectedError
+            No heartbeat from the node.
+        DeviceProtocolError
+            The node refused an SDO transfer.
+        """
+        self.transport.open()
+        self.network = canopen.Network(self.transport.bus)
+        self.network.connect()
+        node = canopen.RemoteNode(self.node_id, self.eds)
+        self.network.add_node(node)
+        self.node = node
+        node.nmt.add_heartbeat_callback(self._on_heartbeat)
+        node.sdo.RESPONSE_TIMEOUT = 0.5
+        try:
+            node.sdo.upload(0x1000, 0)  # presence: a node answers SDO with no heartbeat
+        except canopen.SdoCommunicationError as exc:
+            self.close()
+            raise DeviceDisconnectedError(f"CANopen node {self.node_id} does not answer: "
+                                          f"{exc}") from exc
+        try:
+            self._configure(node)
+            node.nmt.wait_for_heartbeat(timeout=max(1.0, 4 * self.heartbeat_timeout_s))
+        except (canopen.SdoAbortedError, canopen.SdoCommunicationError) as exc:
+            self.close()
+            raise DeviceProtocolError(f"CANopen node {self.node_id} SDO: {exc}") from exc
+        except canopen.nmt.NmtError as exc:
+            self.close()
+            raise DeviceDisconnectedError(f"CANopen node {self.node_id}: {exc}") from exc
+        node.nmt.state = "OPERATIONAL"
+        if self.sync:
+            self.network.sync.start(1.0 / (self.sample_rate_hz * self.clock_scale))
+        self._last_heartbeat = time.monotonic()
+        self._wall_offset_s = wall_minus_monotonic()
+        self._builder.event("connect", self.clock())
+
+    def _configure(self, node: canopen.RemoteNode) -> None:
+        node.nmt.state = "PRE-OPERATIONAL"
+        node.sdo[0x1017].raw = self.heartbeat_ms
+        node.sdo[0x2006].raw = round(self.sample_rate_hz)
+        self._scale = float(node.sdo[0x2003].raw)
+        self._serial = str(node.sdo[0x1018][4].raw)
+        node.tpdo.read()
+        for number, objects in TPDO_MAPPING:
+            pdo = node.tpdo[number]
+            pdo.clear()
+            for index in objects:
+                pdo.add_variable(index)
+            pdo.trans_type = 1 if self.sync else 254
+            pdo.event_timer = 0 if self.sync else max(1, round(1000.0 / self.sample_rate_hz))
+            pdo.enabled = True
+        node.tpdo.save()
+        for number, _ in TPDO_MAPPING:
+            node.tpdo[number].add_callback(self._on_tpdo)
+
+    def close(self) -> None:
+        if self.network is not None:
+            self.network.sync.stop()
+            self.network.disconnect()
+        self.network = self.node = None
+        self.transport.bus = None
+
+    # -- callbacks (notifier thread) ------------------------------------------------------
+    def _on_heartbeat(self, state: int) -> None:
+        self._last_heartbeat = time.monotonic()
+
+    def _on_tpdo(self, pdo: canopen.pdo.PdoMap) -> None:
+        number = 1 if pdo.cob_id == 0x180 + self.node_id else 2
+        self._queue.put((number, tuple(int(v.raw) for v in pdo.map), pdo.timestamp or 0.0))
+
+    # -- reading -------------------------------------------------------------------------
+    def read(self, timeout_s: float = 0.1) -> SampleBatch:
+        """Samples received since the last call (see :meth:`RateSource.read`)."""
+        if self.network is None:
+            self.open()
+        deadline = time.monotonic() + timeout_s
+        first = True
+        while True:
+            try:
+                item = self._queue.get(timeout=max(0.0, deadline - time.monotonic())
+                                       if first else 0.0)
+            except queue.Empty:
+                break
+            first = False
+            self._take(*item)
+        wall = time.monotonic()
+        if wall - self._last_heartbeat > self.heartbeat_timeout_s:
+            if not self._lost:
+                self._lost = True
+                self._builder.event("disconnect", self.clock(), detail="heartbeat lost")
+                raise DeviceDisconnectedError(f"CANopen node {self.node_id}: no heartbeat for "
+                                              f"{self.heartbeat_timeout_s} s")
+        elif self._lost:
+            self._lost = False
+            self._builder.event("reconnect", self.clock(), detail="heartbeat back")
+        return self._builder.take()
+
+    def _take(self, number: int, values: tuple[int, ...], stamp: float) -> None:
+        if number == 1:
+            self._tpdo1_since.append(values)
+            return
+        z, counter, temp = values
+        since, self._tpdo1_since = self._tpdo1_since, []
+        advance = 1 if self._last_counter is None else (counter - self._last_counter) % COUNTER_MODULUS
+        self._last_counter = counter
+        if not since or len(since) != advance:
+            return  # ambiguous or incomplete sample: dropped, counted as a gap
+        first = since[-1]
+        now = self.clock()
+        sent = (stamp - self._wall_offset_s) * self.clock_scale
+        self._builder.add(Reading((first[0] * self._scale, first[1] * self._scale,
+                                   z * self._scale), counter, 0, None, temp / 100.0), now, sent)

@@ -1,0 +1,1 @@
+"""EDS files of the CANopen devices the station ships (package data)."""

@@ -1,0 +1,157 @@
+"""Adapters for register-map devices over Modbus: a polled gyro and an environment channel."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Literal
+
+from devices.batching import BatchBuilder
+from devices.codecs.modbus_map import ModbusRegisterMap, RegisterField
+from devices.errors import DeviceDisconnectedError, DeviceProtocolError
+from devices.gaps import CounterTracker
+from devices.protocols import DeviceDescription, SampleBatch
+from devices.transports.modbus import ModbusTransport
+
+
+class ModbusRateSource:
+    """A register-map gyro polled over Modbus at (a multiple of) its sample rate.
+
+    Each poll reads the whole register block; a sample counter that did not move means
+    no new sample, one that jumped by k means k - 1 samples were never read (a gap).
+
+    Parameters
+    ----------
+    transport : ModbusTransport
+        The client.
+    register_map : ModbusRegisterMap
+        Where the values are.
+    device_id : int
+        Modbus unit address.
+    model, serial_number : str
+        For :meth:`describe`.
+    sample_rate_hz : float
+        Device sample rate, Hz.
+    oversample : float
+        Polls per sample period.
+    clock : callable
+        Station clock, s.
+    clock_scale : float
+        Clock seconds per wall second (a simulation's time warp): polls are paced in
+        clock time.
+    table : {"holding", "input"}
+        Register table.
+    """
+
+    def __init__(self, transport: ModbusTransport, register_map: ModbusRegisterMap, *,
+                 device_id: int = 1, model: str, serial_number: str, sample_rate_hz: float,
+                 oversample: float = 2.0, clock: Callable[[], float] = time.monotonic,
+                 clock_scale: float = 1.0, table: Literal["holding", "input"] = "holding"
+                 ) -> None:
+        self.transport = transport
+        self.map = register_map
+        self.device_id = device_id
+        self.clock = clock
+        self.table = table
+        self._poll_wall_s = 1.0 / (sample_rate_hz * oversample * clock_scale)
+        has_temp = register_map.temperature is not None
+        self._description = DeviceDescription(
+            model=model, serial_number=serial_number, protocol="modbus",
+            transport=f"modbus+{transport.kind}", axes=("x", "y", "z")[:len(register_map.axes)],
+            sample_rate_hz=sample_rate_hz, has_counter=True,
+            counter_modulus=register_map.counter_modulus, has_device_time=False,
+            has_temperature=has_temp,
+            settings=(*transport.settings, ("device_id", str(device_id))))
+        self._builder = BatchBuilder(
+            len(register_map.axes), CounterTracker(register_map.counter_modulus, sample_rate_hz),
+            has_device_time=False, has_temperature=has_temp)
+        self._last_counter: int | None = None
+        self._connected = False
+        self._ever = False
+
+    def describe(self) -> DeviceDescription:
+        return self._description
+
+    def open(self) -> None:
+        self.transport.open()
+        self._builder.event("reconnect" if self._ever else "connect", self.clock())
+        self._connected = self._ever = True
+
+    def close(self) -> None:
+        self.transport.close()
+        self._connected = False
+
+    def _poll(self) -> None:
+        start, count = self.map.span
+        try:
+            registers = self.transport.read_registers(start, count, self.device_id, self.table)
+        except DeviceProtocolError as exc:
+            self._builder.event("timeout", self.clock(), detail=str(exc))
+            return
+        now = self.clock()
+        reading = self.map.decode(registers)
+        if reading.counter == self._last_counter:
+            return
+        self._last_counter = reading.counter
+        self._builder.add(reading, now)
+
+    def read(self, timeout_s: float = 0.1) -> SampleBatch:
+        """Poll for ``timeout_s`` (wall s) and return the new samples."""
+        if not self._connected:
+            self.open()
+        deadline = time.monotonic() + timeout_s
+        next_poll = time.monotonic()
+        try:
+            while True:
+                self._poll()
+                next_poll += self._poll_wall_s
+                now = time.monotonic()
+                if now >= deadline:
+                    break
+                time.sleep(max(0.0, min(next_poll, deadline) - now))
+        except DeviceDisconnectedError:
+            self.transport.close()
+            self._connected = False
+            self._builder.event("disconnect", self.clock())
+            raise
+        return self._builder.take()
+
+
+class ModbusEnvironmentChannel:
+    """One environment value (a chamber's or a reference sensor's temperature) over Modbus.
+
+    Parameters
+    ----------
+    transport : ModbusTransport
+        The client (may be shared with nothing else: one client per server).
+    field : RegisterField
+        Where the value is, degC per LSB in ``scale``.
+    device_id : int
+        Modbus unit address.
+    name, unit : str
+        What it is and its unit (``"chamber"``, ``"degC"``).
+    clock : callable
+        Station clock, s.
+    """
+
+    def __init__(self, transport: ModbusTransport, field: RegisterField, *, device_id: int = 1,
+                 name: str = "chamber", unit: str = "degC",
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.transport = transport
+        self.field = field
+        self.device_id = device_id
+        self.name = name
+        self.unit = unit
+        self.clock = clock
+
+    def open(self) -> None:
+        self.transport.open()
+
+    def close(self) -> None:
+        self.transport.close()
+
+    def read(self) -> tuple[float, float]:
+        """(station time s, value in :attr:`unit`)."""
+        registers = self.transport.read_registers(self.field.address, self.field.n_registers,
+                                                  self.device_id)
+        return self.clock(), self.field.unpack(registers)

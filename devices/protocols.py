@@ -1,0 +1,193 @@
+"""What the station knows about a gyro: the rate-source protocol and its records.
+
+The recorder and every other consumer talk to a device only through :class:`RateSource`
+(bluesky's small ``typing.Protocol`` capabilities). A source describes itself once
+(:class:`DeviceDescription`) and then yields :class:`SampleBatch` es: rates in deg/s,
+the device's own sample counter, device time and temperature where the protocol carries
+them, status flags, the station receive time, and every gap detected with its exact
+number of missing samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+#: How a gap's missing-sample count was obtained (written to the recorder's event log).
+GapMethod = Literal["counter", "counter+elapsed", "device_time"]
+
+EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync", "timeout"]
+
+
+@dataclass(frozen=True)
+class DeviceDescription:
+    """Static facts about a connected rate source.
+
+    Attributes
+    ----------
+    model : str
+        Product name (``"STIM300"``, ``"DSP-1750"``, a noise-model name for simulations).
+    serial_number : str
+        Unit serial number as the device or its URL reports it.
+    protocol : str
+        Protocol key (``"stim300"``, ``"kvh1750"``, ``"xbus"``, ``"can"``, ...).
+    transport : str
+        Transport key (``"serial"``, ``"can"``, ``"canopen"``, ``"modbus+tcp"``, ...).
+    axes : tuple of str
+        Axis names, in the column order of :attr:`SampleBatch.rate_deg_s`.
+    rate_unit : str
+        Always ``"deg/s"``: adapters convert from the wire unit.
+    sample_rate_hz : float
+        Nominal output data rate, Hz.
+    has_counter : bool
+        Whether the protocol carries a device sample counter.
+    counter_modulus : int or None
+        Wrap of the device counter (256 for a STIM300, 128 for a KVH), None if unbounded.
+    has_device_time : bool
+        Whether :attr:`SampleBatch.device_time_s` is filled.
+    has_temperature : bool
+        Whether :attr:`SampleBatch.temperature_c` is filled.
+    temperature_unit, time_unit : str
+        ``"degC"`` and ``"s"``.
+    settings : tuple of (str, str)
+        Transport settings as text (port, baud, bus, address) for the run metadata.
+    """
+
+    model: str
+    serial_number: str
+    protocol: str
+    transport: str
+    axes: tuple[str, ...]
+    sample_rate_hz: float
+    has_counter: bool
+    counter_modulus: int | None
+    has_device_time: bool
+    has_temperature: bool
+    rate_unit: str = "deg/s"
+    temperature_unit: str = "degC"
+    time_unit: str = "s"
+    settings: tuple[tuple[str, str], ...] = ()
+
+    @property
+    def n_axes(self) -> int:
+        """Number of rate axes."""
+        return len(self.axes)
+
+
+@dataclass(frozen=True)
+class Gap:
+    """Samples the device produced that never reached the station.
+
+    Attributes
+    ----------
+    after_counter : int
+        Unwrapped counter of the last sample received before the gap.
+    missing_samples : int
+        Exact number of samples lost (>= 1).
+    method : GapMethod
+        ``"counter"`` (counter difference alone), ``"counter+elapsed"`` (counter residue
+        with the wrap count chosen from elapsed time and the nominal rate: long outages
+        on a wrapping counter) or ``"device_time"``.
+    receive_time_s : float
+        Station time (s) at which the gap was detected.
+    """
+
+    after_counter: int
+    missing_samples: int
+    method: GapMethod
+    receive_time_s: float
+
+
+@dataclass(frozen=True)
+class DeviceEvent:
+    """Something that happened on the link: a connect, a disconnect, CRC errors, a resync."""
+
+    kind: EventKind
+    receive_time_s: float
+    count: int = 1
+    detail: str = ""
+
+
+def _empty_f64(*shape: int) -> NDArray[np.float64]:
+    return np.empty(shape, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class SampleBatch:
+    """Samples read from a rate source in one call (possibly none).
+
+    Attributes
+    ----------
+    rate_deg_s : ndarray, shape (n, n_axes)
+        Angular rate, deg/s.
+    counter : ndarray of int64, shape (n,)
+        Device sample counter, unwrapped (monotonic across wraps and gaps); its
+        differences are 1 except across a gap listed in :attr:`gaps`.
+    receive_time_s : ndarray of float64, shape (n,)
+        Station time (s, the adapter's clock) at which each sample was received.
+    status : ndarray of uint32, shape (n,)
+        Device status flags as sent (0 = all good for every protocol here).
+    device_time_s : ndarray or None
+        Device time stamp (s), None when the protocol has none.
+    temperature_c : ndarray or None
+        Sensor temperature (degC), None when the protocol has none.
+    gaps : tuple of Gap
+        Gaps detected before or inside this batch.
+    events : tuple of DeviceEvent
+        Link events since the previous batch (CRC errors, resyncs, reconnects).
+    crc_errors : int
+        Frames rejected for a bad CRC or checksum since the previous batch.
+    """
+
+    rate_deg_s: NDArray[np.float64]
+    counter: NDArray[np.int64]
+    receive_time_s: NDArray[np.float64]
+    status: NDArray[np.uint32]
+    device_time_s: NDArray[np.float64] | None = None
+    temperature_c: NDArray[np.float64] | None = None
+    gaps: tuple[Gap, ...] = ()
+    events: tuple[DeviceEvent, ...] = ()
+    crc_errors: int = 0
+    units: tuple[tuple[str, str], ...] = field(
+        default=(("rate_deg_s", "deg/s"), ("receive_time_s", "s"), ("device_time_s", "s"),
+                 ("temperature_c", "degC"), ("counter", "1"), ("status", "1")),
+    )
+
+    def __len__(self) -> int:
+        return int(self.counter.shape[0])
+
+    @property
+    def missing_samples(self) -> int:
+        """Total samples declared missing by this batch's gaps."""
+        return sum(g.missing_samples for g in self.gaps)
+
+
+@runtime_checkable
+class RateSource(Protocol):
+    """A gyro the station can record: the only device interface the station uses."""
+
+    def open(self) -> None:
+        """Connect to the device (and configure it where the protocol needs to)."""
+
+    def close(self) -> None:
+        """Release the transport; safe to call twice."""
+
+    def describe(self) -> DeviceDescription:
+        """Static facts: model, serial number, axes, units, rate, counter/time/temperature."""
+
+    def read(self, timeout_s: float = 0.1) -> SampleBatch:
+        """Samples received since the last call, waiting at most ``timeout_s`` (s) for some.
+
+        Keep ``timeout_s`` below ``counter_modulus / sample_rate_hz``: a read that waits
+        out a whole counter period could hide a wrap from the gap count (docs/devices.md).
+
+        Raises
+        ------
+        DeviceDisconnectedError
+            The link was lost; the next ``read`` tries to reconnect.
+        DeviceTimeoutError
+            Nothing valid arrived for longer than the adapter's silence limit.
+        """

@@ -1,0 +1,157 @@
+"""A simulated CANopen rate gyro: a canopen ``LocalNode`` built from the shipped EDS.
+
+The node answers SDO, follows NMT, sends heartbeats (0x1017) and, when OPERATIONAL,
+transmits TPDO1 (rate X, Y) and TPDO2 (rate Z, sample counter, temperature) for each
+sample, with whatever mapping the master wrote over SDO: on its own schedule when the
+TPDOs are event-driven (transmission type 254/255), or one sample per SYNC (0x80) when
+they are synchronous (transmission type 1..240). A disconnect unplugs it: no
+heartbeat, no PDO, while it keeps sampling (its counter runs on).
+
+canopen pitfall: a LocalNode's PDO payload is the PDO map's own copy; values are set
+through ``node.tpdo[n][name].raw``, writing the SDO object would not change what is sent.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+from pathlib import Path
+
+import canopen
+
+from devices.codecs.base import Reading
+from devices.sim.faults import SimCore
+from devices.transports.can import CanTransport
+
+#: The EDS shipped with the project.
+GYRO_EDS = Path(__file__).resolve().parent.parent / "eds" / "gyro.eds"
+_OPERATIONAL = "OPERATIONAL"
+
+
+class CanopenGyroNode:
+    """A LocalNode on its own bus connection, served from a background thread.
+
+    Parameters
+    ----------
+    transport : CanTransport
+        Its bus (a second ``virtual`` bus on the station's channel).
+    core : SimCore
+        Signal, schedule, faults and ledger.
+    node_id : int
+        CANopen node id.
+    serial_number : int
+        Identity object 0x1018:4.
+    poll_s : float
+        Wall-clock period of the device loop, s.
+    """
+
+    def __init__(self, transport: CanTransport, core: SimCore, *, node_id: int = 5,
+                 serial_number: int = 1, poll_s: float = 0.002) -> None:
+        self.transport = transport
+        self.core = core
+        self.node_id = node_id
+        self.poll_s = poll_s
+        self.node = canopen.LocalNode(node_id, str(GYRO_EDS))
+        self.node.sdo[0x1018][4].raw = serial_number
+        self.node.add_write_callback(self._on_write)
+        self.network: canopen.Network | None = None
+        self._remap = threading.Event()
+        self._syncs: queue.SimpleQueue[float] = queue.SimpleQueue()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._scale = float(self.node.sdo[0x2003].raw)
+
+    def _on_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
+        if 0x1800 <= index <= 0x1A01:
+            self._remap.set()
+        if index == 0x2006:
+            self._remap.set()
+
+    def _on_sync(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        self._syncs.put(timestamp)
+
+    def _synchronous(self) -> bool:
+        return 1 <= (self.node.tpdo[1].trans_type or 0) <= 240
+
+    def start(self) -> CanopenGyroNode:
+        """Connect, boot (boot-up message, PRE-OPERATIONAL) and start the device thread."""
+        self.transport.open()
+        self.network = canopen.Network(self.transport.bus)
+        self.network.connect()
+        self.network.add_node(self.node)
+        self.network.subscribe(0x80, self._on_sync)
+        self.node.tpdo.read(from_od=True)
+        self.node.nmt.send_command(0x81)  # reset: boot-up message
+        self.node.nmt.send_command(0x80)  # PRE-OPERATIONAL, heartbeat per 0x1017
+        self._thread = threading.Thread(target=self._run, name="canopen-gyro", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop the thread, the heartbeat and the bus."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        self.node.nmt.stop_heartbeat()
+        if self.network is not None:
+            self.network.disconnect()  # shuts the bus down too
+        self.transport.bus = None
+
+    def _apply_configuration(self) -> None:
+        self._remap.clear()
+        self.node.tpdo.read(from_od=False)  # the mapping the master wrote over SDO
+        rate = float(self.node.sdo[0x2006].raw)
+        if rate > 0 and rate != self.core.sample_rate_hz:
+            self.core.retime(rate)
+
+    def _send(self, reading_index: int, values: dict[str, float], tpdo: int) -> None:
+        pdo = self.node.tpdo[tpdo]
+        if not pdo.enabled:
+            return
+        for var in pdo.map:
+            if var.name in values:
+                var.raw = int(values[var.name])
+        # Dropped, or corrupted: the CAN controller's own CRC rejects a corrupted frame
+        # on the wire, so the station never sees it either way.
+        if self.core.fault_for(reading_index) is not None:
+            return
+        assert self.network is not None
+        self.network.send_message(pdo.cob_id, bytes(pdo.data))
+
+    def _sync_readings(self) -> list[Reading]:
+        """One sample per SYNC received (none while unplugged: it hears no SYNC)."""
+        readings = []
+        while not self._syncs.empty():
+            self._syncs.get()
+            if not self.core.link_down() and self.node.nmt.state == _OPERATIONAL:
+                readings.append(self.core.next_reading())
+        return readings
+
+    def _run(self) -> None:
+        core = self.core
+        unplugged = False
+        while not self._stop.wait(self.poll_s):
+            if self._remap.is_set():
+                self._apply_configuration()
+            readings = self._sync_readings() if self._synchronous() else core.due()
+            if core.link_down():
+                if not unplugged:
+                    unplugged = True
+                    core.ledger.disconnects += 1
+                    self.node.nmt.stop_heartbeat()
+                core.lose(readings)
+                continue
+            if unplugged:
+                unplugged = False
+                self.node.nmt.start_heartbeat(int(self.node.sdo[0x1017].raw))
+            if self.node.nmt.state != _OPERATIONAL:
+                core.lose(readings)
+                continue
+            for r in readings:
+                values = {"Rate X": round(r.rate_deg_s[0] / self._scale),
+                          "Rate Y": round(r.rate_deg_s[1] / self._scale),
+                          "Rate Z": round(r.rate_deg_s[2] / self._scale),
+                          "Sample counter": r.counter % 65536,
+                          "Temperature": round((r.temperature_c or 0.0) * 100)}
+                self._send(r.counter, values, 1)
+                self._send(r.counter, values, 2)

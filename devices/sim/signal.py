@@ -1,0 +1,99 @@
+"""The rate signal a simulated gyro outputs, drawn from a noise model.
+
+One class wraps :class:`analysis.simulate.GyroSimulator` so that every simulated device
+draws its signal the same way. The model is whatever
+:func:`devices.model_files.load_noise_model` resolves (a TOML path or a preset of
+``profiles/models``: ``VG951``, ``SRS2000``, ...); the protocol's own device names
+(``STIM300``, ``DSP-1750``, ``MTI-630``) fall back to small data-sheet-like models here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from analysis.errors import ModelError
+from analysis.models import (
+    AngleRandomWalk,
+    Bias,
+    BiasInstability,
+    NoiseModel,
+    RateRandomWalk,
+)
+from analysis.simulate import GyroSimulator
+from devices.model_files import load_noise_model
+
+#: (ARW deg/sqrt(h), bias instability deg/h, RRW deg/h^1.5, bias deg/h) of the device
+#: names the simulated protocols use when no model file or preset has that name.
+_DEVICE_MODELS: dict[str, tuple[float, float, float, float]] = {
+    "STIM300": (0.15, 0.5, 0.3, 36.0),
+    "DSP-1750": (0.012, 0.05, 0.02, 36.0),
+    "MTI-630": (0.3, 8.0, 3.0, 36.0),
+    "GENERIC": (0.2, 1.0, 0.5, 36.0),
+}
+DEVICE_MODEL_NAMES = tuple(_DEVICE_MODELS)
+#: Temperature a simulated gyro reports when its model has no temperature term, degC.
+DEFAULT_TEMPERATURE_C = 25.0
+
+
+def noise_model(ref: str) -> NoiseModel:
+    """The noise model a simulated device URL names: a TOML path or a preset, else one of
+    the device models of :data:`DEVICE_MODEL_NAMES`.
+
+    Raises
+    ------
+    ValueError
+        Neither a model file, a preset, nor a device model (``ModelError`` is one).
+    """
+    try:
+        return load_noise_model(ref)
+    except ModelError as exc:
+        device = _DEVICE_MODELS.get(ref.upper())
+        if device is None:
+            raise ModelError(f"{exc}; or a device model: {', '.join(DEVICE_MODEL_NAMES)}"
+                             ) from exc
+    arw, bi, rrw, bias = device
+    return NoiseModel(
+        terms=(AngleRandomWalk(N_deg_rt_h=arw), BiasInstability(B_deg_h=bi),
+               RateRandomWalk(K_deg_h_1_5=rrw), Bias(value_deg_h=bias)),
+        name=ref.upper(), source="devices.sim.signal device model")
+
+
+@dataclass(frozen=True)
+class SignalChunk:
+    """Rates (deg/s, shape (n, n_axes)) and temperature (degC, shape (n,)) of n samples."""
+
+    rate_deg_s: NDArray[np.float64]
+    temperature_c: NDArray[np.float64]
+
+
+class SignalSource:
+    """Streaming rate signal of a simulated gyro.
+
+    Parameters
+    ----------
+    model : str
+        Preset name or noise-model TOML path (see :func:`noise_model`).
+    sample_rate_hz : float
+        Sample rate, Hz.
+    n_axes : int
+        Number of axes.
+    seed : int or None
+        Seed; the same seed gives the same samples.
+    """
+
+    def __init__(self, model: str, sample_rate_hz: float, *, n_axes: int = 3,
+                 seed: int | None = None) -> None:
+        self.model = model
+        self.n_axes = n_axes
+        self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed)
+
+    def read(self, n_samples: int) -> SignalChunk:
+        """The next ``n_samples`` samples of the signal."""
+        chunk = self._sim.read(n_samples)
+        temp = chunk.temperature_c
+        if temp is None:
+            temp = np.full(n_samples, DEFAULT_TEMPERATURE_C)
+        return SignalChunk(chunk.rate_deg_s, np.asarray(temp, dtype=np.float64))

@@ -1,0 +1,1 @@
+"""Transports: move bytes or messages, know nothing of a protocol; injected into adapters."""

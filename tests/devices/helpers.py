@@ -1,0 +1,102 @@
+"""Test helpers: drain a rate source, check its report against a simulator's ledger."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from devices.errors import DeviceDisconnectedError
+from devices.protocols import Gap, RateSource, SampleBatch
+from devices.sim.faults import SimCore
+
+
+@dataclass
+class Collected:
+    """Everything read from a source, concatenated."""
+
+    batches: list[SampleBatch] = field(default_factory=list)
+    disconnects: int = 0
+
+    @property
+    def counter(self) -> np.ndarray:
+        return np.concatenate([b.counter for b in self.batches] or [np.empty(0, np.int64)])
+
+    @property
+    def rate(self) -> np.ndarray:
+        return np.concatenate([b.rate_deg_s for b in self.batches])
+
+    @property
+    def gaps(self) -> list[Gap]:
+        return [g for b in self.batches for g in b.gaps]
+
+    @property
+    def crc_errors(self) -> int:
+        return sum(b.crc_errors for b in self.batches)
+
+    def column(self, name: str) -> np.ndarray:
+        return np.concatenate([getattr(b, name) for b in self.batches])
+
+    def event_kinds(self) -> list[str]:
+        return [e.kind for b in self.batches for e in b.events]
+
+
+def collect(source: RateSource, n_samples: int, *, deadline_s: float = 20.0) -> Collected:
+    """Read until ``n_samples`` arrived, reopening after disconnects (bounded by time)."""
+    out = Collected()
+    got = 0
+    stop = time.monotonic() + deadline_s
+    while got < n_samples:
+        if time.monotonic() > stop:
+            raise AssertionError(f"only {got} of {n_samples} samples in {deadline_s} s")
+        try:
+            batch = source.read(0.05)
+        except DeviceDisconnectedError:
+            out.disconnects += 1
+            time.sleep(0.01)
+            continue
+        if len(batch) or batch.events:
+            out.batches.append(batch)
+            got += len(batch)
+    return out
+
+
+def device_index(collected: Collected, core: SimCore, modulus: int, *, atol: float = 1e-3) -> int:
+    """Offset from the adapter's unwrapped counter to the simulator's sample index.
+
+    The first sample the adapter saw may come after whole counter wraps it never saw
+    (bytes sent before the port was opened are flushed), so the offset is the multiple
+    of the modulus whose generated rate matches the first received one.
+    """
+    first = int(collected.counter[0])
+    history = core.history()
+    rate0 = collected.rate[0]
+    for k in range(len(history) // modulus + 1):
+        idx = first + k * modulus
+        if idx < len(history) and np.allclose(history[idx], rate0, atol=atol, rtol=1e-6):
+            return idx - first
+    raise AssertionError("first received sample matches no generated sample")
+
+
+def missing_indices(gaps: list[Gap], offset: int) -> set[int]:
+    """Simulator indices the adapter declared missing."""
+    return {g.after_counter + offset + k + 1 for g in gaps for k in range(g.missing_samples)}
+
+
+def check_accounting(collected: Collected, core: SimCore, offset: int) -> tuple[set[int], set[int]]:
+    """Assert that received + declared missing is exactly every sample in the span.
+
+    Returns ``(declared missing, lost per the simulator's ledger)`` inside the span; the
+    ledger's losses are always among the declared ones.
+    """
+    idx = collected.counter + offset
+    lo, hi = int(idx[0]), int(idx[-1])
+    received = set(idx.tolist())
+    assert len(received) == len(idx), "a sample was returned twice"
+    declared = missing_indices(collected.gaps, offset)
+    assert not received & declared
+    assert received | declared == set(range(lo, hi + 1))
+    lost = {i for i in core.ledger.lost_indices if lo <= i <= hi}
+    assert lost <= declared
+    return declared, lost
