@@ -1,0 +1,98 @@
+"""The Allan kernels of analysis.kernels: numpy fallback, compiled kernel and reference agree.
+
+The reference is the plainest possible formula; the fallback is what runs without numba;
+the compiled kernel runs only where numba is installed (skipped otherwise). allantools'
+``oadev`` is the outside oracle for the whole estimator.
+"""
+
+from __future__ import annotations
+
+import allantools
+import numpy as np
+import pytest
+
+from analysis import kernels
+from analysis.allan import cumulative_angle, overlapping_allan_variance
+
+needs_numba = pytest.mark.skipif(not kernels.have_compiled(), reason="numba is not installed")
+
+
+@pytest.fixture(scope="module")
+def theta() -> np.ndarray:
+    rng = np.random.default_rng(11)
+    rate = rng.standard_normal((70_001, 2)) + np.cumsum(rng.standard_normal((70_001, 2)), axis=0) * 1e-3
+    return cumulative_angle(rate, 50.0)
+
+
+M_VALUES = np.array([1, 2, 3, 5, 8, 13, 100, 1000, 4097, 20_000, 35_000])
+
+
+def test_numpy_fallback_matches_reference(theta: np.ndarray) -> None:
+    ref = kernels.overlapping_sums_reference(theta, M_VALUES)
+    got = kernels.overlapping_sums(theta, M_VALUES, backend="numpy")
+    assert got.shape == (len(M_VALUES), 2)
+    np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+@needs_numba
+def test_compiled_matches_numpy_fallback(theta: np.ndarray) -> None:
+    fallback = kernels.overlapping_sums(theta, M_VALUES, backend="numpy")
+    compiled = kernels.overlapping_sums(theta, M_VALUES, backend="numba")
+    np.testing.assert_allclose(compiled, fallback, rtol=1e-12)
+
+
+def test_single_axis_and_edge_m() -> None:
+    theta = cumulative_angle(np.random.default_rng(3).standard_normal(9), 1.0)  # N = 9
+    m = np.array([1, 4])  # m = N // 2 leaves N + 1 - 2m = 2 terms
+    ref = kernels.overlapping_sums_reference(theta, m)
+    for backend in ("numpy", "auto"):
+        np.testing.assert_allclose(kernels.overlapping_sums(theta, m, backend=backend), ref, rtol=1e-13)
+    d = theta[8] - 2 * theta[4] + theta[0], theta[9] - 2 * theta[5] + theta[1]
+    assert ref[1, 0] == pytest.approx(d[0][0] ** 2 + d[1][0] ** 2, rel=1e-14)
+
+
+def test_rejects_m_out_of_range_and_unknown_backend() -> None:
+    theta = np.zeros((11, 1))
+    with pytest.raises(ValueError, match="1..5"):
+        kernels.overlapping_sums(theta, np.array([6]))
+    with pytest.raises(ValueError, match="backend"):
+        kernels.overlapping_sums(theta, np.array([1]), backend="fortran")  # type: ignore[arg-type]
+
+
+def test_overlapping_adev_matches_allantools_oadev() -> None:
+    rng = np.random.default_rng(5)
+    rate = rng.standard_normal(50_000) + 0.01 * np.cumsum(rng.standard_normal(50_000))
+    fs = 100.0
+    ours = overlapping_allan_variance(rate, fs, taus="log")
+    taus_out, adev, _, n = allantools.oadev(rate, rate=fs, data_type="freq", taus=ours.tau_s)
+    np.testing.assert_allclose(taus_out, ours.tau_s, rtol=1e-12)
+    np.testing.assert_allclose(np.sqrt(ours.avar), adev, rtol=1e-9)
+    np.testing.assert_array_equal(n, ours.n_terms)
+
+
+def test_window_sums_backends_match_direct_sums() -> None:
+    theta = cumulative_angle(np.random.default_rng(8).standard_normal(5000), 1.0)[:, 0]
+    window, m = 700, np.array([1, 2, 9, 77, 300, 350])
+    for starts in (np.arange(0, 4301, 1), np.arange(0, 4301, 37), np.arange(0, 4301, 900)):
+        direct = np.array([[kernels.second_difference_squares(theta[s : s + window + 1], int(k)).sum()
+                            for k in m] for s in starts])
+        for backend in ("numpy", "auto"):
+            got = kernels.window_sums(theta, m, starts, window, backend=backend)
+            np.testing.assert_allclose(got, direct, rtol=1e-12)
+
+
+def test_window_sums_reject_windows_outside_theta() -> None:
+    theta = np.zeros(101)
+    with pytest.raises(ValueError, match="inside theta"):
+        kernels.window_sums(theta, np.array([1]), np.array([0, 60]), 50)
+    with pytest.raises(ValueError, match="1..25"):
+        kernels.window_sums(theta, np.array([26]), np.array([0]), 50)
+
+
+def test_auto_falls_back_to_numpy_without_numba(theta: np.ndarray, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(kernels, "_compiled", lambda: None)
+    assert not kernels.have_compiled()
+    ref = kernels.overlapping_sums_reference(theta, M_VALUES)
+    np.testing.assert_allclose(kernels.overlapping_sums(theta, M_VALUES), ref, rtol=1e-12)
+    with pytest.raises(ImportError, match=r"gyro-station\[fast\]"):
+        kernels.overlapping_sums(theta, M_VALUES, backend="numba")

@@ -1,0 +1,92 @@
+"""``station davar FILE`` as a user runs it: JSON interface, summary, heat map, errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib import image
+
+from analysis.davar import dynamic_allan_variance
+from station.cli import main
+from station.record_files import write_csv_record
+
+FS = 10.0
+N = 30_000  # 3000 s
+T_WARM = 150.0  # s
+
+
+@pytest.fixture(scope="module")
+def rate() -> np.ndarray:
+    """Axis x warms up (bias and noise decay with T_WARM), axis y is stationary; deg/s."""
+    rng = np.random.default_rng(31)
+    t = np.arange(N) / FS
+    decay = np.exp(-t / T_WARM)
+    x = rng.standard_normal(N) * (1.0 + 2.0 * decay) + 3.0 * decay
+    y = rng.standard_normal(N)
+    return np.column_stack([x, y])
+
+
+@pytest.fixture(scope="module")
+def record_csv(tmp_path_factory: pytest.TempPathFactory, rate: np.ndarray) -> Path:
+    return write_csv_record(tmp_path_factory.mktemp("davar") / "warm.csv", rate, FS,
+                            axis_names=["x", "y"])
+
+
+def test_json_interface(record_csv: Path, rate: np.ndarray) -> None:
+    proc = subprocess.run([sys.executable, "-m", "station.cli", "davar", str(record_csv),
+                           "--rate", "10", "--window-s", "100", "--json"],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert list(out) == ["axes"]
+    x, y = out["axes"]
+    assert set(x) == {"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}
+    assert (x["name"], y["name"]) == ("x", "y")
+    expected = dynamic_allan_variance(rate, FS, window_s=100.0)
+    assert len(x["t_s"]) == 291  # (3000 - 100) / 10 + 1 windows at the default step Nw/10
+    np.testing.assert_allclose(x["t_s"], expected.t_s)
+    np.testing.assert_allclose(x["tau_s"], expected.tau_s)
+    np.testing.assert_allclose(np.array(x["adev"]), expected.axis(0).adev, rtol=1e-12)
+    np.testing.assert_allclose(np.array(y["adev"]), expected.axis(1).adev, rtol=1e-12)
+    assert x["stationary"] is False
+    assert 1.5 * T_WARM <= x["warmup_end_s"] <= 5 * T_WARM
+    assert y["stationary"] is True and y["warmup_end_s"] == 0.0
+
+
+def test_summary_and_heat_map(record_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    png = tmp_path / "maps" / "davar.png"
+    assert main(["davar", str(record_csv), "--window-s", "100", "--step-s", "20",
+                 "--png", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "30000 samples at 10 Hz" in text
+    assert "window 100 s (1000 samples), step 20 s, 146 windows" in text
+    assert "axis x:" in text and "warm-up ends at" in text
+    assert "axis y:" in text and "no warm-up; stationary" in text
+    assert f"heat map: {png}" in text
+    pixels = image.imread(png)
+    assert pixels.shape[0] > 400 and pixels.shape[1] > 800  # two stacked panels
+    assert pixels[..., :3].std() > 0.1  # a coloured map, not a blank canvas
+
+
+def test_units_and_axis_selection(record_csv: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+    assert main(["davar", str(record_csv), "--window-s", "300", "--axis", "y",
+                 "--units", "deg/h", "--json"]) == 0
+    (axis,) = json.loads(capsys.readouterr().out)["axes"]
+    expected = dynamic_allan_variance(rate[:, 1] / 3600.0, FS, window_s=300.0)
+    np.testing.assert_allclose(np.array(axis["adev"]), expected.adev, rtol=1e-12)
+
+
+def test_errors_are_one_line_messages(record_csv: Path, capsys: pytest.CaptureFixture) -> None:
+    assert main(["davar", str(record_csv), "--window-s", "5000"]) == 2
+    assert "longer than the record" in capsys.readouterr().err
+    assert main(["davar", str(record_csv), "--window-s", "100", "--step-s", "0.01"]) == 2
+    assert "less than one sample" in capsys.readouterr().err
+    assert main(["davar", str(record_csv.with_name("missing.csv")), "--window-s", "100"]) == 2
+    assert "no such file" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["davar", str(record_csv)])  # --window-s is required
