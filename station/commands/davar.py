@@ -16,9 +16,9 @@ import numpy as np
 
 from analysis.davar import DavarResult, dynamic_allan_variance
 from analysis.warmup import WarmupVerdict, detect_warmup
-from station.commands.analyze import add_record_arguments
+from station.commands.analyze import add_record_arguments, load_record
 from station.errors import UsageError
-from station.record_files import RateRecord, read_record
+from station.record_files import RateRecord
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,14 +33,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
                    help="write a heat map of log10 ADEV over time and tau")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
-    p.set_defaults(handler=run)
+    # the DAVAR finds the warm-up itself: nothing is discarded unless --warmup-s asks
+    p.set_defaults(handler=run, warmup_s=0.0)
 
 
 def run(args: argparse.Namespace) -> int:
     """Read the record, compute its DAVAR and warm-up verdict per axis, print and plot."""
-    record = read_record(args.file, sample_rate_hz=args.rate, units=args.units)
-    if args.axis is not None:
-        record = record.select(args.axis)
+    record, _ = load_record(args)
     if args.window_s * record.sample_rate_hz > record.n_samples:
         raise UsageError(f"--window-s {args.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
