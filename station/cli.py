@@ -11,9 +11,26 @@ import sys
 from collections.abc import Sequence
 
 from analysis.errors import AnalysisError
+from station.commands import (
+    analyze,
+    davar,
+    demo,
+    devices,
+    grade,
+    model,
+    reconcile,
+    record,
+    recover,
+    report,
+    reproduce,
+    results,
+    simulate,
+    tui,
+    watch,
+)
 from station.errors import StationError
 
-COMMANDS: tuple = ()
+COMMANDS: tuple = (demo, analyze, reproduce, simulate, model, davar, devices, grade, report, results, record, watch, recover, reconcile, tui,)
 
 
 def build_parser() -> argparse.ArgumentParser:

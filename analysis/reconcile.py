@@ -1,0 +1,467 @@
+"""Model versus measurement: find where a noise model and a record disagree, name the missing
+effect, add it and show the gap shrink (issue 9).
+
+The workflow (:func:`reconcile`), each step reported in a :class:`ReconcileResult`:
+
+1. **Compare** (:mod:`analysis.discrepancy`): the measured overlapping Allan variance on a
+   log grid against the model's theoretical curve and a Monte Carlo band of the model
+   simulated on the same length, rate and grid. The gap statistic G (eq. G2 there: the
+   octave-weighted mean square of the standardized log-ratio, about 1 when the model
+   holds) and its p-value under the simulated null say whether they disagree; the tau
+   ranges where the curve leaves the band say where. The model *disagrees significantly*
+   when ``p < alpha`` (default 0.01).
+2. **Name** (:mod:`analysis.candidates`): every term of the simulation library is fitted
+   to the curve with the rest of the model held (added if the model lacks it, refitted
+   if it has it), and scored by Delta BIC (eq. C2 there, ``n`` = octaves of the grid).
+   Candidates below ``bic_threshold`` (10) are not considered. The sinusoid, bias steps,
+   temperature-driven bias and rate ramp must also be confirmed by the time series
+   (:mod:`analysis.confirm`: periodogram peak, change points, regression on temperature
+   or time), which then also gives their parameters. Bias steps have the expected Allan
+   curve of a rate random walk; they are a candidate only when the change-point test
+   locates them, and then their curve (and every later comparison) is that of the steps
+   located, not of a random draw of steps.
+3. **Add and re-check**: the best candidate is put into the model, the comparison is run
+   again (new curve, new simulated band and null) and the effect is kept only if the gap
+   shrinks significantly: ``G_after < G_before - shrink_sigmas * sd(G_null_before)``
+   (3 standard deviations of the gap's simulated spread under the model before the
+   change) and ``G_after < (1 - min_shrink) G_before`` (by 10 % at least: where the gap
+   is far above its null, as on real records, a 2 % drop is no explanation). Otherwise
+   the next candidate is tried (at most ``max_tries`` per round). After an addition, every
+   effect added earlier is re-checked: one the model no longer needs (without it the model
+   still agrees with the data and the gap is not significantly larger) is dropped. The
+   loop repeats until the gap is no longer significant, no candidate passes, or
+   ``max_effects`` changes.
+
+A refitted term whose Allan variance comes out lower than the model's at every tau is an
+*excess* term (the model has more of it than the data show) and is reported apart from
+the missing effects.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from analysis.candidates import (
+    BIC_THRESHOLD,
+    SCALE_KEYS,
+    CandidateFit,
+    change_of,
+    fit_candidates,
+    tau_range,
+)
+from analysis.confirm import (
+    Evidence,
+    RoundEvidence,
+    StepEvidence,
+)
+from analysis.discrepancy import (
+    MODEL_FLOOR,
+    Comparison,
+    ComparisonCache,
+    MeasuredCurve,
+    compare,
+    measure_curve,
+)
+from analysis.models import (
+    NoiseModel,
+    NoiseTerm,
+    term_type,
+)
+from analysis.units import rate_deg_s_to_deg_h
+
+
+@dataclass(frozen=True)
+class ReconcileOptions:
+    """Settings of :func:`reconcile` (defaults are the stated thresholds).
+
+    Attributes
+    ----------
+    runs, seed : int
+        Monte Carlo runs per comparison and the seed they are drawn from.
+    alpha : float
+        Level of the gap test: the model disagrees when ``p < alpha``.
+    bic_threshold : float
+        Delta BIC (C2) a candidate needs.
+    shrink_sigmas : float
+        How many simulated standard deviations of G the gap must drop by.
+    max_effects, max_tries : int
+        Most changes to the model; most candidates tried per round.
+    max_samples : int
+        Longer records are decimated by block means to at most this many samples.
+    points_per_octave, min_clusters : int
+        Tau grid of the comparison.
+    floor : float
+        Relative accuracy of a library curve (``f`` of eq. G1).
+    min_shrink : float
+        Least relative drop of the gap an effect must bring, besides ``shrink_sigmas``.
+    """
+
+    runs: int = 20
+    seed: int = 0
+    alpha: float = 0.01
+    bic_threshold: float = BIC_THRESHOLD
+    shrink_sigmas: float = 3.0
+    max_effects: int = 4
+    max_tries: int = 3
+    max_samples: int = 1 << 20
+    points_per_octave: int = 4
+    min_clusters: int = 4
+    floor: float = MODEL_FLOOR
+    min_shrink: float = 0.1
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A change the workflow made to the model, with the evidence for it.
+
+    Attributes
+    ----------
+    name : str
+        Term name of the simulation library.
+    change : str
+        ``"added"``, ``"increased"``, ``"decreased"`` or ``"replaced"``.
+    params, stderr : dict
+        The term's keys (units in the names) as put in the model, and standard errors of
+        the fitted ones.
+    tau_range_s : tuple of float
+        Taus (s) where the change moves the model's Allan variance by 20 % or more.
+    delta_bic : float
+        Its Delta BIC (C2).
+    gap_before, gap_after : float
+        G before and after the change.
+    evidence : str
+        The time-series confirmation, when the effect has one.
+    events : tuple of (float, float)
+        For bias steps: (time in s, size in deg/h) of each step located.
+    """
+
+    name: str
+    change: str
+    params: dict[str, float]
+    stderr: dict[str, float]
+    tau_range_s: tuple[float, float]
+    delta_bic: float
+    gap_before: float
+    gap_after: float
+    evidence: str = ""
+    events: tuple[tuple[float, float], ...] = ()
+
+    def as_json(self) -> dict[str, object]:
+        """JSON form: name, params, tau_range_s, and the rest of the evidence."""
+        return {"name": self.name, "change": self.change, "params": dict(self.params),
+                "stderr": dict(self.stderr), "tau_range_s": list(self.tau_range_s),
+                "delta_bic": self.delta_bic, "gap_before": self.gap_before,
+                "gap_after": self.gap_after, "evidence": self.evidence,
+                **({"steps": [{"time_s": t, "size_deg_h": z} for t, z in self.events]} if self.events else {})}
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One candidate tried in a round and what became of it."""
+
+    name: str
+    mode: str
+    delta_bic: float
+    outcome: str
+
+
+@dataclass(frozen=True)
+class ReconcileRound:
+    """One pass of the loop: the comparison it started from and the candidates it tried."""
+
+    comparison: Comparison
+    attempts: tuple[Attempt, ...] = ()
+
+
+@dataclass(frozen=True)
+class ReconcileResult:
+    """Everything :func:`reconcile` did, step by step.
+
+    Attributes
+    ----------
+    curve : MeasuredCurve
+        The measured record and its Allan variance on the grid.
+    before, after : Comparison
+        The starting model and the reconciled model against the curve.
+    effects : tuple of Effect
+        Missing effects, in the order they were added (more of a term counts as missing).
+    excess : tuple of Effect
+        Terms the model has more of than the data show.
+    rounds : tuple of ReconcileRound
+    options : ReconcileOptions
+    """
+
+    curve: MeasuredCurve
+    before: Comparison
+    after: Comparison
+    effects: tuple[Effect, ...]
+    excess: tuple[Effect, ...]
+    rounds: tuple[ReconcileRound, ...]
+    options: ReconcileOptions = field(default_factory=ReconcileOptions)
+
+    @property
+    def gap_before(self) -> float:
+        """G of the starting model."""
+        return self.before.gap
+
+    @property
+    def gap_after(self) -> float:
+        """G of the reconciled model."""
+        return self.after.gap
+
+    @property
+    def model_before(self) -> NoiseModel:
+        """The starting model."""
+        return self.before.model
+
+    @property
+    def model_after(self) -> NoiseModel:
+        """The reconciled model."""
+        return self.after.model
+
+    def as_json(self) -> dict[str, object]:
+        """The JSON of the ``station reconcile --json`` interface (plus diagnostics)."""
+        return {
+            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "effects": [e.as_json() for e in self.effects],
+            "model_after": self.model_after.to_tables(),
+            "excess_terms": [e.as_json() for e in self.excess],
+            "p_before": self.before.p_value, "p_after": self.after.p_value,
+            "outside_band_before": [list(r) for r in self.before.outside],
+            "outside_band_after": [list(r) for r in self.after.outside],
+            "sample_rate_hz": self.curve.sample_rate_hz, "decimation": self.curve.decimation,
+            "n_samples": self.curve.n_samples, "mc_runs": self.options.runs,
+            "gap_threshold": self.before.gap_null.quantile(1.0 - self.options.alpha),
+        }
+
+
+def _apply(model: NoiseModel, term: NoiseTerm, old: NoiseTerm | None) -> NoiseModel:
+    """The model with ``term``; a term refitted to (almost) nothing is removed."""
+    if old is not None:
+        key = SCALE_KEYS[term.name]
+        if abs(getattr(term, key)) < 1e-3 * abs(getattr(old, key)):
+            return model.without_term(term.name)
+    return model.with_term(term)
+
+
+def _effect(fit: CandidateFit, term: NoiseTerm, change: str, ev: Evidence | None, before: Comparison,
+            after: Comparison, curve: MeasuredCurve) -> Effect:
+    stderr = {k: v for k, v in fit.stderr.items() if math.isfinite(v)}
+    if ev is not None:
+        stderr.update(ev.stderr)
+    return Effect(
+        name=fit.name, change=change, params=term.to_table(), stderr=stderr,
+        tau_range_s=tau_range(before.model_avar, after.model_avar, curve.tau_s),
+        delta_bic=fit.delta_bic, gap_before=before.gap, gap_after=after.gap,
+        evidence="" if ev is None else ev.statistic,
+        events=tuple((t, rate_deg_s_to_deg_h(z)) for t, z in zip(ev.times_s, ev.sizes_deg_s, strict=True))
+        if isinstance(ev, StepEvidence) else (),
+    )
+
+
+# -------------------------------------------------------------------------------- the loop
+
+#: Candidates within this Delta BIC of the best are not told apart by the curve ("positive"
+#: evidence at most on the Kass-Raftery scale); among them the simpler goes first.
+INDISTINCT_BIC = 6.0
+#: Candidates whose time-series test singles them out (a periodogram line, located steps, a
+#: correlation with the temperature): when confirmed they are tried first. Not the rate
+#: ramp: a trend in one record is as much a random walk's as a ramp's.
+TIME_SERIES_TESTED = frozenset({"sinusoid", "bias_steps", "temperature_bias"})
+#: Share of the best Delta BIC a confirmed candidate needs to go first.
+CONFIRMED_SHARE = 0.5
+
+
+def _ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve, opt: ReconcileOptions,
+            steps: NDArray[np.float64] | None) -> list[tuple[CandidateFit, str, tuple]]:
+    """Candidates above the threshold with their confirmation, in the order they are tried.
+
+    First the candidates the time series confirms (``TIME_SERIES_TESTED``) that explain at
+    least ``CONFIRMED_SHARE`` of the best one's Delta BIC, then those within
+    ``INDISTINCT_BIC`` of the best by their number of parameters (the curve cannot tell
+    them apart, so the simpler explanation is tried first), then the rest; by Delta BIC
+    within each group.
+    """
+    fits = [f for f in fit_candidates(current.model, curve, current, steps=steps)
+            if f.delta_bic >= opt.bic_threshold]
+    if not fits:
+        return []
+    best = fits[0].delta_bic
+    rows = []
+    for fit in fits:
+        change = change_of(fit, current.model, curve)
+        verdict = evidence.confirm(fit, change)
+        close = fit.delta_bic >= best - INDISTINCT_BIC
+        confirmed = fit.name in TIME_SERIES_TESTED and verdict[0] is not None and change != "decreased"
+        strong = fit.delta_bic >= CONFIRMED_SHARE * best
+        rank = (0, 0) if confirmed and strong else ((1, fit.n_params) if close else (2, 0))
+        rows.append((rank, -fit.delta_bic, fit, change, verdict))
+    rows.sort(key=lambda r: (r[0], r[1]))
+    return [(fit, change, verdict) for _, _, fit, change, verdict in rows]
+
+
+
+
+def reconcile_curve(
+    curve: MeasuredCurve, model: NoiseModel, *, options: ReconcileOptions | None = None,
+    cache: ComparisonCache | None = None,
+) -> ReconcileResult:
+    """Run the compare / name / add-and-re-check loop on a measured curve (see the module docstring)."""
+    opt = options or ReconcileOptions()
+    cache = cache if cache is not None else ComparisonCache()
+
+    known: dict[str, NDArray[np.float64]] = {}
+
+    def comparison_of(m: NoiseModel, extra: dict[str, NDArray[np.float64]] | None = None) -> Comparison:
+        realized = {k: v for k, v in {**known, **(extra or {})}.items() if k in m}
+        return compare(curve, m, runs=opt.runs, seed=opt.seed, cache=cache, known=realized)
+
+    current = first = comparison_of(model)
+    changes: list[Effect] = []
+    rounds: list[ReconcileRound] = []
+    while current.significant(opt.alpha) and len(changes) < opt.max_effects:
+        evidence = RoundEvidence(curve, current, known)
+        attempts: list[Attempt] = []
+        accepted = None
+        steps = evidence.step_series()
+        for fit, change, (term, ev, refusal) in _ranked(evidence, current, curve, opt, steps):
+            if len(attempts) >= opt.max_tries:
+                break
+            if term is None:
+                attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic, f"refused: {refusal}"))
+                continue
+            extra = {"bias_steps": steps} if fit.name == "bias_steps" and steps is not None else None
+            trial = comparison_of(_apply(current.model, term, current.model.get(fit.name)), extra)
+            needed = min(current.gap - opt.shrink_sigmas * current.gap_null.std,
+                         (1.0 - opt.min_shrink) * current.gap)
+            if not trial.gap < needed:
+                attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic,
+                                        f"refused: gap {current.gap:.3g} -> {trial.gap:.3g}, "
+                                        f"not below {needed:.3g}"))
+                continue
+            attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic,
+                                    f"accepted: gap {current.gap:.3g} -> {trial.gap:.3g}"))
+            accepted = (_effect(fit, term, change, ev, current, trial, curve), trial)
+            known.update(extra or {})
+            break
+        rounds.append(ReconcileRound(current, tuple(attempts)))
+        if accepted is None:
+            break
+        effect, current = accepted
+        changes.append(effect)
+        dropped = _drop_superseded(changes, current, comparison_of, opt)
+        if dropped is not None:
+            gone, current = dropped
+            changes.remove(gone)
+            changes[-1] = replace(changes[-1], gap_after=current.gap)
+            known.pop(gone.name, None)
+            rounds[-1] = replace(rounds[-1], attempts=(*rounds[-1].attempts, Attempt(
+                gone.name, "drop", 0.0, f"dropped: not needed once {effect.name} is in the model "
+                f"(gap without it {current.gap:.3g})")))
+    if not rounds or rounds[-1].comparison is not current:
+        rounds.append(ReconcileRound(current))
+    effects, excess = _merged(changes, first, current, curve)
+    return ReconcileResult(curve=curve, before=first, after=current, effects=effects,
+                           excess=excess, rounds=tuple(rounds), options=opt)
+
+
+def _drop_superseded(changes: list[Effect], current: Comparison, comparison_of, opt: ReconcileOptions
+                     ) -> tuple[Effect, Comparison] | None:
+    """The re-check after an addition: an earlier added effect the model no longer needs.
+
+    Each term added before the latest one is taken out in turn; it is dropped (the first
+    such) when the model without it agrees with the data (``p >= alpha``) and its gap is
+    not significantly larger (less than ``shrink_sigmas`` null standard deviations above):
+    e.g. a slow sinusoid that stood in for part of a random walk before the walk was added.
+    """
+    for e in changes[:-1]:
+        if e.change != "added" or e.name not in current.model:
+            continue
+        trial = comparison_of(current.model.without_term(e.name))
+        if (not trial.significant(opt.alpha)
+                and trial.gap < current.gap + opt.shrink_sigmas * current.gap_null.std):
+            return e, trial
+    return None
+
+
+def _merged(changes: list[Effect], first: Comparison, last: Comparison,
+            curve: MeasuredCurve) -> tuple[tuple[Effect, ...], tuple[Effect, ...]]:
+    """One effect per term: a term changed twice (refitted after another effect was added)
+    is reported once, with its final values and its change against the starting model."""
+    by_name: dict[str, Effect] = {}
+    for e in changes:
+        prior = by_name.get(e.name)
+        if prior is None:
+            by_name[e.name] = e
+            continue
+        original = first.model.get(e.name)
+        change = "added"
+        before = np.zeros(curve.tau_s.shape)
+        after = term_type(e.name)(**e.params).avar(curve.tau_s, duration_s=curve.duration_s)
+        if original is not None:
+            before = original.avar(curve.tau_s, duration_s=curve.duration_s)
+            change = ("decreased" if np.all(after <= before * (1 + 1e-9)) else
+                      "increased" if np.all(after >= before * (1 - 1e-9)) else "replaced")
+        span = tau_range(first.model_avar, first.model_avar - before + after, curve.tau_s)
+        by_name[e.name] = replace(e, change=change, gap_before=prior.gap_before, tau_range_s=span,
+                                  delta_bic=prior.delta_bic + e.delta_bic,
+                                  evidence=e.evidence or prior.evidence)
+    merged = list(by_name.values())
+    return (tuple(e for e in merged if e.change != "decreased"),
+            tuple(e for e in merged if e.change == "decreased"))
+
+
+def reconcile(
+    rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel, *,
+    temperature_c: ArrayLike | None = None, options: ReconcileOptions | None = None,
+    cache: ComparisonCache | None = None,
+) -> ReconcileResult:
+    """Reconcile a noise model with one axis of a measured record.
+
+    Parameters
+    ----------
+    rate_deg_s : array_like, shape (n,)
+        Measured rate in deg/s.
+    sample_rate_hz : float
+        Sample rate in Hz.
+    model : NoiseModel
+        The model to check (e.g. a data-sheet FOG model, or a fit's result).
+    temperature_c : array_like, optional
+        Temperature channel in degC (enables the ``temperature_bias`` candidate).
+    options : ReconcileOptions, optional
+        Thresholds and Monte Carlo settings.
+    cache : ComparisonCache, optional
+        Memo of simulated bands, shared between calls on records of one length.
+
+    Returns
+    -------
+    ReconcileResult
+
+    Raises
+    ------
+    ReconcileError
+        Record too short for the grid, several axes, a model without noise.
+    NonFiniteSamplesError, InvalidSampleRateError
+        Bad input samples or rate.
+    """
+    opt = options or ReconcileOptions()
+    curve = measure_curve(rate_deg_s, sample_rate_hz, temperature_c=temperature_c,
+                          max_samples=opt.max_samples, points_per_octave=opt.points_per_octave,
+                          min_clusters=opt.min_clusters, floor=opt.floor)
+    return reconcile_curve(curve, model, options=opt, cache=cache)
+
+
+def term_avar(result: ReconcileResult, name: str) -> NDArray[np.float64]:
+    """Allan variance (deg/s)^2 on the grid of the reconciled model's term ``name`` (zeros if absent)."""
+    term = result.model_after.get(name)
+    if term is None:
+        return np.zeros(result.curve.tau_s.shape)
+    return term.avar(result.curve.tau_s, duration_s=result.curve.duration_s)
+
+
+__all__ = ["Attempt", "Effect", "ReconcileOptions", "ReconcileResult", "ReconcileRound", "reconcile",
+           "reconcile_curve", "term_avar"]

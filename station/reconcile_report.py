@@ -1,0 +1,128 @@
+"""Reports of ``station reconcile``: the text account of each step and the Allan-deviation figure.
+
+The figure (matplotlib, Agg backend, no display) shows per axis the measured Allan
+deviation with its confidence band, the model before and after with their Monte Carlo
+bands, and the contribution of each named effect (and of each excess term, before and
+after), all in deg/h.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from analysis.confidence import ONE_SIGMA, chi2_interval  # noqa: E402
+from analysis.discrepancy import Comparison  # noqa: E402
+from analysis.reconcile import Effect, ReconcileResult, term_avar  # noqa: E402
+from analysis.units import S_PER_H  # noqa: E402
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.4g}"
+
+
+def _params(effect: Effect) -> str:
+    parts = []
+    for key, value in effect.params.items():
+        err = effect.stderr.get(key)
+        parts.append(f"{key} = {_fmt(value)}" + (f" +- {_fmt(err)}" if err is not None else ""))
+    return ", ".join(parts)
+
+
+def _ranges(comparison: Comparison) -> str:
+    if not comparison.outside:
+        return "inside the simulated band at every tau"
+    spans = [f"{side} it at {_fmt(lo)}-{_fmt(hi)} s" for lo, hi, side in comparison.outside]
+    return "measured curve " + "; ".join(spans)
+
+
+def _comparison_line(label: str, comparison: Comparison, alpha: float) -> str:
+    terms = ", ".join(comparison.model.term_names) or "(no terms)"
+    verdict = "disagrees" if comparison.significant(alpha) else "agrees"
+    return (f"{label}: [{terms}]  gap G = {_fmt(comparison.gap)} (p = {comparison.p_value:.2g}, "
+            f"{100 * (1 - alpha):g} % of the model's runs below {_fmt(comparison.gap_null.quantile(1 - alpha))}): "
+            f"{verdict}; {_ranges(comparison)}")
+
+
+def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
+    """The text report of one axis: comparison, each round's candidates, effects, the model after."""
+    c, opt = result.curve, result.options
+    decimated = f", decimated by {c.decimation}" if c.decimation > 1 else ""
+    lines = [
+        f"reconcile {label}: {c.n_samples} samples at {c.sample_rate_hz:g} Hz "
+        f"({c.duration_s / S_PER_H:.3g} h{decimated}), "
+        f"{len(c.tau_s)} taus {_fmt(c.tau_s[0])}-{_fmt(c.tau_s[-1])} s, {opt.runs} Monte Carlo runs (seed {opt.seed})",
+        _comparison_line("model before", result.before, opt.alpha),
+    ]
+    for i, rnd in enumerate(result.rounds, start=1):
+        if not rnd.attempts:
+            continue
+        lines.append(f"round {i}: candidates with Delta BIC >= {opt.bic_threshold:g}, best first")
+        for a in rnd.attempts:
+            lines.append(f"  {a.name:<17} ({a.mode}) Delta BIC {a.delta_bic:8.1f}  {a.outcome}")
+    if result.before.significant(opt.alpha) and not result.effects and not result.excess:
+        lines.append("no candidate effect shrinks the gap significantly")
+    for title, effects in (("missing effects", result.effects), ("excess terms (the data show less)", result.excess)):
+        lines.append(f"{title}: {'none' if not effects else ''}".rstrip())
+        for e in effects:
+            lines.append(f"  {e.name} ({e.change}): {_params(e)}")
+            lines.append(f"    explains tau {_fmt(e.tau_range_s[0])}-{_fmt(e.tau_range_s[1])} s; gap "
+                         f"{_fmt(e.gap_before)} -> {_fmt(e.gap_after)}; Delta BIC {e.delta_bic:.1f}"
+                         + (f"; {e.evidence}" if e.evidence else ""))
+    lines.append(_comparison_line("model after", result.after, opt.alpha))
+    lines.append("model after (TOML):")
+    lines.extend("  " + line for line in result.model_after.to_toml().splitlines())
+    return "\n".join(lines)
+
+
+def _effect_curves(result: ReconcileResult) -> list[tuple[str, np.ndarray, str]]:
+    tau, dur = result.curve.tau_s, result.curve.duration_s
+    out = []
+    for e in result.effects:
+        out.append((f"{e.name} ({e.change})", term_avar(result, e.name), ":"))
+    for e in result.excess:
+        old = result.model_before.get(e.name)
+        if old is not None:
+            out.append((f"{e.name} in model before", old.avar(tau, duration_s=dur), "--"))
+        out.append((f"{e.name} as the data show", term_avar(result, e.name), ":"))
+    return out
+
+
+def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | Path) -> Path:
+    """PNG of each axis: measured curve and band, model before and after with bands, effects."""
+    path = Path(path)
+    fig, axes = plt.subplots(len(results), 1, figsize=(8.5, 5.2 * len(results)), dpi=110, squeeze=False)
+    for ax, (label, res) in zip(axes[:, 0], results, strict=True):
+        c = res.curve
+        tau, k = c.tau_s, S_PER_H
+        low, high = chi2_interval(c.avar, c.precision.edf, ONE_SIGMA)
+        ax.fill_between(tau, np.sqrt(low) * k, np.sqrt(high) * k, color="k", alpha=0.15, lw=0)
+        ax.loglog(tau, np.sqrt(c.avar) * k, "ko-", ms=2.5, lw=1, label="measured (1-sigma band)")
+        for name, comp, color in (("model before", res.before, "tab:red"), ("model after", res.after, "tab:blue")):
+            if name == "model after" and comp is res.before:
+                continue
+            ax.fill_between(tau, np.sqrt(comp.band.low) * k, np.sqrt(comp.band.high) * k, color=color,
+                            alpha=0.15, lw=0)
+            ax.loglog(tau, np.sqrt(comp.model_avar) * k, "-", color=color, lw=1.6,
+                      label=f"{name}, G = {comp.gap:.3g} (95 % simulated band)")
+        for (name, avar, style), color in zip(_effect_curves(res), plt.cm.Dark2.colors, strict=False):
+            if np.any(avar > 0):
+                ax.loglog(tau, np.sqrt(np.maximum(avar, 1e-300)) * k, style, color=color, lw=1.4, label=name)
+        floor = float(np.min(np.sqrt(low))) * k / 5
+        ceiling = float(np.max(np.sqrt(np.maximum(high, res.before.band.high)))) * k * 2
+        ax.set_ylim(floor, ceiling)
+        ax.set_xlabel("averaging time tau [s]")
+        ax.set_ylabel("Allan deviation [deg/h]")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_title(f"reconcile {label}".strip(), fontsize=10)
+        ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
