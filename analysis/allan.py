@@ -40,8 +40,31 @@ InputKind = Literal["rate", "angle_increment"]
 TauGrid = Literal["log", "octave", "all"]
 
 
+class AllanDeviationMixin:
+    """Allan deviation views of a result holding ``avar``, ``ci_low`` and ``ci_high``."""
+
+    avar: NDArray[np.float64]
+    ci_low: NDArray[np.float64]
+    ci_high: NDArray[np.float64]
+
+    @property
+    def adev(self) -> NDArray[np.float64]:
+        """Allan deviation, in the input unit (e.g. deg/s)."""
+        return np.sqrt(self.avar)
+
+    @property
+    def adev_ci_low(self) -> NDArray[np.float64]:
+        """Lower confidence bound of the Allan deviation (input unit)."""
+        return np.sqrt(self.ci_low)
+
+    @property
+    def adev_ci_high(self) -> NDArray[np.float64]:
+        """Upper confidence bound of the Allan deviation (input unit)."""
+        return np.sqrt(self.ci_high)
+
+
 @dataclass(frozen=True)
-class AllanResult:
+class AllanResult(AllanDeviationMixin):
     """Allan variance at a set of averaging times.
 
     Attributes
@@ -84,21 +107,6 @@ class AllanResult:
     estimator: str
     sample_rate_hz: float
     n_samples: int
-
-    @property
-    def adev(self) -> NDArray[np.float64]:
-        """Allan deviation, in the input unit (e.g. deg/s)."""
-        return np.sqrt(self.avar)
-
-    @property
-    def adev_ci_low(self) -> NDArray[np.float64]:
-        """Lower confidence bound of the Allan deviation (input unit)."""
-        return np.sqrt(self.ci_low)
-
-    @property
-    def adev_ci_high(self) -> NDArray[np.float64]:
-        """Upper confidence bound of the Allan deviation (input unit)."""
-        return np.sqrt(self.ci_high)
 
     @property
     def relative_error(self) -> NDArray[np.float64]:

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from analysis import kernels
 from analysis.allan import (
     ONE_SIGMA,
+    AllanDeviationMixin,
     InputKind,
     TauGrid,
     as_samples,
@@ -49,7 +50,7 @@ from analysis.kernels import Backend
 
 
 @dataclass(frozen=True)
-class DavarResult:
+class DavarResult(AllanDeviationMixin):
     """Dynamic Allan variance: one Allan curve per window position.
 
     Attributes
@@ -97,21 +98,6 @@ class DavarResult:
     step_samples: int
     sample_rate_hz: float
     n_samples: int
-
-    @property
-    def adev(self) -> NDArray[np.float64]:
-        """Allan deviation per window and tau, in the input unit (e.g. deg/s)."""
-        return np.sqrt(self.avar)
-
-    @property
-    def adev_ci_low(self) -> NDArray[np.float64]:
-        """Lower confidence bound of the Allan deviation (input unit)."""
-        return np.sqrt(self.ci_low)
-
-    @property
-    def adev_ci_high(self) -> NDArray[np.float64]:
-        """Upper confidence bound of the Allan deviation (input unit)."""
-        return np.sqrt(self.ci_high)
 
     @property
     def window_s(self) -> float:
