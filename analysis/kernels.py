@@ -198,8 +198,6 @@ def _window_sums_numpy(
         out[i] = suffix[starts] + prefix.ravel()[starts + n_terms]
     return out.T
 
-    return out
-
 
 def window_sums(
     theta: NDArray[np.float64],
@@ -251,10 +249,12 @@ def window_sums(
         return _window_sums_numpy(theta, m_arr, starts, window)
     out = np.empty((len(starts), len(m_arr)))
     # Few windows per window length: sum segments between window edges once each;
-    # many (small steps): slide one compensated sum.
+    # many (small steps): block prefix and suffix sums, one pass each.
     shortest_step = int(np.diff(starts).min()) if len(starts) > 1 else window
     if window <= _SEGMENTS_MAX_OVERLAP * shortest_step:
         kernels.window_sums_segments(theta, m_arr, starts, window, out)
     else:
-        kernels.window_sums(theta, m_arr, starts, window, out)
+        by_m = np.empty((len(m_arr), len(starts)))
+        kernels.window_sums(theta, m_arr, starts, window, by_m)
+        out[:] = by_m.T
     return out

@@ -41,52 +41,46 @@ def oadev_sums(theta_t, m_values, out):
         out[i, c] = oadev_one(theta_t[c], m_values[i])
 
 
-@numba.njit(inline="always")
-def _term(theta, k, m):
-    d = theta[k + 2 * m] - 2.0 * theta[k + m] + theta[k]
-    return d * d
-
-
-@numba.njit(inline="always")
-def _add(acc, comp, x):
-    """Neumaier's compensated addition: returns the new sum and its running correction."""
-    t = acc + x
-    if abs(acc) >= abs(x):
-        comp += (acc - t) + x
-    else:
-        comp += (x - t) + acc
-    return t, comp
-
-
 @numba.njit(parallel=True, cache=True)
 def window_sums(theta, m_values, starts, window, out):
-    """``out[j, i]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
+    """``out[i, j]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
 
-    One m per job; the window slides by adding the terms that enter and subtracting the
-    ones that leave (Zhang 2015, eq. 17) in a compensated sum, so the result keeps about
-    1e-16 of the window sum however many steps it took. A jump of a whole window or more
-    restarts the sum.
+    ``out`` is (n_m, n_windows), so each m writes one contiguous row. The scheme of the
+    numpy kernel, fused: the terms are cut into blocks of one window's
+    length ``L``; within each block a prefix sum and a suffix sum restart at its edges, so a
+    window (which spans at most two blocks) is one block's suffix plus the next block's
+    prefix: no subtraction of large running sums (the float64 trap of Zhang 2015, eq. 17),
+    and each partial sum holds at most L positive terms. One m per job.
     """
     n_starts = starts.shape[0]
     for i in numba.prange(m_values.shape[0]):
         m = m_values[i]
         n_terms = window + 1 - 2 * m
+        lo = (starts[0] // n_terms) * n_terms
+        size = starts[n_starts - 1] + n_terms - lo
+        d = np.empty(size)
+        for idx in range(size):
+            k = lo + idx
+            x = theta[k + 2 * m] - 2.0 * theta[k + m] + theta[k]
+            d[idx] = x * x
+        prefix = np.empty(size + 1)  # sum of the block's terms before idx
+        suffix = np.empty(size)  # sum of the block's terms from idx on
         acc = 0.0
-        comp = 0.0
-        pos = starts[0]
+        for block in range(0, size, n_terms):
+            end = min(block + n_terms, size)
+            acc = 0.0
+            for idx in range(block, end):
+                prefix[idx] = acc
+                acc += d[idx]
+            back = 0.0
+            for idx in range(end - 1, block - 1, -1):
+                back += d[idx]
+                suffix[idx] = back
+        prefix[size] = acc if size % n_terms != 0 else 0.0
+        row = out[i]  # out is (n_m, n_windows): one contiguous row per m
         for j in range(n_starts):
-            new = starts[j]
-            if j == 0 or new - pos >= n_terms:
-                acc = 0.0
-                comp = 0.0
-                for k in range(new, new + n_terms):
-                    acc, comp = _add(acc, comp, _term(theta, k, m))
-            else:
-                for k in range(pos, new):
-                    acc, comp = _add(acc, comp, _term(theta, k + n_terms, m))
-                    acc, comp = _add(acc, comp, -_term(theta, k, m))
-            pos = new
-            out[j, i] = acc + comp
+            r = starts[j] - lo
+            row[j] = suffix[r] + prefix[r + n_terms]
 
 
 @numba.njit(fastmath={"reassoc", "contract"})
