@@ -1,0 +1,1 @@
+"""``station tui``: the Textual terminal user interface (see :mod:`station.tui.app`)."""

@@ -1,0 +1,237 @@
+"""The station's terminal user interface: set up a run, watch it live, read its spec sheet.
+
+Screens, one concept each: :class:`~station.tui.setup_screen.SetupScreen` (the base),
+:class:`~station.tui.live_screen.LiveScreen`, :class:`~station.tui.spec_screen.SpecSheetScreen`,
+:class:`~station.tui.browse_screens.RunsScreen` and
+:class:`~station.tui.browse_screens.ResultsScreen`. Screens post messages up; the app
+starts recorders (detached processes, :mod:`station.tui.launcher`) and pushes screens;
+each screen's state flows down from reactive attributes that its workers set.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from textual import on, work
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.worker import get_current_worker
+
+from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
+from station.tui.launcher import (
+    RecorderProcess,
+    RunRequest,
+    find_active_runs,
+    start_recorder,
+    wait_for_run_file,
+)
+from station.tui.live_screen import LiveScreen
+from station.tui.messages import explain
+from station.tui.setup_screen import SetupScreen
+from station.tui.spec_screen import SpecSheetScreen
+
+CSS = """
+.row { height: 3; }
+.label { width: 12; padding: 1 1 0 0; }
+.label2 { width: auto; padding: 1 1 0 1; }
+.short { width: 1fr; }
+.small { min-width: 8; width: auto; }
+#url, #runs_dir, #path { width: 1fr; }
+#profile { width: 1fr; }
+SetupScreen #units { height: 1fr; min-height: 4; }
+#hint { height: auto; color: $text-muted; padding: 0 1; }
+#run-title { height: 1; padding: 0 1; }
+#progress-row { height: 1; padding: 0 1; }
+#progress { width: auto; }
+#times { width: 1fr; padding: 0 0 0 1; }
+LiveScreen #units { height: 2; overflow-x: hidden; }
+#plots { height: 1fr; }
+#grade { width: 1fr; padding: 1 1 0 1; }
+SpecSheetScreen #profile { width: 24; }
+#tabs { height: 1fr; }
+#exports { height: 3; }
+#exports Button { min-width: 10; width: auto; margin: 0 1 0 0; }
+#exported { width: 1fr; padding: 1 1 0 1; }
+#verdict { width: 22; }
+#yield { height: auto; padding: 0 1; }
+ConfirmScreen { align: center middle; }
+#dialog { width: 70; height: 8; border: thick $error; background: $surface; padding: 0 1; }
+#question { width: 1fr; padding: 1 0; }
+#answers { height: 3; align-horizontal: center; }
+#answers Button { margin: 0 2; }
+"""
+
+
+@dataclass(frozen=True)
+class TuiSettings:
+    """Where the TUI keeps things and how it behaves.
+
+    Attributes
+    ----------
+    runs_dir : Path
+        Folder of the run files (new runs go here; reattaching looks here).
+    reports_dir : Path
+        Folder the exported reports go to.
+    db_path : Path or None
+        Results database (None: gradings are not stored).
+    check_units : bool
+        Check that each unit answers when it is added.
+    poll_s : float
+        Time between reads of a live run file, s.
+    attach : bool
+        At start, attach to a run in progress found in ``runs_dir``.
+    """
+
+    runs_dir: Path = Path("runs")
+    reports_dir: Path = Path("reports")
+    db_path: Path | None = None
+    check_units: bool = True
+    poll_s: float = 1.0
+    attach: bool = True
+
+
+def crash_log_path(runs_dir: Path) -> Path:
+    """Where an unexpected error's traceback is written: the runs folder, else /tmp."""
+    import tempfile
+
+    folder = runs_dir if runs_dir.is_dir() else Path(tempfile.gettempdir())
+    return folder / "station-tui-crash.log"
+
+
+@dataclass
+class _Recorders:
+    """Recorders this TUI started (they outlive it; kept to reap them and for tests)."""
+
+    started: list[RecorderProcess] = field(default_factory=list)
+
+
+class StationApp(App[None]):
+    """``station tui``."""
+
+    TITLE = "Gyro station"
+    CSS = CSS
+    ENABLE_COMMAND_PALETTE = False  # the footer shows every binding; it needs the room
+    BINDINGS = [
+        Binding("f2", "new_run", "New run"),
+        Binding("f3", "results", "Results"),
+        Binding("f4", "runs", "Runs"),
+        Binding("ctrl+q", "quit", "Quit", priority=True),
+    ]
+
+    def __init__(self, settings: TuiSettings | None = None) -> None:
+        super().__init__()
+        self.settings = settings or TuiSettings()
+        self.recorders = _Recorders()
+        #: Set when the app ended on an unexpected error (what to tell the operator).
+        self.crash_message = ""
+
+    def _fatal_error(self) -> None:
+        """An unexpected error (a bug): the traceback goes to a log file, not the screen.
+
+        Overrides Textual's handler, which prints the traceback with its locals. The
+        recorder is another process: a run in progress goes on.
+        """
+        import traceback
+
+        log = crash_log_path(self.settings.runs_dir)
+        try:
+            with log.open("a", encoding="utf-8") as f:
+                f.write(traceback.format_exc())
+            where = f"the details are in {log}"
+        except OSError:
+            where = "no log could be written"
+        self.crash_message = (f"station tui stopped on an unexpected error (a bug: please "
+                              f"report it; {where}). A run in progress goes on recording: "
+                              f"reopen `station tui` to reattach.")
+        self._close_messages_no_wait()
+
+    def compose(self) -> ComposeResult:
+        """Nothing on the default screen: the set-up screen is pushed at once."""
+        return iter(())
+
+    def on_mount(self) -> None:
+        """Show the set-up screen and look for a run in progress."""
+        self.push_screen(SetupScreen(self.settings.runs_dir,
+                                     check_units=self.settings.check_units))
+        if self.settings.attach:
+            self._find_active()
+
+    @work(thread=True, exit_on_error=False)
+    def _find_active(self) -> None:
+        try:
+            active = find_active_runs(self.settings.runs_dir)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.call_from_thread(self.notify, explain(exc, "looking for runs in progress"),
+                                  severity="warning")
+            return
+        if active:
+            self.call_from_thread(self._attach, active)
+
+    def _attach(self, active: list[Path]) -> None:
+        self.push_screen(LiveScreen(active[0], poll_s=self.settings.poll_s))
+        more = f" ({len(active) - 1} more: F4)" if len(active) > 1 else ""
+        self.notify(f"Reattached to the run in progress {active[0].name}{more}. Quitting the "
+                    f"TUI does not stop it.", title="Run in progress", timeout=10)
+
+    # -- screens -----------------------------------------------------------------------
+    def action_new_run(self) -> None:
+        """Back to the set-up screen."""
+        while len(self.screen_stack) > 2:
+            self.pop_screen()
+
+    def action_results(self) -> None:
+        """The results database browser."""
+        from station.results import default_database_path
+
+        self.push_screen(ResultsScreen(self.settings.db_path or default_database_path()))
+
+    def action_runs(self) -> None:
+        """The run files of the runs folder."""
+        self.push_screen(RunsScreen(self.settings.runs_dir))
+
+    def open_spec_sheet(self, path: Path, *, profile: str | None = None,
+                        unit: str | None = None) -> None:
+        """Push the spec sheet of a stored run."""
+        self.push_screen(SpecSheetScreen(path, self.settings.reports_dir, self.settings.db_path,
+                                         profile=profile, unit=unit))
+
+    @on(RunChosen)
+    def _run_chosen(self, message: RunChosen) -> None:
+        if message.recording:
+            self.push_screen(LiveScreen(message.path, poll_s=self.settings.poll_s))
+        else:
+            self.open_spec_sheet(message.path, profile=message.profile, unit=message.unit)
+
+    @on(LiveScreen.SpecSheetRequested)
+    def _spec_requested(self, message: LiveScreen.SpecSheetRequested) -> None:
+        self.open_spec_sheet(message.path)
+
+    # -- starting a run ----------------------------------------------------------------
+    @on(SetupScreen.StartRequested)
+    def _start_requested(self, message: SetupScreen.StartRequested) -> None:
+        self.notify(f"Starting the recorder for {len(message.request.urls)} unit(s): it "
+                    f"opens and checks each unit first...", title="New run")
+        self._start(message.request)
+
+    @work(thread=True, exclusive=True, group="start", exit_on_error=False)
+    def _start(self, request: RunRequest) -> None:
+        try:
+            from station.recorder import parse_duration
+
+            parse_duration(request.duration)
+            process = start_recorder(request)
+            self.recorders.started.append(process)
+            worker = get_current_worker()
+            wait_for_run_file(process, cancelled=lambda: worker.is_cancelled)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.call_from_thread(self.notify, explain(exc, "The run did not start"),
+                                  severity="error", timeout=30)
+            return
+        self.call_from_thread(self._started, process)
+
+    def _started(self, process: RecorderProcess) -> None:
+        self.push_screen(LiveScreen(process.path, process, poll_s=self.settings.poll_s))
+        self.notify(f"Recording into {process.path} (recorder pid {process.pid}, log "
+                    f"{process.log_path.name}). It goes on if the TUI is closed.",
+                    title="Run started", timeout=10)

@@ -1,0 +1,273 @@
+"""The run set-up screen: profile, units (each checked), duration, operator, lot; start."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
+
+from textual import on, work
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal
+from textual.message import Message
+from textual.screen import Screen
+from textual.widgets import Button, DataTable, Footer, Header, Input, Label, Select, Static
+
+from station.tui.launcher import ProbeResult, RunRequest, probe_unit
+from station.tui.messages import explain
+
+#: The simulated unit F6 adds when the profile names no simulation: a VG951 FOG at 10 Hz.
+DEFAULT_SIM_URL = "sim+serial://VG951?protocol=stim300&rate=10"
+#: Time warp of the simulated units F6 adds (simulated seconds per wall second).
+SIM_WARP = 60
+_NO_PROFILE = "(none: simulated units only)"
+
+
+def anchored_model(url: str) -> str:
+    """``url`` with a relative ``model=`` file that does not exist from here made absolute
+    against the project folder (profiles name ``profiles/models/X.toml`` from there), so
+    that the TUI works from any folder."""
+    from station.profiles import PROFILE_DIR
+
+    parts = urlsplit(url)
+    query = dict(parse_qsl(parts.query, keep_blank_values=True))
+    model = query.get("model", "")
+    if not model.endswith(".toml") or Path(model).is_absolute() or Path(model).exists():
+        return url
+    anchored = PROFILE_DIR.parent / model
+    if not anchored.exists():
+        return url
+    query["model"] = str(anchored)
+    return urlunsplit(parts._replace(query=urlencode(query, safe="/:.")))
+
+
+def sim_url(base: str, seed: int, warp: float = SIM_WARP) -> str:
+    """``base`` (a ``sim+`` URL) with its ``seed`` (the serial number SIM-<seed>) and
+    ``warp`` set; a non-simulated ``base`` gives :data:`DEFAULT_SIM_URL`."""
+    if not base.startswith("sim+"):
+        base = DEFAULT_SIM_URL
+    parts = urlsplit(base)
+    query = dict(parse_qsl(parts.query, keep_blank_values=True))
+    query.update(seed=str(seed), warp=f"{warp:g}")
+    return urlunsplit(parts._replace(query=urlencode(query, safe="/:.")))
+
+
+def duration_text(seconds: float) -> str:
+    """A duration the recorder parses, short: ``2h``, ``90min``, ``45s``."""
+    for unit, size in (("h", 3600), ("min", 60)):
+        if seconds >= size and seconds % size == 0:
+            return f"{seconds / size:g}{unit}"
+    return f"{seconds:g}s"
+
+
+@dataclass(frozen=True)
+class ProfileChoice:
+    """What the set-up screen takes from a profile."""
+
+    name: str
+    duration_s: float
+    url: str
+    description: str
+
+
+class SetupScreen(Screen[None]):
+    """Set up a run and ask the app to start it (:class:`SetupScreen.StartRequested`).
+
+    Parameters
+    ----------
+    runs_dir : Path
+        Default folder of the run file.
+    check_units : bool
+        Check that each unit answers when it is added (a short recording in a separate
+        process).
+    """
+
+    BINDINGS = [
+        Binding("f5", "start", "Start run"),
+        Binding("f6", "add_sim", "Add sim unit"),
+        Binding("ctrl+d", "remove_unit", "Remove unit"),
+    ]
+
+    class StartRequested(Message):
+        """The operator asked for this run."""
+
+        def __init__(self, request: RunRequest) -> None:
+            super().__init__()
+            self.request = request
+
+    def __init__(self, runs_dir: Path, *, check_units: bool = True) -> None:
+        super().__init__()
+        self.runs_dir = runs_dir
+        self.check_units = check_units
+        self.units: list[str] = []
+        self.checks: dict[str, ProbeResult | None] = {}
+        self.profile: ProfileChoice | None = None
+
+    def compose(self) -> ComposeResult:
+        from station.profiles import available_profiles
+
+        yield Header()
+        with Horizontal(classes="row"):
+            yield Label("Profile", classes="label")
+            yield Select([(name, name) for name in available_profiles()], prompt=_NO_PROFILE,
+                         id="profile")
+        with Horizontal(classes="row"):
+            yield Label("Unit URL", classes="label")
+            yield Input(placeholder="serial:///dev/ttyUSB0?protocol=stim300 or sim+serial://...",
+                        id="url")
+            yield Button("Add", id="add", classes="small")
+        yield DataTable(id="units", cursor_type="row", zebra_stripes=True)
+        with Horizontal(classes="row"):
+            yield Label("Duration", classes="label")
+            yield Input("1h", placeholder="12h, 90min, 30s", id="duration", classes="short")
+            yield Label("Operator", classes="label2")
+            yield Input(placeholder="name", id="operator", classes="short")
+            yield Label("Lot", classes="label2")
+            yield Input(placeholder="lot", id="lot", classes="short")
+        with Horizontal(classes="row"):
+            yield Label("Runs folder", classes="label")
+            yield Input(str(self.runs_dir), id="runs_dir")
+            yield Button("Start", id="start", variant="success", classes="small")
+        yield Static("Enter a device URL and press Enter, or F6 for a simulated unit; "
+                     "F5 starts the run.", id="hint")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        """Set up the units table."""
+        self.sub_title = "New run"
+        table = self.query_one("#units", DataTable)
+        table.add_column("#", key="n", width=2)
+        table.add_column("device URL", key="url", width=38)
+        table.add_column("answers?", key="check")
+        self.query_one("#profile", Select).focus()
+
+    # -- profile -----------------------------------------------------------------------
+    @on(Select.Changed, "#profile")
+    def _profile_changed(self, event: Select.Changed) -> None:
+        self.profile = None
+        if isinstance(event.value, str):
+            self._load_profile(event.value)
+
+    @work(thread=True, exclusive=True, group="profile", exit_on_error=False)
+    def _load_profile(self, name: str) -> None:
+        from station.profiles import load_profile
+
+        try:
+            p = load_profile(name)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.app.call_from_thread(self.notify, explain(exc, f"reading profile {name}"),
+                                      severity="error", timeout=10)
+            return
+        choice = ProfileChoice(p.name, p.duration_s,
+                               anchored_model(str(p.transport.get("url", ""))), p.description)
+        self.app.call_from_thread(self._apply_profile, choice)
+
+    def _apply_profile(self, choice: ProfileChoice) -> None:
+        self.profile = choice
+        self.query_one("#duration", Input).value = duration_text(choice.duration_s)
+        url = self.query_one("#url", Input)
+        if choice.url and not url.value:
+            url.value = choice.url
+        self.query_one("#hint", Static).update(
+            f"{choice.name}: {choice.description}. Enter adds the URL above; F6 adds a "
+            f"simulated unit (x{SIM_WARP} time warp).")
+
+    # -- units -------------------------------------------------------------------------
+    @on(Input.Submitted, "#url")
+    @on(Button.Pressed, "#add")
+    def _add_from_input(self) -> None:
+        url_input = self.query_one("#url", Input)
+        if self.add_unit(url_input.value.strip()):
+            url_input.value = ""
+
+    def action_add_sim(self) -> None:
+        """Add a simulated unit (the profile's simulation if it has one)."""
+        base = self.profile.url if self.profile else DEFAULT_SIM_URL
+        self.add_unit(sim_url(base, seed=len(self.units) + 1))
+
+    def add_unit(self, url: str) -> bool:
+        """Add a unit by URL and start its check; False (and a notification) if refused."""
+        if not url:
+            self.notify("Type a device URL first (see `station devices` for examples), or "
+                        "press F6 for a simulated unit.", severity="warning")
+            return False
+        if "://" not in url:
+            self.notify(f"{url!r} is not a device URL: it looks like scheme://device?key=value, "
+                        f"e.g. serial:///dev/ttyUSB0?protocol=stim300", severity="error")
+            return False
+        if url in self.units:
+            self.notify("That unit is in the list already; a second simulated unit needs "
+                        "another seed= (its serial number).", severity="warning")
+            return False
+        self.units.append(url)
+        self.checks[url] = None
+        table = self.query_one("#units", DataTable)
+        table.add_row(str(len(self.units)), url,
+                      "checking..." if self.check_units else "not checked", key=url)
+        if self.check_units:
+            self._check(url, self.profile.name if self.profile else None)
+        return True
+
+    @work(thread=True, group="probe", exit_on_error=False)
+    def _check(self, url: str, profile: str | None) -> None:
+        try:
+            result = probe_unit(url, profile)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            result = ProbeResult(url, False, message=explain(exc, "checking the unit"))
+        self.app.call_from_thread(self._checked, result)
+
+    def _checked(self, result: ProbeResult) -> None:
+        if result.url not in self.checks:
+            return  # removed meanwhile
+        self.checks[result.url] = result
+        self.query_one("#units", DataTable).update_cell(result.url, "check", result.summary,
+                                                        update_width=True)
+        if not result.ok:
+            self.notify(f"Unit {self.units.index(result.url) + 1} does not answer: "
+                        f"{result.message}", title="Unit check", severity="error", timeout=15)
+
+    def action_remove_unit(self) -> None:
+        """Remove the unit under the cursor."""
+        table = self.query_one("#units", DataTable)
+        if not self.units:
+            return
+        url = self.units[min(table.cursor_row, len(self.units) - 1)]
+        self.units.remove(url)
+        self.checks.pop(url, None)
+        table.clear()
+        for i, u in enumerate(self.units):
+            check = self.checks.get(u)
+            table.add_row(str(i + 1), u, check.summary if check else "checking...", key=u)
+
+    # -- start -------------------------------------------------------------------------
+    @on(Button.Pressed, "#start")
+    def action_start(self) -> None:
+        """Check the form and ask the app to start the recorder."""
+        request = self.request()
+        if request is not None:
+            self.post_message(self.StartRequested(request))
+
+    def request(self) -> RunRequest | None:
+        """The run the form describes, or None (with a notification saying what to fix)."""
+        if not self.units:
+            self.notify("Add at least one unit: type its URL and press Enter, or F6 for a "
+                        "simulated unit.", severity="error")
+            return None
+        bad = [i + 1 for i, u in enumerate(self.units)
+               if (c := self.checks.get(u)) is not None and not c.ok]
+        if bad:
+            self.notify(f"Unit(s) {', '.join(map(str, bad))} did not answer: fix the URL or "
+                        f"the connection, or remove them (ctrl+d).", severity="error")
+            return None
+        duration = self.query_one("#duration", Input).value.strip()
+        if not duration:
+            self.notify("Give a duration: 12h, 90min, 30s.", severity="error")
+            return None
+        profile = self.query_one("#profile", Select).value
+        return RunRequest(
+            tuple(self.units), duration,
+            Path(self.query_one("#runs_dir", Input).value.strip() or str(self.runs_dir)),
+            profile if isinstance(profile, str) else None,
+            self.query_one("#operator", Input).value.strip(),
+            self.query_one("#lot", Input).value.strip())

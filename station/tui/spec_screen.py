@@ -1,0 +1,288 @@
+"""The spec-sheet screen of a stored run: grade, figures table, Allan plot, DAVAR, exports."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from rich.text import Text
+from textual import on, work
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, VerticalScroll
+from textual.reactive import reactive
+from textual.screen import Screen
+from textual.widgets import (
+    Button,
+    DataTable,
+    Footer,
+    Header,
+    Select,
+    Static,
+    TabbedContent,
+    TabPane,
+)
+
+from station.grading import RunGrade, UnitGrade
+from station.tui.messages import explain
+from station.tui.widgets import (
+    SeriesPlot,
+    grade_text,
+    interval_text,
+    model_name,
+    number,
+    verdict_text,
+)
+
+_COLUMNS = (("figure [unit]", "figure"), ("value", "value"), ("limit", "limit"),
+            ("verdict", "verdict"), ("CI", "ci"))
+
+
+class SpecSheetScreen(Screen[None]):
+    """Grades a run (in a worker) and shows its spec sheet, unit by unit.
+
+    Parameters
+    ----------
+    path : Path
+        The run file.
+    reports_dir : Path
+        Where exported reports go.
+    db_path : Path or None
+        Results database the grading and the reports are recorded in (None: not stored).
+    profile : str, optional
+        Profile name or path (default: the run's, else one whose model matches).
+    unit : str, optional
+        The unit shown first (unit id or serial number).
+    """
+
+    BINDINGS = [
+        Binding("p", "export('pdf')", "PDF"),
+        Binding("h", "export('html')", "HTML"),
+        Binding("j", "export('json')", "JSON"),
+        Binding("u", "next_unit", "Unit"),
+        Binding("n", "next_axis", "Axis"),
+        Binding("f", "tab('tab-figures')", "Figures", show=False),
+        Binding("a", "tab('tab-allan')", "Allan", show=False),
+        Binding("d", "tab('tab-davar')", "DAVAR", show=False),
+        Binding("r", "tab('tab-run')", "Run", show=False),
+        Binding("escape", "app.pop_screen", "Back"),
+    ]
+
+    # always_update: a RunGrade holds arrays, which == cannot compare
+    graded: reactive[RunGrade | None] = reactive(None, always_update=True)
+    unit_index: reactive[int] = reactive(0)
+    axis_index: reactive[int] = reactive(0)
+
+    def __init__(self, path: Path, reports_dir: Path, db_path: Path | None, *,
+                 profile: str | None = None, unit: str | None = None) -> None:
+        super().__init__()
+        self.path = Path(path)
+        self.reports_dir = reports_dir
+        self.db_path = db_path
+        self.profile_ref = profile
+        self.first_unit = unit
+
+    def compose(self) -> ComposeResult:
+        from station.profiles import available_profiles
+
+        yield Header()
+        with Horizontal(classes="row"):
+            yield Static("grading...", id="grade")
+            yield Select([(n, n) for n in available_profiles()], prompt="profile",
+                         id="profile", allow_blank=True)
+        with TabbedContent(id="tabs"):
+            with TabPane("Figures (f)", id="tab-figures"):
+                yield DataTable(id="figures", cursor_type="row", zebra_stripes=True)
+            with TabPane("Allan (a)", id="tab-allan"):
+                yield SeriesPlot("Allan deviation", "tau [s]", "ADEV [deg/h]", log=True,
+                                 empty_text="grading...", id="allan-plot")
+            with TabPane("DAVAR (d)", id="tab-davar"):
+                yield SeriesPlot("DAVAR, ADEV per window", "tau [s]", "ADEV [deg/h]",
+                                 log=True, empty_text="record too short", id="davar-plot")
+            with TabPane("Run (r)", id="tab-run"), VerticalScroll():
+                yield Static("", id="header")
+        with Horizontal(id="exports"):
+            yield Button("PDF (p)", id="export-pdf")
+            yield Button("HTML (h)", id="export-html")
+            yield Button("JSON (j)", id="export-json")
+            yield Static("", id="exported")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        """Set up the table and grade the run."""
+        self.sub_title = f"Spec sheet: {self.path.name}"
+        self._grade(self.profile_ref)
+
+    # -- grading (worker) --------------------------------------------------------------
+    @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
+    def _grade(self, profile_ref: str | None) -> None:
+        from station.grading import grade_run
+        from station.profiles import load_profile
+        from station.runs import open_run
+        from station.tui.spec_data import guess_profile
+
+        try:
+            run = open_run(self.path)
+            ref = profile_ref or guess_profile(run)
+            if ref is None:
+                self.app.call_from_thread(
+                    self.notify, f"{self.path.name} names no profile and none matches its "
+                                 f"units' model: choose one in the profile list.",
+                    severity="warning", timeout=15)
+                self.app.call_from_thread(self._show_status, "choose a profile")
+                return
+            graded = grade_run(run, load_profile(ref))
+            self._store(graded)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.app.call_from_thread(self.notify, explain(exc, f"grading {self.path.name}"),
+                                      severity="error", timeout=20)
+            self.app.call_from_thread(self._show_status, "not graded")
+            return
+        self.app.call_from_thread(setattr, self, "graded", graded)
+
+    def _store(self, graded: RunGrade) -> list[int]:
+        """Record the grading in the results database (once per run, unit and profile)."""
+        if self.db_path is None:
+            return []
+        from station.results import ResultsDatabase
+
+        with ResultsDatabase(self.db_path) as db:
+            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
+                   for u in graded.units]
+            if any(i is None for i in ids):
+                return db.store(graded)
+            return [i for i in ids if i is not None]
+
+    def _show_status(self, text: str) -> None:
+        self.query_one("#grade", Static).update(text)
+
+    @on(Select.Changed, "#profile")
+    def _profile_changed(self, event: Select.Changed) -> None:
+        if isinstance(event.value, str) and (self.graded is None
+                                             or event.value != self.graded.profile.name):
+            self._show_status(f"grading with {event.value}...")
+            self._grade(event.value)
+
+    # -- showing (state flows down) ----------------------------------------------------
+    def watch_graded(self, graded: RunGrade | None) -> None:
+        """A new grading: pick the first unit and show it."""
+        if graded is None:
+            return
+        select = self.query_one("#profile", Select)
+        if select.value != graded.profile.name:
+            with select.prevent(Select.Changed):
+                select.value = graded.profile.name
+        index = 0
+        for i, u in enumerate(graded.units):
+            if self.first_unit in (u.unit.unit_id, u.unit.serial_number):
+                index = i
+        self.unit_index, self.axis_index = index, 0
+        self.show()
+
+    def watch_unit_index(self) -> None:
+        """Show another unit."""
+        self.show()
+
+    def watch_axis_index(self) -> None:
+        """Show another axis."""
+        self.show()
+
+    def action_tab(self, tab: str) -> None:
+        """Show a tab (f, a, d, r)."""
+        self.query_one("#tabs", TabbedContent).active = tab
+
+    def action_next_unit(self) -> None:
+        """Show the next unit of the run (its first axis)."""
+        if self.graded is not None:
+            self.axis_index = 0
+            self.unit_index = (self.unit_index + 1) % len(self.graded.units)
+
+    def action_next_axis(self) -> None:
+        """Show the next axis of the unit."""
+        if self.graded is not None:
+            n = len(self.graded.units[self.unit_index].axes)
+            self.axis_index = (self.axis_index + 1) % max(1, n)
+
+    def show(self) -> None:
+        """Fill the header line, figures table, plots and run tab for the unit and axis."""
+        from station.report.common import event_summary, figure_rows, header_fields
+        from station.tui.spec_data import allan_series
+
+        graded = self.graded
+        if graded is None or not self.is_mounted:
+            return
+        p = graded.profile
+        unit = graded.units[min(self.unit_index, len(graded.units) - 1)]
+        u = unit.unit
+        head = Text.assemble(
+            f"{u.unit_id} ({self.unit_index + 1}/{len(graded.units)}, u) "
+            f"{model_name(u.model or p.model)} {u.serial_number or '-'}: ",
+            grade_text(unit.grade, p.reject))
+        table = self.query_one("#figures", DataTable)
+        table.clear(columns=True)
+        for label, key in _COLUMNS:
+            table.add_column(f"{p.confidence:.0%} {label}" if key == "ci" else label, key=key)
+        if unit.axes:
+            axis = unit.axes[min(self.axis_index, len(unit.axes) - 1)]
+            head.append_text(Text.assemble(
+                f"\naxis {axis.axis} ({self.axis_index + 1}/{len(unit.axes)}, n): ",
+                grade_text(axis.grade, p.reject), f", limits of {axis.deciding_grade}"))
+            for r in figure_rows(axis):
+                table.add_row(Text(f"{r.label} [{r.unit}]"), number(r.value, 3),
+                              number(r.limit, 3), verdict_text(r.verdict),
+                              interval_text(r.ci_low, r.ci_high))
+            self.query_one("#allan-plot", SeriesPlot).series = allan_series((axis,))
+            self._davar(unit, unit.axes.index(axis))
+        self.query_one("#grade", Static).update(head)
+        header = "\n".join(f"{k}: {v}" for k, v in header_fields(graded, unit))
+        events = "\n".join(event_summary(u, graded).lines(brief=True))
+        notes = "\n".join(f"note: {t}" for t in unit.notes)
+        self.query_one("#header", Static).update("\n".join(t for t in (events, notes, header)
+                                                           if t))
+
+    @work(thread=True, exclusive=True, group="davar", exit_on_error=False)
+    def _davar(self, unit: UnitGrade, axis_index: int) -> None:
+        from station.tui.spec_data import davar_series
+
+        try:
+            series = davar_series(unit, axis_index)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.app.call_from_thread(self.notify, explain(exc, "computing the DAVAR"),
+                                      severity="warning")
+            return
+        self.app.call_from_thread(setattr, self.query_one("#davar-plot", SeriesPlot),
+                                  "series", series)
+
+    # -- exports -----------------------------------------------------------------------
+    @on(Button.Pressed, "#exports Button")
+    def _export_button(self, event: Button.Pressed) -> None:
+        self.action_export(str(event.button.id).removeprefix("export-"))
+
+    def action_export(self, fmt: str) -> None:
+        """Write the report in ``fmt`` (pdf, html, json) to the reports folder."""
+        if self.graded is None:
+            self.notify("The run is not graded yet: wait for the grade, or choose a profile.",
+                        severity="warning")
+            return
+        self.query_one("#exported", Static).update(f"writing {fmt.upper()}...")
+        self._export(self.graded, fmt)
+
+    @work(thread=True, group="export", exit_on_error=False)
+    def _export(self, graded: RunGrade, fmt: str) -> None:
+        from station.report import write_report
+        from station.results import ResultsDatabase
+
+        try:
+            path = write_report(graded, fmt, self.reports_dir)
+            if self.db_path is not None:
+                ids = self._store(graded)
+                with ResultsDatabase(self.db_path) as db:
+                    for grading_id in ids:
+                        db.add_report(grading_id, fmt, path)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.app.call_from_thread(self.notify, explain(exc, f"writing the {fmt} report"),
+                                      severity="error", timeout=20)
+            self.app.call_from_thread(self.query_one("#exported", Static).update, "")
+            return
+        self.app.call_from_thread(self.query_one("#exported", Static).update,
+                                  f"wrote {path.name}")
+        self.app.call_from_thread(self.notify, f"Wrote {path}", title="Report")
