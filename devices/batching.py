@@ -7,6 +7,7 @@ batch layout are therefore the same for all protocols.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -15,22 +16,49 @@ from devices.gaps import CounterTracker
 from devices.protocols import DeviceEvent, EventKind, Gap, SampleBatch
 
 
-def wall_minus_monotonic(tries: int = 5) -> float:
-    """``time.time() - time.monotonic()`` (s), the least disturbed of a few readings.
+class BusClock:
+    """Maps a bus's wall-clock frame time stamps (``time.time()`` s) to a unit's clock.
 
-    Converts a bus's wall-clock frame stamps to the monotonic time base once, instead of
-    reading both clocks per frame (a thread preempted between the two readings would
-    shift that frame's time).
+    Parameters
+    ----------
+    clock : callable
+        The unit's time base, s (``time.monotonic``; a simulation's warped clock, whose
+        origin is its start and which runs ``clock_scale`` times faster than the wall).
+    clock_scale : float
+        Clock seconds per wall second.
+
+    Notes
+    -----
+    :meth:`sync` reads the wall clock and the unit's clock together once (the least
+    disturbed of a few readings), so that a stamp maps to
+    ``clock_ref + (stamp - wall_ref) * clock_scale``: the clock's origin and rate both
+    count, and a thread preempted between two clock readings shifts no frame.
     """
-    best = None
-    for _ in range(tries):
-        t0 = time.monotonic()
-        wall = time.time()
-        t1 = time.monotonic()
-        if best is None or t1 - t0 < best[0]:
-            best = (t1 - t0, wall - (t0 + t1) / 2)
-    assert best is not None
-    return best[1]
+
+    def __init__(self, clock: Callable[[], float], clock_scale: float = 1.0) -> None:
+        if not clock_scale > 0:
+            raise ValueError(f"clock_scale must be > 0, got {clock_scale}")
+        self.clock = clock
+        self.clock_scale = clock_scale
+        self._wall_ref = 0.0
+        self._clock_ref = 0.0
+        self.sync()
+
+    def sync(self, tries: int = 5) -> None:
+        """Pair a wall-clock reading with a unit-clock reading."""
+        best: tuple[float, float, float] | None = None
+        for _ in range(tries):
+            w0 = time.time()
+            c = self.clock()
+            w1 = time.time()
+            if best is None or w1 - w0 < best[0]:
+                best = (w1 - w0, (w0 + w1) / 2, c)
+        assert best is not None
+        _, self._wall_ref, self._clock_ref = best
+
+    def __call__(self, stamp_wall_s: float) -> float:
+        """The unit-clock time (s) of a wall-clock time stamp (s)."""
+        return self._clock_ref + (stamp_wall_s - self._wall_ref) * self.clock_scale
 
 
 class BatchBuilder:
@@ -65,16 +93,18 @@ class BatchBuilder:
         self._events: list[DeviceEvent] = []
         self._crc_errors = 0
 
-    def add(self, reading: Reading, receive_time_s: float, sent_time_s: float | None = None
-            ) -> None:
+    def add(self, reading: Reading, receive_time_s: float, sent_time_s: float | None = None,
+            *, elapsed_s: float | None = None) -> None:
         """Append one reading received at ``receive_time_s`` (station clock, s).
 
         ``sent_time_s`` is the best estimate of when the device sent it (station clock,
         s), used to count the wraps of a long gap; default: the receive time.
+        ``elapsed_s`` instead is the adapter's estimate of the time since the previous
+        reading (s; see :meth:`CounterTracker.update`).
         """
         counter, gap = self.tracker.update(
             reading.counter, receive_time_s if sent_time_s is None else sent_time_s,
-            reading.device_time_s)
+            reading.device_time_s, elapsed_s=elapsed_s)
         if gap is not None:
             self._gaps.append(gap)
         self._rates.append(reading.rate_deg_s)

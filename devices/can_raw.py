@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 
-from devices.batching import BatchBuilder, wall_minus_monotonic
+from devices.batching import BatchBuilder, BusClock
 from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
 from devices.errors import CodecError, CrcError, DeviceDisconnectedError
 from devices.gaps import CounterTracker
@@ -18,8 +18,9 @@ class CanRateSource:
 
     Frames of one sample (one per arbitration ID of the layout) are matched by their
     rolling counter; a sample with a frame missing is dropped and shows as a gap.
-    A node silent for ``silence_timeout_s`` is reported lost (DeviceDisconnectedError)
-    and "reconnect" is logged when its frames come back.
+    A node silent for ``silence_timeout_s`` (on the unit's clock: wall s for hardware,
+    simulated s for a simulation) is reported lost (DeviceDisconnectedError) and
+    "reconnect" is logged when its frames come back.
 
     Parameters
     ----------
@@ -32,9 +33,9 @@ class CanRateSource:
     sample_rate_hz : float
         Nominal rate, Hz.
     clock : callable
-        Station clock, s.
+        The unit's time base, s (``time.monotonic``; a simulation's warped clock).
     silence_timeout_s : float
-        Node-loss limit, wall s.
+        Node-loss limit, clock s.
     clock_scale : float
         Clock seconds per wall second (the time-warp factor of a simulation), to turn
         the bus's wall-clock frame time stamps into the clock's time base.
@@ -62,8 +63,8 @@ class CanRateSource:
         self._pending: dict[int, dict[int, CanFrameValues]] = {}
         self._lost = False
         self._open = False
-        self._last_frame_wall = 0.0
-        self._wall_offset_s = 0.0
+        self._last_frame_s = 0.0
+        self._bus_clock = BusClock(clock, clock_scale)
 
     def describe(self) -> DeviceDescription:
         return self._description
@@ -71,9 +72,9 @@ class CanRateSource:
     def open(self) -> None:
         self.transport.open()
         self._open = True
-        self._wall_offset_s = wall_minus_monotonic()
-        self._last_frame_wall = time.monotonic()
-        self._builder.event("connect", self.clock())
+        self._bus_clock.sync()
+        self._last_frame_s = self.clock()
+        self._builder.event("connect", self._last_frame_s)
 
     def close(self) -> None:
         self.transport.close()
@@ -90,7 +91,7 @@ class CanRateSource:
         if self._lost:
             self._lost = False
             self._builder.event("reconnect", now)
-        self._last_frame_wall = time.monotonic()
+        self._last_frame_s = now
         frames = self._pending.setdefault(values.counter, {})
         frames[arbitration_id] = values
         if set(frames) == self._ids:
@@ -112,11 +113,11 @@ class CanRateSource:
             if not (msg.is_error_frame or msg.is_remote_frame):
                 # The bus stamps each frame (wall clock, s) when it is sent or received:
                 # that stamp, not when this thread got to it, times the gap arithmetic.
-                sent = (msg.timestamp - self._wall_offset_s) * self.clock_scale
-                self._take(msg.arbitration_id, bytes(msg.data), self.clock(), sent)
+                self._take(msg.arbitration_id, bytes(msg.data), self.clock(),
+                           self._bus_clock(msg.timestamp))
             msg = self.transport.recv(0.0)
         now = self.clock()
-        silent_s = time.monotonic() - self._last_frame_wall
+        silent_s = now - self._last_frame_s
         if not self._lost and silent_s > self.silence_timeout_s:
             self._lost = True
             self._builder.event("disconnect", now, detail="node silent")

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import canopen
 
-from devices.batching import BatchBuilder, wall_minus_monotonic
+from devices.batching import BatchBuilder, BusClock
 from devices.codecs.base import Reading
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
@@ -84,7 +84,7 @@ class CanopenRateSource:
         self._last_counter: int | None = None
         self._last_heartbeat = 0.0
         self._lost = False
-        self._wall_offset_s = 0.0
+        self._bus_clock = BusClock(clock, clock_scale)
         self._builder = BatchBuilder(3, CounterTracker(COUNTER_MODULUS, sample_rate_hz),
                                      has_device_time=False, has_temperature=True)
 
@@ -135,7 +135,7 @@ class CanopenRateSource:
         if self.sync:
             self.network.sync.start(1.0 / (self.sample_rate_hz * self.clock_scale))
         self._last_heartbeat = time.monotonic()
-        self._wall_offset_s = wall_minus_monotonic()
+        self._bus_clock.sync()
         self._builder.event("connect", self.clock())
 
     def _configure(self, node: canopen.RemoteNode) -> None:
@@ -211,6 +211,6 @@ class CanopenRateSource:
             return  # ambiguous or incomplete sample: dropped, counted as a gap
         first = since[-1]
         now = self.clock()
-        sent = (stamp - self._wall_offset_s) * self.clock_scale
+        sent = self._bus_clock(stamp)
         self._builder.add(Reading((first[0] * self._scale, first[1] * self._scale,
                                    z * self._scale), counter, 0, None, temp / 100.0), now, sent)

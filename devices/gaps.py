@@ -2,11 +2,15 @@
 
 A wrapping counter (8-bit on a STIM300, 0..127 on a KVH) alone cannot count an outage
 longer than its period: :class:`CounterTracker` takes the counter residue as exact and
-chooses the number of wraps from the elapsed time (device time where the protocol has
-one, else the station clock) and the nominal rate. Each gap says how it was counted.
+chooses the number of wraps from the elapsed time and the nominal rate: the device's own
+time stamps where the protocol has them; else a send-time estimate (a bus's frame time
+stamps: CAN, CANopen) or the adapter's own estimate (a byte stream's proven silence, see
+:class:`devices.stream.StreamRateSource`). Each gap says how it was counted.
 """
 
 from __future__ import annotations
+
+import math
 
 from devices.protocols import Gap, GapMethod
 
@@ -39,12 +43,17 @@ class CounterTracker:
         self._last_time_s = 0.0
         self._last_device_time_s: float | None = None
 
+    @property
+    def last_counter(self) -> int | None:
+        """Unwrapped counter of the latest sample (None before the first)."""
+        return None if self._last_raw is None else self._last_unwrapped
+
     def reset(self) -> None:
         """Forget the history (a new device, not a reconnect)."""
         self._last_raw = None
 
-    def update(self, raw: int, receive_time_s: float, device_time_s: float | None = None
-               ) -> tuple[int, Gap | None]:
+    def update(self, raw: int, receive_time_s: float, device_time_s: float | None = None,
+               *, elapsed_s: float | None = None) -> tuple[int, Gap | None]:
         """Unwrapped counter of a new sample, and the gap before it if any.
 
         Parameters
@@ -52,13 +61,24 @@ class CounterTracker:
         raw : int
             Counter as sent.
         receive_time_s : float
-            Station time of reception, s.
+            Station time of reception (or best send-time estimate), s.
         device_time_s : float or None
-            Device time stamp, s, where the protocol has one.
+            Device time stamp, s, where the protocol has one (it decides first).
+        elapsed_s : float or None
+            The caller's estimate of the time since the previous sample, s, in place of
+            the difference of the receive times (a byte stream passes its proven
+            silence, 0 while bytes kept coming: see :class:`devices.stream.StreamRateSource`).
 
         Returns
         -------
         (int, Gap or None)
+
+        Notes
+        -----
+        With ``n = elapsed * sample_rate_hz`` samples expected, the counter residue is
+        exact and the wrap count is the one whose step is nearest ``n``, a tie going
+        to fewer wraps, never below zero; below ``n = modulus / 2`` the counter alone
+        counts.
         """
         if self._last_raw is None:
             self._last_raw, self._last_unwrapped = raw, raw
@@ -70,11 +90,11 @@ class CounterTracker:
             elapsed = device_time_s - self._last_device_time_s
             elapsed_method: GapMethod = "device_time"
         else:
-            elapsed = receive_time_s - self._last_time_s
+            elapsed = receive_time_s - self._last_time_s if elapsed_s is None else elapsed_s
             elapsed_method = "counter+elapsed"
         expected = elapsed * self.sample_rate_hz
         if expected >= self.modulus / 2:
-            wraps = max(0, round((expected - step) / self.modulus))
+            wraps = max(0, math.ceil((expected - step) / self.modulus - 0.5))
             step += wraps * self.modulus
             method = elapsed_method
         if step == 0:

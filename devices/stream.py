@@ -16,6 +16,7 @@ from devices.errors import (
 )
 from devices.gaps import CounterTracker
 from devices.protocols import DeviceDescription, SampleBatch
+from devices.stream_timing import StreamTiming
 from devices.transports.serial import ByteTransport
 
 
@@ -35,22 +36,44 @@ class StreamRateSource:
     transport_name : str
         Transport key for :meth:`describe` (``"serial"``).
     clock : callable
-        Station clock returning seconds (``time.monotonic``; a time-warped clock for
-        simulations so that elapsed times are in device seconds).
+        The unit's time base, s: ``time.monotonic`` for hardware, the simulation's
+        time-warped clock for a simulated unit (elapsed times are then device seconds).
+    clock_scale : float
+        Clock seconds per wall second (a simulation's time warp; 1 for hardware): turns
+        a read's wall-clock timeout into clock time.
     silence_timeout_s : float
         Raise :class:`DeviceTimeoutError` when no valid frame arrived for this long
-        (wall s).
+        (clock s: wall s for hardware, simulated s for a simulation).
     ack_timeout_s : float
         How long :meth:`open` waits for the codec's acknowledgement, s (wall time).
+    max_latency_s : float
+        Longest the device holds a sample before sending it, clock s (a USB adapter's
+        latency timer; a simulator's loop period and lateness allowance).
+
+    Notes
+    -----
+    How a gap's wrap count is decided (docs/devices.md, "Samples, counters, gaps"): the
+    counter residue is exact; whole wraps can only hide in a *proven silence* (an empty
+    read, a reopen), never in the time a host that fell behind took to read
+    (:class:`~devices.stream_timing.StreamTiming`); the wrap count is the one nearest
+    the elapsed time, a tie going to fewer wraps (:meth:`CounterTracker.update`).
     """
+
+    #: Longest a loaded host may hold back bytes that are already on the wire (wall s:
+    #: kernel work queues, thread switches); silences are trusted only beyond it.
+    host_jitter_s = 0.025
 
     def __init__(self, transport: ByteTransport, codec: StreamCodec[Any], *, model: str,
                  serial_number: str, sample_rate_hz: float, transport_name: str = "serial",
-                 clock: Callable[[], float] = time.monotonic, silence_timeout_s: float = 5.0,
-                 ack_timeout_s: float = 2.0) -> None:
+                 clock: Callable[[], float] = time.monotonic, clock_scale: float = 1.0,
+                 silence_timeout_s: float = 5.0, ack_timeout_s: float = 2.0,
+                 max_latency_s: float = 0.05) -> None:
+        if not clock_scale > 0:
+            raise ValueError(f"clock_scale must be > 0, got {clock_scale}")
         self.transport = transport
         self.codec = codec
         self.clock = clock
+        self.clock_scale = clock_scale
         self.silence_timeout_s = silence_timeout_s
         self.ack_timeout_s = ack_timeout_s
         self._description = DeviceDescription(
@@ -66,9 +89,8 @@ class StreamRateSource:
         self._rest = b""
         self._connected = False
         self._ever_connected = False
-        self._last_frame_wall = 0.0
-        self._flowing = False
-        self._last_sent_s = 0.0
+        self._last_frame_s = 0.0
+        self._timing = StreamTiming(sample_rate_hz, max_latency_s)
 
     def describe(self) -> DeviceDescription:
         return self._description
@@ -83,31 +105,50 @@ class StreamRateSource:
         DeviceProtocolError
             The device did not acknowledge the greeting in time.
         """
-        self.transport.open()
+        attempt_s = self.clock()
+        try:
+            self.transport.open()
+        except DeviceDisconnectedError:
+            # No port now: whatever arrives later was sent after this moment.
+            self._timing.quiet_until(attempt_s)
+            raise
+        # Opening flushes the input buffer: what we read was sent after attempt_s.
+        self._timing.quiet_until(attempt_s)
         self._rest = b""
         greeting = self.codec.greeting()
         if greeting:
             self.transport.write(greeting)
             self._await_ack()
-        self._builder.event("reconnect" if self._ever_connected else "connect", self.clock())
+        now = self.clock()
+        self._builder.event("reconnect" if self._ever_connected else "connect", now)
         self._connected = self._ever_connected = True
-        self._last_frame_wall = time.monotonic()
-        self._flowing = False
+        self._last_frame_s = now
 
     def _await_ack(self) -> None:
         deadline = time.monotonic() + self.ack_timeout_s
+        kept: list[bytes] = []
         while time.monotonic() < deadline:
             result = self.codec.decode(self._rest + self.transport.read(0.05))
             self._rest = result.rest
+            self._log_damage(result.crc_failures, result.discarded_bytes, self.clock())
             for i, frame in enumerate(result.frames):
                 if self.codec.acknowledges(frame):
-                    # Frames after the acknowledgement are data: keep them for read().
-                    tail = b"".join(self.codec.encode(f) for f in result.frames[i + 1:])
-                    self._rest = tail + self._rest
+                    # Every other frame, before the acknowledgement or after it, is kept
+                    # for read(): data frames are samples the device sent.
+                    rest = result.frames[:i] + result.frames[i + 1:]
+                    kept += [self.codec.encode(f) for f in rest]
+                    self._rest = b"".join(kept) + self._rest
                     return
+            kept += [self.codec.encode(f) for f in result.frames]
         self.transport.close()
         raise DeviceProtocolError(f"{self.codec.name}: no acknowledgement within "
                                   f"{self.ack_timeout_s} s")
+
+    def _log_damage(self, crc_failures: int, discarded_bytes: int, now: float) -> None:
+        if crc_failures:
+            self._builder.event("crc_error", now, crc_failures)
+        if discarded_bytes:
+            self._builder.event("resync", now, discarded_bytes, "bytes skipped")
 
     def close(self) -> None:
         self.transport.close()
@@ -117,20 +158,31 @@ class StreamRateSource:
         """Samples decoded since the last call (see :meth:`RateSource.read`)."""
         if not self._connected:
             self.open()
-        try:
-            data = self.transport.read(timeout_s)
-        except DeviceDisconnectedError:
-            self.transport.close()
-            self._connected = False
-            self._builder.event("disconnect", self.clock())
-            raise
-        now = self.clock()
+        # Wait in slices of 1/16 counter period: each empty slice proves the silence so
+        # far, so a silence's end is known to within half a slice.
+        wrap_s = self.codec.counter_modulus / self._description.sample_rate_hz
+        slice_s = min(timeout_s, max(0.002, wrap_s / 16.0 / self.clock_scale))
+        deadline = time.monotonic() + timeout_s
+        while True:
+            started = self.clock()
+            try:
+                data = self.transport.read(slice_s)
+            except DeviceDisconnectedError:
+                self.transport.close()
+                self._connected = False
+                self._builder.event("disconnect", self.clock())
+                raise
+            now = self.clock()
+            # The transport returns nothing only after waiting its whole timeout (wall
+            # s), and returns bytes no later than the end of that wait.
+            window_s = slice_s * self.clock_scale
+            wait_end = min(now, started + window_s)
+            self._timing.read_done(started, wait_end, window_s / 2.0, bool(data))
+            if data or time.monotonic() >= deadline:
+                break
         result = self.codec.decode(self._rest + data)
         self._rest = result.rest
-        if result.crc_failures:
-            self._builder.event("crc_error", now, result.crc_failures)
-        if result.discarded_bytes:
-            self._builder.event("resync", now, result.discarded_bytes, "bytes skipped")
+        self._log_damage(result.crc_failures, result.discarded_bytes, now)
         readings = []
         for frame in result.frames:
             try:
@@ -140,24 +192,26 @@ class StreamRateSource:
                 continue
             if reading is not None:
                 readings.append(reading)
-        # Send times for the gap arithmetic (CounterTracker). After a silence (an empty
-        # read, a reopen) the device resumed just now: frames read together left it one
-        # period apart, the last one now. While data keeps flowing, the host may be
-        # behind (a backlog in the port buffer), so the frames continue the previous
-        # ones: only the counter counts losses there, not the time the host took.
+        # Whole counter wraps can hide only in a proven silence (StreamTiming); while
+        # bytes keep coming the counter counts alone.
+        tracker = self._builder.tracker
         period = 1.0 / self._description.sample_rate_hz
         for i, reading in enumerate(readings):
-            if self._flowing:
-                self._last_sent_s += period
-            else:
-                self._last_sent_s = now - (len(readings) - 1 - i) * period
-            self._builder.add(reading, now, self._last_sent_s)
-        self._flowing = bool(readings)
-        wall = time.monotonic()
+            latest = wait_end - (len(readings) - 1 - i) * period
+            before = tracker.last_counter
+            # Less a quarter of a counter period, and at least the host's own delivery
+            # jitter: bytes a loaded host delivered late (its kernel or a thread switch
+            # held them back, not the device) must not make a wrap.
+            elapsed = max(0.0, self._timing.elapsed_before(latest) - max(
+                wrap_s / 4.0, self.host_jitter_s * self.clock_scale))
+            self._builder.add(reading, now, elapsed_s=elapsed)
+            after = tracker.last_counter
+            self._timing.sent(0 if before is None or after is None else after - before,
+                              latest)
         if readings:
-            self._last_frame_wall = wall
-        if wall - self._last_frame_wall > self.silence_timeout_s:
-            self._last_frame_wall = wall
+            self._last_frame_s = now
+        if now - self._last_frame_s > self.silence_timeout_s:
+            self._last_frame_s = now
             raise DeviceTimeoutError(f"{self.codec.name}: no valid frame for "
                                      f"{self.silence_timeout_s} s")
         return self._builder.take()

@@ -67,6 +67,9 @@ class SimParams:
         Device clock error, ppm.
     seed : int or None
         Seed of the signal and of the faults.
+    history : int
+        Samples whose rates and lost indices the simulator keeps for tests (0: counts
+        only, so that an overnight run stays in bounded memory).
     """
 
     model: str = "STIM300"
@@ -81,6 +84,7 @@ class SimParams:
     stall_for_s: float = 0.0
     drift_ppm: float = 0.0
     seed: int | None = None
+    history: int = 0
 
     def faults(self) -> FaultConfig:
         """The fault knobs of these parameters."""
@@ -150,7 +154,7 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
         if f.name in query:
             text = query[f.name]
             values[f.name] = (text if f.name == "model" else
-                              _number(f.name, text, int if f.name == "seed" else float))
+                              _number(f.name, text, int if f.name in ("seed", "history") else float))
     try:
         params = SimParams(**values)
         params.faults()
@@ -158,6 +162,8 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
         raise DeviceConfigurationError(str(exc)) from exc
     if not (params.rate > 0 and params.warp > 0):
         raise DeviceConfigurationError("rate and warp must be > 0")
+    if params.history < 0:
+        raise DeviceConfigurationError("history must be >= 0")
     return params
 
 
@@ -186,11 +192,13 @@ def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) ->
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
         codec, header, _ = _stream_codec(protocol, query, params.rate)
-        core, clock = _sim_core(params, codec.n_axes)
+        core, clock = sim_core(params, codec.n_axes)
         device = PtySerialDevice(codec, core, header=header).start()
         source = StreamRateSource(SerialTransport(device.port), codec, model=params.model,
                                   serial_number=f"SIM-{params.seed or 0}",
-                                  sample_rate_hz=params.rate, clock=clock)
+                                  sample_rate_hz=params.rate, clock=clock,
+                                  clock_scale=params.warp,
+                                  max_latency_s=device.max_latency_s)
         return OpenedDevice(source, "", device)
     rate = _number("rate", query.get("rate", "2000"), float)
     codec, _, model = _stream_codec(protocol, query, rate)
@@ -245,17 +253,22 @@ def register_map(name: str) -> ModbusRegisterMap:
         raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
 
 
-def _sim_core(params: SimParams, n_axes: int) -> tuple[SimCore, WarpClock]:
+def sim_core(params: SimParams, n_axes: int) -> tuple[SimCore, WarpClock]:
+    """The simulator core of a ``sim+`` URL and its time-warped clock.
+
+    It keeps counts of what it generated and lost, and the rates and lost indices of
+    the latest ``params.history`` samples only: memory is bounded whatever the run length.
+    """
     clock = WarpClock(params.warp)
     signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed)
-    return SimCore(signal, params.rate, clock, params.faults()), clock
+    return SimCore(signal, params.rate, clock, params.faults(), history=params.history), clock
 
 
 def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> OpenedDevice:
     layout = can_layout(query.get("layout", "shared"))
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
-        core, clock = _sim_core(params, len(layout.axes))
+        core, clock = sim_core(params, len(layout.axes))
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         device = CanBroadcastDevice(
             CanTransport("virtual", channel, preserve_timestamps=True), layout, core).start()
@@ -283,7 +296,7 @@ def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
     sync = query.get("tpdo", "event") == "sync"
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
-        core, clock = _sim_core(params, 3)
+        core, clock = sim_core(params, 3)
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         device = CanopenGyroNode(CanTransport("virtual", channel), core, node_id=node_id,
                                  serial_number=params.seed or 1).start()
@@ -316,7 +329,7 @@ def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *,
     oversample = _number("oversample", query.get("oversample", "2"), float)
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
-        core, clock = _sim_core(params, len(regs.axes))
+        core, clock = sim_core(params, len(regs.axes))
         server = ModbusGyroServer(regs, core, rtu=rtu).start()
         transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
                      else ModbusTransport("tcp", "127.0.0.1", port=server.port))

@@ -216,10 +216,19 @@ class CanFrameLayout:
             raise CodecError(f"bad CAN layout table: {exc}") from exc
 
 
-#: One frame 0x180: CRC in byte 0, X, Y, Z as int16 big-endian at 1/256 deg/s in bytes
-#: 1-6, an 8-bit counter in byte 7.
+#: LSB of the shared layout's rates, deg/s (2^-13 = 1.22e-4 deg/s = 0.44 deg/h; range
+#: +-4 deg/s). Its quantization noise (LSB / sqrt(12) = 3.5e-5 deg/s) is under 3 % of
+#: a tactical-grade gyro's white noise per sample (a VG951, ARW 0.0076 deg/sqrt(h):
+#: 1.3e-3 deg/s at 100 Hz, 2.8e-3 deg/s at 500 Hz). A coarser 1/256 deg/s LSB, 3.9e-3,
+#: read that noise as mostly zero. For wider ranges (rate tables) give a profile's
+#: ``[can]`` layout, e.g. one int32 frame per axis (:data:`PER_AXIS_LAYOUT`).
+SHARED_RATE_LSB_DEG_S = 2.0**-13
+
+#: One frame 0x180: CRC in byte 0, X, Y, Z as int16 big-endian at
+#: :data:`SHARED_RATE_LSB_DEG_S` in bytes 1-6, an 8-bit counter in byte 7 (classic CAN:
+#: 6 data bytes leave 16 bits per axis).
 SHARED_LAYOUT = CanFrameLayout(
-    axes=tuple(CanSignal(0x180, 1 + 2 * i, 2, scale=1 / 256) for i in range(3)),
+    axes=tuple(CanSignal(0x180, 1 + 2 * i, 2, scale=SHARED_RATE_LSB_DEG_S) for i in range(3)),
     counter_byte=7, crc_byte=0, data_id=0x0180)
 
 #: One frame per axis (0x181..0x183), int32 little-endian at 1e-6 deg/s, 4-bit counter;

@@ -2,13 +2,16 @@
 
 :class:`SimCore` turns a signal source and a (time-warped, optionally drifting) clock
 into readings due now, decides per frame whether it is dropped, corrupted or preceded
-by garbage, and keeps the ledger a test compares the adapter against: every sample the
-device generated, and which ones never reached the wire intact.
+by garbage, and keeps the ledger a test compares the adapter against: how many samples
+the device generated, how many never reached the wire intact, and (opt-in, bounded) which
+ones and what they were. Memory stays bounded however long the run: an overnight run at
+2 kHz generates 86 million samples, which the simulator counts but does not keep.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -70,7 +73,12 @@ def _in_window(t_s: float, every_s: float, for_s: float) -> bool:
 
 @dataclass
 class Ledger:
-    """What a simulated device did: the truth an adapter's report is checked against."""
+    """What a simulated device did: the truth an adapter's report is checked against.
+
+    The counts cover the whole run. ``lost_indices`` holds the sample indices of the
+    latest ``window`` lost samples only (0: none), so that a long run stays in bounded
+    memory; tests that compare indices open the simulation with ``history=N``.
+    """
 
     generated: int = 0
     delivered: int = 0
@@ -78,12 +86,68 @@ class Ledger:
     corrupted: int = 0
     lost_in_outage: int = 0
     disconnects: int = 0
-    lost_indices: list[int] = field(default_factory=list)
+    window: int = 0
+    lost_indices: deque[int] = field(default_factory=deque)
+
+    def __post_init__(self) -> None:
+        if self.window < 0:
+            raise ValueError(f"window must be >= 0, got {self.window}")
+        self.lost_indices = deque(self.lost_indices, maxlen=self.window)
 
     @property
     def missing(self) -> int:
         """Samples generated that never reached the wire intact."""
         return self.dropped + self.corrupted + self.lost_in_outage
+
+
+class RateHistory:
+    """The rates of the latest ``window`` generated samples, in a fixed ring buffer.
+
+    Parameters
+    ----------
+    window : int
+        Samples kept (0 keeps none).
+    n_axes : int
+        Columns.
+    """
+
+    def __init__(self, window: int, n_axes: int) -> None:
+        if window < 0:
+            raise ValueError(f"window must be >= 0, got {window}")
+        self.window = window
+        self._ring = np.empty((window, n_axes))
+        self._end = 0  # index of the next sample
+
+    @property
+    def start(self) -> int:
+        """Index of the oldest sample kept."""
+        return max(0, self._end - self.window)
+
+    def extend(self, first_index: int, rate_deg_s: np.ndarray) -> None:
+        """Append the rates (deg/s, shape (n, n_axes)) of samples ``first_index``..."""
+        n = len(rate_deg_s)
+        self._end = first_index + n
+        if not self.window:
+            return
+        keep = rate_deg_s[-self.window:]
+        positions = np.arange(self._end - len(keep), self._end) % self.window
+        self._ring[positions] = keep
+
+    def rates(self, indices: np.ndarray | int | None = None) -> np.ndarray:
+        """Rates (deg/s) of the given sample indices; all kept ones in order if None.
+
+        Raises
+        ------
+        IndexError
+            An index outside the kept window.
+        """
+        if indices is None:
+            indices = np.arange(self.start, self._end)
+        idx = np.asarray(indices, dtype=np.int64)
+        if idx.size and (idx.min() < self.start or idx.max() >= self._end):
+            raise IndexError(f"samples {idx.min()}..{idx.max()} are not all in the kept "
+                             f"window {self.start}..{self._end - 1} (URL key history=)")
+        return self._ring[idx % max(self.window, 1)]
 
 
 class SimCore:
@@ -99,21 +163,29 @@ class SimCore:
         Simulated time.
     faults : FaultConfig
         Fault knobs.
-    keep_history : bool
-        Keep every generated rate (for round-trip tests).
+    history : int
+        Keep the rates and the lost indices of the latest ``history`` samples (for
+        round-trip tests; 0, the default, keeps counts only: bounded memory).
+
+    Notes
+    -----
+    Sampling stops while any *hold* is on: :meth:`pause` / :meth:`resume` are the
+    operator's (the recorder holds a unit until it listens), :meth:`enter_configuration`
+    / :meth:`enter_measurement` the device's own (an Xbus GoToConfig). Each releases only
+    its own hold.
     """
 
     def __init__(self, signal: SignalSource, sample_rate_hz: float, clock: WarpClock,
-                 faults: FaultConfig | None = None, *, keep_history: bool = True) -> None:
+                 faults: FaultConfig | None = None, *, history: int = 0) -> None:
         self.signal = signal
         self.sample_rate_hz = sample_rate_hz
         self.clock = clock
         self.faults = faults or FaultConfig()
-        self.ledger = Ledger()
-        self.keep_history = keep_history
-        self._history: list[np.ndarray] = []
+        self.ledger = Ledger(window=history)
+        self._history = RateHistory(history, signal.n_axes)
         self._rng = np.random.default_rng(self.faults.seed)
         self._origin_s = clock()
+        self._holds: set[str] = set()
         self._paused_at: float | None = None
 
     def device_time(self) -> float:
@@ -132,16 +204,38 @@ class SimCore:
         self._origin_s = self.clock() - self.ledger.generated / sample_rate_hz / scale
         self.sample_rate_hz = sample_rate_hz
 
-    def pause(self) -> None:
-        """Stop sampling (a device put in configuration mode)."""
-        if self._paused_at is None:
+    def _hold(self, reason: str) -> None:
+        if not self._holds:
             self._paused_at = self.clock()
+        self._holds.add(reason)
 
-    def resume(self) -> None:
-        """Resume sampling where it stopped (the counter continues without a gap)."""
-        if self._paused_at is not None:
+    def _release(self, reason: str) -> None:
+        self._holds.discard(reason)
+        if not self._holds and self._paused_at is not None:
             self._origin_s += self.clock() - self._paused_at
             self._paused_at = None
+
+    @property
+    def held(self) -> bool:
+        """Whether sampling is stopped now (by either hold)."""
+        return bool(self._holds)
+
+    def pause(self) -> None:
+        """Hold sampling (the operator's switch: a unit not yet recorded)."""
+        self._hold("operator")
+
+    def resume(self) -> None:
+        """Release the operator's hold; sampling resumes where it stopped (the counter
+        continues without a gap) unless the device is in configuration mode."""
+        self._release("operator")
+
+    def enter_configuration(self) -> None:
+        """The device's own hold (Xbus GoToConfig): no samples until measurement."""
+        self._hold("configuration")
+
+    def enter_measurement(self) -> None:
+        """Leave configuration mode (Xbus GoToMeasurement); the operator's hold stays."""
+        self._release("configuration")
 
     def link_down(self) -> bool:
         """Whether the device is disconnected now."""
@@ -165,16 +259,25 @@ class SimCore:
             samples overdue by more than ``max_lag_s`` (clock s) are generated and booked
             lost (as a device stall would lose them) rather than sent in one late burst.
         """
-        if self._paused_at is not None:
+        if self._holds:
             return []
         target = int(self.device_time() * self.sample_rate_hz)
-        n = min(target - self.ledger.generated, limit)
         if max_lag_s is not None:
             keep = max(1, int(max_lag_s * self.sample_rate_hz))
-            if n > keep:
-                self.lose(self._generate(n - keep))
-                n = keep
-        return self._generate(n)
+            self._skip(target - self.ledger.generated - keep)
+        return self._generate(min(target - self.ledger.generated, limit))
+
+    def _skip(self, n: int) -> None:
+        """Generate ``n`` samples and book them lost at once (no readings built)."""
+        if n <= 0:
+            return
+        start = self.ledger.generated
+        self._history.extend(start, self.signal.read(n).rate_deg_s)
+        self.ledger.generated += n
+        self.ledger.lost_in_outage += n
+        if self.ledger.window:
+            self.ledger.lost_indices.extend(range(max(start, start + n - self.ledger.window),
+                                                  start + n))
 
     def next_reading(self) -> Reading:
         """One more sample now, off the time schedule (a SYNC-triggered measurement)."""
@@ -184,24 +287,35 @@ class SimCore:
         if n <= 0:
             return []
         chunk = self.signal.read(n)
-        if self.keep_history:
-            self._history.append(chunk.rate_deg_s)
         start = self.ledger.generated
+        self._history.extend(start, chunk.rate_deg_s)
         self.ledger.generated += n
         dt = 1.0 / self.sample_rate_hz
         return [Reading(tuple(chunk.rate_deg_s[i].tolist()), start + i, 0, (start + i) * dt,
                         float(chunk.temperature_c[i])) for i in range(n)]
 
-    def history(self) -> np.ndarray:
-        """Every rate generated so far, deg/s, shape (generated, n_axes)."""
-        if not self._history:
-            return np.empty((0, self.signal.n_axes))
-        return np.concatenate(self._history)
+    @property
+    def history_start(self) -> int:
+        """Index of the oldest sample whose rate is kept."""
+        return self._history.start
+
+    def history(self, indices: np.ndarray | int | None = None) -> np.ndarray:
+        """Rates generated (deg/s) of the given sample indices, or every kept one.
+
+        Only the latest ``history`` samples are kept (constructor, URL key ``history=``).
+
+        Raises
+        ------
+        IndexError
+            An index outside the kept window.
+        """
+        return self._history.rates(indices)
 
     def lose(self, readings: list[Reading]) -> None:
         """Count samples lost to an outage or a stall."""
         self.ledger.lost_in_outage += len(readings)
-        self.ledger.lost_indices.extend(r.counter for r in readings)
+        if self.ledger.window:
+            self.ledger.lost_indices.extend(r.counter for r in readings)
 
     def wire(self, frame: bytes, index: int, *, header: bytes = b"") -> bytes:
         """A frame as it goes on the wire: maybe dropped, corrupted, or after garbage.

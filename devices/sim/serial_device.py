@@ -14,6 +14,7 @@ import os
 import select
 import tempfile
 import threading
+import time
 import tty
 from typing import Any
 
@@ -35,8 +36,9 @@ class PtySerialDevice:
     poll_s : float
         Wall-clock period of the device loop, s.
     max_lag_wall_s : float
-        Samples this thread is later than this (wall s, when not held up by the reader)
-        are booked lost instead of sent late (see :meth:`SimCore.due`).
+        Samples this thread is later than this (wall s, when not held up by the reader
+        and not catching up; at most a quarter of a counter period) are booked lost
+        instead of sent late (see :meth:`SimCore.due`).
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
@@ -73,6 +75,26 @@ class PtySerialDevice:
                 with contextlib.suppress(OSError):
                     os.close(fd)
         self._master = self._slave = None
+
+    #: Shortest pause of the device thread (wall s) taken for starvation: at a high warp
+    #: a quarter counter period is less than the host's scheduling quantum.
+    min_starved_wall_s = 0.005
+
+    @property
+    def max_lag_s(self) -> float:
+        """Lateness allowance of a starved device thread, simulated s (see
+        :meth:`SimCore.due`): ``max_lag_wall_s``, and at most a quarter of a counter
+        period, so that the samples it still sends after a stall cannot shift the stall's
+        wrap count."""
+        core = self.core
+        return min(self.max_lag_wall_s * core.clock.warp,
+                   self.codec.counter_modulus / core.sample_rate_hz / 4.0)
+
+    @property
+    def max_latency_s(self) -> float:
+        """Longest this device holds a sample before writing it, simulated s (its loop
+        period and lateness allowance), unless the reader holds it up."""
+        return self.poll_s * self.core.clock.warp + self.max_lag_s
 
     @property
     def connected(self) -> bool:
@@ -119,10 +141,12 @@ class PtySerialDevice:
                 continue
             frame_out, streaming = answer
             reply += self.codec.encode(frame_out)
+            # The device's own configuration mode: independent of the operator's hold
+            # (SimCore.pause), which a GoToMeasurement must not lift.
             if streaming:
-                self.core.resume()
+                self.core.enter_measurement()
             else:
-                self.core.pause()
+                self.core.enter_configuration()
         return reply
 
     def _write(self, data: bytes) -> bool:
@@ -144,8 +168,21 @@ class PtySerialDevice:
 
     def _run(self) -> None:
         core = self.core
-        waited = False
-        while not self._stop.wait(self.poll_s):
+        behind = False
+        # At most this many frames per write: a device that has fallen behind (its reader
+        # slow, or the host too slow for its rate) catches up in small writes, back to
+        # back, instead of going silent while it encodes a large batch (a silence the
+        # reader would rightly take for lost samples).
+        chunk = 64
+        last_pass = time.monotonic()
+        while not self._stop.wait(0.0 if behind else self.poll_s):
+            # Starved: this thread did not run for longer than its allowance (a gyro
+            # does not stop sampling: what it would have sent meanwhile is lost). Late
+            # only because the reader held a write up, or because the host cannot run
+            # it as fast as its rate (it runs flat out, catching up): nothing is lost.
+            starved = time.monotonic() - last_pass > max(self.max_lag_s / core.clock.warp,
+                                                         self.min_starved_wall_s)
+            last_pass = time.monotonic()
             if core.link_down():
                 if self.connected:
                     self._detach()
@@ -155,14 +192,14 @@ class PtySerialDevice:
             if not self.connected:
                 self._attach()
             out = bytearray(self._handle_commands())
-            # Late only because the reader held us up: nothing is lost. Late because this
-            # thread was starved: what a real gyro would have sent meanwhile is lost.
-            lag_s = None if waited else self.max_lag_wall_s * core.clock.warp
-            readings = core.due(max_lag_s=lag_s)
+            readings = core.due(chunk, max_lag_s=self.max_lag_s if starved else None)
+            behind = len(readings) == chunk
             if core.stalled():
                 core.lose(readings)
                 readings = []
             for reading in readings:
                 out += core.wire(self.codec.encode(self.codec.from_reading(reading)),
                                  reading.counter, header=self.header)
-            waited = self._write(bytes(out)) if out else False
+            if out:
+                self._write(bytes(out))
+            last_pass = time.monotonic()

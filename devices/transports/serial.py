@@ -19,7 +19,11 @@ class ByteTransport(Protocol):
         """Close the link; safe to call twice."""
 
     def read(self, timeout_s: float) -> bytes:
-        """Bytes available, waiting up to ``timeout_s`` (s) for the first; may be empty."""
+        """Bytes available, waiting up to ``timeout_s`` (wall s) for the first.
+
+        Empty only after waiting the whole timeout with nothing arriving: the stream
+        adapter takes an empty read as proof of a silence that long.
+        """
 
     def write(self, data: bytes) -> None:
         """Send ``data``."""

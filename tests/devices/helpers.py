@@ -70,12 +70,13 @@ def device_index(collected: Collected, core: SimCore, modulus: int, *, atol: flo
     of the modulus whose generated rate matches the first received one.
     """
     first = int(collected.counter[0])
+    start = core.history_start
     history = core.history()
     rate0 = collected.rate[0]
     for k in range(len(history) // modulus + 1):
-        idx = first + k * modulus
-        if idx < len(history) and np.allclose(history[idx], rate0, atol=atol, rtol=1e-6):
-            return idx - first
+        idx = first + k * modulus - start
+        if 0 <= idx < len(history) and np.allclose(history[idx], rate0, atol=atol, rtol=1e-6):
+            return idx + start - first
     raise AssertionError("first received sample matches no generated sample")
 
 
@@ -97,6 +98,6 @@ def check_accounting(collected: Collected, core: SimCore, offset: int) -> tuple[
     declared = missing_indices(collected.gaps, offset)
     assert not received & declared
     assert received | declared == set(range(lo, hi + 1))
-    lost = {i for i in core.ledger.lost_indices if lo <= i <= hi}
+    lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
     assert lost <= declared
     return declared, lost

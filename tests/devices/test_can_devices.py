@@ -15,19 +15,19 @@ import pytest
 from devices.urls import open_device
 from tests.devices.helpers import check_accounting, collect, device_index
 
-LAYOUTS = {"shared": (256, 1 / 512), "per_axis": (16, 0.5e-6)}
+LAYOUTS = {"shared": (256, 2.0**-14), "per_axis": (16, 0.5e-6)}
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
 def test_round_trip_exact_samples(layout: str) -> None:
     modulus, half_lsb = LAYOUTS[layout]
-    with open_device(f"sim+can://STIM300?layout={layout}&rate=500&warp=5&seed=5") as dev:
+    with open_device(f"sim+can://STIM300?layout={layout}&rate=500&warp=5&history=100000&seed=5") as dev:
         dev.source.open()
         got = collect(dev.source, 1200)
         core = dev.simulator.core
         offset = device_index(got, core, modulus, atol=2 * half_lsb)
         assert np.all(np.diff(got.counter) == 1) and got.gaps == []
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=half_lsb + 1e-12, rtol=0)
         desc = dev.source.describe()
         assert desc.counter_modulus == modulus
@@ -37,7 +37,7 @@ def test_round_trip_exact_samples(layout: str) -> None:
 @pytest.mark.parametrize("layout", LAYOUTS)
 def test_faults_are_exact_gaps_and_node_loss_reconnects(layout: str) -> None:
     modulus, half_lsb = LAYOUTS[layout]
-    url = (f"sim+can://STIM300?layout={layout}&rate=500&warp=5&seed=6&drop=0.02"
+    url = (f"sim+can://STIM300?layout={layout}&rate=500&warp=5&history=100000&seed=6&drop=0.02"
            "&corrupt=0.02&disconnect_every_s=1.0&disconnect_for_s=4")  # 0.8 s wall > 0.5 s
     with open_device(url) as dev:
         dev.source.open()
@@ -49,3 +49,34 @@ def test_faults_are_exact_gaps_and_node_loss_reconnects(layout: str) -> None:
         assert got.crc_errors > 0 and got.disconnects >= 1
         assert {"disconnect", "reconnect"} <= set(got.event_kinds())
         assert "counter+elapsed" in {g.method for g in got.gaps}
+
+
+def test_gap_times_are_on_the_units_clock() -> None:
+    """The gaps' times come from the bus's frame stamps mapped to the unit's (warped)
+    clock, origin included: they fall among the samples' receive times, not at the
+    host's uptime times the warp."""
+    url = "sim+can://STIM300?layout=shared&rate=500&warp=5&seed=8&drop=0.05"
+    with open_device(url) as dev:
+        dev.source.open()
+        got = collect(dev.source, 1000)
+        t = got.column("receive_time_s")
+        assert len(got.gaps) >= 10
+        for gap in got.gaps:
+            assert t[0] - 0.5 <= gap.receive_time_s <= t[-1] + 0.5, (gap, t[0], t[-1])
+
+
+def test_node_silence_limit_is_on_the_units_clock() -> None:
+    """At warp 20 a 2 s outage of the node lasts 0.1 s of wall time: longer than the
+    0.5 s silence limit on the unit's own (simulated) time base, so it is reported and
+    the node picked up again, the outage counted from the frame time stamps."""
+    url = ("sim+can://STIM300?layout=shared&rate=100&warp=20&seed=9&history=100000"
+           "&disconnect_every_s=3&disconnect_for_s=2")
+    with open_device(url) as dev:
+        dev.source.open()
+        got = collect(dev.source, 700, deadline_s=30)
+        core = dev.simulator.core
+        kinds = got.event_kinds()
+        assert kinds.count("disconnect") >= 2 and kinds.count("reconnect") >= 2, kinds
+        offset = device_index(got, core, 256, atol=2.0**-13)
+        declared, lost = check_accounting(got, core, offset)
+        assert declared == lost and len(lost) >= 300

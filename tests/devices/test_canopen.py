@@ -26,13 +26,13 @@ from tests.devices.helpers import check_accounting, collect, device_index
 
 
 def test_round_trip_exact_samples_and_identity() -> None:
-    with open_device("sim+canopen://STIM300/5?rate=100&warp=4&seed=11") as dev:
+    with open_device("sim+canopen://STIM300/5?rate=100&warp=4&history=100000&seed=11") as dev:
         dev.source.open()
         got = collect(dev.source, 400)
         core = dev.simulator.core
         offset = device_index(got, core, 65536, atol=1e-6)
         assert np.all(np.diff(got.counter) == 1) and got.gaps == []
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
         np.testing.assert_allclose(got.column("temperature_c"), 25.0, atol=0.005)
         desc = dev.source.describe()
@@ -42,7 +42,7 @@ def test_round_trip_exact_samples_and_identity() -> None:
 
 def test_sync_driven_tpdos_one_sample_per_sync() -> None:
     """``tpdo=sync``: transmission type 1, the adapter's SYNC producer paces the node."""
-    with open_device("sim+canopen://STIM300/6?rate=100&warp=4&seed=13&tpdo=sync") as dev:
+    with open_device("sim+canopen://STIM300/6?rate=100&warp=4&history=100000&seed=13&tpdo=sync") as dev:
         dev.source.open()
         got = collect(dev.source, 300)
         core = dev.simulator.core
@@ -51,12 +51,12 @@ def test_sync_driven_tpdos_one_sample_per_sync() -> None:
         offset = device_index(got, core, 65536, atol=1e-6)
         declared, lost = check_accounting(got, core, offset)
         assert declared == lost == set()  # a SYNC-driven node samples only when asked
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
 
 
 def test_lost_pdos_and_unplugged_node_are_gaps_and_reconnect() -> None:
-    url = ("sim+canopen://STIM300/7?rate=100&warp=4&seed=12&drop=0.02&corrupt=0.01"
+    url = ("sim+canopen://STIM300/7?rate=100&warp=4&history=100000&seed=12&drop=0.02&corrupt=0.01"
            "&disconnect_every_s=3&disconnect_for_s=2")
     with open_device(url) as dev:
         dev.source.open()
@@ -68,7 +68,7 @@ def test_lost_pdos_and_unplugged_node_are_gaps_and_reconnect() -> None:
         # Besides the lost ones, only samples whose TPDO pairing was ambiguous (the
         # first after each outage, a TPDO1 lost next to a lost TPDO2) are declared.
         assert len(declared - lost) <= 2 * got.disconnects + 0.01 * len(got.counter)
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
         assert got.disconnects >= 1
         assert {"disconnect", "reconnect"} <= set(got.event_kinds())

@@ -100,7 +100,7 @@ def test_bad_maps_and_blocks_are_rejected() -> None:
                                                ("int32", "rtu")])
 def test_polled_gyro_round_trip(name: str, transport: str) -> None:
     # Polling at 4 x the sample rate: a sample is missed only if a poll is 12 ms late.
-    url = f"sim+modbus+{transport}://STIM300?map={name}&rate=20&warp=4&oversample=4&seed=8"
+    url = f"sim+modbus+{transport}://STIM300?map={name}&rate=20&warp=4&oversample=4&history=100000&seed=8"
     with open_device(url) as dev:
         dev.source.open()
         got = collect(dev.source, 100)
@@ -113,7 +113,7 @@ def test_polled_gyro_round_trip(name: str, transport: str) -> None:
         declared, _ = check_accounting(got, core, offset)
         assert len(declared) <= 0.25 * len(got.counter)
         atol, rtol = (0.5e-6, 0.0) if name == "int32" else (0.0, 1e-7)
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=atol + 1e-12, rtol=rtol)
         np.testing.assert_allclose(got.column("temperature_c"), 25.0, atol=0.01)
         assert dev.source.describe().transport == f"modbus+{transport}"
@@ -121,7 +121,7 @@ def test_polled_gyro_round_trip(name: str, transport: str) -> None:
 
 @pytest.mark.parametrize("transport", ["tcp", "rtu"])
 def test_server_outage_is_reported_reconnected_and_counted(transport: str) -> None:
-    url = (f"sim+modbus+{transport}://STIM300?rate=20&warp=10&seed=9&drop=0.05"
+    url = (f"sim+modbus+{transport}://STIM300?rate=20&warp=10&history=100000&seed=9&drop=0.05"
            "&disconnect_every_s=4&disconnect_for_s=3")
     with open_device(url) as dev:
         dev.source.open()
@@ -136,7 +136,7 @@ def test_server_outage_is_reported_reconnected_and_counted(transport: str) -> No
 
 
 def test_environment_channel_reads_chamber_temperature() -> None:
-    with open_device("sim+modbus+tcp://STIM300?rate=20&warp=10&seed=1") as dev:
+    with open_device("sim+modbus+tcp://STIM300?rate=20&warp=10&history=100000&seed=1") as dev:
         server = dev.simulator
         channel = ModbusEnvironmentChannel(
             ModbusTransport("tcp", "127.0.0.1", port=server.port), CHAMBER_FIELD,

@@ -8,11 +8,20 @@ lost samples, with the adapter reconnecting by itself.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
+from devices.errors import DeviceTimeoutError
 from devices.urls import open_device
-from tests.devices.helpers import check_accounting, collect, device_index, missing_indices
+from tests.devices.helpers import (
+    Collected,
+    check_accounting,
+    collect,
+    device_index,
+    missing_indices,
+)
 
 # (protocol, resolution of the rate on the wire in deg/s, relative float32 resolution)
 PROTOCOLS = [("stim300", 0.5 / 2**14, 0.0), ("kvh1750", 0.0, 1e-7), ("xbus", 0.0, 1e-7)]
@@ -21,7 +30,7 @@ MODULUS = {"stim300": 256, "kvh1750": 128, "xbus": 65536}
 
 @pytest.mark.parametrize(("protocol", "atol", "rtol"), PROTOCOLS)
 def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> None:
-    url = f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&seed=4"
+    url = f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&history=100000&seed=4"
     with open_device(url) as dev:
         dev.source.open()
         got = collect(dev.source, 1500)
@@ -33,7 +42,7 @@ def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> No
         declared, lost = check_accounting(got, core, offset)
         assert declared == lost and len(lost) <= 0.05 * len(idx)
         assert got.crc_errors == 0
-        np.testing.assert_allclose(got.rate, core.history()[idx], atol=atol + 1e-12, rtol=rtol)
+        np.testing.assert_allclose(got.rate, core.history(idx), atol=atol + 1e-12, rtol=rtol)
         temp = got.column("temperature_c")
         assert np.all(np.abs(temp - 25.0) <= 0.5)
         if protocol == "xbus":  # SampleTimeFine: 10 kHz ticks of the device clock
@@ -44,7 +53,7 @@ def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> No
 
 @pytest.mark.parametrize("protocol", ["stim300", "kvh1750", "xbus"])
 def test_drops_corruption_and_garbage_are_exact_gaps(protocol: str) -> None:
-    url = (f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&seed=7"
+    url = (f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&history=100000&seed=7"
            "&drop=0.02&corrupt=0.02&garbage=0.05")
     with open_device(url) as dev:
         dev.source.open()
@@ -52,19 +61,19 @@ def test_drops_corruption_and_garbage_are_exact_gaps(protocol: str) -> None:
         core = dev.simulator.core
         offset = device_index(got, core, MODULUS[protocol])
         lo, hi = int(got.counter[0]) + offset, int(got.counter[-1]) + offset
-        lost = {i for i in core.ledger.lost_indices if lo <= i <= hi}
+        lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
         assert len(lost) > 40  # the faults really happened
         assert missing_indices(got.gaps, offset) == lost
         assert len(got.counter) + len(lost) == hi - lo + 1
         # every received sample is the generated one
-        np.testing.assert_allclose(got.rate, core.history()[got.counter + offset],
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=1 / 2**14, rtol=1e-6)
         assert got.crc_errors > 0
 
 
 def test_stall_longer_than_counter_period_counted_from_elapsed_time() -> None:
     """STIM300 at 500 Hz wraps its 8-bit counter every 0.512 s; stalls last 0.7 s."""
-    url = ("sim+serial://STIM300?protocol=stim300&rate=500&warp=5&seed=2"
+    url = ("sim+serial://STIM300?protocol=stim300&rate=500&warp=5&history=100000&seed=2"
            "&stall_every_s=1.5&stall_for_s=0.7")
     with open_device(url) as dev:
         dev.source.open()
@@ -72,7 +81,7 @@ def test_stall_longer_than_counter_period_counted_from_elapsed_time() -> None:
         core = dev.simulator.core
         offset = device_index(got, core, 256)
         lo, hi = int(got.counter[0]) + offset, int(got.counter[-1]) + offset
-        lost = {i for i in core.ledger.lost_indices if lo <= i <= hi}
+        lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
         assert len(lost) >= 300
         assert missing_indices(got.gaps, offset) == lost
         assert "counter+elapsed" in {g.method for g in got.gaps}
@@ -81,7 +90,7 @@ def test_stall_longer_than_counter_period_counted_from_elapsed_time() -> None:
 
 @pytest.mark.parametrize("protocol", ["stim300", "xbus"])
 def test_disconnect_reported_and_reconnected(protocol: str) -> None:
-    url = (f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&seed=3"
+    url = (f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&history=100000&seed=3"
            "&disconnect_every_s=1.0&disconnect_for_s=0.8")
     with open_device(url) as dev:
         dev.source.open()
@@ -100,3 +109,28 @@ def test_disconnect_reported_and_reconnected(protocol: str) -> None:
         # wrap count comes from elapsed time; the 16-bit Xbus counter counts it alone.
         expected = {"stim300": "counter+elapsed", "xbus": "counter"}[protocol]
         assert {g.method for g in got.gaps if g.missing_samples > 256} == {expected}
+
+
+def test_silence_limit_is_on_the_units_clock() -> None:
+    """At warp 20 an 8 s stall lasts 0.4 s of wall time: over the 5 s silence limit on
+    the unit's own (simulated) time base, so the read raises a timeout; a 3 s stall
+    does not. The stalls' samples are declared all the same."""
+    url = ("sim+serial://STIM300?protocol=xbus&rate=200&warp=20&seed=6&history=100000"
+           "&stall_every_s=4&stall_for_s=8")
+    with open_device(url) as dev:
+        source = dev.source
+        source.open()
+        got, timeouts = Collected(), 0
+        deadline = time.monotonic() + 20.0
+        while len(got.counter) < 1200 and time.monotonic() < deadline:
+            try:
+                got.batches.append(source.read(0.02))
+            except DeviceTimeoutError:
+                timeouts += 1
+        assert timeouts >= 1
+        offset = device_index(got, dev.simulator.core, 65536)
+        declared, lost = check_accounting(got, dev.simulator.core, offset)
+        assert declared == lost and len(lost) >= 800
+    with open_device(url.replace("stall_for_s=8", "stall_for_s=3")) as dev:
+        dev.source.open()
+        collect(dev.source, 1200)  # raises on a timeout
