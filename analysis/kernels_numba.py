@@ -13,24 +13,6 @@ import numpy as np
 _BLOCK = 1 << 12
 
 
-@numba.njit(fastmath={"reassoc", "contract"}, cache=True)
-def oadev_one(th, m):
-    """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""
-    # Slices make every index provably non-negative, so the loop vectorizes.
-    length = th.shape[0] - 2 * m
-    far, mid = th[2 * m :], th[m:]
-    total = 0.0
-    for start in range(0, length, _BLOCK):
-        stop = min(start + _BLOCK, length)
-        a, b, c = far[start:stop], mid[start:stop], th[start:stop]
-        part = 0.0
-        for n in range(stop - start):
-            d = a[n] - 2.0 * b[n] + c[n]
-            part += d * d
-        total += part
-    return total
-
-
 @numba.njit(parallel=True, cache=True)
 def oadev_sums(theta_t, m_values, out):
     """``out[i, c] = oadev_one(theta_t[c], m_values[i])``, the (m, axis) pairs spread over cores."""
@@ -96,6 +78,12 @@ def _span_sum(theta, m, lo, hi):
             part += d * d
         total += part
     return total
+
+
+@numba.njit(cache=True)
+def oadev_one(th, m):
+    """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""
+    return _span_sum(th, m, 0, th.shape[0] - 2 * m)
 
 
 @numba.njit(parallel=True, cache=True)
