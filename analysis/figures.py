@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
 from analysis.fit import NoiseCoefficients
+from analysis.fog import measure_bias_stability
 from analysis.units import S_PER_H
 
 #: Local log-log slope of the Allan deviation accepted as "the -1/2 line".
@@ -55,8 +56,7 @@ def bias_stability(
     count = len(x) // m
     if count < 3:
         return BiasStability(average_s, None, count)
-    means = x[: count * m].reshape(count, m).mean(axis=1)
-    std = float(np.std(means, ddof=1)) * S_PER_H
+    std = float(measure_bias_stability(x, fs, average_s=average_s))
     low, high = chi2_interval(std**2, count - 1)
     return BiasStability(average_s, std, count, math.sqrt(float(low)), math.sqrt(float(high)))
 
