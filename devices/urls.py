@@ -12,13 +12,13 @@ the noise model; the query keys of every simulation are those of :class:`SimPara
 
 from __future__ import annotations
 
-import math
 import tomllib
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
+from functools import partial
 from typing import Any, Protocol
-from urllib.parse import parse_qsl, unquote, urlsplit
+from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 
 from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
@@ -35,70 +35,42 @@ from devices.protocols import RateSource
 from devices.sim.can_device import CanBroadcastDevice
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
-from devices.sim.faults import FaultConfig, Ledger, SimCore
+from devices.sim.faults import Ledger
 from devices.sim.modbus_server import ModbusGyroServer
+from devices.sim.params import FAULT_KEYS, SimParams, parse_sim_params, query_number, sim_core
+from devices.sim.process import MulticastChannel, SimulatorProcess
 from devices.sim.serial_device import PtySerialDevice
-from devices.sim.signal import SignalSource
 from devices.stream import StreamRateSource
 from devices.transports.can import CanTransport
 from devices.transports.modbus import ModbusTransport
 from devices.transports.serial import SerialTransport
 
 
-@dataclass(frozen=True)
-class SimParams:
-    """Query keys of a simulated device URL (times in simulated seconds).
+class SimControl(Protocol):
+    """What the station uses of a simulated device's core, in this process
+    (:class:`SimCore`) or in another (:class:`RemoteSimCore`)."""
 
-    Attributes
-    ----------
-    model : str
-        Noise model: a preset name or a TOML file.
-    rate : float
-        Sample rate, Hz.
-    warp : float
-        Time-warp factor (simulated seconds per wall second).
-    drop, corrupt, garbage : float
-        Per-frame probabilities of a dropped frame, a flipped bit, junk before a frame.
-    disconnect_every_s, disconnect_for_s : float
-        Periodic disconnects.
-    stall_every_s, stall_for_s : float
-        Periodic output stalls (samples lost, link kept).
-    drift_ppm : float
-        Device clock error, ppm.
-    seed : int or None
-        Seed of the signal and of the faults.
-    history : int
-        Samples whose rates and lost indices the simulator keeps for tests (0: counts
-        only, so that an overnight run stays in bounded memory).
-    """
+    clock: WarpClock
 
-    model: str = "STIM300"
-    rate: float = 500.0
-    warp: float = 1.0
-    drop: float = 0.0
-    corrupt: float = 0.0
-    garbage: float = 0.0
-    disconnect_every_s: float = math.inf
-    disconnect_for_s: float = 0.0
-    stall_every_s: float = math.inf
-    stall_for_s: float = 0.0
-    drift_ppm: float = 0.0
-    seed: int | None = None
-    history: int = 0
+    @property
+    def ledger(self) -> Ledger:
+        """Samples generated, delivered and lost."""
 
-    def faults(self) -> FaultConfig:
-        """The fault knobs of these parameters."""
-        return FaultConfig(
-            drop=self.drop, corrupt=self.corrupt, garbage=self.garbage,
-            disconnect_every_s=self.disconnect_every_s, disconnect_for_s=self.disconnect_for_s,
-            stall_every_s=self.stall_every_s, stall_for_s=self.stall_for_s,
-            drift_ppm=self.drift_ppm, seed=None if self.seed is None else self.seed + 1)
+    @property
+    def sample_rate_hz(self) -> float:
+        """Nominal sample rate, Hz."""
+
+    def pause(self) -> None:
+        """Hold sampling."""
+
+    def resume(self) -> None:
+        """Release the hold."""
 
 
 class Simulator(Protocol):
     """A running simulated device."""
 
-    core: SimCore
+    core: SimControl
 
     def stop(self) -> None:
         """Stop it and release its transport."""
@@ -111,6 +83,10 @@ class OpenedDevice:
     source: RateSource
     url: str
     simulator: Simulator | None = None
+    #: For a simulation another process can reach (a pty, a TCP port, a
+    #: ``udp_multicast`` bus) and that runs in real time: the hardware URL by which a
+    #: second station opens it as a real device. None otherwise.
+    hardware_url: str | None = None
 
     @property
     def ledger(self) -> Ledger | None:
@@ -132,39 +108,19 @@ class OpenedDevice:
         self.close()
 
 
-def _number(key: str, text: str, kind: Callable[[str], Any]) -> Any:
-    try:
-        return kind(text)
-    except ValueError as exc:
-        raise DeviceConfigurationError(f"URL key {key}={text!r} is not a number") from exc
+_SIM_ONLY_KEYS = frozenset({"model", "warp", "seed", "history", "interface", *FAULT_KEYS})
 
 
-def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
-    """Simulation parameters from a URL's host part and query (unknown keys are left).
-
-    Raises
-    ------
-    DeviceConfigurationError
-        A key has a value of the wrong type or out of range.
-    """
-    values: dict[str, Any] = {}
-    if host_model:
-        values["model"] = host_model
-    for f in fields(SimParams):
-        if f.name in query:
-            text = query[f.name]
-            values[f.name] = (text if f.name == "model" else
-                              _number(f.name, text, int if f.name in ("seed", "history") else float))
-    try:
-        params = SimParams(**values)
-        params.faults()
-    except ValueError as exc:
-        raise DeviceConfigurationError(str(exc)) from exc
-    if not (params.rate > 0 and params.warp > 0):
-        raise DeviceConfigurationError("rate and warp must be > 0")
-    if params.history < 0:
-        raise DeviceConfigurationError("history must be >= 0")
-    return params
+def _hardware_url(params: SimParams, scheme: str, location: str, query: dict[str, str],
+                  **keys: str) -> str | None:
+    """The URL by which another process opens a running simulation as hardware (its
+    protocol keys kept, the simulation's dropped), or None when it runs warped: a
+    hardware adapter keeps wall time."""
+    if params.warp != 1.0:
+        return None
+    kept = {k: v for k, v in query.items() if k not in _SIM_ONLY_KEYS}
+    kept.update(keys, rate=f"{params.rate:g}")
+    return f"{scheme}://{location}?{urlencode(kept)}"
 
 
 # -- serial protocols ----------------------------------------------------------------
@@ -176,7 +132,7 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
                   ) -> tuple[StreamCodec[Any], bytes, str]:
     """(codec, sync header, default model name) of a serial protocol."""
     if protocol == "stim300":
-        ident = _number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
+        ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
         return Stim300Codec(ident), bytes([ident]), "STIM300"
     if protocol == "kvh1750":
         return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
@@ -199,10 +155,11 @@ def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) ->
                                   sample_rate_hz=params.rate, clock=clock,
                                   clock_scale=params.warp,
                                   max_latency_s=device.max_latency_s)
-        return OpenedDevice(source, "", device)
-    rate = _number("rate", query.get("rate", "2000"), float)
+        return OpenedDevice(source, "", device,
+                            _hardware_url(params, "serial", device.port, query))
+    rate = query_number("rate", query.get("rate", "2000"), float)
     codec, _, model = _stream_codec(protocol, query, rate)
-    transport = SerialTransport(path, _number("baud", query.get("baud", "921600"), int))
+    transport = SerialTransport(path, query_number("baud", query.get("baud", "921600"), int))
     source = StreamRateSource(transport, codec, model=query.get("model", model),
                               serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
     return OpenedDevice(source, "")
@@ -253,38 +210,71 @@ def register_map(name: str) -> ModbusRegisterMap:
         raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
 
 
-def sim_core(params: SimParams, n_axes: int) -> tuple[SimCore, WarpClock]:
-    """The simulator core of a ``sim+`` URL and its time-warped clock.
+def _start_can_broadcast(params: SimParams, layout: CanFrameLayout, bus: MulticastChannel,
+                         clock: WarpClock) -> CanBroadcastDevice:
+    """Run in a simulator process: a raw-CAN gyro on a ``udp_multicast`` bus."""
+    core, _ = sim_core(params, len(layout.axes), clock)
+    return CanBroadcastDevice(bus.transport(), layout, core).start()
 
-    It keeps counts of what it generated and lost, and the rates and lost indices of
-    the latest ``params.history`` samples only: memory is bounded whatever the run length.
-    """
-    clock = WarpClock(params.warp)
-    signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed)
-    return SimCore(signal, params.rate, clock, params.faults(), history=params.history), clock
+
+def _start_canopen_node(params: SimParams, node_id: int, bus: MulticastChannel,
+                        clock: WarpClock) -> CanopenGyroNode:
+    """Run in a simulator process: a CANopen gyro node on a ``udp_multicast`` bus."""
+    core, _ = sim_core(params, 3, clock)
+    return CanopenGyroNode(bus.transport(), core, node_id=node_id,
+                           serial_number=params.seed or 1).start()
+
+
+def _sim_bus(query: dict[str, str]) -> str:
+    """The bus a simulated CAN device uses: ``virtual`` (this process, the default) or
+    ``udp_multicast`` (the device runs in a process of its own)."""
+    interface = query.get("interface", "virtual")
+    if interface not in ("virtual", "udp_multicast"):
+        raise DeviceConfigurationError(
+            f"a simulated CAN device runs on interface=virtual (in this process) or "
+            f"interface=udp_multicast (in a process of its own), not {interface!r}")
+    return interface
+
+
+def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
+    """python-can bus arguments a hardware URL may set: ``bitrate`` (bit/s), ``port``
+    (the UDP port of a ``udp_multicast`` bus)."""
+    return {key: query_number(key, query[key], int) for key in ("bitrate", "port")
+            if key in query}
 
 
 def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> OpenedDevice:
     layout = can_layout(query.get("layout", "shared"))
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
-        core, clock = sim_core(params, len(layout.axes))
-        channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
-        device = CanBroadcastDevice(
-            CanTransport("virtual", channel, preserve_timestamps=True), layout, core).start()
-        source = CanRateSource(CanTransport("virtual", channel), layout, model=params.model,
+        simulator: Simulator
+        if _sim_bus(query) == "udp_multicast":
+            bus = MulticastChannel.fresh()
+            clock = WarpClock(params.warp)
+            simulator = SimulatorProcess(
+                partial(_start_can_broadcast, params, layout, bus, clock), clock,
+                describe=f"CAN gyro on {bus.group}:{bus.port}").start()
+            transport = bus.transport()
+            reach = _hardware_url(params, "can", bus.group, query, interface="udp_multicast",
+                                  port=str(bus.port))
+        else:
+            reach = None
+            core, clock = sim_core(params, len(layout.axes))
+            channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
+            simulator = CanBroadcastDevice(
+                CanTransport("virtual", channel, preserve_timestamps=True), layout, core
+            ).start()
+            transport = CanTransport("virtual", channel)
+        source = CanRateSource(transport, layout, model=params.model,
                                serial_number=f"SIM-{params.seed or 0}",
                                sample_rate_hz=params.rate, clock=clock,
                                clock_scale=params.warp)
-        return OpenedDevice(source, "", device)
-    kwargs: dict[str, Any] = {}
-    if "bitrate" in query:
-        kwargs["bitrate"] = _number("bitrate", query["bitrate"], int)
+        return OpenedDevice(source, "", simulator, reach)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
-                             **kwargs)
+                             **_can_bus_kwargs(query))
     source = CanRateSource(transport, layout, model=query.get("model", "CAN gyro"),
                            serial_number=query.get("serial", "unknown"),
-                           sample_rate_hz=_number("rate", query.get("rate", "1000"), float))
+                           sample_rate_hz=query_number("rate", query.get("rate", "1000"), float))
     return OpenedDevice(source, "")
 
 
@@ -292,21 +282,34 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
 
 def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
                   ) -> OpenedDevice:
-    node_id = _number("node", path.strip("/") or query.get("node", "5"), int)
+    node_id = query_number("node", path.strip("/") or query.get("node", "5"), int)
     sync = query.get("tpdo", "event") == "sync"
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
-        core, clock = sim_core(params, 3)
-        channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
-        device = CanopenGyroNode(CanTransport("virtual", channel), core, node_id=node_id,
-                                 serial_number=params.seed or 1).start()
-        source = CanopenRateSource(CanTransport("virtual", channel), node_id, GYRO_EDS,
+        simulator: Simulator
+        if _sim_bus(query) == "udp_multicast":
+            bus = MulticastChannel.fresh()
+            clock = WarpClock(params.warp)
+            simulator = SimulatorProcess(
+                partial(_start_canopen_node, params, node_id, bus, clock), clock,
+                describe=f"CANopen node {node_id} on {bus.group}:{bus.port}").start()
+            transport = bus.transport()
+            reach = _hardware_url(params, "canopen", f"{bus.group}/{node_id}", query,
+                                  interface="udp_multicast", port=str(bus.port))
+        else:
+            reach = None
+            core, clock = sim_core(params, 3)
+            channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
+            simulator = CanopenGyroNode(CanTransport("virtual", channel), core,
+                                        node_id=node_id, serial_number=params.seed or 1).start()
+            transport = CanTransport("virtual", channel)
+        source = CanopenRateSource(transport, node_id, GYRO_EDS,
                                    sample_rate_hz=params.rate, model=params.model, clock=clock,
                                    clock_scale=params.warp, sync=sync)
-        return OpenedDevice(source, "", device)
-    transport = CanTransport(query.get("interface", "socketcan"), host)
+        return OpenedDevice(source, "", simulator, reach)
+    transport = CanTransport(query.get("interface", "socketcan"), host, **_can_bus_kwargs(query))
     source = CanopenRateSource(transport, node_id, query.get("eds", str(GYRO_EDS)),
-                               sample_rate_hz=_number("rate", query.get("rate", "100"), float),
+                               sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
                                model=query.get("model", "CANopen gyro"), sync=sync)
     return OpenedDevice(source, "")
 
@@ -326,7 +329,7 @@ def _open_modbus_tcp(path: str, query: dict[str, str], simulate: bool, host: str
 def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *, rtu: bool
                  ) -> OpenedDevice:
     regs = register_map(query.get("map", "int32"))
-    oversample = _number("oversample", query.get("oversample", "2"), float)
+    oversample = query_number("oversample", query.get("oversample", "2"), float)
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
         core, clock = sim_core(params, len(regs.axes))
@@ -338,19 +341,23 @@ def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *,
                                   serial_number=f"SIM-{params.seed or 0}",
                                   sample_rate_hz=params.rate, clock=clock,
                                   clock_scale=params.warp, oversample=oversample)
-        return OpenedDevice(source, "", server)
+        reach = (_hardware_url(params, "modbus+rtu", server.serial_port, query,
+                               unit=str(server.device_id), baud="115200") if rtu
+                 else _hardware_url(params, "modbus+tcp", f"127.0.0.1:{server.port}/"
+                                    f"{server.device_id}", query))
+        return OpenedDevice(source, "", server, reach)
     if rtu:  # modbus+rtu:///dev/ttyUSB0?unit=1&baud=19200
         unit = query.get("unit", "1")
         transport = ModbusTransport("rtu", path,
-                                    baudrate=_number("baud", query.get("baud", "19200"), int))
+                                    baudrate=query_number("baud", query.get("baud", "19200"), int))
     else:  # modbus+tcp://10.0.0.7:502/1
         hostname, _, port = host.partition(":")
         unit = path.strip("/") or query.get("unit", "1")
-        transport = ModbusTransport("tcp", hostname, port=_number("port", port or "502", int))
-    source = ModbusRateSource(transport, regs, device_id=_number("unit", unit, int),
+        transport = ModbusTransport("tcp", hostname, port=query_number("port", port or "502", int))
+    source = ModbusRateSource(transport, regs, device_id=query_number("unit", unit, int),
                               model=query.get("model", "Modbus gyro"),
                               serial_number=query.get("serial", "unknown"),
-                              sample_rate_hz=_number("rate", query.get("rate", "100"), float),
+                              sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
                               oversample=oversample)
     return OpenedDevice(source, "")
 

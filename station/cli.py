@@ -11,6 +11,7 @@ import sys
 from collections.abc import Sequence
 
 from analysis.errors import AnalysisError
+from devices.errors import DeviceError
 from station.commands import (
     analyze,
     davar,
@@ -51,7 +52,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.handler(args) or 0)
-    except (StationError, AnalysisError) as exc:
+    except (StationError, AnalysisError, DeviceError) as exc:
         print(f"station {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except FileNotFoundError as exc:

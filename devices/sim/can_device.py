@@ -2,15 +2,15 @@
 
 from __future__ import annotations
 
-import threading
 import time
 
 from devices.codecs.can_frame import CanFrameLayout
 from devices.sim.faults import SimCore
+from devices.sim.loop import DeviceLoop
 from devices.transports.can import CanTransport
 
 
-class CanBroadcastDevice:
+class CanBroadcastDevice(DeviceLoop):
     """Sends each due sample as the layout's frames from a background thread.
 
     A "disconnect" is the node going silent (powered off, unplugged from the bus).
@@ -30,23 +30,19 @@ class CanBroadcastDevice:
 
     def __init__(self, transport: CanTransport, layout: CanFrameLayout, core: SimCore, *,
                  poll_s: float = 0.002) -> None:
+        super().__init__()
         self.transport = transport
         self.layout = layout
         self.core = core
         self.poll_s = poll_s
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
 
     def start(self) -> CanBroadcastDevice:
         self.transport.open()
-        self._thread = threading.Thread(target=self._run, name="can-gyro", daemon=True)
-        self._thread.start()
+        self._start_loop("can-gyro")
         return self
 
     def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
+        self._stop_loop()
         self.transport.close()
 
     def _run(self) -> None:

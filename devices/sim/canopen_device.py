@@ -21,6 +21,7 @@ import canopen
 
 from devices.codecs.base import Reading
 from devices.sim.faults import SimCore
+from devices.sim.loop import DeviceLoop
 from devices.transports.can import CanTransport
 
 #: The EDS shipped with the project.
@@ -28,7 +29,7 @@ GYRO_EDS = Path(__file__).resolve().parent.parent / "eds" / "gyro.eds"
 _OPERATIONAL = "OPERATIONAL"
 
 
-class CanopenGyroNode:
+class CanopenGyroNode(DeviceLoop):
     """A LocalNode on its own bus connection, served from a background thread.
 
     Parameters
@@ -47,6 +48,7 @@ class CanopenGyroNode:
 
     def __init__(self, transport: CanTransport, core: SimCore, *, node_id: int = 5,
                  serial_number: int = 1, poll_s: float = 0.002) -> None:
+        super().__init__()
         self.transport = transport
         self.core = core
         self.node_id = node_id
@@ -57,8 +59,6 @@ class CanopenGyroNode:
         self.network: canopen.Network | None = None
         self._remap = threading.Event()
         self._syncs: queue.SimpleQueue[float] = queue.SimpleQueue()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._scale = float(self.node.sdo[0x2003].raw)
 
     def _on_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
@@ -83,15 +83,12 @@ class CanopenGyroNode:
         self.node.tpdo.read(from_od=True)
         self.node.nmt.send_command(0x81)  # reset: boot-up message
         self.node.nmt.send_command(0x80)  # PRE-OPERATIONAL, heartbeat per 0x1017
-        self._thread = threading.Thread(target=self._run, name="canopen-gyro", daemon=True)
-        self._thread.start()
+        self._start_loop("canopen-gyro")
         return self
 
     def stop(self) -> None:
         """Stop the thread, the heartbeat and the bus."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
+        self._stop_loop()
         self.node.nmt.stop_heartbeat()
         if self.network is not None:
             self.network.disconnect()  # shuts the bus down too

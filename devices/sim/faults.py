@@ -75,9 +75,12 @@ def _in_window(t_s: float, every_s: float, for_s: float) -> bool:
 class Ledger:
     """What a simulated device did: the truth an adapter's report is checked against.
 
-    The counts cover the whole run. ``lost_indices`` holds the sample indices of the
-    latest ``window`` lost samples only (0: none), so that a long run stays in bounded
-    memory; tests that compare indices open the simulation with ``history=N``.
+    The counts cover the whole run: ``generated`` and ``lost_in_outage`` count samples;
+    ``delivered``, ``dropped`` and ``corrupted`` count frames (one per sample on a serial
+    link; a CAN layout with a frame per axis or a CANopen node with two TPDOs sends
+    several per sample). ``lost_indices`` holds the sample indices of the latest
+    ``window`` lost samples only (0: none), so that a long run stays in bounded memory;
+    tests that compare indices open the simulation with ``history=N``.
     """
 
     generated: int = 0

@@ -13,16 +13,16 @@ import errno
 import os
 import select
 import tempfile
-import threading
 import time
 import tty
 from typing import Any
 
 from devices.codecs.base import StreamCodec
 from devices.sim.faults import SimCore
+from devices.sim.loop import DeviceLoop
 
 
-class PtySerialDevice:
+class PtySerialDevice(DeviceLoop):
     """Serves a stream codec's frames on a pty from a background thread.
 
     Parameters
@@ -43,6 +43,7 @@ class PtySerialDevice:
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
                  poll_s: float = 0.002, max_lag_wall_s: float = 0.05) -> None:
+        super().__init__()
         self.codec = codec
         self.core = core
         self.header = header
@@ -52,8 +53,6 @@ class PtySerialDevice:
         self.port = os.path.join(self._dir, "tty")
         self._master: int | None = None
         self._slave: int | None = None
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._commands = b""
 
     # -- pty management ------------------------------------------------------------
@@ -105,15 +104,12 @@ class PtySerialDevice:
     def start(self) -> PtySerialDevice:
         """Create the pty and start the device thread; returns self."""
         self._attach()
-        self._thread = threading.Thread(target=self._run, name="pty-gyro", daemon=True)
-        self._thread.start()
+        self._start_loop("pty-gyro")
         return self
 
     def stop(self) -> None:
         """Stop the thread, close the pty and remove the link directory."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
+        self._stop_loop()
         self._detach()
         with contextlib.suppress(OSError):
             os.rmdir(self._dir)

@@ -1,21 +1,43 @@
-"""``station devices``: the device protocols and transports the station supports."""
+"""``station devices``: the device protocols and transports the station supports, and
+``station devices serve URL``: a simulated gyro another station records as hardware."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import signal
+import sys
+import threading
 from dataclasses import asdict
+from types import FrameType
+from urllib.parse import urlsplit
 
-from devices.urls import SUPPORTED
+from devices.urls import SUPPORTED, open_device
+from station.errors import UsageError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    """Add the ``devices`` sub-command."""
-    p = sub.add_parser("devices", help="list supported device protocols and their simulations",
-                       description=__doc__)
+    """Add the ``devices`` sub-command (and its ``serve`` action)."""
+    p = sub.add_parser("devices", help="list supported device protocols and their simulations; "
+                       "serve a simulated gyro", description=__doc__)
     p.add_argument("--json", action="store_true",
                    help='print [{"protocol", "transport", "sim_url"}, ...] as JSON')
     p.set_defaults(handler=run)
+    actions = p.add_subparsers(dest="action", metavar="ACTION")
+    serve = actions.add_parser(
+        "serve", help="run a simulated gyro until stopped; print the URL to record it by",
+        description="Run a simulated gyro (a sim+ URL at warp 1) over a transport other "
+        "processes reach: a pty (serial, Modbus RTU), a TCP port on 127.0.0.1 (Modbus "
+        "TCP) or python-can's udp_multicast bus (CAN and CANopen: add "
+        "interface=udp_multicast). Prints the hardware URL another station opens it by, "
+        "then runs until Ctrl-C, SIGTERM or --seconds; prints its ledger at the end.")
+    serve.add_argument("url", help="simulated device URL, e.g. "
+                       "'sim+can://VG951?interface=udp_multicast&rate=500'")
+    serve.add_argument("--seconds", type=float, default=None,
+                       help="stop after this many seconds (default: until stopped)")
+    serve.add_argument("--json", action="store_true", dest="serve_json",
+                       help='print {"url", "sim_url", "pid"} and at the end the ledger as JSON')
+    serve.set_defaults(handler=run_serve)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,4 +50,59 @@ def run(args: argparse.Namespace) -> int:
     for p in SUPPORTED:
         print(f"{p.protocol:<{width}}  {p.transport:<11}  {p.description}")
         print(f"{'':<{width}}  {'':<11}  {p.sim_url}")
+    return 0
+
+
+def _unreachable_reason(url: str) -> str:
+    query = urlsplit(url).query
+    if "warp=" in query:
+        return ("a served simulation runs in real time (the station that records it keeps "
+                "wall time): remove warp= or set warp=1")
+    return ("this simulation lives inside this process (python-can's virtual bus): add "
+            "interface=udp_multicast to serve a CAN or CANopen gyro")
+
+
+def run_serve(args: argparse.Namespace) -> int:
+    """Serve the simulated device until stopped; returns 0 (2 for a URL that cannot be
+    served)."""
+    if not urlsplit(args.url).scheme.lower().startswith("sim+"):
+        raise UsageError(f"serve takes a simulated device URL (sim+...), not {args.url!r}")
+    stop = threading.Event()
+
+    def on_term(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = signal.signal(signal.SIGTERM, on_term)
+    opened = open_device(args.url)
+    try:
+        if opened.hardware_url is None:
+            raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(args.url)}")
+        simulator = opened.simulator
+        pid = getattr(simulator, "pid", None)
+        if args.serve_json:
+            print(json.dumps({"url": opened.hardware_url, "sim_url": args.url, "pid": pid}),
+                  flush=True)
+        else:
+            print(f"serving {args.url}\nrecord it by: {opened.hardware_url}\n"
+                  "(Ctrl-C to stop)", flush=True)
+        try:
+            stop.wait(args.seconds)
+        except KeyboardInterrupt:
+            pass
+        ledger = opened.ledger
+        counts = {} if ledger is None else {
+            "generated": ledger.generated, "delivered": ledger.delivered,
+            "dropped": ledger.dropped, "corrupted": ledger.corrupted,
+            "lost_in_outage": ledger.lost_in_outage, "disconnects": ledger.disconnects}
+        if args.serve_json:
+            print(json.dumps({"ledger": counts}), flush=True)
+        else:
+            print(f"stopped: {counts['generated']} samples generated, "
+                  f"{counts['lost_in_outage']} lost in outages; frames delivered "
+                  f"{counts['delivered']}, dropped {counts['dropped']}, corrupted "
+                  f"{counts['corrupted']}; {counts['disconnects']} disconnects",
+                  file=sys.stderr)
+    finally:
+        opened.close()
+        signal.signal(signal.SIGTERM, previous)
     return 0

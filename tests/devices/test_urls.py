@@ -15,6 +15,7 @@ from devices.canopen_node import CanopenRateSource
 from devices.codecs.can_frame import CanSignal
 from devices.errors import DeviceConfigurationError, DeviceDisconnectedError
 from devices.modbus import ModbusRateSource
+from devices.sim.faults import FaultConfig
 from devices.stream import StreamRateSource
 from devices.urls import SimParams, can_layout, open_device, parse_sim_params, register_map
 from tests.devices.helpers import collect
@@ -25,12 +26,11 @@ def test_every_interface_query_key_is_parsed() -> None:
              "garbage": "0.3", "disconnect_every_s": "60", "disconnect_for_s": "5", "seed": "7",
              "stall_every_s": "9", "stall_for_s": "1", "drift_ppm": "-50"}
     params = parse_sim_params("", query)
-    assert params == SimParams("VG951", 250.0, 20.0, 0.1, 0.2, 0.3, 60.0, 5.0, 9.0, 1.0,
-                               -50.0, 7)
-    faults = params.faults()
-    assert (faults.drop, faults.corrupt, faults.garbage, faults.seed) == (0.1, 0.2, 0.3, 8)
+    assert params == SimParams("VG951", 250.0, 20.0, 7, 0, FaultConfig(
+        drop=0.1, corrupt=0.2, garbage=0.3, disconnect_every_s=60.0, disconnect_for_s=5.0,
+        stall_every_s=9.0, stall_for_s=1.0, drift_ppm=-50.0, seed=8))
     assert parse_sim_params("STIM300", {}).model == "STIM300"  # host part = model
-    assert math.isinf(parse_sim_params("", {}).disconnect_every_s)
+    assert math.isinf(parse_sim_params("", {}).faults.disconnect_every_s)
 
 
 @pytest.mark.parametrize("query", [{"rate": "fast"}, {"drop": "1.5"}, {"warp": "0"},

@@ -1,0 +1,105 @@
+"""The settings of a simulated device, as a ``sim+`` URL's query keys give them."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from devices.errors import DeviceConfigurationError
+from devices.sim.clock import WarpClock
+from devices.sim.faults import FaultConfig, SimCore
+from devices.sim.signal import SignalSource
+
+#: Fault knobs a URL sets (``garbage_max_bytes`` stays the device's own; ``seed`` is the
+#: simulation's, the faults draw from ``seed + 1``).
+FAULT_KEYS: tuple[str, ...] = tuple(
+    f.name for f in fields(FaultConfig) if f.name not in ("garbage_max_bytes", "seed"))
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Query keys of a simulated device URL (times in simulated seconds).
+
+    Attributes
+    ----------
+    model : str
+        Noise model: a preset name or a TOML file.
+    rate : float
+        Sample rate, Hz.
+    warp : float
+        Time-warp factor (simulated seconds per wall second).
+    seed : int or None
+        Seed of the signal; the faults draw from ``seed + 1``.
+    history : int
+        Samples whose rates and lost indices the simulator keeps for tests (0: counts
+        only, so that an overnight run stays in bounded memory).
+    faults : FaultConfig
+        Dropped, corrupted and junk-preceded frames (per-frame probabilities: URL keys
+        ``drop``, ``corrupt``, ``garbage``), periodic disconnects and stalls
+        (``disconnect_every_s``, ``disconnect_for_s``, ``stall_every_s``,
+        ``stall_for_s``, s) and clock error (``drift_ppm``).
+    """
+
+    model: str = "STIM300"
+    rate: float = 500.0
+    warp: float = 1.0
+    seed: int | None = None
+    history: int = 0
+    faults: FaultConfig = field(default_factory=FaultConfig)
+
+
+def query_number(key: str, text: str, kind: Callable[[str], Any]) -> Any:
+    """``kind(text)`` of a URL query value; a DeviceConfigurationError naming the key."""
+    try:
+        return kind(text)
+    except ValueError as exc:
+        raise DeviceConfigurationError(f"URL key {key}={text!r} is not a number") from exc
+
+
+def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
+    """Simulation parameters from a URL's host part and query (unknown keys are left).
+
+    Raises
+    ------
+    DeviceConfigurationError
+        A key has a value of the wrong type or out of range.
+    """
+    model = query.get("model", host_model) or SimParams.model
+    rate = query_number("rate", query.get("rate", str(SimParams.rate)), float)
+    warp = query_number("warp", query.get("warp", str(SimParams.warp)), float)
+    seed = query_number("seed", query["seed"], int) if "seed" in query else None
+    history = query_number("history", query.get("history", "0"), int)
+    if not (rate > 0 and warp > 0):
+        raise DeviceConfigurationError(f"rate and warp must be > 0, got rate={rate} Hz, "
+                                       f"warp={warp}")
+    if history < 0:
+        raise DeviceConfigurationError(f"history must be >= 0 samples, got {history}")
+    knobs = {key: query_number(key, query[key], float) for key in FAULT_KEYS if key in query}
+    try:
+        faults = FaultConfig(**knobs, seed=None if seed is None else seed + 1)
+    except ValueError as exc:
+        raise DeviceConfigurationError(str(exc)) from exc
+    return SimParams(model, rate, warp, seed, history, faults)
+
+
+def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
+             ) -> tuple[SimCore, WarpClock]:
+    """The simulator core of a ``sim+`` URL and its time-warped clock.
+
+    It keeps counts of what it generated and lost, and the rates and lost indices of
+    the latest ``params.history`` samples only: memory is bounded whatever the run length.
+
+    Parameters
+    ----------
+    params : SimParams
+        The URL's settings.
+    n_axes : int
+        Axes of the simulated gyro.
+    clock : WarpClock or None
+        An existing clock to share (a device run in another process gets its parent's,
+        so both count simulated seconds from the same origin); a new one by default.
+    """
+    clock = clock if clock is not None else WarpClock(params.warp)
+    signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed)
+    return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock
