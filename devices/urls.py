@@ -66,6 +66,9 @@ class SimControl(Protocol):
     def resume(self) -> None:
         """Release the hold."""
 
+    def clear_faults(self) -> None:
+        """Turn the injected faults off (a clean end of a run)."""
+
 
 class Simulator(Protocol):
     """A running simulated device."""

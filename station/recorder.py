@@ -268,9 +268,7 @@ class UnitWorker:
         """End a simulated unit cleanly: faults off, its newest frames read, then paused."""
         assert self.opened.simulator is not None
         core = self.opened.simulator.core
-        core.faults = dataclasses.replace(core.faults, drop=0.0, corrupt=0.0, garbage=0.0,
-                                          disconnect_every_s=math.inf,
-                                          stall_every_s=math.inf)
+        core.clear_faults()
         settle = time.monotonic() + 0.05
         deadline = time.monotonic() + 10.0
         backoff = 0.01

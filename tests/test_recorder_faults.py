@@ -1,7 +1,8 @@
 """Disconnects and damaged frames: recorded + declared missing == sent, for every unit.
 
-Four simulated units over their real transports (STIM300 and KVH DSP-1750 on ptys, a
-raw-CAN node on python-can's virtual bus, a Modbus TCP server on 127.0.0.1) record
+Five simulated units over their real transports (STIM300 and KVH DSP-1750 on ptys, a
+raw-CAN node on python-can's virtual bus, a Modbus TCP server on 127.0.0.1, a CANopen
+node in another process on python-can's udp_multicast bus) record
 together, time-warped, while their simulators drop, corrupt and garble frames and go
 away for 1 s to 1 min (the pty closes, the CAN node falls silent, the Modbus server shuts
 down). The 60 s and 40 s outages are longer than the 8-bit and 7-bit counters can count
@@ -30,6 +31,9 @@ UNITS = {
             "&disconnect_for_s=1&drop=0.01&corrupt=0.01", 20.0, 1.0),
     "modbus": (f"sim+modbus+tcp://STIM300?rate=10&warp={WARP}&seed=4&disconnect_every_s=30"
                "&disconnect_for_s=5&drop=0.02", 10.0, 5.0),
+    # a CANopen node in a process of its own, on python-can's udp_multicast bus
+    "canopen": (f"sim+canopen://STIM300/5?interface=udp_multicast&rate=10&warp={WARP}"
+                "&seed=5&disconnect_every_s=20&disconnect_for_s=10&drop=0.01", 10.0, 10.0),
 }
 DURATION_S = 80.0
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -239,6 +239,12 @@ class SimCore:
     def enter_measurement(self) -> None:
         """Leave configuration mode (Xbus GoToMeasurement); the operator's hold stays."""
         self._release("configuration")
+
+    def clear_faults(self) -> None:
+        """Turn the faults off (drops, corruption, junk, disconnects, stalls; the clock
+        drift stays): a simulated run ends cleanly, its last samples all delivered."""
+        self.faults = replace(self.faults, drop=0.0, corrupt=0.0, garbage=0.0,
+                              disconnect_every_s=math.inf, stall_every_s=math.inf)
 
     def link_down(self) -> bool:
         """Whether the device is disconnected now."""

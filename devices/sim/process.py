@@ -73,7 +73,7 @@ class LocalSimulator(Protocol):
 
 
 #: Operator controls and read-outs the parent may ask of the child's core.
-_CALLS = frozenset({"pause", "resume", "history"})
+_CALLS = frozenset({"pause", "resume", "history", "clear_faults"})
 _READS = frozenset({"ledger", "history_start", "sample_rate_hz", "held"})
 
 
@@ -141,6 +141,10 @@ class RemoteSimCore:
             except OSError:
                 pass
             self._conn.close()
+
+    def clear_faults(self) -> None:
+        """Turn the faults off (see :meth:`SimCore.clear_faults`)."""
+        self._ask("clear_faults")
 
     def pause(self) -> None:
         """Hold sampling (see :meth:`SimCore.pause`)."""
