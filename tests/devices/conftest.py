@@ -1,8 +1,9 @@
 """Options and fixtures of the device tests.
 
-``--hardware-port PORT`` with ``--hardware-protocol NAME`` runs the opt-in tests against a
-real gyro (e.g. ``--hardware-port /dev/ttyUSB0 --hardware-protocol stim300``); without
-them those tests are skipped. pytest reads options only from the conftests of the paths
+``--hardware-url URL`` (any device URL: serial, CAN, CANopen, Modbus) or
+``--hardware-port PORT`` with ``--hardware-protocol NAME`` (a serial gyro, e.g.
+``--hardware-port /dev/ttyUSB0 --hardware-protocol stim300``) runs the opt-in tests
+against a real gyro; without them those tests are skipped. pytest reads options only from the conftests of the paths
 it starts from, so name this folder: ``pytest tests/devices --hardware-port ...``.
 """
 
@@ -17,21 +18,28 @@ import pytest
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("gyro hardware")
+    group.addoption("--hardware-url", default=None,
+                    help="device URL of a real gyro, any transport (see `station devices`): "
+                         "e.g. can://can0?interface=socketcan&rate=1000")
     group.addoption("--hardware-port", default=None,
-                    help="serial port, CAN channel or host:port of a real gyro")
+                    help="serial port of a real gyro (shorthand for a serial:// URL)")
     group.addoption("--hardware-protocol", default="stim300",
-                    help="protocol of the real gyro (stim300, kvh1750, xbus)")
+                    help="protocol of the serial gyro (stim300, kvh1750, xbus)")
     group.addoption("--hardware-baud", default=921600, type=int, help="serial line rate")
 
 
 @pytest.fixture
-def hardware(request: pytest.FixtureRequest) -> tuple[str, str, int]:
-    """(port, protocol, baud) of the real gyro, or skip."""
+def hardware_url(request: pytest.FixtureRequest) -> str:
+    """The device URL of the real gyro (``--hardware-url``, or a serial URL built from
+    ``--hardware-port``), or skip."""
+    url = request.config.getoption("--hardware-url")
     port = request.config.getoption("--hardware-port")
-    if port is None:
-        pytest.skip("needs a real gyro: pass --hardware-port")
-    return (port, request.config.getoption("--hardware-protocol"),
-            request.config.getoption("--hardware-baud"))
+    if url is None and port is None:
+        pytest.skip("needs a real gyro: pass --hardware-url or --hardware-port")
+    if url is None:
+        url = (f"serial://{port}?protocol={request.config.getoption('--hardware-protocol')}"
+               f"&baud={request.config.getoption('--hardware-baud')}")
+    return str(url)
 
 
 @pytest.fixture(autouse=True)

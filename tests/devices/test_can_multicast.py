@@ -189,3 +189,16 @@ def test_serve_refuses_what_another_process_cannot_reach(
                      ("can://can0", "sim+")):
         assert main(["devices", "serve", url, "--seconds", "1"]) == 2
         assert why in capsys.readouterr().err
+
+
+def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
+    """The opt-in hardware test is live code: run it on a served CANopen gyro."""
+    proc, info = _serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
+    try:
+        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                              "tests/devices/test_hardware.py", "--hardware-url",
+                              str(info["url"])], capture_output=True, text=True, timeout=120,
+                             cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+        assert run.returncode == 0 and "1 passed" in run.stdout, run.stdout + run.stderr
+    finally:
+        proc.kill()

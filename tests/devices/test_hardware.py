@@ -1,20 +1,36 @@
-"""Opt-in checks against a real gyro: ``pytest tests/devices --hardware-port /dev/ttyUSB0
---hardware-protocol stim300 --hardware-baud 921600``. Skipped without ``--hardware-port``."""
+"""Opt-in checks against a real gyro, any transport::
+
+    pytest tests/devices --hardware-url "can://can0?interface=socketcan&rate=1000"
+    pytest tests/devices --hardware-port /dev/ttyUSB0 --hardware-protocol stim300
+
+Skipped without ``--hardware-url`` or ``--hardware-port``. A static gyro on a quiet link
+must stream continuous counters, no CRC errors, no gaps, and what ``describe()`` says.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
+from devices.protocols import RateSource
 from devices.urls import open_device
 from tests.devices.helpers import collect
 
 
-def test_real_serial_gyro_streams_continuous_samples(hardware: tuple[str, str, int]) -> None:
-    port, protocol, baud = hardware
-    with open_device(f"serial://{port}?protocol={protocol}&baud={baud}") as dev:
-        dev.source.open()
-        got = collect(dev.source, 2000, deadline_s=10)
-        desc = dev.source.describe()
+def test_real_gyro_streams_continuous_samples(hardware_url: str) -> None:
+    with open_device(hardware_url) as dev:
+        assert dev.simulator is None, "pass a hardware URL, not a sim+ URL"
+        source = dev.source
+        assert isinstance(source, RateSource)
+        source.open()
+        desc = source.describe()
+        n = max(200, int(5 * desc.sample_rate_hz))  # 5 s of samples
+        got = collect(source, n, deadline_s=15)
         assert got.rate.shape[1] == desc.n_axes
         assert got.crc_errors == 0 and got.gaps == []
         assert np.all(np.diff(got.counter) == 1)
+        for batch in got.batches:
+            assert (batch.temperature_c is not None) == desc.has_temperature
+            assert (batch.device_time_s is not None) == desc.has_device_time
+        t = got.column("receive_time_s")
+        measured_hz = (len(t) - 1) / (t[-1] - t[0])
+        assert abs(measured_hz / desc.sample_rate_hz - 1) < 0.1, measured_hz
