@@ -105,15 +105,18 @@ class StreamRateSource:
         DeviceProtocolError
             The device did not acknowledge the greeting in time.
         """
-        attempt_s = self.clock()
+        # The attempt's time is read when the call returns: the port was missing, or its
+        # input was flushed, at most one open call earlier (microseconds on a tty, far
+        # inside host_jitter_s), and a replayed capture's clock reads the recorded
+        # attempt's time only once the replay transport has played that attempt.
         try:
             self.transport.open()
         except DeviceDisconnectedError:
             # No port now: whatever arrives later was sent after this moment.
-            self._timing.quiet_until(attempt_s)
+            self._timing.quiet_until(self.clock())
             raise
-        # Opening flushes the input buffer: what we read was sent after attempt_s.
-        self._timing.quiet_until(attempt_s)
+        # Opening flushes the input buffer: what we read was sent after this moment.
+        self._timing.quiet_until(self.clock())
         self._rest = b""
         greeting = self.codec.greeting()
         if greeting:

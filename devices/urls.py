@@ -32,6 +32,7 @@ from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.errors import DeviceConfigurationError
 from devices.modbus import ModbusRateSource
 from devices.protocols import RateSource
+from devices.replay import load_capture, recording_transport, replay_transport
 from devices.sim.can_device import CanBroadcastDevice
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
@@ -90,6 +91,9 @@ class OpenedDevice:
     #: ``udp_multicast`` bus) and that runs in real time: the hardware URL by which a
     #: second station opens it as a real device. None otherwise.
     hardware_url: str | None = None
+    #: The unit's own time base when it is not the station's monotonic clock nor a
+    #: simulator's: a replay's recorded seconds. None otherwise.
+    clock: Callable[[], float] | None = None
 
     @property
     def ledger(self) -> Ledger | None:
@@ -126,6 +130,30 @@ def _hardware_url(params: SimParams, scheme: str, location: str, query: dict[str
     return f"{scheme}://{location}?{urlencode(kept)}"
 
 
+def _captured(transport: Any, url_scheme: str, query: dict[str, str], rate_hz: float,
+              warp: float) -> Any:
+    """``transport``, recording a capture file when the URL has ``capture=FILE``.
+
+    The capture's header keeps what a ``replay://FILE`` URL needs to rebuild the adapter:
+    ``replay_url``, the scheme with the protocol keys, the rate (Hz) and the warp.
+    """
+    path = query.get("capture")
+    if not path:
+        return transport
+    kept = {k: v for k, v in query.items() if k not in _SIM_ONLY_KEYS and k != "capture"}
+    kept.update(rate=f"{rate_hz:g}", warp=f"{warp:g}")
+    try:
+        return recording_transport(transport, path, settings={
+            "replay_url": f"{url_scheme}://?{urlencode(kept)}"})
+    except OSError as exc:
+        raise DeviceConfigurationError(f"cannot write the capture file {path!r}: {exc}") from exc
+
+
+def _no_capture(query: dict[str, str], what: str) -> None:
+    if "capture" in query:
+        raise DeviceConfigurationError(f"capture= records serial and raw CAN links, not {what}")
+
+
 # -- serial protocols ----------------------------------------------------------------
 
 SERIAL_PROTOCOLS = ("stim300", "kvh1750", "xbus")
@@ -153,7 +181,8 @@ def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) ->
         codec, header, _ = _stream_codec(protocol, query, params.rate)
         core, clock = sim_core(params, codec.n_axes)
         device = PtySerialDevice(codec, core, header=header).start()
-        source = StreamRateSource(SerialTransport(device.port), codec, model=params.model,
+        source = StreamRateSource(_captured(SerialTransport(device.port), "serial", query,
+                                            params.rate, params.warp), codec, model=params.model,
                                   serial_number=f"SIM-{params.seed or 0}",
                                   sample_rate_hz=params.rate, clock=clock,
                                   clock_scale=params.warp,
@@ -162,7 +191,8 @@ def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) ->
                             _hardware_url(params, "serial", device.port, query))
     rate = query_number("rate", query.get("rate", "2000"), float)
     codec, _, model = _stream_codec(protocol, query, rate)
-    transport = SerialTransport(path, query_number("baud", query.get("baud", "921600"), int))
+    transport = _captured(SerialTransport(path, query_number("baud", query.get("baud", "921600"),
+                                                             int)), "serial", query, rate, 1.0)
     source = StreamRateSource(transport, codec, model=query.get("model", model),
                               serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
     return OpenedDevice(source, "")
@@ -268,16 +298,18 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
                 CanTransport("virtual", channel, preserve_timestamps=True), layout, core
             ).start()
             transport = CanTransport("virtual", channel)
-        source = CanRateSource(transport, layout, model=params.model,
+        source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
+                               layout, model=params.model,
                                serial_number=f"SIM-{params.seed or 0}",
                                sample_rate_hz=params.rate, clock=clock,
                                clock_scale=params.warp)
         return OpenedDevice(source, "", simulator, reach)
+    rate = query_number("rate", query.get("rate", "1000"), float)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
                              **_can_bus_kwargs(query))
-    source = CanRateSource(transport, layout, model=query.get("model", "CAN gyro"),
-                           serial_number=query.get("serial", "unknown"),
-                           sample_rate_hz=query_number("rate", query.get("rate", "1000"), float))
+    source = CanRateSource(_captured(transport, "can", query, rate, 1.0), layout,
+                           model=query.get("model", "CAN gyro"),
+                           serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
     return OpenedDevice(source, "")
 
 
@@ -285,6 +317,7 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
 
 def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
                   ) -> OpenedDevice:
+    _no_capture(query, "CANopen (the canopen library drives the bus itself)")
     node_id = query_number("node", path.strip("/") or query.get("node", "5"), int)
     sync = query.get("tpdo", "event") == "sync"
     if simulate:
@@ -331,6 +364,7 @@ def _open_modbus_tcp(path: str, query: dict[str, str], simulate: bool, host: str
 
 def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *, rtu: bool
                  ) -> OpenedDevice:
+    _no_capture(query, "Modbus (pymodbus drives the link itself)")
     regs = register_map(query.get("map", "int32"))
     oversample = query_number("oversample", query.get("oversample", "2"), float)
     if simulate:
@@ -363,6 +397,46 @@ def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *,
                               sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
                               oversample=oversample)
     return OpenedDevice(source, "")
+
+
+# -- replay of a capture file -------------------------------------------------------
+
+def _open_replay(path: str, query: dict[str, str], simulate: bool, host: str
+                 ) -> OpenedDevice:
+    """``replay://FILE``: a capture recorded with ``capture=FILE``, played back through
+    the adapter of the protocol it was recorded with, on the recorded time base."""
+    if simulate:
+        raise DeviceConfigurationError("replay://FILE plays a capture file back; there is "
+                                       "no sim+replay")
+    file = host + path
+    capture = load_capture(file)
+    recorded = dict(capture.settings).get("replay_url")
+    if recorded is None:
+        raise DeviceConfigurationError(
+            f"{file}: the capture does not say how it was recorded (no replay_url in its "
+            f"header): record it with a device URL's capture=FILE key, or replay it in "
+            f"code with devices.replay.replay_transport")
+    parts = urlsplit(recorded)
+    keys = dict(parse_qsl(parts.query))
+    rate = query_number("rate", keys.get("rate", "0"), float)
+    warp = query_number("warp", keys.get("warp", "1"), float)
+    transport = replay_transport(capture, realtime=query.get("realtime", "0") == "1")
+    unit_clock = transport.clock if warp == 1.0 else (lambda: warp * transport.clock())
+    name = f"replay of {file}"
+    source: RateSource
+    if parts.scheme == "serial":
+        codec, _, model = _stream_codec(keys.get("protocol", "stim300"), keys, rate)
+        source = StreamRateSource(transport, codec, model=keys.get("model", model),  # type: ignore[arg-type]
+                                  serial_number=name, sample_rate_hz=rate, clock=unit_clock,
+                                  clock_scale=warp)
+    elif parts.scheme == "can":
+        source = CanRateSource(transport, can_layout(keys.get("layout", "shared")),  # type: ignore[arg-type]
+                               model=keys.get("model", "CAN gyro"), serial_number=name,
+                               sample_rate_hz=rate, clock=unit_clock, clock_scale=warp)
+    else:
+        raise DeviceConfigurationError(f"{file}: recorded over {parts.scheme!r}, which has "
+                                       f"no replay (serial and raw CAN have)")
+    return OpenedDevice(source, "", clock=unit_clock)
 
 
 @dataclass(frozen=True)
@@ -433,11 +507,12 @@ def open_device(url: str) -> OpenedDevice:
         "canopen": _open_canopen,
         "modbus+tcp": _open_modbus_tcp,
         "modbus+rtu": _open_modbus_rtu,
+        "replay": _open_replay,
     }
     if transport not in openers:
         raise DeviceConfigurationError(
             f"unknown device URL scheme {parts.scheme!r} in {url!r}; known: "
-            + ", ".join(f"{s}, sim+{s}" for s in openers))
+            + ", ".join(f"{s}, sim+{s}" if s != "replay" else "replay" for s in openers))
     opened = openers[transport](unquote(parts.path), query, simulate, host)
     opened.url = url
     return opened

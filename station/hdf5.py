@@ -47,6 +47,8 @@ FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1
 #: Stop reason of a run that ended at its duration (any other reason is an interruption).
 REASON_DURATION = "duration"
+#: Every unit was a replayed capture, and each reached its end before the duration.
+REASON_END_OF_REPLAY = "end of the replayed capture"
 REASON_RECOVERED = "interrupted: the recorder stopped without closing the file (recovered)"
 
 EVENT_DTYPE = np.dtype([("time_s", "<f8"), ("kind", "S16"), ("count", "<i8"),
@@ -479,7 +481,8 @@ def read_run(path: str | Path) -> RunInfo:
         stop_utc=state["stop_utc"] if stopped else state["last_flush_utc"],
         stop_reason=state["stop_reason"] if stopped else "interrupted: file not closed "
                                                          "(recorder killed or crashed)",
-        interrupted=not (stopped and state["stop_reason"] == REASON_DURATION))
+        interrupted=not (stopped and state["stop_reason"] in (REASON_DURATION,
+                                                               REASON_END_OF_REPLAY)))
 
 
 def run_attributes(path: str | Path) -> dict[str, str]:

@@ -38,6 +38,7 @@ import numpy as np
 
 from devices.errors import DeviceConfigurationError, DeviceError, DeviceTimeoutError
 from devices.protocols import SampleBatch
+from devices.replay import EndOfReplayError
 from devices.urls import OpenedDevice, open_device
 from station.documents import (
     Descriptor,
@@ -53,7 +54,13 @@ from station.documents import (
     utc_now,
 )
 from station.errors import DiskSpaceError, RunConfigurationError, UsageError
-from station.hdf5 import REASON_DURATION, RunFileWriter, bytes_per_sample, writable_bytes
+from station.hdf5 import (
+    REASON_DURATION,
+    REASON_END_OF_REPLAY,
+    RunFileWriter,
+    bytes_per_sample,
+    writable_bytes,
+)
 
 if TYPE_CHECKING:
     from station.profiles import Profile
@@ -164,10 +171,14 @@ class UnitWorker:
         self.out = out
         self.description = opened.source.describe()
         sim = opened.simulator
-        self.clock: Callable[[], float] = sim.core.clock if sim is not None else time.monotonic
+        self.clock: Callable[[], float] = (sim.core.clock if sim is not None else
+                                           opened.clock or time.monotonic)
         self.time_warp = sim.core.clock.warp if sim is not None else 1.0
         self.time_base = (f"simulated device clock, warp x{self.time_warp:g}" if sim is not None
-                          else "station monotonic clock")
+                          else "the replayed capture's clock (s since it started)"
+                          if opened.clock is not None else "station monotonic clock")
+        #: The source has nothing more to give (the end of a replayed capture).
+        self.source_ended = False
         self.tally = UnitTally()
         self.answered = threading.Event()
         self.done = threading.Event()
@@ -249,6 +260,9 @@ class UnitWorker:
         except DeviceTimeoutError as exc:
             self._emit(None, [LogEntry("timeout", self.elapsed_s(), detail=str(exc)[:120])])
             return 0, backoff_s
+        except EndOfReplayError:
+            self.source_ended = True
+            return 0, backoff_s
         except DeviceError as exc:
             # Disconnected, or no acknowledgement on reconnect: the adapter logs the
             # disconnect itself; wait and let the next read reopen the link.
@@ -261,7 +275,8 @@ class UnitWorker:
 
     def _record(self) -> None:
         backoff = self.config.backoff_initial_s
-        while not self.stop.is_set() and self.elapsed_s() < self.config.duration_s:
+        while (not self.stop.is_set() and not self.source_ended
+               and self.elapsed_s() < self.config.duration_s):
             _, backoff = self._read_once(backoff)
 
     def _finish_simulation(self) -> None:
@@ -292,8 +307,9 @@ class UnitWorker:
             if self.opened.simulator is not None:
                 self._finish_simulation()
             self._drain()
-            self._emit(None, [LogEntry("end", self.elapsed_s(),
-                                       detail="stopped" if self.stop.is_set() else "duration")])
+            self._emit(None, [LogEntry("end", self.elapsed_s(), detail=(
+                "stopped" if self.stop.is_set() else
+                REASON_END_OF_REPLAY if self.source_ended else "duration"))])
         except Exception as exc:  # noqa: BLE001 - one unit's failure must not end the others
             self.error = exc
             self._emit(None, [LogEntry("error", self.elapsed_s(),
@@ -511,7 +527,9 @@ class Recorder:
             w.join()
         self._dispatch_pending(limit=10**9)
         self.engine_cpu_s = time.thread_time() - cpu0
-        self.stop_reason = self._stop_reason or REASON_DURATION
+        self.stop_reason = self._stop_reason or (
+            REASON_END_OF_REPLAY if all(w.source_ended for w in self.workers)
+            else REASON_DURATION)
         totals = tuple(UnitTotals(w.unit_id, w.opened.url, w.tally.samples, w.tally.missing,
                                   w.tally.gaps, w.tally.crc_errors, w.tally.reconnects,
                                   w.samples_sent) for w in self.workers)

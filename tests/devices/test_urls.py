@@ -41,7 +41,10 @@ def test_bad_sim_values_are_refused(query: dict[str, str]) -> None:
 
 
 @pytest.mark.parametrize("url", ["ftp://x", "sim+serial://STIM300?protocol=nmea",
-                                 "can://can0?layout=/no/such.toml", "sim+serial://NOPE"])
+                                 "can://can0?layout=/no/such.toml", "sim+serial://NOPE",
+                                 "replay://no/such/capture.jsonl", "sim+replay://x",
+                                 "sim+canopen://VG951/5?capture=x.jsonl",
+                                 "modbus+tcp://127.0.0.1:502/1?capture=x.jsonl"])
 def test_bad_urls_are_refused_with_a_message(url: str) -> None:
     with pytest.raises((DeviceConfigurationError, ValueError)) as info:
         open_device(url).close()
