@@ -258,6 +258,17 @@ def _start_canopen_node(params: SimParams, node_id: int, bus: MulticastChannel,
                            serial_number=params.seed or 1).start()
 
 
+def _node_in_a_process(start: Callable[..., Any], params: SimParams, *args: Any,
+                       describe: str) -> tuple[SimulatorProcess, WarpClock, MulticastChannel]:
+    """Start ``start(params, *args, bus, clock)`` in a child process on a fresh
+    ``udp_multicast`` bus; returns the running simulator, the shared clock and the bus."""
+    bus = MulticastChannel.fresh()
+    clock = WarpClock(params.warp)
+    simulator = SimulatorProcess(partial(start, params, *args, bus, clock), clock,
+                                 describe=f"{describe} on {bus.group}:{bus.port}").start()
+    return simulator, clock, bus
+
+
 def _sim_bus(query: dict[str, str]) -> str:
     """The bus a simulated CAN device uses: ``virtual`` (this process, the default) or
     ``udp_multicast`` (the device runs in a process of its own)."""
@@ -282,11 +293,8 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
         params = parse_sim_params(query.get("model", host), query)
         simulator: Simulator
         if _sim_bus(query) == "udp_multicast":
-            bus = MulticastChannel.fresh()
-            clock = WarpClock(params.warp)
-            simulator = SimulatorProcess(
-                partial(_start_can_broadcast, params, layout, bus, clock), clock,
-                describe=f"CAN gyro on {bus.group}:{bus.port}").start()
+            simulator, clock, bus = _node_in_a_process(_start_can_broadcast, params, layout,
+                                                       describe="CAN gyro")
             transport = bus.transport()
             reach = _hardware_url(params, "can", bus.group, query, interface="udp_multicast",
                                   port=str(bus.port))
@@ -324,11 +332,8 @@ def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
         params = parse_sim_params(query.get("model", host), query)
         simulator: Simulator
         if _sim_bus(query) == "udp_multicast":
-            bus = MulticastChannel.fresh()
-            clock = WarpClock(params.warp)
-            simulator = SimulatorProcess(
-                partial(_start_canopen_node, params, node_id, bus, clock), clock,
-                describe=f"CANopen node {node_id} on {bus.group}:{bus.port}").start()
+            simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
+                                                       describe=f"CANopen node {node_id}")
             transport = bus.transport()
             reach = _hardware_url(params, "canopen", f"{bus.group}/{node_id}", query,
                                   interface="udp_multicast", port=str(bus.port))
