@@ -30,6 +30,7 @@ from station.commands import (
     watch,
 )
 from station.errors import StationError
+from station.logs import configure_logging
 
 COMMANDS: tuple = (demo, analyze, reproduce, simulate, model, davar, devices, grade, report, results, record, watch, recover, reconcile, tui,)
 
@@ -50,6 +51,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``station`` console script; returns the process exit code."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    configure_logging()
     try:
         return int(args.handler(args) or 0)
     except (StationError, AnalysisError, DeviceError) as exc:

@@ -34,7 +34,9 @@ def main(argv: list[str] | None = None) -> int:
     """``python -m station.commands.record ARGS``: the recorder alone, without the other
     commands' imports (how a TUI or a test starts a recorder process)."""
     from station.errors import StationError
+    from station.logs import configure_logging
 
+    configure_logging()
     parser = argparse.ArgumentParser(prog="station record")
     register(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(["record", *(sys.argv[1:] if argv is None else argv)])

@@ -140,6 +140,7 @@ def test_simulator_process_exits_with_its_parent() -> None:
         assert _wait_gone(child_pid), "the simulator process outlived its parent"
     finally:
         parent.kill()
+        parent.communicate()
 
 
 def test_a_node_that_cannot_start_is_a_clear_error() -> None:
@@ -180,6 +181,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
         assert ledger["generated"] >= len(got.counter) and ledger["dropped"] == 0
     finally:
         proc.kill()
+        proc.communicate()
 
 
 def test_serve_refuses_what_another_process_cannot_reach(
@@ -202,3 +204,4 @@ def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
         assert run.returncode == 0 and "1 passed" in run.stdout, run.stdout + run.stderr
     finally:
         proc.kill()
+        proc.communicate()
