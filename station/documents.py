@@ -77,8 +77,8 @@ class RunStart:
         The units, in the order given.
     duration_s : float
         Requested duration, s (on each unit's own time base).
-    profile, profile_version, profile_sha256 : str
-        The product profile ("" when none was given).
+    profile, profile_version, profile_sha256, profile_path : str
+        The product profile ("" when none was given) and the file it was read from.
     operator, lot, station_host, software_version : str
         Who, which lot, where, with what.
     file : str
@@ -93,6 +93,7 @@ class RunStart:
     profile: str = ""
     profile_version: str = ""
     profile_sha256: str = ""
+    profile_path: str = ""
     operator: str = ""
     lot: str = ""
     station_host: str = ""

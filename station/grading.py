@@ -28,6 +28,7 @@ import re
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from importlib import metadata
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -413,6 +414,31 @@ def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = ()) ->
     graded = tuple(grade_unit(u, profile) for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return RunGrade(run, profile, graded, now, software_version())
+
+
+def run_profile_ref(run: RunInfo) -> str:
+    """How to load the profile ``run`` was recorded with: the file it was read from if it
+    is still there (a line's own profile folder), else its name (``profiles/NAME.toml``);
+    "" when the run names none."""
+    if run.profile_path and Path(run.profile_path).is_file():
+        return run.profile_path
+    return run.profile
+
+
+def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
+    """Why ``profile`` is not the file ``run`` was recorded with, or None if it is (or the
+    run did not record one: a CSV record, a run without a profile).
+
+    The run file keeps the profile's version and SHA-256; a profile edited since (new
+    limits, a new grade) grades the old run by today's rules, which a re-grade may
+    intend but should say.
+    """
+    if not run.profile_sha256 or run.profile_sha256 == profile.sha256:
+        return None
+    return (f"profile {profile.name} changed since {run.path} was recorded with it "
+            f"(recorded: version {run.profile_version or '?'}, sha256 "
+            f"{run.profile_sha256[:12]}; now: version {profile.version}, sha256 "
+            f"{profile.sha256[:12]} in {profile.path}): grading with the current file")
 
 
 def regrade(previous: RunGrade, profile: Profile) -> RunGrade:

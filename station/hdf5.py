@@ -171,7 +171,8 @@ class RunFileWriter:
         self._file = f
         meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
                 "profile": doc.profile, "profile_version": doc.profile_version,
-                "profile_sha256": doc.profile_sha256, "operator": doc.operator,
+                "profile_sha256": doc.profile_sha256, "profile_path": doc.profile_path,
+                "operator": doc.operator,
                 "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
                 "software_version": doc.software_version, "start_utc": doc.start_utc,
                 "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
@@ -475,6 +476,8 @@ def read_run(path: str | Path) -> RunInfo:
     stopped = state["state"] == "stopped"
     return RunInfo(
         path=str(path), units=tuple(units), profile=a.get("profile", ""),
+        profile_version=a.get("profile_version", ""),
+        profile_sha256=a.get("profile_sha256", ""), profile_path=a.get("profile_path", ""),
         operator=a.get("operator", ""), lot=a.get("lot", ""),
         station_host=a.get("station_host", ""),
         software_version=a.get("software_version", ""), start_utc=a.get("start_utc", ""),

@@ -503,7 +503,9 @@ class Recorder:
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
             profile=p.name if p else "", profile_version=p.version if p else "",
-            profile_sha256=p.sha256 if p else "", operator=cfg.operator, lot=cfg.lot,
+            profile_sha256=p.sha256 if p else "",
+            profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+            operator=cfg.operator, lot=cfg.lot,
             station_host=socket.gethostname(), software_version=software_version()))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())

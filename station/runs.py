@@ -59,6 +59,11 @@ class RunInfo:
     path: str
     units: tuple[UnitRun, ...]
     profile: str = ""
+    #: Version, SHA-256 and path of the profile file the run was recorded with ("" if
+    #: none; runs recorded before the path was kept have none).
+    profile_version: str = ""
+    profile_sha256: str = ""
+    profile_path: str = ""
     operator: str = ""
     lot: str = ""
     station_host: str = ""

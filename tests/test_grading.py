@@ -274,3 +274,36 @@ def test_real_adis16405_record_against_mems_profile(tmp_path: Path) -> None:
     assert 2.8 < arw.value < 3.4
     assert arw.verdicts == {"datasheet": "fail", "industrial": "fail"}
     assert axis.grade == "reject"
+
+
+def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, capsys) -> None:
+    """A run recorded with a line's own profile file is graded with that file; edited
+    since, the grade says so; gone, the profile of that name in profiles/ is used and the
+    difference said too."""
+    from station.profiles import PROFILE_DIR
+    from station.recorder import Recorder, RunConfig
+
+    own = tmp_path / "line7" / "VG951.toml"
+    own.parent.mkdir()
+    text = (PROFILE_DIR / "VG951.toml").read_text(encoding="utf-8")
+    own.write_text(text.replace('version = "1"', 'version = "1-line7"'), encoding="utf-8")
+    recorder = Recorder(RunConfig(("sim+can://VG951?rate=10&warp=200&seed=2",), 500.0,
+                                  tmp_path / "run.h5", profile=load_profile(own)))
+    recorder.run()
+    run = open_run(recorder.path)
+    assert run.profile_path == str(own.resolve()) and run.profile_version == "1-line7"
+
+    def grade() -> tuple[dict, str]:
+        assert main(["grade", str(recorder.path), "--no-store", "--json"]) == 0
+        out, err = capsys.readouterr()
+        return json.loads(out), err
+
+    doc, err = grade()
+    assert "changed since" not in err and doc["profile"]["version"] == "1-line7"
+    own.write_text(text.replace('version = "1"', 'version = "2-line7"'), encoding="utf-8")
+    doc, err = grade()
+    assert doc["profile"]["version"] == "2-line7"
+    assert "changed since" in err and "version 1-line7" in err and "version 2-line7" in err
+    own.unlink()
+    doc, err = grade()
+    assert doc["profile"]["version"] == "1" and str(PROFILE_DIR / "VG951.toml") in err

@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from station.errors import UsageError
-from station.grading import RunGrade, grade_run
+from station.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
 from station.profiles import load_profile
 from station.record_files import UNIT_TO_DEG_S
 from station.results import ResultsDatabase, default_database_path
@@ -55,10 +55,15 @@ def load_run(args: argparse.Namespace) -> RunInfo:
 def grade_from_args(args: argparse.Namespace) -> RunGrade:
     """Open the run, load the profile (given or the run's) and grade it."""
     run = load_run(args)
-    ref = args.profile or run.profile
+    ref = args.profile or run_profile_ref(run)
     if not ref:
         raise UsageError(f"{args.run} names no profile; pass --profile NAME")
-    return grade_run(run, load_profile(ref), units=tuple(args.unit))
+    profile = load_profile(ref)
+    if not args.profile:
+        note = profile_changed_note(run, profile)
+        if note:
+            print(f"station {args.command}: warning: {note}", file=sys.stderr)
+    return grade_run(run, profile, units=tuple(args.unit))
 
 
 def database_path(args: argparse.Namespace) -> Path:

@@ -15,7 +15,7 @@ import numpy as np
 from analysis.errors import AnalysisError
 from analysis.fit import TERMS
 from analysis.units import S_PER_H
-from station.grading import AxisGrade, UnitGrade
+from station.grading import AxisGrade, UnitGrade, run_profile_ref
 from station.profiles import available_profiles, load_profile
 from station.runs import RunInfo
 from station.tui.live import Series
@@ -103,7 +103,7 @@ def davar_series(unit: UnitGrade, axis_index: int = 0) -> tuple[Series, ...]:
 def guess_profile(run: RunInfo) -> str | None:
     """The run's profile, else the first profile whose model is a unit's model."""
     if run.profile:
-        return run.profile
+        return run_profile_ref(run)
     models = {u.model for u in run.units}
     for name in available_profiles():
         try:

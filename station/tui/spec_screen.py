@@ -115,7 +115,7 @@ class SpecSheetScreen(Screen[None]):
     # -- grading (worker) --------------------------------------------------------------
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, profile_ref: str | None) -> None:
-        from station.grading import grade_run
+        from station.grading import grade_run, profile_changed_note
         from station.profiles import load_profile
         from station.runs import open_run
         from station.tui.spec_data import guess_profile
@@ -130,7 +130,12 @@ class SpecSheetScreen(Screen[None]):
                     severity="warning", timeout=15)
                 self.app.call_from_thread(self._show_status, "choose a profile")
                 return
-            graded = grade_run(run, load_profile(ref))
+            profile = load_profile(ref)
+            note = profile_changed_note(run, profile) if profile_ref is None else None
+            if note:
+                self.app.call_from_thread(self.notify, note, title="Profile changed",
+                                          severity="warning", timeout=20)
+            graded = grade_run(run, profile)
             self._store(graded)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, f"grading {self.path.name}"),
