@@ -16,8 +16,10 @@ import pytest
 
 from station.hdf5 import open_run_file, read_run, read_unit
 from station.recorder import Recorder, RunConfig
+from tests.devices.helpers import multicast_unavailable
 
 WARP = 8
+CANOPEN_BUS = "virtual" if multicast_unavailable() else "udp_multicast"
 #: name -> (device URL, sample rate Hz, the outage it suffers, simulated s). Rates are low
 #: so that half a counter period (12.8 s on both wrapping counters) is over 1.5 s of wall
 #: time: a loaded machine's stalls must not alias into counter wraps.
@@ -31,8 +33,9 @@ UNITS = {
             "&disconnect_for_s=1&drop=0.01&corrupt=0.01", 20.0, 1.0),
     "modbus": (f"sim+modbus+tcp://STIM300?rate=10&warp={WARP}&seed=4&disconnect_every_s=30"
                "&disconnect_for_s=5&drop=0.02", 10.0, 5.0),
-    # a CANopen node in a process of its own, on python-can's udp_multicast bus
-    "canopen": (f"sim+canopen://STIM300/5?interface=udp_multicast&rate=10&warp={WARP}"
+    # a CANopen node in a process of its own, on python-can's udp_multicast bus (on a
+    # host without multicast, in this process on the virtual bus)
+    "canopen": (f"sim+canopen://STIM300/5?interface={CANOPEN_BUS}&rate=10&warp={WARP}"
                 "&seed=5&disconnect_every_s=20&disconnect_for_s=10&drop=0.01", 10.0, 10.0),
 }
 DURATION_S = 80.0

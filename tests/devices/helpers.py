@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -101,3 +102,26 @@ def check_accounting(collected: Collected, core: SimCore, offset: int) -> tuple[
     lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
     assert lost <= declared
     return declared, lost
+
+
+@functools.cache
+def multicast_unavailable() -> str:
+    """Why python-can's ``udp_multicast`` bus cannot work on this host ("" if it can): a
+    frame sent on a fresh group and port must come back (a host with no IPv4 multicast
+    route, e.g. a container without a network, has no such bus)."""
+    from devices.sim.process import MulticastChannel
+
+    channel = MulticastChannel.fresh()
+    a, b = channel.transport(), channel.transport()
+    try:
+        a.open()
+        b.open()
+        a.send(0x123, b"probe")
+        msg = b.recv(2.0)
+    except DeviceDisconnectedError as exc:
+        return f"no udp_multicast bus on this host: {exc}"
+    finally:
+        a.close()
+        b.close()
+    return "" if msg is not None and bytes(msg.data) == b"probe" else (
+        "no udp_multicast bus on this host: a frame sent on it never came back")
