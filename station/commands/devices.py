@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
@@ -78,7 +79,9 @@ def run_serve(args: argparse.Namespace) -> int:
         if opened.hardware_url is None:
             raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(args.url)}")
         simulator = opened.simulator
-        pid = getattr(simulator, "pid", None)
+        # the process that runs the simulated device: a child (CAN and CANopen on
+        # udp_multicast) or this one
+        pid = getattr(simulator, "pid", None) or os.getpid()
         if args.serve_json:
             print(json.dumps({"url": opened.hardware_url, "sim_url": args.url, "pid": pid}),
                   flush=True)

@@ -173,6 +173,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
     proc, info = _serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
     try:
         url = str(info["url"])
+        assert info["pid"] not in (None, proc.pid, os.getpid())  # the node's own process
         assert url.startswith("can://239.255.") and "interface=udp_multicast" in url
         with open_device(url) as dev:
             assert dev.simulator is None  # a real-hardware URL: nothing simulated here
