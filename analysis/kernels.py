@@ -29,6 +29,7 @@ the kernels here does that:
 
 from __future__ import annotations
 
+import threading
 from functools import lru_cache
 from types import ModuleType
 from typing import Literal
@@ -43,6 +44,14 @@ _NUMPY_BLOCK = 1 << 15
 #: Up to this many window starts per window length, the compiled DAVAR kernel sums the
 #: segments between window edges; beyond, it slides a compensated running sum.
 _SEGMENTS_MAX_OVERLAP = 32
+
+
+#: numba's parallel kernels must not be launched from two threads at once under its
+#: "workqueue" threading layer, the fallback when neither TBB nor OpenMP is there (macOS
+#: without libomp, a slim container): it aborts the whole process. The station runs
+#: analyses in worker threads (the TUI grades a run while it computes a DAVAR), so the
+#: compiled launches take turns; each already spreads its work over every core.
+_COMPILED_LAUNCH = threading.Lock()
 
 
 @lru_cache(maxsize=1)
@@ -163,7 +172,8 @@ def overlapping_sums(
     if kernels is None or m_arr.size == 0:
         return _overlapping_sums_numpy(theta_t, m_arr)
     out = np.empty((len(m_arr), theta_t.shape[0]))
-    kernels.oadev_sums(theta_t, m_arr, out)
+    with _COMPILED_LAUNCH:
+        kernels.oadev_sums(theta_t, m_arr, out)
     return out
 
 
@@ -251,10 +261,11 @@ def window_sums(
     # Few windows per window length: sum segments between window edges once each;
     # many (small steps): block prefix and suffix sums, one pass each.
     shortest_step = int(np.diff(starts).min()) if len(starts) > 1 else window
-    if window <= _SEGMENTS_MAX_OVERLAP * shortest_step:
-        kernels.window_sums_segments(theta, m_arr, starts, window, out)
-    else:
-        by_m = np.empty((len(m_arr), len(starts)))
-        kernels.window_sums(theta, m_arr, starts, window, by_m)
-        out[:] = by_m.T
+    with _COMPILED_LAUNCH:
+        if window <= _SEGMENTS_MAX_OVERLAP * shortest_step:
+            kernels.window_sums_segments(theta, m_arr, starts, window, out)
+        else:
+            by_m = np.empty((len(m_arr), len(starts)))
+            kernels.window_sums(theta, m_arr, starts, window, by_m)
+            out[:] = by_m.T
     return out

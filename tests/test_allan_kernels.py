@@ -7,6 +7,8 @@ the compiled kernel runs only where numba is installed (skipped otherwise). alla
 
 from __future__ import annotations
 
+import os
+
 import allantools
 import numpy as np
 import pytest
@@ -96,3 +98,41 @@ def test_auto_falls_back_to_numpy_without_numba(theta: np.ndarray, monkeypatch: 
     np.testing.assert_allclose(kernels.overlapping_sums(theta, M_VALUES), ref, rtol=1e-12)
     with pytest.raises(ImportError, match=r"gyro-station\[fast\]"):
         kernels.overlapping_sums(theta, M_VALUES, backend="numba")
+
+
+def test_compiled_kernels_from_several_threads_under_numbas_workqueue_layer() -> None:
+    """numba's fallback threading layer aborts the process when two threads launch
+    parallel kernels at once; the station analyses in worker threads (the TUI grades while
+    it computes a DAVAR), so the launches must take turns."""
+    pytest.importorskip("numba")
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent("""
+        import threading
+        import numpy as np
+        from analysis import kernels
+        theta = np.cumsum(np.random.default_rng(1).normal(size=(200_001, 1)), axis=0)
+        m = np.unique(np.logspace(0, 4.5, 60).astype(np.int64))
+        want = kernels.overlapping_sums(theta, m, backend="numpy")
+        bad = []
+        def work():
+            for _ in range(20):
+                got = kernels.overlapping_sums(theta, m, backend="numba")
+                starts = np.arange(0, 100_000, 5_000, dtype=np.int64)
+                kernels.window_sums(theta[:, 0], m[m < 5_000], starts, 100_000,
+                                    backend="numba")
+                if not np.allclose(got, want, rtol=1e-12):
+                    bad.append(1)
+        threads = [threading.Thread(target=work) for _ in range(4)]
+        for t in threads: t.start()
+        for t in threads: t.join()
+        import numba
+        print(numba.threading_layer(), len(bad))
+    """)
+    env = {**os.environ, "NUMBA_THREADING_LAYER": "workqueue"}
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["workqueue", "0"]

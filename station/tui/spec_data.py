@@ -3,16 +3,20 @@
 The same quantities as the report panels (:mod:`station.report.panels`), as
 :class:`~station.tui.live.Series` for a terminal plot: the measured Allan deviation of
 each axis with its fitted model and the fitted terms as their slope lines, the deciding
-grade's limit lines, and the DAVAR as one Allan curve per time window.
+grade's limit lines, and the DAVAR as a grid of Allan deviation over window time and tau
+(drawn by :mod:`station.tui.heatmap`).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
-from analysis.errors import AnalysisError
+from analysis.allan import log_m
+from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.fit import TERMS
 from analysis.units import S_PER_H
 from station.grading import AxisGrade, UnitGrade, run_profile_ref
@@ -20,9 +24,51 @@ from station.profiles import available_profiles, load_profile
 from station.runs import RunInfo
 from station.tui.live import Series
 
-#: DAVAR windows drawn (first, last and evenly between) and the windows across the record.
-DAVAR_CURVES = 4
-DAVAR_WINDOWS = 8
+#: The DAVAR heat map: at most this many windows, a step of half a window; each window
+#: at least this many samples (taus over two decades); this many log-spaced taus (a
+#: terminal map has 2 pixels a row: 48 fill 24 rows, and cost half of the default 100).
+DAVAR_WINDOWS = 40
+DAVAR_MIN_WINDOW_SAMPLES = 900
+DAVAR_TAUS = 48
+
+
+@dataclass(frozen=True)
+class DavarGrid:
+    """Dynamic Allan deviation of one axis, ready for a heat map.
+
+    Attributes
+    ----------
+    axis : str
+        Axis name.
+    t_s : ndarray, shape (n_windows,)
+        Window centre times in s from the start of the record (increasing).
+    tau_s : ndarray, shape (n_tau,)
+        Averaging times in s (increasing).
+    adev_deg_h : ndarray, shape (n_windows, n_tau)
+        Allan deviation in deg/h per window and tau; NaN where a window has no value.
+    window_s : float
+        Window length in s.
+
+    Raises
+    ------
+    ValueError
+        If the shapes do not agree or there is no window or tau.
+    """
+
+    axis: str
+    t_s: NDArray[np.float64]
+    tau_s: NDArray[np.float64]
+    adev_deg_h: NDArray[np.float64]
+    window_s: float
+
+    def __post_init__(self) -> None:
+        t, tau = np.asarray(self.t_s), np.asarray(self.tau_s)
+        shape = np.shape(self.adev_deg_h)
+        if t.ndim != 1 or tau.ndim != 1 or not len(t) or not len(tau):
+            raise ValueError("t_s and tau_s must be non-empty 1-D arrays")
+        if shape != (len(t), len(tau)):
+            raise ValueError(f"adev_deg_h must be (n_windows, n_tau) = {(len(t), len(tau))}, "
+                             f"got {shape}")
 
 
 def allan_series(axes: tuple[AxisGrade, ...]) -> tuple[Series, ...]:
@@ -79,25 +125,60 @@ def limit_series(axis: AxisGrade) -> list[Series]:
     return out
 
 
-def davar_series(unit: UnitGrade, axis_index: int = 0) -> tuple[Series, ...]:
-    """Allan deviation (deg/h) against tau (s) in :data:`DAVAR_CURVES` windows of the whole
-    record (warm-up included: it is what the DAVAR shows); empty if the record is too short.
+def davar_plan(n_samples: int, *, max_windows: int = DAVAR_WINDOWS,
+               min_window_samples: int = DAVAR_MIN_WINDOW_SAMPLES) -> tuple[int, int]:
+    """Window and step (samples) of the heat map's DAVAR: the step is half a window and
+    the windows cover the record; as many windows as ``max_windows`` allows while each
+    keeps ``min_window_samples`` (one window of the whole record when it is shorter than
+    two of those). ``(0, 0)`` when the record has fewer than 2 samples."""
+    if n_samples < 2:
+        return 0, 0
+    n_windows = max(1, min(max_windows, 2 * n_samples // max(1, min_window_samples) - 1))
+    step = n_samples // (n_windows + 1)
+    return 2 * step, step
+
+
+def davar_grid_of(rate_deg_s: ArrayLike, sample_rate_hz: float, axis: str = "", *,
+                  max_windows: int = DAVAR_WINDOWS) -> DavarGrid | None:
+    """The DAVAR of one axis's rate (deg/s, shape (N,)) for the heat map, in windows of
+    :func:`davar_plan` and :data:`DAVAR_TAUS` log-spaced taus (the fast DAVAR, compiled
+    when numba is installed); None when the record is too short for one window of 9
+    samples. A constant record gets an ADEV of exactly 0 (not the rounding residue of
+    its mean).
+
+    Raises
+    ------
+    AnalysisError
+        If the samples are not finite or the sample rate is invalid (not "too short").
     """
     from analysis.davar import dynamic_allan_variance
 
+    rate = np.asarray(rate_deg_s, dtype=np.float64)
+    if rate.ndim != 1:
+        raise ValueError(f"rate_deg_s must be one axis, shape (N,), got {rate.shape}")
+    window, step = davar_plan(len(rate), max_windows=max_windows)
+    m = log_m(window, n_points=DAVAR_TAUS) if window else np.zeros(0, np.int64)
+    if not m.size:
+        return None
+    fs = float(sample_rate_hz)
+    try:
+        result = dynamic_allan_variance(rate, fs, window_s=window / fs, step_s=step / fs,
+                                        taus=m / fs)
+    except (TooFewSamplesError, InvalidWindowError):
+        return None
+    adev = result.adev * S_PER_H
+    if np.all(rate == rate[0]):
+        adev = np.zeros_like(adev)
+    return DavarGrid(axis, result.t_s, result.tau_s, adev, result.window_s)
+
+
+def davar_grid(unit: UnitGrade, axis_index: int = 0) -> DavarGrid | None:
+    """The heat map's DAVAR of a graded unit's axis over its whole record (warm-up
+    included: it is what the DAVAR shows); None when the record is too short."""
     record = unit.unit.record
     axis = unit.axes[axis_index]
     column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
-    window_s = record.duration_s / DAVAR_WINDOWS
-    try:
-        result = dynamic_allan_variance(record.rate_deg_s[:, column], record.sample_rate_hz,
-                                        window_s=window_s, step_s=window_s / 4, backend="numpy")
-    except AnalysisError:
-        return ()
-    n = len(result.t_s)
-    picks = sorted({round(i * (n - 1) / max(1, DAVAR_CURVES - 1)) for i in range(DAVAR_CURVES)})
-    return tuple(Series(f"t={result.t_s[i] / 60:.0f} min", result.tau_s,
-                        np.sqrt(result.avar[i]) * S_PER_H) for i in picks)
+    return davar_grid_of(record.rate_deg_s[:, column], record.sample_rate_hz, axis.axis)
 
 
 def guess_profile(run: RunInfo) -> str | None:

@@ -21,8 +21,10 @@ from textual.widgets import (
     TabbedContent,
     TabPane,
 )
+from textual.worker import get_current_worker
 
 from station.grading import RunGrade, UnitGrade
+from station.tui.heatmap import DavarHeatMap
 from station.tui.messages import explain
 from station.tui.widgets import (
     SeriesPlot,
@@ -80,6 +82,7 @@ class SpecSheetScreen(Screen[None]):
         self.db_path = db_path
         self.profile_ref = profile
         self.first_unit = unit
+        self._davar_key: tuple[UnitGrade, int] | None = None  # what the DAVAR tab is of
 
     def compose(self) -> ComposeResult:
         from station.profiles import available_profiles
@@ -96,8 +99,7 @@ class SpecSheetScreen(Screen[None]):
                 yield SeriesPlot("Allan deviation", "tau [s]", "ADEV [deg/h]", log=True,
                                  empty_text="grading...", id="allan-plot")
             with TabPane("DAVAR (d)", id="tab-davar"):
-                yield SeriesPlot("DAVAR, ADEV per window", "tau [s]", "ADEV [deg/h]",
-                                 log=True, empty_text="record too short", id="davar-plot")
+                yield DavarHeatMap(empty_text="grading...", id="davar-map")
             with TabPane("Run (r)", id="tab-run"), VerticalScroll():
                 yield Static("", id="header")
         with Horizontal(id="exports"):
@@ -236,7 +238,7 @@ class SpecSheetScreen(Screen[None]):
                               number(r.limit, 3), verdict_text(r.verdict),
                               interval_text(r.ci_low, r.ci_high))
             self.query_one("#allan-plot", SeriesPlot).series = allan_series((axis,))
-            self._davar(unit, unit.axes.index(axis))
+            self._davar_of(unit, unit.axes.index(axis))
         self.query_one("#grade", Static).update(head)
         header = "\n".join(f"{k}: {v}" for k, v in header_fields(graded, unit))
         events = "\n".join(event_summary(u, graded).lines(brief=True))
@@ -244,18 +246,32 @@ class SpecSheetScreen(Screen[None]):
         self.query_one("#header", Static).update("\n".join(t for t in (events, notes, header)
                                                            if t))
 
+    def _davar_of(self, unit: UnitGrade, axis_index: int) -> None:
+        """Compute the DAVAR heat map of a unit's axis, unless it is the one drawn or
+        being computed (:meth:`show` runs again for the same unit and axis)."""
+        key = self._davar_key
+        if key is not None and key[0] is unit and key[1] == axis_index:
+            return
+        self._davar_key = (unit, axis_index)
+        self.query_one("#davar-map", DavarHeatMap).show(None, "computing the DAVAR...")
+        self._davar(unit, axis_index)
+
     @work(thread=True, exclusive=True, group="davar", exit_on_error=False)
     def _davar(self, unit: UnitGrade, axis_index: int) -> None:
-        from station.tui.spec_data import davar_series
+        from station.tui.heatmap import viridis
+        from station.tui.spec_data import davar_grid
 
+        heat_map = self.query_one("#davar-map", DavarHeatMap)
         try:
-            series = davar_series(unit, axis_index)
+            grid = davar_grid(unit, axis_index)
+            viridis()  # matplotlib loads here, not on the UI thread when the map is drawn
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, "computing the DAVAR"),
                                       severity="warning")
+            self.app.call_from_thread(heat_map.show, None, "not computed")
             return
-        self.app.call_from_thread(setattr, self.query_one("#davar-plot", SeriesPlot),
-                                  "series", series)
+        if not get_current_worker().is_cancelled:  # another axis or unit was asked for
+            self.app.call_from_thread(heat_map.show, grid, "record too short")
 
     # -- exports -----------------------------------------------------------------------
     @on(Button.Pressed, "#exports Button")
