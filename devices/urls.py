@@ -17,6 +17,7 @@ import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from pathlib import Path
 from typing import Any, Protocol
 from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 
@@ -149,6 +150,13 @@ def _captured(transport: Any, url_scheme: str, query: dict[str, str], rate_hz: f
         raise DeviceConfigurationError(f"cannot write the capture file {path!r}: {exc}") from exc
 
 
+def _unit_model(host: str, params: SimParams) -> str:
+    """The model a simulated unit describes itself as: the URL's host part (the product,
+    ``sim+serial://ADIS16405?model=profiles/models/mems-typical.toml``), else the noise
+    model's name (a preset, or a model file's stem), never a file path."""
+    return host or Path(params.model).stem
+
+
 def _no_capture(query: dict[str, str], what: str) -> None:
     if "capture" in query:
         raise DeviceConfigurationError(f"capture= records serial and raw CAN links, not {what}")
@@ -182,7 +190,7 @@ def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) ->
         core, clock = sim_core(params, codec.n_axes)
         device = PtySerialDevice(codec, core, header=header).start()
         source = StreamRateSource(_captured(SerialTransport(device.port), "serial", query,
-                                            params.rate, params.warp), codec, model=params.model,
+                                            params.rate, params.warp), codec, model=_unit_model(host, params),
                                   serial_number=f"SIM-{params.seed or 0}",
                                   sample_rate_hz=params.rate, clock=clock,
                                   clock_scale=params.warp,
@@ -307,7 +315,7 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
             ).start()
             transport = CanTransport("virtual", channel)
         source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
-                               layout, model=params.model,
+                               layout, model=_unit_model(host, params),
                                serial_number=f"SIM-{params.seed or 0}",
                                sample_rate_hz=params.rate, clock=clock,
                                clock_scale=params.warp)
@@ -345,7 +353,7 @@ def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
                                         node_id=node_id, serial_number=params.seed or 1).start()
             transport = CanTransport("virtual", channel)
         source = CanopenRateSource(transport, node_id, GYRO_EDS,
-                                   sample_rate_hz=params.rate, model=params.model, clock=clock,
+                                   sample_rate_hz=params.rate, model=_unit_model(host, params), clock=clock,
                                    clock_scale=params.warp, sync=sync)
         return OpenedDevice(source, "", simulator, reach)
     transport = CanTransport(query.get("interface", "socketcan"), host, **_can_bus_kwargs(query))
@@ -379,7 +387,7 @@ def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *,
         transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
                      else ModbusTransport("tcp", "127.0.0.1", port=server.port))
         source = ModbusRateSource(transport, regs,
-                                  device_id=server.device_id, model=params.model,
+                                  device_id=server.device_id, model=_unit_model(host, params),
                                   serial_number=f"SIM-{params.seed or 0}",
                                   sample_rate_hz=params.rate, clock=clock,
                                   clock_scale=params.warp, oversample=oversample)

@@ -115,3 +115,13 @@ def test_clock_drift() -> None:
         slope = np.polyfit(t[late], counter[late], 1)[0]
         assert slope == pytest.approx(550.0, rel=0.02)
         np.testing.assert_allclose(np.diff(got.column("device_time_s")), 1 / 500, atol=1e-4)
+
+
+def test_a_simulated_unit_describes_its_product_not_a_model_file() -> None:
+    """The run file, the database and the report headers show the model a unit describes."""
+    cases = {"sim+serial://ADIS16405?model=profiles/models/mems-typical.toml&protocol=stim300":
+             "ADIS16405",
+             "sim+can://?model=profiles/models/VG951.toml": "VG951"}
+    for url, model in cases.items():
+        with open_device(url) as dev:
+            assert dev.source.describe().model == model
