@@ -10,7 +10,7 @@ from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
 from devices.errors import CodecError, CrcError, DeviceDisconnectedError
 from devices.gaps import CounterTracker
 from devices.protocols import DeviceDescription, SampleBatch
-from devices.transports.can import CanTransport
+from devices.transports.can import CanLink
 
 
 class CanRateSource:
@@ -24,7 +24,7 @@ class CanRateSource:
 
     Parameters
     ----------
-    transport : CanTransport
+    transport : CanLink
         The bus.
     layout : CanFrameLayout
         Where the values sit in the frames.
@@ -41,7 +41,7 @@ class CanRateSource:
         the bus's wall-clock frame time stamps into the clock's time base.
     """
 
-    def __init__(self, transport: CanTransport, layout: CanFrameLayout, *, model: str,
+    def __init__(self, transport: CanLink, layout: CanFrameLayout, *, model: str,
                  serial_number: str, sample_rate_hz: float,
                  clock: Callable[[], float] = time.monotonic,
                  silence_timeout_s: float = 0.5, clock_scale: float = 1.0) -> None:

@@ -27,11 +27,12 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any, Literal, Protocol
+from typing import IO, Any, Literal
 
 import can
 
 from devices.errors import DeviceDisconnectedError, DeviceError
+from devices.transports.can import CanLink
 from devices.transports.serial import ByteTransport
 
 #: Version of the capture file format written by this module.
@@ -377,29 +378,6 @@ class RecordingByteTransport(_Recorder):
         """``inner.write(data)``, recorded (``t``: when it was called)."""
         self._call("write", self.inner.write, data)
         self._writer.add(Write(bytes(data), self._t_call))
-
-
-class CanLink(Protocol):
-    """What :class:`~devices.can_raw.CanRateSource` uses of a CAN transport."""
-
-    interface: str
-    channel: str
-
-    @property
-    def settings(self) -> tuple[tuple[str, str], ...]:
-        """Settings as text for the run metadata."""
-
-    def open(self) -> None:
-        """Open the bus; DeviceDisconnectedError if it is not there."""
-
-    def close(self) -> None:
-        """Close the bus; safe to call twice."""
-
-    def recv(self, timeout_s: float) -> can.Message | None:
-        """Next frame, waiting at most ``timeout_s`` (wall s); None on timeout."""
-
-    def send(self, arbitration_id: int, data: bytes, timestamp: float = 0.0) -> None:
-        """Send a standard-ID data frame."""
 
 
 class RecordingCanTransport(_Recorder):

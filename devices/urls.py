@@ -33,7 +33,13 @@ from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.errors import DeviceConfigurationError
 from devices.modbus import ModbusRateSource
 from devices.protocols import RateSource
-from devices.replay import load_capture, recording_transport, replay_transport
+from devices.replay import (
+    ReplayByteTransport,
+    ReplayCanTransport,
+    load_capture,
+    recording_transport,
+    replay_transport,
+)
 from devices.sim.can_device import CanBroadcastDevice
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
@@ -437,18 +443,19 @@ def _open_replay(path: str, query: dict[str, str], simulate: bool, host: str
     unit_clock = transport.clock if warp == 1.0 else (lambda: warp * transport.clock())
     name = f"replay of {file}"
     source: RateSource
-    if parts.scheme == "serial":
+    if isinstance(transport, ReplayByteTransport) and parts.scheme == "serial":
         codec, _, model = _stream_codec(keys.get("protocol", "stim300"), keys, rate)
-        source = StreamRateSource(transport, codec, model=keys.get("model", model),  # type: ignore[arg-type]
+        source = StreamRateSource(transport, codec, model=keys.get("model", model),
                                   serial_number=name, sample_rate_hz=rate, clock=unit_clock,
                                   clock_scale=warp)
-    elif parts.scheme == "can":
-        source = CanRateSource(transport, can_layout(keys.get("layout", "shared")),  # type: ignore[arg-type]
+    elif isinstance(transport, ReplayCanTransport) and parts.scheme == "can":
+        source = CanRateSource(transport, can_layout(keys.get("layout", "shared")),
                                model=keys.get("model", "CAN gyro"), serial_number=name,
                                sample_rate_hz=rate, clock=unit_clock, clock_scale=warp)
     else:
-        raise DeviceConfigurationError(f"{file}: recorded over {parts.scheme!r}, which has "
-                                       f"no replay (serial and raw CAN have)")
+        raise DeviceConfigurationError(
+            f"{file}: a {capture.kind} capture whose header says it was recorded over "
+            f"{parts.scheme!r}: serial and raw CAN captures replay, as they were recorded")
     return OpenedDevice(source, "", clock=unit_clock)
 
 

@@ -2,11 +2,35 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Protocol
 
 import can
 
 from devices.errors import DeviceDisconnectedError
+
+
+class CanLink(Protocol):
+    """What :class:`~devices.can_raw.CanRateSource` uses of a CAN transport (this
+    module's :class:`CanTransport`, or a recording or replaying one)."""
+
+    interface: str
+    channel: str
+
+    @property
+    def settings(self) -> tuple[tuple[str, str], ...]:
+        """Settings as text for the run metadata."""
+
+    def open(self) -> None:
+        """Open the bus; DeviceDisconnectedError if it is not there."""
+
+    def close(self) -> None:
+        """Close the bus; safe to call twice."""
+
+    def recv(self, timeout_s: float) -> can.Message | None:
+        """Next frame, waiting at most ``timeout_s`` (wall s); None on timeout."""
+
+    def send(self, arbitration_id: int, data: bytes, timestamp: float = 0.0) -> None:
+        """Send a standard-ID data frame."""
 
 
 class CanTransport:

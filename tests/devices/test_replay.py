@@ -237,7 +237,7 @@ def test_can_capture_replays_to_the_same_samples(tmp_path: Path) -> None:
 
     def adapter(transport: RecordingCanTransport | ReplayCanTransport,
                 clock: Callable[[], float]) -> CanRateSource:
-        return CanRateSource(transport, SHARED_LAYOUT, model="VG951",  # type: ignore[arg-type]
+        return CanRateSource(transport, SHARED_LAYOUT, model="VG951",
                              serial_number="SIM-4", sample_rate_hz=params.rate, clock=clock)
 
     try:
