@@ -400,8 +400,9 @@ class Recorder:
             if opened.simulator is not None:
                 opened.simulator.core.pause()  # sampling starts when the recorder listens
             elif profile is None:
-                problems.append(f"{name}: real hardware needs --profile PROFILE (it gives "
-                                f"the model, sample rate and axes to check)")
+                problems.append(f"{name}: real hardware (and a replayed capture of it) "
+                                f"needs --profile PROFILE (it gives the model, sample rate "
+                                f"and axes to check)")
             try:
                 opened.source.open()
             except (DeviceError, OSError) as exc:

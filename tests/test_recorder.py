@@ -126,7 +126,7 @@ def test_bad_configuration_is_refused_before_the_run_starts(
         "axes": (["--profile", str(_write_profile(tmp_path, '["x", "w"]')), "--unit", sim],
                  "needs x, w"),
         "hardware without profile": (["--unit", f"serial://{tmp_path}/ttyX?protocol=stim300"],
-                                     "real hardware needs --profile"),
+                                     "needs --profile PROFILE"),
         "disk": (["--unit", sim.replace("rate=10", "rate=2000"), "--duration", "100000d"],
                  "GB can be written there"),
         "duration": (["--unit", sim, "--duration", "12 hours"], "duration '12 hours'"),
