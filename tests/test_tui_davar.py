@@ -158,6 +158,19 @@ def test_text_layout_axes_and_colour_bar_at_80x14() -> None:
     assert "enlarge" in heat_map_text(doubling_grid(), 80, 4)[0].plain
 
 
+def test_the_discarded_warm_up_is_marked_on_the_time_axis() -> None:
+    from dataclasses import replace
+
+    grid = replace(doubling_grid(), warmup_s=900.0)  # 15 min of the hour
+    lines = heat_map_text(grid, 80, 14)[0].plain.splitlines()
+    assert lines[0].endswith(", ▲ 15 min warm-up")
+    axis = lines[11][len("tau [s]└"):]
+    assert axis.count("▲") == 1
+    # 15 of the 60 minutes the axis spans (its ends are the outer windows' edges)
+    assert axis.index("▲") / len(axis) == pytest.approx(0.25, abs=0.03)
+    assert "▲" not in heat_map_text(doubling_grid(), 80, 14)[0].plain  # none discarded
+
+
 def test_ticks() -> None:
     assert tau_ticks((0.1, 10.0), 10) == [(0, "10"), (5, "1"), (9, "0.1")]
     assert [label for _, label in tau_ticks((0.1, 2.0), 10)] == ["1", "0.3", "0.1"]

@@ -242,6 +242,16 @@ def time_ticks(t_range_s: tuple[float, float], columns: int,
     return ticks
 
 
+def _column_of(t_s: float, t_range_s: tuple[float, float], columns: int) -> int | None:
+    """The column of time ``t_s`` (s) on a time axis of ``columns`` over ``t_range_s``,
+    None when it is not after the start or falls outside."""
+    t0, t1 = t_range_s
+    if not t_s > t0 or t1 <= t0:
+        return None
+    col = int((t_s - t0) / (t1 - t0) * columns)
+    return col if col < columns else None
+
+
 def _duration(seconds: float) -> str:
     if seconds < 120:
         return f"{seconds:.3g} s"
@@ -296,8 +306,11 @@ def heat_map_text(grid: DavarGrid | None, width: int, height: int, *,
         return Text(f"DAVAR {grid.axis}: too small to draw, enlarge the terminal",
                     no_wrap=True, overflow="crop"), None
     windows = "1 window" if len(grid.t_s) == 1 else f"{len(grid.t_s)} windows"
+    warmup = (f", ▲ {_duration(grid.warmup_s)} warm-up" if grid.warmup_s > 0
+              else "")
     title = Text(f"DAVAR {grid.axis}: ADEV over run time and tau, {windows} of "
-                 f"{_duration(grid.window_s)}", style="bold", no_wrap=True, overflow="ellipsis")
+                 f"{_duration(grid.window_s)}{warmup}", style="bold", no_wrap=True,
+                 overflow="ellipsis")
     ticks = dict(tau_ticks(_extent_of(grid), rows))
     margin = max(len(_TAU_UNIT), *(len(v) for v in ticks.values()))
     columns = width - margin - 1
@@ -320,7 +333,12 @@ def heat_map_text(grid: DavarGrid | None, width: int, height: int, *,
         if start >= free:
             labels[start:start + len(label)] = label
             free = start + len(label) + 1
-    out.append(f"\n{_TAU_UNIT:>{margin}}└{''.join(axis)}", style="dim")
+    warmup_col = _column_of(grid.warmup_s, cells.t_range_s, columns)
+    if warmup_col is not None:
+        axis[warmup_col] = "▲"
+    out.append(f"\n{_TAU_UNIT:>{margin}}└", style="dim")
+    for char, run in groupby(axis):
+        out.append(char * len(list(run)), "bold" if char == "▲" else "dim")
     out.append(f"\n{_TIME_UNIT:>{margin}} {''.join(labels)}", style="dim")
     out.append("\n")
     bar = _colour_bar(cells, width)

@@ -10,7 +10,7 @@ grade's limit lines, and the DAVAR as a grid of Allan deviation over window time
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,6 +48,9 @@ class DavarGrid:
         Allan deviation in deg/h per window and tau; NaN where a window has no value.
     window_s : float
         Window length in s.
+    warmup_s : float
+        Warm-up the grading discarded, s from the start of the record (0: none); the map
+        marks where it ends.
 
     Raises
     ------
@@ -60,6 +63,7 @@ class DavarGrid:
     tau_s: NDArray[np.float64]
     adev_deg_h: NDArray[np.float64]
     window_s: float
+    warmup_s: float = 0.0
 
     def __post_init__(self) -> None:
         t, tau = np.asarray(self.t_s), np.asarray(self.tau_s)
@@ -178,7 +182,8 @@ def davar_grid(unit: UnitGrade, axis_index: int = 0) -> DavarGrid | None:
     record = unit.unit.record
     axis = unit.axes[axis_index]
     column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
-    return davar_grid_of(record.rate_deg_s[:, column], record.sample_rate_hz, axis.axis)
+    grid = davar_grid_of(record.rate_deg_s[:, column], record.sample_rate_hz, axis.axis)
+    return None if grid is None else replace(grid, warmup_s=unit.warmup_discarded_s)
 
 
 def guess_profile(run: RunInfo) -> str | None:
