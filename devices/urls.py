@@ -122,7 +122,17 @@ class OpenedDevice:
         self.close()
 
 
-_SIM_ONLY_KEYS = frozenset({"model", "warp", "seed", "history", "interface", *FAULT_KEYS})
+#: URL keys that say how to run a simulation or record a session, not how to talk to the
+#: device: a hardware URL of a served simulation and a capture's replay URL drop them.
+_NOT_PROTOCOL_KEYS = frozenset({"model", "warp", "seed", "history", "interface", "capture",
+                                *FAULT_KEYS})
+
+
+def _protocol_query(query: dict[str, str], **keys: str) -> str:
+    """``query``'s protocol keys (layout, map, datagram, ...) with ``keys`` set, encoded."""
+    kept = {k: v for k, v in query.items() if k not in _NOT_PROTOCOL_KEYS}
+    kept.update(keys)
+    return urlencode(kept)
 
 
 def _hardware_url(params: SimParams, scheme: str, location: str, query: dict[str, str],
@@ -132,9 +142,7 @@ def _hardware_url(params: SimParams, scheme: str, location: str, query: dict[str
     hardware adapter keeps wall time."""
     if params.warp != 1.0:
         return None
-    kept = {k: v for k, v in query.items() if k not in _SIM_ONLY_KEYS}
-    kept.update(keys, rate=f"{params.rate:g}")
-    return f"{scheme}://{location}?{urlencode(kept)}"
+    return f"{scheme}://{location}?{_protocol_query(query, **keys, rate=f'{params.rate:g}')}"
 
 
 def _captured(transport: Any, url_scheme: str, query: dict[str, str], rate_hz: float,
@@ -147,11 +155,9 @@ def _captured(transport: Any, url_scheme: str, query: dict[str, str], rate_hz: f
     path = query.get("capture")
     if not path:
         return transport
-    kept = {k: v for k, v in query.items() if k not in _SIM_ONLY_KEYS and k != "capture"}
-    kept.update(rate=f"{rate_hz:g}", warp=f"{warp:g}")
+    replay_url = f"{url_scheme}://?{_protocol_query(query, rate=f'{rate_hz:g}', warp=f'{warp:g}')}"
     try:
-        return recording_transport(transport, path, settings={
-            "replay_url": f"{url_scheme}://?{urlencode(kept)}"})
+        return recording_transport(transport, path, settings={"replay_url": replay_url})
     except OSError as exc:
         raise DeviceConfigurationError(f"cannot write the capture file {path!r}: {exc}") from exc
 

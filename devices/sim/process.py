@@ -16,7 +16,6 @@ the system-wide monotonic clock, so the copy counts the same simulated seconds.
 from __future__ import annotations
 
 import ipaddress
-import os
 import secrets
 import socket
 import subprocess
@@ -85,7 +84,7 @@ def _serve(factory: Callable[[], LocalSimulator], conn: Connection) -> None:
     except Exception as exc:  # reported to the parent, which raises it as its own error
         conn.send(("error", f"{type(exc).__name__}: {exc}"))
         return
-    conn.send(("ready", os.getpid()))
+    conn.send(("ready", None))
     try:
         while True:
             try:
@@ -96,7 +95,12 @@ def _serve(factory: Callable[[], LocalSimulator], conn: Connection) -> None:
                 break
             core = simulator.core
             try:
-                value = getattr(core, name)(*args) if name in _CALLS else getattr(core, name)
+                if name in _CALLS:
+                    value = getattr(core, name)(*args)
+                elif name in _READS:
+                    value = getattr(core, name)
+                else:
+                    raise ValueError(f"no such request {name!r}")
             except Exception as exc:
                 conn.send(("error", f"{type(exc).__name__}: {exc}"))
             else:

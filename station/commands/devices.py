@@ -11,8 +11,9 @@ import sys
 import threading
 from dataclasses import asdict
 from types import FrameType
-from urllib.parse import urlsplit
+from urllib.parse import parse_qsl, urlsplit
 
+from devices.sim.params import parse_sim_params
 from devices.urls import SUPPORTED, open_device
 from station.errors import UsageError
 
@@ -55,8 +56,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _unreachable_reason(url: str) -> str:
-    query = urlsplit(url).query
-    if "warp=" in query:
+    parts = urlsplit(url)
+    params = parse_sim_params(parts.netloc, dict(parse_qsl(parts.query)))
+    if params.warp != 1.0:
         return ("a served simulation runs in real time (the station that records it keeps "
                 "wall time): remove warp= or set warp=1")
     return ("this simulation lives inside this process (python-can's virtual bus): add "

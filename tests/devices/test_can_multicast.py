@@ -195,6 +195,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
 def test_serve_refuses_what_another_process_cannot_reach(
         capsys: pytest.CaptureFixture[str]) -> None:
     for url, why in (("sim+can://VG951?rate=100", "interface=udp_multicast"),
+                     ("sim+can://VG951?rate=100&warp=1", "interface=udp_multicast"),
                      ("sim+serial://STIM300?warp=5", "real time"),
                      ("can://can0", "sim+")):
         assert main(["devices", "serve", url, "--seconds", "1"]) == 2
