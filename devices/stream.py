@@ -105,18 +105,15 @@ class StreamRateSource:
         DeviceProtocolError
             The device did not acknowledge the greeting in time.
         """
-        # The attempt's time is read when the call returns: the port was missing, or its
-        # input was flushed, at most one open call earlier (microseconds on a tty, far
-        # inside host_jitter_s), and a replayed capture's clock reads the recorded
-        # attempt's time only once the replay transport has played that attempt.
+        wall_start, clock_start = time.monotonic(), self.clock()
         try:
             self.transport.open()
         except DeviceDisconnectedError:
             # No port now: whatever arrives later was sent after this moment.
-            self._timing.quiet_until(self.clock())
+            self._timing.quiet_until(self._attempt_time(wall_start, clock_start))
             raise
         # Opening flushes the input buffer: what we read was sent after this moment.
-        self._timing.quiet_until(self.clock())
+        self._timing.quiet_until(self._attempt_time(wall_start, clock_start))
         self._rest = b""
         greeting = self.codec.greeting()
         if greeting:
@@ -126,6 +123,19 @@ class StreamRateSource:
         self._builder.event("reconnect" if self._ever_connected else "connect", now)
         self._connected = self._ever_connected = True
         self._last_frame_s = now
+
+    def _attempt_time(self, wall_start: float, clock_start: float) -> float:
+        """When an open attempt found the port missing or flushed it, on the unit's clock.
+
+        A quick call (under ``host_jitter_s`` of wall time) did so at its end to within
+        that: its end is taken, which is also when a replayed capture's clock shows the
+        recorded attempt. A slow call (a preempted thread, a slow USB enumeration) may
+        have done so anywhere in it: its start is taken, so that no silence is claimed
+        that bytes could have broken (an ambiguous count goes to fewer wraps).
+        """
+        clock_end = self.clock()
+        quick = time.monotonic() - wall_start <= self.host_jitter_s
+        return clock_end if quick else clock_start
 
     def _await_ack(self) -> None:
         deadline = time.monotonic() + self.ack_timeout_s
