@@ -104,4 +104,5 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
     for a in axes:
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
     return "\n".join(lines)
