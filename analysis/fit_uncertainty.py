@@ -89,6 +89,8 @@ class ValueCovariance:
         Each value's relative sampling variance (``2 / edf`` of the model).
     mean : ndarray, shape (n,)
         Each value's expectation under the model, (deg/s)^2.
+    log_scale : ndarray, shape (n,)
+        ``sqrt(f)``, ``f = psi'(nu/2) nu / 2`` with ``nu = 2 / relative_variance``.
     """
 
     anchor_m: NDArray[np.int64]
@@ -98,6 +100,7 @@ class ValueCovariance:
     frac: NDArray[np.float64]
     relative_variance: NDArray[np.float64]
     mean: NDArray[np.float64]
+    log_scale: NDArray[np.float64]
 
     def project(self, rows: NDArray[np.float64]) -> NDArray[np.float64]:
         """``rows`` (p, n) onto the anchors: (p, k), each value split between its two anchors."""
@@ -115,8 +118,7 @@ class ValueCovariance:
 
     def log_factor(self) -> NDArray[np.float64]:
         """``sqrt(f_i)``: how much wider the log of each value scatters than first order says."""
-        edf = 2.0 / np.maximum(self.relative_variance, 1e-300)
-        return np.sqrt(special.polygamma(1, edf / 2.0) * edf / 2.0)
+        return self.log_scale
 
     def expand(self, on_anchors: NDArray[np.float64]) -> NDArray[np.float64]:
         """Values at the anchors (..., k) interpolated to every value (..., n): the transpose of
@@ -185,7 +187,11 @@ def value_covariance(result: AllanResult, beta: NDArray[np.float64], keep: NDArr
     tau = m / float(result.sample_rate_hz)
     b = np.where(np.isfinite(beta) & (beta > 0), beta, 0.0)
     mean = b[0] / tau**2 + b[1] / tau + b[2] + b[3] * tau + b[4] * tau**2
-    return ValueCovariance(anchors, relative, kernel, left, frac, rel_var, mean)
+    # psi' at the anchors (it is smooth in m), interpolated like the variance
+    edf = 2.0 / np.maximum(diag, 1e-300)
+    at_anchors = np.sqrt(special.polygamma(1, edf / 2.0) * edf / 2.0)
+    log_scale = (1.0 - frac) * at_anchors[left] + frac * at_anchors[right]
+    return ValueCovariance(anchors, relative, kernel, left, frac, rel_var, mean, log_scale)
 
 
 @dataclass(frozen=True)

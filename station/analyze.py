@@ -53,13 +53,17 @@ def analyze_record(
     taus: str | np.ndarray = "log",
     method: FitMethod = DEFAULT_METHOD,
     terms: str = "QNBKR",
+    select: bool | None = None,
 ) -> list[AxisAnalysis]:
-    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s)."""
+    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s).
+
+    ``select`` is :func:`analysis.fit.fit_noise_terms`' (default: on for logwls).
+    """
     result = allan_variance(record.rate_deg_s, record.sample_rate_hz, estimator=estimator, taus=taus)
     out = []
     for i, name in enumerate(record.axis_names):
         axis = result.axis(i)
-        fit = fit_noise_terms(axis, method=method, terms=terms)
+        fit = fit_noise_terms(axis, method=method, terms=terms, select=select)
         figures = spec_figures(record.rate_deg_s[:, i], record.sample_rate_hz, axis, fit)
         out.append(AxisAnalysis(name, record.sample_rate_hz, record.n_samples, axis, fit, figures))
     return out

@@ -106,7 +106,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="tau grid: log-spaced (default), octaves, or every m")
     p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
                    help=f"fit method (default {DEFAULT_METHOD})")
-    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
+    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR (logwls "
+                                                    "keeps those the data resolve)")
+    p.add_argument("--no-select", dest="select", action="store_false", default=None,
+                   help="logwls: fit every term of --terms, resolved or not")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
 
@@ -115,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
     record, selection = load_record(args)
     axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
-                          terms=args.terms)
+                          terms=args.terms, select=args.select)
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
