@@ -276,14 +276,19 @@ def difference_edf_grid(
         picks = np.arange(len(m))
     out = np.empty(alpha.shape)
     for a in np.unique(alpha):
+        mask = alpha == a
+        # every tau that holds this type, or (interpolating) the picks that bracket them
+        rows = np.flatnonzero(mask.any(axis=1))
+        if len(picks) < len(m):
+            lo = np.clip(np.searchsorted(picks, rows, side="right") - 1, 0, len(picks) - 1)
+            rows = np.unique(picks[np.concatenate([lo, np.minimum(lo + 1, len(picks) - 1)])])
         exact = np.array([difference_edf(int(n_terms[i]), int(m[i]), int(a), order=order, modified=modified,
                                          stride=1 if overlapping else int(m[i]))
-                          for i in picks])
-        if len(picks) == len(m):
-            full = exact
+                          for i in rows])
+        if len(rows) == 1:
+            full = np.full(len(m), exact[0])
         else:
-            full = np.exp(np.interp(np.log(m), np.log(m[picks]), np.log(exact)))
-        mask = alpha == a
+            full = np.exp(np.interp(np.log(m), np.log(m[rows]), np.log(exact)))
         out[mask] = np.broadcast_to(full[:, None], alpha.shape)[mask]
     return np.clip(out, 1.0, np.maximum(n_terms, 1)[:, None])
 

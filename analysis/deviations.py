@@ -450,6 +450,12 @@ def deviation(
     """
     if kind in ("oadev", "adev"):
         estimator = "overlapping" if kind == "oadev" else "clusters"
+        if isinstance(taus, str) and taus == "log":  # to two clusters, like every grid here
+            fs = check_sample_rate(sample_rate_hz)
+            n = int(np.shape(samples)[0]) if np.ndim(samples) else 0
+            taus = analysis_log_m(n) / fs
+            if not len(taus):
+                raise TooFewSamplesError(f"{n} samples are too few for the 'log' grid of {kind}; record longer")
         return from_allan(allan_variance(samples, sample_rate_hz, estimator=estimator, taus=taus,
                                          input_kind=input_kind, confidence=confidence))
     if kind not in _SPECS:

@@ -41,6 +41,11 @@ class AxisAnalysis:
     figures: SpecFigures
     curve: DeviationResult
 
+    @property
+    def readoff_allan(self) -> AllanResult:
+        """The Allan variance the read-offs see (:func:`readoff_range`)."""
+        return readoff_range(self.allan)
+
     def as_json(self) -> dict[str, object]:
         """The JSON object of one axis (the ``station analyze --json`` interface).
 

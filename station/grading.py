@@ -319,7 +319,7 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
     if name == "bias":
         return bias_interval(x, confidence)
     if name in ("arw", "bias_instability", "adev_min"):
-        return _readoff_interval(analysis.allan, name, confidence)
+        return _readoff_interval(analysis.readoff_allan, name, confidence)
     return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
 
 

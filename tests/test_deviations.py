@@ -157,3 +157,55 @@ def test_white_rate_intervals_hold_the_truth_at_the_nominal_rate(kind: str) -> N
         hits.append((r.ci_low <= truth) & (truth <= r.ci_high))
     share = np.mean(hits)
     assert 0.62 <= share <= 0.78, (kind, share, np.mean(hits, axis=0))
+
+
+# ------------------------------------------------------------------------ station analyze
+
+
+@pytest.fixture(scope="module")
+def small_record(tmp_path_factory):
+    from station.record_files import write_csv_record
+
+    rate = 0.01 + white_rate_noise(0.02, 6000, 20.0, np.random.default_rng(5), n_axes=2)
+    return write_csv_record(tmp_path_factory.mktemp("dev") / "run.csv", rate, 20.0, axis_names=["x", "y"])
+
+
+def _analyze_json(capsys, *args: str) -> dict:
+    from station.cli import main
+
+    assert main(["analyze", *args, "--json"]) == 0
+    return __import__("json").loads(capsys.readouterr().out)
+
+
+def test_analyze_deviation_option(small_record, capsys) -> None:
+    """--deviation picks the curve (tau_s, adev, adev_ci_*), never the fit or the figures."""
+    base = _analyze_json(capsys, str(small_record))
+    axis0 = base["axes"][0]
+    assert axis0["deviation"] == "oadev" and axis0["estimator"] == "overlapping"
+    assert axis0["n_clusters"][-1] == 2  # the log grid reaches two clusters
+    rate = np.loadtxt(small_record, delimiter=",", skiprows=1, comments="#")[:, -2:]
+    octave = _analyze_json(capsys, str(small_record), "--taus", "octave")["axes"][1]
+    for kind in ("mdev", "tdev", "hdev", "totdev", "theo1"):
+        doc = _analyze_json(capsys, str(small_record), "--deviation", kind, "--taus", "octave")
+        axis = doc["axes"][1]
+        expected = deviation(rate[:, 1], 20.0, kind=kind, taus="octave")
+        assert axis["deviation"] == kind and axis["deviation_unit"] == ("deg" if kind == "tdev" else "deg/s")
+        np.testing.assert_allclose(axis["tau_s"], expected.tau_s)
+        np.testing.assert_allclose(axis["adev"], expected.deviation, rtol=1e-9)
+        np.testing.assert_allclose(axis["adev_ci_high"], expected.deviation_ci_high, rtol=1e-9)
+        assert len(axis["n_clusters"]) == len(axis["edf"]) == len(axis["noise_alpha"]) == len(axis["tau_s"])
+        assert axis["fit"] == octave["fit"] and axis["figures"] == octave["figures"]
+        assert axis["fit_from"] == "overlapping Allan variance"
+    clusters = _analyze_json(capsys, str(small_record), "--deviation", "adev", "--taus", "octave")["axes"][0]
+    assert clusters["estimator"] == "clusters" and clusters["deviation"] == "adev"
+
+
+def test_analyze_deviation_table_and_bad_name(small_record, capsys) -> None:
+    from station.cli import main
+
+    assert main(["analyze", str(small_record), "--deviation", "mdev", "--taus", "octave"]) == 0
+    out = capsys.readouterr().out
+    assert "modified Allan deviation [deg/h]" in out and "fit and figures above are on the Allan variance" in out
+    with pytest.raises(SystemExit) as exc:
+        main(["analyze", str(small_record), "--deviation", "mtie"])
+    assert exc.value.code == 2
