@@ -4,6 +4,8 @@ the stretches is not."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -156,3 +158,26 @@ def test_eight_hours_with_outages_give_the_unbroken_curve_where_concatenation_do
     outside = (naive.avar < unbroken.ci_low[:k]) | (naive.avar > unbroken.ci_high[:k])
     assert outside.sum() >= 10
     assert np.max(naive.adev / unbroken.adev[:k]) > 1.2
+
+
+def test_analyze_reads_the_gaps_of_a_csv_time_column(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from station.cli import main
+    from station.record_files import write_csv_record
+
+    n = 8 * 3600
+    keep = np.ones(n, dtype=bool)
+    for a, b in OUTAGES_S:
+        keep[a:b] = False
+    rng = np.random.default_rng(9)
+    rate = 0.01 * rng.standard_normal(n) + 5e-6 * np.arange(n)
+    index = np.flatnonzero(keep)
+    path = write_csv_record(tmp_path / "outages.csv", rate[keep], 1.0, axis_names=["x"], sample_index=index)
+    assert main(["analyze", str(path), "--json"]) == 0
+    axis = json.loads(capsys.readouterr().out)["axes"][0]
+    missing = sum(b - a for a, b in OUTAGES_S)
+    assert axis["gaps"] == {"count": 5, "missing_s": pytest.approx(missing), "share": pytest.approx(missing / n)}
+    assert axis["tau_s"][-1] == pytest.approx(3200.0)
+    expected = allan_variance(np.where(keep, rate, np.nan), 1.0, missing="gap")
+    np.testing.assert_allclose(axis["adev"], expected.adev, rtol=1e-9)
+    assert main(["analyze", str(path)]) == 0
+    assert "5 (3805 s, 13.21% of the time)" in capsys.readouterr().out
