@@ -28,6 +28,7 @@ fewer degrees of freedom, never more.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -130,7 +131,9 @@ def _combined_edf(lengths: NDArray[np.int64], m: int, alpha: int, stride: int) -
     return float(min(max(total**2 / spread, 1.0), total))
 
 
-def _edf_grid(m: NDArray[np.int64], alpha: NDArray[np.int64], lengths_of, stride_of) -> NDArray[np.float64]:
+def _edf_grid(m: NDArray[np.int64], alpha: NDArray[np.int64],
+              lengths_of: Callable[[int], NDArray[np.int64]], stride_of: Callable[[int], int]
+              ) -> NDArray[np.float64]:
     """edf per (tau, axis), exact at up to :data:`EDF_TAU_POINTS` taus, interpolated between."""
     if len(m) > EDF_TAU_POINTS:
         picks = np.unique(np.geomspace(1, len(m), EDF_TAU_POINTS).astype(int) - 1)
@@ -196,7 +199,9 @@ def _keep_usable(m: NDArray[np.int64], n_terms: NDArray[np.int64], explicit: boo
     return usable
 
 
-def _overlapping(g: _Gapped, m: NDArray[np.int64]):
+def _overlapping(g: _Gapped, m: NDArray[np.int64]
+                 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """(differences summed, whole clusters in the stretches, differences per stretch) per m."""
     lengths = g.stops - g.starts
     per_stretch = np.maximum(lengths[None, :] + 1 - 2 * m[:, None], 0)
     n_terms = per_stretch.sum(axis=1).astype(np.int64)

@@ -154,6 +154,11 @@ class SpikeDetection:
                 f"not isolated spikes")
 
 
+def min_samples(half_window: int = HALF_WINDOW) -> int:
+    """Fewest samples :func:`detect_spikes` looks for spikes in (one full neighbourhood)."""
+    return 2 * half_window + 1
+
+
 def spike_threshold(n_samples: int, false_alarm: float = FALSE_ALARM) -> float:
     """Residual threshold, in scales, for a false-alarm probability over ``n_samples``."""
     if not 0 < false_alarm < 1:
@@ -234,8 +239,8 @@ def detect_spikes(
         raise ValueError(f"samples must be 1-D, got shape {x.shape}")
     if not np.isfinite(x).all():
         raise ValueError("samples must be finite (leave missing samples out)")
-    if len(x) < 2 * half_window + 1:
-        raise ValueError(f"{len(x)} samples are too few to look for spikes (need {2 * half_window + 1})")
+    if len(x) < min_samples(half_window):
+        raise ValueError(f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})")
     lin = np.empty_like(x)
     lin[1:-1] = x[1:-1] - 0.5 * (x[:-2] + x[2:])
     lin[0], lin[-1] = x[0] - x[1], x[-1] - x[-2]

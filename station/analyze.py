@@ -16,7 +16,7 @@ from analysis.allan import AllanResult, Estimator, allan_variance
 from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
 from analysis.gaps import gap_summary
-from analysis.outliers import SpikeDetection, detect_spikes, replace_spikes
+from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
 from analysis.units import S_PER_H
 from station.bench import Bench, earth_rate_note
 from station.record_files import RateRecord
@@ -145,6 +145,8 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
     """(the present samples to analyse, the report) of one axis under ``policy``."""
     if policy not in OUTLIER_POLICIES:
         raise ValueError(f"outlier policy must be one of {', '.join(OUTLIER_POLICIES)}, got {policy!r}")
+    if len(x) < min_samples():
+        return x, OutlierReport(rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}")
     detection = detect_spikes(x)
     grid = np.arange(len(x)) if positions is None else positions
     times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
