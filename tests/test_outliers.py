@@ -139,7 +139,7 @@ def test_replacement_is_the_line_between_the_neighbours() -> None:
 
 
 def test_every_report_says_what_was_done_with_the_spikes(tmp_path: Path) -> None:
-    x = _clean(30_000, 11)
+    x = _clean(12_000, 11)
     y, _ = _with_spikes(x, 11, count=5)
     path = write_csv_record(tmp_path / "spiky.csv", y, FS_HZ, axis_names=["x"])
     profile = load_profile(write_profile(tmp_path, profile_text(warmup_s=0.0)))
@@ -155,7 +155,6 @@ def test_every_report_says_what_was_done_with_the_spikes(tmp_path: Path) -> None
     assert (row["spikes"], row["spikes_removed"]) == ("5", "true")
     text = PdfReader(write_report(graded, "pdf", tmp_path)).pages[0].extract_text()
     assert "spikes: x 5 removed" in text and "x spikes kept" in text  # note and second curve
-    assert main(["analyze", str(path), "--json"]) == 0
 
 
 def test_analyze_json_and_table_report_spikes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
