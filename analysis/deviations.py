@@ -29,8 +29,10 @@ identified per tau (:mod:`analysis.noise_id`):
   function (:func:`analysis.confidence.difference_edf_grid`, Greenhall and Riley 2003);
 * total: NIST SP 1065 Table 7, ``edf = b N/m - c`` (white rate 1.50, 0; flicker rate
   1.17, 0.22; rate random walk 0.93, 0.36); for white and flicker angle noise, where the
-  table gives none, the overlapping Allan variance's computed edf (an approximation: the
-  two estimators are the same at m = 1, and total variance has at least as many terms);
+  table gives none, and at m = 1, where the two estimators are the same, the overlapping
+  Allan variance's computed edf (an approximation for angle noise at m > 1: a Monte Carlo
+  of flicker angle noise finds total's edf at or below it, and half of NIST's "simple"
+  flicker-PM formula that Stable32 gives total, benchmarks/bench_deviations.py);
 * Theo1: NIST SP 1065's Theo1 edf formulas for the five noise types (Howe and Peppler
   2003, fitted to simulations: an approximation), with the noise type identified at the
   Allan averaging factor ``round(0.75 m)`` of the Theo1 tau.
@@ -284,12 +286,16 @@ def _total_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
 def total_edf(n_samples: int, m: NDArray[np.int64], alpha: NDArray[np.int64]) -> NDArray[np.float64]:
     """Total variance edf: NIST SP 1065 Table 7, ``b N/m - c``, for rate noise (alpha 0, -1, -2);
     the overlapping Allan variance's computed edf for angle noise (alpha 2, 1), where the
-    table gives none. ``alpha`` is (n_tau, k); floored at 1."""
+    table gives none, and at m = 1 (the same estimator there). ``alpha`` is (n_tau, k);
+    floored at 1."""
     allan = difference_edf_grid(n_samples, m, alpha, overlapping=True)
     ratio = (n_samples / m.astype(float))[:, None]
     out = allan.copy()
     for a, (b, c) in TOTAL_EDF_TABLE.items():
         out = np.where(alpha == a, b * ratio - c, out)
+    # at m = 1 the reflection adds no term: total is the overlapping Allan variance, and the
+    # table (fitted at longer tau) would give white rate noise 1.5 N against its 0.67 N
+    out = np.where((m == 1)[:, None], allan, out)
     return np.maximum(out, 1.0)
 
 

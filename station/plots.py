@@ -41,7 +41,7 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     path = Path(path)
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    curve0 = axes[0].curve
+    curve0 = axes[0].shown
     angle = curve0.unit == "angle"
     scale = 1.0 if angle else 3600.0
     own = curve0.kind == from_allan(axes[0].allan).kind
@@ -49,7 +49,7 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     lows, values, highs = [], [], []
     for i, a in enumerate(axes):
         c = colors[i % len(colors)]
-        cv = a.curve
+        cv = a.shown
         ax.fill_between(cv.tau_s, cv.deviation_ci_low * scale, cv.deviation_ci_high * scale, color=c,
                         alpha=0.2, linewidth=0)
         ax.loglog(cv.tau_s, cv.deviation * scale, "o-", ms=2.5, lw=1, color=c, label=f"{a.name} {cv.kind}")
