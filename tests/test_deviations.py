@@ -207,3 +207,15 @@ def test_analyze_deviation_table_and_bad_name(small_record, capsys) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["analyze", str(small_record), "--deviation", "mtie"])
     assert exc.value.code == 2
+
+
+def test_analyze_refuses_a_deviation_that_cannot_skip_gaps(tmp_path, capsys) -> None:
+    from station.cli import main
+    from station.record_files import write_csv_record
+
+    rate = white_rate_noise(0.02, 4000, 10.0, np.random.default_rng(2))
+    index = np.concatenate([np.arange(2000), np.arange(2500, 4500)])  # a 50 s outage
+    path = write_csv_record(tmp_path / "gap.csv", rate, 10.0, axis_names=["x"], sample_index=index)
+    assert main(["analyze", str(path), "--deviation", "mdev"]) == 2
+    assert "gap-free stretch" in capsys.readouterr().err
+    assert main(["analyze", str(path), "--deviation", "oadev", "--json"]) == 0  # the Allan ones do
