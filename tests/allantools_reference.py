@@ -61,10 +61,13 @@ def _extract(sdist: Path, root: Path) -> None:
 
 
 @pytest.fixture(scope="session")
-def allantools_tests(pytestconfig: pytest.Config) -> Path:
-    """Folder holding ``phasedat/``, ``gps/`` and ``Cs5071A/`` of allantools' test data."""
+def allantools_tests(pytestconfig: pytest.Config, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Folder holding ``phasedat/``, ``gps/`` and ``Cs5071A/`` of allantools' test data:
+    in pytest's cache (kept between runs), or a temporary folder with ``-p no:cacheprovider``."""
     version = importlib.metadata.version("allantools")
-    root = Path(pytestconfig.cache.mkdir(f"allantools-{version}-reference"))
+    name = f"allantools-{version}-reference"
+    cache = getattr(pytestconfig, "cache", None)
+    root = Path(cache.mkdir(name)) if cache is not None else tmp_path_factory.mktemp(name)
     done = root / "extracted"
     if not done.exists():
         with tempfile.TemporaryDirectory() as tmp:
