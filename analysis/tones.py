@@ -88,6 +88,8 @@ class Tone:
         Family-wise p-value of that bin (Bonferroni over the bins tested).
     bin_freq_hz, bin_power : tuple of float
         The band's bins and their excess power over the background, (deg/s)^2 each.
+    amplitude_stderr_deg_s : float
+        Standard error of the amplitude (each ordinate's chi-square spread over the band).
     """
 
     freq_hz: float
@@ -97,6 +99,7 @@ class Tone:
     p_value: float
     bin_freq_hz: tuple[float, ...] = ()
     bin_power: tuple[float, ...] = ()
+    amplitude_stderr_deg_s: float = 0.0
 
     def avar(self, tau_s: ArrayLike, sample_rate_hz: float) -> NDArray[np.float64]:
         """Allan variance ((deg/s)^2) the line adds at ``tau_s`` in a record sampled at ``sample_rate_hz``."""
@@ -209,7 +212,7 @@ def find_tones(
     significant = (p_bin * n_tested < alpha) & (ratio >= MIN_PEAK_RATIO)
     df = float(freq[1] - freq[0])
     bands = _merged([_grow(power, background, lo, hi, nu) for lo, hi in _runs(significant, gap=2)])
-    tones = [_tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df) for lo, hi in bands]
+    tones = [_tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df, nu) for lo, hi in bands]
     tones = [t for t in tones if t is not None]
     return tuple(sorted(tones, key=lambda t: -t.amplitude_deg_s)[:max_tones])
 
@@ -250,7 +253,7 @@ def _merged(bands: list[tuple[int, int]]) -> list[tuple[int, int]]:
 
 def _tone(freq: NDArray[np.float64], power: NDArray[np.float64], background: NDArray[np.float64],
           ratio: NDArray[np.float64], p_bin: NDArray[np.float64], n_tested: int, lo: int, hi: int,
-          df: float) -> Tone | None:
+          df: float, nu: float) -> Tone | None:
     """The tone occupying bins ``lo..hi``."""
     band = slice(lo, hi + 1)
     bg = np.where(np.isfinite(background[band]), background[band], np.nan)
@@ -261,14 +264,18 @@ def _tone(freq: NDArray[np.float64], power: NDArray[np.float64], background: NDA
     if total <= 0:
         return None
     peak = lo + int(np.argmax(np.where(np.isfinite(ratio[band]), ratio[band], 0.0)))
+    # var(P_k) = 2 P_k^2 / nu per ordinate; adjacent Hann ordinates are correlated, counted as 2
+    total_sd = math.sqrt(2.0 * float(np.sum(power[band] ** 2)) * 2.0 / nu) * df
+    amplitude = math.sqrt(2.0 * total)
     return Tone(
         freq_hz=float(np.sum(freq[band] * excess) / total),
-        amplitude_deg_s=math.sqrt(2.0 * total),
+        amplitude_deg_s=amplitude,
         band_hz=(float(freq[lo]), float(freq[hi])),
         peak_ratio=float(ratio[peak]),
         p_value=float(min(1.0, p_bin[peak] * n_tested)),
         bin_freq_hz=tuple(float(f) for f in freq[band]),
         bin_power=tuple(float(e) for e in excess),
+        amplitude_stderr_deg_s=amplitude * total_sd / (2.0 * total),
     )
 
 

@@ -135,6 +135,8 @@ class AxisGrade:
             "deciding_grade": self.deciding_grade,
             "could_reach": self.could_reach,
             "review": list(self.review),
+            "tones": [t.as_dict() for t in self.analysis.tones],
+            "excluded_taus": [z.as_dict() for z in self.analysis.zones],
             "sample_rate_hz": self.analysis.sample_rate_hz,
             "n_samples": self.analysis.n_samples,
             "duration_s": self.analysis.n_samples / self.analysis.sample_rate_hz,

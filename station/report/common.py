@@ -131,6 +131,17 @@ def event_summary(unit: UnitRun, graded: RunGrade) -> EventSummary:
                         graded.run.stop_reason, graded.run.interrupted)
 
 
+def analysis_remarks(unit: UnitGrade) -> list[str]:
+    """What a reader must see besides the figures: review flags first, then each axis' tones
+    and the tau zones left out of the fit and read-offs."""
+    out = [f"REVIEW {line}" for line in unit.review]
+    for a in unit.axes:
+        out += [f"{a.axis}: {t.describe()}" for t in a.analysis.tones]
+        out += [f"{a.axis}: fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s ({z.kind})"
+                for z in a.analysis.zones]
+    return out
+
+
 def report_stem(graded: RunGrade) -> str:
     """File stem of a run's report: ``<run file stem>_<profile name>``, filesystem-safe."""
     stem = Path(graded.run.path).name.split(".")[0]

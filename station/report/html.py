@@ -16,6 +16,7 @@ from pathlib import Path
 from station.grading import RunGrade, UnitGrade
 from station.report.common import (
     VERDICT_COLORS,
+    analysis_remarks,
     event_summary,
     figure_rows,
     fmt,
@@ -76,7 +77,8 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     parts.append("<h2>Dynamic Allan deviation</h2>")
     parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
     parts.append('<h2>Events</h2><ul class="events">')
-    parts += [f"<li>{escape(line)}</li>" for line in event_summary(u, graded).lines() + list(unit.notes)]
+    parts += [f"<li>{escape(line)}</li>" for line in event_summary(u, graded).lines() + analysis_remarks(unit)
+              + list(unit.notes)]
     parts.append("</ul></section>")
     return "\n".join(parts)
 
