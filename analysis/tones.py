@@ -129,10 +129,42 @@ def welch_segment(n_samples: int) -> int | None:
     return int(min(MAX_SEGMENT, 2 ** int(math.floor(math.log2(longest)))))
 
 
-def welch_edf(n_samples: int, segment: int) -> float:
-    """Degrees of freedom of one Welch ordinate (Hann, 50 % overlap)."""
-    k = (n_samples - segment) // (segment // 2) + 1
-    return 2.0 * k / (1.0 + 2.0 * HANN_OVERLAP_RHO**2 * (k - 1) / k)
+def welch_edf(segments: int) -> float:
+    """Degrees of freedom of one Welch ordinate averaged over ``segments`` (Hann, 50 % overlap)."""
+    return 2.0 * segments / (1.0 + 2.0 * HANN_OVERLAP_RHO**2 * (segments - 1) / segments)
+
+
+def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], float] | None:
+    """(frequencies, Welch density, edf per ordinate) of a rate record; NaN marks missing samples.
+
+    A record with gaps is averaged over the segments that fit inside its gap-free
+    stretches (each stretch's periodogram weighted by its segment count), so no segment
+    straddles a gap. None when fewer than :data:`MIN_SEGMENTS` segments of
+    :data:`MIN_SEGMENT` samples fit.
+    """
+    present = np.isfinite(x)
+    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
+    stretches = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+    segment = welch_segment(int(present.sum()))
+    longest = max((b - a for a, b in stretches), default=0)
+    while segment is not None and segment > longest:
+        segment = segment // 2 if segment // 2 >= MIN_SEGMENT else None
+    if segment is None:
+        return None
+    total, counts, freq = None, 0, None
+    for a, b in stretches:
+        if b - a < segment:
+            continue
+        f, p = signal.welch(x[a:b], fs=sample_rate_hz, window="hann", nperseg=segment,
+                            noverlap=segment // 2, detrend="constant", scaling="density")
+        k = (b - a - segment) // (segment // 2) + 1
+        total = p * k if total is None else total + p * k
+        counts += k
+        freq = f
+    if total is None or counts < MIN_SEGMENTS // 2:
+        return None
+    return freq, total / counts, welch_edf(counts)
 
 
 def running_background(power: NDArray[np.float64], nu: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -169,7 +201,7 @@ def find_tones(
     Parameters
     ----------
     rate_deg_s : array_like, shape (N,)
-        Rate samples, deg/s.
+        Rate samples, deg/s; NaN where a sample is missing (a record with gaps).
     sample_rate_hz : float
         Sample rate, Hz.
     alpha : float
@@ -191,16 +223,16 @@ def find_tones(
     fs = check_sample_rate(sample_rate_hz)
     if not 0 < alpha < 1:
         raise ValueError(f"alpha must be in (0, 1), got {alpha}")
-    x = as_samples(rate_deg_s)
-    if x.shape[1] != 1:
-        raise ValueError(f"find tones one axis at a time, got {x.shape[1]} axes")
-    x = x[:, 0]
-    segment = welch_segment(len(x))
-    if segment is None:
+    x = np.asarray(rate_deg_s, dtype=np.float64)
+    x = x[:, 0] if x.ndim == 2 and x.shape[1] == 1 else x
+    if x.ndim != 1:
+        raise ValueError(f"find tones one axis at a time, got shape {x.shape}")
+    if np.isinf(x).any():
+        as_samples(x)  # raises NonFiniteSamplesError naming the samples
+    spectrum = welch_spectrum(x, fs)
+    if spectrum is None:
         return ()
-    freq, power = signal.welch(x, fs=fs, window="hann", nperseg=segment, noverlap=segment // 2,
-                               detrend="constant", scaling="density")
-    nu = welch_edf(len(x), segment)
+    freq, power, nu = spectrum
     background, half = running_background(power, nu)
     tested = half > 0
     if not tested.any():

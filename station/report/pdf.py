@@ -21,7 +21,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from station.grading import RunGrade, UnitGrade  # noqa: E402
 from station.report.common import (  # noqa: E402
     VERDICT_COLORS,
-    analysis_remarks,
+    analysis_lines,
     event_summary,
     figure_rows,
     fmt,
@@ -34,7 +34,7 @@ A4_IN = (8.27, 11.69)
 GRADE_COLORS = {"reject": "#d9534f", "indeterminate": "#e0a800"}
 #: The foot of the page: characters per line and lines of events, review, tones and notes.
 PDF_LINE_CHARS = 150
-PDF_NOTE_LINES = 5
+PDF_NOTE_LINES = 6
 
 
 def _grade_color(grade: str, graded: RunGrade) -> str:
@@ -76,7 +76,7 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
         dax = fig.add_axes((0.1 + i * width, 0.105, width * 0.68, davar_h))
         draw_davar(dax, unit, i, fontsize=6.5)
     lines = ["; ".join(event_summary(unit.unit, graded).lines(brief=True))]
-    lines += analysis_remarks(unit)
+    lines += analysis_lines(unit)
     lines += [f"note: {n}" for n in unit.notes]
     wrapped = [part for line in lines for part in textwrap.wrap(line, PDF_LINE_CHARS, subsequent_indent="  ")]
     fig.text(0.06, 0.066, "\n".join(wrapped[:PDF_NOTE_LINES]), fontsize=6.5, va="top", linespacing=1.3)
