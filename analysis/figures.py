@@ -20,7 +20,13 @@ from scipy import stats
 from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
 from analysis.fit import NoiseCoefficients, log_tau_share
 from analysis.fog import measure_bias_stability
-from analysis.readoffs import ReadOff, arw_readoff, bias_instability_readoff, white_share
+from analysis.readoffs import (
+    BIAS_INSTABILITY_FACTOR,
+    ReadOff,
+    arw_readoff,
+    bias_instability_readoff,
+    white_share,
+)
 from analysis.units import S_PER_H
 from analysis.zones import TauZone
 
@@ -28,6 +34,8 @@ from analysis.zones import TauZone
 REVIEW_CONFIDENCE = 0.95
 #: A misfit of the model (or a share of other terms) smaller than this is not named as a cause.
 CAUSE_THRESHOLD = 0.02
+#: The fitted curve this far (in deviation) from the smoothed minimum is named as the cause.
+MISFIT_THRESHOLD = 0.1
 
 
 @dataclass(frozen=True)
@@ -191,15 +199,22 @@ def _bias_instability_cause(fit: NoiseCoefficients, read: ReadOff) -> str:
     causes = [read.note] if read.note else []
     tau = np.array([read.tau_low_s or 0.0])
     model = float(fit.model_avar(tau)[0])
-    if model > 0:
+    if model > 0 and read.value is not None:
+        measured = (read.value * BIAS_INSTABILITY_FACTOR / S_PER_H) ** 2
+        misfit = math.sqrt(model / measured) - 1.0
         shares = {t: float(fit.term_avar(t, tau)[0]) / model for t in "QNKR"}
         flicker = float(fit.term_avar("B", tau)[0]) / model
-        if flicker < 1.0 - CAUSE_THRESHOLD:
+        if abs(misfit) > MISFIT_THRESHOLD:
+            causes.append(f"the fitted model lies {abs(misfit):.0%} {'above' if misfit > 0 else 'below'} the "
+                          f"smoothed curve at tau {tau[0]:.3g} s: the five terms do not follow the curve around "
+                          "its minimum (station reconcile names what they miss)")
+        elif flicker < 1.0 - CAUSE_THRESHOLD:
             names = {"Q": "quantization", "N": "white rate noise", "K": "rate random walk", "R": "rate ramp"}
             listed = [names[t] for t, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v > CAUSE_THRESHOLD]
             others = " and ".join([", ".join(listed[:-1]), listed[-1]] if len(listed) > 1 else listed)
             causes.append(f"the Allan minimum at tau {tau[0]:.3g} s is not a flicker floor: the fitted {others} "
-                          f"make {1.0 - flicker:.0%} of it, and sigma_min / 0.664 assumes flicker noise alone")
+                          f"{'hold' if len(listed) > 1 else 'holds'} {1.0 - flicker:.0%} of it, and "
+                          "sigma_min / 0.664 assumes flicker noise alone")
     return "; ".join(causes) or "the smoothed minimum and the fitted flicker floor differ beyond both intervals"
 
 

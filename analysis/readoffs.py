@@ -47,6 +47,7 @@ from scipy import special
 from analysis.allan import AllanResult
 from analysis.confidence import ONE_SIGMA, chi2_interval, local_noise_alpha
 from analysis.fit import NoiseCoefficients, log_tau_share
+from analysis.gaps import valid_stretches
 from analysis.units import S_PER_H
 from analysis.zones import TauZone, outside_zones
 
@@ -144,12 +145,6 @@ def local_adev_slope(tau_s: NDArray[np.float64], adev: NDArray[np.float64]) -> N
     return (np.interp(hi, logt, loga) - np.interp(lo, logt, loga)) / np.where(hi > lo, hi - lo, 1.0)
 
 
-def _stretches(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """Index ranges ``[start, stop)`` of the True runs of ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist(), strict=True))
-
-
 def white_share(result: AllanResult, fit: NoiseCoefficients | None) -> NDArray[np.float64] | None:
     """Share of the fitted model's Allan variance that its white-rate term holds, per tau.
 
@@ -205,7 +200,8 @@ def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
         notes.append(f"no -1/2 region where white rate dominates; read at tau {tau[i]:.3g} s ({what})")
     else:
         octaves = log_tau_share(tau)
-        start, stop = max(_stretches(region), key=lambda s: (octaves[s[0]:s[1]].sum(), edf[s[0]:s[1]].sum()))
+        start, stop = max(zip(*valid_stretches(region), strict=True),
+                          key=lambda s: (octaves[s[0]:s[1]].sum(), edf[s[0]:s[1]].sum()))
         region = np.zeros(len(tau), dtype=bool)
         region[start:stop] = True
     weights = np.where(region, log_tau_share(tau) * edf, 0.0)

@@ -49,6 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import signal, stats
 
 from analysis.allan import as_samples, check_sample_rate
+from analysis.gaps import valid_stretches
 
 #: Fewest Welch segments (each bin's edf is about 1.9 times the count).
 MIN_SEGMENTS = 32
@@ -144,8 +145,7 @@ def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
     :data:`MIN_SEGMENT` samples fit.
     """
     present = np.isfinite(x)
-    edges = np.diff(np.concatenate([[0], present.astype(np.int8), [0]]))
-    stretches = list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+    stretches = list(zip(*valid_stretches(present), strict=True))
     segment = welch_segment(int(present.sum()))
     longest = max((b - a for a, b in stretches), default=0)
     while segment is not None and segment > longest:
@@ -251,13 +251,13 @@ def find_tones(
 
 def _runs(mask: NDArray[np.bool_], *, gap: int) -> list[tuple[int, int]]:
     """Index ranges ``[lo, hi]`` of the True runs of ``mask``, runs closer than ``gap`` merged."""
-    idx = np.flatnonzero(mask)
-    if idx.size == 0:
-        return []
-    breaks = np.flatnonzero(np.diff(idx) > gap + 1)
-    starts = np.concatenate([[idx[0]], idx[breaks + 1]])
-    stops = np.concatenate([idx[breaks], [idx[-1]]])
-    return list(zip(starts.tolist(), stops.tolist(), strict=True))
+    out: list[tuple[int, int]] = []
+    for a, b in zip(*valid_stretches(mask), strict=True):
+        if out and a <= out[-1][1] + gap + 1:
+            out[-1] = (out[-1][0], int(b) - 1)
+        else:
+            out.append((int(a), int(b) - 1))
+    return out
 
 
 def _grow(power: NDArray[np.float64], background: NDArray[np.float64], lo: int, hi: int,

@@ -202,6 +202,7 @@ class RunGrade:
             "software_version": self.software_version,
             "profile": {"name": p.name, "version": p.version, "model": p.model, "path": p.path,
                         "sha256": p.sha256, "rule": p.rule, "confidence": p.confidence,
+                        "figure_source": p.figure_source,
                         "grades": list(p.grades), "reject": p.reject},
             "run": {"path": r.path, "start_utc": r.start_utc, "stop_utc": r.stop_utc,
                     "operator": r.operator, "lot": r.lot, "station": r.station_host,
