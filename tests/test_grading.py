@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -356,6 +357,12 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_re
     with ResultsDatabase(db) as store:
         (row,) = store.gradings(review=True)
         assert row.needs_review and "bias instability" in row.review
+    assert main(["report", str(walking_record), "--profile", str(profile), "--format", "csv", "--out",
+                 str(tmp_path), "--no-store"]) == 0
+    capsys.readouterr()
+    with next(tmp_path.glob("*.csv")).open(encoding="utf-8") as fh:
+        (row,) = list(csv.DictReader(fh))
+    assert row["review"].startswith("bias instability") and row["tones"] == ""
 
 
 def test_an_informational_figure_does_not_flag_review(walking_record: Path, tmp_path: Path) -> None:
