@@ -219,25 +219,36 @@ def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES
     Weighted least squares of a polynomial of ``degree`` in ``log tau`` around each tau
     with weights ``K_i p_i``: ``K`` a Gaussian kernel of ``octaves`` standard deviation in
     log tau, ``p_i = s_i edf_i / 2`` the value's precision per octave (see the module
-    docstring). The variance of the smoothed value is ``sum_i l_i^2 / p_i`` over its
-    equivalent kernel ``l``.
+    docstring). The variance of the smoothed value is that of ``sum_i l_i log a_i`` over
+    its equivalent kernel ``l`` (:func:`correlated_log_variance`; NaN unless
+    ``with_variance``). A grid of more than :data:`MAX_CANDIDATES` taus (every m) is first
+    pooled into 1/:data:`CORRELATION_BINS_PER_OCTAVE`-octave bins (precision-weighted
+    means), far finer than the kernel, so the cost does not grow with the grid.
     """
     x = np.log(result.tau_s)
     edf = np.asarray(result.edf, dtype=float)
     y = np.log(result.avar) - (special.digamma(edf / 2.0) - np.log(edf / 2.0))
     precision = log_tau_share(result.tau_s) * edf / 2.0
+    if len(x) > MAX_CANDIDATES:
+        logt = np.log2(result.tau_s)
+        member = np.unique(np.floor((logt - logt[0]) * CORRELATION_BINS_PER_OCTAVE), return_inverse=True)[1]
+        pooled = np.bincount(member, weights=precision)
+        bx = np.bincount(member, weights=precision * x) / pooled
+        by = np.bincount(member, weights=precision * y) / pooled
+        share = precision / pooled[member]  # each value's part of its bin's mean
+    else:
+        member, pooled, bx, by, share = np.arange(len(x)), precision, x, y, np.ones(len(x))
     h = octaves * math.log(2.0)
-    n = len(x)
-    points = np.arange(n) if at is None else np.asarray(at)
+    points = np.arange(len(x)) if at is None else np.asarray(at)
     smooth, var = np.empty(len(points)), np.empty(len(points))
     for k, j in enumerate(points):
-        d = x - x[j]
-        w = precision * np.exp(-0.5 * (d / h) ** 2)
-        design = np.column_stack([d**p for p in range(min(degree + 1, n))])
+        d = bx - x[j]
+        w = pooled * np.exp(-0.5 * (d / h) ** 2)
+        design = np.column_stack([d**p for p in range(min(degree + 1, len(bx)))])
         gram = design.T @ (design * w[:, None])
-        kernel = np.linalg.pinv(gram)[0] @ (design * w[:, None]).T  # equivalent kernel l_i
-        smooth[k] = float(kernel @ y)
-        var[k] = correlated_log_variance(kernel, result) if with_variance else math.nan
+        kernel = np.linalg.pinv(gram)[0] @ (design * w[:, None]).T  # equivalent kernel on the bins
+        smooth[k] = float(kernel @ by)
+        var[k] = correlated_log_variance(kernel[member] * share, result) if with_variance else math.nan
     return smooth, var
 
 
