@@ -14,10 +14,12 @@ from numpy.typing import NDArray
 
 from analysis.allan import AllanResult, Estimator, allan_variance
 from analysis.figures import SpecFigures, spec_figures
-from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
+from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
 from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
+from analysis.zones import TauZone, fit_outside_zones
 from station.bench import Bench, earth_rate_note
 from station.record_files import RateRecord
 
@@ -120,6 +122,8 @@ class AxisAnalysis:
     rate_deg_s: NDArray[np.float64] | None = None
     allan_alternative: AllanResult | None = None
     alternative_label: str = ""
+    tones: tuple[Tone, ...] = ()
+    zones: tuple[TauZone, ...] = ()
 
     def as_json(self) -> dict[str, object]:
         """The JSON object of one axis (the ``station analyze --json`` interface)."""
@@ -137,6 +141,8 @@ class AxisAnalysis:
             "figures": self.figures.as_dict(),
             "gaps": self.gaps.as_json(),
             "outliers": self.outliers.as_json(),
+            "tones": [t.as_dict() for t in self.tones],
+            "excluded_taus": [z.as_dict() for z in self.zones],
         }
 
 
@@ -182,13 +188,15 @@ def analyze_record(
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
 ) -> list[AxisAnalysis]:
-    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s).
+    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
     Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
     and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
     are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
     The bias is reported with the Earth-rate projection of ``bench`` removed when it
-    gives the axis' latitude and direction.
+    gives the axis' latitude and direction. Tones are looked for in every axis
+    (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
+    output filter distorts (:func:`analysis.zones.fit_outside_zones`).
     """
     fs = record.sample_rate_hz
     gapped = record.sample_index is not None
@@ -214,9 +222,10 @@ def analyze_record(
                 np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
-        fit = fit_noise_terms(axis, method=method, terms=terms)
+        tones = find_tones(grid_rate, fs)
+        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
         analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
-        figures = spec_figures(analysed, fs, axis, fit)
+        figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:
             notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
@@ -226,7 +235,7 @@ def analyze_record(
         figures = replace(figures, earth_rate_removed_deg_h=earth[i],
                           notes=figures.notes + tuple(notes))
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
-                                analysed, alternative, label))
+                                analysed, alternative, label, tones, zones))
     return out
 
 
@@ -237,6 +246,16 @@ def _fmt(value: float | None, stderr: float | None = None) -> str:
     if stderr is not None:
         text += f" +- {stderr:.2g}"
     return text
+
+
+def _interval(ci: tuple[float | None, float | None] | None) -> str:
+    if ci is None or ci[0] is None or ci[1] is None:
+        return "-"
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def _range(taus: tuple[float | None, float | None]) -> str:
+    return "-" if taus[0] is None else f"{taus[0]:.3g}-{taus[1]:.3g}"
 
 
 def format_analysis(axes: list[AxisAnalysis]) -> str:
@@ -259,19 +278,26 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
+    add("  interval [deg/sqrt(h)]", [_interval(f.arw_ci_deg_rt_h) for f in figs])
+    add("  from tau [s]", [_range(f.arw_tau_range_s) for f in figs])
     add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
+    add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
     labels = {"Q": "Q quantization [urad]", "N": "N ARW [deg/sqrt(h)]", "B": "B bias instability [deg/h]",
               "K": "K rate random walk [deg/h^1.5]", "R": "R rate ramp [deg/h^2]"}
     for term, label in labels.items():
         add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
                              else "negative" for f in fits])
+    add("tones [Hz: deg/s]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+                              for a in axes])
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(v) for _, vals in rows for v in vals))
     header = " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)
     lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
-             f"{len(axes[0].allan.tau_s)} taus", header]
+             f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
     for a in axes:
+        lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     return "\n".join(lines)
