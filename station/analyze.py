@@ -21,10 +21,12 @@ from analysis.deviations import (
     from_allan,
 )
 from analysis.figures import SpecFigures, spec_figures
-from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
+from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
 from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
+from analysis.zones import TauZone, fit_outside_zones
 from station.bench import Bench, earth_rate_note
 from station.errors import UsageError
 from station.record_files import RateRecord
@@ -131,17 +133,14 @@ class AxisAnalysis:
     rate_deg_s: NDArray[np.float64] | None = None
     allan_alternative: AllanResult | None = None
     alternative_label: str = ""
+    tones: tuple[Tone, ...] = ()
+    zones: tuple[TauZone, ...] = ()
     curve: DeviationResult | None = None
 
     @property
     def shown(self) -> DeviationResult:
         """The deviation shown and listed: ``curve``, else the fit's Allan deviation."""
         return self.curve if self.curve is not None else from_allan(self.allan)
-
-    @property
-    def readoff_allan(self) -> AllanResult:
-        """The Allan variance the read-offs see (:func:`readoff_range`)."""
-        return readoff_range(self.allan)
 
     def as_json(self) -> dict[str, object]:
         """The JSON object of one axis (the ``station analyze --json`` interface).
@@ -173,25 +172,9 @@ class AxisAnalysis:
             "figures": self.figures.as_dict(),
             "gaps": self.gaps.as_json(),
             "outliers": self.outliers.as_json(),
+            "tones": [t.as_dict() for t in self.tones],
+            "excluded_taus": [z.as_dict() for z in self.zones],
         }
-
-
-#: The read-offs see the taus with at least this many clusters (Zhang 2015 eq. 20's nine).
-#: Past them the curve is the noise of a few clusters: the minimum of the Allan deviation
-#: read there is not a bias instability (on the ADIS16405 x axis it reads 8.7 deg/h at
-#: 5000 s, two clusters, against 27.2 at 1111 s). Until the read-offs weigh each tau by its
-#: interval, they keep eq. 20's range; the fit and the plots use the whole grid.
-READOFF_MIN_CLUSTERS = 9
-
-
-def readoff_range(result: AllanResult) -> AllanResult:
-    """``result`` cut to the taus with at least :data:`READOFF_MIN_CLUSTERS` clusters."""
-    keep = result.n_clusters >= READOFF_MIN_CLUSTERS
-    if keep.all() or not keep.any():
-        return result
-    arrays = {name: getattr(result, name)[keep] for name in
-              ("tau_s", "m", "avar", "n_clusters", "n_terms", "edf", "ci_low", "ci_high", "noise_alpha")}
-    return replace(result, **arrays)
 
 
 def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: float,
@@ -237,13 +220,15 @@ def analyze_record(
     bench: Bench | None = None,
     deviation_kind: DeviationKind | None = None,
 ) -> list[AxisAnalysis]:
-    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s).
+    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
     Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
     and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
     are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
     The bias is reported with the Earth-rate projection of ``bench`` removed when it
-    gives the axis' latitude and direction.
+    gives the axis' latitude and direction. Tones are looked for in every axis
+    (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
+    output filter distorts (:func:`analysis.zones.fit_outside_zones`).
 
     ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
     the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
@@ -288,9 +273,10 @@ def analyze_record(
                 np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
-        fit = fit_noise_terms(axis, method=method, terms=terms)
+        tones = find_tones(grid_rate, fs)
+        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
         analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
-        figures = spec_figures(analysed, fs, readoff_range(axis), fit)
+        figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:
             notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
@@ -303,7 +289,7 @@ def analyze_record(
         if deviation_kind is not None and deviation_kind != own:
             curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
-                                analysed, alternative, label, curve))
+                                analysed, alternative, label, tones, zones, curve))
     return out
 
 
@@ -314,6 +300,16 @@ def _fmt(value: float | None, stderr: float | None = None) -> str:
     if stderr is not None:
         text += f" +- {stderr:.2g}"
     return text
+
+
+def _interval(ci: tuple[float | None, float | None] | None) -> str:
+    if ci is None or ci[0] is None or ci[1] is None:
+        return "-"
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def _range(taus: tuple[float | None, float | None]) -> str:
+    return "-" if taus[0] is None else f"{taus[0]:.3g}-{taus[1]:.3g}"
 
 
 def format_analysis(axes: list[AxisAnalysis]) -> str:
@@ -336,21 +332,28 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
+    add("  interval [deg/sqrt(h)]", [_interval(f.arw_ci_deg_rt_h) for f in figs])
+    add("  from tau [s]", [_range(f.arw_tau_range_s) for f in figs])
     add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
+    add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
     labels = {"Q": "Q quantization [urad]", "N": "N ARW [deg/sqrt(h)]", "B": "B bias instability [deg/h]",
               "K": "K rate random walk [deg/h^1.5]", "R": "R rate ramp [deg/h^2]"}
     for term, label in labels.items():
         add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
                              else "negative" for f in fits])
+    add("tones [Hz: deg/s]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+                              for a in axes])
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(v) for _, vals in rows for v in vals))
     header = " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)
     lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
-             f"{len(axes[0].allan.tau_s)} taus", header]
+             f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
     for a in axes:
+        lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
         lines += format_curve(axes)
     return "\n".join(lines)
