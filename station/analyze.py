@@ -12,7 +12,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import AllanResult, Estimator, allan_variance
+from analysis.allan import AllanResult, Estimator, allan_variance, analysis_log_m
+from analysis.deviations import (
+    DEVIATION_LABELS,
+    DeviationKind,
+    DeviationResult,
+    deviation,
+    from_allan,
+)
 from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
@@ -21,6 +28,7 @@ from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
 from analysis.zones import TauZone, fit_outside_zones
 from station.bench import Bench, earth_rate_note
+from station.errors import UsageError
 from station.record_files import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
@@ -104,6 +112,9 @@ class OutlierReport:
 class AxisAnalysis:
     """Everything ``station analyze`` reports for one axis.
 
+    ``allan`` is the Allan variance the fit and the spec figures come from; ``curve`` is
+    the deviation shown and listed when another than that Allan deviation was asked for
+    (:attr:`shown` is the one to show either way).
     ``rate_deg_s`` is the rate the figures were computed from: on the record's time grid
     (NaN where a sample is missing), spikes replaced when they were removed, the Earth
     rate taken off when the bench gave it. ``allan_alternative`` is the Allan curve the
@@ -124,19 +135,39 @@ class AxisAnalysis:
     alternative_label: str = ""
     tones: tuple[Tone, ...] = ()
     zones: tuple[TauZone, ...] = ()
+    curve: DeviationResult | None = None
+
+    @property
+    def shown(self) -> DeviationResult:
+        """The deviation shown and listed: ``curve``, else the fit's Allan deviation."""
+        return self.curve if self.curve is not None else from_allan(self.allan)
 
     def as_json(self) -> dict[str, object]:
-        """The JSON object of one axis (the ``station analyze --json`` interface)."""
+        """The JSON object of one axis (the ``station analyze --json`` interface).
+
+        ``tau_s``, ``adev``, ``adev_ci_low``, ``adev_ci_high`` and ``n_clusters`` are those
+        of the chosen ``deviation`` (``adev`` holds its values, in ``deviation_unit``);
+        ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
+        """
+        c = self.shown
         return {
             "name": self.name,
             "sample_rate_hz": self.sample_rate_hz,
             "n_samples": self.n_samples,
             "estimator": self.allan.estimator,
-            "tau_s": self.allan.tau_s.tolist(),
-            "adev": self.allan.adev.tolist(),
-            "adev_ci_low": self.allan.adev_ci_low.tolist(),
-            "adev_ci_high": self.allan.adev_ci_high.tolist(),
-            "n_clusters": self.allan.n_clusters.tolist(),
+            "deviation": c.kind,
+            "deviation_label": DEVIATION_LABELS[c.kind],
+            "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
+            "tau_s": c.tau_s.tolist(),
+            "adev": c.deviation.tolist(),
+            "adev_ci_low": c.deviation_ci_low.tolist(),
+            "adev_ci_high": c.deviation_ci_high.tolist(),
+            "n_clusters": c.n_clusters.tolist(),
+            "edf": c.edf.tolist(),
+            "noise_alpha": c.noise_alpha.tolist(),
+            "interval": c.interval,
+            "curve_notes": list(c.notes),
+            "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace("deviation", "variance"),
             "fit": self.fit.as_dict(),
             "figures": self.figures.as_dict(),
             "gaps": self.gaps.as_json(),
@@ -187,6 +218,7 @@ def analyze_record(
     terms: str = "QNBKR",
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
+    deviation_kind: DeviationKind | None = None,
 ) -> list[AxisAnalysis]:
     """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
@@ -197,9 +229,28 @@ def analyze_record(
     gives the axis' latitude and direction. Tones are looked for in every axis
     (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
     output filter distorts (:func:`analysis.zones.fit_outside_zones`).
+
+    ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
+    the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
+    own grid). ``deviation_kind`` picks the curve shown (default: the Allan deviation of
+    ``estimator``); the fit and the figures stay on the Allan variance.
+
+    Raises
+    ------
+    UsageError
+        A deviation other than the Allan ones on a record with gaps (only the Allan
+        estimators skip gaps).
     """
     fs = record.sample_rate_hz
     gapped = record.sample_index is not None
+    asked = taus
+    if isinstance(taus, str) and taus == "log" and not gapped:
+        taus = analysis_log_m(record.n_samples) / fs
+    own = "oadev" if estimator == "overlapping" else "adev"
+    if deviation_kind not in (None, own, "oadev", "adev") and gapped:
+        raise UsageError(f"the {DEVIATION_LABELS[deviation_kind]} of a record with gaps is not computed "
+                         f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
+                         f"--start-s/--stop-s")
     summary = gap_summary(record.present_mask())
     gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
@@ -234,8 +285,11 @@ def analyze_record(
             notes.append(f"spikes: {reports[i].note()}")
         figures = replace(figures, earth_rate_removed_deg_h=earth[i],
                           notes=figures.notes + tuple(notes))
+        curve = None
+        if deviation_kind is not None and deviation_kind != own:
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
-                                analysed, alternative, label, tones, zones))
+                                analysed, alternative, label, tones, zones, curve))
     return out
 
 
@@ -300,4 +354,25 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
+    if axes and axes[0].curve is not None:
+        lines += format_curve(axes)
     return "\n".join(lines)
+
+
+def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:
+    """The chosen deviation of every axis at a few taus per decade, with its interval."""
+    c0 = axes[0].shown
+    unit, scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
+    lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
+                 f"({c0.interval}); the fit and figures above are on the Allan variance"]
+    logt = np.log10(c0.tau_s)
+    picks = np.unique([int(np.argmin(np.abs(logt - v)))
+                       for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)] + [len(logt) - 1])
+    lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
+    for j in picks:
+        cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "
+                 f"{a.shown.deviation_ci_high[j] * scale:.3g}]" for a in axes]
+        lines.append(f"{c0.tau_s[j]:>10.4g}  " + "  ".join(f"{c:>30}" for c in cells))
+    for a in axes:
+        lines += [f"note ({a.name}): {n}" for n in a.shown.notes]
+    return lines

@@ -8,6 +8,7 @@ import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
 from station.analyze import DEFAULT_METHOD, OUTLIER_POLICIES, analyze_record, format_analysis
 from station.bench import Bench, bench_from_json, load_bench
@@ -102,9 +103,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("analyze", help="Allan deviation, noise-term fit and spec figures of a record",
                        description=__doc__)
     add_record_arguments(p)
-    p.add_argument("--estimator", choices=("overlapping", "clusters"), default="overlapping")
+    p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
+                   help="Allan variance the fit and figures use (default overlapping; clusters "
+                        "with --deviation adev)")
+    p.add_argument("--deviation", choices=DEVIATION_KINDS, default=None,
+                   help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
+                        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
+                        "Allan deviation. The fit and figures stay on the Allan variance")
     p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
-                   help="tau grid: log-spaced (default), octaves, or every m")
+                   help="tau grid: log-spaced to the longest tau with two clusters (default), "
+                        "octaves, or every m")
     p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
                    help=f"fit method (default {DEFAULT_METHOD})")
     p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
@@ -135,9 +143,10 @@ def run(args: argparse.Namespace) -> int:
         from station.hdf5 import run_attributes
 
         recorded = run_attributes(args.file).get("bench", "")
-    axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
+    estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
+    axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
                           terms=args.terms, outliers=args.outliers,
-                          bench=bench_for(args.bench, recorded))
+                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation)
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
