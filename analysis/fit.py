@@ -172,10 +172,12 @@ def _checked(result: AllanResult, terms: str, model_error: float) -> tuple[str, 
     return terms, avar
 
 
-def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_terms: int
-                 ) -> NDArray[np.bool_]:
+def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_terms: int,
+                 exclude_tau_s: tuple[tuple[float, float], ...] = ()) -> NDArray[np.bool_]:
     """The Allan values ``method`` uses; raises FitError when fewer than ``n_terms``."""
     keep = np.isfinite(avar)
+    for lo, hi in exclude_tau_s:
+        keep &= ~((result.tau_s >= lo) & (result.tau_s <= hi))
     if method == "ols40":
         keep &= result.relative_error < OLS40_MAX_ERROR
     if method == "logwls":
@@ -190,7 +192,8 @@ def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_
 
 def fit_noise_terms(
     result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS,
-    model_error: float = DEFAULT_MODEL_ERROR, select: bool | None = None,
+    model_error: float = DEFAULT_MODEL_ERROR, exclude_tau_s: tuple[tuple[float, float], ...] = (),
+    select: bool | None = None,
 ) -> NoiseCoefficients:
     """Fit the five-term model (Lv 2015 eq. 3) to a single-axis Allan variance.
 
@@ -207,6 +210,9 @@ def fit_noise_terms(
         ``logwls`` only: relative error floor of the five-term model (fraction of the
         Allan variance, default 2 %) in the weights. Without it the very precise
         short-tau values of a long real record decide every term.
+    exclude_tau_s : tuple of (float, float)
+        Closed tau ranges (s) left out of the fit: where the curve holds something the
+        five terms do not describe (a tone, an output filter; see :mod:`analysis.zones`).
     select : bool, optional
         Keep only the terms the data resolve (:mod:`analysis.fit_select`); the others
         come back as 0 with a 1-sigma bound. Default: on for ``logwls``, off for the
@@ -224,12 +230,12 @@ def fit_noise_terms(
     if method not in FIT_METHODS:
         raise FitError(f"unknown fit method {method!r}; use one of {', '.join(FIT_METHODS)}")
     terms, avar = _checked(result, terms, model_error)
-    keep = _usable_rows(method, result, avar, len(terms))
+    keep = _usable_rows(method, result, avar, len(terms), exclude_tau_s)
     if select is None:
         select = method == "logwls"
     if method == "logwls":
         return _fit_logwls(result, keep, terms, model_error, select)[0]
-    log_keep = _usable_rows("logwls", result, avar, len(terms))
+    log_keep = _usable_rows("logwls", result, avar, len(terms), exclude_tau_s)
     reference = _fit_logwls(result, log_keep, terms, model_error, True)[1]
     return _fit_linear(method, result, keep, terms, reference)
 
@@ -364,14 +370,16 @@ def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidate
     if lin is not None:
         cov = value_covariance(result, model_beta, keep=keep)
         free = _free_columns(beta)
-        # a misfit worth naming: above 1 % and above the sampling error of the value
+        # a misfit worth naming: above 1 % and twice the sampling error of the value
         noted = None if misfit is None else np.where(
-            misfit > np.maximum(NOTED_MISFIT, np.sqrt(cov.diagonal(log=True))), misfit, 0.0)
+            misfit > np.maximum(NOTED_MISFIT, 2.0 * np.sqrt(cov.diagonal(log=True))), misfit, 0.0)
         if noted is not None and noted.max(initial=0.0) > 0:
             worst = int(np.argmax(noted))
-            notes.append(f"the curve departs from the five-term model beyond sampling, by up to "
-                         f"{misfit[worst]:.1%} (near tau {result.tau_s[keep][worst]:.3g} s); that "
-                         f"misfit is carried in the standard errors")
+            size = (f"{misfit[worst]:.1%}" if misfit[worst] < 0.3 else
+                    f"a factor {math.exp(misfit[worst]):.2g} in Allan variance")
+            notes.append(f"the curve departs from the five-term model beyond sampling, by up to {size} "
+                         f"(near tau {result.tau_s[keep][worst]:.3g} s); that misfit is carried in the "
+                         f"standard errors")
         if len(free):
             c = lin.covariance(free, cov, misfit)
             for k, col in enumerate(free):

@@ -43,8 +43,11 @@ ANCHORS = 64
 SMALL_M = 16
 #: Least relative variance of a value (what a purely deterministic model would claim).
 RELATIVE_VARIANCE_FLOOR = 1e-12
+#: The misfit's size at a tau is the residual excess averaged over about this many
+#: octaves either side (an exponential window).
+MISFIT_WINDOW_OCTAVES = 1.0
 #: Correlation length (octaves of tau) of the model's misfit.
-MISFIT_OCTAVES = 0.5
+MISFIT_OCTAVES = 1.0
 
 
 @functools.lru_cache(maxsize=4)
@@ -257,7 +260,8 @@ class LinearizedFit:
         expected = (cov.diagonal(log=True) - 2.0 * np.sum(j * pc.T, axis=1)
                     + np.einsum("ia,ab,ib->i", j, pcp, j))
         excess = share * (residual**2 - expected)
-        kernel = cov.misfit_kernel ** 0.5  # twice the correlation length: a local average
+        octaves = np.log2(cov.anchor_m.astype(float))
+        kernel = np.exp(-np.abs(octaves[:, None] - octaves[None, :]) / MISFIT_WINDOW_OCTAVES)
         num = kernel @ cov.project(excess[None, :])[0]
         den = kernel @ cov.project(share[None, :])[0]
         local = cov.expand(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0))
