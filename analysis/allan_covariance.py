@@ -51,6 +51,11 @@ RANDOM_TERMS = "QNBK"
 FLICKER_TAIL_M = 64
 #: Lag lattices up to this many points are summed exactly, longer ones by quadrature.
 EXACT_LAGS = 1024
+#: Cluster pairs whose lags cycle through fewer periods than this have their position pairs
+#: listed (:func:`_few_periods`, :func:`_near_lags`) instead of a uniform density of lags.
+UNIFORM_PERIODS = 10
+#: Positions of the finer set a crowded cluster pair lists (a systematic sample beyond).
+NEAR_POSITIONS = 400
 #: Pairs summed together by quadrature, and over their lattices (bounds a batch's memory).
 QUADRATURE_CHUNK = 256
 EXACT_CHUNK = 64
@@ -140,28 +145,90 @@ def _exact_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
         every = (np.arange(lj)[None, :] * sj - np.arange(li)[:, None] * si).ravel()
         found, counts = np.unique(every, return_counts=True)
         return found.astype(float), counts.astype(float)
+    if _few_periods(si, sj, li, lj):
+        return _near_lags(mi, mj, si, sj, li, lj)
+    lcm = si * sj // g
     tail = FLICKER_TAIL_M * max(mi, mj)
     u = g * np.arange(math.ceil((-2 * mj - tail) / g), math.floor((2 * mi + tail) / g) + 1, dtype=float)
-    return u, _span_overlap(u, li * si, lj * sj) / (si * sj // g)
+    return u, _span_overlap(u, li * si, lj * sj) / lcm
+
+
+def _few_periods(si: ArrayLike, sj: ArrayLike, li: ArrayLike, lj: ArrayLike) -> NDArray[np.bool_]:
+    """Cluster pairs whose lags do not fill their lattice evenly: the coarser positions run
+    through fewer than :data:`UNIFORM_PERIODS` cycles of the finer one's phases
+    (``s_fine / gcd``), so the lags crowd (near 0 when m_i is near m_j)."""
+    si, sj, li, lj = (np.asarray(v, dtype=np.int64) for v in (si, sj, li, lj))
+    g = np.gcd(si, sj)
+    fine = np.minimum(si, sj)
+    coarse_count = np.where(si <= sj, lj, li)
+    return ((si > 1) | (sj > 1)) & (coarse_count * g < UNIFORM_PERIODS * fine)
+
+
+def _near_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Cluster pairs whose positions line up over the record (few periods of ``lcm``): every
+    position pair within the support of ``c_ij`` is listed (weight 1 each, or a systematic
+    sample of :data:`NEAR_POSITIONS` positions weighted up; for m_i near m_j
+    the lags crowd near 0, which a uniform density misses), the flicker tail beyond it by
+    quadrature at the uniform density."""
+    # every k up to NEAR_POSITIONS of them, else a systematic sample (the lag pattern moves
+    # smoothly with k), each standing for its share of the positions
+    step = max(1, -(-li // NEAR_POSITIONS))
+    k = np.arange(0, li, step)
+    base = (k * si) // sj
+    offsets = np.arange(-3, (2 * mi + 2 * mj) // sj + 3)
+    ell = base[:, None] + offsets[None, :]
+    u = (ell * sj - (k * si)[:, None]).astype(float)
+    inside = (ell >= 0) & (ell < lj) & (u >= -2 * mj) & (u <= 2 * mi)
+    support_u = u[inside]
+    support_w = np.full(len(support_u), li / len(k))
+    tail = FLICKER_TAIL_M * max(mi, mj)
+    width = 2.0 * (mi + mj)
+    steps = width * 2.0 ** np.arange(6)
+    edges_hi = np.unique(np.clip(np.concatenate([[2.0 * mi], 2.0 * mi + steps, [2.0 * mi + tail]]),
+                                 2.0 * mi, 2.0 * mi + tail))
+    edges_lo = np.unique(np.clip(np.concatenate([[-2.0 * mj], -2.0 * mj - steps, [-2.0 * mj - tail]]),
+                                 -2.0 * mj - tail, -2.0 * mj))
+    nodes, weights = [support_u], [support_w]
+    for edges in (edges_hi, edges_lo):
+        half = (edges[1:] - edges[:-1]) / 2.0
+        mid = (edges[1:] + edges[:-1]) / 2.0
+        tu = (mid[:, None] + half[:, None] * _GL_X).ravel()
+        tw = (half[:, None] * _GL_W).ravel() * _span_overlap(tu, li * si, lj * sj) / (si * sj)
+        nodes.append(tu)
+        weights.append(tw)
+    return np.concatenate(nodes), np.concatenate(weights)
 
 
 def _exact_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[np.int64],
                  sj: NDArray[np.int64], li: NDArray[np.int64], lj: NDArray[np.int64]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Lag sums of many pairs over their lattices of lags (padded with zero weights)."""
-    lattices = [_exact_lags(*(int(v[k]) for v in (mi, mj, si, sj, li, lj))) for k in range(len(mi))]
-    width = max(len(u) for u, _ in lattices)
-    u = np.zeros((len(mi), width))
-    weight = np.zeros((len(mi), width))
-    for k, (lags, counts) in enumerate(lattices):
-        u[k, :len(lags)] = lags
-        weight[k, :len(lags)] = counts
-    mi_f, mj_f = mi.astype(float)[:, None], mj.astype(float)[:, None]
-    lags = _nine_lags(mi_f[:, 0], mj_f[:, 0])
-    # each spike's pair count: the weight at that lag of the lattice (0 where it is absent)
-    match = (u[:, :, None] == lags[:, None, :]) & (weight[:, :, None] > 0)
-    spike_weight = np.einsum("pk,pks->ps", weight, match.astype(float))
-    return _sums(_mixed_difference(mi_f, mj_f, u), weight, lags, spike_weight, mi_f, mj_f)
+    """Lag sums of many pairs over their own lists of lags, summed pair by pair."""
+    lists = [_exact_lags(*(int(v[k]) for v in (mi, mj, si, sj, li, lj))) for k in range(len(mi))]
+    pair = np.repeat(np.arange(len(mi)), [len(u) for u, _ in lists])
+    u = np.concatenate([u for u, _ in lists])
+    weight = np.concatenate([w for _, w in lists])
+    mi_f, mj_f = mi.astype(float), mj.astype(float)
+    c = _mixed_difference(mi_f[pair], mj_f[pair], u)
+    g2 = np.zeros((len(mi), 4, 4))
+    g1 = np.zeros((len(mi), 4))
+    for t in range(3):
+        g1[:, 1 + t] = np.bincount(pair, c[t] * weight, minlength=len(mi))
+        for r in range(t, 3):
+            g2[:, 1 + t, 1 + r] = g2[:, 1 + r, 1 + t] = np.bincount(pair, c[t] * c[r] * weight,
+                                                                     minlength=len(mi))
+    # white angle noise: its nine spikes, each with the pair count the list holds at that lag
+    lags = _nine_lags(mi_f, mj_f)
+    spike_weight = np.array([[float(np.sum(w[uu == lag])) for lag in lags[k]]
+                             for k, (uu, w) in enumerate(lists)])
+    cq, first = _spikes(lags)
+    qw = np.where(first, spike_weight, 0.0) * cq
+    g2[:, 0, 0] = np.sum(qw * cq, axis=-1)
+    cross = np.einsum("ptk,pk->pt", _mixed_difference(mi_f[:, None], mj_f[:, None], lags), qw)
+    g2[:, 0, 1:] = cross
+    g2[:, 1:, 0] = cross
+    g1[:, 0] = np.sum(qw, axis=-1)
+    return g2, g1
 
 
 def _quadrature_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[np.int64],
@@ -299,7 +366,8 @@ def covariance_basis(
     i, j = np.triu_indices(n)
     si, sj, li, lj = stride[i], stride[j], n_terms[i], n_terms[j]
     lattice = (FLICKER_TAIL_M + 2) * 2 * np.maximum(m[i], m[j]) / np.gcd(si, sj)
-    exact = (lattice <= EXACT_LAGS) | (((si > 1) | (sj > 1)) & (li * lj <= EXACT_PAIRS))
+    clusters = (si > 1) | (sj > 1)
+    exact = (lattice <= EXACT_LAGS) | (clusters & (li * lj <= EXACT_PAIRS)) | _few_periods(si, sj, li, lj)
     for picks, method, size in ((np.flatnonzero(exact), _exact_pairs, EXACT_CHUNK),
                                 (np.flatnonzero(~exact), _quadrature_pairs, QUADRATURE_CHUNK)):
         for chunk in np.array_split(picks, max(1, len(picks) // size)):

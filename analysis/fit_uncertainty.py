@@ -41,11 +41,16 @@ MAX_EXACT_TAUS = 160
 #: Anchor taus of a long grid (about; every m up to SMALL_M is an anchor too).
 ANCHORS = 64
 SMALL_M = 16
+#: Cluster counts J up to which both ends of each J's run of m are anchors.
+J_STEPS = 16
 #: Least relative variance of a value (what a purely deterministic model would claim).
 RELATIVE_VARIANCE_FLOOR = 1e-12
 #: The misfit's size at a tau is the residual excess averaged over about this many
 #: octaves either side (an exponential window).
 MISFIT_WINDOW_OCTAVES = 1.0
+#: A misfit is counted where the residuals' local mean square exceeds this many times what
+#: sampling explains (the excess over sampling is then its variance).
+MISFIT_GATE = 2.0
 #: Correlation length (octaves of tau) of the model's misfit.
 MISFIT_OCTAVES = 1.0
 
@@ -56,14 +61,25 @@ def _basis(m: tuple[int, ...], n_samples: int, sample_rate_hz: float, overlappin
     return covariance_basis(np.array(m), n_samples, sample_rate_hz, overlapping=overlapping)
 
 
-def _anchors(m: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
-    """(anchor m, left anchor index of each grid value, its fraction of the way to the next)."""
+def _anchors(m: NDArray[np.int64], clusters: NDArray[np.int64] | None = None
+             ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """(anchor m, left anchor index of each grid value, its fraction of the way to the next).
+
+    ``clusters`` (the cluster estimator's J per value) adds the first and last m of every
+    J up to :data:`J_STEPS`: the variance of a cluster value jumps where J does, and no
+    interpolation may cross such a step.
+    """
     if len(m) <= MAX_EXACT_TAUS:
         return m, np.arange(len(m)), np.zeros(len(m))
     logm = np.log(m)
     targets = np.geomspace(m[0], m[-1], ANCHORS)
+    steps: list[NDArray[np.int64]] = []
+    if clusters is not None:
+        change = np.flatnonzero(np.diff(clusters) != 0)
+        edges = np.concatenate([change, change + 1])
+        steps.append(edges[clusters[edges] <= J_STEPS])
     picks = np.unique(np.concatenate([np.searchsorted(logm, np.log(targets)).clip(0, len(m) - 1),
-                                      np.flatnonzero(m <= SMALL_M), [0, len(m) - 1]]))
+                                      np.flatnonzero(m <= SMALL_M), [0, len(m) - 1], *steps]))
     anchors = m[picks]
     loga = np.log(anchors)
     left = np.clip(np.searchsorted(loga, logm, side="right") - 1, 0, len(anchors) - 2)
@@ -174,7 +190,8 @@ def value_covariance(result: AllanResult, beta: NDArray[np.float64], keep: NDArr
     m = np.asarray(result.m, dtype=np.int64)
     if keep is not None:
         m = m[keep]
-    anchors, left, frac = _anchors(m)
+    anchors, left, frac = _anchors(m, None if result.estimator == "overlapping"
+                                   else int(result.n_samples) // m)
     basis = _basis(tuple(int(v) for v in anchors), int(result.n_samples), float(result.sample_rate_hz),
                    result.estimator == "overlapping")
     relative = basis.relative_covariance(beta, random_ramp=random_ramp)
@@ -238,9 +255,10 @@ class LinearizedFit:
 
         The residuals ``r = (I - H) eps`` (``H = J P``) of a model that holds have
         ``E[r_i^2] = [(I - H) C (I - H)^T]_ii`` under the sampling covariance ``C``. The
-        excess ``r_i^2 - E[r_i^2]``, averaged over about :data:`MISFIT_OCTAVES` x 2 octaves
-        either side (weighted by each value's share of an octave), is the squared misfit
-        there; negative averages are no misfit. A misfit is local (an output filter at the
+        excess ``r_i^2 - E[r_i^2]``, both averaged over about :data:`MISFIT_WINDOW_OCTAVES`
+        octave either side (weighted by each value's share of an octave), is the squared
+        misfit there, counted where the mean square is over :data:`MISFIT_GATE` times its
+        expectation (sampling noise alone seldom gets there). A misfit is local (an output filter at the
         shortest taus, a bump the five terms lack), so it widens the errors of the terms
         that live where it is, not of all.
 
@@ -259,10 +277,15 @@ class LinearizedFit:
         pcp = cov.sandwich(p, log=True)
         expected = (cov.diagonal(log=True) - 2.0 * np.sum(j * pc.T, axis=1)
                     + np.einsum("ia,ab,ib->i", j, pcp, j))
-        excess = share * (residual**2 - expected)
         octaves = np.log2(cov.anchor_m.astype(float))
         kernel = np.exp(-np.abs(octaves[:, None] - octaves[None, :]) / MISFIT_WINDOW_OCTAVES)
-        num = kernel @ cov.project(excess[None, :])[0]
-        den = kernel @ cov.project(share[None, :])[0]
-        local = cov.expand(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0))
-        return np.sqrt(np.maximum(local, 0.0))
+
+        def local_mean(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            num = kernel @ cov.project((share * x)[None, :])[0]
+            den = kernel @ cov.project(share[None, :])[0]
+            return cov.expand(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0))
+
+        observed, sampling = local_mean(residual**2), local_mean(expected)
+        # noise alone seldom doubles the mean square over an octave; a misfit that does is counted
+        local = np.where(observed > MISFIT_GATE * sampling, observed - sampling, 0.0)
+        return np.sqrt(local)
