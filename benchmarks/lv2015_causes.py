@@ -36,6 +36,8 @@ VARIANTS: dict[str, Lv2015Setup] = {
     "every m up to N/9 only": Lv2015Setup(max_clusters_m=9),
     "overlapping AVAR (every m to N/2)": Lv2015Setup(estimator="overlapping"),
     "1 h records instead of 4 h": Lv2015Setup(duration_s=3600.0),
+    "24 min records (1/10 of the samples)": Lv2015Setup(duration_s=1440.0),
+    "6 min records (1/40 of the samples)": Lv2015Setup(duration_s=360.0),
 }
 
 
