@@ -112,7 +112,7 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
     """
     data = _reduced(data)
     full, _ = fit_log(data, candidates)
-    cov = value_covariance(result, full, keep=data.keep)
+    cov = value_covariance(result, full, keep=data.keep, random_ramp=True)
     free = np.flatnonzero(np.nan_to_num(full) > 0)
     lin = LinearizedFit(data.jacobian(full), data.weights, log=True)
     misfit = (lin.local_misfit(free, data.residual(full), cov, log_tau_share(data.tau_s)) if len(free)

@@ -51,6 +51,8 @@ MISFIT_WINDOW_OCTAVES = 1.0
 #: A misfit is counted where the residuals' local mean square exceeds this many times what
 #: sampling explains (the excess over sampling is then its variance).
 MISFIT_GATE = 2.0
+#: ... and where the log of the value scatters by less than this variance (edf above about 20).
+MISFIT_PRECISION = 0.1
 #: Correlation length (octaves of tau) of the model's misfit.
 MISFIT_OCTAVES = 1.0
 
@@ -258,7 +260,8 @@ class LinearizedFit:
         excess ``r_i^2 - E[r_i^2]``, both averaged over about :data:`MISFIT_WINDOW_OCTAVES`
         octave either side (weighted by each value's share of an octave), is the squared
         misfit there, counted where the mean square is over :data:`MISFIT_GATE` times its
-        expectation (sampling noise alone seldom gets there). A misfit is local (an output filter at the
+        expectation (sampling noise alone seldom gets there) and the value is precise
+        (log variance under :data:`MISFIT_PRECISION`). A misfit is local (an output filter at the
         shortest taus, a bump the five terms lack), so it widens the errors of the terms
         that live where it is, not of all.
 
@@ -286,6 +289,9 @@ class LinearizedFit:
             return cov.expand(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0))
 
         observed, sampling = local_mean(residual**2), local_mean(expected)
-        # noise alone seldom doubles the mean square over an octave; a misfit that does is counted
-        local = np.where(observed > MISFIT_GATE * sampling, observed - sampling, 0.0)
-        return np.sqrt(local)
+        # noise alone seldom doubles the mean square over an octave; a misfit that does is
+        # counted, where the values are precise enough to show one (at long tau the scatter
+        # of a few clusters hides it, and a wrong model's residuals there must not be
+        # taken for a misfit that would then excuse them)
+        counted = (observed > MISFIT_GATE * sampling) & (cov.diagonal(log=True) < MISFIT_PRECISION)
+        return np.sqrt(np.where(counted, observed - sampling, 0.0))
