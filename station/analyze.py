@@ -219,6 +219,7 @@ def analyze_record(
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
     deviation_kind: DeviationKind | None = None,
+    select: bool | None = None,
 ) -> list[AxisAnalysis]:
     """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
@@ -233,7 +234,8 @@ def analyze_record(
     ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
     the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
     own grid). ``deviation_kind`` picks the curve shown (default: the Allan deviation of
-    ``estimator``); the fit and the figures stay on the Allan variance.
+    ``estimator``); the fit and the figures stay on the Allan variance. ``select`` is
+    :func:`analysis.fit.fit_noise_terms`' (default: on for logwls).
 
     Raises
     ------
@@ -274,7 +276,7 @@ def analyze_record(
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
-        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
+        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms, select=select)
         analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
@@ -353,6 +355,7 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     for a in axes:
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
         lines += format_curve(axes)

@@ -115,7 +115,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "octaves, or every m")
     p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
                    help=f"fit method (default {DEFAULT_METHOD})")
-    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
+    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR (logwls "
+                                                    "keeps those the data resolve)")
+    p.add_argument("--no-select", dest="select", action="store_false", default=None,
+                   help="logwls: fit every term of --terms, resolved or not")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     add_bench_argument(p)
@@ -146,7 +149,8 @@ def run(args: argparse.Namespace) -> int:
     estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
     axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
                           terms=args.terms, outliers=args.outliers,
-                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation)
+                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation,
+                          select=args.select)
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
