@@ -26,15 +26,36 @@ class CanBroadcastDevice(DeviceLoop):
         Signal, schedule, faults and ledger.
     poll_s : float
         Wall-clock period of the device loop, s.
+    max_lag_wall_s : float
+        Samples this thread is later than this (wall s) are lost, never sent late: a
+        real node sends on its schedule.
+    stamped : bool
+        The bus keeps the time stamp each frame is sent with (python-can's ``virtual``
+        bus with ``preserve_timestamps``): frames carry the time their sample fell due,
+        so lateness cannot shift a gap's wrap count. Otherwise (the receiver's kernel
+        stamps them) the allowance is at most a quarter of a counter period.
     """
 
     def __init__(self, transport: CanTransport, layout: CanFrameLayout, core: SimCore, *,
-                 poll_s: float = 0.002) -> None:
+                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
+                 stamped: bool = False) -> None:
         super().__init__()
         self.transport = transport
         self.layout = layout
         self.core = core
         self.poll_s = poll_s
+        self.max_lag_wall_s = max_lag_wall_s
+        self.stamped = stamped
+
+    @property
+    def max_lag_s(self) -> float:
+        """Lateness allowance, simulated s (see :meth:`SimCore.due`)."""
+        core = self.core
+        lag = self.max_lag_wall_s * core.clock.warp
+        if self.stamped:
+            return lag
+        return min(lag, self.layout.counter_modulus / core.sample_rate_hz / 4.0)
+
 
     def start(self) -> CanBroadcastDevice:
         self.transport.open()
@@ -49,7 +70,7 @@ class CanBroadcastDevice(DeviceLoop):
         core = self.core
         silent = False
         while not self._stop.wait(self.poll_s):
-            readings = core.due()
+            readings = core.due(max_lag_s=self.max_lag_s)
             if core.link_down() or core.stalled():
                 if not silent and core.link_down():
                     core.ledger.disconnects += 1
@@ -70,3 +91,9 @@ class CanBroadcastDevice(DeviceLoop):
                     if fault == "corrupt":
                         data[self.layout.crc_byte ^ 1] ^= 0x01
                     self.transport.send(frame.arbitration_id, bytes(data), stamp)
+
+
+def broadcast_latency_s(layout: CanFrameLayout, sample_rate_hz: float, warp: float) -> float:
+    """Longest a :class:`CanBroadcastDevice` (default loop) sends a frame after its sample
+    fell due, simulated s: its loop period and lateness allowance."""
+    return 0.002 * warp + min(0.05 * warp, layout.counter_modulus / sample_rate_hz / 4.0)

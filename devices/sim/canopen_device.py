@@ -130,7 +130,10 @@ class CanopenGyroNode(DeviceLoop):
         while not self._stop.wait(self.poll_s):
             if self._remap.is_set():
                 self._apply_configuration()
-            readings = self._sync_readings() if self._synchronous() else core.due()
+            # A node sends on its schedule: samples overdue by more than 50 ms of wall
+            # time (a starved thread) are lost, never sent late.
+            readings = (self._sync_readings() if self._synchronous()
+                        else core.due(max_lag_s=0.05 * core.clock.warp))
             if core.link_down():
                 if not unplugged:
                     unplugged = True

@@ -320,6 +320,14 @@ class SimCore:
         """
         return self._history.rates(indices)
 
+    def overrun(self, indices: list[int]) -> None:
+        """Samples booked delivered whose frames the transport could not take (a full
+        port): lost after all."""
+        self.ledger.delivered -= len(indices)
+        self.ledger.lost_in_outage += len(indices)
+        if self.ledger.window:
+            self.ledger.lost_indices.extend(indices)
+
     def lose(self, readings: list[Reading]) -> None:
         """Count samples lost to an outage or a stall."""
         self.ledger.lost_in_outage += len(readings)
