@@ -25,8 +25,9 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5 import RunFileWriter, read_run, read_run_record
+from station.hdf5 import read_run, read_run_record
 from station.hdf5_recover import lookup3
+from station.hdf5_writer import RunFileWriter
 from station.record_files import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,

@@ -17,9 +17,10 @@ import numpy as np
 from devices.sim.signal import SignalSource
 from station.hdf5 import open_run_file, read_unit, run_state
 
-#: Keys of one ``--json-summary`` object, exactly (issue 6).
-SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_sent", "gaps",
-                "crc_errors", "reconnects", "file"}
+#: Keys of one ``--json-summary`` object, exactly (issue 6, and the bounds of issue 21).
+SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_missing_low",
+                "samples_missing_high", "samples_sent", "gaps", "crc_errors", "reconnects",
+                "file"}
 #: Rate resolution per protocol: (absolute deg/s, relative); STIM300 sends value / 2^14
 #: deg/s, Xbus float32 rad/s.
 RESOLUTION = {"stim300": (2.0 ** -14, 0.0), "xbus": (1e-12, 2.0 ** -22)}
@@ -55,6 +56,22 @@ def summaries(stdout: str) -> list[dict]:
     for obj in out:
         assert set(obj) == SUMMARY_KEYS, obj
     return out
+
+
+def assert_books(recorded: int, low: int, declared: int, high: int, sent: int | None,
+                 what: object = "") -> None:
+    """The books of one unit: what its simulator sent lies within what was recorded plus
+    the fewest and the most samples its gaps may have lost, and the best count too."""
+    assert sent is not None, what
+    assert low <= declared <= high, what
+    assert recorded + low <= sent <= recorded + high, what
+
+
+def assert_summary_books(obj: dict) -> None:
+    """:func:`assert_books` of one ``--json-summary`` object."""
+    assert_books(obj["samples_recorded"], obj["samples_missing_low"],
+                 obj["samples_missing_declared"], obj["samples_missing_high"],
+                 obj["samples_sent"], obj)
 
 
 def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) -> Path:
