@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from station.documents import Descriptor
 from station.errors import RecordFormatError
-from station.hdf5_open import open_h5, reading
+from station.hdf5_open import chunks_within, cut_short, open_h5, reading
 from station.record_files import RateRecord
 from station.runs import RunEvent, RunInfo, UnitRun
 
@@ -119,9 +119,12 @@ def open_run_file(path: str | Path) -> Iterator[h5py.File]:
     f = open_h5(path)
     try:
         with reading(path):
-            if text_value(f.attrs.get("format", "")) != FORMAT:
+            if "format" not in f.attrs:  # (H5Aexists: a damaged header fails it)
                 raise RecordFormatError(f"{path}: not a gyro-station run file (no "
                                         f"format={FORMAT!r} attribute)")
+            if text_value(f.attrs["format"]) != FORMAT:
+                raise RecordFormatError(f"{path}: not a gyro-station run file (its format "
+                                        f"is {text_value(f.attrs['format'])!r})")
             yield f
     finally:
         try:
@@ -175,18 +178,40 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
     of a killed recorder are ignored.
     """
     g = f["units"][unit_id]
-    for ds in g.values():
+    for name in list(g):
+        ds = g[name]
+        if not isinstance(ds, h5py.Dataset):
+            raise RecordFormatError(f"{f.filename}: damaged run file: {unit_id}/{name} is "
+                                    f"not a dataset; `station recover {f.filename}` "
+                                    f"salvages what is readable")
         ds.refresh()
     n = min([int(g["committed"][0]), *(g[k].shape[0] for k in SAMPLE_DATASETS if k in g)])
 
     def col(name: str) -> Any:
         return _rows(g[name], start, n) if name in g else None
 
+    _check_inside(f, g, [k for k in SAMPLE_DATASETS if k in g], start, n)
+
     attrs = {k: (text_value(v) if isinstance(v, bytes | str | np.bytes_) else v.item()
                  if isinstance(v, np.generic) else v) for k, v in g.attrs.items()}
     return UnitData(unit_id, attrs, col("rate"), col("counter"), col("receive_time"),
                     col("status"), col("device_time"), col("temperature"),
                     committed_events(f, unit_id))
+
+
+def _check_inside(f: h5py.File, g: h5py.Group, names: list[str], start: int, stop: int
+                  ) -> None:
+    """Refuse rows ``start:stop`` of the datasets ``names`` if the file was cut short under
+    them (a chunk past its end reads as zeros, checksum and all)."""
+    size = cut_short(Path(f.filename))
+    if size is None:
+        return
+    for name in names:
+        if not chunks_within(g[name], start, stop, size):
+            raise RecordFormatError(
+                f"{f.filename}: cut short ({size} bytes): {g.name.rsplit('/', 1)[-1]}'s "
+                f"{name} runs past the end of the file; `station recover {f.filename}` "
+                f"salvages what is readable")
 
 
 def _rows(ds: h5py.Dataset, start: int, stop: int) -> Any:
@@ -210,7 +235,9 @@ def committed_events(f: h5py.File, unit_id: str) -> NDArray[np.void]:
     g = f["units"][unit_id]
     g["committed"].refresh()
     g["events"].refresh()
-    return _rows(g["events"], 0, min(int(g["committed"][1]), g["events"].shape[0]))
+    m = min(int(g["committed"][1]), g["events"].shape[0])
+    _check_inside(f, g, ["events"], 0, m)
+    return _rows(g["events"], 0, m)
 
 
 def gap_bounds(events: NDArray[np.void]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -17,8 +17,11 @@ So :func:`open_h5` reads the superblock first (:func:`superblock`). A file that 
 writer holds open (its consistency flags clear) is opened without SWMR: the length check
 and every checksum fail at once. A file a recorder holds (live, or killed) is opened in
 SWMR mode with the retries cut to :data:`SWMR_READ_ATTEMPTS` (a torn read during a
-write resolves in microseconds; the retries then sleep about 17 ms in all). Raw data are
-protected by the writer's Fletcher-32 chunk checksums (``station.hdf5``). Every HDF5
+write resolves in microseconds; the retries then sleep about 17 ms in all); if it is
+shorter than its superblock says, every chunk read is first checked to lie inside it
+(:func:`cut_short`, :func:`chunks_within`): a chunk of zeros passes HDF5's Fletcher-32
+check. Raw data carry the writer's Fletcher-32 chunk checksums (a flipped bit fails the
+read). Every HDF5
 failure, at open or later while reading (:func:`reading`), becomes one
 :class:`~station.errors.RecordFormatError` line that names the file and what to do.
 """
@@ -119,7 +122,10 @@ def _set_read_attempts() -> ctypes._CFuncPtr | None:  # type: ignore[name-define
     return None
 
 
-def _swmr_reader(path: Path) -> h5py.File:
+def swmr_reader(path: Path) -> h5py.File:
+    """``path`` opened as a SWMR reader with few metadata retries: it opens a file its
+    writer still holds, and a truncated one (for salvage: reads past the end return
+    zeros, which only checksums or :func:`chunks_within` tell from data)."""
     fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
     setter = _set_read_attempts()
     if setter is not None:
@@ -151,7 +157,7 @@ def open_h5(path: Path) -> h5py.File:
             f"{path}: truncated run file ({sb.size} of its {sb.stored_eof} bytes): "
             f"`station recover {path}` salvages what is readable")
     try:
-        return _swmr_reader(path) if sb.open_for_write else h5py.File(path, "r")
+        return swmr_reader(path) if sb.open_for_write else h5py.File(path, "r")
     except (OSError, RuntimeError, KeyError, ValueError) as exc:
         raise damaged(path, exc) from exc
 
@@ -168,3 +174,26 @@ def reading(path: Path) -> Iterator[None]:
         if isinstance(exc, FileNotFoundError):
             raise
         raise damaged(path, exc) from exc
+
+
+def cut_short(path: Path) -> int | None:
+    """The length of ``path`` when it is held open for writing (live, or left by a killed
+    recorder) and shorter than its superblock says: its chunks must then be checked to
+    lie inside it (:func:`chunks_within`). None otherwise (HDF5 checks a closed file's
+    length itself, and a file at least that long holds every chunk committed)."""
+    sb = superblock(path)
+    return sb.size if sb.open_for_write and sb.truncated else None
+
+
+def chunks_within(ds: h5py.Dataset, start: int, stop: int, size: int) -> bool:
+    """Whether every chunk holding rows ``start:stop`` of a chunked dataset lies inside a
+    file of ``size`` bytes (a chunk past the end reads as zeros without complaint)."""
+    if ds.chunks is None:
+        return True
+    rows = ds.chunks[0]
+    zero = (0,) * (len(ds.shape) - 1)
+    for first in range(start - start % rows, stop, rows):
+        info = ds.id.get_chunk_info_by_coord((first, *zero))
+        if info.byte_offset is None or info.byte_offset + info.size > size:
+            return False
+    return True

@@ -56,10 +56,22 @@ _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "re
 _ABANDONED: list[object] = []
 
 
-def _is_disk_full(exc: OSError | RuntimeError) -> bool:
+#: What a failed write's errno means for the operator.
+_FULL = {errno.ENOSPC: "no space left on device", errno.EFBIG: "file size limit reached",
+         errno.EDQUOT: "disk quota exceeded"}
+
+
+def _disk_full(exc: OSError | RuntimeError) -> str:
+    """Why a write failed, when the disk (or a limit) is full; "" otherwise. HDF5 reports
+    the system's errno inside its message (``errno = 28``)."""
+    code = getattr(exc, "errno", None)
+    if code in _FULL:
+        return _FULL[code]
     message = str(exc).lower()
-    return (getattr(exc, "errno", None) in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
-            or "no space" in message or "file too large" in message)
+    for number, why in _FULL.items():
+        if f"errno = {number}," in message or why in message:
+            return why
+    return "file too large" if "file too large" in message else ""
 
 
 class RunFileWriter:
@@ -161,7 +173,7 @@ class RunFileWriter:
         # it, so a full disk fails that call (not a flush later, nor a destructor).
         f = h5py.File(building, "w", libver="latest", rdcc_nbytes=0)
         try:
-            _write_layout(f, self._start_doc, self._descriptors)
+            write_layout(f, self._start_doc, self._descriptors)
             f.flush()
             f.swmr_mode = True  # flushes the layout and marks the file for SWMR readers
             _link_into_place(building, self.path)
@@ -227,16 +239,20 @@ class RunFileWriter:
                     self.committed[uid].add(batch)
                 self._pending[uid] = []
         except (OSError, RuntimeError) as exc:  # h5py raises either for a failed write
-            self.failed = (DiskSpaceError(f"disk full while writing {self.path}: "
-                                          f"{_short(exc)}")
-                           if _is_disk_full(exc) or writable_bytes(self.path) < (64 << 10)
+            why = _disk_full(exc) or ("no space left" if writable_bytes(self.path) < (64 << 10)
+                                      else "")
+            self.failed = (DiskSpaceError(f"disk full ({why}) writing {self.path}") if why
                            else RecorderError(f"cannot write {self.path}: {_short(exc)}"))
+            self.failed.reason = f"disk full: {why}" if why else f"write error: {_short(exc)}"
             raise self.failed from exc
         self.flushes += 1
         left = writable_bytes(self.path)
         if left < self.reserve_bytes:
-            raise DiskSpaceError(f"disk nearly full: {left / 1e6:.1f} MB left for {self.path} "
-                                 f"(reserve {self.reserve_bytes / 1e6:.1f} MB)")
+            error = DiskSpaceError(f"disk nearly full: {left / 1e6:.1f} MB left for "
+                                   f"{self.path} (reserve {self.reserve_bytes / 1e6:.1f} MB)")
+            error.reason = (f"disk full: disk nearly full, {left / 1e6:.1f} MB left "
+                            f"(reserve {self.reserve_bytes / 1e6:.1f} MB)")
+            raise error
 
     def uncommitted(self, unit_id: str) -> int:
         """Samples of a unit handed to the writer but not committed (lost if it failed)."""
@@ -256,14 +272,11 @@ class RunFileWriter:
         if self.failed is None:
             try:
                 self.flush()
-            except DiskSpaceError as exc:
-                if "disk" not in reason:
-                    reason = f"disk full: {exc}"
-            except RecorderError:
-                pass
-        if self.failed is not None and "disk" not in reason and isinstance(
-                self.failed, DiskSpaceError):
-            reason = f"disk full: {self.failed}"
+            except RecorderError as exc:
+                if not reason.startswith(("disk full", "write error")):
+                    reason = getattr(exc, "reason", str(exc))
+        if self.failed is not None and not reason.startswith(("disk full", "write error")):
+            reason = getattr(self.failed, "reason", str(self.failed))
         self._file = None
         self.stopped = True
         try:
@@ -289,11 +302,11 @@ class RunFileWriter:
 
 
 def _short(exc: BaseException) -> str:
-    """HDF5's message on one line, without its dump of buffer addresses."""
+    """HDF5's message on one line, without its dump of names and buffer addresses."""
     text = " ".join(str(exc).split())
-    for cut in (", buf = ", ", file descriptor = "):
+    for cut in (" (file write failed", ", filename = ", ", buf = ", ", file descriptor = "):
         text = text.split(cut)[0]
-    return text[:200]
+    return text[:160]
 
 
 def _link_into_place(building: Path, path: Path) -> None:
@@ -317,7 +330,7 @@ def _checked_dataset(g: h5py.Group, name: str, **kwargs: Any) -> h5py.Dataset:
     return g.create_dataset(name, fletcher32=True, **kwargs)
 
 
-def _write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> None:
+def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> None:
     """Root metadata, run state and every unit's group, datasets and markers."""
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
             "profile": doc.profile, "profile_version": doc.profile_version,

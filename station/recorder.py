@@ -37,7 +37,7 @@ from station.documents import (
     UnitTotals,
     utc_now,
 )
-from station.errors import DiskSpaceError, RecorderError, RunConfigurationError, UsageError
+from station.errors import RecorderError, RunConfigurationError, UsageError
 from station.hdf5 import (
     REASON_DURATION,
     REASON_END_OF_REPLAY,
@@ -312,11 +312,8 @@ class Recorder:
             return
         try:
             self.writer.flush_if_due()
-        except DiskSpaceError as exc:
-            self.request_stop(str(exc) if str(exc).startswith("disk full") else
-                              f"disk full: {exc}")
         except RecorderError as exc:
-            self.request_stop(f"write error: {exc}")
+            self.request_stop(getattr(exc, "reason", "") or f"write error: {exc}")
 
     def run(self) -> RunStop:
         """Record until every unit is done; returns the stop document.

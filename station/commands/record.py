@@ -183,6 +183,10 @@ def run(args: argparse.Namespace) -> int:
     failed = writer is not None and writer.failed is not None
     code = 1 if failed or any(w.error for w in recorder.workers) or \
         stop.reason.startswith(("disk full", "write error")) else 0
+    if not failed and stop.reason.startswith(("disk full", "write error")):
+        print(f"station record: the run stopped early ({stop.reason}); {recorder.path} is "
+              f"closed with every sample received: free some space before the next run",
+              file=sys.stderr)
     if failed:
         assert writer is not None
         lost = ", ".join(f"{t.unit_id} {writer.uncommitted(t.unit_id)}" for t in stop.totals)
