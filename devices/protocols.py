@@ -218,3 +218,13 @@ class RateLimited(Protocol):
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Set the range, deg/s on any axis (None: no limit)."""
+
+
+@runtime_checkable
+class HeldQuiet(Protocol):
+    """A rate source told that its device sent nothing until now (the station held it:
+    a simulated unit before the run starts), which bounds the send times of what comes
+    next."""
+
+    def quiet_until_now(self) -> None:
+        """Nothing was sent before this moment."""

@@ -235,6 +235,11 @@ class StreamRateSource:
                                      f"{self.silence_timeout_s} s")
         return self._builder.take(now)
 
+    def quiet_until_now(self) -> None:
+        """Nothing was sent before now (the station held the device): what comes next
+        was sent after it."""
+        self._timing.quiet_until(self.clock())
+
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples (the
         measurement range, from the product profile)."""

@@ -85,6 +85,9 @@ class SimControl(Protocol):
     def clear_faults(self) -> None:
         """Turn the injected faults off (a clean end of a run)."""
 
+    def stop_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (the end of a run)."""
+
 
 class Simulator(Protocol):
     """A running simulated device."""

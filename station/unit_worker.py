@@ -8,9 +8,10 @@ and hands it to ``send``. It stops at the run's duration, when asked, or when a 
 capture ends.
 
 A simulated unit (a ``sim+`` URL) is held paused until the recorder listens, as a bench
-gyro switched on by the operator, and ends exactly: its faults are turned off, it is
-paused, and the unit reads until the newest sample its simulator generated. Every sample
-it generated is then recorded or declared missing.
+gyro switched on by the operator, and ends exactly: its faults are turned off, it is told
+to stop after a sample index a little ahead, and the unit reads up to that sample (if the
+last frames were lost, the simulator runs on, so that a later sample shows the gap).
+Every sample it generated is then recorded or declared missing.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from devices.errors import DeviceError, DeviceTimeoutError
-from devices.protocols import DeviceDescription, SampleBatch
+from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch
 from devices.replay import EndOfReplayError
 from devices.urls import OpenedDevice
 from station.documents import EventBatch, LogEntry, UnitTally, utc_now
@@ -138,6 +139,8 @@ class UnitWorker:
         self.start_utc = utc_now()
         self._t0 = self.clock()
         if self.opened.simulator is not None:
+            if isinstance(self.opened.source, HeldQuiet):
+                self.opened.source.quiet_until_now()  # held since it was opened
             self.opened.simulator.core.resume()
         self._thread.start()
 
@@ -225,23 +228,30 @@ class UnitWorker:
         return True
 
     def _finish_simulation(self) -> None:
-        """End a simulated unit exactly: faults off, paused, read to its newest sample."""
+        """End a simulated unit exactly: faults off, then on a sample index, read to it."""
         assert self.opened.simulator is not None
         core = self.opened.simulator.core
         core.clear_faults()
         settle = time.monotonic() + 0.05
         self._read_until(lambda: time.monotonic() > settle and self.tally.samples > 0,
                          quiet_s=10.0, limit_s=10.0)
-        core.pause()
-        sent = core.ledger.generated
-        # Patience, not a restart: a paused device resumed would put a silence in its
-        # time line that no counter shows (and that a time-based wrap count would take
-        # for lost wraps).
-        if not self._read_until(lambda: self.last_counter >= sent - 1, quiet_s=2.0,
+        margin = max(1, round(0.05 * self.description.sample_rate_hz))
+        for _ in range(4):
+            end = core.ledger.generated + margin
+            core.stop_after(end)  # its time line goes on: no silence a counter cannot see
+            if self._read_until(lambda n=end: self.last_counter >= n - 1, quiet_s=2.0,
                                 limit_s=20.0):
+                break
+            # Its last frames were lost (a full port on a starved host): let it run on,
+            # so that a later sample shows the gap.
+            core.stop_after(None)
+            more = self.last_counter
+            self._read_until(lambda n=more: self.last_counter > n, quiet_s=2.0, limit_s=10.0)
+        else:
             self._emit(None, [LogEntry("error", self.elapsed_s(), detail=(
-                f"the simulator's last {sent - 1 - self.last_counter} samples never "
-                f"arrived")[:120])])
+                f"the simulator's last {core.ledger.generated - 1 - self.last_counter} "
+                f"samples never arrived")[:120])])
+        core.pause()
 
     def _drain(self) -> None:
         empty = 0

@@ -92,6 +92,37 @@ def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) ->
     raise TimeoutError(f"no run file with {min_samples} samples in {folder}")
 
 
+def wait_for_file(folder: Path, timeout_s: float = 120.0) -> Path:
+    """The run file in ``folder``, as soon as it exists."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        files = list(folder.glob("*.h5"))
+        if files:
+            return files[0]
+        time.sleep(0.005)
+    raise TimeoutError(f"no run file in {folder} after {timeout_s:g} s")
+
+
+def data_lost_s(path: Path, killed_at_s: float) -> float:
+    """Seconds of data a killed recorder lost: from its newest committed sample (or, with
+    none, the start of its run) to the kill (``time.time()``), the largest over its
+    units."""
+    from datetime import UTC, datetime
+
+    def stamp(text: str) -> float:
+        return datetime.strptime(text, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=UTC).timestamp()
+
+    lost = 0.0
+    with open_run_file(path) as f:
+        for uid in f["units"]:
+            unit = read_unit(f, uid)
+            start = stamp(unit.attrs["start_utc"])
+            warp = float(unit.attrs.get("time_warp", 1.0))
+            last = float(unit.receive_time_s[-1]) / warp if len(unit.counter) else 0.0
+            lost = max(lost, killed_at_s - (start + last))
+    return lost
+
+
 def last_flush_age_s(path: Path, at_utc_s: float) -> float:
     """Seconds between the file's last flush and ``at_utc_s`` (a ``time.time()``)."""
     from datetime import UTC, datetime

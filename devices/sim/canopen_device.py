@@ -121,7 +121,9 @@ class CanopenGyroNode(DeviceLoop):
         while not self._syncs.empty():
             self._syncs.get()
             if not self.core.link_down() and self.node.nmt.state == _OPERATIONAL:
-                readings.append(self.core.next_reading())
+                reading = self.core.next_reading()
+                if reading is not None:
+                    readings.append(reading)
         return readings
 
     def _run(self) -> None:

@@ -75,7 +75,7 @@ class LocalSimulator(Protocol):
 
 
 #: Operator controls and read-outs the parent may ask of the child's core.
-_CALLS = frozenset({"pause", "resume", "history", "clear_faults"})
+_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after"})
 _READS = frozenset({"ledger", "history_start", "sample_rate_hz", "held"})
 
 
@@ -156,6 +156,10 @@ class RemoteSimCore:
     def pause(self) -> None:
         """Hold sampling (see :meth:`SimCore.pause`)."""
         self._ask("pause")
+
+    def stop_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (see :meth:`SimCore.stop_after`)."""
+        self._ask("stop_after", n_samples)
 
     def resume(self) -> None:
         """Release the operator's hold (see :meth:`SimCore.resume`)."""
