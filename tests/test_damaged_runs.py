@@ -22,7 +22,15 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.documents import Descriptor, EventBatch, LogEntry, RunStart, RunStop, data_keys, utc_now
+from station.documents import (
+    Descriptor,
+    EventBatch,
+    LogEntry,
+    RunStart,
+    RunStop,
+    data_keys,
+    utc_now,
+)
 from station.hdf5_writer import RunFileWriter
 from tests.damage_helpers import damaged_copies, sweep
 
