@@ -128,6 +128,7 @@ class UnitWorker:
         self.samples_sent: int | None = None
         self.start_utc = ""
         self.last_counter = -1
+        self._last_sample_at = 0.0
         self._t0 = 0.0
         self._seq = 0
         self._thread = threading.Thread(target=self._run, name=f"recorder-{unit_id}",
@@ -168,6 +169,7 @@ class UnitWorker:
             self.tally.add(doc)
             if len(doc):
                 self.last_counter = int(doc.counter[-1])
+                self._last_sample_at = time.monotonic()
             self._out.add(doc)
         return len(doc)
 
@@ -236,11 +238,15 @@ class UnitWorker:
         self._read_until(lambda: time.monotonic() > settle and self.tally.samples > 0,
                          quiet_s=10.0, limit_s=10.0)
         margin = max(1, round(0.05 * self.description.sample_rate_hz))
+        modulus = self.description.counter_modulus or 1 << 62
         for _ in range(4):
             end = core.ledger.generated + margin
             core.stop_after(end)  # its time line goes on: no silence a counter cannot see
-            if self._read_until(lambda n=end: self.last_counter >= n - 1, quiet_s=2.0,
-                                limit_s=20.0):
+            # (its last sample is recognized by its counter as sent: the unwrapped count
+            # may differ from the simulator's by the wraps a gap could not pin down)
+            if self._read_until(lambda n=end: self.last_counter % modulus == (n - 1) % modulus
+                                and time.monotonic() - self._last_sample_at > 0.2,
+                                quiet_s=2.0, limit_s=20.0):
                 break
             # Its last frames were lost (a full port on a starved host): let it run on,
             # so that a later sample shows the gap.
