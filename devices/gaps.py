@@ -119,6 +119,12 @@ class CounterTracker:
             return raw, None
         step = self.residue_step(raw)
         method: GapMethod = "counter"
+        if device_time_s is not None and self._last_device_time_s is not None and \
+                not self._plausible(device_time_s - self._last_device_time_s,
+                                    elapsed_range_s):
+            # A device time the station's own timing rules out (a corrupted stamp a weak
+            # checksum let through): the station's timing decides instead.
+            device_time_s = None
         if device_time_s is not None and self._last_device_time_s is not None:
             elapsed = device_time_s - self._last_device_time_s
             elapsed_method: GapMethod = "device_time"
@@ -151,6 +157,14 @@ class CounterTracker:
         self._last_unwrapped += step + wraps * self.modulus
         self._last_time_s, self._last_device_time_s = receive_time_s, device_time_s
         return self._last_unwrapped, gap
+
+    @staticmethod
+    def _plausible(device_elapsed_s: float, bounds: tuple[float, float] | None) -> bool:
+        """Whether a device-time step fits the station's bounds of the elapsed time
+        (with 0.5 s of slack; no bounds: any step forward)."""
+        if device_elapsed_s < 0:
+            return False
+        return bounds is None or bounds[0] - 0.5 <= device_elapsed_s <= bounds[1] + 0.5
 
     def _wrap_bounds(self, step: int, bounds: tuple[float, float]) -> tuple[int, int] | None:
         """The fewest and most wraps whose counter step fits ``bounds`` (s) of the elapsed

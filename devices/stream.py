@@ -86,7 +86,8 @@ class StreamRateSource:
         self._builder = BatchBuilder(
             codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),
             has_device_time=codec.has_device_time, has_temperature=codec.has_temperature,
-            check_continuity=getattr(codec, "weak_check", False))
+            check_continuity=getattr(codec, "weak_check", False),
+            rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None))
         self._rest = b""
         self._connected = False
         self._ever_connected = False
@@ -242,5 +243,6 @@ class StreamRateSource:
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples (the
-        measurement range, from the product profile)."""
-        self._builder.rate_limit_deg_s = limit_deg_s
+        measurement range, from the product profile; None keeps the protocol's own)."""
+        self._builder.rate_limit_deg_s = (limit_deg_s if limit_deg_s is not None
+                                          else getattr(self.codec, "rate_range_deg_s", None))
