@@ -62,6 +62,10 @@ class BusClock:
         """The unit-clock time (s) of a wall-clock time stamp (s)."""
         return self._clock_ref + (stamp_wall_s - self._wall_ref) * self.clock_scale
 
+    def wall(self, clock_s: float) -> float:
+        """The wall-clock time stamp (s) of a unit-clock instant (s): the inverse."""
+        return self._wall_ref + (clock_s - self._clock_ref) / self.clock_scale
+
 
 @dataclass(frozen=True)
 class _Held:
@@ -162,7 +166,14 @@ class BatchBuilder:
             return
         modulus = self.tracker.modulus
         from_held = (reading.counter - held.reading.counter) % modulus or modulus
-        if from_held == 1 or self.tracker.residue_step(reading.counter) >= \
+        # Time enough between the last sample and this one for the counter to have gone
+        # round: the order of counters says nothing, the jump is taken for a gap.
+        span = (_sum(held.elapsed_s, elapsed_s) if elapsed_s is not None else
+                (receive_time_s if sent_time_s is None else sent_time_s)
+                - self.tracker.last_time_s)
+        if from_held == 1 or span is None or \
+                span * self.tracker.sample_rate_hz >= modulus / 2 or \
+                self.tracker.residue_step(reading.counter) >= \
                 self.tracker.residue_step(held.reading.counter):
             self._accept(held)  # the jump was a gap: this reading follows it
             self.add(reading, receive_time_s, sent_time_s, elapsed_s=elapsed_s,

@@ -70,7 +70,9 @@ class CanRateSource:
         self._builder = BatchBuilder(
             len(layout.axes), CounterTracker(layout.counter_modulus, sample_rate_hz,
                                              timing_uncertainty_s=max_latency_s),
-            has_device_time=False, has_temperature=has_temp, check_continuity=True)
+            has_device_time=False, has_temperature=has_temp,
+            # (a 4-bit counter goes round too often for its order to say anything)
+            check_continuity=layout.counter_modulus >= 64)
         self._ids = set(layout.arbitration_ids)
         self._pending: dict[int, dict[int, CanFrameValues]] = {}
         self._lost = False

@@ -64,6 +64,11 @@ class CounterTracker:
         return None if self._last_raw is None else self._last_unwrapped
 
     @property
+    def last_time_s(self) -> float:
+        """Time (s) given with the latest sample."""
+        return self._last_time_s
+
+    @property
     def last_raw(self) -> int | None:
         """The latest sample's counter as sent (None before the first)."""
         return self._last_raw

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+from devices.batching import BusClock
 from devices.codecs.can_frame import CanFrameLayout
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
@@ -69,6 +70,10 @@ class CanBroadcastDevice(DeviceLoop):
     def _run(self) -> None:
         core = self.core
         silent = False
+        # Wall time of the clock's instants from one pairing of the two clocks, never
+        # from two readings a preempted thread takes 100 ms apart.
+        stamps = BusClock(core.clock, core.clock.warp)
+        next_sync = time.monotonic() + 10.0
         while not self._stop.wait(self.poll_s):
             readings = core.due(max_lag_s=self.max_lag_s)
             if core.link_down() or core.stalled():
@@ -78,11 +83,13 @@ class CanBroadcastDevice(DeviceLoop):
                 core.lose(readings)
                 continue
             silent = False
-            wall, now = time.time(), core.clock()
+            if time.monotonic() >= next_sync:
+                stamps.sync()  # (the wall clock may be slewed: pair them again now and then)
+                next_sync = time.monotonic() + 10.0
             for reading in readings:
                 # Stamp each frame with the wall time it fell due: a real node sends on
                 # schedule, this thread sends in bursts.
-                stamp = wall - (now - core.due_time(reading.counter)) / core.clock.warp
+                stamp = stamps.wall(core.due_time(reading.counter))
                 for frame in self.layout.from_reading(reading):
                     fault = core.fault_for(reading.counter)
                     if fault == "drop":
