@@ -255,8 +255,10 @@ class RunFileWriter:
             raise error
 
     def uncommitted(self, unit_id: str) -> int:
-        """Samples of a unit handed to the writer but not committed (lost if it failed)."""
-        return self.received[unit_id].samples - self.committed[unit_id].samples
+        """Samples of a unit handed to the writer, recorded or declared missing, but not
+        committed (lost to the file if it failed)."""
+        got, done = self.received[unit_id], self.committed[unit_id]
+        return got.samples + got.missing - done.samples - done.missing
 
     def close(self, reason: str, stop_utc: str | None = None) -> None:
         """Flush what is left (if the disk allows), record the stop, close the file.

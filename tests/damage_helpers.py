@@ -85,7 +85,7 @@ def _recover(path: Path) -> Any:
     shutil.copyfile(path, work)
     result = recover_run(work, force=True, out=path.with_name(path.stem + "-salvage.h5"))
     run = read_run(result.salvaged_to or work)
-    return [u.record.rate_deg_s for u in run.units]
+    return {u.unit_id: u.record.rate_deg_s for u in run.units}
 
 
 #: Every reader of a run file, by the command or screen that uses it.
@@ -95,7 +95,10 @@ READERS: dict[str, Callable[[Path], Any]] = {
 
 
 def _same(a: Any, b: Any, prefix: bool) -> bool:
-    """Equal (for recover: each array a prefix of the original's)."""
+    """Equal (for recover: each unit it kept, a prefix of the original's samples)."""
+    if isinstance(a, dict):
+        return (isinstance(b, dict) and set(b) <= set(a) and (bool(b) or not prefix)
+                and all(_same(a[k], b[k], prefix) for k in b))
     if isinstance(a, np.ndarray):
         return (isinstance(b, np.ndarray) and (len(b) <= len(a) if prefix else a.shape == b.shape)
                 and np.array_equal(a[:len(b)], b))
@@ -145,8 +148,9 @@ def sweep_here(original: Path, damaged: list[Path]) -> list[Outcome]:
     out = []
     for reader, fn in READERS.items():
         if reader == "recover":
-            reference = _grade_and_report(original)
-            reference = [rates for rates, _ in reference]
+            from station.hdf5 import read_run
+
+            reference = {u.unit_id: u.record.rate_deg_s for u in read_run(original).units}
         else:
             reference = fn(original)
         out += [_one(reader, path, reference) for path in damaged]

@@ -6,14 +6,15 @@ Two run files of two units are written by the recorder's writer: one closed, one
 held by its writer when it is copied (as a killed recorder leaves it: readers open it in
 SWMR mode). Each is cut short (to 3 kB, 50 %, 99.9 % of its length) and has single bits
 flipped at random places (``python benchmarks/bench_reliability.py`` runs many more). Every reader (analyze, grade and report, watch,
-the TUI's live view and run list, recover) runs on every copy, in a process of its own
-with a time limit: HDF5's SWMR reader used to retry every bad metadata block for hours,
-and read past the end of a truncated file as zeros.
+the TUI's live view and run list, recover) runs on every copy, timed, under a watchdog
+that ends the test run if one hangs: HDF5's SWMR reader used to retry every bad
+metadata block for hours, and read past the end of a truncated file as zeros.
 """
 
 from __future__ import annotations
 
 import contextlib
+import faulthandler
 import io
 from pathlib import Path
 
@@ -32,7 +33,7 @@ from station.documents import (
     utc_now,
 )
 from station.hdf5_writer import RunFileWriter
-from tests.damage_helpers import damaged_copies, sweep
+from tests.damage_helpers import damaged_copies, sweep_here
 
 RATE_HZ = 500.0
 
@@ -70,10 +71,15 @@ def outcomes(tmp_path_factory: pytest.TempPathFactory) -> list:
     killed.write_bytes(held.read_bytes())
     writer(RunStop(utc_now(), "duration"))
     results = []
-    for original, seed in ((closed, 1), (killed, 2)):
-        copies = damaged_copies(original, tmp / original.stem, flips=6, seed=seed,
-                                cuts=(0.0, 0.5, 0.999))
-        results += sweep(original, copies, timeout_s=120.0)
+    # A reader that hangs ends the test run with every thread's stack, after 120 s.
+    faulthandler.dump_traceback_later(120.0, exit=True)
+    try:
+        for original, seed in ((closed, 1), (killed, 2)):
+            copies = damaged_copies(original, tmp / original.stem, flips=6, seed=seed,
+                                    cuts=(0.0, 0.5, 0.999))
+            results += sweep_here(original, copies)
+    finally:
+        faulthandler.cancel_dump_traceback_later()
     return results
 
 

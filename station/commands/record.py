@@ -191,8 +191,9 @@ def run(args: argparse.Namespace) -> int:
         assert writer is not None
         lost = ", ".join(f"{t.unit_id} {writer.uncommitted(t.unit_id)}" for t in stop.totals)
         print(f"station record: {writer.failed}. The run stopped; every sample committed "
-              f"before is intact (samples received but not written: {lost}). Free some "
-              f"space, then run `station recover {recorder.path}`", file=sys.stderr)
+              f"before is intact (samples received or declared missing after that, not "
+              f"written: {lost}). Free some space, then run `station recover "
+              f"{recorder.path}`", file=sys.stderr)
     if writer is not None and writer.close_failed:
         # HDF5 could not close the file (a write failed on the full disk) and would try
         # again, and fail, at exit: leave now, as a killed recorder would (everything
