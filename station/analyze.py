@@ -6,21 +6,121 @@ it is what tests call directly.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
-from analysis.allan import AllanResult, Estimator, allan_variance
+from analysis.allan import AllanResult, Estimator, allan_variance, analysis_log_m
+from analysis.deviations import (
+    DEVIATION_LABELS,
+    DeviationKind,
+    DeviationResult,
+    deviation,
+    from_allan,
+)
 from analysis.figures import SpecFigures, spec_figures
-from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
+from analysis.fit import FitMethod, NoiseCoefficients
+from analysis.gaps import gap_summary
+from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.tones import Tone, find_tones
+from analysis.units import S_PER_H
+from analysis.zones import TauZone, fit_outside_zones
+from station.bench import Bench, earth_rate_note
+from station.errors import UsageError
 from station.record_files import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
+#: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`
+#: says they are few (default), always keep them, or remove whatever is flagged.
+OutlierPolicy = Literal["auto", "keep", "remove"]
+OUTLIER_POLICIES: tuple[str, ...] = ("auto", "keep", "remove")
+#: How many spikes a report lists one by one.
+SPIKES_LISTED = 100
+
+
+@dataclass(frozen=True)
+class GapReport:
+    """Samples missing from an axis' record: gaps, seconds lost, share of the record's time."""
+
+    count: int = 0
+    missing_s: float = 0.0
+    share: float = 0.0
+
+    def as_json(self) -> dict[str, object]:
+        """The ``gaps`` object of ``station analyze --json``."""
+        return {"count": self.count, "missing_s": self.missing_s, "share": self.share}
+
+    def text(self) -> str:
+        """One line for tables and notes."""
+        if not self.count:
+            return "none"
+        return f"{self.count} ({self.missing_s:.4g} s, {self.share:.2%} of the time)"
+
+
+@dataclass(frozen=True)
+class OutlierReport:
+    """The spikes found in an axis' record and whether the analysis left them out."""
+
+    detection: SpikeDetection | None = None
+    removed: bool = False
+    rule: str = "not looked for"
+    times_s: tuple[float, ...] = ()
+
+    @property
+    def count(self) -> int:
+        """Spikes found (runs of consecutive flagged samples)."""
+        return 0 if self.detection is None else len(self.detection.spikes)
+
+    def as_json(self) -> dict[str, object]:
+        """The ``outliers`` object of ``station analyze --json`` (sizes in deg/h)."""
+        d = self.detection
+        out: dict[str, object] = {"count": self.count, "removed": self.removed, "rule": self.rule}
+        if d is not None:
+            out.update({
+                "samples": d.count, "share": d.share, "threshold_z": d.threshold_z,
+                "false_alarm": d.false_alarm, "scale_deg_h": d.scale * S_PER_H,
+                "spikes": [{"time_s": t, "n_samples": sp.n_samples, "size_deg_h": sp.size * S_PER_H,
+                            "z": sp.z} for t, sp in zip(self.times_s, d.spikes[:SPIKES_LISTED],
+                                                        strict=False)],
+                "listed": min(self.count, SPIKES_LISTED)})
+        return out
+
+    def text(self) -> str:
+        """One line for tables."""
+        if self.detection is None:
+            return "not looked for"
+        if not self.count:
+            return "none"
+        return f"{self.count} {'removed' if self.removed else 'kept'}"
+
+    def note(self) -> str:
+        """The sentence every report carries when spikes were found."""
+        d = self.detection
+        if d is None or not self.count:
+            return ""
+        largest = max(d.spikes, key=lambda sp: abs(sp.size))
+        what = ("removed, each replaced by the line between its neighbours" if self.removed
+                else "kept in the analysis")
+        return (f"{self.count} spike(s) ({d.count} samples beyond {d.threshold_z:.2f} sigma; largest "
+                f"{largest.size * S_PER_H:+.4g} deg/h at {self.times_s[d.spikes.index(largest)]:.6g} s) "
+                f"{what}: {self.rule}")
 
 
 @dataclass(frozen=True)
 class AxisAnalysis:
-    """Everything ``station analyze`` reports for one axis."""
+    """Everything ``station analyze`` reports for one axis.
+
+    ``allan`` is the Allan variance the fit and the spec figures come from; ``curve`` is
+    the deviation shown and listed when another than that Allan deviation was asked for
+    (:attr:`shown` is the one to show either way).
+    ``rate_deg_s`` is the rate the figures were computed from: on the record's time grid
+    (NaN where a sample is missing), spikes replaced when they were removed, the Earth
+    rate taken off when the bench gave it. ``allan_alternative`` is the Allan curve the
+    other way round (spikes kept when they were removed, and the reverse), when spikes
+    were found; ``alternative_label`` says which.
+    """
 
     name: str
     sample_rate_hz: float
@@ -28,22 +128,85 @@ class AxisAnalysis:
     allan: AllanResult
     fit: NoiseCoefficients
     figures: SpecFigures
+    gaps: GapReport = field(default_factory=GapReport)
+    outliers: OutlierReport = field(default_factory=OutlierReport)
+    rate_deg_s: NDArray[np.float64] | None = None
+    allan_alternative: AllanResult | None = None
+    alternative_label: str = ""
+    tones: tuple[Tone, ...] = ()
+    zones: tuple[TauZone, ...] = ()
+    curve: DeviationResult | None = None
+
+    @property
+    def shown(self) -> DeviationResult:
+        """The deviation shown and listed: ``curve``, else the fit's Allan deviation."""
+        return self.curve if self.curve is not None else from_allan(self.allan)
 
     def as_json(self) -> dict[str, object]:
-        """The JSON object of one axis (the ``station analyze --json`` interface)."""
+        """The JSON object of one axis (the ``station analyze --json`` interface).
+
+        ``tau_s``, ``adev``, ``adev_ci_low``, ``adev_ci_high`` and ``n_clusters`` are those
+        of the chosen ``deviation`` (``adev`` holds its values, in ``deviation_unit``);
+        ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
+        """
+        c = self.shown
         return {
             "name": self.name,
             "sample_rate_hz": self.sample_rate_hz,
             "n_samples": self.n_samples,
             "estimator": self.allan.estimator,
-            "tau_s": self.allan.tau_s.tolist(),
-            "adev": self.allan.adev.tolist(),
-            "adev_ci_low": self.allan.adev_ci_low.tolist(),
-            "adev_ci_high": self.allan.adev_ci_high.tolist(),
-            "n_clusters": self.allan.n_clusters.tolist(),
+            "deviation": c.kind,
+            "deviation_label": DEVIATION_LABELS[c.kind],
+            "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
+            "tau_s": c.tau_s.tolist(),
+            "adev": c.deviation.tolist(),
+            "adev_ci_low": c.deviation_ci_low.tolist(),
+            "adev_ci_high": c.deviation_ci_high.tolist(),
+            "n_clusters": c.n_clusters.tolist(),
+            "edf": c.edf.tolist(),
+            "noise_alpha": c.noise_alpha.tolist(),
+            "interval": c.interval,
+            "curve_notes": list(c.notes),
+            "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace("deviation", "variance"),
             "fit": self.fit.as_dict(),
             "figures": self.figures.as_dict(),
+            "gaps": self.gaps.as_json(),
+            "outliers": self.outliers.as_json(),
+            "tones": [t.as_dict() for t in self.tones],
+            "excluded_taus": [z.as_dict() for z in self.zones],
         }
+
+
+def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: float,
+            policy: OutlierPolicy) -> tuple[NDArray[np.float64], OutlierReport]:
+    """(the present samples to analyse, the report) of one axis under ``policy``."""
+    if policy not in OUTLIER_POLICIES:
+        raise ValueError(f"outlier policy must be one of {', '.join(OUTLIER_POLICIES)}, got {policy!r}")
+    if len(x) < min_samples():
+        return x, OutlierReport(rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}")
+    detection = detect_spikes(x)
+    grid = np.arange(len(x)) if positions is None else positions
+    times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
+    remove = detection.count > 0 and (policy == "remove" or (policy == "auto" and detection.removable))
+    rule = detection.rule_text()
+    if detection.count and policy != "auto":
+        rule += f" (--outliers {policy})"
+    report = OutlierReport(detection, remove, rule, times)
+    return (replace_spikes(x, detection.flags, grid) if remove else x), report
+
+
+def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
+           taus: str | np.ndarray) -> AllanResult:
+    return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
+                          missing="gap" if gapped else "raise")
+
+
+def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    if record.sample_index is None:
+        return x
+    out = np.full(record.span_samples, np.nan)
+    out[record.sample_index] = x
+    return out
 
 
 def analyze_record(
@@ -53,15 +216,80 @@ def analyze_record(
     taus: str | np.ndarray = "log",
     method: FitMethod = DEFAULT_METHOD,
     terms: str = "QNBKR",
+    outliers: OutlierPolicy = "auto",
+    bench: Bench | None = None,
+    deviation_kind: DeviationKind | None = None,
 ) -> list[AxisAnalysis]:
-    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s)."""
-    result = allan_variance(record.rate_deg_s, record.sample_rate_hz, estimator=estimator, taus=taus)
+    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
+
+    Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
+    and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
+    are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
+    The bias is reported with the Earth-rate projection of ``bench`` removed when it
+    gives the axis' latitude and direction. Tones are looked for in every axis
+    (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
+    output filter distorts (:func:`analysis.zones.fit_outside_zones`).
+
+    ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
+    the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
+    own grid). ``deviation_kind`` picks the curve shown (default: the Allan deviation of
+    ``estimator``); the fit and the figures stay on the Allan variance.
+
+    Raises
+    ------
+    UsageError
+        A deviation other than the Allan ones on a record with gaps (only the Allan
+        estimators skip gaps).
+    """
+    fs = record.sample_rate_hz
+    gapped = record.sample_index is not None
+    asked = taus
+    if isinstance(taus, str) and taus == "log" and not gapped:
+        taus = analysis_log_m(record.n_samples) / fs
+    own = "oadev" if estimator == "overlapping" else "adev"
+    if deviation_kind not in (None, own, "oadev", "adev") and gapped:
+        raise UsageError(f"the {DEVIATION_LABELS[deviation_kind]} of a record with gaps is not computed "
+                         f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
+                         f"--start-s/--stop-s")
+    summary = gap_summary(record.present_mask())
+    gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
+    earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
+    cleaned, reports = [], []
+    for i in range(len(record.axis_names)):
+        x, report = _spikes(record.rate_deg_s[:, i], record.sample_index, fs, outliers)
+        cleaned.append(x)
+        reports.append(report)
+    joint = None
+    if not gapped and not any(r.removed for r in reports):
+        joint = allan_variance(record.rate_deg_s, fs, estimator=estimator, taus=taus)
     out = []
     for i, name in enumerate(record.axis_names):
-        axis = result.axis(i)
-        fit = fit_noise_terms(axis, method=method, terms=terms)
-        figures = spec_figures(record.rate_deg_s[:, i], record.sample_rate_hz, axis, fit)
-        out.append(AxisAnalysis(name, record.sample_rate_hz, record.n_samples, axis, fit, figures))
+        grid_rate = _on_grid(record, cleaned[i])
+        axis = joint.axis(i) if joint is not None else _allan(grid_rate, fs, gapped, estimator, taus)
+        alternative, label = None, ""
+        if reports[i].count:
+            other = record.rate_deg_s[:, i] if reports[i].removed else replace_spikes(
+                record.rate_deg_s[:, i], reports[i].detection.flags,  # type: ignore[union-attr]
+                np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
+            alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
+            label = "spikes kept" if reports[i].removed else "spikes removed"
+        tones = find_tones(grid_rate, fs)
+        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
+        analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
+        figures = spec_figures(analysed, fs, axis, fit, zones=zones)
+        notes = [earth_rate_note(bench, name, earth[i])]
+        if gaps.count:
+            notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
+                         f"straddles a gap, tau is true time")
+        if reports[i].count:
+            notes.append(f"spikes: {reports[i].note()}")
+        figures = replace(figures, earth_rate_removed_deg_h=earth[i],
+                          notes=figures.notes + tuple(notes))
+        curve = None
+        if deviation_kind is not None and deviation_kind != own:
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
+        out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
+                                analysed, alternative, label, tones, zones, curve))
     return out
 
 
@@ -72,6 +300,16 @@ def _fmt(value: float | None, stderr: float | None = None) -> str:
     if stderr is not None:
         text += f" +- {stderr:.2g}"
     return text
+
+
+def _interval(ci: tuple[float | None, float | None] | None) -> str:
+    if ci is None or ci[0] is None or ci[1] is None:
+        return "-"
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def _range(taus: tuple[float | None, float | None]) -> str:
+    return "-" if taus[0] is None else f"{taus[0]:.3g}-{taus[1]:.3g}"
 
 
 def format_analysis(axes: list[AxisAnalysis]) -> str:
@@ -85,23 +323,56 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
 
     add("samples", [str(a.n_samples) for a in axes])
     add("duration [h]", [f"{a.n_samples / a.sample_rate_hz / 3600:.3g}" for a in axes])
+    if any(a.gaps.count for a in axes):
+        add("gaps (time missing)", [a.gaps.text() for a in axes])
+    add("spikes", [a.outliers.text() for a in axes])
     add("bias [deg/h]", [_fmt(f.bias_deg_h) for f in figs])
+    add("  Earth rate removed [deg/h]", [_fmt(f.earth_rate_removed_deg_h) if f.earth_rate_removed_deg_h
+                                         is not None else "not removed" for f in figs])
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
+    add("  interval [deg/sqrt(h)]", [_interval(f.arw_ci_deg_rt_h) for f in figs])
+    add("  from tau [s]", [_range(f.arw_tau_range_s) for f in figs])
     add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
+    add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
     labels = {"Q": "Q quantization [urad]", "N": "N ARW [deg/sqrt(h)]", "B": "B bias instability [deg/h]",
               "K": "K rate random walk [deg/h^1.5]", "R": "R rate ramp [deg/h^2]"}
     for term, label in labels.items():
         add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
                              else "negative" for f in fits])
+    add("tones [Hz: deg/s]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+                              for a in axes])
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(v) for _, vals in rows for v in vals))
     header = " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)
     lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
-             f"{len(axes[0].allan.tau_s)} taus", header]
+             f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
     for a in axes:
+        lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
+    if axes and axes[0].curve is not None:
+        lines += format_curve(axes)
     return "\n".join(lines)
+
+
+def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:
+    """The chosen deviation of every axis at a few taus per decade, with its interval."""
+    c0 = axes[0].shown
+    unit, scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
+    lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
+                 f"({c0.interval}); the fit and figures above are on the Allan variance"]
+    logt = np.log10(c0.tau_s)
+    picks = np.unique([int(np.argmin(np.abs(logt - v)))
+                       for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)] + [len(logt) - 1])
+    lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
+    for j in picks:
+        cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "
+                 f"{a.shown.deviation_ci_high[j] * scale:.3g}]" for a in axes]
+        lines.append(f"{c0.tau_s[j]:>10.4g}  " + "  ".join(f"{c:>30}" for c in cells))
+    for a in axes:
+        lines += [f"note ({a.name}): {n}" for n in a.shown.notes]
+    return lines

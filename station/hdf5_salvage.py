@@ -174,7 +174,8 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
                      profile_path=str(root.get("profile_path", "")),
                      operator=str(root.get("operator", "")), lot=str(root.get("lot", "")),
                      station_host=str(root.get("station_host", "")),
-                     software_version=str(root.get("software_version", "")))
+                     software_version=str(root.get("software_version", "")),
+                     bench=str(root.get("bench", "")))
     descriptors = []
     for u in units:
         d = _description(u)

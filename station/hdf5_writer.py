@@ -341,7 +341,7 @@ def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> 
             "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
             "software_version": doc.software_version, "start_utc": doc.start_utc,
             "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
-            "unit_ids": json.dumps(list(doc.unit_ids))}
+            "unit_ids": json.dumps(list(doc.unit_ids)), "bench": doc.bench}
     f.attrs.update(meta)
     f.attrs["duration_requested_s_units"] = "s"
     # Fixed-size so they can be modified in place in SWMR mode and on a full disk.

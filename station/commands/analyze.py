@@ -8,8 +8,10 @@ import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
-from station.analyze import DEFAULT_METHOD, analyze_record, format_analysis
+from station.analyze import DEFAULT_METHOD, OUTLIER_POLICIES, analyze_record, format_analysis
+from station.bench import Bench, bench_from_json, load_bench
 from station.errors import ProfileError, UsageError
 from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
 
@@ -101,21 +103,50 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("analyze", help="Allan deviation, noise-term fit and spec figures of a record",
                        description=__doc__)
     add_record_arguments(p)
-    p.add_argument("--estimator", choices=("overlapping", "clusters"), default="overlapping")
+    p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
+                   help="Allan variance the fit and figures use (default overlapping; clusters "
+                        "with --deviation adev)")
+    p.add_argument("--deviation", choices=DEVIATION_KINDS, default=None,
+                   help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
+                        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
+                        "Allan deviation. The fit and figures stay on the Allan variance")
     p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
-                   help="tau grid: log-spaced (default), octaves, or every m")
+                   help="tau grid: log-spaced to the longest tau with two clusters (default), "
+                        "octaves, or every m")
     p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
                    help=f"fit method (default {DEFAULT_METHOD})")
     p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
+    p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
+                   help="isolated spikes: remove them when few (auto, default), keep, or remove")
+    add_bench_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
+
+
+def add_bench_argument(p: argparse.ArgumentParser) -> None:
+    """``--bench FILE``: latitude and axis directions, so the bias has the Earth rate removed."""
+    p.add_argument("--bench", default=None, metavar="FILE",
+                   help="bench file (latitude, axis directions; docs/bench.md): the bias is "
+                        "reported with the Earth rate removed (run files: default the run's bench)")
+
+
+def bench_for(bench_file: str | None, bench_json: str = "") -> Bench | None:
+    """The bench of ``--bench FILE``, else the one a run file recorded, else None."""
+    return load_bench(bench_file) if bench_file is not None else bench_from_json(bench_json)
 
 
 def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
     record, selection = load_record(args)
-    axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
-                          terms=args.terms)
+    recorded = ""
+    if args.bench is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
+        from station.hdf5 import run_attributes
+
+        recorded = run_attributes(args.file).get("bench", "")
+    estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
+    axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
+                          terms=args.terms, outliers=args.outliers,
+                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation)
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
