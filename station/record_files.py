@@ -20,6 +20,7 @@ import gzip
 import io
 import math
 import warnings
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -179,6 +180,16 @@ def read_csv_record(
     path = Path(path)
     if units not in UNIT_TO_DEG_S:
         raise RecordFormatError(f"unknown rate unit {units!r}; use one of {', '.join(UNIT_TO_DEG_S)}")
+    try:
+        return _read_csv(path, sample_rate_hz, units)
+    except (UnicodeDecodeError, EOFError, zlib.error, gzip.BadGzipFile) as exc:
+        raise RecordFormatError(f"{path}: not a text CSV record (its bytes are not UTF-8 "
+                                f"text{' compressed with gzip' if path.suffix == '.gz' else ''}"
+                                f": {type(exc).__name__}); give a CSV file or a run file "
+                                f"(.h5)") from None
+
+
+def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecord:
     with _open_text(path) as fh:
         header: list[str] | None = None
         header_line = 0
@@ -338,6 +349,8 @@ def read_record(
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
+    if path.is_dir():
+        raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
     if path.suffix.lower() in (".h5", ".hdf5"):
         from station.hdf5 import read_run_record  # the recorder's layout (imports this module)
 

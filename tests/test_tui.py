@@ -29,7 +29,7 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5 import RunFileWriter
+from station.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
 from station.tui.launcher import (

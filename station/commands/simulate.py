@@ -38,7 +38,8 @@ from station.documents import (
     utc_now,
 )
 from station.errors import UsageError
-from station.hdf5 import REASON_DURATION, RunFileWriter
+from station.hdf5 import REASON_DURATION
+from station.hdf5_writer import RunFileWriter
 from station.record_files import write_csv_record
 
 #: Seconds per unit of a duration suffix.
