@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from analysis.fit import FIT_METHODS
-from station.analyze import DEFAULT_METHOD, analyze_record, format_analysis
+from station.analyze import DEFAULT_METHOD, GMWM_METHOD, analyze_record, format_analysis
 from station.errors import ProfileError, UsageError
 from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
 
@@ -104,18 +104,39 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--estimator", choices=("overlapping", "clusters"), default="overlapping")
     p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
                    help="tau grid: log-spaced (default), octaves, or every m")
-    p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
-                   help=f"fit method (default {DEFAULT_METHOD})")
+    p.add_argument("--method", choices=(*FIT_METHODS, GMWM_METHOD), default=DEFAULT_METHOD,
+                   help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized method of "
+                        f"wavelet moments beside the {DEFAULT_METHOD} Allan fit")
     p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
+    p.add_argument("--model", default="auto", metavar="MODEL",
+                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, rw, dr "
+                        "(e.g. 'wn+gm+rw', 'wn+qn+gm+gm+rw'), or auto (default): ranked by the WIC")
+    p.add_argument("--robust", action="store_true",
+                   help="--method gmwm: robust (Huber-type) wavelet variance, for records with outliers")
+    p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
+                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance with "
+                        "the GMWM and the Allan fit's curves")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
+    if args.method != GMWM_METHOD and (args.model != "auto" or args.robust):
+        raise UsageError("--model and --robust go with --method gmwm")
     record, selection = load_record(args)
+    if args.method == GMWM_METHOD:
+        print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
+              file=sys.stderr, flush=True)
     axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
-                          terms=args.terms)
+                          terms=args.terms, gmwm_model=args.model, robust=args.robust)
+    if args.png is not None:
+        from station.plots import (  # matplotlib: only when a plot is asked for
+            plot_allan,
+            plot_wavelet,
+        )
+
+        (plot_wavelet if args.method == GMWM_METHOD else plot_allan)(axes, args.png, title=str(args.file))
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
@@ -128,4 +149,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
                   f"(warm-up {selection.warmup_s:g} s from {selection.warmup_from})")
         print(format_analysis(axes))
+        if args.png is not None:
+            print(f"figure: {args.png}")
     return 0
