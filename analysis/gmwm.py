@@ -54,7 +54,7 @@ from analysis.wavelet import WaveletVariance
 
 #: Correlation-time grid points per octave for one, two, three or more shaped terms.
 GRID_PER_OCTAVE = {1: 4, 2: 2, 3: 1}
-#: Starts refined by least squares (best grid points, plus the Allan start).
+#: Starts refined by least squares with two or more correlation times (else the best one).
 REFINED_STARTS = 2
 #: Condition number above which V falls back to its diagonal.
 MAX_CONDITION = 1e13
@@ -293,31 +293,35 @@ class _Problem:
                 x[iv] = max(float(beta), 0.0) / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 
-    def refine(self, starts: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-        best, best_obj = None, math.inf
+    def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
+        """Least squares from the ``count`` starts of lowest objective; the best solution."""
+        ready = []
         for x0 in starts:
             x0 = np.clip(x0, self.lower, self.upper)
             x0[self.var_idx] = np.maximum(x0[self.var_idx], 1e-9)
+            ready.append((self.objective(x0), x0))
+        ready.sort(key=lambda item: item[0])
+        best, best_obj = ready[0][1], ready[0][0]
+        for _, x0 in ready[:count]:
             sol = optimize.least_squares(self.residual, x0, jac=self.jacobian, bounds=(self.lower, self.upper),
                                          method="trf", x_scale="jac", xtol=1e-9, ftol=1e-9, gtol=1e-9,
                                          max_nfev=200)
             obj = float(sol.fun @ sol.fun)
             if obj < best_obj:
                 best, best_obj = sol.x, obj
-        assert best is not None
         return best
 
-    def solve(self, previous: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-        """Minimize M1 under the current weights: from the grid and the Allan fit, or, when
+    def solve(self, previous: NDArray[np.float64] | None = None, *, allan: bool = True) -> NDArray[np.float64]:
+        """Minimize M1 under the current weights: from the grid (and the Allan fit), or, when
         re-weighting, from the ``previous`` solution (M1 moves little with the weights)."""
         if previous is not None:
-            return self.refine([previous])
-        grid = self.grid_starts(REFINED_STARTS if len(self.shape_idx) > 1 else 1)
-        starts = list(grid)
-        allan = self.allan_start(grid[0])
-        if allan is not None:
-            starts.append(allan)
-        return self.refine(starts)
+            return self.refine([previous], 1)
+        count = REFINED_STARTS if len(self.shape_idx) > 1 else 1
+        starts = self.grid_starts(count)
+        start = self.allan_start(starts[0]) if allan else None
+        if start is not None:
+            starts.append(start)
+        return self.refine(starts, count)
 
     def free(self, x: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Parameters not held at a bound (a shape is free only when its variance is)."""
@@ -438,5 +442,5 @@ def gmwm_with_covariance(wv: WaveletVariance, model: GmwmModel | str, v: NDArray
     _check(model, wv)
     problem = _Problem(model, wv)
     kind = problem.set_weights(v)
-    x = problem.solve()
+    x = problem.solve(allan=False)
     return _finish(problem, x, "reference" if kind == "efficient" else "diagonal", confidence)

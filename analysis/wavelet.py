@@ -166,8 +166,8 @@ def haar_coefficients(theta: NDArray[np.float64], m: int, sample_rate_hz: float)
     return w
 
 
-def _lag_sum(w: NDArray[np.float64], width: int) -> float:
-    """``A = sum_{|l| <= LAG_WIDTHS width} c(l)^2`` of one column (c: sample autocovariance).
+def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
+    """``A = sum_{|l| <= LAG_WIDTHS width} c(l)^2`` per column of ``w`` (c: sample autocovariance).
 
     Width up to ``LAG_THIN``: every lag, summed. Wider: lags ``i d`` (``d = width /
     LAG_THIN``) and Simpson's rule over them, ``A = 2 int_0 c(l)^2 dl`` (exact for the
@@ -179,28 +179,25 @@ def _lag_sum(w: NDArray[np.float64], width: int) -> float:
     """
     thin = max(1, width // LAG_THIN)
     x = w[::thin]
-    n = len(x)
+    n = x.shape[0]
     max_lag = min(LAG_WIDTHS * width // thin, n - 1)
     if thin > 1:
         max_lag -= max_lag % 2
     if n - max_lag <= LAG_PRODUCTS:
-        x = np.ascontiguousarray(x)
-        rows, length = x[None, :], n - max_lag
-        c = np.array([float(np.dot(x[: n - i], x[i:])) / (n - i) for i in range(max_lag + 1)])
+        c = np.array([np.einsum("ij,ij->j", x[: n - i], x[i:]) / (n - i) for i in range(max_lag + 1)])
     else:
         n_blocks = LAG_PRODUCTS // LAG_BLOCK
         starts = np.linspace(0, n - LAG_BLOCK - max_lag, n_blocks).astype(np.int64)
         rows = x[starts[:, None] + np.arange(LAG_BLOCK + max_lag)[None, :]]
-        length = LAG_BLOCK
-        head = rows[:, :length]
-        c = np.array([float(np.einsum("ij,ij->", head, rows[:, i:i + length])) / head.size
+        head = rows[:, :LAG_BLOCK]
+        c = np.array([np.einsum("bij,bij->j", head, rows[:, i:i + LAG_BLOCK]) / (n_blocks * LAG_BLOCK)
                       for i in range(max_lag + 1)])
     c2 = c * c
     if thin == 1 or max_lag < 2:
-        return float(c2[0] + 2.0 * c2[1:].sum()) * thin
+        return (c2[0] + 2.0 * c2[1:].sum(axis=0)) * thin
     simpson = np.ones(max_lag + 1)
     simpson[1:-1:2], simpson[2:-1:2] = 4.0, 2.0
-    return float(2.0 * thin / 3.0 * (simpson * c2).sum())
+    return 2.0 * thin / 3.0 * (simpson[:, None] * c2).sum(axis=0)
 
 
 def huber_delta(c: float) -> float:
@@ -323,11 +320,12 @@ def haar_wavelet_variance(
     a_sum = np.empty((len(m_values), k))
     for i, m in enumerate(m_values):
         w = haar_coefficients(theta, int(m), fs)
-        for col in range(k):
-            wc = w[:, col]
-            wv[i, col] = robust_scale2(wc, c) if robust else float(np.dot(wc, wc)) / len(wc)
-            if ci != "eta3":
-                a_sum[i, col] = _lag_sum(wc, 2 * int(m))
+        if robust:
+            wv[i] = [robust_scale2(w[:, col], c) for col in range(k)]
+        else:
+            wv[i] = np.einsum("ij,ij->j", w, w) / w.shape[0]
+        if ci != "eta3":
+            a_sum[i] = _lag_sum(w, 2 * int(m))
     n_coef = (n - 2 * m_values + 1).astype(np.int64)
     if ci == "eta3":
         edf = np.broadcast_to(np.maximum(n_coef / (2.0 * m_values), 1.0)[:, None], wv.shape).copy()

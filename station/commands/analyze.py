@@ -9,6 +9,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from analysis.fit import FIT_METHODS
+from analysis.gmwm_models import GmwmModel
 from station.analyze import DEFAULT_METHOD, GMWM_METHOD, analyze_record, format_analysis
 from station.errors import ProfileError, UsageError
 from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
@@ -124,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
     if args.method != GMWM_METHOD and (args.model != "auto" or args.robust):
         raise UsageError("--model and --robust go with --method gmwm")
+    if args.method == GMWM_METHOD and args.model.strip().lower() != "auto":
+        GmwmModel.parse(args.model)  # a bad model string fails before the record is read
     record, selection = load_record(args)
     if args.method == GMWM_METHOD:
         print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
