@@ -13,6 +13,15 @@ the data alone), then the full ``V`` of :mod:`analysis.gmwm_covariance` at the f
 estimate, and once more at the second (``steps``). When that matrix cannot be factored
 (or with ``weights="diagonal"``), its diagonal is used: the diagonal fallback.
 
+**Misspecified models.** A record of a million samples resolves the finest scales' WV
+to 0.1 %, better than any model of a real sensor holds (an anti-alias filter, the output
+quantization). With efficient weights such a model is then fitted through those scales at
+the price of every other, and the strongly correlated ``V`` can even put the fitted curve
+above all the data. When the J test below rejects the model (``p < REJECT_P``), its
+weights get a relative floor ``(model_error nu(theta))^2`` on the diagonal of ``V`` (2 %,
+the floor of the ``logwls`` Allan fit) and it is refitted; ``weights`` then ends in
+``"+floor"``. A model that holds keeps the efficient weights.
+
 **Solution.** For fixed correlation times the model is linear in its variance parameters,
 so M1 is a non-negative least-squares problem in them; a grid over the correlation times
 (``GRID_PER_OCTAVE``, ordered ``T_1 < T_2 < ...``) with NNLS in the variances gives global
@@ -47,7 +56,7 @@ from scipy import linalg, optimize, stats
 from analysis.allan import AllanResult
 from analysis.confidence import ONE_SIGMA
 from analysis.errors import FitError, TooFewSamplesError
-from analysis.fit import BETA_FACTOR, fit_noise_terms
+from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm_covariance import wv_covariance
 from analysis.gmwm_models import GmwmModel
 from analysis.wavelet import WaveletVariance
@@ -58,6 +67,8 @@ GRID_PER_OCTAVE = {1: 4, 2: 2, 3: 1}
 REFINED_STARTS = 2
 #: Condition number above which V falls back to its diagonal.
 MAX_CONDITION = 1e13
+#: A model whose J test gives a p-value below this gets the model-error floor in its weights.
+REJECT_P = 1e-3
 #: Five-term Allan fit letter of each GMWM term.
 ALLAN_TERM = {"qn": "Q", "wn": "N", "bi": "B", "rw": "K", "dr": "R"}
 
@@ -85,7 +96,8 @@ class GmwmFit:
         P(chi2_dof >= J); NaN with no degree of freedom.
     weights : str
         ``"efficient"`` (full V), ``"diagonal"`` (its diagonal) or ``"reference"`` (the
-        V of another model, as in model selection).
+        V of another model, as in model selection); ``"+floor"`` when the model was
+        rejected and its weights floored (``model_error``).
     tau_s, wv, model_wv : ndarray
         Averaging times (s), empirical and fitted wavelet variance ((deg/s)^2).
     sample_rate_hz : float
@@ -93,6 +105,8 @@ class GmwmFit:
     free : tuple of bool
         Which parameters are not held at a bound.
     confidence : float
+    model_error : float
+        The relative floor added to the weights' variances (0: none).
     """
 
     model: GmwmModel
@@ -113,6 +127,7 @@ class GmwmFit:
     n_samples: int
     free: tuple[bool, ...]
     confidence: float = ONE_SIGMA
+    model_error: float = 0.0
 
     @property
     def n_free(self) -> int:
@@ -311,17 +326,21 @@ class _Problem:
                 best, best_obj = sol.x, obj
         return best
 
-    def solve(self, previous: NDArray[np.float64] | None = None, *, allan: bool = True) -> NDArray[np.float64]:
+    def solve(self, previous: NDArray[np.float64] | None = None, *, allan: bool = True,
+              fresh: bool = False) -> NDArray[np.float64]:
         """Minimize M1 under the current weights: from the grid (and the Allan fit), or, when
-        re-weighting, from the ``previous`` solution (M1 moves little with the weights)."""
-        if previous is not None:
+        re-weighting, from the ``previous`` solution (M1 moves little with the weights);
+        ``fresh`` adds the grid and the Allan fit to ``previous`` (the weights changed much)."""
+        if previous is not None and not fresh:
             return self.refine([previous], 1)
         count = REFINED_STARTS if len(self.shape_idx) > 1 else 1
         starts = self.grid_starts(count)
         start = self.allan_start(starts[0]) if allan else None
         if start is not None:
             starts.append(start)
-        return self.refine(starts, count)
+        if previous is not None:
+            starts.append(previous)
+        return self.refine(starts, count + (previous is not None))
 
     def free(self, x: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Parameters not held at a bound (a shape is free only when its variance is)."""
@@ -340,7 +359,8 @@ class _Problem:
 # --------------------------------------------------------------------------------- fitting
 
 
-def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence: float) -> GmwmFit:
+def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence: float,
+            model_error: float = 0.0) -> GmwmFit:
     model, dt = problem.model, problem.dt
     x = np.array(x, dtype=float)
     free = problem.free(x)
@@ -375,7 +395,7 @@ def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence:
                    ci_high=high, objective=obj, dof=dof, p_value=p_value, weights=weights,
                    tau_s=problem.tau, wv=problem.nu, model_wv=model.wv(params, problem.tau, dt),
                    sample_rate_hz=problem.wv.sample_rate_hz, n_samples=problem.wv.n_samples,
-                   free=tuple(bool(f) for f in free), confidence=confidence)
+                   free=tuple(bool(f) for f in free), confidence=confidence, model_error=model_error)
 
 
 def _as_model(model: GmwmModel | str) -> GmwmModel:
@@ -391,7 +411,7 @@ def _check(model: GmwmModel, wv: WaveletVariance) -> None:
 
 
 def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficient", steps: int = 2,
-         confidence: float = ONE_SIGMA) -> GmwmFit:
+         confidence: float = ONE_SIGMA, model_error: float = DEFAULT_MODEL_ERROR) -> GmwmFit:
     """Fit a noise model to a single-axis Haar wavelet variance by the GMWM (eq. M1).
 
     Parameters
@@ -407,6 +427,10 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         Re-estimations of ``V`` after the first (nonparametric, diagonal) step.
     confidence : float
         Two-sided level of the parameter intervals (default +-1 sigma).
+    model_error : float
+        Relative accuracy (of the WV) to which a model the J test rejects (p < ``REJECT_P``)
+        is trusted: its weights are then refitted with this floor (default 2 %, the floor of
+        the ``logwls`` Allan fit); 0 keeps the efficient weights whatever the fit.
 
     Returns
     -------
@@ -426,12 +450,30 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
     problem = _Problem(model, wv)
     problem.set_weights(np.diag(np.asarray(wv.variance, dtype=float)), diagonal=True)
     x = problem.solve()
-    used = "diagonal"
+    used, floor = "diagonal", 0.0
     for _ in range(max(steps, 0)):
-        v = wv_covariance(model, problem.theta(x), wv.m, wv.n_samples, wv.sample_rate_hz)
+        v = weight_covariance(model, problem.theta(x), wv, floor)
         used = problem.set_weights(v, diagonal=weights == "diagonal")
         x = problem.solve(previous=x)
-    return _finish(problem, x, used, confidence)
+    dof = len(wv.tau_s) - int(problem.free(x).sum())
+    if model_error > 0 and steps > 0 and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
+        # the record resolves the scales better than the model holds: cap their weight
+        floor = model_error
+        for _ in range(max(steps, 1)):
+            v = weight_covariance(model, problem.theta(x), wv, floor)
+            used = problem.set_weights(v, diagonal=weights == "diagonal") + "+floor"
+            x = problem.solve(previous=x, fresh=True)
+    return _finish(problem, x, used, confidence, floor)
+
+
+def weight_covariance(model: GmwmModel, params: NDArray[np.float64], wv: WaveletVariance,
+                      model_error: float = 0.0) -> NDArray[np.float64]:
+    """``V`` of the weights: the model-based covariance of the WV (:mod:`analysis.gmwm_covariance`)
+    plus ``(model_error nu(theta))^2`` on the diagonal (the floor of a rejected model)."""
+    v = wv_covariance(model, params, wv.m, wv.n_samples, wv.sample_rate_hz)
+    if model_error > 0:
+        v = v + np.diag((model_error * model.wv(params, wv.tau_s, 1.0 / wv.sample_rate_hz)) ** 2)
+    return v
 
 
 def gmwm_with_covariance(wv: WaveletVariance, model: GmwmModel | str, v: NDArray[np.float64], *,

@@ -1,7 +1,8 @@
 """GMWM model selection: candidate models ranked by the wavelet information criterion.
 
 Every candidate is fitted (:mod:`analysis.gmwm`) with the same weights, ``V^-1`` of the
-largest candidate's efficient fit, so that their objectives compare, and ranked by
+largest candidate's efficient fit (with its model-error floor when that model is
+rejected), so that their objectives compare, and ranked by
 
     WIC = J + 2 tr(Omega D (D' Omega D)^-1 D' Omega V)                                 (S1)
 
@@ -28,8 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from analysis.confidence import ONE_SIGMA
-from analysis.gmwm import GmwmFit, gmwm, gmwm_with_covariance
-from analysis.gmwm_covariance import wv_covariance
+from analysis.gmwm import GmwmFit, gmwm, gmwm_with_covariance, weight_covariance
 from analysis.gmwm_models import GmwmModel, GmwmModelError
 from analysis.wavelet import WaveletVariance, haar_wavelet_variance
 
@@ -121,7 +121,7 @@ def select_model(wv: WaveletVariance, candidates: Sequence[str] | None = None, *
         raise GmwmModelError(f"no candidate model has fewer parameters than the {len(wv.tau_s)} scales")
     reference = max(usable, key=lambda n: GmwmModel.parse(n).n_params)
     ref_fit = gmwm(wv, reference, steps=steps, confidence=confidence)
-    v_ref = wv_covariance(ref_fit.model, ref_fit.params, wv.m, wv.n_samples, wv.sample_rate_hz)
+    v_ref = weight_covariance(ref_fit.model, ref_fit.params, wv, ref_fit.model_error)
     fits = {}
     ranking = []
     for name in usable:

@@ -170,3 +170,18 @@ def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
     # the Allan curve's shoulder at 3-40 s (README): a Gauss-Markov of a few seconds
     assert "gm" in sel.best.model.codes and any(1.0 < t < 10.0 for t in taus), sel.best.values
     assert sel.best.values["wn_deg_rt_h"] == pytest.approx(1.94, rel=0.03)
+
+
+def test_a_model_the_record_rejects_gets_floored_weights_and_follows_the_data():
+    from analysis.models import BiasInstability
+
+    flicker = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0), BiasInstability(B_deg_h=30.0)))
+    wv = haar_wavelet_variance(rate_of(flicker, 12, 200_000), FS)
+    exact = gmwm(wv, "wn+rw", model_error=0.0)
+    floored = gmwm(wv, "wn+rw")
+    assert exact.p_value < 1e-3 and exact.weights == "efficient"
+    assert floored.weights == "efficient+floor" and floored.model_error == pytest.approx(0.02)
+    # with the floor the wrong model still runs through the data, above it at some scales only
+    above = np.mean(floored.model_wv > wv.wv)
+    assert 0.2 < above < 0.8, floored.model_wv / wv.wv
+    assert np.median(np.abs(np.log(floored.model_wv / wv.wv))) < np.median(np.abs(np.log(exact.model_wv / wv.wv)))
