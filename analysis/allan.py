@@ -38,6 +38,7 @@ from analysis.errors import (
 Estimator = Literal["overlapping", "clusters"]
 InputKind = Literal["rate", "angle_increment"]
 TauGrid = Literal["log", "octave", "all"]
+Missing = Literal["raise", "gap"]
 
 
 class AllanDeviationMixin:
@@ -493,8 +494,21 @@ def allan_variance(
     taus: TauGrid | ArrayLike = "log",
     input_kind: InputKind = "rate",
     confidence: float = ONE_SIGMA,
+    missing: Missing = "raise",
 ) -> AllanResult:
-    """Allan variance with the named estimator (``"overlapping"`` or ``"clusters"``)."""
+    """Allan variance with the named estimator (``"overlapping"`` or ``"clusters"``).
+
+    ``missing="gap"`` reads NaN samples as missing ones on the record's time grid: no
+    difference straddles them (:func:`analysis.gaps.gap_allan_variance`); the default
+    refuses them (:class:`NonFiniteSamplesError`).
+    """
+    if missing == "gap":
+        from analysis.gaps import gap_allan_variance  # analysis.gaps builds on this module
+
+        return gap_allan_variance(samples, sample_rate_hz, estimator=estimator, taus=taus,
+                                  input_kind=input_kind, confidence=confidence)
+    if missing != "raise":
+        raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
     if estimator == "overlapping":
         fn = overlapping_allan_variance
     elif estimator == "clusters":

@@ -46,19 +46,40 @@ def bias_stability(
 ) -> BiasStability:
     """Bias stability (deg/h): std (ddof=1) of ``average_s``-second means of a 1-D rate record.
 
-    Returns a value of ``None`` when the record holds fewer than 3 whole averages.
+    NaN marks a missing sample (a record with gaps on its time grid): an average that
+    would include one is left out. Returns a value of ``None`` when the record holds
+    fewer than 3 whole averages.
     """
     fs = check_sample_rate(sample_rate_hz)
-    x = as_samples(rate_deg_s)[:, 0]
+    x, gapped = _rate_column(rate_deg_s)
     m = int(round(average_s * fs))
     if m < 1:
         raise ValueError(f"averaging time {average_s} s is shorter than one sample at {fs} Hz")
     count = len(x) // m
+    if gapped:
+        means = x[: count * m].reshape(count, m).mean(axis=1)
+        means = means[np.isfinite(means)]
+        count = len(means)
     if count < 3:
         return BiasStability(average_s, None, count)
-    std = float(measure_bias_stability(x, fs, average_s=average_s))
+    if gapped:
+        std = float(np.std(means, ddof=1)) * S_PER_H
+    else:
+        std = float(measure_bias_stability(x, fs, average_s=average_s))
     low, high = chi2_interval(std**2, count - 1)
     return BiasStability(average_s, std, count, math.sqrt(float(low)), math.sqrt(float(high)))
+
+
+def _rate_column(rate_deg_s: ArrayLike) -> tuple[NDArray[np.float64], bool]:
+    """A 1-D rate record and whether it has missing samples (NaN); infinities are refused."""
+    x = np.asarray(rate_deg_s, dtype=np.float64)
+    x = x.reshape(-1) if x.ndim == 2 and x.shape[1] == 1 else x
+    missing = np.isnan(x)
+    if not missing.any():
+        return as_samples(x)[:, 0], False
+    if x.ndim != 1 or np.isinf(x).any() or missing.all():
+        raise ValueError("a rate record with gaps must be 1-D with NaN only where samples are missing")
+    return x, True
 
 
 @dataclass(frozen=True)
@@ -142,6 +163,8 @@ class SpecFigures:
     rrw_deg_h_1_5: float | None
     rate_ramp_deg_h2: float | None
     notes: tuple[str, ...] = ()
+    #: Earth-rate projection taken off the bias (deg/h); None when it was not removed.
+    earth_rate_removed_deg_h: float | None = None
 
     def as_dict(self) -> dict[str, object]:
         """JSON form (tuples become lists)."""
@@ -159,7 +182,7 @@ def spec_figures(
     Parameters
     ----------
     rate_deg_s : array_like, shape (N,)
-        The axis' rate record in deg/s.
+        The axis' rate record in deg/s, NaN where a sample is missing (a record with gaps).
     sample_rate_hz : float
         Sample rate in Hz.
     result : AllanResult
@@ -167,7 +190,7 @@ def spec_figures(
     fit : NoiseCoefficients
         The axis' five-term fit.
     """
-    x = as_samples(rate_deg_s)[:, 0]
+    x, _ = _rate_column(rate_deg_s)
     bs10 = bias_stability(x, sample_rate_hz, 10.0)
     bs100 = bias_stability(x, sample_rate_hz, 100.0)
     arw = arw_readoff(result)
@@ -178,7 +201,7 @@ def spec_figures(
     if bs100.value_deg_h is None:
         notes += (f"bias stability 100 s: only {bs100.n_averages} averages, needs 3",)
     return SpecFigures(
-        bias_deg_h=float(np.mean(x)) * S_PER_H,
+        bias_deg_h=float(np.nanmean(x)) * S_PER_H,
         bias_stability_10s_deg_h=bs10.value_deg_h,
         bias_stability_100s_deg_h=bs100.value_deg_h,
         arw_deg_rt_h=arw.value,

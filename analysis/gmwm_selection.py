@@ -136,7 +136,7 @@ def select_model(wv: WaveletVariance, candidates: Sequence[str] | None = None, *
 
 
 def gmwm_analysis(rate: ArrayLike, sample_rate_hz: float, *, model: str = "auto", robust: bool = False,
-                  confidence: float = ONE_SIGMA) -> GmwmSelection:
+                  confidence: float = ONE_SIGMA, gaps: bool = False) -> GmwmSelection:
     """Haar wavelet variance of one axis and its GMWM fit: a given model, or ``"auto"`` selection.
 
     With a given model the ranking holds that model alone, with its WIC (J + 2 free
@@ -154,12 +154,14 @@ def gmwm_analysis(rate: ArrayLike, sample_rate_hz: float, *, model: str = "auto"
         Use the robust (Huber-type) wavelet variance.
     confidence : float
         Level of the parameter and WV intervals.
+    gaps : bool
+        NaN samples are missing (:func:`analysis.wavelet.haar_wavelet_variance`).
 
     Raises
     ------
     GmwmModelError, FitError, TooFewSamplesError, NonFiniteSamplesError
     """
-    wv = haar_wavelet_variance(rate, sample_rate_hz, robust=robust, confidence=confidence)
+    wv = haar_wavelet_variance(rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps)
     if np.ndim(wv.wv) != 1:
         raise GmwmModelError("gmwm_analysis takes one axis; pass a 1-D rate")
     if model.strip().lower() == "auto":

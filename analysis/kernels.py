@@ -177,6 +177,70 @@ def overlapping_sums(
     return out
 
 
+def _stretch_sums_numpy(theta_t: NDArray[np.float64], m_arr: NDArray[np.int64],
+                        starts: NDArray[np.int64], stops: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Cache-blocked numpy kernel of :func:`overlapping_stretch_sums` (axis-major angle)."""
+    n_axes, n_points = theta_t.shape
+    # the end (exclusive) of the stretch each term index starts in
+    stretch_end = np.repeat(stops, stops - starts)
+    out = np.zeros((len(m_arr), n_axes))
+    buf = np.empty(_NUMPY_BLOCK)
+    for i, m in enumerate(m_arr):
+        length = n_points - 2 * m
+        for lo in range(0, max(length, 0), _NUMPY_BLOCK):
+            hi = min(lo + _NUMPY_BLOCK, length)
+            keep = (np.arange(lo, hi) + 2 * m <= stretch_end[lo:hi]).astype(float)
+            for c in range(n_axes):
+                th = theta_t[c]
+                d = buf[: hi - lo]
+                np.subtract(th[lo + 2 * m : hi + 2 * m], th[lo + m : hi + m], out=d)
+                d -= th[lo + m : hi + m]
+                d += th[lo:hi]
+                out[i, c] += float(np.einsum("i,i,i->", d, d, keep))
+    return out
+
+
+def overlapping_stretch_sums(
+    theta: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64],
+    stops: NDArray[np.int64], *, backend: Backend = "auto",
+) -> NDArray[np.float64]:
+    """Overlapping Allan sums of a record cut into gap-free stretches, per m and axis.
+
+    Only the second differences ``theta[k+2m] - 2 theta[k+m] + theta[k]`` whose ``2m``
+    samples all lie in one stretch are summed (:mod:`analysis.gaps`).
+
+    Parameters
+    ----------
+    theta : ndarray, shape (n + 1, k)
+        Cumulative angle of the concatenated present samples (leading zero).
+    m_values : ndarray of int, shape (n_m,)
+        Averaging factors (samples), ``1 <= m <= n / 2``.
+    starts, stops : ndarray of int, shape (n_stretches,)
+        Each stretch's first and one-past-last sample index into the concatenated
+        samples, in order, covering ``0 .. n`` without overlap.
+    backend : {"auto", "numpy", "numba"}
+        Kernel to use; ``"auto"`` takes numba when it is installed.
+
+    Returns
+    -------
+    ndarray, shape (n_m, k)
+        Sums in (angle unit)^2. With one stretch, :func:`overlapping_sums`.
+    """
+    m_arr = _check_m(m_values, theta.shape[0])
+    starts = np.ascontiguousarray(starts, dtype=np.int64)
+    stops = np.ascontiguousarray(stops, dtype=np.int64)
+    if starts.size == 0 or starts[0] != 0 or stops[-1] != theta.shape[0] - 1 or np.any(starts[1:] != stops[:-1]):
+        raise ValueError("stretches must cover the samples in order, each starting where the last stopped")
+    theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
+    kernels = _pick(backend)
+    if kernels is None or m_arr.size == 0:
+        return _stretch_sums_numpy(theta_t, m_arr, starts, stops)
+    out = np.empty((len(m_arr), theta_t.shape[0]))
+    with _COMPILED_LAUNCH:
+        kernels.oadev_stretch_sums(theta_t, m_arr, starts, stops, out)
+    return out
+
+
 # ------------------------------------------------------------------------ DAVAR window sums
 
 

@@ -24,6 +24,26 @@ def oadev_sums(theta_t, m_values, out):
 
 
 @numba.njit(parallel=True, cache=True)
+def oadev_stretch_sums(theta_t, m_values, starts, stops, out):
+    """``out[i, c]``: sum of ``Delta_m(k)^2`` over the k whose ``2m`` samples lie in one stretch.
+
+    Stretch j holds samples ``starts[j] .. stops[j] - 1`` of the concatenated record, so
+    its terms are ``k = starts[j] .. stops[j] - 2m``; each is a span of :func:`_span_sum`.
+    """
+    n_axes = theta_t.shape[0]
+    for job in numba.prange(m_values.shape[0] * n_axes):
+        i = job // n_axes
+        c = job % n_axes
+        m = m_values[i]
+        total = 0.0
+        for j in range(starts.shape[0]):
+            hi = stops[j] + 1 - 2 * m
+            if hi > starts[j]:
+                total += _span_sum(theta_t[c], m, starts[j], hi)
+        out[i, c] = total
+
+
+@numba.njit(parallel=True, cache=True)
 def window_sums(theta, m_values, starts, window, out):
     """``out[i, j]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
 

@@ -259,6 +259,7 @@ def haar_wavelet_variance(
     efficiency: float = ROBUST_EFFICIENCY,
     min_blocks: int = MIN_BLOCKS,
     max_level: int | None = None,
+    gaps: bool = False,
 ) -> WaveletVariance:
     """Haar MODWT wavelet variance (unbiased, eq. W2) at every dyadic averaging time.
 
@@ -281,6 +282,10 @@ def haar_wavelet_variance(
         The longest averaging time has ``m <= N / min_blocks``.
     max_level : int, optional
         At most this many levels.
+    gaps : bool
+        NaN samples are missing (a record with gaps on its sample grid): only coefficients
+        whose Haar window holds no missing sample count, ``M_j`` is their number and
+        ``n_samples`` the number of samples present.
 
     Returns
     -------
@@ -306,7 +311,15 @@ def haar_wavelet_variance(
     if not 0 < confidence < 1:
         raise ValueError(f"confidence must be in (0, 1), got {confidence}")
     fs = check_sample_rate(sample_rate_hz)
-    arr = as_samples(samples)
+    missing = None
+    if gaps:
+        raw = np.asarray(samples, dtype=np.float64)
+        raw = raw[:, None] if raw.ndim == 1 else raw
+        missing = np.isnan(raw)
+        samples_in = np.where(missing, np.nanmean(raw, axis=0), raw)
+        arr = as_samples(samples_in)
+    else:
+        arr = as_samples(samples)
     n = arr.shape[0]
     m_values = dyadic_m(n, min_blocks=min_blocks, max_level=max_level)
     if m_values.size == 0:
@@ -318,15 +331,26 @@ def haar_wavelet_variance(
     k = arr.shape[1]
     wv = np.empty((len(m_values), k))
     a_sum = np.empty((len(m_values), k))
+    n_coef = (n - 2 * m_values + 1).astype(np.int64)
+    # missing samples in the window [t, t + 2m) of each coefficient, per column
+    holes = None if missing is None else np.concatenate([np.zeros((1, k)), np.cumsum(missing, axis=0)])
     for i, m in enumerate(m_values):
         w = haar_coefficients(theta, int(m), fs)
+        share = np.ones(k)
+        if holes is not None:
+            bad = (holes[2 * m:] - holes[: -2 * m]) > 0
+            w[bad] = 0.0
+            count = np.maximum((~bad).sum(axis=0), 1)
+            n_coef[i] = int(count.min())
+            share = count / w.shape[0]
         if robust:
-            wv[i] = [robust_scale2(w[:, col], c) for col in range(k)]
+            wv[i] = [robust_scale2(w[:, col] if holes is None else w[~bad[:, col], col], c) for col in range(k)]
         else:
-            wv[i] = np.einsum("ij,ij->j", w, w) / w.shape[0]
+            wv[i] = np.einsum("ij,ij->j", w, w) / (w.shape[0] * share)
         if ci != "eta3":
-            a_sum[i] = _lag_sum(w, 2 * int(m))
-    n_coef = (n - 2 * m_values + 1).astype(np.int64)
+            a_sum[i] = _lag_sum(w, 2 * int(m)) / share**2
+    if missing is not None:
+        n = int(n - missing.sum(axis=0).max())
     if ci == "eta3":
         edf = np.broadcast_to(np.maximum(n_coef / (2.0 * m_values), 1.0)[:, None], wv.shape).copy()
         variance = 2.0 * wv**2 / edf / eff

@@ -45,7 +45,14 @@ from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
 from devices.sim.faults import Ledger
 from devices.sim.modbus_server import ModbusGyroServer
-from devices.sim.params import FAULT_KEYS, SimParams, parse_sim_params, query_number, sim_core
+from devices.sim.params import (
+    BENCH_KEYS,
+    FAULT_KEYS,
+    SimParams,
+    parse_sim_params,
+    query_number,
+    sim_core,
+)
 from devices.sim.process import MulticastChannel, SimulatorProcess
 from devices.sim.serial_device import PtySerialDevice
 from devices.stream import StreamRateSource
@@ -125,7 +132,7 @@ class OpenedDevice:
 #: URL keys that say how to run a simulation or record a session, not how to talk to the
 #: device: a hardware URL of a served simulation and a capture's replay URL drop them.
 _NOT_PROTOCOL_KEYS = frozenset({"model", "warp", "seed", "history", "interface", "capture",
-                                *FAULT_KEYS})
+                                *FAULT_KEYS, *BENCH_KEYS})
 
 
 def _protocol_query(query: dict[str, str], **keys: str) -> str:

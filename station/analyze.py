@@ -6,24 +6,111 @@ it is what tests call directly.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from analysis.allan import AllanResult, Estimator, allan_variance
 from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
+from analysis.gaps import gap_summary
 from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
+from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.units import S_PER_H
+from station.bench import Bench, earth_rate_note
 from station.record_files import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
 #: ``--method gmwm``: the GMWM beside the default Allan fit (whose read-offs and terms stay).
 GMWM_METHOD = "gmwm"
+#: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`
+#: says they are few (default), always keep them, or remove whatever is flagged.
+OutlierPolicy = Literal["auto", "keep", "remove"]
+OUTLIER_POLICIES: tuple[str, ...] = ("auto", "keep", "remove")
+#: How many spikes a report lists one by one.
+SPIKES_LISTED = 100
+
+
+@dataclass(frozen=True)
+class GapReport:
+    """Samples missing from an axis' record: gaps, seconds lost, share of the record's time."""
+
+    count: int = 0
+    missing_s: float = 0.0
+    share: float = 0.0
+
+    def as_json(self) -> dict[str, object]:
+        """The ``gaps`` object of ``station analyze --json``."""
+        return {"count": self.count, "missing_s": self.missing_s, "share": self.share}
+
+    def text(self) -> str:
+        """One line for tables and notes."""
+        if not self.count:
+            return "none"
+        return f"{self.count} ({self.missing_s:.4g} s, {self.share:.2%} of the time)"
+
+
+@dataclass(frozen=True)
+class OutlierReport:
+    """The spikes found in an axis' record and whether the analysis left them out."""
+
+    detection: SpikeDetection | None = None
+    removed: bool = False
+    rule: str = "not looked for"
+    times_s: tuple[float, ...] = ()
+
+    @property
+    def count(self) -> int:
+        """Spikes found (runs of consecutive flagged samples)."""
+        return 0 if self.detection is None else len(self.detection.spikes)
+
+    def as_json(self) -> dict[str, object]:
+        """The ``outliers`` object of ``station analyze --json`` (sizes in deg/h)."""
+        d = self.detection
+        out: dict[str, object] = {"count": self.count, "removed": self.removed, "rule": self.rule}
+        if d is not None:
+            out.update({
+                "samples": d.count, "share": d.share, "threshold_z": d.threshold_z,
+                "false_alarm": d.false_alarm, "scale_deg_h": d.scale * S_PER_H,
+                "spikes": [{"time_s": t, "n_samples": sp.n_samples, "size_deg_h": sp.size * S_PER_H,
+                            "z": sp.z} for t, sp in zip(self.times_s, d.spikes[:SPIKES_LISTED],
+                                                        strict=False)],
+                "listed": min(self.count, SPIKES_LISTED)})
+        return out
+
+    def text(self) -> str:
+        """One line for tables."""
+        if self.detection is None:
+            return "not looked for"
+        if not self.count:
+            return "none"
+        return f"{self.count} {'removed' if self.removed else 'kept'}"
+
+    def note(self) -> str:
+        """The sentence every report carries when spikes were found."""
+        d = self.detection
+        if d is None or not self.count:
+            return ""
+        largest = max(d.spikes, key=lambda sp: abs(sp.size))
+        what = ("removed, each replaced by the line between its neighbours" if self.removed
+                else "kept in the analysis")
+        return (f"{self.count} spike(s) ({d.count} samples beyond {d.threshold_z:.2f} sigma; largest "
+                f"{largest.size * S_PER_H:+.4g} deg/h at {self.times_s[d.spikes.index(largest)]:.6g} s) "
+                f"{what}: {self.rule}")
 
 
 @dataclass(frozen=True)
 class AxisAnalysis:
-    """Everything ``station analyze`` reports for one axis."""
+    """Everything ``station analyze`` reports for one axis.
+
+    ``rate_deg_s`` is the rate the figures were computed from: on the record's time grid
+    (NaN where a sample is missing), spikes replaced when they were removed, the Earth
+    rate taken off when the bench gave it. ``allan_alternative`` is the Allan curve the
+    other way round (spikes kept when they were removed, and the reverse), when spikes
+    were found; ``alternative_label`` says which.
+    """
 
     name: str
     sample_rate_hz: float
@@ -31,6 +118,11 @@ class AxisAnalysis:
     allan: AllanResult
     fit: NoiseCoefficients
     figures: SpecFigures
+    gaps: GapReport = field(default_factory=GapReport)
+    outliers: OutlierReport = field(default_factory=OutlierReport)
+    rate_deg_s: NDArray[np.float64] | None = None
+    allan_alternative: AllanResult | None = None
+    alternative_label: str = ""
     gmwm: GmwmSelection | None = None
 
     def as_json(self) -> dict[str, object]:
@@ -47,8 +139,42 @@ class AxisAnalysis:
             "n_clusters": self.allan.n_clusters.tolist(),
             "fit": self.fit.as_dict(),
             "figures": self.figures.as_dict(),
+            "gaps": self.gaps.as_json(),
+            "outliers": self.outliers.as_json(),
             **({"gmwm": self.gmwm.as_json()} if self.gmwm is not None else {}),
         }
+
+
+def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: float,
+            policy: OutlierPolicy) -> tuple[NDArray[np.float64], OutlierReport]:
+    """(the present samples to analyse, the report) of one axis under ``policy``."""
+    if policy not in OUTLIER_POLICIES:
+        raise ValueError(f"outlier policy must be one of {', '.join(OUTLIER_POLICIES)}, got {policy!r}")
+    if len(x) < min_samples():
+        return x, OutlierReport(rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}")
+    detection = detect_spikes(x)
+    grid = np.arange(len(x)) if positions is None else positions
+    times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
+    remove = detection.count > 0 and (policy == "remove" or (policy == "auto" and detection.removable))
+    rule = detection.rule_text()
+    if detection.count and policy != "auto":
+        rule += f" (--outliers {policy})"
+    report = OutlierReport(detection, remove, rule, times)
+    return (replace_spikes(x, detection.flags, grid) if remove else x), report
+
+
+def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
+           taus: str | np.ndarray) -> AllanResult:
+    return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
+                          missing="gap" if gapped else "raise")
+
+
+def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    if record.sample_index is None:
+        return x
+    out = np.full(record.span_samples, np.nan)
+    out[record.sample_index] = x
+    return out
 
 
 def analyze_record(
@@ -58,25 +184,63 @@ def analyze_record(
     taus: str | np.ndarray = "log",
     method: FitMethod | str = DEFAULT_METHOD,
     terms: str = "QNBKR",
+    outliers: OutlierPolicy = "auto",
+    bench: Bench | None = None,
     gmwm_model: str = "auto",
     robust: bool = False,
 ) -> list[AxisAnalysis]:
     """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
     ``method="gmwm"`` adds the GMWM (``gmwm_model``: a model string or ``"auto"``
-    selection; ``robust``: the robust wavelet variance) beside the default Allan fit.
+    selection; ``robust``: the robust wavelet variance) beside the default Allan fit, on
+    the same samples (spikes removed as the rule says, no Haar window across a gap).
+
+    Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
+    and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
+    are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
+    The bias is reported with the Earth-rate projection of ``bench`` removed when it
+    gives the axis' latitude and direction.
     """
+    fs = record.sample_rate_hz
     use_gmwm = method == GMWM_METHOD
-    allan_method = DEFAULT_METHOD if use_gmwm else method
-    result = allan_variance(record.rate_deg_s, record.sample_rate_hz, estimator=estimator, taus=taus)
+    allan_method: FitMethod = DEFAULT_METHOD if use_gmwm else method  # type: ignore[assignment]
+    gapped = record.sample_index is not None
+    summary = gap_summary(record.present_mask())
+    gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
+    earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
+    cleaned, reports = [], []
+    for i in range(len(record.axis_names)):
+        x, report = _spikes(record.rate_deg_s[:, i], record.sample_index, fs, outliers)
+        cleaned.append(x)
+        reports.append(report)
+    joint = None
+    if not gapped and not any(r.removed for r in reports):
+        joint = allan_variance(record.rate_deg_s, fs, estimator=estimator, taus=taus)
     out = []
     for i, name in enumerate(record.axis_names):
-        axis = result.axis(i)
-        fit = fit_noise_terms(axis, method=allan_method, terms=terms)  # type: ignore[arg-type]
-        figures = spec_figures(record.rate_deg_s[:, i], record.sample_rate_hz, axis, fit)
-        gm = gmwm_analysis(record.rate_deg_s[:, i], record.sample_rate_hz, model=gmwm_model,
-                           robust=robust) if use_gmwm else None
-        out.append(AxisAnalysis(name, record.sample_rate_hz, record.n_samples, axis, fit, figures, gm))
+        grid_rate = _on_grid(record, cleaned[i])
+        axis = joint.axis(i) if joint is not None else _allan(grid_rate, fs, gapped, estimator, taus)
+        alternative, label = None, ""
+        if reports[i].count:
+            other = record.rate_deg_s[:, i] if reports[i].removed else replace_spikes(
+                record.rate_deg_s[:, i], reports[i].detection.flags,  # type: ignore[union-attr]
+                np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
+            alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
+            label = "spikes kept" if reports[i].removed else "spikes removed"
+        fit = fit_noise_terms(axis, method=allan_method, terms=terms)
+        analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
+        figures = spec_figures(analysed, fs, axis, fit)
+        notes = [earth_rate_note(bench, name, earth[i])]
+        if gaps.count:
+            notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
+                         f"straddles a gap, tau is true time")
+        if reports[i].count:
+            notes.append(f"spikes: {reports[i].note()}")
+        figures = replace(figures, earth_rate_removed_deg_h=earth[i],
+                          notes=figures.notes + tuple(notes))
+        gm = gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped) if use_gmwm else None
+        out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
+                                analysed, alternative, label, gm))
     return out
 
 
@@ -100,7 +264,12 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
 
     add("samples", [str(a.n_samples) for a in axes])
     add("duration [h]", [f"{a.n_samples / a.sample_rate_hz / 3600:.3g}" for a in axes])
+    if any(a.gaps.count for a in axes):
+        add("gaps (time missing)", [a.gaps.text() for a in axes])
+    add("spikes", [a.outliers.text() for a in axes])
     add("bias [deg/h]", [_fmt(f.bias_deg_h) for f in figs])
+    add("  Earth rate removed [deg/h]", [_fmt(f.earth_rate_removed_deg_h) if f.earth_rate_removed_deg_h
+                                         is not None else "not removed" for f in figs])
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])

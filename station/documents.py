@@ -83,6 +83,8 @@ class RunStart:
         Who, which lot, where, with what.
     file : str
         Path of the run file.
+    bench : str
+        The test bench (latitude, axis directions) as JSON, "" when none was given.
     """
 
     uid: str
@@ -98,6 +100,7 @@ class RunStart:
     lot: str = ""
     station_host: str = ""
     software_version: str = ""
+    bench: str = ""
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,10 @@ class RecordFormatError(StationError, ValueError):
     """A record file (CSV, HDF5) cannot be read as a rate record; the message says why."""
 
 
+class BenchError(StationError, ValueError):
+    """A bench file that cannot be used (unreadable, unknown key, bad latitude or direction)."""
+
+
 class UsageError(StationError, ValueError):
     """Command-line arguments that do not fit together."""
 

@@ -40,7 +40,8 @@ from analysis.figures import arw_readoff, bias_instability_readoff, bias_stabili
 from analysis.fit import NoiseCoefficients
 from analysis.units import S_PER_H
 from station.analyze import AxisAnalysis, analyze_record
-from station.errors import StationError
+from station.bench import Bench, bench_from_json
+from station.errors import RecordFormatError, StationError
 from station.profiles import FigureSpec, Profile, bias_stability_average_s
 from station.record_files import RateRecord
 from station.runs import RunInfo, UnitRun
@@ -134,6 +135,9 @@ class AxisGrade:
             "duration_s": self.analysis.n_samples / self.analysis.sample_rate_hz,
             "figures": {f.name: f.as_json(self.deciding_grade) for f in self.graded_figures},
             "info": {f.name: f.as_json(None) for f in self.figures if not f.spec.graded},
+            "earth_rate_removed_deg_h": self.analysis.figures.earth_rate_removed_deg_h,
+            "gaps": self.analysis.gaps.as_json(),
+            "outliers": self.analysis.outliers.as_json(),
         }
 
 
@@ -172,6 +176,8 @@ class RunGrade:
     graded_utc: str
     software_version: str
     extra: dict[str, str] = field(default_factory=dict)
+    #: The bench whose Earth rate the biases are reported without (None: none known).
+    bench: Bench | None = None
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
@@ -308,7 +314,11 @@ def _fit_interval(fit: NoiseCoefficients, term: str, confidence: float) -> Inter
 
 
 def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence: float) -> Interval:
-    """A figure (canonical unit) with its interval from one axis' rate (deg/s) and analysis."""
+    """A figure (canonical unit) with its interval from one axis' rate (deg/s) and analysis.
+
+    ``x`` is the rate the analysis worked on (:attr:`AxisAnalysis.rate_deg_s`: NaN where a
+    sample is missing, spikes removed, Earth rate taken off where the bench gives it).
+    """
     average_s = bias_stability_average_s(name)
     if average_s is not None:
         bs = bias_stability(x, analysis.sample_rate_hz, average_s)
@@ -317,7 +327,10 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
         low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
         return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
     if name == "bias":
-        return bias_interval(x, confidence)
+        b = bias_interval(x[np.isfinite(x)], confidence)
+        removed = analysis.figures.earth_rate_removed_deg_h
+        earth = "Earth rate not removed" if removed is None else f"Earth rate {removed:+.4g} deg/h removed"
+        return replace(b, note="; ".join(t for t in (b.note, earth) if t))
     if name in ("arw", "bias_instability", "adev_min"):
         return _readoff_interval(analysis.allan, name, confidence)
     return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
@@ -366,8 +379,11 @@ def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> d
     return out
 
 
-def grade_unit(unit: UnitRun, profile: Profile) -> UnitGrade:
+def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
+
+    ``bench`` gives the latitude and axis directions whose Earth rate the bias is reported
+    without (:mod:`station.bench`).
 
     Raises
     ------
@@ -376,44 +392,52 @@ def grade_unit(unit: UnitRun, profile: Profile) -> UnitGrade:
     """
     record = unit.record
     fs = record.sample_rate_hz
-    skip = int(round(profile.warmup_s * fs))
-    if record.n_samples - skip < MIN_SAMPLES:
+    try:
+        kept = record.slice_time(profile.warmup_s) if profile.warmup_s > 0 else record
+    except RecordFormatError:
+        kept = None
+    if kept is None or kept.n_samples < MIN_SAMPLES:
         raise GradingError(f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
                            f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up")
     columns = match_axes(profile.axes, record.axis_names)
-    rate = record.rate_deg_s[skip:, list(columns.values())]
-    trimmed = RateRecord(rate, fs, tuple(columns), record.source)
+    trimmed = RateRecord(kept.rate_deg_s[:, list(columns.values())], fs, tuple(columns), record.source,
+                         kept.temperature_c, kept.sample_index)
     notes = []
     if unit.model and unit.model != profile.model:
         notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
     if record.duration_s < profile.duration_s * 0.99:
         notes.append(f"record {record.duration_s:.0f} s is shorter than the profile's test "
                      f"({profile.duration_s:.0f} s)")
-    if unit.n_gaps:
-        notes.append(f"{unit.n_gaps} gaps ({unit.missing_samples} samples missing): the samples are "
-                     "analysed as one contiguous record")
+    if trimmed.missing_samples:
+        notes.append(f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
+                     "difference or average straddles a gap")
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
-    for i, analysis in enumerate(analyze_record(trimmed, method=profile.fit_method)):  # type: ignore[arg-type]
-        x = trimmed.rate_deg_s[:, i]
+    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):  # type: ignore[arg-type]
+        x = analysis.rate_deg_s
+        assert x is not None
         figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence), profile)
                         for spec in profile.figures)
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could))
     worst = max(axes, key=lambda a: grade_rank(a.grade, profile)).grade
-    return UnitGrade(unit, worst, tuple(axes), skip / fs, tuple(notes))
+    return UnitGrade(unit, worst, tuple(axes), profile.warmup_s if profile.warmup_s > 0 else 0.0,
+                     tuple(notes))
 
 
-def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = ()) -> RunGrade:
+def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),
+              bench: Bench | None = None) -> RunGrade:
     """Grade every unit of ``run`` (or those named in ``units``) with ``profile``.
 
-    Works on any stored run: nothing here talks to a device.
+    ``bench`` defaults to the one the run file recorded (none for a CSV record). Works
+    on any stored run: nothing here talks to a device.
     """
     chosen = [run.unit(u) for u in units] if units else list(run.units)
-    graded = tuple(grade_unit(u, profile) for u in chosen)
+    bench = bench if bench is not None else bench_from_json(run.bench)
+    graded = tuple(grade_unit(u, profile, bench) for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
-    return RunGrade(run, profile, graded, now, software_version())
+    return RunGrade(run, profile, graded, now, software_version(), bench=bench)
 
 
 def run_profile_ref(run: RunInfo) -> str:
@@ -443,4 +467,5 @@ def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
 
 def regrade(previous: RunGrade, profile: Profile) -> RunGrade:
     """The same run graded with another profile (the run's records, no device)."""
-    return replace(grade_run(previous.run, profile), extra={"regraded_from": previous.profile.ref})
+    return replace(grade_run(previous.run, profile, bench=previous.bench),
+                   extra={"regraded_from": previous.profile.ref})

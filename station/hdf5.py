@@ -176,7 +176,7 @@ class RunFileWriter:
                 "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
                 "software_version": doc.software_version, "start_utc": doc.start_utc,
                 "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
-                "unit_ids": json.dumps(list(doc.unit_ids))}
+                "unit_ids": json.dumps(list(doc.unit_ids)), "bench": doc.bench}
         f.attrs.update(meta)
         f.attrs["duration_requested_s_units"] = "s"
         # Fixed-size so they can be modified in place in SWMR mode and on a full disk.
@@ -446,10 +446,39 @@ def run_events(unit: UnitData) -> tuple[RunEvent, ...]:
     return tuple(out)
 
 
+def gap_sample_index(counter: NDArray[np.int64], receive_time_s: NDArray[np.float64],
+                     events: NDArray[np.void]) -> NDArray[np.int64] | None:
+    """Grid index of each sample from the unit's gap events (None when no gap is inside).
+
+    A gap goes after the sample whose counter is its ``after_counter``; a gap without one
+    (-1, or a counter not among the samples) goes before the first sample received at or
+    after its ``time_s``. Gaps before the first sample or after the last (a simulated
+    unit's samples made before it was first read) are outside the record. Fields are read
+    by name, so a log with more columns reads the same.
+    """
+    n = len(counter)
+    names = events.dtype.names or ()
+    gaps = events[events["kind"] == b"gap"] if "kind" in names else events[:0]
+    if n == 0 or len(gaps) == 0:
+        return None
+    inserted = np.zeros(n, dtype=np.int64)
+    for row in gaps:
+        after = int(row["after_counter"]) if "after_counter" in names else -1
+        i = int(np.searchsorted(counter, after, side="right")) if after >= 0 else -1
+        if i <= 0 or counter[i - 1] != after:
+            i = int(np.searchsorted(receive_time_s, float(row["time_s"]), side="left"))
+        if 0 < i < n:
+            inserted[i] += int(row["missing_samples"])
+    if not inserted.any():
+        return None
+    return np.arange(n, dtype=np.int64) + np.cumsum(inserted)
+
+
 def unit_record(unit: UnitData, source: str) -> RateRecord:
-    """The unit's committed samples as a :class:`RateRecord` (deg/s)."""
+    """The unit's committed samples as a :class:`RateRecord` (deg/s), gaps on its time grid."""
+    index = gap_sample_index(np.asarray(unit.counter), np.asarray(unit.receive_time_s), unit.events)
     return RateRecord(np.asarray(unit.rate_deg_s, dtype=np.float64), unit.sample_rate_hz,
-                      unit.axes, source, unit.temperature_c)
+                      unit.axes, source, unit.temperature_c, index)
 
 
 def read_run(path: str | Path) -> RunInfo:
@@ -481,6 +510,7 @@ def read_run(path: str | Path) -> RunInfo:
         operator=a.get("operator", ""), lot=a.get("lot", ""),
         station_host=a.get("station_host", ""),
         software_version=a.get("software_version", ""), start_utc=a.get("start_utc", ""),
+        bench=a.get("bench", ""),
         stop_utc=state["stop_utc"] if stopped else state["last_flush_utc"],
         stop_reason=state["stop_reason"] if stopped else "interrupted: file not closed "
                                                          "(recorder killed or crashed)",

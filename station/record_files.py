@@ -5,7 +5,10 @@ CSV format (the interface other commands rely on):
 * lines starting with ``#`` are comments (anywhere in the file);
 * the first other line is a header naming the columns;
 * an optional ``time`` column (also ``time_s`` or ``t``) in seconds; without it the
-  sample rate must be given (``--rate HZ``);
+  sample rate must be given (``--rate HZ``). A step of the time column that spans
+  several sample periods (within 1 % of a whole number of them) is a gap: the samples
+  it skips are missing, and the analysis leaves them out rather than joining the two
+  sides (``RateRecord.sample_index``);
 * every other column is one gyro axis, in deg/s unless ``units`` says otherwise
   (``rad/s``, ``deg/h``);
 * ``.csv.gz`` files are read directly.
@@ -48,6 +51,11 @@ class RateRecord:
         Where the record came from (a path), for reports.
     temperature_c : ndarray or None
         Temperature in degC per sample, when the record has one.
+    sample_index : ndarray of int or None
+        Where each sample sits on the record's time grid (sample ``i`` was taken
+        ``sample_index[i] / sample_rate_hz`` s after the first, so ``sample_index[0]``
+        is 0): samples missing in gaps are skipped indices. None for a record without
+        gaps (the indices are then ``0 .. N - 1``).
     """
 
     rate_deg_s: NDArray[np.float64]
@@ -55,16 +63,41 @@ class RateRecord:
     axis_names: tuple[str, ...]
     source: str = ""
     temperature_c: NDArray[np.float64] | None = field(default=None)
+    sample_index: NDArray[np.int64] | None = field(default=None)
 
     @property
     def n_samples(self) -> int:
-        """Number of samples per axis."""
+        """Number of samples per axis (those present; missing ones are not counted)."""
         return int(self.rate_deg_s.shape[0])
 
     @property
+    def span_samples(self) -> int:
+        """Length of the record on its time grid, missing samples included."""
+        return self.n_samples if self.sample_index is None else int(self.sample_index[-1]) + 1
+
+    @property
     def duration_s(self) -> float:
-        """Length of the record in seconds."""
-        return self.n_samples / self.sample_rate_hz
+        """Length of the record in seconds of true time (gaps included)."""
+        return self.span_samples / self.sample_rate_hz
+
+    @property
+    def missing_samples(self) -> int:
+        """Samples missing in gaps inside the record."""
+        return self.span_samples - self.n_samples
+
+    def present_mask(self) -> NDArray[np.bool_]:
+        """True at each grid index that holds a sample (length :attr:`span_samples`)."""
+        mask = np.zeros(self.span_samples, dtype=bool)
+        mask[slice(None) if self.sample_index is None else self.sample_index] = True
+        return mask
+
+    def gridded(self, column: int) -> NDArray[np.float64]:
+        """One axis' rate (deg/s) on the time grid, NaN where a sample is missing."""
+        if self.sample_index is None:
+            return self.rate_deg_s[:, column]
+        out = np.full(self.span_samples, np.nan)
+        out[self.sample_index] = self.rate_deg_s[:, column]
+        return out
 
     def select(self, axis: str | int) -> RateRecord:
         """A record with only one axis, chosen by name or index."""
@@ -77,20 +110,43 @@ class RateRecord:
         else:
             index = axis
         return RateRecord(self.rate_deg_s[:, index : index + 1], self.sample_rate_hz,
-                          (self.axis_names[index],), self.source, self.temperature_c)
+                          (self.axis_names[index],), self.source, self.temperature_c,
+                          self.sample_index)
 
     def slice_time(self, start_s: float = 0.0, stop_s: float | None = None) -> RateRecord:
-        """The part of the record between ``start_s`` and ``stop_s`` (seconds from its start)."""
+        """The part of the record between ``start_s`` and ``stop_s`` (seconds of true time
+        from its start, gaps included); the slice starts at its first sample present."""
         i0 = max(0, int(round(start_s * self.sample_rate_hz)))
-        i1 = self.n_samples if stop_s is None else int(round(stop_s * self.sample_rate_hz))
-        if i1 - i0 < 2:
+        i1 = self.span_samples if stop_s is None else int(round(stop_s * self.sample_rate_hz))
+        if self.sample_index is None:
+            k0, k1 = min(i0, self.n_samples), min(max(i1, i0), self.n_samples)
+        else:
+            k0, k1 = (int(k) for k in np.searchsorted(self.sample_index, [i0, max(i1, i0)]))
+        if k1 - k0 < 2:
             raise RecordFormatError(
                 f"time slice {start_s}..{stop_s} s leaves fewer than 2 samples of a "
                 f"{self.duration_s:.1f} s record"
             )
-        temp = None if self.temperature_c is None else self.temperature_c[i0:i1]
-        return RateRecord(self.rate_deg_s[i0:i1], self.sample_rate_hz, self.axis_names,
-                          self.source, temp)
+        temp = None if self.temperature_c is None else self.temperature_c[k0:k1]
+        index = None if self.sample_index is None else regular_or_none(self.sample_index[k0:k1])
+        return RateRecord(self.rate_deg_s[k0:k1], self.sample_rate_hz, self.axis_names,
+                          self.source, temp, index)
+
+
+def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None:
+    """Grid indices made to start at 0, or None when they have no gap (a contiguous record).
+
+    Raises
+    ------
+    RecordFormatError
+        Indices that do not increase (two samples at one time, or out of order).
+    """
+    index = np.asarray(sample_index, dtype=np.int64)
+    if len(index) and np.any(np.diff(index) < 1):
+        row = int(np.argmax(np.diff(index) < 1)) + 1
+        raise RecordFormatError(f"sample {row} is not later than the one before it on the time grid")
+    index = index - index[0] if len(index) else index
+    return None if not len(index) or index[-1] == len(index) - 1 else index
 
 
 def _open_text(path: Path) -> IO[str]:
@@ -155,14 +211,15 @@ def read_csv_record(
     axis_idx = [i for i in range(len(header)) if i not in (time_index, temp_index)]
     if not axis_idx:
         raise RecordFormatError(f"{path}: no rate column besides time/temperature")
-    fs = _sample_rate(path, data, time_index, sample_rate_hz)
+    fs, index = _time_grid(path, data, time_index, sample_rate_hz)
     rate = data[:, axis_idx] * UNIT_TO_DEG_S[units]
     bad = ~np.isfinite(rate)
     if bad.any():
         row = int(np.argmax(bad.any(axis=1)))
         raise RecordFormatError(f"{path}: non-finite rate in data row {row + 1}; clean the file first")
     temp = None if temp_index is None else data[:, temp_index].copy()
-    return RateRecord(np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp)
+    return RateRecord(np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp,
+                      index)
 
 
 def _is_number(text: str) -> bool:
@@ -173,28 +230,51 @@ def _is_number(text: str) -> bool:
     return True
 
 
-def _sample_rate(path: Path, data: NDArray[np.float64], time_index: int | None, given: float | None) -> float:
-    if given is not None:
-        if not (math.isfinite(given) and given > 0):
-            raise RecordFormatError(f"sample rate must be a positive number of Hz, got {given}")
-        return float(given)
+#: A time step within this fraction of a sample period of a whole number of periods is regular.
+TIME_STEP_TOLERANCE = 0.01
+
+
+def _time_grid(path: Path, data: NDArray[np.float64], time_index: int | None, given: float | None
+               ) -> tuple[float, NDArray[np.int64] | None]:
+    """(sample rate in Hz, grid index of each row or None when the rows have no gap).
+
+    The time column decides the gaps: a step of k periods (k >= 2, within 1 % of a
+    period) means k - 1 missing samples. With ``--rate`` given, the time column counts
+    only when its own period agrees with that rate and every step is a whole number of
+    periods; otherwise it is ignored, as the option promises.
+    """
+    if given is not None and not (math.isfinite(given) and given > 0):
+        raise RecordFormatError(f"sample rate must be a positive number of Hz, got {given}")
     if time_index is None:
-        raise RecordFormatError(f"{path}: no time column; give the sample rate with --rate HZ")
+        if given is None:
+            raise RecordFormatError(f"{path}: no time column; give the sample rate with --rate HZ")
+        return float(given), None
     t = data[:, time_index]
     if len(t) < 2:
-        raise RecordFormatError(f"{path}: one row is not enough to know the sample rate; give --rate HZ")
+        if given is None:
+            raise RecordFormatError(f"{path}: one row is not enough to know the sample rate; give --rate HZ")
+        return float(given), None
     dt = np.diff(t)
-    period = float(np.median(dt))
-    if not period > 0:
+    period = float(np.median(dt)) if given is None else 1.0 / float(given)
+    if given is None and not period > 0:
         raise RecordFormatError(f"{path}: time column does not increase")
-    off = np.abs(dt - period) > 0.01 * period
+    if given is not None and abs(float(np.median(dt)) - period) > TIME_STEP_TOLERANCE * period:
+        return float(given), None  # the time column is in another unit or at another rate
+    steps = np.rint(dt / period)
+    off = (steps < 1) | (np.abs(dt - steps * period) > TIME_STEP_TOLERANCE * period)
     if off.any():
+        if given is not None:
+            return float(given), None
         row = int(np.argmax(off)) + 1
         raise RecordFormatError(
-            f"{path}: irregular time stamps ({int(off.sum())} steps differ from {period} s by >1 %, "
-            f"first after data row {row}); resample or give --rate HZ to ignore the time column"
+            f"{path}: irregular time stamps ({int(off.sum())} steps are not a whole number of "
+            f"{period} s periods within 1 %, first after data row {row}); resample or give "
+            f"--rate HZ to ignore the time column"
         )
-    return 1.0 / period
+    if given is None and np.all(steps == 1):
+        return 1.0 / period, None
+    index = np.concatenate(([0], np.cumsum(steps))).astype(np.int64)
+    return 1.0 / period, regular_or_none(index)
 
 
 def write_csv_record(
@@ -205,8 +285,13 @@ def write_csv_record(
     axis_names: Sequence[str] | None = None,
     comment: str = "",
     temperature_c: NDArray[np.float64] | None = None,
+    sample_index: NDArray[np.int64] | None = None,
 ) -> Path:
-    """Write a rate record as CSV (``time`` in s, one column per axis in deg/s); gzip if ``.gz``."""
+    """Write a rate record as CSV (``time`` in s, one column per axis in deg/s); gzip if ``.gz``.
+
+    ``sample_index`` (grid index of each row, see :class:`RateRecord`) writes the times
+    of a record with gaps, so that reading it back finds them.
+    """
     path = Path(path)
     rate = np.asarray(rate_deg_s, dtype=float)
     if rate.ndim == 1:
@@ -214,7 +299,8 @@ def write_csv_record(
     names = list(axis_names or [f"gyro_{c}" for c in "xyz"[: rate.shape[1]]] or [])
     if len(names) != rate.shape[1]:
         names = [f"axis_{i}" for i in range(rate.shape[1])]
-    columns = [np.arange(rate.shape[0]) / sample_rate_hz, *rate.T]
+    grid = np.arange(rate.shape[0]) if sample_index is None else np.asarray(sample_index)
+    columns = [grid / sample_rate_hz, *rate.T]
     header = ["time", *names]
     if temperature_c is not None:
         columns.append(np.asarray(temperature_c, dtype=float))

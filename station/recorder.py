@@ -116,6 +116,9 @@ class RunConfig:
         refused.
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
+    bench_json : str
+        The bench (latitude, axis directions; :mod:`station.bench`) as JSON, kept in the
+        run file ("" when none was given).
     """
 
     urls: tuple[str, ...]
@@ -130,6 +133,7 @@ class RunConfig:
     backoff_max_s: float = 1.0
     answer_timeout_s: float = 5.0
     reserve_bytes: int | None = None
+    bench_json: str = ""
 
 
 def run_file_path(out: Path, uid: str) -> Path:
@@ -507,7 +511,8 @@ class Recorder:
             profile_sha256=p.sha256 if p else "",
             profile_path=str(Path(p.path).resolve()) if p and p.path else "",
             operator=cfg.operator, lot=cfg.lot,
-            station_host=socket.gethostname(), software_version=software_version()))
+            station_host=socket.gethostname(), software_version=software_version(),
+            bench=cfg.bench_json))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         cpu0 = time.thread_time()

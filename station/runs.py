@@ -72,6 +72,8 @@ class RunInfo:
     stop_utc: str = ""
     stop_reason: str = ""
     interrupted: bool = False
+    #: The test bench (latitude, axis directions) as JSON (:mod:`station.bench`); "" if none.
+    bench: str = ""
 
     def unit(self, unit_id: str) -> UnitRun:
         """The unit with this id (or serial number)."""

@@ -108,6 +108,9 @@ def test_reader_returns_the_run_with_its_gap_counts(written: Path) -> None:
     u1, u2 = run.units
     assert (u1.serial_number, u1.record.n_samples, u2.record.n_samples) == ("A1", 400, 200)
     assert u1.n_gaps == 1 and u1.missing_samples == 12
+    # the gap's samples are missing on the unit's time grid, not joined over
+    np.testing.assert_array_equal(u1.record.sample_index[298:302], [298, 299, 312, 313])
+    assert u1.record.missing_samples == 12 and u2.record.sample_index is None
     assert "counter+elapsed" in u1.events[0].detail
     assert u1.record.temperature_c is not None and u1.record.rate_deg_s[-1, 2] == 0.5
     assert read_run_record(written, "B2").n_samples == 200  # by serial number
@@ -120,7 +123,10 @@ def test_analyze_reads_a_unit_an_axis_and_a_time_slice_of_a_run(
                  "--stop-s", "3.5", "--warmup-s", "1.0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["axes"][0]["name"] == "y"
-    assert out["axes"][0]["n_samples"] == 250  # 1.0 .. 3.5 s at 100 Hz
+    # 1.0 .. 3.5 s of true time at 100 Hz, less the 12 samples of the gap after counter 299
+    assert out["axes"][0]["n_samples"] == 238
+    assert out["axes"][0]["gaps"] == {"count": 1, "missing_s": pytest.approx(0.12),
+                                      "share": pytest.approx(12 / 250)}
     assert out["selection"] == {"unit": "unit1", "axis": "y", "start_s": 1.0, "stop_s": 3.5,
                                 "warmup_s": 1.0, "warmup_from": "--warmup-s"}
     assert main(["analyze", str(written), "--unit", "nope"]) == 2

@@ -40,7 +40,8 @@ def test_units_comments_and_missing_rate(tmp_path) -> None:
     [
         ("# only a comment\n", "no header"),
         ("0.1,0.2\n0.3,0.4\n", "header"),
-        ("time,x\n0,1\n0.1,2\n0.3,3\n0.4,4\n", "irregular time"),
+        ("time,x\n0,1\n0.1,2\n0.25,3\n0.35,4\n", "irregular time"),
+        ("time,x\n0,1\n0.1,2\n0.1,3\n0.2,4\n", "irregular time"),
         ("time,x\n0,1\n0.1,abc\n", "cannot parse"),
         ("time,x\n", "no data"),
         ("time,x\n0,nan\n0.1,1\n", "non-finite"),
@@ -51,6 +52,33 @@ def test_malformed_files_say_what_is_wrong(tmp_path, text: str, match: str) -> N
     path.write_text(text)
     with pytest.raises(RecordFormatError, match=match):
         read_csv_record(path)
+
+
+def test_a_time_column_that_jumps_whole_periods_declares_a_gap(tmp_path) -> None:
+    path = tmp_path / "gap.csv"
+    path.write_text("time,x\n0,1\n0.1,2\n0.4,3\n0.5,4\n0.6,5\n")
+    rec = read_csv_record(path)
+    np.testing.assert_array_equal(rec.sample_index, [0, 1, 4, 5, 6])
+    assert (rec.n_samples, rec.missing_samples) == (5, 2)
+    assert rec.duration_s == pytest.approx(0.7)
+    np.testing.assert_array_equal(np.isnan(rec.gridded(0)), [0, 0, 1, 1, 0, 0, 0])
+    # --rate that agrees with the time column keeps the gap; one that does not ignores it
+    assert read_csv_record(path, sample_rate_hz=10.0).missing_samples == 2
+    assert read_csv_record(path, sample_rate_hz=1000.0).sample_index is None
+    # a slice keeps true time: 0.35 s .. end starts at the first sample after the gap
+    part = rec.slice_time(0.35)
+    np.testing.assert_array_equal(part.rate_deg_s[:, 0], [3, 4, 5])
+    assert part.sample_index is None
+    assert rec.slice_time(0.0, 0.52).missing_samples == 2
+
+
+def test_a_record_with_gaps_survives_a_round_trip(tmp_path) -> None:
+    index = np.array([0, 1, 2, 10, 11, 12, 13, 40])
+    rate = np.arange(len(index), dtype=float)[:, None]
+    path = write_csv_record(tmp_path / "r.csv.gz", rate, 50.0, sample_index=index)
+    back = read_record(path)
+    np.testing.assert_array_equal(back.sample_index, index)
+    assert back.sample_rate_hz == pytest.approx(50.0)
 
 
 def test_gzip_file_is_read_directly(tmp_path) -> None:

@@ -148,3 +148,19 @@ def test_bad_inputs_are_refused():
         haar_wavelet_variance(np.zeros(100), FS, ci="nope")
     with pytest.raises(ValueError, match="non-finite"):
         haar_wavelet_variance(np.array([1.0, np.nan] * 50), FS)
+
+
+def test_gaps_leave_out_every_haar_window_that_holds_a_missing_sample():
+    x = np.random.default_rng(4).standard_normal(40_000)
+    gapped = x.copy()
+    gapped[10_000:10_500] = np.nan
+    wv = haar_wavelet_variance(gapped, FS, gaps=True)
+    # the same coefficients, taken from the two stretches on their own
+    parts = [x[:10_000], x[10_500:]]
+    for j, m in enumerate(wv.m[:6]):
+        sums = [haar_wavelet_variance(p, FS, max_level=j + 1).wv[j] * (len(p) - 2 * m + 1) for p in parts]
+        count = sum(len(p) - 2 * m + 1 for p in parts)
+        assert wv.wv[j] == pytest.approx(sum(sums) / count, rel=1e-9)
+    assert wv.n_samples == 39_500 and wv.n_coefficients[0] == 39_500 - 2 * 1 + 1 - 1
+    with pytest.raises(ValueError, match="non-finite"):
+        haar_wavelet_variance(gapped, FS)

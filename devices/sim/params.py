@@ -6,6 +6,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from analysis.earth import earth_rate_by_axis, parse_orientation
+from analysis.units import S_PER_H
 from devices.errors import DeviceConfigurationError
 from devices.sim.clock import WarpClock
 from devices.sim.faults import FaultConfig, SimCore
@@ -15,6 +17,11 @@ from devices.sim.signal import SignalSource
 #: simulation's, the faults draw from ``seed + 1``).
 FAULT_KEYS: tuple[str, ...] = tuple(
     f.name for f in fields(FaultConfig) if f.name not in ("garbage_max_bytes", "seed"))
+#: Where the simulated gyro sits: the bench's latitude (deg) and its axes' directions
+#: (``orientation=x:up,y:north,z:east``); the simulator then adds the Earth's rotation.
+BENCH_KEYS: tuple[str, ...] = ("latitude", "orientation")
+#: Axis names of a simulated gyro, in the order of its rate columns.
+SIM_AXIS_NAMES = ("x", "y", "z")
 
 
 @dataclass(frozen=True)
@@ -39,6 +46,12 @@ class SimParams:
         ``drop``, ``corrupt``, ``garbage``), periodic disconnects and stalls
         (``disconnect_every_s``, ``disconnect_for_s``, ``stall_every_s``,
         ``stall_for_s``, s) and clock error (``drift_ppm``).
+    latitude : float or None
+        Latitude of the bench, deg (URL key ``latitude``); with ``orientation`` the
+        simulated gyro also measures the Earth's rotation, as a real one at rest does.
+    orientation : str
+        Direction of each axis (URL key ``orientation``: ``x:up,y:north,z:east``; a
+        direction is up, down, north, south, east, west or ``east/north/up`` numbers).
     """
 
     model: str = "STIM300"
@@ -47,6 +60,8 @@ class SimParams:
     seed: int | None = None
     history: int = 0
     faults: FaultConfig = field(default_factory=FaultConfig)
+    latitude: float | None = None
+    orientation: str = ""
 
 
 def query_number(key: str, text: str, kind: Callable[[str], Any]) -> Any:
@@ -80,7 +95,16 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
         faults = FaultConfig(**knobs, seed=None if seed is None else seed + 1)
     except ValueError as exc:
         raise DeviceConfigurationError(str(exc)) from exc
-    return SimParams(model, rate, warp, seed, history, faults)
+    latitude = query_number("latitude", query["latitude"], float) if "latitude" in query else None
+    orientation = query.get("orientation", "")
+    if (latitude is None) != (not orientation):
+        raise DeviceConfigurationError("a simulated gyro on a bench needs both latitude=DEG and "
+                                       "orientation=x:up,... (or neither)")
+    try:
+        earth_rate_by_axis(latitude, parse_orientation(orientation), SIM_AXIS_NAMES)
+    except ValueError as exc:
+        raise DeviceConfigurationError(str(exc)) from exc
+    return SimParams(model, rate, warp, seed, history, faults, latitude, orientation)
 
 
 def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
@@ -101,5 +125,11 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
         so both count simulated seconds from the same origin); a new one by default.
     """
     clock = clock if clock is not None else WarpClock(params.warp)
-    signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed)
+    earth = None
+    if params.latitude is not None:
+        rates = earth_rate_by_axis(params.latitude, parse_orientation(params.orientation),
+                                   SIM_AXIS_NAMES[:n_axes])
+        earth = [0.0 if r is None else r / S_PER_H for r in rates]
+    signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed,
+                          earth_rate_deg_s=earth)
     return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock

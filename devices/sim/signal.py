@@ -9,6 +9,7 @@ draws its signal the same way. The model is whatever
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -82,18 +83,23 @@ class SignalSource:
         Number of axes.
     seed : int or None
         Seed; the same seed gives the same samples.
+    earth_rate_deg_s : sequence of float, optional
+        The Earth's rotation each axis sees where the gyro sits (deg/s), added to every
+        sample, as a real gyro at rest measures it (:mod:`analysis.earth`).
     """
 
     def __init__(self, model: str, sample_rate_hz: float, *, n_axes: int = 3,
-                 seed: int | None = None) -> None:
+                 seed: int | None = None, earth_rate_deg_s: Sequence[float] | None = None) -> None:
         self.model = model
         self.n_axes = n_axes
         self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed)
+        self._earth = None if earth_rate_deg_s is None else np.asarray(earth_rate_deg_s, dtype=float)
 
     def read(self, n_samples: int) -> SignalChunk:
         """The next ``n_samples`` samples of the signal."""
         chunk = self._sim.read(n_samples)
+        rate = chunk.rate_deg_s if self._earth is None else chunk.rate_deg_s + self._earth
         temp = chunk.temperature_c
         if temp is None:
             temp = np.full(n_samples, DEFAULT_TEMPERATURE_C)
-        return SignalChunk(chunk.rate_deg_s, np.asarray(temp, dtype=np.float64))
+        return SignalChunk(rate, np.asarray(temp, dtype=np.float64))

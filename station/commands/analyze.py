@@ -10,7 +10,14 @@ from pathlib import Path
 
 from analysis.fit import FIT_METHODS
 from analysis.gmwm_models import GmwmModel
-from station.analyze import DEFAULT_METHOD, GMWM_METHOD, analyze_record, format_analysis
+from station.analyze import (
+    DEFAULT_METHOD,
+    GMWM_METHOD,
+    OUTLIER_POLICIES,
+    analyze_record,
+    format_analysis,
+)
+from station.bench import Bench, bench_from_json, load_bench
 from station.errors import ProfileError, UsageError
 from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
 
@@ -117,8 +124,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
                    help="write the plot: Allan deviation; with --method gmwm the wavelet variance with "
                         "the GMWM and the Allan fit's curves")
+    p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
+                   help="isolated spikes: remove them when few (auto, default), keep, or remove")
+    add_bench_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
+
+
+def add_bench_argument(p: argparse.ArgumentParser) -> None:
+    """``--bench FILE``: latitude and axis directions, so the bias has the Earth rate removed."""
+    p.add_argument("--bench", default=None, metavar="FILE",
+                   help="bench file (latitude, axis directions; docs/bench.md): the bias is "
+                        "reported with the Earth rate removed (run files: default the run's bench)")
+
+
+def bench_for(bench_file: str | None, bench_json: str = "") -> Bench | None:
+    """The bench of ``--bench FILE``, else the one a run file recorded, else None."""
+    return load_bench(bench_file) if bench_file is not None else bench_from_json(bench_json)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -128,11 +150,17 @@ def run(args: argparse.Namespace) -> int:
     if args.method == GMWM_METHOD and args.model.strip().lower() != "auto":
         GmwmModel.parse(args.model)  # a bad model string fails before the record is read
     record, selection = load_record(args)
+    recorded = ""
+    if args.bench is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
+        from station.hdf5 import run_attributes
+
+        recorded = run_attributes(args.file).get("bench", "")
     if args.method == GMWM_METHOD:
         print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
               file=sys.stderr, flush=True)
     axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
-                          terms=args.terms, gmwm_model=args.model, robust=args.robust)
+                          terms=args.terms, outliers=args.outliers,
+                          bench=bench_for(args.bench, recorded), gmwm_model=args.model, robust=args.robust)
     if args.png is not None:
         from station.plots import (  # matplotlib: only when a plot is asked for
             plot_allan,

@@ -43,6 +43,10 @@ def run(args: argparse.Namespace) -> int:
     if args.window_s * record.sample_rate_hz > record.n_samples:
         raise UsageError(f"--window-s {args.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
+    if record.missing_samples:
+        print(f"station davar: note: {record.missing_samples} samples are missing in gaps; the "
+              f"DAVAR joins the stretches between them (window times are sample counts)",
+              file=sys.stderr)
     result = dynamic_allan_variance(record.rate_deg_s, record.sample_rate_hz,
                                     window_s=args.window_s, step_s=args.step_s)
     verdicts = [detect_warmup(result, axis=i) for i in range(len(record.axis_names))]

@@ -14,10 +14,12 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+from station.commands.analyze import add_bench_argument, bench_for
 from station.errors import UsageError
 from station.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
 from station.profiles import load_profile
 from station.record_files import UNIT_TO_DEG_S
+from station.report.common import analysis_lines
 from station.results import ResultsDatabase, default_database_path
 from station.runs import RunInfo, open_run
 
@@ -39,6 +41,7 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--db", type=Path, default=None, metavar="FILE",
                    help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
     p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
+    add_bench_argument(p)
 
 
 def load_run(args: argparse.Namespace) -> RunInfo:
@@ -63,7 +66,7 @@ def grade_from_args(args: argparse.Namespace) -> RunGrade:
         note = profile_changed_note(run, profile)
         if note:
             print(f"station {args.command}: warning: {note}", file=sys.stderr)
-    return grade_run(run, profile, units=tuple(args.unit))
+    return grade_run(run, profile, units=tuple(args.unit), bench=bench_for(args.bench))
 
 
 def database_path(args: argparse.Namespace) -> Path:
@@ -109,6 +112,8 @@ def format_grade(graded: RunGrade) -> str:
                      f"{u.unit.serial_number or '-'}  GRADE {u.grade}")
         for note in u.notes:
             lines.append(f"  note: {note}")
+        for line in analysis_lines(u):
+            lines.append(f"  {line}")
         for a in u.axes:
             reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
             lines.append(f"  axis {a.axis}: {a.grade}{reach}; limits of grade {a.deciding_grade}")

@@ -62,6 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder for the run file, or a .h5 path (default ./runs)")
     p.add_argument("--operator", default="", help="who runs the test (run metadata)")
     p.add_argument("--lot", default="", help="production lot (run metadata)")
+    p.add_argument("--bench", default=None, metavar="FILE",
+                   help="bench file (latitude, axis directions; see docs/bench.md): kept in the "
+                        "run file for the bias figures, and simulated units add the Earth rate")
     p.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
                    help="longest time between file flushes, s (<= 1; default 0.5)")
     p.add_argument("--reserve-mb", type=float, default=None, metavar="MB",
@@ -92,9 +95,16 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
     if not 0 < args.flush_interval <= 1.0:
         raise UsageError("--flush-interval must be in (0, 1] s")
     reserve = None if args.reserve_mb is None else int(args.reserve_mb * 1e6)
+    bench_json = ""
+    if args.bench is not None:
+        from station.bench import load_bench
+
+        bench = load_bench(args.bench)
+        urls, bench_json = [bench.sim_url(u) for u in urls], bench.as_json()
     return RunConfig(tuple(urls), duration_s, args.out, profile=profile,
                      operator=args.operator, lot=args.lot,
-                     flush_interval_s=args.flush_interval, reserve_bytes=reserve)
+                     flush_interval_s=args.flush_interval, reserve_bytes=reserve,
+                     bench_json=bench_json)
 
 
 @contextmanager

@@ -12,6 +12,7 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
+from analysis.units import S_PER_H
 from station.grading import AxisGrade, RunGrade, UnitGrade
 from station.runs import UnitRun
 
@@ -59,6 +60,32 @@ def figure_rows(axis: AxisGrade) -> list[FigureRow]:
             axis.deciding_grade if graded else "", f.verdicts.get(axis.deciding_grade, "pass") if graded else None,
             f.note))
     return rows
+
+
+def analysis_lines(unit: UnitGrade) -> list[str]:
+    """What the analysis did to the record, one line per topic: spikes, gaps, Earth rate."""
+    axes = unit.axes
+    spikes = []
+    for a in axes:
+        o = a.analysis.outliers
+        if o.count and o.detection is not None:
+            largest = max(o.detection.spikes, key=lambda sp: abs(sp.size))
+            spikes.append(f"{a.axis} {o.count} {'removed' if o.removed else 'kept'} (largest "
+                          f"{largest.size * S_PER_H:+.3g} deg/h)")
+        else:
+            spikes.append(f"{a.axis} {o.text()}")
+    lines = ["spikes: " + ", ".join(spikes)]
+    gaps = axes[0].analysis.gaps if axes else None
+    if gaps is not None and gaps.count:
+        lines.append(f"gaps: {gaps.text()} missing; no Allan difference or average straddles a gap")
+    removed = [(a.axis, a.analysis.figures.earth_rate_removed_deg_h) for a in axes]
+    if all(v is None for _, v in removed):
+        notes = [n for n in (axes[0].analysis.figures.notes if axes else ()) if n.startswith("Earth rate")]
+        lines.append(notes[0] if notes else "Earth rate not removed from the bias")
+    else:
+        lines.append("Earth rate removed from the bias: " + ", ".join(
+            f"{axis} {'not removed' if v is None else f'{v:+.4g} deg/h'}" for axis, v in removed))
+    return lines
 
 
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:

@@ -4,7 +4,9 @@ Columns: run, unit_id, model, serial_number, lot, test_date, profile, rule, conf
 unit_grade, axis, axis_grade, deciding_grade, then for every figure of the profile
 ``<figure>_unit``, ``<figure>_value``, ``<figure>_ci_low``, ``<figure>_ci_high``,
 ``<figure>_limit`` (of the deciding grade, empty for informational figures) and
-``<figure>_verdict`` (``pass``, ``fail``, ``indeterminate``, or ``info``).
+``<figure>_verdict`` (``pass``, ``fail``, ``indeterminate``, or ``info``); last, what the
+analysis did to the record: ``spikes`` (found), ``spikes_removed`` (true/false), ``gaps``,
+``missing_s`` and ``earth_rate_removed_deg_h`` (empty when not removed).
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from station.report.common import figure_rows
 FIXED = ["run", "unit_id", "model", "serial_number", "lot", "test_date", "profile", "rule", "confidence",
          "unit_grade", "axis", "axis_grade", "deciding_grade"]
 PER_FIGURE = ["unit", "value", "ci_low", "ci_high", "limit", "verdict"]
+ANALYSIS = ["spikes", "spikes_removed", "gaps", "missing_s", "earth_rate_removed_deg_h"]
 
 
 def _cell(value: object) -> object:
@@ -31,7 +34,7 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
     names = [f.name for f in p.figures]
     with path.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
-        writer.writerow(FIXED + [f"{n}_{c}" for n in names for c in PER_FIGURE])
+        writer.writerow(FIXED + [f"{n}_{c}" for n in names for c in PER_FIGURE] + ANALYSIS)
         for unit in graded.units:
             u = unit.unit
             for axis in unit.axes:
@@ -44,5 +47,8 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
                     r = rows[n]
                     cells += [r.unit, _cell(r.value), _cell(r.ci_low), _cell(r.ci_high), _cell(r.limit),
                               r.verdict or "info"]
+                an = axis.analysis
+                cells += [an.outliers.count, str(an.outliers.removed).lower(), an.gaps.count,
+                          an.gaps.missing_s, _cell(an.figures.earth_rate_removed_deg_h)]
                 writer.writerow(fixed + cells)
     return path

@@ -16,6 +16,7 @@ from pathlib import Path
 from station.grading import RunGrade, UnitGrade
 from station.report.common import (
     VERDICT_COLORS,
+    analysis_lines,
     event_summary,
     figure_rows,
     fmt,
@@ -77,6 +78,10 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
     parts.append('<h2>Events</h2><ul class="events">')
     parts += [f"<li>{escape(line)}</li>" for line in event_summary(u, graded).lines() + list(unit.notes)]
+    parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
+    parts += [f"<li>{escape(line)}</li>" for line in analysis_lines(unit)]
+    parts += [f"<li>{escape(a.axis)}: {escape(n)}</li>" for a in unit.axes for n in a.analysis.figures.notes
+              if n.startswith("spikes:")]
     parts.append("</ul></section>")
     return "\n".join(parts)
 

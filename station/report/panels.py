@@ -40,7 +40,13 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         al, fit = a.analysis.allan, a.analysis.fit
         tau = al.tau_s
         ax.fill_between(tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0)
-        ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured")
+        ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured"
+                  + (f" ({'spikes removed' if a.analysis.outliers.removed else 'spikes kept'})"
+                     if a.analysis.allan_alternative is not None else ""))
+        other = a.analysis.allan_alternative
+        if other is not None:  # the curve the other way round, so the spikes' effect shows
+            ax.loglog(other.tau_s, other.adev * S_PER_H, "x", ms=2.6, mew=0.6, color=c, alpha=0.7,
+                      label=f"{a.axis} {a.analysis.alternative_label}")
         ax.loglog(tau, np.sqrt(fit.model_avar(tau)) * S_PER_H, "-", lw=1.3, color=c, alpha=0.85,
                   label=f"{a.axis} fit ({fit.method})")
         for term in TERMS:
