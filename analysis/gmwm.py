@@ -28,7 +28,9 @@ so M1 is a non-negative least-squares problem in them; a grid over the correlati
 starting values, together with the five-term Allan fit's values (``logwls``,
 :func:`analysis.fit.fit_noise_terms` on the octave Allan curve ``2 nu_hat``) for the
 terms the two share; ``scipy.optimize.least_squares`` refines the best starts under
-``v >= 0`` and ``dt <= T <= N dt``.
+``v >= 0`` and ``dt <= T <= N dt``. Each re-weighting starts from the previous solution;
+the last one also from the grid and the Allan fit again, since the first step's weights
+can leave the solution in a local minimum the efficient weights do not prefer.
 
 **Uncertainty.** ``cov(theta_hat) = (D' Omega D)^-1`` with ``D = d nu / d theta`` (eq. 8
 there with ``Omega = V^-1``), over the parameters not held at a bound, multiplied by
@@ -451,10 +453,12 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
     problem.set_weights(np.diag(np.asarray(wv.variance, dtype=float)), diagonal=True)
     x = problem.solve()
     used, floor = "diagonal", 0.0
-    for _ in range(max(steps, 0)):
+    for step in range(max(steps, 0)):
         v = weight_covariance(model, problem.theta(x), wv, floor)
         used = problem.set_weights(v, diagonal=weights == "diagonal")
-        x = problem.solve(previous=x)
+        # the last step searches afresh: the first, diagonal, weights can leave a local minimum
+        # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer
+        x = problem.solve(previous=x, fresh=step == steps - 1)
     dof = len(wv.tau_s) - int(problem.free(x).sum())
     if model_error > 0 and steps > 0 and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
         # the record resolves the scales better than the model holds: cap their weight
