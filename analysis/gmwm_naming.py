@@ -6,40 +6,56 @@ it improves a log-Allan fit with the rest of the model held (Delta BIC, C2 of
 :mod:`analysis.candidates`). That fit weights each tau by its own precision, as if the
 Allan values were independent; they are not (neighbouring octaves correlate by 0.5-0.9,
 :mod:`analysis.gmwm_covariance`), and two explanations of one bump, a Gauss-Markov process
-or more bias instability, a rate random walk or a long Gauss-Markov, often come out within
-a few units. The GMWM compares them with the full covariance of the wavelet variances.
+or more bias instability, often come out within a few units, where the curve's order
+tries the one with fewer parameters first. The GMWM compares them with the full
+covariance of the wavelet variances.
 
 For the candidates that have a GMWM term (``gauss_markov`` -> ``gm``, ``rate_random_walk``
 -> ``rw``, ``bias_instability`` -> ``bi``, ``arw`` -> ``wn``, ``quantization`` -> ``qn``,
-``rate_ramp`` -> ``dr``) the model's stochastic terms form the *base* GMWM model, every
-parameter free, on the wavelet variance of the record less the model's deterministic terms
-and the events already located. An *added* term's model is the base plus its term; a
-*refitted* term's is the base itself (its parameter is free there already). All are fitted
-with the weights of the largest (:mod:`analysis.gmwm_selection`) and scored by
+``rate_ramp`` -> ``dr``) the judge works on the wavelet variance of the record less the
+model's deterministic terms and the events already located. Its weights are the
+covariance under the union of every explanation (the model's stochastic terms and every
+candidate's term, all fitted freely), so that no candidate is judged with the covariance
+of its rival. Each candidate is then scored as reconcile fits it, its own term fitted
+with the rest of the model held at its values (a refit: the model without that term,
+plus the term fitted afresh):
 
-    score = WIC(base) - WIC(base + term)                                                (N1)
+    score = WIC(model as it is) - WIC(model with the candidate fitted)                    (N2)
 
-the drop of the wavelet information criterion, on the scale of a Delta BIC (a difference
-of twice a log-likelihood); a refit scores 0. The weights are those of the union of all the
-explanations (every candidate's term added to the base), so that no candidate is judged
-with the covariance of its rival. The candidate with the higher score is the
-better explanation; within ``ALTERNATIVE_SCORE`` of each other, both are reported.
+with ``WIC = J + 2 (free parameters)`` (:mod:`analysis.gmwm_selection`): the drop of the
+wavelet information criterion, on the scale of a Delta BIC (a difference of twice a
+log-likelihood). ``held=False`` scores with every term of the model free instead,
+
+    score = WIC(base) - WIC(base + term)                                                  (N1)
+
+where a refit scores 0 (the base has that term free already).
+
+**Naming.** When the candidates the Allan curve cannot tell apart (within
+``INDISTINCT_BIC`` of the best) are all ones the GMWM can judge and the question is a new
+process against more of one the model has (a Gauss-Markov process or more bias
+instability), the GMWM answers it (:func:`new_or_more`): the higher score goes first,
+where the curve's order would try the explanation with fewer parameters, the refit,
+first. Between two added terms (a Gauss-Markov process or a random walk) the curve's order
+stands: over an hour a random walk's realization often looks like a Gauss-Markov bump to
+the GMWM as well (``benchmarks/bench_reconcile_naming.py``). Every explanation within
+``ALTERNATIVE_SCORE`` of the named one is reported beside it (:class:`Alternative`), with
+its score.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TypeVar
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from analysis.errors import AnalysisError
 from analysis.gmwm import gmwm, gmwm_with_covariance, weight_covariance
 from analysis.gmwm_models import GmwmModel
 from analysis.models import NoiseModel
-from analysis.wavelet import haar_wavelet_variance
+from analysis.wavelet import WaveletVariance, haar_wavelet_variance
 
 T = TypeVar("T")
 
@@ -53,14 +69,15 @@ ALTERNATIVE_SCORE = 6.0
 
 @dataclass(frozen=True)
 class GmwmJudgement:
-    """N1 scores of the candidates the GMWM can judge, and the models they were computed on.
+    """N2 (or N1) scores of the candidates the GMWM can judge, and the models fitted for them.
 
     Attributes
     ----------
     scores : dict
-        Candidate name -> score (N1); a refitted term scores 0.
+        Candidate name -> score (N2; or N1, where a refitted term scores 0).
     models : dict
-        Candidate name -> the GMWM model it stands for (e.g. ``"wn+bi+gm"``).
+        Candidate name -> the GMWM model fitted for it (N2: its term, e.g. ``"gm"``; N1: the
+        base with it, e.g. ``"wn+gm+bi"``).
     base : str
         The base GMWM model (the current model's stochastic terms).
     """
@@ -77,8 +94,8 @@ def base_codes(model: NoiseModel) -> list[str]:
 
 
 def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
-          candidates: Sequence[tuple[str, str]]) -> GmwmJudgement | None:
-    """Score ``(name, mode)`` candidates (mode ``"add"`` or ``"refit"``) by N1.
+          candidates: Sequence[tuple[str, str]], *, held: bool = True) -> GmwmJudgement | None:
+    """Score ``(name, mode)`` candidates (mode ``"add"`` or ``"refit"``) by N1 (or N2 when ``held``).
 
     Parameters
     ----------
@@ -90,6 +107,9 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
         The current model.
     candidates : sequence of (str, str)
         Candidate names and modes; those without a GMWM term are left out.
+    held : bool
+        Score as reconcile fits (N2): the model's other terms held at their values, only
+        the candidate's term fitted; else every term free (N1).
 
     Returns
     -------
@@ -102,13 +122,16 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
         if name not in GMWM_CODE:
             continue
         code = GMWM_CODE[name]
-        codes = base if mode == "refit" or (code in base and code != "gm") else [*base, code]
-        models[name] = GmwmModel.parse("+".join(codes)).name
+        if held:
+            models[name] = code
+        else:
+            codes = base if mode == "refit" or (code in base and code != "gm") else [*base, code]
+            models[name] = GmwmModel.parse("+".join(codes)).name
     if len(models) < 2:
         return None
-    union = GmwmModel.parse("+".join(sorted({c for m in models.values() for c in GmwmModel.parse(m).codes}
-                                             | set(base)) + (["gm"] if any(
-        GmwmModel.parse(m).codes.count("gm") > 1 for m in models.values()) else [])))
+    union_codes = sorted(set(base) | {GMWM_CODE[n] for n in models})
+    union = GmwmModel.parse("+".join(union_codes + (["gm"] if "gm" in base and "gauss_markov" in models else [])))
+    base_name = GmwmModel.parse("+".join(base)).name
     try:
         wv = haar_wavelet_variance(rate_deg_s, sample_rate_hz, ci="eta3")
         if union.n_params >= len(wv.tau_s):
@@ -117,22 +140,46 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
         # reference), so that no candidate is judged with weights made by its rival
         reference = gmwm(wv, union)
         v = weight_covariance(reference.model, reference.params, wv, reference.model_error)
-        wic = {}
-        for name in {*models.values(), GmwmModel.parse("+".join(base)).name}:
-            fit = gmwm_with_covariance(wv, name, v)
-            wic[name] = fit.objective + 2.0 * fit.n_free
+        if held:
+            scores = _held_scores(wv, model, models, v)
+        else:
+            wic = {}
+            for name in {*models.values(), base_name}:
+                fit = gmwm_with_covariance(wv, name, v)
+                wic[name] = fit.objective + 2.0 * fit.n_free
+            scores = {name: wic[base_name] - wic[m] for name, m in models.items()}
     except (AnalysisError, np.linalg.LinAlgError):
         return None
-    base_name = GmwmModel.parse("+".join(base)).name
-    scores = {name: wic[base_name] - wic[m] for name, m in models.items()}
     return GmwmJudgement(scores=scores, models=models, base=base_name)
+
+
+def _held_scores(wv: WaveletVariance, model: NoiseModel, codes: dict[str, str],
+                 v: NDArray[np.float64]) -> dict[str, float]:
+    """N2: ``WIC(model as it is) - WIC(model with the candidate's term fitted, the rest held)``."""
+    duration = wv.n_samples / wv.sample_rate_hz
+
+    def held_wv(terms: NoiseModel) -> NDArray[np.float64]:
+        out = np.zeros(len(wv.tau_s))
+        for term in terms.terms:
+            if term.name in GMWM_CODE and term.name != "rate_ramp":  # stochastic, still in the record
+                out += term.avar(wv.tau_s, duration_s=duration) / 2.0
+        return out
+
+    r0 = wv.wv - held_wv(model)
+    wic0 = float(r0 @ np.linalg.solve(v, r0))
+    scores = {}
+    for name, code in codes.items():
+        rest = model.without_term(name) if name in model else model
+        fit = gmwm_with_covariance(replace(wv, wv=wv.wv - held_wv(rest)), code, v)
+        scores[name] = wic0 - (fit.objective + 2.0 * fit.n_free)
+    return scores
 
 
 @dataclass(frozen=True)
 class Alternative:
     """Another explanation that fits about as well as the named one.
 
-    ``score`` is N1 (``criterion="gmwm"``) or the Allan curve's Delta BIC (``"allan"``, C2
+    ``score`` is N2 (``criterion="gmwm"``) or the Allan curve's Delta BIC (``"allan"``, C2
     of :mod:`analysis.candidates`); ``change`` is ``"added"`` or what a refit did.
     """
 
@@ -151,9 +198,8 @@ def new_or_more(group: Sequence[T], name_of: Callable[[T], str], added: Callable
     """``group`` (in the order the Allan curve would try it) with the GMWM's answer to "a new
     process or more of one the model has?" in front.
 
-    The first added term of the group and the best-scoring refit are compared by their N1
-    scores; the higher goes first (the added term on a tie, since its refit rival scores 0
-    by construction only when the term adds nothing). Every other member keeps its place.
+    The first added term of the group and the best-scoring refit are compared by their
+    scores; the higher goes first. Every other member keeps its place.
     """
     adds = [x for x in group if added(x) and name_of(x) in judgement.scores]
     refits = [x for x in group if not added(x) and name_of(x) in judgement.scores]

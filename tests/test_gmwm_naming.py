@@ -61,9 +61,14 @@ def test_new_process_or_more_of_one_goes_by_the_gmwm_score():
 
 
 def test_gmwm_scores_a_hidden_gauss_markov_above_more_bias_instability():
-    j = judge(faint_gauss_markov(2), FS, BASE, [("bias_instability", "refit"), ("gauss_markov", "add")])
-    assert j is not None and j.base == "wn+bi" and j.models["gauss_markov"] == "wn+gm+bi"
-    assert j.scores["bias_instability"] == 0.0 and j.scores["gauss_markov"] > 0.0
+    rate = faint_gauss_markov(2)
+    candidates = [("bias_instability", "refit"), ("gauss_markov", "add")]
+    j = judge(rate, FS, BASE, candidates)  # N2: the rest of the model held
+    assert j is not None and j.base == "wn+bi" and j.models == {"bias_instability": "bi", "gauss_markov": "gm"}
+    assert j.scores["gauss_markov"] > j.scores["bias_instability"] > 0.0
+    free = judge(rate, FS, BASE, candidates, held=False)  # N1: every term free
+    assert free is not None and free.models["gauss_markov"] == "wn+gm+bi"
+    assert free.scores["bias_instability"] == 0.0 and free.scores["gauss_markov"] > 0.0
     assert judge(faint_gauss_markov(2), FS, BASE, [("sinusoid", "add"), ("gauss_markov", "add")]) is None
 
 
