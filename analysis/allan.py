@@ -25,6 +25,7 @@ from analysis.confidence import (  # noqa: F401  (re-exported: part of this modu
     ONE_SIGMA,
     allan_edf_grid,
     chi2_interval,
+    estimator_terms,
     local_noise_alpha,
     overlapping_edf,
 )
@@ -34,6 +35,7 @@ from analysis.errors import (
     NonFiniteSamplesError,
     TooFewSamplesError,
 )
+from analysis.noise_id import identify_noise
 
 Estimator = Literal["overlapping", "clusters"]
 InputKind = Literal["rate", "angle_increment"]
@@ -94,6 +96,10 @@ class AllanResult(AllanDeviationMixin):
         Sample rate of the input record in Hz.
     n_samples : int
         Number of samples per axis in the input record.
+    noise_alpha : ndarray of int, same shape as ``avar``
+        Dominant noise type behind each interval, as the rate-noise exponent (2 white
+        angle, 1 flicker angle, 0 white rate, -1 flicker rate, -2 rate random walk), from
+        :func:`analysis.noise_id.identify_noise`.
     """
 
     tau_s: NDArray[np.float64]
@@ -108,6 +114,7 @@ class AllanResult(AllanDeviationMixin):
     estimator: str
     sample_rate_hz: float
     n_samples: int
+    noise_alpha: NDArray[np.int64]
 
     @property
     def relative_error(self) -> NDArray[np.float64]:
@@ -138,6 +145,7 @@ class AllanResult(AllanDeviationMixin):
             estimator=self.estimator,
             sample_rate_hz=self.sample_rate_hz,
             n_samples=self.n_samples,
+            noise_alpha=self.noise_alpha[:, index],
         )
 
 
@@ -242,26 +250,49 @@ def log_m(
     ratio: float | None = None,
     n_points: int = 100,
     min_clusters: int = 9,
+    max_m: int | None = None,
 ) -> NDArray[np.int64]:
     """Log-spaced averaging factors, ``m_i = round(ratio**(i-1))`` (Zhang 2015, eq. 20).
 
     The largest ``m`` keeps at least ``min_clusters`` clusters (eq. 20 takes 9, a 25 %
     error by eq. 4). When ``ratio`` (the paper's tau_g) is not given it is chosen so that
     ``n_points`` values span ``1 .. N/min_clusters`` before rounding; repeated ``m`` after
-    rounding are removed, so fewer points may come back.
+    rounding are removed, so fewer points may come back. With ``max_m``, the grid goes on
+    at the same spacing up to ``max_m`` (:func:`analysis_log_m` reaches two clusters so).
     """
     m_max = n_samples // min_clusters
-    if m_max < 1:
+    top = m_max if max_m is None else int(max_m)
+    if m_max < 1 and top < 1:
         return np.zeros(0, dtype=np.int64)
     if ratio is None:
-        if n_points < 2 or m_max == 1:
-            return np.array([1], dtype=np.int64)
-        ratio = m_max ** (1.0 / (n_points - 1))
+        if n_points < 2 or m_max <= 1:
+            ratio = 2.0 ** (1.0 / 8.0) if top > 1 else 2.0
+        else:
+            ratio = m_max ** (1.0 / (n_points - 1))
     if not ratio > 1.0:
         raise ValueError(f"tau ratio must be > 1, got {ratio}")
-    count = int(np.floor(np.log(m_max) / np.log(ratio) + 1e-9)) + 1
+    count = int(np.floor(np.log(max(top, 1)) / np.log(ratio) + 1e-9)) + 1
     m = np.unique(np.rint(ratio ** np.arange(count)).astype(np.int64))
-    return m[(m >= 1) & (m <= m_max)]
+    m = m[(m >= 1) & (m <= top)]
+    if max_m is not None and m.size and m[-1] < top:
+        # the longest tau the estimator allows is always on the grid
+        m = np.append(m if top > m[-1] * np.sqrt(ratio) else m[:-1], top)
+    return m
+
+
+#: Clusters the analysis' log grid keeps at its longest tau (Stable32 goes as far).
+LOG_GRID_MIN_CLUSTERS = 2
+
+
+def analysis_log_m(n_samples: int, *, max_m: int | None = None) -> NDArray[np.int64]:
+    """The log grid of a whole-record analysis (``station analyze``): eq. 20's spacing (100
+    points up to ``N/9``), continued to the longest tau with :data:`LOG_GRID_MIN_CLUSTERS`
+    clusters, ``N/2`` (or to ``max_m``), as Stable32 goes. The values past ``N/9`` carry
+    wide intervals. The named ``"log"`` grid stays eq. 20's: a DAVAR window (a reproduction
+    of Zhang 2015, where each window's curve feeds a warm-up test) keeps its nine clusters.
+    """
+    top = n_samples // LOG_GRID_MIN_CLUSTERS if max_m is None else max_m
+    return log_m(n_samples, max_m=top)
 
 
 def m_from_tau(tau_s: ArrayLike, sample_rate_hz: float, *, rtol: float = 1e-6) -> NDArray[np.int64]:
@@ -290,6 +321,9 @@ def resolve_m(
     taus: TauGrid | ArrayLike, n_samples: int, sample_rate_hz: float
 ) -> NDArray[np.int64]:
     """Averaging factors of a named grid (``"log"``, ``"octave"``, ``"all"``) or explicit taus (s).
+
+    ``"log"`` is Zhang 2015 eq. 20's :func:`log_m` (to nine clusters); a whole-record
+    analysis asks for :func:`analysis_log_m` (to two) by passing its taus.
 
     Raises
     ------
@@ -365,25 +399,27 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
 def _finish(
     sums: NDArray[np.float64],
     m: NDArray[np.int64],
-    n_terms: NDArray[np.int64],
-    edf_fn,
+    theta: NDArray[np.float64],
     *,
     estimator: str,
     fs: float,
-    n_samples: int,
     squeeze: bool,
     confidence: float,
 ) -> AllanResult:
+    n = theta.shape[0] - 1
+    overlapping = estimator == "overlapping"
+    n_terms = estimator_terms(n, m, overlapping=overlapping)
     avar = sums / (2.0 * (m[:, None].astype(float) / fs) ** 2 * n_terms[:, None])
-    edf = edf_fn(avar)
+    alpha = identify_noise(theta, m).alpha
+    edf = allan_edf_grid(n, m, alpha, overlapping=overlapping)
     low, high = chi2_interval(avar, edf, confidence)
     if squeeze:
-        avar, edf, low, high = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0]
+        avar, edf, low, high, alpha = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0], alpha[:, 0]
     return AllanResult(
         tau_s=m / fs,
         m=m,
         avar=avar,
-        n_clusters=(n_samples // m).astype(np.int64),
+        n_clusters=(n // m).astype(np.int64),
         n_terms=n_terms.astype(np.int64),
         edf=edf,
         ci_low=low,
@@ -391,7 +427,8 @@ def _finish(
         confidence=confidence,
         estimator=estimator,
         sample_rate_hz=fs,
-        n_samples=n_samples,
+        n_samples=n,
+        noise_alpha=alpha,
     )
 
 
@@ -418,12 +455,14 @@ def overlapping_allan_variance(
     sample_rate_hz : float
         Sample rate in Hz.
     taus : {"log", "octave", "all"} or array_like
-        Tau grid: log-spaced (eq. 20), octaves, every m, or explicit taus in seconds.
+        Tau grid: log-spaced (eq. 20), octaves, every m, or explicit taus in seconds
+        (``analysis_log_m(N) / fs`` for the grid that reaches two clusters).
     input_kind : {"rate", "angle_increment"}
         What the samples are.
     confidence : float
         Two-sided level of the chi-square interval (default +-1 sigma). The edf is
-        computed for the noise type seen at each tau (:mod:`analysis.confidence`).
+        computed (:mod:`analysis.confidence`) for the noise type identified at each tau
+        (:mod:`analysis.noise_id`).
 
     Returns
     -------
@@ -442,14 +481,8 @@ def overlapping_allan_variance(
     n = theta.shape[0] - 1
     m = resolve_m(taus, n, fs)
     sums = overlapping_sums(theta, m)
-    n_terms = n + 1 - 2 * m
-    squeeze = np.ndim(samples) == 1
-
-    def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
-        return allan_edf_grid(n, m, local_noise_alpha(m, avar, n), overlapping=True)
-
-    return _finish(sums, m, n_terms, edf_fn, estimator="overlapping", fs=fs, n_samples=n,
-                   squeeze=squeeze, confidence=confidence)
+    return _finish(sums, m, theta, estimator="overlapping", fs=fs, squeeze=np.ndim(samples) == 1,
+                   confidence=confidence)
 
 
 def cluster_allan_variance(
@@ -464,7 +497,8 @@ def cluster_allan_variance(
 
     The N samples are cut into ``J = floor(N/m)`` clusters of m samples; the variance is
     ``sum_k (mean_{k+1} - mean_k)^2 / (2 (J - 1))``. The confidence interval's edf is
-    computed for the noise type seen at each tau (:mod:`analysis.confidence`); eq. 8's
+    computed (:mod:`analysis.confidence`) for the noise type identified at each tau
+    (:mod:`analysis.noise_id`); eq. 8's
     ``1/sqrt(2(J-1))`` (``relative_error``) assumes ``J - 1`` independent differences,
     which adjacent cluster differences are not (white rate noise: edf about 2(J-1)/3).
 
@@ -476,14 +510,8 @@ def cluster_allan_variance(
     n = theta.shape[0] - 1
     m = resolve_m(taus, n, fs)
     sums = cluster_sums(theta, m)
-    n_terms = n // m - 1
-    squeeze = np.ndim(samples) == 1
-
-    def edf_fn(avar: NDArray[np.float64]) -> NDArray[np.float64]:
-        return allan_edf_grid(n, m, local_noise_alpha(m, avar, n), overlapping=False)
-
-    return _finish(sums, m, n_terms, edf_fn, estimator="clusters", fs=fs, n_samples=n,
-                   squeeze=squeeze, confidence=confidence)
+    return _finish(sums, m, theta, estimator="clusters", fs=fs, squeeze=np.ndim(samples) == 1,
+                   confidence=confidence)
 
 
 def allan_variance(

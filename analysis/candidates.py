@@ -67,6 +67,9 @@ SHAPE_KEYS: dict[str, str] = {"gauss_markov": "tau_s", "sinusoid": "period_s"}
 ADD_DEFAULTS: dict[str, dict[str, float]] = {"bias_steps": {"rate_per_h": 1.0}}
 #: Fewest periods of a sinusoid in the record (fewer look like any slow noise).
 MIN_CYCLES = 8.0
+#: Shortest sinusoid period, in samples: a little over two, the Nyquist frequency (exactly
+#: at Nyquist a sampled sinusoid can fall on its zeros).
+NYQUIST_PERIODS = 2.05
 #: Shape grid points per octave (dense enough for the sinusoid's lobes).
 SHAPE_POINTS_PER_OCTAVE = 12
 #: Scale grid points (log theta^2) before refinement.
@@ -146,8 +149,10 @@ class _Shape:
         if self.name not in SHAPE_KEYS:
             return None
         dt, length = 1.0 / self.curve.sample_rate_hz, self.curve.duration_s
-        # a sinusoid needs MIN_CYCLES periods in the record to be told from red noise
-        lo, hi = (3.0 * dt, length / 2.0) if self.name == "gauss_markov" else (4.0 * dt, length / MIN_CYCLES)
+        # a sinusoid needs MIN_CYCLES periods in the record to be told from red noise, and
+        # reaches up to the Nyquist frequency (a period of two samples)
+        lo, hi = (3.0 * dt, length / 2.0) if self.name == "gauss_markov" else (NYQUIST_PERIODS * dt,
+                                                                               length / MIN_CYCLES)
         count = int(math.log2(hi / lo) * SHAPE_POINTS_PER_OCTAVE) + 1
         return np.geomspace(lo, hi, count)
 

@@ -12,7 +12,12 @@ there:
   Gaussian background, an Exp(1) ordinate, so
   ``p = 1 - (1 - exp(-r))^M`` over the ``M`` frequencies of the peak band (S1). The
   period, amplitude and phase are then fitted by nonlinear least squares to the block
-  means, the amplitude corrected for the block averaging by ``sinc(pi f T_b)``.
+  means, the amplitude corrected for the block averaging by ``sinc(pi f T_b)``. A line
+  whose frequency wanders over the record (a MEMS resonance) holds more power than any
+  one sinusoid: when the line the Welch test of :mod:`analysis.tones` finds within the
+  peak band carries more than ``AMPLITUDE_AGREEMENT`` times the fitted sinusoid's
+  amplitude, the sinusoid of equal power at the line's mean frequency is taken (its
+  Allan variance is the line's at taus beyond a few periods).
 * **bias steps**: a change-point test on block means. Steps are the one candidate that
   is not Gaussian: a step of size s moves the difference of block means two apart,
   ``d_j = y_(j+2) - y_j``, by the whole s, while every Gaussian process (white noise,
@@ -53,6 +58,7 @@ from analysis.candidates import CandidateFit
 from analysis.discrepancy import Comparison, MeasuredCurve, block_means, regression_slopes
 from analysis.models import BiasSteps, NoiseModel, NoiseTerm, RateRamp, Sinusoid, TemperatureBias
 from analysis.simulate import simulate
+from analysis.tones import Tone, find_tones
 
 #: Null standard deviations a regression slope must clear (S3, S4): p about 6e-5 if normal.
 Z_CONFIRM = 4.0
@@ -125,8 +131,28 @@ def periodogram_peak(rate: NDArray[np.float64], sample_rate_hz: float, period_s:
               "phase_deg": math.degrees(math.atan2(b, a)) * math.copysign(1.0, popt[2])}
     stderr = {"amplitude_deg_h": units.rate_deg_s_to_deg_h(amp_err),
               "period_s": math.sqrt(max(var[2], 0.0)) / f**2}
-    return Evidence(p < alpha, f"periodogram peak at {1.0 / f:.4g} s, {ratio:.1f} x background, p = {p:.2g}",
-                    values, stderr)
+    text = f"periodogram peak at {1.0 / f:.4g} s, {ratio:.1f} x background, p = {p:.2g}"
+    line = _wandering_line(rate, sample_rate_hz, f0, amp)
+    if line is not None:
+        values = {"amplitude_deg_h": units.rate_deg_s_to_deg_h(line.amplitude_deg_s),
+                  "period_s": 1.0 / line.freq_hz, "phase_deg": 0.0}
+        spread_hz = (line.band_hz[1] - line.band_hz[0]) / math.sqrt(12.0)
+        stderr = {"amplitude_deg_h": units.rate_deg_s_to_deg_h(line.amplitude_stderr_deg_s),
+                  "period_s": spread_hz / line.freq_hz**2}
+        text += (f"; a line over {line.band_hz[0]:.4g}-{line.band_hz[1]:.4g} Hz carrying "
+                 f"{line.amplitude_deg_s / amp:.1f} x one sinusoid's amplitude: its power taken")
+    return Evidence(p < alpha, text, values, stderr)
+
+
+def _wandering_line(rate: NDArray[np.float64], sample_rate_hz: float, f0: float, coherent_deg_s: float
+                    ) -> Tone | None:
+    """The Welch line in ``[f0/1.5, 1.5 f0]`` when it carries more than ``AMPLITUDE_AGREEMENT``
+    times the coherent sinusoid's amplitude (a line whose frequency wanders), else None."""
+    near = [t for t in find_tones(rate, sample_rate_hz) if f0 / 1.5 <= t.freq_hz <= 1.5 * f0]
+    if not near:
+        return None
+    line = max(near, key=lambda t: t.amplitude_deg_s)
+    return line if line.amplitude_deg_s > AMPLITUDE_AGREEMENT * coherent_deg_s else None
 
 
 @dataclass(frozen=True)

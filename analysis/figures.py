@@ -1,10 +1,11 @@
-"""Spec-sheet figures of a static gyro run: bias, bias stability, and the IEEE 952 read-offs.
+"""Spec-sheet figures of a static gyro run: bias, bias stability, read-offs, fit, and review.
 
-Every figure carries its unit in its name. The read-offs follow IEEE Std 952-1997,
-Annex C: the angle random walk is the value at tau = 1 h of the -1/2-slope line through
-the Allan deviation (equivalently ``sigma(tau) sqrt(tau)`` on that line), and the bias
-instability is the flat minimum of the Allan deviation divided by ``sqrt(2 ln 2 / pi)``
-(0.664).
+Every figure carries its unit in its name. The read-offs (:mod:`analysis.readoffs`)
+follow IEEE Std 952-1997, Annex C; each has an interval from the edf of the Allan values
+it was read from. The angle random walk and the bias instability are each measured twice,
+read off the curve and fitted (:mod:`analysis.fit`); when the two disagree by more than
+their combined intervals, :func:`review_notes` says so and why, so that neither is
+silently believed.
 """
 
 from __future__ import annotations
@@ -14,15 +15,27 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import stats
 
 from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
-from analysis.fit import NoiseCoefficients
+from analysis.fit import NoiseCoefficients, log_tau_share
 from analysis.fog import measure_bias_stability
+from analysis.readoffs import (
+    BIAS_INSTABILITY_FACTOR,
+    ReadOff,
+    arw_readoff,
+    bias_instability_readoff,
+    white_share,
+)
 from analysis.units import S_PER_H
+from analysis.zones import TauZone
 
-#: Local log-log slope of the Allan deviation accepted as "the -1/2 line".
-ARW_SLOPE_TOLERANCE = 0.15
-BIAS_INSTABILITY_FACTOR = 0.664
+#: Confidence level at which read-off and fit are compared for ``review``.
+REVIEW_CONFIDENCE = 0.95
+#: A misfit of the model (or a share of other terms) smaller than this is not named as a cause.
+CAUSE_THRESHOLD = 0.02
+#: The fitted curve this far (in deviation) from the smoothed minimum is named as the cause.
+MISFIT_THRESHOLD = 0.1
 
 
 @dataclass(frozen=True)
@@ -83,72 +96,13 @@ def _rate_column(rate_deg_s: ArrayLike) -> tuple[NDArray[np.float64], bool]:
 
 
 @dataclass(frozen=True)
-class ReadOff:
-    """A figure read off the Allan deviation curve, with the tau range it came from (s)."""
-
-    value: float | None
-    tau_low_s: float | None
-    tau_high_s: float | None
-    note: str = ""
-
-
-def local_adev_slope(tau_s: NDArray[np.float64], adev: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Log-log slope of the Allan deviation at each tau, over about an octave either side."""
-    logt, loga = np.log(tau_s), np.log(adev)
-    if len(logt) < 2:
-        return np.full(len(logt), np.nan)
-    lo = np.maximum(logt - math.log(2), logt[0])
-    hi = np.minimum(logt + math.log(2), logt[-1])
-    return (np.interp(hi, logt, loga) - np.interp(lo, logt, loga)) / np.where(hi > lo, hi - lo, 1.0)
-
-
-def arw_readoff(result: AllanResult) -> ReadOff:
-    """Angle random walk (deg/sqrt(h)) read off the -1/2 slope region of a 1-D Allan curve.
-
-    The taus whose local slope is within ``ARW_SLOPE_TOLERANCE`` of -1/2 form the white
-    rate region; the -1/2 line is fitted there (geometric mean of ``sigma sqrt(tau)``,
-    weighted by edf) and read at tau = 1 h. When no tau qualifies, the tau whose slope is
-    closest to -1/2 is used and the note says so.
-    """
-    tau, adev = result.tau_s, np.sqrt(result.avar)
-    slope = local_adev_slope(tau, adev)
-    near = np.abs(slope + 0.5) <= ARW_SLOPE_TOLERANCE
-    note = ""
-    if not near.any():
-        near = np.zeros(len(tau), dtype=bool)
-        near[int(np.nanargmin(np.abs(slope + 0.5)))] = True
-        note = f"no -1/2 slope region; nearest slope {slope[near][0]:.2f}"
-    else:
-        # keep the first contiguous run: the white-rate region sits left of the minimum
-        first = int(np.argmax(near))
-        stop = first + int(np.argmin(near[first:])) if not near[first:].all() else len(near)
-        near = np.zeros(len(tau), dtype=bool)
-        near[first:stop] = True
-    w = np.asarray(result.edf, dtype=float)[near]
-    log_n = np.average(np.log(adev[near] * np.sqrt(tau[near])), weights=w)
-    value = math.exp(log_n) * math.sqrt(S_PER_H)  # deg/s*sqrt(s) = deg/sqrt(s) -> deg/sqrt(h)
-    return ReadOff(value, float(tau[near][0]), float(tau[near][-1]), note)
-
-
-def bias_instability_readoff(result: AllanResult) -> ReadOff:
-    """Bias instability (deg/h): minimum of the Allan deviation / 0.664 (IEEE 952 Annex C).
-
-    When the minimum is at the longest tau the curve had not flattened yet: the value
-    is then an upper bound and the note says so.
-    """
-    adev = np.sqrt(result.avar)
-    i = int(np.argmin(adev))
-    note = ""
-    if i == len(adev) - 1:
-        note = "minimum at the longest tau: upper bound, record longer"
-    value = float(adev[i]) / BIAS_INSTABILITY_FACTOR * S_PER_H
-    tau = float(result.tau_s[i])
-    return ReadOff(value, tau, tau, note)
-
-
-@dataclass(frozen=True)
 class SpecFigures:
-    """The spec-sheet figures of one axis, each in the unit its name ends with."""
+    """The spec-sheet figures of one axis, each in the unit its name ends with.
+
+    ``arw_ci_deg_rt_h`` and ``bias_instability_ci_deg_h`` are the read-offs' intervals
+    at the Allan result's confidence level (+-1 sigma by default); ``review`` lists why
+    read-off and fit disagree (empty when they agree).
+    """
 
     bias_deg_h: float
     bias_stability_10s_deg_h: float | None
@@ -163,21 +117,147 @@ class SpecFigures:
     rrw_deg_h_1_5: float | None
     rate_ramp_deg_h2: float | None
     notes: tuple[str, ...] = ()
+    arw_ci_deg_rt_h: tuple[float | None, float | None] | None = None
+    bias_instability_ci_deg_h: tuple[float | None, float | None] | None = None
+    review: tuple[str, ...] = ()
     #: Earth-rate projection taken off the bias (deg/h); None when it was not removed.
     earth_rate_removed_deg_h: float | None = None
 
     def as_dict(self) -> dict[str, object]:
         """JSON form (tuples become lists)."""
         out = asdict(self)
-        out["arw_tau_range_s"] = list(self.arw_tau_range_s)
-        out["notes"] = list(self.notes)
+        for key in ("arw_tau_range_s", "notes", "arw_ci_deg_rt_h", "bias_instability_ci_deg_h", "review"):
+            value = getattr(self, key)
+            out[key] = None if value is None else list(value)
         return out
 
 
+def _disagree(read: ReadOff, value: float | None, stderr: float | None, confidence: float
+              ) -> tuple[str, str] | None:
+    """(how far apart, how far the intervals allow) when read-off and fit disagree, else None.
+
+    Positive values compare in logs: ``|log(r / f)| > z sqrt(s_r^2 + s_f^2)``. A fit of
+    exactly zero (the bound held) disagrees when the read-off's lower bound exceeds the
+    fit's upper bound ``z stderr``. Not comparable (None): either figure missing.
+    """
+    if read.value is None or read.edf is None or read.value <= 0 or value is None:
+        return None
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    known = stderr is not None and math.isfinite(stderr)
+    if value <= 0:
+        low, _ = read.interval(confidence)
+        if not known or low is None or low <= z * (stderr or 0.0):
+            return None
+        return "the fit finds none", f"fit at most {z * (stderr or 0.0):.3g}"
+    gap = abs(math.log(read.value / value))
+    allowed = z * math.hypot(read.log_sd() or 0.0, (stderr / value) if known else 0.0)  # type: ignore[operator]
+    if gap <= allowed:
+        return None
+    return f"differ by {math.expm1(gap):.0%}", f"{math.expm1(allowed):.1%}"
+
+
+def _fit_text(value: float, stderr: float | None, unit: str) -> str:
+    return f"{value:.3g} +- {stderr:.2g} {unit}" if stderr is not None else f"{value:.3g} {unit} (no standard error)"
+
+
+def _region(result: AllanResult, read: ReadOff) -> NDArray[np.bool_]:
+    tau = result.tau_s
+    return (tau >= (read.tau_low_s or 0.0)) & (tau <= (read.tau_high_s or 0.0))
+
+
+def fitted_arw_readoff_factor(result: AllanResult, fit: NoiseCoefficients, read: ReadOff) -> float:
+    """What the fitted model's own curve would read off the ARW region, over its N (>= 1).
+
+    The read-off takes ``sigma sqrt(tau)`` where white noise holds at least 95 % of the
+    fitted curve; the rest (flicker, quantization) is in it too. Read the same way, the
+    fitted model gives ``N`` times this factor: that, not ``N``, is what the read-off is
+    compared with, so that a few per cent of other terms do not flag a unit.
+    """
+    share = white_share(result, fit)
+    region = _region(result, read)
+    if share is None or not region.any() or np.any(share[region] <= 0):
+        return 1.0
+    weights = (log_tau_share(result.tau_s) * np.asarray(result.edf, dtype=float))[region]
+    return math.exp(0.5 * float(np.average(-np.log(share[region]), weights=weights)))
+
+
+def _arw_cause(result: AllanResult, fit: NoiseCoefficients, read: ReadOff) -> str:
+    region = _region(result, read)
+    model = fit.model_avar(result.tau_s[region])
+    if read.note:
+        return read.note
+    if np.all(model > 0):
+        misfit = math.exp(float(np.mean(np.log(np.asarray(result.avar)[region] / model))) / 2.0) - 1.0
+        if abs(misfit) > CAUSE_THRESHOLD:
+            return (f"the fitted model lies {abs(misfit):.0%} {'below' if misfit > 0 else 'above'} the measured "
+                    f"curve at tau {read.tau_low_s:.3g}-{read.tau_high_s:.3g} s, where the read-off is taken: "
+                    "the five terms do not follow the curve there")
+    return "the difference is beyond both figures' statistical intervals; check the Allan plot"
+
+
+def _bias_instability_cause(fit: NoiseCoefficients, read: ReadOff) -> str:
+    causes = [read.note] if read.note else []
+    tau = np.array([read.tau_low_s or 0.0])
+    model = float(fit.model_avar(tau)[0])
+    if model > 0 and read.value is not None:
+        measured = (read.value * BIAS_INSTABILITY_FACTOR / S_PER_H) ** 2
+        misfit = math.sqrt(model / measured) - 1.0
+        shares = {t: float(fit.term_avar(t, tau)[0]) / model for t in "QNKR"}
+        flicker = float(fit.term_avar("B", tau)[0]) / model
+        if abs(misfit) > MISFIT_THRESHOLD:
+            causes.append(f"the fitted model lies {abs(misfit):.0%} {'above' if misfit > 0 else 'below'} the "
+                          f"smoothed curve at tau {tau[0]:.3g} s: the five terms do not follow the curve around "
+                          "its minimum (station reconcile names what they miss)")
+        elif flicker < 1.0 - CAUSE_THRESHOLD:
+            names = {"Q": "quantization", "N": "white rate noise", "K": "rate random walk", "R": "rate ramp"}
+            listed = [names[t] for t, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v > CAUSE_THRESHOLD]
+            others = " and ".join([", ".join(listed[:-1]), listed[-1]] if len(listed) > 1 else listed)
+            causes.append(f"the Allan minimum at tau {tau[0]:.3g} s is not a flicker floor: the fitted {others} "
+                          f"{'hold' if len(listed) > 1 else 'holds'} {1.0 - flicker:.0%} of it, and "
+                          "sigma_min / 0.664 assumes flicker noise alone")
+    return "; ".join(causes) or "the smoothed minimum and the fitted flicker floor differ beyond both intervals"
+
+
+def review_notes(result: AllanResult, fit: NoiseCoefficients, arw: ReadOff, bias_instability: ReadOff, *,
+                 confidence: float = REVIEW_CONFIDENCE, which: tuple[str, ...] = ("arw", "bias_instability"),
+                 ) -> tuple[str, ...]:
+    """Why read-off and fit of ARW and bias instability disagree, one line each (empty: they agree).
+
+    They disagree when ``|log(read-off / fit)|`` exceeds ``z sqrt(s_r^2 + s_f^2)``: ``z``
+    the two-sided normal quantile of ``confidence``, ``s_r = 1 / sqrt(2 edf)`` the
+    read-off's and ``s_f = stderr / value`` the fit's relative standard error (0 when the
+    fit gives none); a fit of zero disagrees when the read-off's lower bound is above
+    ``z stderr``. A term the fit could not estimate (``None``) is not compared. The ARW
+    read-off is compared with the fitted curve read the same way (N times
+    :func:`fitted_arw_readoff_factor`), the bias-instability read-off with B itself: the
+    flicker floor is what sigma_min / 0.664 claims to measure. ``which`` names the pairs.
+    """
+    notes = []
+    pairs = {"arw": (arw, "N", "ARW", "deg/sqrt(h)", lambda: _arw_cause(result, fit, arw)),
+             "bias_instability": (bias_instability, "B", "bias instability", "deg/h",
+                                  lambda: _bias_instability_cause(fit, bias_instability))}
+    for key in which:
+        read, term, label, unit, cause = pairs[key]
+        value, stderr = fit.values.get(term), fit.stderr.get(term)
+        factor = fitted_arw_readoff_factor(result, fit, read) if key == "arw" else 1.0
+        apart = _disagree(read, None if value is None else value * factor,
+                          None if stderr is None else stderr * factor, confidence)
+        if apart is None:
+            continue
+        assert read.value is not None and value is not None
+        low, high = read.interval(confidence)
+        as_read = f" ({value * factor:.3g} read off the fitted curve the same way)" if factor > 1.001 else ""
+        notes.append(f"{label}: read-off {read.value:.3g} [{low:.3g}, {high:.3g}] and fit "
+                     f"{_fit_text(value, stderr, unit)}{as_read} {apart[0]}, more than their combined "
+                     f"{confidence:.0%} intervals allow ({apart[1]}): {cause()}")
+    return tuple(notes)
+
+
 def spec_figures(
-    rate_deg_s: ArrayLike, sample_rate_hz: float, result: AllanResult, fit: NoiseCoefficients
+    rate_deg_s: ArrayLike, sample_rate_hz: float, result: AllanResult, fit: NoiseCoefficients, *,
+    zones: tuple[TauZone, ...] = (),
 ) -> SpecFigures:
-    """Every spec figure of one axis: bias, bias stability (10 s, 100 s), read-offs and fit.
+    """Every spec figure of one axis: bias, bias stability (10 s, 100 s), read-offs, fit, review.
 
     Parameters
     ----------
@@ -188,14 +268,18 @@ def spec_figures(
     result : AllanResult
         The axis' Allan variance (1-D).
     fit : NoiseCoefficients
-        The axis' five-term fit.
+        The axis' five-term fit (made without ``zones``: :func:`analysis.zones.fit_outside_zones`).
+    zones : tuple of TauZone
+        Tau ranges the five-term model does not describe; no read-off is taken there.
     """
     x, _ = _rate_column(rate_deg_s)
     bs10 = bias_stability(x, sample_rate_hz, 10.0)
     bs100 = bias_stability(x, sample_rate_hz, 100.0)
-    arw = arw_readoff(result)
-    bi = bias_instability_readoff(result)
-    notes = tuple(
+    arw = arw_readoff(result, fit, zones=zones)
+    bi = bias_instability_readoff(result, zones=zones)
+    notes = tuple(f"fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s: {z.reason}"
+                  for z in zones)
+    notes += tuple(
         f"{name}: {r.note}" for name, r in (("ARW read-off", arw), ("bias instability read-off", bi)) if r.note
     )
     if bs100.value_deg_h is None:
@@ -214,4 +298,7 @@ def spec_figures(
         rrw_deg_h_1_5=fit.values["K"],
         rate_ramp_deg_h2=fit.values["R"],
         notes=notes,
+        arw_ci_deg_rt_h=arw.interval(result.confidence) if arw.value is not None else None,
+        bias_instability_ci_deg_h=bi.interval(result.confidence) if bi.value is not None else None,
+        review=review_notes(result, fit, arw, bi),
     )

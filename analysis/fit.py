@@ -194,7 +194,7 @@ def _weighted_system(
 
 def fit_noise_terms(
     result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS,
-    model_error: float = DEFAULT_MODEL_ERROR,
+    model_error: float = DEFAULT_MODEL_ERROR, exclude_tau_s: tuple[tuple[float, float], ...] = (),
 ) -> NoiseCoefficients:
     """Fit the five-term model (Lv 2015 eq. 3) to a single-axis Allan variance.
 
@@ -212,6 +212,9 @@ def fit_noise_terms(
         Allan variance, default 2 %), added in quadrature to each value's sampling error
         in the log domain. Without it the very precise short-tau values of a long real
         record decide every term, and a small misfit there pulls B off the plateau.
+    exclude_tau_s : tuple of (float, float)
+        Closed tau ranges (s) left out of the fit: where the curve holds something the
+        five terms do not describe (a tone, an output filter; see :mod:`analysis.zones`).
 
     Returns
     -------
@@ -230,6 +233,8 @@ def fit_noise_terms(
         raise FitError("fit one axis at a time: pass result.axis(i)")
     x_full = design_matrix(result.tau_s, terms)
     x, y, keep = _weighted_system(method, result, avar, x_full)
+    for lo, hi in exclude_tau_s:
+        keep = keep & ~((result.tau_s >= lo) & (result.tau_s <= hi))
     if keep.sum() < len(terms):
         raise FitError(
             f"{int(keep.sum())} Allan values usable by {method}, fewer than the {len(terms)} terms "

@@ -38,6 +38,7 @@ from analysis import kernels
 from analysis.allan import AllanResult, TauGrid, check_sample_rate, resolve_m
 from analysis.confidence import ONE_SIGMA, allan_edf, chi2_interval, local_noise_alpha
 from analysis.errors import NonFiniteSamplesError, TooFewSamplesError
+from analysis.noise_id import identify_noise
 
 #: At most this many distinct stretch lengths get an exact edf per (tau, noise type); the
 #: others are interpolated in log-log (the edf of a stretch is smooth in its length).
@@ -332,11 +333,14 @@ def gap_allan_variance(
         raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")
     avar = sums / (2.0 * (m[:, None].astype(float) / fs) ** 2 * n_terms[:, None])
     n_present = g.theta.shape[0] - 1
-    alpha = local_noise_alpha(m, avar, n_present)
+    if len(g.starts) == 1:  # no gap: the type per tau of the gap-free estimators
+        alpha = identify_noise(g.theta, m).alpha
+    else:
+        alpha = local_noise_alpha(m, avar, n_present)
     edf = np.clip(_edf_grid(m, alpha, lengths_of, stride_of), 1.0, np.maximum(n_terms, 1)[:, None])
     low, high = chi2_interval(avar, edf, confidence)
     if np.ndim(samples) == 1:
-        avar, edf, low, high = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0]
+        avar, edf, low, high, alpha = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0], alpha[:, 0]
     return AllanResult(tau_s=m / fs, m=m, avar=avar, n_clusters=n_clusters, n_terms=n_terms,
                        edf=edf, ci_low=low, ci_high=high, confidence=confidence,
-                       estimator=estimator, sample_rate_hz=fs, n_samples=n_present)
+                       estimator=estimator, sample_rate_hz=fs, n_samples=n_present, noise_alpha=alpha)

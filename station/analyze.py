@@ -12,14 +12,24 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import AllanResult, Estimator, allan_variance
+from analysis.allan import AllanResult, Estimator, allan_variance, analysis_log_m
+from analysis.deviations import (
+    DEVIATION_LABELS,
+    DeviationKind,
+    DeviationResult,
+    deviation,
+    from_allan,
+)
 from analysis.figures import SpecFigures, spec_figures
-from analysis.fit import FitMethod, NoiseCoefficients, fit_noise_terms
+from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
 from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
 from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
+from analysis.zones import TauZone, fit_outside_zones
 from station.bench import Bench, earth_rate_note
+from station.errors import UsageError
 from station.record_files import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
@@ -105,6 +115,9 @@ class OutlierReport:
 class AxisAnalysis:
     """Everything ``station analyze`` reports for one axis.
 
+    ``allan`` is the Allan variance the fit and the spec figures come from; ``curve`` is
+    the deviation shown and listed when another than that Allan deviation was asked for
+    (:attr:`shown` is the one to show either way).
     ``rate_deg_s`` is the rate the figures were computed from: on the record's time grid
     (NaN where a sample is missing), spikes replaced when they were removed, the Earth
     rate taken off when the bench gave it. ``allan_alternative`` is the Allan curve the
@@ -123,24 +136,48 @@ class AxisAnalysis:
     rate_deg_s: NDArray[np.float64] | None = None
     allan_alternative: AllanResult | None = None
     alternative_label: str = ""
+    tones: tuple[Tone, ...] = ()
+    zones: tuple[TauZone, ...] = ()
+    curve: DeviationResult | None = None
     gmwm: GmwmSelection | None = None
 
+    @property
+    def shown(self) -> DeviationResult:
+        """The deviation shown and listed: ``curve``, else the fit's Allan deviation."""
+        return self.curve if self.curve is not None else from_allan(self.allan)
+
     def as_json(self) -> dict[str, object]:
-        """The JSON object of one axis (the ``station analyze --json`` interface)."""
+        """The JSON object of one axis (the ``station analyze --json`` interface).
+
+        ``tau_s``, ``adev``, ``adev_ci_low``, ``adev_ci_high`` and ``n_clusters`` are those
+        of the chosen ``deviation`` (``adev`` holds its values, in ``deviation_unit``);
+        ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
+        """
+        c = self.shown
         return {
             "name": self.name,
             "sample_rate_hz": self.sample_rate_hz,
             "n_samples": self.n_samples,
             "estimator": self.allan.estimator,
-            "tau_s": self.allan.tau_s.tolist(),
-            "adev": self.allan.adev.tolist(),
-            "adev_ci_low": self.allan.adev_ci_low.tolist(),
-            "adev_ci_high": self.allan.adev_ci_high.tolist(),
-            "n_clusters": self.allan.n_clusters.tolist(),
+            "deviation": c.kind,
+            "deviation_label": DEVIATION_LABELS[c.kind],
+            "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
+            "tau_s": c.tau_s.tolist(),
+            "adev": c.deviation.tolist(),
+            "adev_ci_low": c.deviation_ci_low.tolist(),
+            "adev_ci_high": c.deviation_ci_high.tolist(),
+            "n_clusters": c.n_clusters.tolist(),
+            "edf": c.edf.tolist(),
+            "noise_alpha": c.noise_alpha.tolist(),
+            "interval": c.interval,
+            "curve_notes": list(c.notes),
+            "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace("deviation", "variance"),
             "fit": self.fit.as_dict(),
             "figures": self.figures.as_dict(),
             "gaps": self.gaps.as_json(),
             "outliers": self.outliers.as_json(),
+            "tones": [t.as_dict() for t in self.tones],
+            "excluded_taus": [z.as_dict() for z in self.zones],
             **({"gmwm": self.gmwm.as_json()} if self.gmwm is not None else {}),
         }
 
@@ -186,10 +223,11 @@ def analyze_record(
     terms: str = "QNBKR",
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
+    deviation_kind: DeviationKind | None = None,
     gmwm_model: str = "auto",
     robust: bool = False,
 ) -> list[AxisAnalysis]:
-    """Allan variance, fit and spec figures of every axis of ``record`` (rates in deg/s).
+    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
 
     ``method="gmwm"`` adds the GMWM (``gmwm_model``: a model string or ``"auto"``
     selection; ``robust``: the robust wavelet variance) beside the default Allan fit, on
@@ -199,12 +237,33 @@ def analyze_record(
     and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
     are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
     The bias is reported with the Earth-rate projection of ``bench`` removed when it
-    gives the axis' latitude and direction.
+    gives the axis' latitude and direction. Tones are looked for in every axis
+    (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
+    output filter distorts (:func:`analysis.zones.fit_outside_zones`).
+
+    ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
+    the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
+    own grid). ``deviation_kind`` picks the curve shown (default: the Allan deviation of
+    ``estimator``); the fit and the figures stay on the Allan variance.
+
+    Raises
+    ------
+    UsageError
+        A deviation other than the Allan ones on a record with gaps (only the Allan
+        estimators skip gaps).
     """
     fs = record.sample_rate_hz
     use_gmwm = method == GMWM_METHOD
     allan_method: FitMethod = DEFAULT_METHOD if use_gmwm else method  # type: ignore[assignment]
     gapped = record.sample_index is not None
+    asked = taus
+    if isinstance(taus, str) and taus == "log" and not gapped:
+        taus = analysis_log_m(record.n_samples) / fs
+    own = "oadev" if estimator == "overlapping" else "adev"
+    if deviation_kind not in (None, own, "oadev", "adev") and gapped:
+        raise UsageError(f"the {DEVIATION_LABELS[deviation_kind]} of a record with gaps is not computed "
+                         f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
+                         f"--start-s/--stop-s")
     summary = gap_summary(record.present_mask())
     gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
@@ -227,9 +286,10 @@ def analyze_record(
                 np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
-        fit = fit_noise_terms(axis, method=allan_method, terms=terms)
+        tones = find_tones(grid_rate, fs)
+        fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms)
         analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
-        figures = spec_figures(analysed, fs, axis, fit)
+        figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:
             notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
@@ -238,9 +298,12 @@ def analyze_record(
             notes.append(f"spikes: {reports[i].note()}")
         figures = replace(figures, earth_rate_removed_deg_h=earth[i],
                           notes=figures.notes + tuple(notes))
+        curve = None
+        if deviation_kind is not None and deviation_kind != own:
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
         gm = gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped) if use_gmwm else None
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
-                                analysed, alternative, label, gm))
+                                analysed, alternative, label, tones, zones, curve, gm))
     return out
 
 
@@ -251,6 +314,16 @@ def _fmt(value: float | None, stderr: float | None = None) -> str:
     if stderr is not None:
         text += f" +- {stderr:.2g}"
     return text
+
+
+def _interval(ci: tuple[float | None, float | None] | None) -> str:
+    if ci is None or ci[0] is None or ci[1] is None:
+        return "-"
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def _range(taus: tuple[float | None, float | None]) -> str:
+    return "-" if taus[0] is None else f"{taus[0]:.3g}-{taus[1]:.3g}"
 
 
 def format_analysis(axes: list[AxisAnalysis]) -> str:
@@ -273,23 +346,32 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
+    add("  interval [deg/sqrt(h)]", [_interval(f.arw_ci_deg_rt_h) for f in figs])
+    add("  from tau [s]", [_range(f.arw_tau_range_s) for f in figs])
     add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
+    add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
     labels = {"Q": "Q quantization [urad]", "N": "N ARW [deg/sqrt(h)]", "B": "B bias instability [deg/h]",
               "K": "K rate random walk [deg/h^1.5]", "R": "R rate ramp [deg/h^2]"}
     for term, label in labels.items():
         add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
                              else "negative" for f in fits])
+    add("tones [Hz: deg/s]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+                              for a in axes])
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(v) for _, vals in rows for v in vals))
     header = " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)
     lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
-             f"{len(axes[0].allan.tau_s)} taus", header]
+             f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
     if any(a.gmwm is not None for a in axes):
         lines += gmwm_rows(axes, width, col)
     for a in axes:
+        lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
+    if axes and axes[0].curve is not None:
+        lines += format_curve(axes)
     return "\n".join(lines)
 
 
@@ -307,3 +389,22 @@ def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int) -> list[str]:
                                            if g and g.runner_up else "-" for g in fits]))
     width = max(width, *(len(label) for label, _ in rows))
     return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
+
+
+def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:
+    """The chosen deviation of every axis at a few taus per decade, with its interval."""
+    c0 = axes[0].shown
+    unit, scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
+    lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
+                 f"({c0.interval}); the fit and figures above are on the Allan variance"]
+    logt = np.log10(c0.tau_s)
+    picks = np.unique([int(np.argmin(np.abs(logt - v)))
+                       for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)] + [len(logt) - 1])
+    lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
+    for j in picks:
+        cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "
+                 f"{a.shown.deviation_ci_high[j] * scale:.3g}]" for a in axes]
+        lines.append(f"{c0.tau_s[j]:>10.4g}  " + "  ".join(f"{c:>30}" for c in cells))
+    for a in axes:
+        lines += [f"note ({a.name}): {n}" for n in a.shown.notes]
+    return lines

@@ -9,14 +9,18 @@ profile names with a two-sided interval at the profile's confidence level:
 ``bias_stability_<T>s``
     std of T-second averages; chi-square interval with ``n_averages - 1`` dof.
 ``arw``, ``bias_instability``, ``adev_min``
-    read-offs of the Allan deviation (IEEE 952 Annex C); chi-square interval with the edf
-    of the Allan value they are read from (for ``arw`` the best-determined tau of the -1/2
-    region).
+    read-offs of the Allan deviation (IEEE 952 Annex C, :mod:`analysis.readoffs`);
+    chi-square interval with the edf of the Allan values they are read from. With the
+    profile's ``[grading] figure_source = "fit"``, ``arw`` and ``bias_instability`` are the
+    fitted N and B instead (``adev_min`` is always read off).
 ``quantization``, ``arw_fit``, ``bias_instability_fit``, ``rrw``, ``rate_ramp``
     the fitted Q, N, B, K, R; interval ``value +- z stderr`` (normal quantile), clipped at 0.
 
 Each limit is an upper limit and is decided by the profile's rule (see :func:`decide`).
 An axis gets the best grade whose every limit it passes; the unit gets its worst axis.
+An axis whose read-off and fit of a graded figure disagree by more than their combined
+intervals keeps its grade and is flagged for review with the reason
+(:func:`axis_review`): neither figure is silently believed.
 Grading reads only a :class:`~station.runs.RunInfo`, so a stored run is re-graded with any
 profile without the device.
 """
@@ -34,15 +38,15 @@ from typing import Literal
 import numpy as np
 from scipy import stats
 
-from analysis.allan import AllanResult
 from analysis.confidence import chi2_interval
-from analysis.figures import arw_readoff, bias_instability_readoff, bias_stability
+from analysis.figures import bias_stability, review_notes
 from analysis.fit import NoiseCoefficients
+from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
 from analysis.units import S_PER_H
 from station.analyze import AxisAnalysis, analyze_record
 from station.bench import Bench, bench_from_json
 from station.errors import RecordFormatError, StationError
-from station.profiles import FigureSpec, Profile, bias_stability_average_s
+from station.profiles import DEFAULT_FIGURE_SOURCE, FigureSpec, Profile, bias_stability_average_s
 from station.record_files import RateRecord
 from station.runs import RunInfo, UnitRun
 
@@ -118,6 +122,7 @@ class AxisGrade:
     figures: tuple[FigureResult, ...]
     analysis: AxisAnalysis
     could_reach: str | None = None
+    review: tuple[str, ...] = ()
 
     @property
     def graded_figures(self) -> tuple[FigureResult, ...]:
@@ -130,6 +135,9 @@ class AxisGrade:
             "grade": self.grade,
             "deciding_grade": self.deciding_grade,
             "could_reach": self.could_reach,
+            "review": list(self.review),
+            "tones": [t.as_dict() for t in self.analysis.tones],
+            "excluded_taus": [z.as_dict() for z in self.analysis.zones],
             "sample_rate_hz": self.analysis.sample_rate_hz,
             "n_samples": self.analysis.n_samples,
             "duration_s": self.analysis.n_samples / self.analysis.sample_rate_hz,
@@ -151,6 +159,11 @@ class UnitGrade:
     warmup_discarded_s: float
     notes: tuple[str, ...] = ()
 
+    @property
+    def review(self) -> tuple[str, ...]:
+        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does not."""
+        return tuple(f"{a.axis}: {note}" for a in self.axes for note in a.review)
+
     def axis(self, name: str) -> AxisGrade:
         """The axis named ``name``."""
         for a in self.axes:
@@ -162,7 +175,7 @@ class UnitGrade:
         """JSON object of the unit."""
         u = self.unit
         return {"unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
-                "grade": self.grade, "warmup_discarded_s": self.warmup_discarded_s,
+                "grade": self.grade, "review": list(self.review), "warmup_discarded_s": self.warmup_discarded_s,
                 "notes": list(self.notes), "axes": {a.axis: a.as_json() for a in self.axes}}
 
 
@@ -189,6 +202,7 @@ class RunGrade:
             "software_version": self.software_version,
             "profile": {"name": p.name, "version": p.version, "model": p.model, "path": p.path,
                         "sha256": p.sha256, "rule": p.rule, "confidence": p.confidence,
+                        "figure_source": p.figure_source,
                         "grades": list(p.grades), "reject": p.reject},
             "run": {"path": r.path, "start_utc": r.start_utc, "stop_utc": r.stop_utc,
                     "operator": r.operator, "lot": r.lot, "station": r.station_host,
@@ -284,22 +298,20 @@ def bias_interval(x: np.ndarray, confidence: float) -> Interval:
     return Interval(abs(mean), min(abs(low), abs(high)), max(abs(low), abs(high)))
 
 
-def _readoff_interval(allan: AllanResult, name: str, confidence: float) -> Interval:
-    edf = np.asarray(allan.edf, dtype=float)
+def _readoff_interval(analysis: AxisAnalysis, name: str, confidence: float) -> Interval:
+    allan = analysis.allan
     if name == "arw":
-        r = arw_readoff(allan)
-        if r.value is None:
-            return Interval(None, None, None, r.note)
-        region = (allan.tau_s >= r.tau_low_s) & (allan.tau_s <= r.tau_high_s)
-        low, high = _chi2_scaled(r.value, float(edf[region].max()), confidence)
-        return Interval(r.value, low, high, r.note)
-    r = bias_instability_readoff(allan)
+        r = arw_readoff(allan, analysis.fit, zones=analysis.zones)
+        where = f"tau {r.tau_low_s:.3g}-{r.tau_high_s:.3g} s" if r.tau_low_s is not None else ""
+    else:
+        r = bias_instability_readoff(allan, zones=analysis.zones)
+        where = f"at tau {r.tau_low_s:.3g} s" if r.tau_low_s is not None else ""
     if r.value is None:
         return Interval(None, None, None, r.note)
-    i = int(np.argmin(allan.avar))
-    value = r.value * (0.664 if name == "adev_min" else 1.0)
-    low, high = _chi2_scaled(value, float(edf[i]), confidence)
-    return Interval(value, low, high, r.note or f"at tau {allan.tau_s[i]:.3g} s")
+    scale = BIAS_INSTABILITY_FACTOR if name == "adev_min" else 1.0
+    low, high = r.interval(confidence)
+    assert low is not None and high is not None
+    return Interval(r.value * scale, low * scale, high * scale, r.note or where)
 
 
 def _fit_interval(fit: NoiseCoefficients, term: str, confidence: float) -> Interval:
@@ -313,11 +325,14 @@ def _fit_interval(fit: NoiseCoefficients, term: str, confidence: float) -> Inter
     return Interval(value, max(value - half, 0.0), value + half)
 
 
-def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence: float) -> Interval:
+def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence: float, *,
+                    source: str = DEFAULT_FIGURE_SOURCE) -> Interval:
     """A figure (canonical unit) with its interval from one axis' rate (deg/s) and analysis.
 
     ``x`` is the rate the analysis worked on (:attr:`AxisAnalysis.rate_deg_s`: NaN where a
     sample is missing, spikes removed, Earth rate taken off where the bench gives it).
+    ``source`` (``"read-off"`` or ``"fit"``) says where ``arw`` and ``bias_instability``
+    come from (the profile's ``[grading] figure_source``).
     """
     average_s = bias_stability_average_s(name)
     if average_s is not None:
@@ -331,8 +346,10 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
         removed = analysis.figures.earth_rate_removed_deg_h
         earth = "Earth rate not removed" if removed is None else f"Earth rate {removed:+.4g} deg/h removed"
         return replace(b, note="; ".join(t for t in (b.note, earth) if t))
+    if name in ("arw", "bias_instability") and source == "fit":
+        return _fit_interval(analysis.fit, _FIT_TERM[f"{name}_fit"], confidence)
     if name in ("arw", "bias_instability", "adev_min"):
-        return _readoff_interval(analysis.allan, name, confidence)
+        return _readoff_interval(analysis, name, confidence)
     return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
 
 
@@ -379,6 +396,22 @@ def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> d
     return out
 
 
+def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
+    """Why an axis needs review: read-off and fit of a graded figure disagree (at the profile's level).
+
+    Only the pairs the profile limits are compared (``arw`` or ``arw_fit``,
+    ``bias_instability`` or ``bias_instability_fit``): a disagreement on an informational
+    figure cannot change a verdict, and ``station analyze`` reports it anyway.
+    """
+    graded = {f.name for f in profile.figures if f.graded}
+    which = tuple(k for k in ("arw", "bias_instability") if {k, f"{k}_fit"} & graded)
+    if not which:
+        return ()
+    arw = arw_readoff(analysis.allan, analysis.fit, zones=analysis.zones)
+    bi = bias_instability_readoff(analysis.allan, zones=analysis.zones)
+    return review_notes(analysis.allan, analysis.fit, arw, bi, confidence=profile.confidence, which=which)
+
+
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
@@ -417,10 +450,12 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):  # type: ignore[arg-type]
         x = analysis.rate_deg_s
         assert x is not None
-        figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence), profile)
+        figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence,
+                                                           source=profile.figure_source), profile)
                         for spec in profile.figures)
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
-        axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could))
+        axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
+                              axis_review(analysis, profile)))
     worst = max(axes, key=lambda a: grade_rank(a.grade, profile)).grade
     return UnitGrade(unit, worst, tuple(axes), profile.warmup_s if profile.warmup_s > 0 else 0.0,
                      tuple(notes))

@@ -47,6 +47,13 @@ DecisionRule = Literal["strict", "guard-banded", "simple"]
 DECISION_RULES: tuple[str, ...] = ("strict", "guard-banded", "simple")
 DEFAULT_CONFIDENCE = 0.95
 DEFAULT_FIT_METHOD = "logwls"
+FigureSource = Literal["read-off", "fit"]
+FIGURE_SOURCES: tuple[str, ...] = ("read-off", "fit")
+#: Where ``arw`` and ``bias_instability`` come from unless a profile says otherwise: the
+#: IEEE 952 read-offs data sheets quote (the fit is graded with ``arw_fit`` etc.).
+DEFAULT_FIGURE_SOURCE = "read-off"
+#: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
+DUAL_FIGURES = ("arw", "bias_instability")
 #: Where profile names are looked up: ``<repo>/profiles``.
 PROFILE_DIR = Path(__file__).resolve().parents[1] / "profiles"
 
@@ -80,8 +87,8 @@ class FigureKind:
 #: The figures grading can compute (see :mod:`station.grading` for how and their intervals).
 FIGURE_KINDS: dict[str, FigureKind] = {
     "bias": FigureKind("rate", "|bias|"),
-    "arw": FigureKind("arw", "ARW (read-off)"),
-    "bias_instability": FigureKind("rate", "bias instability (read-off)"),
+    "arw": FigureKind("arw", "ARW"),
+    "bias_instability": FigureKind("rate", "bias instability"),
     "adev_min": FigureKind("rate", "Allan deviation minimum"),
     "quantization": FigureKind("angle", "Q quantization (fit)"),
     "arw_fit": FigureKind("arw", "N ARW (fit)"),
@@ -121,6 +128,7 @@ class FigureSpec:
     unit: str
     limits: dict[str, float]
     line: int | None = None
+    source: str = ""
 
     @property
     def kind(self) -> FigureKind:
@@ -131,8 +139,8 @@ class FigureSpec:
 
     @property
     def label(self) -> str:
-        """Human-readable name of the figure."""
-        return self.kind.label
+        """Human-readable name of the figure (with ``(read-off)`` or ``(fit)`` where it could be either)."""
+        return f"{self.kind.label} ({self.source})" if self.source else self.kind.label
 
     @property
     def unit_factor(self) -> float:
@@ -171,6 +179,8 @@ class Profile:
         Two-sided confidence level of every figure's interval (0 < c < 1).
     fit_method : str
         Noise-term fit method (:data:`analysis.fit.FIT_METHODS`).
+    figure_source : str
+        ``"read-off"`` or ``"fit"``: what ``arw`` and ``bias_instability`` grade.
     figures : tuple of FigureSpec
         The figures to compute, in report order.
     path : str
@@ -193,6 +203,7 @@ class Profile:
     figures: tuple[FigureSpec, ...]
     settings: dict[str, Any] = field(default_factory=dict)
     fit_method: str = DEFAULT_FIT_METHOD
+    figure_source: FigureSource = DEFAULT_FIGURE_SOURCE  # type: ignore[assignment]
     reject: str = "reject"
     description: str = ""
     source: str = ""
@@ -319,7 +330,7 @@ def _get(data: dict[str, Any], key: tuple[str, ...]) -> Any:
 _TOP_KEYS = {"name", "version", "model", "description", "source", "transport", "settings", "test",
              "grading", "figures"}
 _TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method"}
-_GRADING_KEYS = {"rule", "confidence", "grades", "reject"}
+_GRADING_KEYS = {"rule", "confidence", "grades", "reject", "figure_source"}
 _FIGURE_KEYS = {"unit", "limits"}
 
 
@@ -358,6 +369,9 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
     assert confidence is not None
     if not 0.5 <= confidence < 1:
         raise c.fail(("grading", "confidence"), f"must be in [0.5, 1), got {confidence}")
+    source = c.string(grading, ("grading", "figure_source"), default=DEFAULT_FIGURE_SOURCE)
+    if source not in FIGURE_SOURCES:
+        raise c.fail(("grading", "figure_source"), f"{source!r} is not one of {', '.join(FIGURE_SOURCES)}")
     grades = c.strings(grading, ("grading", "grades"))
     reject = c.string(grading, ("grading", "reject"), default="reject")
     if reject in grades or reject == "indeterminate":
@@ -380,8 +394,9 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         grades=grades,
         rule=rule,  # type: ignore[arg-type]
         confidence=confidence,
-        figures=_parse_figures(c, data, grades),
+        figures=_parse_figures(c, data, grades, source),
         fit_method=fit_method,
+        figure_source=source,  # type: ignore[arg-type]
         reject=reject,
         description=str(data.get("description", "")),
         source=str(data.get("source", "")),
@@ -390,7 +405,8 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
     )
 
 
-def _parse_figures(c: _Checker, data: dict[str, Any], grades: tuple[str, ...]) -> tuple[FigureSpec, ...]:
+def _parse_figures(c: _Checker, data: dict[str, Any], grades: tuple[str, ...], source: str
+                   ) -> tuple[FigureSpec, ...]:
     figures = c.table(data, ("figures",), set(), required=True)
     if not figures:
         raise c.fail(("figures",), "names no figure")
@@ -413,7 +429,7 @@ def _parse_figures(c: _Checker, data: dict[str, Any], grades: tuple[str, ...]) -
                 value = c.number(limits_table, key + ("limits", grade), positive=True)
                 assert value is not None
                 limits[grade] = value
-        out.append(FigureSpec(name, unit, limits, c.line_of(key)))
+        out.append(FigureSpec(name, unit, limits, c.line_of(key), source if name in DUAL_FIGURES else ""))
     if not any(f.graded for f in out):
         raise c.fail(("figures",), "no figure has limits: nothing to grade")
     return tuple(out)

@@ -7,8 +7,8 @@ One file holds the station's history (default :func:`default_database_path`, or 
     profiles   (name, version, sha256, rule, confidence, grades, text)   one row per profile file
     runs       (path, start_utc, stop_utc, operator, lot, station, software_version)
     units      (model, serial_number)                                   one row per gyro
-    gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes)
-    axis_grades(grading, axis, grade, deciding_grade, n_samples, sample_rate_hz)
+    gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes, review)
+    axis_grades(grading, axis, grade, deciding_grade, n_samples, sample_rate_hz, review)
     figures    (grading, axis, name, unit, value, ci_low, ci_high, limit, verdict)
     reports    (grading, format, path, created_utc)
 
@@ -82,6 +82,12 @@ MIGRATIONS: tuple[str, ...] = (
     CREATE INDEX gradings_unit ON gradings (unit_id);
     CREATE INDEX units_model ON units (model);
     """,
+    # 3: review: why a person must look at a grading (read-off and fit disagree); '' when not
+    """
+    ALTER TABLE gradings ADD COLUMN review TEXT NOT NULL DEFAULT '';
+    ALTER TABLE axis_grades ADD COLUMN review TEXT NOT NULL DEFAULT '';
+    CREATE INDEX gradings_review ON gradings (review != '');
+    """,
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 
@@ -120,6 +126,12 @@ class GradingRow:
     profile: str
     run_path: str
     run_unit: str
+    review: str = ""
+
+    @property
+    def needs_review(self) -> bool:
+        """Whether the grading was flagged for a person's review."""
+        return bool(self.review)
 
 
 @dataclass(frozen=True)
@@ -267,15 +279,16 @@ class ResultsDatabase:
         test_date = graded.run.start_utc or graded.graded_utc
         cur = con.execute(
             "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
-            " verdict, software_version, notes) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            " verdict, software_version, notes, review) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
             (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.lot,
              u.grade, verdict_of(u.grade, graded.profile.reject), graded.software_version,
-             "\n".join(u.notes)))
+             "\n".join(u.notes), "\n".join(u.review)))
         grading_id = int(cur.lastrowid or 0)
         for a in u.axes:
-            con.execute("INSERT INTO axis_grades VALUES (?, ?, ?, ?, ?, ?)",
+            con.execute("INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
+                        " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
                         (grading_id, a.axis, a.grade, a.deciding_grade, a.analysis.n_samples,
-                         a.analysis.sample_rate_hz))
+                         a.analysis.sample_rate_hz, "\n".join(a.review)))
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else None
@@ -294,9 +307,10 @@ class ResultsDatabase:
 
     def gradings(self, *, model: str | None = None, lot: str | None = None, since: str | None = None,
                  until: str | None = None, verdict: str | None = None, serial: str | None = None,
-                 latest: bool = False) -> list[GradingRow]:
+                 latest: bool = False, review: bool = False) -> list[GradingRow]:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
-        includes that whole day). ``latest`` keeps only each unit's newest grading."""
+        includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
+        only the gradings flagged for review."""
         clauses, params = [], []
         for column, value in (("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
                               ("u.serial_number", serial)):
@@ -311,10 +325,12 @@ class ResultsDatabase:
             params.append(until + "\uffff")
         if latest:
             clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
+        if review:
+            clauses.append("g.review != ''")
         where = ("WHERE " + " AND ".join(clauses)) if clauses else ""
         rows = self._con.execute(
             "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, g.verdict,"
-            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit FROM gradings g"
+            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM gradings g"
             " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
             f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id", params).fetchall()
         return [GradingRow(*row) for row in rows]

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from analysis.allan import (
     all_m,
     allan_variance,
+    analysis_log_m,
     cluster_allan_variance,
     log_m,
     m_from_tau,
@@ -102,6 +103,10 @@ def test_tau_grids() -> None:
     assert m[0] == 1 and m[-1] <= 10_000 // 9  # eq. 20: at least 9 clusters
     assert np.all(np.diff(m) > 0)  # repeats removed after rounding
     assert len(m) < 100
+    # the analysis grid: the same points, continued at that spacing to two clusters
+    full = analysis_log_m(10_000)
+    np.testing.assert_array_equal(full[: len(m)], m)
+    assert full[-1] == 5000 and np.all(np.diff(np.log(full[len(m):])) < 0.1)
     ratio = log_m(10_000, ratio=1.073)  # the paper's example: tau_g = 1.073 for N = 1e4
     assert ratio[-1] <= 1111 and len(ratio) > 60
     np.testing.assert_array_equal(m_from_tau([0.1, 0.5, 0.1], 10.0), [1, 5])

@@ -52,6 +52,10 @@ def test_analyze_json_interface(record_csv: Path) -> None:
     for key in ("bias_stability_10s_deg_h", "bias_stability_100s_deg_h", "arw_deg_rt_h",
                 "bias_instability_deg_h"):
         assert figures[key] is not None and figures[key] > 0
+    for value, key in (("arw_deg_rt_h", "arw_ci_deg_rt_h"), ("bias_instability_deg_h", "bias_instability_ci_deg_h")):
+        low, high = figures[key]
+        assert low < figures[value] < high
+    assert figures["review"] == [] and axis["tones"] == [] and axis["excluded_taus"] == []
 
 
 def test_analyze_options_and_table(record_csv: Path, capsys) -> None:
@@ -113,3 +117,7 @@ def test_real_adis16405_record_is_analyzed(capsys) -> None:
     assert axis["n_samples"] == 1_000_000
     # data sheet: ARW 2.0 deg/sqrt(h); a real part is near it, not equal
     assert 1.0 < axis["figures"]["arw_deg_rt_h"] < 4.0
+    (tone,) = axis["tones"]  # the z axis' resonance
+    assert 17.0 < tone["freq_hz"] < 21.0 and tone["amplitude_deg_s"] > 0.1
+    assert [z["kind"] for z in axis["excluded_taus"]] == ["tone"]
+    assert all(isinstance(line, str) for line in axis["figures"]["review"])

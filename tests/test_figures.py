@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from analysis.allan import overlapping_allan_variance
-from analysis.figures import arw_readoff, bias_instability_readoff, bias_stability
+from analysis.figures import bias_stability
 from analysis.noise import flicker_rate_noise, white_rate_noise
+from analysis.readoffs import arw_readoff, bias_instability_readoff
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 
 

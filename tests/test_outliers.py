@@ -78,7 +78,7 @@ def test_removed_spikes_give_back_the_clean_allan_curve() -> None:
     y, _ = _with_spikes(x, 7)
     record = RateRecord(y[:, None], FS_HZ, ("x",), "spiky")
     (axis,) = analyze_record(record)
-    clean = allan_variance(x, FS_HZ)
+    clean = allan_variance(x, FS_HZ, taus=axis.allan.tau_s)  # on analyze's grid
     assert axis.outliers.removed and axis.outliers.count == 20
     half_width = (clean.adev_ci_high - clean.adev_ci_low) / 2  # the clean record's 1-sigma
     assert np.max(np.abs(axis.allan.adev - clean.adev) / half_width) < 0.25  # measured 0.11
@@ -182,6 +182,9 @@ def test_the_mtig_record_holds_isolated_spikes() -> None:
     assert max(abs(sp.size) for sp in o.detection.spikes) * S_PER_H > 5e4  # deg/h; the noise: ~500
     kept = axis.allan_alternative
     assert kept is not None
-    ratio = axis.allan.adev / kept.adev
+    # the taus of at least nine clusters: past them the two curves differ by the noise of a
+    # few clusters (analyze's grid reaches two clusters)
+    resolved = axis.allan.n_clusters >= 9
+    ratio = axis.allan.adev[resolved] / kept.adev[resolved]
     assert np.all((ratio > 0.9) & (ratio < 1.0))  # the spikes raised the whole curve ...
-    assert np.all(ratio[axis.allan.tau_s <= 10.0] < 0.965)  # ... by 4-6 % up to 10 s
+    assert np.all(ratio[axis.allan.tau_s[resolved] <= 10.0] < 0.965)  # ... by 4-6 % up to 10 s

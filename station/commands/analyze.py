@@ -8,6 +8,7 @@ import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
 from analysis.gmwm_models import GmwmModel
 from station.analyze import (
@@ -109,9 +110,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("analyze", help="Allan deviation, noise-term fit and spec figures of a record",
                        description=__doc__)
     add_record_arguments(p)
-    p.add_argument("--estimator", choices=("overlapping", "clusters"), default="overlapping")
+    p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
+                   help="Allan variance the fit and figures use (default overlapping; clusters "
+                        "with --deviation adev)")
+    p.add_argument("--deviation", choices=DEVIATION_KINDS, default=None,
+                   help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
+                        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
+                        "Allan deviation. The fit and figures stay on the Allan variance")
     p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
-                   help="tau grid: log-spaced (default), octaves, or every m")
+                   help="tau grid: log-spaced to the longest tau with two clusters (default), "
+                        "octaves, or every m")
     p.add_argument("--method", choices=(*FIT_METHODS, GMWM_METHOD), default=DEFAULT_METHOD,
                    help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized method of "
                         f"wavelet moments beside the {DEFAULT_METHOD} Allan fit")
@@ -158,9 +166,11 @@ def run(args: argparse.Namespace) -> int:
     if args.method == GMWM_METHOD:
         print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
               file=sys.stderr, flush=True)
-    axes = analyze_record(record, estimator=args.estimator, taus=args.taus, method=args.method,
+    estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
+    axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
                           terms=args.terms, outliers=args.outliers,
-                          bench=bench_for(args.bench, recorded), gmwm_model=args.model, robust=args.robust)
+                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation,
+                          gmwm_model=args.model, robust=args.robust)
     if args.png is not None:
         from station.plots import (  # matplotlib: only when a plot is asked for
             plot_allan,

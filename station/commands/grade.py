@@ -105,18 +105,20 @@ def format_grade(graded: RunGrade) -> str:
     """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict."""
     p = graded.profile
     lines = [f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
-             f"grades {' > '.join(p.grades)} > {p.reject}"]
+             f"grades {' > '.join(p.grades)} > {p.reject}; arw and bias instability from the {p.figure_source}"]
     for u in graded.units:
         lines.append("")
+        flag = "  REVIEW" if u.review else ""
         lines.append(f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
-                     f"{u.unit.serial_number or '-'}  GRADE {u.grade}")
+                     f"{u.unit.serial_number or '-'}  GRADE {u.grade}{flag}")
         for note in u.notes:
             lines.append(f"  note: {note}")
         for line in analysis_lines(u):
             lines.append(f"  {line}")
         for a in u.axes:
             reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
-            lines.append(f"  axis {a.axis}: {a.grade}{reach}; limits of grade {a.deciding_grade}")
+            review = " (review)" if a.review else ""
+            lines.append(f"  axis {a.axis}: {a.grade}{reach}{review}; limits of grade {a.deciding_grade}")
             lines.append(f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict")
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)

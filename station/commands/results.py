@@ -1,7 +1,8 @@
 """``station results``: the results database: list and filter gradings, export CSV, yield, trends.
 
 * ``station results [--model M] [--lot L] [--since DATE] [--until DATE] [--verdict V]
-  [--serial SN] [--latest]`` lists gradings as a table; ``--csv OUT`` exports them;
+  [--serial SN] [--latest] [--review]`` lists gradings as a table (``--review``: only those
+  flagged for review, with the reasons); ``--csv OUT`` exports them;
 * ``station results --yield [--model M]``: per lot, the units passing (latest grading each);
 * ``station results --trend FIGURE [--axis A] [--png OUT]``: a figure over test dates as a
   table, and as a PNG (value, confidence interval, limit, coloured by verdict).
@@ -35,6 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
     p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
     p.add_argument("--verdict", choices=("pass", "fail", "indeterminate"), default=None)
+    p.add_argument("--review", action="store_true",
+                   help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
     p.add_argument("--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV")
     what = p.add_mutually_exclusive_group()
@@ -63,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
                 print(f"trend plot: {plot_trend(args.trend, points, args.png)}")
             return 0
         rows = db.gradings(model=args.model, lot=args.lot, since=args.since, until=args.until,
-                           verdict=args.verdict, serial=args.serial, latest=args.latest)
+                           verdict=args.verdict, serial=args.serial, latest=args.latest, review=args.review)
     print(format_gradings(rows))
     if args.csv is not None:
         print(f"{len(rows)} gradings written to {export_csv(rows, args.csv)}")
@@ -80,10 +83,11 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
 
 def format_gradings(rows: list[GradingRow]) -> str:
     """The gradings as a terminal table."""
-    body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict, r.profile,
-             Path(r.run_path).name] for r in rows]
-    header = ["id", "test date (UTC)", "model", "serial", "lot", "grade", "verdict", "profile", "run"]
-    return _table(header, body) + f"\n{len(rows)} gradings"
+    body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict,
+             "REVIEW" if r.needs_review else "-", r.profile, Path(r.run_path).name] for r in rows]
+    header = ["id", "test date (UTC)", "model", "serial", "lot", "grade", "verdict", "review", "profile", "run"]
+    reasons = [f"review {r.id}: {line}" for r in rows for line in r.review.splitlines()]
+    return "\n".join([_table(header, body) + f"\n{len(rows)} gradings", *reasons])
 
 
 def format_yield(rows: list[LotYield]) -> str:

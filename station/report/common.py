@@ -63,8 +63,10 @@ def figure_rows(axis: AxisGrade) -> list[FigureRow]:
 
 
 def analysis_lines(unit: UnitGrade) -> list[str]:
-    """What the analysis did to the record, one line per topic: spikes, gaps, Earth rate."""
+    """What the analysis did to the record, one line per topic: review flags first, then
+    spikes, gaps, Earth rate, each axis' tones and the tau zones the fit and read-offs leave out."""
     axes = unit.axes
+    review = [f"REVIEW {line}" for line in unit.review]
     spikes = []
     for a in axes:
         o = a.analysis.outliers
@@ -85,7 +87,11 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
     else:
         lines.append("Earth rate removed from the bias: " + ", ".join(
             f"{axis} {'not removed' if v is None else f'{v:+.4g} deg/h'}" for axis, v in removed))
-    return lines
+    for a in axes:
+        lines += [f"{a.axis}: {t.describe()}" for t in a.analysis.tones]
+        lines += [f"{a.axis}: fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s ({z.kind})"
+                  for z in a.analysis.zones]
+    return review + lines
 
 
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:

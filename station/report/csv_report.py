@@ -6,7 +6,9 @@ unit_grade, axis, axis_grade, deciding_grade, then for every figure of the profi
 ``<figure>_limit`` (of the deciding grade, empty for informational figures) and
 ``<figure>_verdict`` (``pass``, ``fail``, ``indeterminate``, or ``info``); last, what the
 analysis did to the record: ``spikes`` (found), ``spikes_removed`` (true/false), ``gaps``,
-``missing_s`` and ``earth_rate_removed_deg_h`` (empty when not removed).
+``missing_s`` and ``earth_rate_removed_deg_h`` (empty when not removed), ``tones`` (each
+``<freq_hz> Hz <amplitude_deg_s> deg/s``, ``;``-separated) and ``review`` (the axis' review
+reasons, ``;``-separated; empty when read-off and fit agree).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from station.report.common import figure_rows
 FIXED = ["run", "unit_id", "model", "serial_number", "lot", "test_date", "profile", "rule", "confidence",
          "unit_grade", "axis", "axis_grade", "deciding_grade"]
 PER_FIGURE = ["unit", "value", "ci_low", "ci_high", "limit", "verdict"]
-ANALYSIS = ["spikes", "spikes_removed", "gaps", "missing_s", "earth_rate_removed_deg_h"]
+ANALYSIS = ["spikes", "spikes_removed", "gaps", "missing_s", "earth_rate_removed_deg_h", "tones", "review"]
 
 
 def _cell(value: object) -> object:
@@ -49,6 +51,8 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
                               r.verdict or "info"]
                 an = axis.analysis
                 cells += [an.outliers.count, str(an.outliers.removed).lower(), an.gaps.count,
-                          an.gaps.missing_s, _cell(an.figures.earth_rate_removed_deg_h)]
+                          an.gaps.missing_s, _cell(an.figures.earth_rate_removed_deg_h),
+                          "; ".join(f"{t.freq_hz:.6g} Hz {t.amplitude_deg_s:.4g} deg/s" for t in an.tones),
+                          "; ".join(axis.review)]
                 writer.writerow(fixed + cells)
     return path

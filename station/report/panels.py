@@ -57,10 +57,12 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
                 ax.annotate(TERM_STYLE[term][0], (tau[j], curve[j]), color=c, fontsize=fontsize,
                             xytext=(2, 2), textcoords="offset points")
         lows.append(float(np.min(al.adev_ci_low)) * S_PER_H)
-        highs.append(float(np.max(al.adev_ci_high)) * S_PER_H)
+        # the band of a two-cluster tau reaches far up (30x at 95 %): drawn to the edge,
+        # it must not squeeze the rest of the curve
+        highs.append(min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H)
     if axes:
         _draw_limits(ax, axes[0], fontsize)
-        ax.set_ylim(min(lows) / 4, max(highs) * 2.5)
+        ax.set_ylim(min(lows) / 4, max(highs))
     ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
     ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)

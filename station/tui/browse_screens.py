@@ -201,7 +201,8 @@ class ResultsScreen(Screen[None]):
         for r in self.rows:
             table.add_row(r.test_date[:16], model_name(r.model), r.serial_number, r.lot or "-",
                           Text(r.grade, style=VERDICT_STYLES.get(r.verdict, "")),
-                          Text(r.verdict, style=VERDICT_STYLES.get(r.verdict, "")), r.profile)
+                          Text(r.verdict + (" (review)" if r.needs_review else ""),
+                               style=VERDICT_STYLES.get(r.verdict, "")), r.profile)
         text = "  ".join(f"lot {y.lot or '-'} ({model_name(y.model)}): {y.passed}/{y.total} pass "
                          f"({y.yield_fraction:.0%})" for y in yields)
         self.query_one("#yield", Static).update(

@@ -1,0 +1,3 @@
+"""Fixtures shared by several test modules."""
+
+from tests.allantools_reference import allantools_tests  # noqa: F401  (a session fixture)
