@@ -56,7 +56,7 @@ from numpy.typing import NDArray
 from scipy import linalg, optimize, stats
 
 from analysis.allan import AllanResult
-from analysis.confidence import ONE_SIGMA
+from analysis.confidence import ONE_SIGMA, local_noise_alpha
 from analysis.errors import FitError, TooFewSamplesError
 from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm_covariance import wv_covariance
@@ -298,7 +298,8 @@ class _Problem:
         allan = AllanResult(tau_s=wv.tau_s, m=wv.m, avar=2.0 * wv.wv, n_clusters=wv.n_samples // wv.m,
                             n_terms=wv.n_coefficients, edf=wv.edf, ci_low=2.0 * wv.ci_low,
                             ci_high=2.0 * wv.ci_high, confidence=wv.confidence, estimator="overlapping",
-                            sample_rate_hz=wv.sample_rate_hz, n_samples=wv.n_samples)
+                            sample_rate_hz=wv.sample_rate_hz, n_samples=wv.n_samples,
+                            noise_alpha=local_noise_alpha(wv.m, 2.0 * wv.wv, wv.n_samples))
         try:
             fit = fit_noise_terms(allan, method="logwls", terms=letters)
         except FitError:
