@@ -10,7 +10,14 @@ from pathlib import Path
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
-from station.analyze import DEFAULT_METHOD, OUTLIER_POLICIES, analyze_record, format_analysis
+from analysis.gmwm_models import GmwmModel
+from station.analyze import (
+    DEFAULT_METHOD,
+    GMWM_METHOD,
+    OUTLIER_POLICIES,
+    analyze_record,
+    format_analysis,
+)
 from station.bench import Bench, bench_from_json, load_bench
 from station.errors import ProfileError, UsageError
 from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
@@ -113,12 +120,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
                    help="tau grid: log-spaced to the longest tau with two clusters (default), "
                         "octaves, or every m")
-    p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
-                   help=f"fit method (default {DEFAULT_METHOD})")
+    p.add_argument("--method", choices=(*FIT_METHODS, GMWM_METHOD), default=DEFAULT_METHOD,
+                   help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized method of "
+                        f"wavelet moments beside the {DEFAULT_METHOD} Allan fit")
     p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR (logwls "
                                                     "keeps those the data resolve)")
     p.add_argument("--no-select", dest="select", action="store_false", default=None,
                    help="logwls: fit every term of --terms, resolved or not")
+    p.add_argument("--model", default="auto", metavar="MODEL",
+                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, rw, dr "
+                        "(e.g. 'wn+gm+rw', 'wn+qn+gm+gm+rw'), or auto (default): ranked by the WIC")
+    p.add_argument("--robust", action="store_true",
+                   help="--method gmwm: robust (Huber-type) wavelet variance, for records with outliers")
+    p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
+                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance with "
+                        "the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     add_bench_argument(p)
@@ -140,17 +156,31 @@ def bench_for(bench_file: str | None, bench_json: str = "") -> Bench | None:
 
 def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
+    if args.method != GMWM_METHOD and (args.model != "auto" or args.robust):
+        raise UsageError("--model and --robust go with --method gmwm")
+    if args.method == GMWM_METHOD and args.model.strip().lower() != "auto":
+        GmwmModel.parse(args.model)  # a bad model string fails before the record is read
     record, selection = load_record(args)
     recorded = ""
     if args.bench is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
         from station.hdf5 import run_attributes
 
         recorded = run_attributes(args.file).get("bench", "")
+    if args.method == GMWM_METHOD:
+        print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
+              file=sys.stderr, flush=True)
     estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
     axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
                           terms=args.terms, outliers=args.outliers,
                           bench=bench_for(args.bench, recorded), deviation_kind=args.deviation,
-                          select=args.select)
+                          select=args.select, gmwm_model=args.model, robust=args.robust)
+    if args.png is not None:
+        from station.plots import (  # matplotlib: only when a plot is asked for
+            plot_allan,
+            plot_wavelet,
+        )
+
+        (plot_wavelet if args.method == GMWM_METHOD else plot_allan)(axes, args.png, title=str(args.file))
     if args.json:
         json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
                    "selection": asdict(selection)}, sys.stdout)
@@ -163,4 +193,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
                   f"(warm-up {selection.warmup_s:g} s from {selection.warmup_from})")
         print(format_analysis(axes))
+        if args.png is not None:
+            print(f"figure: {args.png}")
     return 0
