@@ -42,10 +42,17 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from analysis import blocks
+
 Backend = Literal["auto", "numpy", "numba"]
 
 #: Samples per block of the numpy overlapping kernel: 2 x 32 k doubles stay in L2.
 _NUMPY_BLOCK = 1 << 15
+#: Terms per block of a long record's compiled overlapping sums (one m at a time: three
+#: ranges of 8 MB of the angle, then handed back).
+_LONG_BLOCK = 1 << 20
+#: Blocks of the long numpy kernel between two hand-backs of a memory-mapped angle.
+_RELEASE_EVERY = 32
 #: Up to this many window starts per window length, the compiled DAVAR kernel sums the
 #: segments between window edges; beyond, it slides a compensated running sum.
 _SEGMENTS_MAX_OVERLAP = 32
@@ -155,6 +162,38 @@ def _overlapping_sums_numpy(theta_t: NDArray[np.float64], m_arr: NDArray[np.int6
     return out
 
 
+def _overlapping_sums_long(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
+                           compiled: ModuleType | None) -> NDArray[np.float64]:
+    """Overlapping sums of a long angle record (a memmap), one axis column at a time, in
+    blocks of terms; the mapped pages are handed back as it goes (:mod:`analysis.blocks`)."""
+    n_points, n_axes = theta.shape
+    out = np.zeros((len(m_arr), n_axes))
+    buf = np.empty(_NUMPY_BLOCK)
+    for c in range(n_axes):
+        th = np.asarray(theta[:, c])
+        if compiled is not None:
+            for i, m in enumerate(m_arr):
+                for lo, hi in blocks.spans(0, n_points - 2 * int(m), _LONG_BLOCK):
+                    with _COMPILED_LAUNCH:
+                        out[i, c] += compiled.span_sum_parallel(th, int(m), lo, hi)
+                        _COMPILED_WARM.set()
+                    blocks.release(theta)
+            continue
+        for i, m in enumerate(m_arr):
+            total = 0.0
+            for j, (lo, hi) in enumerate(blocks.spans(0, n_points - 2 * int(m), _NUMPY_BLOCK)):
+                d = buf[: hi - lo]
+                np.subtract(th[lo + 2 * m : hi + 2 * m], th[lo + m : hi + m], out=d)
+                d -= th[lo + m : hi + m]
+                d += th[lo:hi]
+                total += float(np.einsum("i,i->", d, d))
+                if j % _RELEASE_EVERY == _RELEASE_EVERY - 1:
+                    blocks.release(theta)
+            out[i, c] = total
+            blocks.release(theta)
+    return out
+
+
 def overlapping_sums(
     theta: NDArray[np.float64], m_values: NDArray[np.int64], *, backend: Backend = "auto"
 ) -> NDArray[np.float64]:
@@ -162,7 +201,8 @@ def overlapping_sums(
 
     Same result as :func:`overlapping_sums_reference` (to rounding), one streaming pass
     over ``theta`` per m: the compiled kernel when numba is installed, otherwise numpy on
-    blocks that stay in cache.
+    blocks that stay in cache. A long ``theta`` (:func:`analysis.blocks.is_long`, e.g. a
+    memmap of a 24 h run) is read in blocks of terms, never copied whole.
 
     Parameters
     ----------
@@ -186,6 +226,9 @@ def overlapping_sums(
         If ``backend="numba"`` and numba is not installed.
     """
     m_arr = _check_m(m_values, theta.shape[0])
+    if blocks.is_long(theta.shape[0]) and m_arr.size:
+        work = _overlapping_work(theta.shape[0], m_arr, theta.shape[1])
+        return _overlapping_sums_long(theta, m_arr, _pick(backend, work))
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
     kernels = _pick(backend, _overlapping_work(theta_t.shape[1], m_arr, theta_t.shape[0]))
     if kernels is None or m_arr.size == 0:
