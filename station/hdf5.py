@@ -29,7 +29,8 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.documents import (
+from station.errors import DiskSpaceError, RecorderError, RecordFormatError
+from station.model.documents import (
     Descriptor,
     Document,
     EventBatch,
@@ -39,9 +40,8 @@ from station.documents import (
     UnitTally,
     utc_now,
 )
-from station.errors import DiskSpaceError, RecorderError, RecordFormatError
-from station.record_files import RateRecord
-from station.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.storage.csv_records import RateRecord
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1

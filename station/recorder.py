@@ -5,7 +5,7 @@ configuration before anything is recorded (:meth:`Recorder.prepare`), then runs 
 :class:`UnitWorker` thread per unit. Each worker reads its device on the unit's own time
 base (a simulation's warped clock, ``time.monotonic`` for hardware), reconnects with
 exponential backoff after a disconnect while the other units go on, and turns every
-adapter batch into an :class:`~station.documents.EventBatch`. The engine's own thread
+adapter batch into an :class:`~station.model.documents.EventBatch`. The engine's own thread
 routes documents to the subscribers (the HDF5 writer first, then the progress line and
 anything else) and flushes the file at least every ``flush_interval_s``. A unit stops at
 its duration, on :meth:`Recorder.request_stop` (Ctrl-C, SIGTERM), or when the disk fills.
@@ -14,7 +14,7 @@ Simulated units (``sim+`` URLs) are held paused until the recorder listens, as a
 gyro switched on by the operator, and end cleanly: at their end the recorder turns their
 fault injection off and reads until their newest frame, so that every sample the
 simulator generated is either recorded or declared missing by a gap (see
-``samples_sent`` in :class:`~station.documents.UnitTotals`).
+``samples_sent`` in :class:`~station.model.documents.UnitTotals`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,15 @@ from devices.errors import DeviceConfigurationError, DeviceError, DeviceTimeoutE
 from devices.protocols import SampleBatch
 from devices.replay import EndOfReplayError
 from devices.urls import OpenedDevice, open_device
-from station.documents import (
+from station.errors import DiskSpaceError, RunConfigurationError, UsageError
+from station.hdf5 import (
+    REASON_DURATION,
+    REASON_END_OF_REPLAY,
+    RunFileWriter,
+    bytes_per_sample,
+    writable_bytes,
+)
+from station.model.documents import (
     Descriptor,
     Dispatcher,
     EventBatch,
@@ -53,17 +61,9 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.errors import DiskSpaceError, RunConfigurationError, UsageError
-from station.hdf5 import (
-    REASON_DURATION,
-    REASON_END_OF_REPLAY,
-    RunFileWriter,
-    bytes_per_sample,
-    writable_bytes,
-)
 
 if TYPE_CHECKING:
-    from station.profiles import Profile
+    from station.model.profiles import Profile
 
 _DURATION_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)\s*(ms|min|d|h|m|s)?", re.IGNORECASE)
 _UNIT_S = {"d": 86400.0, "h": 3600.0, "min": 60.0, "m": 60.0, "s": 1.0, "ms": 1e-3, None: 1.0}
@@ -117,7 +117,7 @@ class RunConfig:
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
     bench_json : str
-        The bench (latitude, axis directions; :mod:`station.bench`) as JSON, kept in the
+        The bench (latitude, axis directions; :mod:`station.model.bench`) as JSON, kept in the
         run file ("" when none was given).
     """
 

@@ -16,7 +16,9 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.documents import (
+from station.hdf5 import RunFileWriter, read_run, read_run_record
+from station.hdf5_recover import lookup3
+from station.model.documents import (
     Descriptor,
     EventBatch,
     LogEntry,
@@ -25,9 +27,7 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5 import RunFileWriter, read_run, read_run_record
-from station.hdf5_recover import lookup3
-from station.record_files import read_record
+from station.storage.csv_records import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
     start_recorder,

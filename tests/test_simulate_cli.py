@@ -16,7 +16,7 @@ from devices.model_files import load_noise_model
 from station import cli
 from station.commands import simulate as simulate_command
 from station.hdf5 import read_run, read_run_record
-from station.record_files import read_csv_record
+from station.storage.csv_records import read_csv_record
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:

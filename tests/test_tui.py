@@ -20,7 +20,8 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.documents import (
+from station.hdf5 import RunFileWriter
+from station.model.documents import (
     Descriptor,
     EventBatch,
     LogEntry,
@@ -29,7 +30,6 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5 import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
 from station.tui.launcher import (

@@ -10,10 +10,15 @@ from pathlib import Path
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
-from station.analyze import DEFAULT_METHOD, OUTLIER_POLICIES, analyze_record, format_analysis
-from station.bench import Bench, bench_from_json, load_bench
 from station.errors import ProfileError, UsageError
-from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
+from station.evaluation.analyze import (
+    DEFAULT_METHOD,
+    OUTLIER_POLICIES,
+    analyze_record,
+    format_analysis,
+)
+from station.model.bench import Bench, bench_from_json, load_bench
+from station.storage.csv_records import UNIT_TO_DEG_S, RateRecord, read_record
 
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:
@@ -53,7 +58,7 @@ class RecordSelection:
 
 def _warmup(args: argparse.Namespace) -> tuple[float, str]:
     """(warm-up to discard in s, where that figure comes from)."""
-    from station.profiles import load_profile  # profiles: only when a warm-up is needed
+    from station.model.profiles import load_profile  # profiles: only when a warm-up is needed
 
     if args.warmup_s is not None:
         return args.warmup_s, "--warmup-s"

@@ -1,7 +1,7 @@
 """``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
 
 Prints a table per unit (or, with ``--json``, the document of
-:meth:`station.grading.RunGrade.as_json`) and stores each graded unit in the results
+:meth:`station.evaluation.grading.RunGrade.as_json`) and stores each graded unit in the results
 database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
 ``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
 """
@@ -16,12 +16,12 @@ from pathlib import Path
 
 from station.commands.analyze import add_bench_argument, bench_for
 from station.errors import UsageError
-from station.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
-from station.profiles import load_profile
-from station.record_files import UNIT_TO_DEG_S
-from station.report.common import analysis_lines
-from station.results import ResultsDatabase, default_database_path
-from station.runs import RunInfo, open_run
+from station.evaluation.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
+from station.model.profiles import load_profile
+from station.model.runs import RunInfo, open_run
+from station.output.report.common import analysis_lines
+from station.output.results import ResultsDatabase, default_database_path
+from station.storage.csv_records import UNIT_TO_DEG_S
 
 
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:

@@ -12,8 +12,8 @@ import argparse
 from pathlib import Path
 
 from station.commands.grade import add_grading_arguments, database_path, grade_from_args
-from station.report import FORMATS, write_report
-from station.results import ResultsDatabase
+from station.output.report import FORMATS, write_report
+from station.output.results import ResultsDatabase
 
 
 def register(sub: argparse._SubParsersAction) -> None:

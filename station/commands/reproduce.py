@@ -7,7 +7,7 @@ import json
 import sys
 import time
 
-from station.reproduce import format_reproduction, reproduce_lv2015
+from station.evaluation.reproduce import format_reproduction, reproduce_lv2015
 
 
 def register(sub: argparse._SubParsersAction) -> None:

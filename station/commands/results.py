@@ -14,7 +14,7 @@ import argparse
 from datetime import datetime
 from pathlib import Path
 
-from station.results import (
+from station.output.results import (
     GradingRow,
     LotYield,
     ResultsDatabase,
@@ -124,7 +124,7 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from station.report.common import VERDICT_COLORS
+    from station.output.report.common import VERDICT_COLORS
 
     dates = [_date(p.test_date) for p in points]
     xs: list = dates if all(dates) else list(range(len(points)))

@@ -28,7 +28,9 @@ from analysis.models import NoiseModel
 from analysis.simulate import GyroSimulator, SimulatedChunk, n_samples_of
 from devices.model_files import load_noise_model
 from devices.protocols import DeviceDescription
-from station.documents import (
+from station.errors import UsageError
+from station.hdf5 import REASON_DURATION, RunFileWriter
+from station.model.documents import (
     Descriptor,
     EventBatch,
     RunStart,
@@ -37,9 +39,7 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.errors import UsageError
-from station.hdf5 import REASON_DURATION, RunFileWriter
-from station.record_files import write_csv_record
+from station.storage.csv_records import write_csv_record
 
 #: Seconds per unit of a duration suffix.
 DURATION_UNITS = {"": 1.0, "s": 1.0, "min": 60.0, "m": 60.0, "h": 3600.0, "d": 86400.0}

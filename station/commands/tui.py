@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the TUI until the operator quits."""
-    from station.results import default_database_path
+    from station.output.results import default_database_path
     from station.tui.app import StationApp, TuiSettings
 
     settings = TuiSettings(runs_dir=args.runs, reports_dir=args.reports,

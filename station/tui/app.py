@@ -182,7 +182,7 @@ class StationApp(App[None]):
 
     def action_results(self) -> None:
         """The results database browser."""
-        from station.results import default_database_path
+        from station.output.results import default_database_path
 
         self.push_screen(ResultsScreen(self.settings.db_path or default_database_path()))
 

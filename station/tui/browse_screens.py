@@ -18,7 +18,7 @@ from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Sta
 from station.tui.messages import explain
 
 if TYPE_CHECKING:
-    from station.results import GradingRow, LotYield
+    from station.output.results import GradingRow, LotYield
 from station.tui.widgets import VERDICT_STYLES, model_name
 
 
@@ -182,7 +182,7 @@ class ResultsScreen(Screen[None]):
 
     @work(thread=True, exclusive=True, exit_on_error=False)
     def _query(self, model: str | None, lot: str | None, verdict: str | None) -> None:
-        from station.results import ResultsDatabase
+        from station.output.results import ResultsDatabase
 
         try:
             with ResultsDatabase(self.db_path) as db:

@@ -1,6 +1,6 @@
 """What the spec-sheet screen draws, computed from a graded unit (no widgets here).
 
-The same quantities as the report panels (:mod:`station.report.panels`), as
+The same quantities as the report panels (:mod:`station.output.report.panels`), as
 :class:`~station.tui.live.Series` for a terminal plot: the measured Allan deviation of
 each axis with its fitted model and the fitted terms as their slope lines, the deciding
 grade's limit lines, and the DAVAR as a grid of Allan deviation over window time and tau
@@ -19,9 +19,9 @@ from analysis.allan import log_m
 from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.fit import TERMS
 from analysis.units import S_PER_H
-from station.grading import AxisGrade, UnitGrade, run_profile_ref
-from station.profiles import available_profiles, load_profile
-from station.runs import RunInfo
+from station.evaluation.grading import AxisGrade, UnitGrade, run_profile_ref
+from station.model.profiles import available_profiles, load_profile
+from station.model.runs import RunInfo
 from station.tui.live import Series
 
 #: The DAVAR heat map: at most this many windows, a step of half a window; each window

@@ -23,7 +23,7 @@ from textual.widgets import (
 )
 from textual.worker import get_current_worker
 
-from station.grading import RunGrade, UnitGrade
+from station.evaluation.grading import RunGrade, UnitGrade
 from station.tui.heatmap import DavarHeatMap
 from station.tui.messages import explain
 from station.tui.widgets import (
@@ -85,7 +85,7 @@ class SpecSheetScreen(Screen[None]):
         self._davar_key: tuple[UnitGrade, int] | None = None  # what the DAVAR tab is of
 
     def compose(self) -> ComposeResult:
-        from station.profiles import available_profiles
+        from station.model.profiles import available_profiles
 
         yield Header()
         with Horizontal(classes="row"):
@@ -117,9 +117,9 @@ class SpecSheetScreen(Screen[None]):
     # -- grading (worker) --------------------------------------------------------------
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, profile_ref: str | None) -> None:
-        from station.grading import grade_run, profile_changed_note
-        from station.profiles import load_profile
-        from station.runs import open_run
+        from station.evaluation.grading import grade_run, profile_changed_note
+        from station.model.profiles import load_profile
+        from station.model.runs import open_run
         from station.tui.spec_data import guess_profile
 
         try:
@@ -150,7 +150,7 @@ class SpecSheetScreen(Screen[None]):
         """Record the grading in the results database (once per run, unit and profile)."""
         if self.db_path is None:
             return []
-        from station.results import ResultsDatabase
+        from station.output.results import ResultsDatabase
 
         with ResultsDatabase(self.db_path) as db:
             ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
@@ -211,7 +211,7 @@ class SpecSheetScreen(Screen[None]):
 
     def show(self) -> None:
         """Fill the header line, figures table, plots and run tab for the unit and axis."""
-        from station.report.common import event_summary, figure_rows, header_fields
+        from station.output.report.common import event_summary, figure_rows, header_fields
         from station.tui.spec_data import allan_series
 
         graded = self.graded
@@ -289,8 +289,8 @@ class SpecSheetScreen(Screen[None]):
 
     @work(thread=True, group="export", exit_on_error=False)
     def _export(self, graded: RunGrade, fmt: str) -> None:
-        from station.report import write_report
-        from station.results import ResultsDatabase
+        from station.output.report import write_report
+        from station.output.results import ResultsDatabase
 
         try:
             path = write_report(graded, fmt, self.reports_dir)

@@ -24,7 +24,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from analysis.errors import AnalysisError  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
 from analysis.units import S_PER_H  # noqa: E402
-from station.grading import AxisGrade, UnitGrade  # noqa: E402
+from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
 
 TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
 #: Number of DAVAR windows across a record (window = duration / this, step = window / 4).

@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 
 from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
-from station.analyze import AxisAnalysis  # noqa: E402
+from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 
 TERM_LABELS = {"Q": "quantization", "N": "angle random walk", "B": "bias instability",
                "K": "rate random walk", "R": "rate ramp"}

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 from station.errors import ResultsDatabaseError
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
-    from station.grading import RunGrade, UnitGrade
+    from station.evaluation.grading import RunGrade, UnitGrade
 
 #: Environment variable naming the database file.
 DB_ENV = "STATION_RESULTS_DB"
@@ -106,7 +106,7 @@ def _now() -> str:
 
 def verdict_of(grade: str, reject: str) -> str:
     """pass / fail / indeterminate of a unit grade."""
-    if grade == "indeterminate":  # station.grading.INDETERMINATE
+    if grade == "indeterminate":  # station.evaluation.grading.INDETERMINATE
         return grade
     return "fail" if grade == reject else "pass"
 

@@ -27,9 +27,9 @@ from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replac
 from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
 from analysis.zones import TauZone, fit_outside_zones
-from station.bench import Bench, earth_rate_note
 from station.errors import UsageError
-from station.record_files import RateRecord
+from station.model.bench import Bench, earth_rate_note
+from station.storage.csv_records import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
 #: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`

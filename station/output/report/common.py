@@ -1,7 +1,7 @@
 """What every spec-sheet format shows, computed once: header, figure rows, event summary.
 
-The format writers (:mod:`~station.report.pdf`, :mod:`~station.report.html`,
-:mod:`~station.report.json_report`, :mod:`~station.report.csv_report`) lay these out; none of
+The format writers (:mod:`~station.output.report.pdf`, :mod:`~station.output.report.html`,
+:mod:`~station.output.report.json_report`, :mod:`~station.output.report.csv_report`) lay these out; none of
 them computes a figure.
 """
 
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from analysis.units import S_PER_H
-from station.grading import AxisGrade, RunGrade, UnitGrade
-from station.runs import UnitRun
+from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.runs import UnitRun
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
 VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}

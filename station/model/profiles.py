@@ -55,7 +55,7 @@ DEFAULT_FIGURE_SOURCE = "read-off"
 #: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
 DUAL_FIGURES = ("arw", "bias_instability")
 #: Where profile names are looked up: ``<repo>/profiles``.
-PROFILE_DIR = Path(__file__).resolve().parents[1] / "profiles"
+PROFILE_DIR = Path(__file__).resolve().parents[2] / "profiles"
 
 _RAD_IN_DEG = 180.0 / math.pi
 #: Units accepted per dimension: size of one such unit in the dimension's canonical unit
@@ -84,7 +84,7 @@ class FigureKind:
         return next(iter(UNITS[self.dimension]))
 
 
-#: The figures grading can compute (see :mod:`station.grading` for how and their intervals).
+#: The figures grading can compute (see :mod:`station.evaluation.grading` for how and their intervals).
 FIGURE_KINDS: dict[str, FigureKind] = {
     "bias": FigureKind("rate", "|bias|"),
     "arw": FigureKind("arw", "ARW"),
@@ -174,7 +174,7 @@ class Profile:
     grades : tuple of str
         Grade names, best first; an axis that makes none gets ``reject``.
     rule : str
-        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see :mod:`station.grading`).
+        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see :mod:`station.evaluation.grading`).
     confidence : float
         Two-sided confidence level of every figure's interval (0 < c < 1).
     fit_method : str

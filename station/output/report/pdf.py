@@ -18,8 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
-from station.grading import RunGrade, UnitGrade  # noqa: E402
-from station.report.common import (  # noqa: E402
+from station.evaluation.grading import RunGrade, UnitGrade  # noqa: E402
+from station.output.report.common import (  # noqa: E402
     VERDICT_COLORS,
     analysis_lines,
     event_summary,
@@ -28,7 +28,7 @@ from station.report.common import (  # noqa: E402
     fmt_interval,
     header_fields,
 )
-from station.report.panels import draw_allan, draw_davar  # noqa: E402
+from station.output.report.panels import draw_allan, draw_davar  # noqa: E402
 
 A4_IN = (8.27, 11.69)
 GRADE_COLORS = {"reject": "#d9534f", "indeterminate": "#e0a800"}

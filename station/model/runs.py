@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from station.record_files import RateRecord, read_record
+from station.storage.csv_records import RateRecord, read_record
 
 
 @dataclass(frozen=True)
@@ -72,7 +72,7 @@ class RunInfo:
     stop_utc: str = ""
     stop_reason: str = ""
     interrupted: bool = False
-    #: The test bench (latitude, axis directions) as JSON (:mod:`station.bench`); "" if none.
+    #: The test bench (latitude, axis directions) as JSON (:mod:`station.model.bench`); "" if none.
     bench: str = ""
 
     def unit(self, unit_id: str) -> UnitRun:
@@ -88,7 +88,7 @@ def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: st
     """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
 
     ``sample_rate_hz`` and ``units`` apply to CSV records only (see
-    :func:`station.record_files.read_csv_record`).
+    :func:`station.storage.csv_records.read_csv_record`).
     """
     path = Path(path)
     if path.suffix.lower() in (".h5", ".hdf5"):

@@ -13,8 +13,8 @@ import re
 from html import escape
 from pathlib import Path
 
-from station.grading import RunGrade, UnitGrade
-from station.report.common import (
+from station.evaluation.grading import RunGrade, UnitGrade
+from station.output.report.common import (
     VERDICT_COLORS,
     analysis_lines,
     event_summary,
@@ -23,7 +23,7 @@ from station.report.common import (
     fmt_interval,
     header_fields,
 )
-from station.report.panels import allan_png, davar_png
+from station.output.report.panels import allan_png, davar_png
 
 CSS = """
 body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
