@@ -40,8 +40,8 @@ from station.model.documents import (
     UnitTally,
     utc_now,
 )
+from station.model.records import RateRecord
 from station.model.runs import RunEvent, RunInfo, UnitRun
-from station.storage.csv_records import RateRecord
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1

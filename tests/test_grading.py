@@ -23,8 +23,8 @@ from station.evaluation.grading import (
     regrade,
 )
 from station.model.profiles import FigureSpec, load_profile, parse_profile
-from station.model.runs import open_run
 from station.storage.csv_records import write_csv_record
+from station.storage.runs import open_run
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 ADIS_RECORD = REAL_DATA / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"

@@ -27,7 +27,7 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
-from station.storage.csv_records import read_record
+from station.storage.runs import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
     start_recorder,

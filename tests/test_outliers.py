@@ -31,9 +31,11 @@ from station.cli import main
 from station.evaluation.analyze import analyze_record
 from station.evaluation.grading import grade_run
 from station.model.profiles import load_profile
+from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.output.report import write_report
-from station.storage.csv_records import RateRecord, read_record, write_csv_record
+from station.storage.csv_records import write_csv_record
+from station.storage.runs import read_record
 from tests.test_grading import profile_text, write_profile
 
 FS_HZ = 100.0

@@ -20,8 +20,8 @@ from station.model.profiles import (
     load_profile,
     parse_profile,
 )
+from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
-from station.storage.csv_records import RateRecord
 from tests.test_grading import profile_text
 
 SHIPPED = ("SRS2000", "VG951", "CRG20", "ADIS16405")

@@ -16,7 +16,7 @@ from station.model.profiles import load_profile
 from station.model.runs import RunEvent, RunInfo, UnitRun
 from station.output.report import FORMATS, write_report
 from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
-from station.storage.csv_records import read_record
+from station.storage.runs import read_record
 from tests.test_grading import make_record, profile_text, write_profile
 
 FIGURES = """

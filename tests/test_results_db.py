@@ -19,8 +19,8 @@ from station.cli import main
 from station.errors import ResultsDatabaseError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
-from station.model.runs import open_run
 from station.output.results import MIGRATIONS, SCHEMA_VERSION, ResultsDatabase, export_csv
+from station.storage.runs import open_run
 from tests.test_grading import make_record, profile_text, write_profile
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -18,7 +18,9 @@ from station.evaluation.analyze import (
     format_analysis,
 )
 from station.model.bench import Bench, bench_from_json, load_bench
-from station.storage.csv_records import UNIT_TO_DEG_S, RateRecord, read_record
+from station.model.records import RateRecord
+from station.storage.csv_records import UNIT_TO_DEG_S
+from station.storage.runs import read_record
 
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:

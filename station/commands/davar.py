@@ -18,7 +18,7 @@ from analysis.davar import DavarResult, dynamic_allan_variance
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.commands.analyze import add_record_arguments, load_record
 from station.errors import UsageError
-from station.storage.csv_records import RateRecord
+from station.model.records import RateRecord
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -21,7 +21,8 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
-from station.storage.csv_records import RateRecord, write_csv_record
+from station.model.records import RateRecord
+from station.storage.csv_records import write_csv_record
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
 DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}

@@ -18,10 +18,11 @@ from station.commands.analyze import add_bench_argument, bench_for
 from station.errors import UsageError
 from station.evaluation.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
 from station.model.profiles import load_profile
-from station.model.runs import RunInfo, open_run
+from station.model.runs import RunInfo
 from station.output.report.common import analysis_lines
 from station.output.results import ResultsDatabase, default_database_path
 from station.storage.csv_records import UNIT_TO_DEG_S
+from station.storage.runs import open_run
 
 
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:

@@ -21,9 +21,10 @@ from analysis.discrepancy import ComparisonCache
 from analysis.reconcile import ReconcileOptions, ReconcileResult, reconcile
 from devices.model_files import load_noise_model
 from station.errors import UsageError
-from station.model.runs import open_run
+from station.model.records import RateRecord
 from station.output.reconcile_report import format_reconcile, plot_reconcile
-from station.storage.csv_records import UNIT_TO_DEG_S, RateRecord
+from station.storage.csv_records import UNIT_TO_DEG_S
+from station.storage.runs import open_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -29,7 +29,7 @@ from analysis.units import S_PER_H
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
 from station.model.bench import Bench, earth_rate_note
-from station.storage.csv_records import RateRecord
+from station.model.records import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
 #: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`

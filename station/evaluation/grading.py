@@ -52,8 +52,8 @@ from station.model.profiles import (
     Profile,
     bias_stability_average_s,
 )
+from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
-from station.storage.csv_records import RateRecord
 
 Verdict = Literal["pass", "fail", "indeterminate"]
 VERDICTS: tuple[str, ...] = ("pass", "fail", "indeterminate")

@@ -119,7 +119,7 @@ class SpecSheetScreen(Screen[None]):
     def _grade(self, profile_ref: str | None) -> None:
         from station.evaluation.grading import grade_run, profile_changed_note
         from station.model.profiles import load_profile
-        from station.model.runs import open_run
+        from station.storage.runs import open_run
         from station.tui.spec_data import guess_profile
 
         try:
