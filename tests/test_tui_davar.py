@@ -19,7 +19,8 @@ from station.tui.heatmap import (
     tau_ticks,
     time_ticks,
 )
-from station.tui.spec_data import DAVAR_WINDOWS, DavarGrid, davar_grid_of, davar_plan
+from station.evaluation.davar_map import DavarGrid, davar_grid_of, davar_plan
+from station.evaluation.settings import DAVAR_WINDOWS
 from station.tui.spec_screen import SpecSheetScreen
 from tests.test_tui import SIZE, screen_text, settings, until, write_run
 

@@ -33,7 +33,6 @@ from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from scipy import stats
@@ -46,6 +45,7 @@ from analysis.units import S_PER_H
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.model.bench import Bench, bench_from_json
+from station.model.kinds import Verdict
 from station.model.profiles import (
     DEFAULT_FIGURE_SOURCE,
     FigureSpec,
@@ -55,9 +55,7 @@ from station.model.profiles import (
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 
-Verdict = Literal["pass", "fail", "indeterminate"]
-VERDICTS: tuple[str, ...] = ("pass", "fail", "indeterminate")
-INDETERMINATE = "indeterminate"
+INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
@@ -91,7 +89,7 @@ class FigureResult:
     value: float | None
     ci_low: float | None
     ci_high: float | None
-    verdicts: dict[str, str]
+    verdicts: dict[str, Verdict]
     note: str = ""
 
     @property

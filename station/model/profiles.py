@@ -37,21 +37,21 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
-from analysis.fit import FIT_METHODS
+from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
 from station.errors import ProfileError
 
 DecisionRule = Literal["strict", "guard-banded", "simple"]
-DECISION_RULES: tuple[str, ...] = ("strict", "guard-banded", "simple")
+DECISION_RULES: tuple[DecisionRule, ...] = get_args(DecisionRule)
 DEFAULT_CONFIDENCE = 0.95
-DEFAULT_FIT_METHOD = "logwls"
+DEFAULT_FIT_METHOD: FitMethod = "logwls"
 FigureSource = Literal["read-off", "fit"]
-FIGURE_SOURCES: tuple[str, ...] = ("read-off", "fit")
+FIGURE_SOURCES: tuple[FigureSource, ...] = get_args(FigureSource)
 #: Where ``arw`` and ``bias_instability`` come from unless a profile says otherwise: the
 #: IEEE 952 read-offs data sheets quote (the fit is graded with ``arw_fit`` etc.).
-DEFAULT_FIGURE_SOURCE = "read-off"
+DEFAULT_FIGURE_SOURCE: FigureSource = "read-off"
 #: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
 DUAL_FIGURES = ("arw", "bias_instability")
 #: Where profile names are looked up: ``<repo>/profiles``.
@@ -202,8 +202,8 @@ class Profile:
     confidence: float
     figures: tuple[FigureSpec, ...]
     settings: dict[str, Any] = field(default_factory=dict)
-    fit_method: str = DEFAULT_FIT_METHOD
-    figure_source: FigureSource = DEFAULT_FIGURE_SOURCE  # type: ignore[assignment]
+    fit_method: FitMethod = DEFAULT_FIT_METHOD
+    figure_source: FigureSource = DEFAULT_FIGURE_SOURCE
     reject: str = "reject"
     description: str = ""
     source: str = ""

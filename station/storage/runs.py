@@ -64,3 +64,13 @@ def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: st
     record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
     unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
     return RunInfo(path=str(path), units=(unit,))
+
+
+def recorded_attributes(path: str | Path) -> dict[str, str]:
+    """What a run file recorded about its run (profile, bench, operator, ... as text); {}
+    for a CSV record, which records none."""
+    if not is_run_file(path):
+        return {}
+    from station.hdf5 import run_attributes
+
+    return run_attributes(path)

@@ -26,7 +26,7 @@ from textual.events import Resize
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from station.tui.spec_data import DavarGrid
+from station.evaluation.davar_map import DavarGrid
 from station.tui.widgets import number
 
 if TYPE_CHECKING:

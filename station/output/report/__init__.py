@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, get_args
 
 if TYPE_CHECKING:
     from station.evaluation.grading import RunGrade
 
-FORMATS: tuple[str, ...] = ("pdf", "html", "json", "csv")
+ReportFormat = Literal["pdf", "html", "json", "csv"]
+FORMATS: tuple[ReportFormat, ...] = get_args(ReportFormat)
 
 
 def writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
