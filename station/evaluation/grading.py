@@ -31,7 +31,6 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
-from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +53,7 @@ from station.model.profiles import (
 )
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
+from station.model.version import software_version
 
 INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
@@ -213,14 +213,6 @@ class RunGrade:
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
-
-
-def software_version() -> str:
-    """Version of the installed station package (``"unknown"`` when not installed)."""
-    try:
-        return metadata.version("gyro-station")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 # --- decision ------------------------------------------------------------------------------
