@@ -47,7 +47,7 @@ from analysis.errors import FitError
 from analysis.units import DEG_PER_URAD, S_PER_H
 
 FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
-FIT_METHODS: tuple[str, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
+FIT_METHODS: tuple[FitMethod, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
 
 TERMS = "QNBKR"
 #: Exponent of tau in each term's Allan variance (eq. 3).

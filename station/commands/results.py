@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING, get_args
+from typing import TYPE_CHECKING, Literal, get_args
 
 from station.model.kinds import Verdict
 
@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
     """Open the database and print what was asked."""
     from station.services.results import ResultsRequest, query_results
 
-    show = "yield" if args.show_yield else "trend" if args.trend else "gradings"
+    show: Literal["gradings", "yield", "trend"] = (
+        "yield" if args.show_yield else "trend" if args.trend else "gradings")
     answer = query_results(ResultsRequest(
         args.db, show, model=args.model, lot=args.lot, serial=args.serial, since=args.since,
         until=args.until, verdict=args.verdict, review=args.review, latest=args.latest,

@@ -275,7 +275,8 @@ def analyze_record(
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
         fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
-        analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
+        earth_deg_h = earth[i]
+        analysed = grid_rate if earth_deg_h is None else grid_rate - earth_deg_h / S_PER_H
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:

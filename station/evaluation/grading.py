@@ -442,7 +442,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
-    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):  # type: ignore[arg-type]
+    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
         figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence,

@@ -136,7 +136,7 @@ def grade(request: GradeRequest) -> GradeResult:
     if not ref:
         raise NoProfileError(f"{request.run.path} names no profile; pass --profile NAME")
     profile = load_profile(ref)
-    warnings = ()
+    warnings: tuple[str, ...] = ()
     if not request.profile:
         note = profile_changed_note(run, profile)
         warnings = (note,) if note else ()

@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO, cast
 
 from rich.console import Console
 from textual import on, work
@@ -158,7 +159,7 @@ class StationApp(App[None]):
         #: the screen: Textual prints it on the app's error console. The recorder is
         #: another process: a run in progress goes on.
         self.crash_log = CrashLog(crash_log_path(self.settings.runs_dir))
-        self.error_console = Console(file=self.crash_log, markup=False, highlight=False,
+        self.error_console = Console(file=cast(IO[str], self.crash_log), markup=False, highlight=False,
                                      color_system=None, width=120)
 
     @property
@@ -192,9 +193,9 @@ class StationApp(App[None]):
                                   severity="warning")
             return
         if active:
-            self.call_from_thread(self._attach, active)
+            self.call_from_thread(self._reattach, active)
 
-    def _attach(self, active: list[Path]) -> None:
+    def _reattach(self, active: list[Path]) -> None:
         self.push_screen(LiveScreen(active[0], poll_s=self.settings.poll_s))
         more = f" ({len(active) - 1} more: F4)" if len(active) > 1 else ""
         self.notify(f"Reattached to the run in progress {active[0].name}{more}. Quitting the "

@@ -179,7 +179,7 @@ class ResultsScreen(Screen[None]):
         verdict = self.query_one("#verdict", Select).value
         self._query(self.query_one("#model", Input).value.strip() or None,
                     self.query_one("#lot", Input).value.strip() or None,
-                    verdict if verdict in VERDICTS else None)  # type: ignore[arg-type]
+                    verdict if verdict in VERDICTS else None)
 
     @work(thread=True, exclusive=True, exit_on_error=False)
     def _query(self, model: str | None, lot: str | None, verdict: Verdict | None) -> None:

@@ -270,7 +270,7 @@ class SpecSheetScreen(Screen[None]):
     def _export_button(self, event: Button.Pressed) -> None:
         fmt = str(event.button.id).removeprefix("export-")
         if fmt in FORMATS:
-            self.action_export(fmt)  # type: ignore[arg-type]
+            self.action_export(fmt)
 
     def action_export(self, fmt: ReportFormat) -> None:
         """Write the report in ``fmt`` (pdf, html, json) to the reports folder."""

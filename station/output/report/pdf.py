@@ -17,6 +17,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.backends.backend_pdf import PdfPages  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.transforms import Bbox  # noqa: E402
 
 from station.evaluation.grading import RunGrade, UnitGrade  # noqa: E402
 from station.output.report.common import (  # noqa: E402
@@ -100,7 +101,7 @@ def _figures_table(fig: Figure, unit: UnitGrade, top: float) -> float:
     ax = fig.add_axes((0.06, bottom, 0.88, height))
     ax.axis("off")
     table = ax.table(cellText=rows, colLabels=columns, cellColours=colors, loc="upper center",
-                     colWidths=[0.05, 0.26, 0.1, 0.1, 0.19, 0.09, 0.1, 0.11], bbox=(0, 0, 1, 1),
+                     colWidths=[0.05, 0.26, 0.1, 0.1, 0.19, 0.09, 0.1, 0.11], bbox=Bbox.from_bounds(0, 0, 1, 1),
                      cellLoc="center")
     table.auto_set_font_size(False)
     table.set_fontsize(7.5 if row_h >= 0.0125 else 6.5)
