@@ -125,7 +125,7 @@ def deterministic_avar(
     half = np.pi * tau / period_s
     sinc = np.sin(half) / half
     d_c = 2.0 * cycle_amplitude * sinc * np.sin(half) * np.exp(1j * (2.0 * half + np.deg2rad(phase_deg)))
-    steady = np.abs(d_c) ** 2 / 4.0
+    steady = np.asarray(np.abs(d_c) ** 2 / 4.0, dtype=np.float64)
     if duration_s is None:
         return steady
     span = np.maximum(float(duration_s) - 2.0 * tau, 0.0)
