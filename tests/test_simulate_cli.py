@@ -14,7 +14,7 @@ from analysis.fog import fog_from_indicators
 from analysis.simulate import GyroSimulator
 from devices.model_files import load_noise_model
 from station import cli
-from station.commands import simulate as simulate_command
+from station.commands.arguments import duration_type
 from station.hdf5 import read_run, read_run_record
 from station.services import simulate as simulate_service
 from station.storage.csv_records import read_csv_record
@@ -103,13 +103,13 @@ def test_simulate_errors_are_reported_not_raised(tmp_path, capsys, monkeypatch, 
 @pytest.mark.parametrize(("text", "seconds"), [("90", 90.0), ("90s", 90.0), ("2.5min", 150.0),
                                                ("4h", 14400.0), ("1d", 86400.0), ("1e3s", 1000.0)])
 def test_durations(text, seconds):
-    assert simulate_command.duration_type(text) == seconds
+    assert duration_type(text) == seconds
 
 
 @pytest.mark.parametrize("text", ["", "h", "-1h", "0", "4 hours", "4x"])
 def test_bad_durations(text):
     with pytest.raises(argparse.ArgumentTypeError):
-        simulate_command.duration_type(text)
+        duration_type(text)
 
 
 def test_model_curve_json_is_the_theoretical_allan_deviation(capsys):

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from station.commands.analyze import add_record_arguments, print_notes, record_source
+from station.commands.arguments import add_record_arguments, print_notes, record_source
 
 if TYPE_CHECKING:
     from analysis.davar import DavarResult

@@ -11,10 +11,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
-from station.commands.analyze import add_bench_argument
+from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report.common import analysis_lines
 from station.storage.csv_records import UNIT_TO_DEG_S
 
@@ -37,8 +36,7 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
     add_bench_argument(p)
 
@@ -51,12 +49,6 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
                     lot=args.lot, operator=args.operator)
     return GradeRequest(run, profile=args.profile, units=tuple(args.unit), bench=args.bench,
                         db=args.db, store=not args.no_store)
-
-
-def print_warnings(command: str, warnings: tuple[str, ...]) -> None:
-    """A workflow's warnings, on stderr (``station COMMAND: warning: ...``)."""
-    for text in warnings:
-        print(f"station {command}: warning: {text}", file=sys.stderr)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 
 from devices.model_files import load_noise_model
-from station.commands.simulate import duration_type
+from station.commands.arguments import duration_type
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from station.commands.grade import add_grading_arguments, grade_request, print_warnings
+from station.commands.arguments import print_warnings
+from station.commands.grade import add_grading_arguments, grade_request
 from station.output.report import FORMATS
 
 

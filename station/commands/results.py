@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
+from station.commands.arguments import add_database_argument
 from station.model.kinds import Verdict
 
 if TYPE_CHECKING:
@@ -24,8 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``results`` sub-command."""
     p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--model", default=None)
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)

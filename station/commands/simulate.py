@@ -18,25 +18,10 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from station.errors import UsageError
-from station.model.durations import parse_duration
+from station.commands.arguments import duration_type
 
 if TYPE_CHECKING:
     from station.services.progress import Progress
-
-
-def duration_type(text: str) -> float:
-    """A duration in s for argparse (:func:`station.model.durations.parse_duration`).
-
-    Raises
-    ------
-    argparse.ArgumentTypeError
-        If the text is not a positive duration.
-    """
-    try:
-        return parse_duration(text)
-    except UsageError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def register(sub: argparse._SubParsersAction) -> None:
