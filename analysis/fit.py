@@ -1,13 +1,11 @@
 """Least-squares fits of the five IEEE noise terms to an Allan variance curve.
 
-The model is Lv et al. 2015, eq. 3::
+The model is Lv et al. 2015, eq. 3 (:mod:`analysis.fit_model`)::
 
     avar(tau) = 3 Q^2 / tau^2 + N^2 / tau + (0.664 B)^2 + K^2 tau / 3 + R^2 tau^2 / 2
 
-linear in ``beta = [3 Q^2, N^2, (0.664 B)^2, K^2/3, R^2/2]`` with design columns
-``[tau^-2, tau^-1, 1, tau, tau^2]`` (eq. 5-6). The paper's printed beta vector ends in
-``K^2/2``; that is a typo for ``R^2/2`` (the rate-ramp term of eq. 3), and ``R^2/2`` is
-what is used here.
+linear in ``beta = [3 Q^2, N^2, (0.664 B)^2, K^2/3, R^2/2]`` (eq. 5-6; the paper's
+printed ``K^2/2`` is a typo for ``R^2/2``).
 
 Methods (``method=``):
 
@@ -21,15 +19,15 @@ Methods (``method=``):
     the same J-weighted system solved under ``beta >= 0`` (scipy's NNLS), so that no
     variance term comes out negative;
 ``logwls``
-    least squares on ``log avar`` under ``beta >= 0``, each value weighted by its own
-    precision (``edf / 2``, the inverse variance of the log of a chi-square estimate,
-    with a 2 % model-error floor) and by its share of an octave of tau, so that a dense
-    grid of strongly correlated values does not outvote the sparse short taus (see
-    :func:`_fit_log`).
+    least squares on ``log avar`` under ``beta >= 0`` (:mod:`analysis.fit_log`), over the
+    subset of terms the data resolve (:mod:`analysis.fit_select`).
 
 Coefficients are returned in data-sheet units (urad, deg/sqrt(h), deg/h, deg/h^1.5,
-deg/h^2) with a standard error each (covariance of beta from the weighted residuals,
-propagated to the coefficient by the delta method).
+deg/h^2). Every standard error is the sandwich ``P C P^T`` of the fit's linear response
+``P`` with the covariance ``C`` of the Allan values under the fitted model
+(:mod:`analysis.fit_uncertainty`), propagated to the coefficient by the delta method:
+the formula errors ``s^2 (X^T X)^-1`` of eq. 7 and 14 assume independent values and are
+10-1000x too small on a grid of correlated ones, so they are never reported.
 """
 
 from __future__ import annotations
@@ -40,59 +38,62 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, special
+from scipy import optimize
 
 from analysis.allan import AllanResult
 from analysis.errors import FitError
-from analysis.units import DEG_PER_URAD, S_PER_H
+from analysis.fit_log import LogData, fit_log, log_data, log_tau_share
+from analysis.fit_model import (
+    BETA_FACTOR,
+    COEFFICIENT_NAMES,
+    TAU_POWER,
+    TERMS,
+    TO_DATASHEET,
+    design_matrix,
+    full_beta,
+    theoretical_avar,
+)
+from analysis.fit_select import select_terms
+from analysis.fit_uncertainty import LinearizedFit, value_covariance
+
+__all__ = [
+    "BETA_FACTOR", "COEFFICIENT_NAMES", "DEFAULT_MODEL_ERROR", "FIT_METHODS", "FitMethod",
+    "NoiseCoefficients", "TAU_POWER", "TERMS", "TO_DATASHEET", "design_matrix", "fit_every_method",
+    "fit_noise_terms",
+    "log_tau_share", "theoretical_avar",
+]
 
 FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
 FIT_METHODS: tuple[FitMethod, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
-
-TERMS = "QNBKR"
-#: Exponent of tau in each term's Allan variance (eq. 3).
-TAU_POWER = {"Q": -2, "N": -1, "B": 0, "K": 1, "R": 2}
-#: beta = factor * coefficient^2 (eq. 6, with R^2/2 in place of the printed K^2/2).
-BETA_FACTOR = {"Q": 3.0, "N": 1.0, "B": 0.664**2, "K": 1.0 / 3.0, "R": 0.5}
-#: Coefficient in base units (deg, s) times this gives the data-sheet unit.
-TO_DATASHEET = {
-    "Q": 1.0 / DEG_PER_URAD,  # deg -> urad
-    "N": math.sqrt(S_PER_H),  # deg/sqrt(s) -> deg/sqrt(h)
-    "B": S_PER_H,  # deg/s -> deg/h
-    "K": S_PER_H**1.5,  # deg/s^1.5 -> deg/h^1.5
-    "R": S_PER_H**2,  # deg/s^2 -> deg/h^2
-}
-#: JSON/data-sheet name of each coefficient.
-COEFFICIENT_NAMES = {
-    "Q": "Q_urad",
-    "N": "N_deg_rt_h",
-    "B": "B_deg_h",
-    "K": "K_deg_h_1_5",
-    "R": "R_deg_h2",
-}
 OLS40_MAX_ERROR = 0.40
-#: Relative error floor of the five-term model assumed by ``logwls`` (2 % of avar).
+#: Relative error floor of the five-term model assumed by ``logwls``'s weights (2 % of avar).
 DEFAULT_MODEL_ERROR = 0.02
+#: A model misfit above this relative size (beyond sampling) is named in the notes.
+NOTED_MISFIT = 0.01
 
 
 @dataclass(frozen=True)
 class NoiseCoefficients:
     """Fitted noise-term coefficients in data-sheet units.
 
-    A coefficient is ``None`` when it was not fitted or its variance term came out
-    negative (no physical meaning); ``negative_terms`` names the latter.
+    A coefficient is ``None`` when it was not a candidate or its variance term came out
+    negative (no physical meaning; ``negative_terms`` names those). A candidate term the
+    data do not resolve (``logwls`` leaves it out of the model) is ``0.0``, its standard
+    error then the coefficient at which its variance term would be one standard error of
+    the fit: an upper bound at 1 sigma, not a measurement.
 
     Attributes
     ----------
     method : str
         Fit method (see the module docstring).
     terms : str
-        The fitted terms, a subset of ``"QNBKR"``.
+        The terms in the fitted model, a subset of ``"QNBKR"``.
     values : dict
         ``{"Q": urad, "N": deg/sqrt(h), "B": deg/h, "K": deg/h^1.5, "R": deg/h^2}``,
         ``None`` where not estimable.
     stderr : dict
-        Standard error of each value in the same unit, ``None`` where not estimable.
+        Standard error of each value in the same unit; ``None`` where it cannot be computed
+        honestly (``notes`` says why).
     beta : ndarray, shape (5,)
         The fitted variance coefficients of eq. 6 in base units ((deg/s)^2 s^p), NaN for
         terms not fitted.
@@ -100,6 +101,13 @@ class NoiseCoefficients:
         Terms whose fitted variance coefficient is negative.
     n_points : int
         Number of Allan variance values used.
+    iterations : int
+        Function evaluations of an iterative fit (1 for the linear ones).
+    candidate_terms : str
+        The terms asked for (``terms`` is the subset kept); default ``terms``.
+    notes : tuple of str
+        What a reader of the numbers should know: terms left out and why, the origin of
+        the standard errors, a model misfit.
     """
 
     method: str
@@ -110,6 +118,8 @@ class NoiseCoefficients:
     negative_terms: str = ""
     n_points: int = 0
     iterations: int = field(default=1)
+    candidate_terms: str = ""
+    notes: tuple[str, ...] = ()
 
     def model_avar(self, tau_s: ArrayLike) -> NDArray[np.float64]:
         """Allan variance ((deg/s)^2) of the fitted model at ``tau_s`` (s), eq. 3.
@@ -131,70 +141,59 @@ class NoiseCoefficients:
         return (b if np.isfinite(b) and b > 0 else 0.0) * tau ** TAU_POWER[term]
 
     def as_dict(self) -> dict[str, object]:
-        """JSON form: ``method``, each ``<name>`` and ``<name>_stderr`` (null where not estimable)."""
+        """JSON form: ``method``, each ``<name>`` and ``<name>_stderr`` (null where not
+        estimable), ``negative_terms``, ``terms`` (the model's terms) and ``notes``."""
         out: dict[str, object] = {"method": self.method}
         for term in TERMS:
             name = COEFFICIENT_NAMES[term]
             out[name] = self.values[term]
             out[f"{name}_stderr"] = self.stderr[term]
         out["negative_terms"] = list(self.negative_terms)
+        out["terms"] = self.terms
+        out["notes"] = list(self.notes)
         return out
 
 
-def design_matrix(tau_s: ArrayLike, terms: str = TERMS) -> NDArray[np.float64]:
-    """Columns ``tau^p`` of eq. 5 for the chosen terms (p = -2, -1, 0, 1, 2 for Q, N, B, K, R)."""
-    tau = np.asarray(tau_s, dtype=float)
-    return np.column_stack([tau ** TAU_POWER[t] for t in terms])
-
-
 def _check_terms(terms: str) -> str:
-    terms = "".join(t for t in TERMS if t in terms.upper())
     extra = set(terms.upper()) - set(TERMS)
+    terms = "".join(t for t in TERMS if t in terms.upper())
     if not terms or extra:
         raise FitError(f"terms must be a non-empty subset of 'QNBKR', got {terms!r}")
     return terms
 
 
-def _solve(
-    x: NDArray[np.float64], y: NDArray[np.float64], *, nonnegative: bool
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Least squares of ``x b = y`` with columns scaled to unit norm; returns (b, cov(b)).
-
-    The covariance is ``s^2 (X^T X)^-1`` with ``s^2`` the residual variance.
-    """
-    scale = np.linalg.norm(x, axis=0)
-    scale[scale == 0] = 1.0
-    xs = x / scale
-    y_scale = np.linalg.norm(y) or 1.0
-    ys = y / y_scale
-    if nonnegative:
-        bs, _ = optimize.nnls(xs, ys, maxiter=50 * xs.shape[1])
-    else:
-        bs = np.linalg.lstsq(xs, ys, rcond=None)[0]
-    resid = ys - xs @ bs
-    dof = max(len(ys) - xs.shape[1], 1)
-    s2 = float(resid @ resid) / dof
-    cov_s = s2 * np.linalg.pinv(xs.T @ xs)
-    b = bs * y_scale / scale
-    cov = cov_s * y_scale**2 / np.outer(scale, scale)
-    return b, cov
+def _checked(result: AllanResult, terms: str, model_error: float) -> tuple[str, NDArray[np.float64]]:
+    terms = _check_terms(terms)
+    avar = np.asarray(result.avar, dtype=float)
+    if avar.ndim != 1:
+        raise FitError("fit one axis at a time: pass result.axis(i)")
+    if not model_error >= 0:
+        raise FitError(f"model_error must be >= 0, got {model_error}")
+    return terms, avar
 
 
-def _weighted_system(
-    method: str, result: AllanResult, avar: NDArray[np.float64], x: NDArray[np.float64]
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    j = result.n_clusters.astype(float)
-    keep = np.ones(len(avar), dtype=bool)
+def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_terms: int,
+                 exclude_tau_s: tuple[tuple[float, float], ...] = ()) -> NDArray[np.bool_]:
+    """The Allan values ``method`` uses; raises FitError when fewer than ``n_terms``."""
+    keep = np.isfinite(avar)
+    for lo, hi in exclude_tau_s:
+        keep &= ~((result.tau_s >= lo) & (result.tau_s <= hi))
     if method == "ols40":
-        keep = result.relative_error < OLS40_MAX_ERROR
-    if method in ("wls", "nnls"):
-        return x * j[:, None], avar * j, keep
-    return x, avar, keep
+        keep &= result.relative_error < OLS40_MAX_ERROR
+    if method == "logwls":
+        keep &= avar > 0
+    if keep.sum() < n_terms:
+        raise FitError(
+            f"{int(keep.sum())} Allan values usable by {method}, fewer than the {n_terms} terms "
+            f"to fit; record longer or fit fewer terms"
+        )
+    return keep
 
 
 def fit_noise_terms(
     result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS,
     model_error: float = DEFAULT_MODEL_ERROR, exclude_tau_s: tuple[tuple[float, float], ...] = (),
+    select: bool | None = None,
 ) -> NoiseCoefficients:
     """Fit the five-term model (Lv 2015 eq. 3) to a single-axis Allan variance.
 
@@ -206,15 +205,18 @@ def fit_noise_terms(
         See the module docstring: eq. 7, eq. 7 on values under 40 % error (eq. 8),
         eq. 14, eq. 14 under beta >= 0, or log-domain weighted least squares.
     terms : str
-        Which of ``"QNBKR"`` to fit; the others are held at zero.
+        Which of ``"QNBKR"`` may be fitted; the others are held at zero.
     model_error : float
         ``logwls`` only: relative error floor of the five-term model (fraction of the
-        Allan variance, default 2 %), added in quadrature to each value's sampling error
-        in the log domain. Without it the very precise short-tau values of a long real
-        record decide every term, and a small misfit there pulls B off the plateau.
+        Allan variance, default 2 %) in the weights. Without it the very precise
+        short-tau values of a long real record decide every term.
     exclude_tau_s : tuple of (float, float)
         Closed tau ranges (s) left out of the fit: where the curve holds something the
         five terms do not describe (a tone, an output filter; see :mod:`analysis.zones`).
+    select : bool, optional
+        Keep only the terms the data resolve (:mod:`analysis.fit_select`); the others
+        come back as 0 with a 1-sigma bound. Default: on for ``logwls``, off for the
+        paper's methods, which fit every term asked for.
 
     Returns
     -------
@@ -227,124 +229,187 @@ def fit_noise_terms(
     """
     if method not in FIT_METHODS:
         raise FitError(f"unknown fit method {method!r}; use one of {', '.join(FIT_METHODS)}")
-    terms = _check_terms(terms)
-    avar = np.asarray(result.avar, dtype=float)
-    if avar.ndim != 1:
-        raise FitError("fit one axis at a time: pass result.axis(i)")
-    x_full = design_matrix(result.tau_s, terms)
-    x, y, keep = _weighted_system(method, result, avar, x_full)
-    for lo, hi in exclude_tau_s:
-        keep = keep & ~((result.tau_s >= lo) & (result.tau_s <= hi))
-    if keep.sum() < len(terms):
-        raise FitError(
-            f"{int(keep.sum())} Allan values usable by {method}, fewer than the {len(terms)} terms "
-            f"to fit; record longer or fit fewer terms"
-        )
-    x, y = x[keep], y[keep]
+    terms, avar = _checked(result, terms, model_error)
+    keep = _usable_rows(method, result, avar, len(terms), exclude_tau_s)
+    if select is None:
+        select = method == "logwls"
     if method == "logwls":
-        if not model_error >= 0:
-            raise FitError(f"model_error must be >= 0, got {model_error}")
-        b, cov, iterations = _fit_log(result, keep, x_full[keep], avar[keep], model_error)
-    else:
-        b, cov = _solve(x, y, nonnegative=method == "nnls")
-        iterations = 1
-    return _coefficients(method, terms, b, cov, n_points=int(keep.sum()), iterations=iterations)
+        return _fit_logwls(result, keep, terms, model_error, select)[0]
+    log_keep = _usable_rows("logwls", result, avar, len(terms), exclude_tau_s)
+    reference = _fit_logwls(result, log_keep, terms, model_error, True)[1]
+    return _fit_linear(method, result, keep, terms, reference)
 
 
-def log_tau_share(tau_s: ArrayLike) -> NDArray[np.float64]:
-    """Each tau's share of an octave of log tau on its grid: ``dlog(tau) / log 2``.
+def fit_every_method(result: AllanResult, *, terms: str = TERMS, model_error: float = DEFAULT_MODEL_ERROR
+                     ) -> dict[str, NoiseCoefficients]:
+    """:func:`fit_noise_terms` with each method at its default, the logwls model shared.
 
-    Half the log distance to each neighbour (the end points take their one side), so
-    that the shares of a run of values sum to the octaves they span. Values on a dense
-    grid (every m) are strongly correlated; weighting by this share counts each octave
-    about once, as its information does, instead of once per value.
+    The standard errors of the paper's methods take the covariance of the Allan values
+    from the logwls model of the curve; fitting every method at once computes it once.
+
+    Returns
+    -------
+    dict
+        ``{method: NoiseCoefficients}`` for every method of :data:`FIT_METHODS`.
+
+    Raises
+    ------
+    FitError
+        As :func:`fit_noise_terms`.
     """
-    logt = np.log(np.asarray(tau_s, dtype=float))
-    if len(logt) == 1:
-        return np.ones(1)
-    edges = np.concatenate([[logt[0] - (logt[1] - logt[0]) / 2], (logt[1:] + logt[:-1]) / 2,
-                            [logt[-1] + (logt[-1] - logt[-2]) / 2]])
-    return np.diff(edges) / math.log(2.0)
+    terms, avar = _checked(result, terms, model_error)
+    fit, reference = _fit_logwls(result, _usable_rows("logwls", result, avar, len(terms)), terms,
+                                 model_error, True)
+    out = {"logwls": fit}
+    for method in FIT_METHODS:
+        if method != "logwls":
+            keep = _usable_rows(method, result, avar, len(terms))
+            out[method] = _fit_linear(method, result, keep, terms, reference)
+    return out
 
 
-def _fit_log(
-    result: AllanResult, keep: NDArray[np.bool_], x: NDArray[np.float64], avar: NDArray[np.float64],
-    model_error: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Weighted least squares of ``log avar`` under ``beta >= 0`` (the ``logwls`` method).
+#: The logwls model of a curve, the rows it used and its misfit at each: what the paper's
+#: methods take the covariance of the Allan values from.
+Reference = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]
 
-    Residual ``r_i = sqrt(s_i / (2 / edf_i + e^2)) (log a_i - c_i - log m_i(beta))``: the
-    variance of the log of a chi-square estimate with ``edf`` dof is about ``2 / edf``,
-    ``e`` (``model_error``) is the relative error floor of the model itself, and
-    ``c_i = psi(edf/2) - log(edf/2)`` removes its mean offset; ``s_i`` is the value's
-    share of an octave (:func:`log_tau_share`), so a dense grid of correlated values
-    counts once per octave. Log residuals penalize a model above and below the data
-    alike, so a curve the five terms cannot follow everywhere is not pulled up or down.
-    """
-    edf = np.asarray(result.edf, dtype=float)[keep]
-    share = log_tau_share(result.tau_s[keep])
-    # var(log a_i) = 2 / edf_i from sampling, plus model_error^2 because no gyro follows
-    # eq. 3 to the 0.1 % that a million-sample record resolves at short tau
-    sw = np.sqrt(share / (2.0 / edf + model_error**2))
-    target = np.log(avar) - (special.digamma(edf / 2.0) - np.log(edf / 2.0))
-    scale = np.linalg.norm(x / avar[:, None] * sw[:, None], axis=0)
+
+def _fit_logwls(result: AllanResult, keep: NDArray[np.bool_], candidates: str, model_error: float,
+                select: bool) -> tuple[NoiseCoefficients, Reference]:
+    data = log_data(result, keep, model_error)
+    notes: list[str] = []
+    chosen = candidates
+    if select and len(candidates) > 1:
+        selection = select_terms(result, data, candidates)
+        chosen = selection.terms
+        dropped = "".join(t for t in candidates if t not in chosen)
+        if dropped:
+            notes.append(
+                f"terms {chosen} kept of {candidates}: {', '.join(dropped)} not resolved by the data "
+                f"(information criterion on the log Allan values with their covariance, "
+                f"{selection.n_points} values, penalty {selection.penalty:.2f} per term); "
+                f"each reported as 0 with its 1-sigma upper bound as standard error")
+    beta, nfev = fit_log(data, chosen)
+    lin, misfit = _log_linearization(result, data, beta)
+    notes.append("standard errors: sandwich of the fit's response with the covariance of the Allan "
+                 "values under the fitted model")
+    fit = _finish("logwls", result, keep, candidates, beta, lin, beta, misfit, notes, iterations=nfev)
+    return fit, (beta, keep, misfit)
+
+
+def _log_linearization(result: AllanResult, data: LogData, beta: NDArray[np.float64]
+                       ) -> tuple[LinearizedFit, NDArray[np.float64]]:
+    """The log fit's linear response at ``beta`` and the model misfit its residuals show."""
+    lin = LinearizedFit(data.jacobian(beta), data.weights, log=True)
+    free = _free_columns(beta)
+    if not len(free):
+        return lin, np.zeros(len(data.tau_s))
+    cov = value_covariance(result, beta, keep=data.keep)
+    return lin, lin.local_misfit(free, data.residual(beta), cov, log_tau_share(data.tau_s))
+
+
+def _linear_solution(method: str, x: NDArray[np.float64], y: NDArray[np.float64],
+                     weights: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least squares of ``sqrt(w) x b = sqrt(w) y`` with columns scaled to unit norm."""
+    sw = np.sqrt(weights)[:, None]
+    xs = x * sw
+    scale = np.linalg.norm(xs, axis=0)
     scale[scale == 0] = 1.0
-    xs = x / scale
-    # start: NNLS of the relative residuals, the measured values standing in for the model
-    u0, _ = optimize.nnls(xs / avar[:, None] * sw[:, None], sw, maxiter=50 * x.shape[1])
-    floor = 1e-300
-
-    def residual(u: NDArray[np.float64]) -> NDArray[np.float64]:
-        return sw * (target - np.log(np.maximum(xs @ u, floor)))
-
-    def jacobian(u: NDArray[np.float64]) -> NDArray[np.float64]:
-        return -sw[:, None] * xs / np.maximum(xs @ u, floor)[:, None]
-
-    u0 = np.maximum(u0, 1e-12 * max(float(u0.max()), 1e-300))
-    sol = optimize.least_squares(residual, u0, jac=jacobian, bounds=(0.0, np.inf), method="trf",
-                                 x_scale="jac", xtol=1e-12, ftol=1e-12, max_nfev=500)
-    jac = jacobian(sol.x)
-    dof = max(len(avar) - x.shape[1], 1)
-    s2 = max(float(sol.fun @ sol.fun) / dof, 1.0)
-    cov_u = s2 * np.linalg.pinv(jac.T @ jac)
-    # a term the bound holds at (numerically) zero is zero, not a tiny positive value
-    sol.x[sol.x < 1e-9 * float(sol.x.max(initial=0.0))] = 0.0
-    return sol.x / scale, cov_u / np.outer(scale, scale), int(sol.nfev)
+    xs = xs / scale
+    ys = y * sw[:, 0]
+    y_scale = np.linalg.norm(ys) or 1.0
+    ys = ys / y_scale
+    if method == "nnls":
+        bs, _ = optimize.nnls(xs, ys, maxiter=50 * xs.shape[1])
+    else:
+        bs = np.linalg.lstsq(xs, ys, rcond=None)[0]
+    return bs * y_scale / scale
 
 
-def _coefficients(
-    method: str, terms: str, b: NDArray[np.float64], cov: NDArray[np.float64], *,
-    n_points: int, iterations: int,
-) -> NoiseCoefficients:
-    beta = np.full(len(TERMS), np.nan)
+def _fit_linear(method: str, result: AllanResult, keep: NDArray[np.bool_], terms: str,
+                reference: Reference) -> NoiseCoefficients:
+    avar = np.asarray(result.avar, dtype=float)[keep]
+    x = design_matrix(result.tau_s[keep], TERMS)
+    cols = [TERMS.index(t) for t in terms]
+    j = result.n_clusters[keep].astype(float)
+    # eq. 11-14 multiply each row by J: least squares with weights J^2
+    weights = j**2 if method in ("wls", "nnls") else np.ones(len(avar))
+    beta = full_beta(terms, _linear_solution(method, x[:, cols], avar, weights))
+    model, log_keep, misfit = reference
+    if not np.any(np.nan_to_num(model) > 0):
+        return _finish(method, result, keep, terms, beta, None, model, None, [
+            "standard errors: none; no model with positive terms fits this curve to take the "
+            "covariance of the Allan values from"])
+    notes = [f"standard errors: sandwich of {method}'s linear response with the covariance of the "
+             f"Allan values under the logwls model of this curve (the formula error of eq. 7/14 "
+             f"assumes independent values and is far too small on correlated ones)"]
+    return _finish(method, result, keep, terms, beta, LinearizedFit(x, weights, log=False), model,
+                   _on_rows(misfit, log_keep, keep), notes)
+
+
+def _on_rows(values: NDArray[np.float64], rows_have: NDArray[np.bool_], rows_want: NDArray[np.bool_]
+             ) -> NDArray[np.float64]:
+    full = np.zeros(len(rows_have))
+    full[rows_have] = values
+    return full[rows_want]
+
+
+def _free_columns(beta: NDArray[np.float64]) -> NDArray[np.int64]:
+    return np.flatnonzero(np.isfinite(beta) & (beta != 0)).astype(np.int64)
+
+
+def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidates: str,
+            beta: NDArray[np.float64], lin: LinearizedFit | None, model_beta: NDArray[np.float64],
+            misfit: NDArray[np.float64] | None, notes: list[str], *, iterations: int = 1
+            ) -> NoiseCoefficients:
+    """Coefficients, their sandwich standard errors and the notes, in data-sheet units.
+
+    ``model_beta`` is the model the covariance of the values is taken under, ``misfit``
+    its relative misfit at each value used.
+    """
+    variances: dict[str, float | None] = dict.fromkeys(TERMS)
+    if lin is not None:
+        cov = value_covariance(result, model_beta, keep=keep)
+        free = _free_columns(beta)
+        # a misfit worth naming: above 1 % and twice the sampling error of the value
+        noted = None if misfit is None else np.where(
+            misfit > np.maximum(NOTED_MISFIT, 2.0 * np.sqrt(cov.diagonal(log=True))), misfit, 0.0)
+        if noted is not None and noted.max(initial=0.0) > 0:
+            worst = int(np.argmax(noted))
+            size = (f"{misfit[worst]:.1%}" if misfit[worst] < 0.3 else
+                    f"a factor {math.exp(misfit[worst]):.2g} in Allan variance")
+            notes.append(f"the curve departs from the five-term model beyond sampling, by up to {size} "
+                         f"(near tau {result.tau_s[keep][worst]:.3g} s); that misfit is carried in the "
+                         f"standard errors")
+        if len(free):
+            c = lin.covariance(free, cov, misfit)
+            for k, col in enumerate(free):
+                variances[TERMS[col]] = float(c[k, k])
+        for t in candidates:
+            col = TERMS.index(t)
+            if col not in free:
+                # a term at zero: its variance as if it were free beside the others
+                aug = np.sort(np.append(free, col))
+                c = lin.covariance(aug, cov, misfit)
+                k = int(np.searchsorted(aug, col))
+                variances[t] = float(c[k, k])
     values: dict[str, float | None] = dict.fromkeys(TERMS)
     stderr: dict[str, float | None] = dict.fromkeys(TERMS)
     negative = ""
-    for k, term in enumerate(terms):
-        bk = float(b[k])
-        sb = math.sqrt(max(float(cov[k, k]), 0.0))
-        beta[TERMS.index(term)] = bk
+    for term in candidates:
+        col = TERMS.index(term)
+        b = float(beta[col]) if np.isfinite(beta[col]) else 0.0
+        var = variances[term]
+        sb = math.sqrt(max(var, 0.0)) if var is not None else None
         c, unit = BETA_FACTOR[term], TO_DATASHEET[term]
-        if bk > 0:
-            values[term] = math.sqrt(bk / c) * unit
-            stderr[term] = sb / (2.0 * math.sqrt(c * bk)) * unit
-        elif bk == 0:
+        if b > 0:
+            values[term] = math.sqrt(b / c) * unit
+            stderr[term] = None if sb is None else sb / (2.0 * math.sqrt(c * b)) * unit
+        elif b == 0:
             values[term] = 0.0
-            stderr[term] = math.sqrt(sb / c) * unit
+            stderr[term] = None if sb is None else math.sqrt(sb / c) * unit
         else:
             negative += term
-    return NoiseCoefficients(method, terms, values, stderr, beta, negative, n_points, iterations)
-
-
-def theoretical_avar(coefficients: dict[str, float], tau_s: ArrayLike) -> NDArray[np.float64]:
-    """Allan variance ((deg/s)^2) of eq. 3 for coefficients in data-sheet units.
-
-    ``coefficients`` maps any of ``"Q"`` (urad), ``"N"`` (deg/sqrt(h)), ``"B"`` (deg/h),
-    ``"K"`` (deg/h^1.5), ``"R"`` (deg/h^2) to a value; missing terms are zero.
-    """
-    tau = np.asarray(tau_s, dtype=float)
-    total = np.zeros_like(tau)
-    for term, value in coefficients.items():
-        base = value / TO_DATASHEET[term]
-        total = total + BETA_FACTOR[term] * base**2 * tau ** TAU_POWER[term]
-    return total
+    full = np.where(np.isfinite(beta), beta, np.nan)
+    kept = "".join(t for t in candidates if np.isfinite(beta[TERMS.index(t)]))
+    return NoiseCoefficients(method, kept, values, stderr, full, negative, int(keep.sum()), iterations,
+                             candidates, tuple(notes))

@@ -66,6 +66,7 @@ from analysis.discrepancy import (
     compare,
     measure_curve,
 )
+from analysis.gmwm_naming import ALTERNATIVE_SCORE, Alternative, GmwmJudgement, judge, new_or_more
 from analysis.models import (
     NoiseModel,
     NoiseTerm,
@@ -98,6 +99,9 @@ class ReconcileOptions:
         Relative accuracy of a library curve (``f`` of eq. G1).
     min_shrink : float
         Least relative drop of the gap an effect must bring, besides ``shrink_sigmas``.
+    gmwm : bool
+        Let the GMWM order the candidates the Allan curve cannot tell apart
+        (:mod:`analysis.gmwm_naming`); False keeps the Allan curve's order alone.
     """
 
     runs: int = 20
@@ -112,6 +116,7 @@ class ReconcileOptions:
     min_clusters: int = 4
     floor: float = MODEL_FLOOR
     min_shrink: float = 0.1
+    gmwm: bool = True
 
 
 @dataclass(frozen=True)
@@ -137,6 +142,12 @@ class Effect:
         The time-series confirmation, when the effect has one.
     events : tuple of (float, float)
         For bias steps: (time in s, size in deg/h) of each step located.
+    score, criterion : float, str
+        What named it: the GMWM's N1 score (``"gmwm"``, :mod:`analysis.gmwm_naming`) or the
+        Allan curve's Delta BIC (``"allan"``).
+    alternatives : tuple of Alternative
+        Other explanations within ``ALTERNATIVE_SCORE`` (GMWM) or ``INDISTINCT_BIC``
+        (Allan curve) of it, with their scores.
     """
 
     name: str
@@ -149,14 +160,20 @@ class Effect:
     gap_after: float
     evidence: str = ""
     events: tuple[tuple[float, float], ...] = ()
+    score: float | None = None
+    criterion: str = "allan"
+    alternatives: tuple[Alternative, ...] = ()
 
     def as_json(self) -> dict[str, object]:
-        """JSON form: name, params, tau_range_s, and the rest of the evidence."""
+        """JSON form: name, params, tau_range_s, the rest of the evidence, its naming score and
+        the ``alternatives`` (``[{"name", "score", ...}]``) that fit about as well."""
         return {"name": self.name, "change": self.change, "params": dict(self.params),
                 "stderr": dict(self.stderr), "tau_range_s": list(self.tau_range_s),
                 "delta_bic": self.delta_bic, "gap_before": self.gap_before,
                 "gap_after": self.gap_after, "evidence": self.evidence,
-                **({"steps": [{"time_s": t, "size_deg_h": z} for t, z in self.events]} if self.events else {})}
+                **({"steps": [{"time_s": t, "size_deg_h": z} for t, z in self.events]} if self.events else {}),
+                "score": self.score, "score_criterion": self.criterion,
+                "alternatives": [a.as_json() for a in self.alternatives]}
 
 
 @dataclass(frozen=True)
@@ -236,6 +253,7 @@ class ReconcileResult:
             "sample_rate_hz": self.curve.sample_rate_hz, "decimation": self.curve.decimation,
             "n_samples": self.curve.n_samples, "mc_runs": self.options.runs,
             "gap_threshold": self.before.gap_null.quantile(1.0 - self.options.alpha),
+            "alternatives": [{"effect": e.name, **a.as_json()} for e in self.effects for a in e.alternatives],
         }
 
 
@@ -277,19 +295,22 @@ CONFIRMED_SHARE = 0.5
 
 
 def _ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve, opt: ReconcileOptions,
-            steps: NDArray[np.float64] | None) -> list[tuple[CandidateFit, str, tuple]]:
-    """Candidates above the threshold with their confirmation, in the order they are tried.
+            steps: NDArray[np.float64] | None) -> tuple[list[tuple[CandidateFit, str, tuple]], GmwmJudgement | None]:
+    """Candidates above the threshold with their confirmation, in the order they are tried,
+    and the GMWM's judgement of the close ones (None when it judged none).
 
     First the candidates the time series confirms (``TIME_SERIES_TESTED``) that explain at
     least ``CONFIRMED_SHARE`` of the best one's Delta BIC, then those within
     ``INDISTINCT_BIC`` of the best by their number of parameters (the curve cannot tell
-    them apart, so the simpler explanation is tried first), then the rest; by Delta BIC
-    within each group.
+    them apart, so the simpler explanation is tried first; with ``opt.gmwm``, when the
+    GMWM can judge every one of them and they include a refit of a term the model has, the
+    GMWM's answer to "a new process or more of one the model has" first,
+    :func:`analysis.gmwm_naming.new_or_more`), then the rest; by Delta BIC within each group.
     """
     fits = [f for f in fit_candidates(current.model, curve, current, steps=steps)
             if f.delta_bic >= opt.bic_threshold]
     if not fits:
-        return []
+        return [], None
     best = fits[0].delta_bic
     rows = []
     for fit in fits:
@@ -301,9 +322,38 @@ def _ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve, 
         rank = (0, 0) if confirmed and strong else ((1, fit.n_params) if close else (2, 0))
         rows.append((rank, -fit.delta_bic, fit, change, verdict))
     rows.sort(key=lambda r: (r[0], r[1]))
-    return [(fit, change, verdict) for _, _, fit, change, verdict in rows]
+    judgement = None
+    close_rows = [r for r in rows if r[0][0] == 1 and r[3] != "decreased" and r[4][0] is not None]
+    if opt.gmwm and len(close_rows) >= 2:
+        judgement = judge(evidence.residual, curve.sample_rate_hz, current.model,
+                          [(r[2].name, r[2].mode) for r in close_rows])
+    # the GMWM orders the close group when it can judge every viable member and the question
+    # is a new process against more of one the model has (a Gauss-Markov process or more bias
+    # instability); between two added terms the curve's order (simplest first) stands
+    decides = (judgement is not None and all(r[2].name in judgement.scores for r in close_rows)
+               and any(r[3] != "added" for r in close_rows))
+    if decides:
+        group = [r for r in rows if r[0][0] == 1]
+        ordered = new_or_more(group, lambda r: r[2].name, lambda r: r[3] == "added", judgement)
+        rows = [r for r in rows if r[0][0] == 0] + ordered + [r for r in rows if r[0][0] == 2]
+    return [(fit, change, verdict) for _, _, fit, change, verdict in rows], judgement
 
 
+def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, tuple]],
+                  judgement: GmwmJudgement | None) -> tuple[float, str, tuple[Alternative, ...]]:
+    """(score, criterion, alternatives) of the named candidate: the other viable explanations
+    (confirmed where they need it, not a decrease) within ``ALTERNATIVE_SCORE`` of its GMWM
+    score when the GMWM judged it, else within ``INDISTINCT_BIC`` of its Delta BIC."""
+    viable = [(fit, change) for fit, change, verdict in ranked
+              if fit.name != named.name and verdict[0] is not None and change != "decreased"]
+    if judgement is not None and named.name in judgement.scores:
+        own = judgement.scores[named.name]
+        alts = tuple(Alternative(fit.name, judgement.scores[fit.name], "gmwm", change) for fit, change in viable
+                     if fit.name in judgement.scores and abs(judgement.scores[fit.name] - own) < ALTERNATIVE_SCORE)
+        return own, "gmwm", alts
+    alts = tuple(Alternative(fit.name, fit.delta_bic, "allan", change) for fit, change in viable
+                 if abs(fit.delta_bic - named.delta_bic) < INDISTINCT_BIC)
+    return named.delta_bic, "allan", alts
 
 
 def reconcile_curve(
@@ -328,7 +378,8 @@ def reconcile_curve(
         attempts: list[Attempt] = []
         accepted = None
         steps = evidence.step_series()
-        for fit, change, (term, ev, refusal) in _ranked(evidence, current, curve, opt, steps):
+        ranked, judgement = _ranked(evidence, current, curve, opt, steps)
+        for fit, change, (term, ev, refusal) in ranked:
             if len(attempts) >= opt.max_tries:
                 break
             if term is None:
@@ -345,7 +396,9 @@ def reconcile_curve(
                 continue
             attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic,
                                     f"accepted: gap {current.gap:.3g} -> {trial.gap:.3g}"))
-            accepted = (_effect(fit, term, change, ev, current, trial, curve), trial)
+            score, criterion, alternatives = _alternatives(fit, ranked, judgement)
+            accepted = (replace(_effect(fit, term, change, ev, current, trial, curve), score=score,
+                                criterion=criterion, alternatives=alternatives), trial)
             known.update(extra or {})
             break
         rounds.append(ReconcileRound(current, tuple(attempts)))

@@ -116,12 +116,13 @@ def filter_zone(result: AllanResult, fit: NoiseCoefficients, *, skip: Sequence[T
 
 
 def fit_outside_zones(result: AllanResult, tones: Sequence[Tone] = (), *, method: FitMethod = "logwls",
-                      terms: str = TERMS) -> tuple[NoiseCoefficients, tuple[TauZone, ...]]:
+                      terms: str = TERMS, select: bool | None = None
+                      ) -> tuple[NoiseCoefficients, tuple[TauZone, ...]]:
     """The five-term fit without the tone and output-filter zones, and the zones.
 
     The tone zone comes from the tones found in the time series; the filter zone from
     the fit, so the fit is repeated (at most :data:`MAX_REFITS` times) until no further
-    short taus fall below it.
+    short taus fall below it. ``select`` is :func:`analysis.fit.fit_noise_terms`'.
     """
     zones: list[TauZone] = []
     tz = tone_zone(result, tones)
@@ -130,7 +131,7 @@ def fit_outside_zones(result: AllanResult, tones: Sequence[Tone] = (), *, method
 
     def fit() -> NoiseCoefficients:
         ranges = tuple((z.tau_low_s, z.tau_high_s) for z in zones)
-        return fit_noise_terms(result, method=method, terms=terms, exclude_tau_s=ranges)
+        return fit_noise_terms(result, method=method, terms=terms, exclude_tau_s=ranges, select=select)
 
     coefficients = fit()
     others = list(zones)

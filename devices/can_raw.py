@@ -39,12 +39,23 @@ class CanRateSource:
     clock_scale : float
         Clock seconds per wall second (the time-warp factor of a simulation), to turn
         the bus's wall-clock frame time stamps into the clock's time base.
+    max_latency_s : float
+        How far a frame's time stamp may be from when the node sampled it, clock s (its
+        send queue and the bus; a simulated node's lateness allowance): bounds the wrap
+        count of a gap (``missing_low``, ``missing_high``).
+
+    Notes
+    -----
+    CRC-8 lets about one corrupted frame in 256 through: a counter that breaks the
+    sequence is held until the next frame shows whether it was a gap or a corrupted
+    counter (:class:`~devices.batching.BatchBuilder`).
     """
 
     def __init__(self, transport: CanLink, layout: CanFrameLayout, *, model: str,
                  serial_number: str, sample_rate_hz: float,
                  clock: Callable[[], float] = time.monotonic,
-                 silence_timeout_s: float = 0.5, clock_scale: float = 1.0) -> None:
+                 silence_timeout_s: float = 0.5, clock_scale: float = 1.0,
+                 max_latency_s: float = 0.01) -> None:
         self.transport = transport
         self.layout = layout
         self.clock = clock
@@ -56,9 +67,12 @@ class CanRateSource:
             axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
             has_counter=True, counter_modulus=layout.counter_modulus, has_device_time=False,
             has_temperature=has_temp, settings=transport.settings)
-        self._builder = BatchBuilder(len(layout.axes),
-                                     CounterTracker(layout.counter_modulus, sample_rate_hz),
-                                     has_device_time=False, has_temperature=has_temp)
+        self._builder = BatchBuilder(
+            len(layout.axes), CounterTracker(layout.counter_modulus, sample_rate_hz,
+                                             timing_uncertainty_s=max_latency_s),
+            has_device_time=False, has_temperature=has_temp,
+            # (a 4-bit counter goes round too often for its order to say anything)
+            check_continuity=layout.counter_modulus >= 64)
         self._ids = set(layout.arbitration_ids)
         self._pending: dict[int, dict[int, CanFrameValues]] = {}
         self._lost = False
@@ -122,4 +136,8 @@ class CanRateSource:
             self._lost = True
             self._builder.event("disconnect", now, detail="node silent")
             raise DeviceDisconnectedError(f"CAN node silent for {self.silence_timeout_s} s")
-        return self._builder.take()
+        return self._builder.take(now)
+
+    def limit_rates(self, limit_deg_s: float | None) -> None:
+        """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
+        self._builder.rate_limit_deg_s = limit_deg_s

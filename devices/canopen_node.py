@@ -85,8 +85,10 @@ class CanopenRateSource:
         self._last_heartbeat = 0.0
         self._lost = False
         self._bus_clock = BusClock(clock, clock_scale)
-        self._builder = BatchBuilder(3, CounterTracker(COUNTER_MODULUS, sample_rate_hz),
-                                     has_device_time=False, has_temperature=True)
+        self._builder = BatchBuilder(
+            3, CounterTracker(COUNTER_MODULUS, sample_rate_hz,
+                              timing_uncertainty_s=0.05 * clock_scale),
+            has_device_time=False, has_temperature=True)
 
     def describe(self) -> DeviceDescription:
         return DeviceDescription(
@@ -197,7 +199,11 @@ class CanopenRateSource:
         elif self._lost:
             self._lost = False
             self._builder.event("reconnect", self.clock(), detail="heartbeat back")
-        return self._builder.take()
+        return self._builder.take(self.clock())
+
+    def limit_rates(self, limit_deg_s: float | None) -> None:
+        """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
+        self._builder.rate_limit_deg_s = limit_deg_s
 
     def _take(self, number: int, values: tuple[int, ...], stamp: float) -> None:
         if number == 1:

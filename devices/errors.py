@@ -37,3 +37,8 @@ class DeviceConfigurationError(DeviceError, ValueError):
 
 class DeviceProtocolError(DeviceError):
     """The device answered, but not as the protocol says (bad ack, SDO abort)."""
+
+
+class ExposedBusWarning(UserWarning):
+    """A simulated or served bus opened beyond this host (``bind=all``): anyone on the
+    network can send it frames."""

@@ -5,7 +5,11 @@ longer than its period: :class:`CounterTracker` takes the counter residue as exa
 chooses the number of wraps from the elapsed time and the nominal rate: the device's own
 time stamps where the protocol has them; else a send-time estimate (a bus's frame time
 stamps: CAN, CANopen) or the adapter's own estimate (a byte stream's proven silence, see
-:class:`devices.stream.StreamRateSource`). Each gap says how it was counted.
+:class:`devices.stream.StreamRateSource`). Each gap says how it was counted, and the
+range of counts the evidence allows: the wrap counts whose step fits the bounds of the
+elapsed time, at the nominal rate within :data:`RATE_TOLERANCE` (the best count is kept
+inside them). Where one wrap count fits, the count is certain
+(``missing_low == missing_high``).
 """
 
 from __future__ import annotations
@@ -14,9 +18,13 @@ import math
 
 from devices.protocols import Gap, GapMethod
 
+#: Relative error of a device's sample rate the bounds allow (1000 ppm: a crystal's
+#: tolerance and drift with margin; a simulation's ``drift_ppm`` stays inside it).
+RATE_TOLERANCE = 1e-3
+
 
 class CounterTracker:
-    """Unwraps a device counter and reports gaps with their exact missing-sample counts.
+    """Unwraps a device counter and reports gaps with their missing-sample counts.
 
     Parameters
     ----------
@@ -25,19 +33,26 @@ class CounterTracker:
     sample_rate_hz : float
         Nominal sample rate, Hz (in the clock's time base: a time-warped simulation
         runs its clock warped, so the nominal rate stays the device's).
+    timing_uncertainty_s : float
+        How far, s, the times given to :meth:`update` may be from when the device sent
+        each sample, when the caller gives no bounds of its own (a bus's frame time
+        stamps: the sender's latency). Device time stamps are exact.
 
     Notes
     -----
     The elapsed time decides the wrap count only when it spans at least half a counter
-    period; below that the counter difference is exact, and so is any outage shorter
-    than one period whatever the timing jitter.
+    period; below that the counter difference is the count. The bounds decide whether
+    the count is certain.
     """
 
-    def __init__(self, modulus: int, sample_rate_hz: float) -> None:
-        if modulus < 2 or not sample_rate_hz > 0:
-            raise ValueError("modulus must be >= 2 and sample_rate_hz > 0")
+    def __init__(self, modulus: int, sample_rate_hz: float, *,
+                 timing_uncertainty_s: float = 0.0) -> None:
+        if modulus < 2 or not sample_rate_hz > 0 or timing_uncertainty_s < 0:
+            raise ValueError("modulus must be >= 2, sample_rate_hz > 0 and "
+                             "timing_uncertainty_s >= 0")
         self.modulus = modulus
         self.sample_rate_hz = sample_rate_hz
+        self.timing_uncertainty_s = timing_uncertainty_s
         self._last_raw: int | None = None
         self._last_unwrapped = 0
         self._last_time_s = 0.0
@@ -48,12 +63,30 @@ class CounterTracker:
         """Unwrapped counter of the latest sample (None before the first)."""
         return None if self._last_raw is None else self._last_unwrapped
 
+    @property
+    def last_time_s(self) -> float:
+        """Time (s) given with the latest sample."""
+        return self._last_time_s
+
+    @property
+    def last_raw(self) -> int | None:
+        """The latest sample's counter as sent (None before the first)."""
+        return self._last_raw
+
     def reset(self) -> None:
         """Forget the history (a new device, not a reconnect)."""
         self._last_raw = None
 
+    def residue_step(self, raw: int) -> int:
+        """Counter steps from the latest sample to one sent as ``raw``, no wrap counted
+        (1..modulus; 1 before the first sample)."""
+        if self._last_raw is None:
+            return 1
+        return (raw - self._last_raw) % self.modulus or self.modulus
+
     def update(self, raw: int, receive_time_s: float, device_time_s: float | None = None,
-               *, elapsed_s: float | None = None) -> tuple[int, Gap | None]:
+               *, elapsed_s: float | None = None,
+               elapsed_range_s: tuple[float, float] | None = None) -> tuple[int, Gap | None]:
         """Unwrapped counter of a new sample, and the gap before it if any.
 
         Parameters
@@ -68,6 +101,9 @@ class CounterTracker:
             The caller's estimate of the time since the previous sample, s, in place of
             the difference of the receive times (a byte stream passes its proven
             silence, 0 while bytes kept coming: see :class:`devices.stream.StreamRateSource`).
+        elapsed_range_s : (float, float) or None
+            Bounds of that time, s (the earliest and latest the two samples' send times
+            allow); default: the estimate +- ``timing_uncertainty_s``.
 
         Returns
         -------
@@ -78,31 +114,70 @@ class CounterTracker:
         With ``n = elapsed * sample_rate_hz`` samples expected, the counter residue is
         exact and the wrap count is the one whose step is nearest ``n``, a tie going
         to fewer wraps, never below zero; below ``n = modulus / 2`` the counter alone
-        counts.
+        counts. The gap's bounds are the wrap counts whose step lies within the bounds
+        of the elapsed time times the rate (+- :data:`RATE_TOLERANCE`); the chosen one
+        is kept inside them (where none fits, the estimate alone decides).
         """
         if self._last_raw is None:
             self._last_raw, self._last_unwrapped = raw, raw
             self._last_time_s, self._last_device_time_s = receive_time_s, device_time_s
             return raw, None
-        step = (raw - self._last_raw) % self.modulus
+        step = self.residue_step(raw)
         method: GapMethod = "counter"
+        if device_time_s is not None and self._last_device_time_s is not None and \
+                not self._plausible(device_time_s - self._last_device_time_s,
+                                    elapsed_range_s):
+            # A device time the station's own timing rules out (a corrupted stamp a weak
+            # checksum let through): the station's timing decides instead.
+            device_time_s = None
         if device_time_s is not None and self._last_device_time_s is not None:
             elapsed = device_time_s - self._last_device_time_s
             elapsed_method: GapMethod = "device_time"
+            # A device's own stamps are exact to well under a period.
+            bounds = (elapsed - 0.25 / self.sample_rate_hz, elapsed + 0.25 / self.sample_rate_hz)
         else:
             elapsed = receive_time_s - self._last_time_s if elapsed_s is None else elapsed_s
             elapsed_method = "counter+elapsed"
+            u = self.timing_uncertainty_s
+            bounds = elapsed_range_s or (elapsed - u, elapsed + u)
         expected = elapsed * self.sample_rate_hz
+        wraps = 0
         if expected >= self.modulus / 2:
             wraps = max(0, math.ceil((expected - step) / self.modulus - 0.5))
-            step += wraps * self.modulus
             method = elapsed_method
-        if step == 0:
-            step = self.modulus  # the same counter again: one full wrap lost
+        fit = self._wrap_bounds(step, bounds)
+        if fit is None:  # the bounds contradict the counter: the estimate alone decides
+            low = high = wraps
+        else:
+            low, high = fit
+            wraps = min(max(wraps, low), high)
+        if high > 0 and method == "counter":
+            method = elapsed_method  # the timing is what bounds the count
         gap = None
-        if step > 1:
-            gap = Gap(self._last_unwrapped, step - 1, method, receive_time_s)
+        if step + high * self.modulus > 1:
+            gap = Gap(self._last_unwrapped, step + wraps * self.modulus - 1, method,
+                      receive_time_s, step + low * self.modulus - 1,
+                      step + high * self.modulus - 1)
         self._last_raw = raw
-        self._last_unwrapped += step
+        self._last_unwrapped += step + wraps * self.modulus
         self._last_time_s, self._last_device_time_s = receive_time_s, device_time_s
         return self._last_unwrapped, gap
+
+    @staticmethod
+    def _plausible(device_elapsed_s: float, bounds: tuple[float, float] | None) -> bool:
+        """Whether a device-time step fits the station's bounds of the elapsed time
+        (with 0.5 s of slack; no bounds: any step forward)."""
+        if device_elapsed_s < 0:
+            return False
+        return bounds is None or bounds[0] - 0.5 <= device_elapsed_s <= bounds[1] + 0.5
+
+    def _wrap_bounds(self, step: int, bounds: tuple[float, float]) -> tuple[int, int] | None:
+        """The fewest and most wraps whose counter step fits ``bounds`` (s) of the elapsed
+        time at the nominal rate +- RATE_TOLERANCE (half a sample of slack); None when
+        none fits."""
+        lo_s, hi_s = bounds
+        n_lo = max(0.0, lo_s) * self.sample_rate_hz * (1.0 - RATE_TOLERANCE) - 0.5
+        n_hi = max(0.0, hi_s) * self.sample_rate_hz * (1.0 + RATE_TOLERANCE) + 0.5
+        k_lo = max(0, math.ceil((n_lo - step) / self.modulus))
+        k_hi = math.floor((n_hi - step) / self.modulus)
+        return None if k_hi < k_lo else (k_lo, k_hi)

@@ -62,8 +62,11 @@ class ModbusRateSource:
             counter_modulus=register_map.counter_modulus, has_device_time=False,
             has_temperature=has_temp,
             settings=(*transport.settings, ("device_id", str(device_id))))
+        # A poll sees a sample up to one poll period after the device produced it.
         self._builder = BatchBuilder(
-            len(register_map.axes), CounterTracker(register_map.counter_modulus, sample_rate_hz),
+            len(register_map.axes), CounterTracker(
+                register_map.counter_modulus, sample_rate_hz,
+                timing_uncertainty_s=(self._poll_wall_s + 0.05) * clock_scale),
             has_device_time=False, has_temperature=has_temp)
         self._last_counter: int | None = None
         self._connected = False
@@ -114,7 +117,11 @@ class ModbusRateSource:
             self._connected = False
             self._builder.event("disconnect", self.clock())
             raise
-        return self._builder.take()
+        return self._builder.take(self.clock())
+
+    def limit_rates(self, limit_deg_s: float | None) -> None:
+        """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
+        self._builder.rate_limit_deg_s = limit_deg_s
 
 
 class ModbusEnvironmentChannel:

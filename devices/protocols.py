@@ -19,7 +19,8 @@ from numpy.typing import NDArray
 #: How a gap's missing-sample count was obtained (written to the recorder's event log).
 GapMethod = Literal["counter", "counter+elapsed", "device_time"]
 
-EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync", "timeout"]
+EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
+                    "bad_sample"]
 
 
 @dataclass(frozen=True)
@@ -86,19 +87,36 @@ class Gap:
     after_counter : int
         Unwrapped counter of the last sample received before the gap.
     missing_samples : int
-        Exact number of samples lost (>= 1).
+        Number of samples lost: the best count (0 when only the timing leaves room for
+        whole counter wraps lost unseen: ``missing_high`` says how many).
     method : GapMethod
         ``"counter"`` (counter difference alone), ``"counter+elapsed"`` (counter residue
         with the wrap count chosen from elapsed time and the nominal rate: long outages
         on a wrapping counter) or ``"device_time"``.
     receive_time_s : float
         Station time (s) at which the gap was detected.
+    missing_low, missing_high : int or None
+        The fewest and the most samples the evidence allows (they differ by whole
+        counter wraps when the timing cannot decide the wrap count); None: exactly
+        ``missing_samples``.
     """
 
     after_counter: int
     missing_samples: int
     method: GapMethod
     receive_time_s: float
+    missing_low: int | None = None
+    missing_high: int | None = None
+
+    @property
+    def low(self) -> int:
+        """The fewest samples the gap may have lost."""
+        return self.missing_samples if self.missing_low is None else self.missing_low
+
+    @property
+    def high(self) -> int:
+        """The most samples the gap may have lost."""
+        return self.missing_samples if self.missing_high is None else self.missing_high
 
 
 @dataclass(frozen=True)
@@ -191,3 +209,22 @@ class RateSource(Protocol):
         DeviceTimeoutError
             Nothing valid arrived for longer than the adapter's silence limit.
         """
+
+
+@runtime_checkable
+class RateLimited(Protocol):
+    """A rate source that screens its samples against a measurement range (what the
+    recorder sets from the product profile): beyond it, a sample is a bad sample."""
+
+    def limit_rates(self, limit_deg_s: float | None) -> None:
+        """Set the range, deg/s on any axis (None: no limit)."""
+
+
+@runtime_checkable
+class HeldQuiet(Protocol):
+    """A rate source told that its device sent nothing until now (the station held it:
+    a simulated unit before the run starts), which bounds the send times of what comes
+    next."""
+
+    def quiet_until_now(self) -> None:
+        """Nothing was sent before this moment."""

@@ -85,12 +85,16 @@ class StreamRateSource:
         )
         self._builder = BatchBuilder(
             codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),
-            has_device_time=codec.has_device_time, has_temperature=codec.has_temperature)
+            has_device_time=codec.has_device_time, has_temperature=codec.has_temperature,
+            check_continuity=getattr(codec, "weak_check", False),
+            rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None))
         self._rest = b""
         self._connected = False
         self._ever_connected = False
         self._last_frame_s = 0.0
-        self._timing = StreamTiming(sample_rate_hz, max_latency_s)
+        self._last_raw: int | None = None
+        self._timing = StreamTiming(sample_rate_hz, max_latency_s,
+                                    self.host_jitter_s * clock_scale)
 
     def describe(self) -> DeviceDescription:
         return self._description
@@ -206,25 +210,39 @@ class StreamRateSource:
             if reading is not None:
                 readings.append(reading)
         # Whole counter wraps can hide only in a proven silence (StreamTiming); while
-        # bytes keep coming the counter counts alone.
-        tracker = self._builder.tracker
+        # bytes keep coming the counter counts alone. The send-time bounds say whether
+        # the count is certain.
+        modulus = self.codec.counter_modulus
+        steps = []
+        for reading in readings:
+            last, self._last_raw = self._last_raw, reading.counter
+            steps.append(1 if last is None else (reading.counter - last) % modulus or modulus)
+        bounds = self._timing.send_bounds(steps, now)
         period = 1.0 / self._description.sample_rate_hz
         for i, reading in enumerate(readings):
             latest = wait_end - (len(readings) - 1 - i) * period
-            before = tracker.last_counter
             # Less a quarter of a counter period, and at least the host's own delivery
             # jitter: bytes a loaded host delivered late (its kernel or a thread switch
             # held them back, not the device) must not make a wrap.
             elapsed = max(0.0, self._timing.elapsed_before(latest) - max(
                 wrap_s / 4.0, self.host_jitter_s * self.clock_scale))
-            self._builder.add(reading, now, elapsed_s=elapsed)
-            after = tracker.last_counter
-            self._timing.sent(0 if before is None or after is None else after - before,
-                              latest)
+            self._builder.add(reading, now, elapsed_s=elapsed, elapsed_range_s=bounds[i])
+            self._timing.sent(steps[i], latest)
         if readings:
             self._last_frame_s = now
         if now - self._last_frame_s > self.silence_timeout_s:
             self._last_frame_s = now
             raise DeviceTimeoutError(f"{self.codec.name}: no valid frame for "
                                      f"{self.silence_timeout_s} s")
-        return self._builder.take()
+        return self._builder.take(now)
+
+    def quiet_until_now(self) -> None:
+        """Nothing was sent before now (the station held the device): what comes next
+        was sent after it."""
+        self._timing.quiet_until(self.clock())
+
+    def limit_rates(self, limit_deg_s: float | None) -> None:
+        """Samples beyond this magnitude (deg/s, any axis) are bad samples (the
+        measurement range, from the product profile; None keeps the protocol's own)."""
+        self._builder.rate_limit_deg_s = (limit_deg_s if limit_deg_s is not None
+                                          else getattr(self.codec, "rate_range_deg_s", None))

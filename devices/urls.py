@@ -39,7 +39,7 @@ from devices.replay import (
     recording_transport,
     replay_transport,
 )
-from devices.sim.can_device import CanBroadcastDevice
+from devices.sim.can_device import CanBroadcastDevice, broadcast_latency_s
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
 from devices.sim.faults import Ledger
@@ -58,6 +58,14 @@ from devices.stream import StreamRateSource
 from devices.transports.can import CanTransport
 from devices.transports.modbus import ModbusTransport
 from devices.transports.serial import SerialTransport
+from devices.url_query import (
+    CAN_BUS_KEYS,
+    HARDWARE_KEYS,
+    SERIAL_PROTOCOL_KEYS,
+    SIM_KEYS,
+    check_keys,
+    parse_query,
+)
 
 
 class SimControl(Protocol):
@@ -82,6 +90,9 @@ class SimControl(Protocol):
 
     def clear_faults(self) -> None:
         """Turn the injected faults off (a clean end of a run)."""
+
+    def stop_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (the end of a run)."""
 
 
 class Simulator(Protocol):
@@ -285,10 +296,11 @@ def _start_canopen_node(params: SimParams, node_id: int, bus: MulticastChannel,
 
 
 def _node_in_a_process(start: Callable[..., Any], params: SimParams, *args: Any,
-                       describe: str) -> tuple[SimulatorProcess, WarpClock, MulticastChannel]:
+                       describe: str, loopback: bool
+                       ) -> tuple[SimulatorProcess, WarpClock, MulticastChannel]:
     """Start ``start(params, *args, bus, clock)`` in a child process on a fresh
     ``udp_multicast`` bus; returns the running simulator, the shared clock and the bus."""
-    bus = MulticastChannel.fresh()
+    bus = MulticastChannel.fresh(loopback=loopback)
     clock = WarpClock(params.warp)
     simulator = SimulatorProcess(partial(start, params, *args, bus, clock), clock,
                                  describe=f"{describe} on {bus.group}:{bus.port}").start()
@@ -306,6 +318,16 @@ def _sim_bus(query: dict[str, str]) -> str:
     return interface
 
 
+def _loopback_only(query: dict[str, str]) -> bool:
+    """``bind=loopback`` (the default): a ``udp_multicast`` bus stays on 127.0.0.1;
+    ``bind=all`` opens it on every interface (and warns when it opens)."""
+    bind = query.get("bind", "loopback")
+    if bind not in ("loopback", "all"):
+        raise DeviceConfigurationError(f"URL key bind={bind!r}: use bind=loopback (this "
+                                       f"host only, the default) or bind=all")
+    return bind == "loopback"
+
+
 def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
     """python-can bus arguments a hardware URL may set: ``bitrate`` (bit/s), ``port``
     (the UDP port of a ``udp_multicast`` bus)."""
@@ -318,9 +340,11 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
     if simulate:
         params = parse_sim_params(query.get("model", host), query)
         simulator: Simulator
-        if _sim_bus(query) == "udp_multicast":
+        multicast = _sim_bus(query) == "udp_multicast"
+        if multicast:
             simulator, clock, bus = _node_in_a_process(_start_can_broadcast, params, layout,
-                                                       describe="CAN gyro")
+                                                       describe="CAN gyro",
+                                                       loopback=_loopback_only(query))
             transport = bus.transport()
             reach = _hardware_url(params, "can", bus.group, query, interface="udp_multicast",
                                   port=str(bus.port))
@@ -329,18 +353,22 @@ def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> Op
             core, clock = sim_core(params, len(layout.axes))
             channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
             simulator = CanBroadcastDevice(
-                CanTransport("virtual", channel, preserve_timestamps=True), layout, core
-            ).start()
+                CanTransport("virtual", channel, preserve_timestamps=True), layout, core,
+                max_lag_wall_s=1.0, stamped=True).start()
             transport = CanTransport("virtual", channel)
+        # In this process the node stamps each frame when it fell due; across processes
+        # the kernel stamps it when it arrives, up to the node's latency later.
+        latency = (broadcast_latency_s(layout, params.rate, params.warp) if multicast
+                   else 0.005 * params.warp)
         source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
                                layout, model=_unit_model(host, params),
                                serial_number=f"SIM-{params.seed or 0}",
                                sample_rate_hz=params.rate, clock=clock,
-                               clock_scale=params.warp)
+                               clock_scale=params.warp, max_latency_s=latency)
         return OpenedDevice(source, "", simulator, reach)
     rate = query_number("rate", query.get("rate", "1000"), float)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
-                             **_can_bus_kwargs(query))
+                             loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
     source = CanRateSource(_captured(transport, "can", query, rate, 1.0), layout,
                            model=query.get("model", "CAN gyro"),
                            serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
@@ -359,7 +387,8 @@ def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
         simulator: Simulator
         if _sim_bus(query) == "udp_multicast":
             simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
-                                                       describe=f"CANopen node {node_id}")
+                                                       describe=f"CANopen node {node_id}",
+                                                       loopback=_loopback_only(query))
             transport = bus.transport()
             reach = _hardware_url(params, "canopen", f"{bus.group}/{node_id}", query,
                                   interface="udp_multicast", port=str(bus.port))
@@ -374,7 +403,8 @@ def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
                                    sample_rate_hz=params.rate, model=_unit_model(host, params), clock=clock,
                                    clock_scale=params.warp, sync=sync)
         return OpenedDevice(source, "", simulator, reach)
-    transport = CanTransport(query.get("interface", "socketcan"), host, **_can_bus_kwargs(query))
+    transport = CanTransport(query.get("interface", "socketcan"), host,
+                             loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
     source = CanopenRateSource(transport, node_id, query.get("eds", str(GYRO_EDS)),
                                sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
                                model=query.get("model", "CANopen gyro"), sync=sync)
@@ -509,6 +539,24 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
 )
 
 
+def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> frozenset[str]:
+    """The query keys a URL of ``transport`` takes (a simulation's, or hardware's)."""
+    base = SIM_KEYS if simulate else HARDWARE_KEYS
+    if transport == "serial":
+        own = SERIAL_PROTOCOL_KEYS.get(query.get("protocol", "stim300"), frozenset())
+        return base | own | {"protocol", "capture"} | (set() if simulate else {"baud"})
+    if transport == "can":
+        bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS
+        return base | bus | {"layout", "capture"}
+    if transport == "canopen":
+        bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS | {"eds"}
+        return base | bus | {"node", "tpdo", "capture"}
+    if transport in ("modbus+tcp", "modbus+rtu"):
+        link = {"unit", "port" if transport == "modbus+tcp" else "baud"}
+        return base | {"map", "oversample", "capture"} | (set() if simulate else link)
+    return frozenset({"realtime"})  # replay://FILE
+
+
 def open_device(url: str) -> OpenedDevice:
     """The adapter (and simulator) a device URL names; the adapter is not opened yet.
 
@@ -525,13 +573,13 @@ def open_device(url: str) -> OpenedDevice:
     Raises
     ------
     DeviceConfigurationError
-        Unknown scheme or protocol, or a malformed key.
+        Unknown scheme or protocol, a malformed, repeated or unknown query key.
     """
     parts = urlsplit(url)
     scheme = parts.scheme.lower()
     simulate = scheme.startswith("sim+")
     transport = scheme.removeprefix("sim+")
-    query = dict(parse_qsl(parts.query, keep_blank_values=True))
+    query = parse_query(parts.query, url)
     host = unquote(parts.netloc)
     openers: dict[str, Callable[[str, dict[str, str], bool, str], OpenedDevice]] = {
         "serial": _open_serial,
@@ -545,6 +593,7 @@ def open_device(url: str) -> OpenedDevice:
         raise DeviceConfigurationError(
             f"unknown device URL scheme {parts.scheme!r} in {url!r}; known: "
             + ", ".join(f"{s}, sim+{s}" if s != "replay" else "replay" for s in openers))
+    check_keys(query, _allowed_keys(transport, simulate, query), url)
     opened = openers[transport](unquote(parts.path), query, simulate, host)
     opened.url = url
     return opened

@@ -48,7 +48,12 @@ class ResultsDatabaseError(StationError, RuntimeError):
 
 
 class RecorderError(StationError, RuntimeError):
-    """A recording that cannot start or go on; the message says what to fix."""
+    """A recording that cannot start or go on; the message says what to fix.
+
+    ``reason``, where set, is the stop reason it stands for in the run file.
+    """
+
+    reason = ""
 
 
 class RunConfigurationError(RecorderError, ValueError):
@@ -66,7 +71,13 @@ class RunConfigurationError(RecorderError, ValueError):
 
 
 class DiskSpaceError(RecorderError, OSError):
-    """The run's file will not fit on the disk (before the start), or the disk filled up."""
+    """The run's file will not fit on the disk (before the start), or the disk filled up.
+
+    ``reason`` is the run's stop reason it stands for (``disk full: ...``, short enough
+    for the run file's stop-reason field).
+    """
+
+    reason = "disk full"
 
 
 class RunInProgressError(RecorderError):

@@ -1,4 +1,4 @@
-"""The run file: HDF5 layout, the SWMR writer, the reader, and recovery after a crash.
+"""The run file: HDF5 layout, the reader, and what recovery after a crash relies on.
 
 The layout is documented in ``docs/hdf5-layout.md``. In short: one file per run, one
 group per unit under ``/units``, one chunked, resizable dataset per recorded quantity
@@ -10,17 +10,19 @@ writes; after a SIGKILL the file opens with ``h5py.File(path, "r", swmr=True)`` 
 everything up to the last flush is there. :func:`recover_run` closes such a file
 properly (:mod:`station.hdf5_recover`: clears the superblock's open-for-write flags,
 trims to the committed lengths, records the run as interrupted).
+
+The writer is :class:`station.hdf5_writer.RunFileWriter`. Readers open files through
+:mod:`station.hdf5_open` (no SWMR hang on a damaged file, one-line errors).
 """
 
 from __future__ import annotations
 
-import errno
 import json
-import os
 import resource
 import shutil
-import socket
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -29,17 +31,9 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.errors import DiskSpaceError, RecorderError, RecordFormatError
-from station.model.documents import (
-    Descriptor,
-    Document,
-    EventBatch,
-    LogEntry,
-    RunStart,
-    RunStop,
-    UnitTally,
-    utc_now,
-)
+from station.errors import RecordFormatError
+from station.hdf5_open import chunks_within, cut_short, open_h5, reading
+from station.model.documents import Descriptor
 from station.model.records import RateRecord
 from station.model.runs import RunEvent, RunInfo, UnitRun
 
@@ -51,18 +45,20 @@ REASON_DURATION = "duration"
 REASON_END_OF_REPLAY = "end of the replayed capture"
 REASON_RECOVERED = "interrupted: the recorder stopped without closing the file (recovered)"
 
+#: Event-log rows. ``missing_low`` and ``missing_high`` (format 1 files written before
+#: they were added lack them: read them with :func:`gap_bounds`) bound what a gap may
+#: have lost when the wrap count of a counter is not certain.
 EVENT_DTYPE = np.dtype([("time_s", "<f8"), ("kind", "S16"), ("count", "<i8"),
                         ("missing_samples", "<i8"), ("after_counter", "<i8"),
-                        ("method", "S16"), ("detail", "S120")])
+                        ("method", "S16"), ("detail", "S120"), ("missing_low", "<i8"),
+                        ("missing_high", "<i8")])
 EVENT_UNITS = {"time_s": "s", "kind": "", "count": "1", "missing_samples": "1",
-               "after_counter": "1", "method": "", "detail": ""}
+               "after_counter": "1", "method": "", "detail": "", "missing_low": "1",
+               "missing_high": "1"}
 STATE_DTYPE = np.dtype([("state", "S16"), ("stop_utc", "S32"), ("stop_reason", "S128"),
                         ("last_flush_utc", "S32")])
 #: Per-sample datasets of a unit, in the order the reader checks them.
 SAMPLE_DATASETS = ("rate", "counter", "receive_time", "status", "device_time", "temperature")
-_BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",
-                 "status": "status", "device_time": "device_time_s",
-                 "temperature": "temperature_c"}
 
 
 def chunk_rows(sample_rate_hz: float) -> int:
@@ -102,242 +98,39 @@ def fixed_text(text: str, size: int) -> np.ndarray:
     return np.array(text.encode("utf-8")[:size], dtype=f"S{size}")
 
 
-def _is_disk_full(exc: OSError | RuntimeError) -> bool:
-    message = str(exc).lower()
-    return (getattr(exc, "errno", None) in (errno.ENOSPC, errno.EFBIG, errno.EDQUOT)
-            or "no space" in message or "file too large" in message)
-
-
-class RunFileWriter:
-    """Writes run documents to one HDF5 file in SWMR mode (a subscriber of the recorder).
-
-    Samples are buffered per unit and written every ``flush_interval_s`` (s, wall clock):
-    datasets resized, data written, file flushed, then the ``committed`` markers and the
-    run state updated and flushed again, so a marker never counts unflushed data.
-
-    Parameters
-    ----------
-    path : Path
-        The file to create (must not exist).
-    flush_interval_s : float
-        Longest time between flushes, s (the issue asks at most 1 s).
-    reserve_bytes : int
-        Stop (raise :class:`DiskSpaceError`) once less than this much can still be written.
-
-    Raises
-    ------
-    DiskSpaceError
-        From :meth:`flush` when the disk (or the file size limit) is full.
-    """
-
-    def __init__(self, path: Path, *, flush_interval_s: float = 0.5,
-                 reserve_bytes: int = 16 << 20) -> None:
-        if not 0 < flush_interval_s <= 1.0:
-            raise ValueError("flush_interval_s must be in (0, 1] s")
-        self.path = Path(path)
-        self.flush_interval_s = flush_interval_s
-        self.reserve_bytes = reserve_bytes
-        self._file: h5py.File | None = None
-        self._pending: dict[str, list[EventBatch]] = {}
-        self._committed: dict[str, tuple[int, int]] = {}
-        #: Per unit, the counts of what is committed on disk (samples, gaps, ...).
-        self.committed: dict[str, UnitTally] = {}
-        self._last_flush = time.monotonic()
-        self.flushes = 0
-        self.stopped = False
-        #: The final flush or close failed (a full disk): HDF5 still holds the file open.
-        self.close_failed = False
-
-    # -- documents -----------------------------------------------------------------
-    def __call__(self, document: Document) -> None:
-        """Take one run document."""
-        if isinstance(document, RunStart):
-            self._start(document)
-        elif isinstance(document, Descriptor):
-            self._describe(document)
-        elif isinstance(document, EventBatch):
-            self._pending[document.unit_id].append(document)
-        elif isinstance(document, RunStop):
-            self.close(document.reason, document.stop_utc)
-
-    def _h5(self) -> h5py.File:
-        if self._file is None:
-            raise RecorderError(f"{self.path}: the run file is not open")
-        return self._file
-
-    def _start(self, doc: RunStart) -> None:
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        f = h5py.File(self.path, "w-", libver="latest")
-        self._file = f
-        meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
-                "profile": doc.profile, "profile_version": doc.profile_version,
-                "profile_sha256": doc.profile_sha256, "profile_path": doc.profile_path,
-                "operator": doc.operator,
-                "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
-                "software_version": doc.software_version, "start_utc": doc.start_utc,
-                "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
-                "unit_ids": json.dumps(list(doc.unit_ids)), "bench": doc.bench}
-        f.attrs.update(meta)
-        f.attrs["duration_requested_s_units"] = "s"
-        # Fixed-size so they can be modified in place in SWMR mode and on a full disk.
-        f.attrs.create("stop_utc", fixed_text("", 32))
-        f.attrs.create("stop_reason", fixed_text("", 128))
-        state = np.zeros(1, STATE_DTYPE)
-        state[0] = (b"recording", b"", b"", doc.start_utc.encode())
-        f.create_dataset("run_state", data=state)
-        f.create_group("units")
-
-    def _describe(self, doc: Descriptor) -> None:
-        f = self._h5()
-        d = doc.description
-        g = f["units"].create_group(doc.unit_id)
-        g.attrs.update({
-            "unit_id": doc.unit_id, "url": doc.url, "model": d.model,
-            "serial_number": d.serial_number, "protocol": d.protocol,
-            "transport": d.transport, "axes": json.dumps(list(d.axes)),
-            "sample_rate_hz": d.sample_rate_hz, "sample_rate_hz_units": "Hz",
-            "counter_modulus": -1 if d.counter_modulus is None else d.counter_modulus,
-            "has_device_time": d.has_device_time, "has_temperature": d.has_temperature,
-            "settings": json.dumps(dict(d.settings)), "start_utc": doc.start_utc,
-            "time_base": doc.time_base, "time_warp": doc.time_warp})
-        rows = chunk_rows(d.sample_rate_hz)
-        for key in doc.keys:
-            ds = g.create_dataset(key.name, shape=(0, *key.shape), maxshape=(None, *key.shape),
-                                  chunks=(rows, *key.shape), dtype=key.dtype)
-            ds.attrs.update({"units": key.unit, "description": key.description})
-            if key.name == "rate":
-                ds.attrs["axes"] = json.dumps(list(d.axes))
-        ev = g.create_dataset("events", shape=(0,), maxshape=(None,), chunks=(256,),
-                              dtype=EVENT_DTYPE)
-        ev.attrs.update({"units": json.dumps(EVENT_UNITS),
-                         "description": "event log: connects, disconnects, CRC errors, "
-                                        "resyncs, gaps (missing_samples, method)"})
-        c = g.create_dataset("committed", data=np.zeros(2, np.int64))
-        c.attrs.update({"units": "1", "description": "[samples, events] on disk at the "
-                                                     "last flush: read no further"})
-        self._pending[doc.unit_id] = []
-        self._committed[doc.unit_id] = (0, 0)
-        self.committed[doc.unit_id] = UnitTally()
-
-    # -- flushing ------------------------------------------------------------------
-    def flush_if_due(self) -> None:
-        """Flush when ``flush_interval_s`` has passed since the last flush."""
-        if time.monotonic() - self._last_flush >= self.flush_interval_s:
-            self.flush()
-
-    def _write_unit(self, g: h5py.Group, batches: list[EventBatch]) -> tuple[int, int]:
-        n0, m0 = self._committed[g.name.rsplit("/", 1)[-1]]
-        n = sum(len(b) for b in batches)
-        for name in SAMPLE_DATASETS:
-            if name not in g or n == 0:
-                continue
-            parts = [getattr(b, _BATCH_FIELDS[name]) for b in batches]
-            data = np.concatenate([p for p in parts if p is not None])
-            ds = g[name]
-            ds.resize(n0 + n, axis=0)
-            ds[n0:n0 + n] = data
-        log = [e for b in batches for e in b.log]
-        if log:
-            ev = g["events"]
-            ev.resize(m0 + len(log), axis=0)
-            ev[m0:] = events_array(log)
-        return n0 + n, m0 + len(log)
-
-    def flush(self) -> None:
-        """Write the buffered batches, flush, then commit the markers and flush again.
-
-        Raises
-        ------
-        DiskSpaceError
-            The disk or the file size limit is full (the data committed before are
-            intact), or fewer than ``reserve_bytes`` remain.
-        """
-        f = self._h5()
-        self._last_flush = time.monotonic()
-        try:
-            if not f.swmr_mode:
-                f.swmr_mode = True
-            new = {uid: self._write_unit(f["units"][uid], batches)
-                   for uid, batches in self._pending.items() if batches}
-            f.flush()
-            for uid, counts in new.items():
-                f["units"][uid]["committed"][:] = counts
-                self._committed[uid] = counts
-            f["run_state"]["last_flush_utc", 0] = utc_now().encode()
-            f.flush()
-            for uid in new:
-                for batch in self._pending[uid]:
-                    self.committed[uid].add(batch)
-                self._pending[uid] = []
-        except (OSError, RuntimeError) as exc:  # h5py raises either for a failed write
-            if _is_disk_full(exc) or writable_bytes(self.path) < self.reserve_bytes:
-                raise DiskSpaceError(f"disk full while writing {self.path}: {exc}") from exc
-            raise RecorderError(f"cannot write {self.path}: {exc}") from exc
-        self.flushes += 1
-        left = writable_bytes(self.path)
-        if left < self.reserve_bytes:
-            raise DiskSpaceError(f"disk nearly full: {left / 1e6:.1f} MB left for {self.path} "
-                                 f"(reserve {self.reserve_bytes / 1e6:.1f} MB)")
-
-    def close(self, reason: str, stop_utc: str | None = None) -> None:
-        """Flush what is left (if the disk allows), record the stop, close the file."""
-        if self._file is None:
-            return
-        f, stop = self._file, stop_utc or utc_now()
-        try:
-            try:
-                self.flush()
-            except DiskSpaceError as exc:
-                if "disk" not in reason:
-                    reason = f"disk full: {exc}"
-            state = f["run_state"][0]
-            state["state"], state["stop_utc"] = b"stopped", stop.encode()
-            state["stop_reason"] = reason.encode()[:128]
-            f["run_state"][0] = state
-            f.attrs.modify("stop_utc", fixed_text(stop, 32))
-            f.attrs.modify("stop_reason", fixed_text(reason, 128))
-            f.flush()
-        except (OSError, RuntimeError):
-            self.close_failed = True  # a full disk: the committed data stand
-        finally:
-            self._file = None
-            self.stopped = True
-            try:
-                f.close()
-            except (OSError, RuntimeError):
-                self.close_failed = True
-
-
-def events_array(log: list[LogEntry]) -> NDArray[np.void]:
-    """Event-log entries as rows of :data:`EVENT_DTYPE`."""
-    rows = np.zeros(len(log), EVENT_DTYPE)
-    for i, e in enumerate(log):
-        rows[i] = (e.time_s, e.kind.encode()[:16], e.count, e.missing_samples,
-                   e.after_counter, e.method.encode()[:16], e.detail.encode()[:120])
-    return rows
-
-
 # -- reading -------------------------------------------------------------------------
 
-def open_run_file(path: str | Path) -> h5py.File:
-    """Open a run file read-only in SWMR mode (live, killed, closed or recovered alike).
+@contextmanager
+def open_run_file(path: str | Path) -> Iterator[h5py.File]:
+    """A run file opened read-only (live, killed, closed or recovered alike), for a
+    ``with`` block; an HDF5 failure inside the block is a one-line RecordFormatError.
+
+    A file no writer holds is opened without SWMR; one a recorder holds (live or killed)
+    as a SWMR reader that gives up on a damaged block at once (:mod:`station.hdf5_open`).
 
     Raises
     ------
     RecordFormatError
-        Not an HDF5 file, or not a run file of this station.
+        Not an HDF5 file, not a run file of this station, truncated or damaged.
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
+    f = open_h5(path)
     try:
-        f = h5py.File(path, "r", swmr=True)
-    except OSError as exc:
-        raise RecordFormatError(f"{path}: cannot open as an HDF5 run file: {exc}") from exc
-    if text_value(f.attrs.get("format", "")) != FORMAT:
-        f.close()
-        raise RecordFormatError(f"{path}: not a gyro-station run file (no format={FORMAT!r})")
-    return f
+        with reading(path):
+            if "format" not in f.attrs:  # (H5Aexists: a damaged header fails it)
+                raise RecordFormatError(f"{path}: not a gyro-station run file (no "
+                                        f"format={FORMAT!r} attribute)")
+            if text_value(f.attrs["format"]) != FORMAT:
+                raise RecordFormatError(f"{path}: not a gyro-station run file (its format "
+                                        f"is {text_value(f.attrs['format'])!r})")
+            yield f
+    finally:
+        try:
+            f.close()
+        except (OSError, RuntimeError):
+            pass
 
 
 def run_state(f: h5py.File) -> dict[str, str]:
@@ -385,12 +178,19 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
     of a killed recorder are ignored.
     """
     g = f["units"][unit_id]
-    for ds in g.values():
+    for name in list(g):
+        ds = g[name]
+        if not isinstance(ds, h5py.Dataset):
+            raise RecordFormatError(f"{f.filename}: damaged run file: {unit_id}/{name} is "
+                                    f"not a dataset; `station recover {f.filename}` "
+                                    f"salvages what is readable")
         ds.refresh()
     n = min([int(g["committed"][0]), *(g[k].shape[0] for k in SAMPLE_DATASETS if k in g)])
 
     def col(name: str) -> Any:
-        return g[name][start:n] if name in g else None
+        return _rows(g[name], start, n) if name in g else None
+
+    _check_inside(f, g, [k for k in SAMPLE_DATASETS if k in g], start, n)
 
     attrs = {k: (text_value(v) if isinstance(v, bytes | str | np.bytes_) else v.item()
                  if isinstance(v, np.generic) else v) for k, v in g.attrs.items()}
@@ -399,12 +199,57 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
                     committed_events(f, unit_id))
 
 
+def _check_inside(f: h5py.File, g: h5py.Group, names: list[str], start: int, stop: int
+                  ) -> None:
+    """Refuse rows ``start:stop`` of the datasets ``names`` if the file was cut short under
+    them (a chunk past its end reads as zeros, checksum and all)."""
+    size = cut_short(Path(f.filename))
+    if size is None:
+        return
+    for name in names:
+        if not chunks_within(g[name], start, stop, size):
+            raise RecordFormatError(
+                f"{f.filename}: cut short ({size} bytes): {g.name.rsplit('/', 1)[-1]}'s "
+                f"{name} runs past the end of the file; `station recover {f.filename}` "
+                f"salvages what is readable")
+
+
+def _rows(ds: h5py.Dataset, start: int, stop: int) -> Any:
+    """Rows ``start:stop`` of a dataset. A live reader may catch a chunk while the writer
+    rewrites it (its checksum then fails): it reads again, a few times, before giving up."""
+    tries = 4 if ds.file.swmr_mode else 1
+    for attempt in range(tries):
+        try:
+            return ds[start:stop]
+        except OSError:
+            if attempt == tries - 1:
+                raise
+            time.sleep(0.01)
+            ds.refresh()
+    raise AssertionError("unreachable")
+
+
 def committed_events(f: h5py.File, unit_id: str) -> NDArray[np.void]:
-    """The committed event log of one unit (rows of :data:`EVENT_DTYPE`)."""
+    """The committed event log of one unit (rows of :data:`EVENT_DTYPE`; a file written
+    before ``missing_low``/``missing_high`` existed lacks them: see :func:`gap_bounds`)."""
     g = f["units"][unit_id]
     g["committed"].refresh()
     g["events"].refresh()
-    return g["events"][:min(int(g["committed"][1]), g["events"].shape[0])]
+    m = min(int(g["committed"][1]), g["events"].shape[0])
+    _check_inside(f, g, ["events"], 0, m)
+    return _rows(g["events"], 0, m)
+
+
+def gap_bounds(events: NDArray[np.void]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """``(missing_low, missing_high)`` of event-log rows: the range of samples each gap
+    may have lost (both equal ``missing_samples`` where the count is certain, and in
+    files written before the bounds were recorded)."""
+    names = events.dtype.names or ()
+    if "missing_low" in names and "missing_high" in names:
+        return (np.asarray(events["missing_low"], np.int64),
+                np.asarray(events["missing_high"], np.int64))
+    exact = np.asarray(events["missing_samples"], np.int64)
+    return exact, exact.copy()
 
 
 @dataclass(frozen=True)
@@ -419,30 +264,39 @@ class UnitCounts:
     reconnects: int
     disconnects: int
     last_time_s: float
+    samples_missing_low: int = 0
+    samples_missing_high: int = 0
+    bad_samples: int = 0
 
 
 def unit_counts(f: h5py.File, unit_id: str) -> UnitCounts:
-    """Samples, missing samples, gaps, CRC errors, reconnects of one unit (committed)."""
+    """Samples, missing samples (with their bounds), gaps, CRC errors, reconnects, bad
+    samples of one unit (committed)."""
     ev = committed_events(f, unit_id)
     g = f["units"][unit_id]
     n = int(g["committed"][0])
     kinds = ev["kind"]
-    last = float(g["receive_time"][n - 1]) if n else 0.0
-    return UnitCounts(unit_id, n, int(ev["missing_samples"][kinds == b"gap"].sum()),
-                      int((kinds == b"gap").sum()),
+    gaps = kinds == b"gap"
+    low, high = gap_bounds(ev)
+    counted = gaps & (ev["missing_samples"] > 0)  # a best count of 0: only a bound
+    last = float(_rows(g["receive_time"], n - 1, n)[0]) if n else 0.0
+    return UnitCounts(unit_id, n, int(ev["missing_samples"][gaps].sum()), int(counted.sum()),
                       int(ev["count"][kinds == b"crc_error"].sum()),
                       int((kinds == b"reconnect").sum()), int((kinds == b"disconnect").sum()),
-                      last)
+                      last, int(low[gaps].sum()), int(high[gaps].sum()),
+                      int(ev["count"][kinds == b"bad_sample"].sum()))
 
 
 def run_events(unit: UnitData) -> tuple[RunEvent, ...]:
     """A unit's event log as :class:`RunEvent` s (the gap method goes in the detail)."""
     out = []
-    for row in unit.events:
+    lows, highs = gap_bounds(unit.events)
+    for row, low, high in zip(unit.events, lows, highs, strict=True):
         method, detail = text_value(row["method"]), text_value(row["detail"])
         text = "; ".join(t for t in (f"counted by {method}" if method else "", detail) if t)
         out.append(RunEvent(unit.unit_id, text_value(row["kind"]), float(row["time_s"]),
-                            int(row["count"]), int(row["missing_samples"]), text))
+                            int(row["count"]), int(row["missing_samples"]), text,
+                            int(low), int(high)))
     return tuple(out)
 
 
@@ -544,3 +398,13 @@ def read_run_record(path: str | Path, unit: str | None = None) -> RateRecord:
         if chosen is None:
             raise RecordFormatError(f"{path}: no unit {unit!r}; units: {', '.join(ids)}")
         return unit_record(read_unit(f, chosen), f"{path}#{chosen}")
+
+
+def __getattr__(name: str) -> Any:
+    """``station.hdf5.RunFileWriter``, kept for the code that imports the writer from here
+    (it lives in :mod:`station.hdf5_writer`, which builds on this module)."""
+    if name == "RunFileWriter":
+        from station.hdf5_writer import RunFileWriter
+
+        return RunFileWriter
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,4 +1,4 @@
-"""Recovery of a run file whose recorder died: ``station recover``.
+"""Recovery of a run file whose recorder died, or that was damaged: ``station recover``.
 
 A recorder killed (SIGKILL, power cut of the process, a crash) leaves its HDF5 file with
 the superblock's "open for write / SWMR write" flags set: readers must open it in SWMR
@@ -6,18 +6,21 @@ mode, and HDF5 refuses to open it for writing. :func:`recover_run` clears those 
 (as ``h5clear -s`` does, after verifying the superblock checksum), trims every dataset to
 the ``committed`` lengths of the last flush, and records the run as interrupted. A run
 that stopped but could not close its file (a full disk) is repaired the same way and
-keeps its own stop reason.
+keeps its own stop reason. A damaged file (cut short, flipped bits) is not touched: what
+still reads is salvaged into a new file (:mod:`station.hdf5_salvage`). Whatever was done,
+the result is read back whole before it is reported.
 """
 
 from __future__ import annotations
 
 import os
 import socket
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 from station.errors import RecordFormatError, RunInProgressError
 from station.hdf5 import (
@@ -25,10 +28,13 @@ from station.hdf5 import (
     SAMPLE_DATASETS,
     fixed_text,
     open_run_file,
+    read_unit,
     run_state,
     text_value,
     unit_ids,
 )
+from station.hdf5_open import superblock
+from station.hdf5_salvage import salvage_run, salvaged_path
 
 
 def _rot(x: int, k: int) -> int:
@@ -97,7 +103,12 @@ def clear_open_flags(path: Path) -> bool:
 
 @dataclass(frozen=True)
 class RecoveryResult:
-    """What :func:`recover_run` did: samples kept per unit, samples trimmed, the stop."""
+    """What :func:`recover_run` did: samples kept per unit, samples trimmed, the stop.
+
+    ``salvaged_to`` is the new file a damaged run was salvaged into ("" when the file
+    itself was repaired or was closed already); ``damage`` says what was wrong with it,
+    and ``notes`` per unit what could not be kept.
+    """
 
     path: str
     already_closed: bool
@@ -105,6 +116,9 @@ class RecoveryResult:
     trimmed: dict[str, int]
     stop_utc: str
     stop_reason: str
+    salvaged_to: str = ""
+    damage: str = ""
+    notes: dict[str, str] = field(default_factory=dict)
 
 
 def _writer_alive(f: h5py.File, state: dict[str, str], stale_s: float) -> bool:
@@ -121,9 +135,16 @@ def _writer_alive(f: h5py.File, state: dict[str, str], stale_s: float) -> bool:
     return (datetime.now(UTC) - last.replace(tzinfo=UTC)).total_seconds() < stale_s
 
 
-def recover_run(path: str | Path, *, force: bool = False, stale_s: float = 10.0
-                ) -> RecoveryResult:
-    """Close a run file its recorder left open: mark it interrupted, keep every committed sample.
+def recover_run(path: str | Path, *, force: bool = False, stale_s: float = 10.0,
+                out: str | Path | None = None) -> RecoveryResult:
+    """Close a run file its recorder left open, or salvage a damaged one.
+
+    A file whose committed data all read (a recorder killed, or stopped by a full disk)
+    is repaired in place: marked interrupted (or keeping its own stop reason), every
+    committed sample kept, what was written after the last flush trimmed. A damaged file
+    (cut short, flipped bits) is left as it is and what still reads is salvaged into a
+    new run file (``out``, default ``NAME.recovered.h5`` beside it). Either way the result
+    is read back whole before it is reported.
 
     Parameters
     ----------
@@ -132,31 +153,43 @@ def recover_run(path: str | Path, *, force: bool = False, stale_s: float = 10.0
     force : bool
         Recover even if its writer looks alive (same host, process there, flushed less
         than ``stale_s`` s ago).
+    out : str or Path or None
+        Where a salvage goes.
 
     Raises
     ------
     RunInProgressError
         A live recorder is still writing it.
     RecordFormatError
-        Not a run file, or a superblock that cannot be patched.
+        Not a run file, nothing in it can be salvaged, or the result does not read.
     """
     path = Path(path)
-    with open_run_file(path) as f:
-        state = run_state(f)
-        kept = {u: int(f["units"][u]["committed"][0]) for u in unit_ids(f)}
-        stopped = state["state"] == "stopped"
-        if not stopped and not force and _writer_alive(f, state, stale_s):
-            raise RunInProgressError(
-                f"{path} is being recorded by process {int(f.attrs['writer_pid'])} on this "
-                f"host (last flush {state['last_flush_utc']}); watch it with "
-                f"`station watch {path}`, or stop that recorder first")
-    if stopped:  # (checked with the file closed: HDF5 shares an open file's handle)
-        try:
-            h5py.File(path, "r").close()
-            return RecoveryResult(str(path), True, kept, dict.fromkeys(kept, 0),
-                                  state["stop_utc"], state["stop_reason"])
-        except OSError:
-            pass  # stopped, but its last flush failed (a full disk): repair it
+    try:
+        with open_run_file(path) as f:
+            state = run_state(f)
+            stopped = state["state"] == "stopped"
+            if not stopped and not force and _writer_alive(f, state, stale_s):
+                raise RunInProgressError(
+                    f"{path} is being recorded by process {int(f.attrs['writer_pid'])} on "
+                    f"this host (last flush {state['last_flush_utc']}); watch it with "
+                    f"`station watch {path}`, or stop that recorder first")
+            kept = {u: len(read_unit(f, u).counter) for u in unit_ids(f)}  # every checksum
+    except RecordFormatError as exc:
+        if "not a gyro-station run file" in str(exc) or "not an HDF5 file" in str(exc) or \
+                "is a directory" in str(exc):
+            raise
+        return _salvage(path, Path(out) if out else salvaged_path(path), str(exc))
+    if stopped and not superblock(path).open_for_write:
+        return RecoveryResult(str(path), True, kept, dict.fromkeys(kept, 0),
+                              state["stop_utc"], state["stop_reason"])
+    result = _repair_in_place(path, state)
+    _verify(path, f"{path} was repaired but")
+    return result
+
+
+def _repair_in_place(path: Path, state: dict[str, str]) -> RecoveryResult:
+    """Clear the open flags, trim to the committed lengths, record the stop."""
+    stopped = state["state"] == "stopped"
     clear_open_flags(path)
     kept, trimmed = {}, {}
     stop = state["stop_utc"] if stopped else state["last_flush_utc"]
@@ -178,3 +211,36 @@ def recover_run(path: str | Path, *, force: bool = False, stale_s: float = 10.0
         f.attrs.modify("stop_utc", fixed_text(stop, 32))
         f.attrs.modify("stop_reason", fixed_text(reason, 128))
     return RecoveryResult(str(path), False, kept, trimmed, stop, reason)
+
+
+def _salvage(path: Path, out: Path, damage: str) -> RecoveryResult:
+    if out.exists():
+        raise RecordFormatError(f"{path} is damaged and {out} exists already: move it away "
+                                f"or give another --out")
+    try:
+        units = salvage_run(path, out)
+        _verify(out, f"{path} is damaged ({damage}); its salvage {out}")
+    except BaseException:
+        out.unlink(missing_ok=True)
+        raise
+    with open_run_file(out) as f:
+        state = run_state(f)
+    return RecoveryResult(
+        str(path), False, {u.unit_id: u.kept for u in units},
+        {u.unit_id: max(0, (u.committed or u.kept) - u.kept) for u in units},
+        state["stop_utc"], state["stop_reason"], salvaged_to=str(out), damage=damage,
+        notes={u.unit_id: u.note for u in units if u.note})
+
+
+def _verify(path: Path, what: str) -> None:
+    """Read the run back whole as every reader does (each unit's samples finite), or say
+    that it does not read."""
+    from station.hdf5 import read_run
+
+    try:
+        run = read_run(path)
+    except RecordFormatError as exc:
+        raise RecordFormatError(f"{what} does not read: {exc}") from exc
+    for unit in run.units:
+        if not np.all(np.isfinite(unit.record.rate_deg_s)):
+            raise RecordFormatError(f"{what} holds non-finite rates in {unit.unit_id}")

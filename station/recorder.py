@@ -1,20 +1,15 @@
-"""The recorder engine: several gyros at once, one thread per unit, into one run file.
+"""The recorder engine: several gyros at once, each in a process of its own, into one file.
 
-:class:`Recorder` opens every unit's adapter from its device URL, refuses a bad
-configuration before anything is recorded (:meth:`Recorder.prepare`), then runs one
-:class:`UnitWorker` thread per unit. Each worker reads its device on the unit's own time
-base (a simulation's warped clock, ``time.monotonic`` for hardware), reconnects with
-exponential backoff after a disconnect while the other units go on, and turns every
-adapter batch into an :class:`~station.model.documents.EventBatch`. The engine's own thread
-routes documents to the subscribers (the HDF5 writer first, then the progress line and
-anything else) and flushes the file at least every ``flush_interval_s``. A unit stops at
-its duration, on :meth:`Recorder.request_stop` (Ctrl-C, SIGTERM), or when the disk fills.
-
-Simulated units (``sim+`` URLs) are held paused until the recorder listens, as a bench
-gyro switched on by the operator, and end cleanly: at their end the recorder turns their
-fault injection off and reads until their newest frame, so that every sample the
-simulator generated is either recorded or declared missing by a gap (see
-``samples_sent`` in :class:`~station.model.documents.UnitTotals`).
+:class:`Recorder` starts one process per unit (:mod:`station.unit_process`), which opens
+the unit's adapter from its device URL (and the simulated device behind a ``sim+`` URL),
+refuses a bad configuration before anything is recorded (:meth:`Recorder.prepare`), then
+starts every unit. Each unit reads its device on its own time base, reconnects after a
+disconnect while the others go on (:mod:`station.unit_worker`), and sends its event
+batches here. The engine routes documents to the subscribers (the HDF5 writer first,
+then the progress line and anything else) and flushes the file at least every
+``flush_interval_s``. A unit stops at its duration, on :meth:`Recorder.request_stop`
+(Ctrl-C, SIGTERM), or when the disk fills; every unit then reports how it ended, with
+its simulator's count of samples sent and the CPU time it used.
 """
 
 from __future__ import annotations
@@ -22,45 +17,36 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import queue
 import re
 import socket
-import threading
 import time
 import uuid
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from datetime import UTC, datetime
 from importlib import metadata
+from multiprocessing.connection import wait
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from devices.errors import DeviceConfigurationError, DeviceError, DeviceTimeoutError
-from devices.protocols import SampleBatch
-from devices.replay import EndOfReplayError
-from devices.urls import OpenedDevice, open_device
-from station.errors import DiskSpaceError, RunConfigurationError, UsageError
+from devices.protocols import DeviceDescription
+from station.errors import RecorderError, RunConfigurationError, UsageError
 from station.hdf5 import (
     REASON_DURATION,
     REASON_END_OF_REPLAY,
-    RunFileWriter,
     bytes_per_sample,
     writable_bytes,
 )
+from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
-    Descriptor,
     Dispatcher,
-    EventBatch,
-    LogEntry,
     RunStart,
     RunStop,
     Subscriber,
-    UnitTally,
     UnitTotals,
-    data_keys,
     utc_now,
 )
+from station.unit_process import UnitProcess
+from station.unit_worker import ReadSettings
 
 if TYPE_CHECKING:
     from station.model.profiles import Profile
@@ -152,187 +138,7 @@ def software_version() -> str:
         return "unknown"
 
 
-class UnitWorker:
-    """Reads one unit in its own thread and puts its event batches on the engine's queue.
-
-    Parameters
-    ----------
-    unit_id : str
-        ``unit1``, ``unit2``, ... in the order of the URLs.
-    opened : OpenedDevice
-        The adapter (opened) and, for a simulation, the simulator behind it.
-    config : RunConfig
-        Timeouts, backoff and duration.
-    out : queue.Queue
-        Where the documents go.
-    """
-
-    def __init__(self, unit_id: str, opened: OpenedDevice, config: RunConfig,
-                 out: queue.Queue[EventBatch]) -> None:
-        self.unit_id = unit_id
-        self.opened = opened
-        self.config = config
-        self.out = out
-        self.description = opened.source.describe()
-        sim = opened.simulator
-        self.clock: Callable[[], float] = (sim.core.clock if sim is not None else
-                                           opened.clock or time.monotonic)
-        self.time_warp = sim.core.clock.warp if sim is not None else 1.0
-        self.time_base = (f"simulated device clock, warp x{self.time_warp:g}" if sim is not None
-                          else "the replayed capture's clock (s since it started)"
-                          if opened.clock is not None else "station monotonic clock")
-        #: The source has nothing more to give (the end of a replayed capture).
-        self.source_ended = False
-        self.tally = UnitTally()
-        self.answered = threading.Event()
-        self.done = threading.Event()
-        self.stop = threading.Event()
-        self.error: BaseException | None = None
-        self.cpu_s = 0.0
-        self.samples_sent: int | None = None
-        self.start_utc = ""
-        self._t0 = 0.0
-        self._seq = 0
-        self._thread = threading.Thread(target=self._run, name=f"recorder-{unit_id}",
-                                        daemon=True)
-
-    # -- life cycle ----------------------------------------------------------------
-    def start(self) -> None:
-        """Start reading (a held simulation starts sampling now)."""
-        self.start_utc = utc_now()
-        self._t0 = self.clock()
-        if self.opened.simulator is not None:
-            self.opened.simulator.core.resume()
-        self._thread.start()
-
-    def join(self, timeout_s: float | None = None) -> None:
-        """Wait for the thread to end."""
-        if self._thread.is_alive():
-            self._thread.join(timeout_s)
-
-    def close(self) -> None:
-        """Close the adapter and stop any simulator (for a worker that never started)."""
-        self.opened.close()
-
-    def elapsed_s(self) -> float:
-        """Time since the unit started, s on its own time base."""
-        return self.clock() - self._t0
-
-    def descriptor(self) -> Descriptor:
-        """The unit's descriptor document."""
-        return Descriptor(self.unit_id, self.opened.url, self.description,
-                          data_keys(self.description), self.start_utc, self.time_base,
-                          self.time_warp)
-
-    # -- reading -------------------------------------------------------------------
-    def _emit(self, batch_or_none: object, extra: Sequence[LogEntry] = ()) -> int:
-        if isinstance(batch_or_none, SampleBatch):
-            doc = EventBatch.from_samples(self.unit_id, self._seq, batch_or_none, self._t0,
-                                          [*self._leading_gap(batch_or_none), *extra])
-        elif extra:
-            doc = _log_only(self.unit_id, self._seq, self.description.n_axes, extra)
-        else:
-            return 0
-        if len(doc) or doc.log:
-            self._seq += 1
-            self.tally.add(doc)
-            self.out.put(doc)
-            if len(doc):
-                self.answered.set()
-        return len(doc)
-
-    def _leading_gap(self, batch: SampleBatch) -> list[LogEntry]:
-        """A simulated unit starts at counter 0 when the recorder starts listening: samples
-        it produced before the first one received (a polled register overwritten, a CAN
-        frame before the bus was read) are declared as a gap counted by the counter."""
-        if self.answered.is_set() or not len(batch) or self.opened.simulator is None:
-            return []
-        first = int(batch.counter[0])
-        if first <= 0:
-            return []
-        return [LogEntry("gap", float(batch.receive_time_s[0]) - self._t0, 1, first, -1,
-                         "counter", "before the first sample received (the simulated "
-                                    "device starts at counter 0)")]
-
-    def _read_once(self, backoff_s: float, timeout_s: float | None = None) -> tuple[int, float]:
-        """One adapter read (``timeout_s`` wall s, default the config's); returns (samples,
-        next backoff s)."""
-        cfg = self.config
-        try:
-            batch = self.opened.source.read(cfg.read_timeout_s if timeout_s is None
-                                            else timeout_s)
-        except DeviceTimeoutError as exc:
-            self._emit(None, [LogEntry("timeout", self.elapsed_s(), detail=str(exc)[:120])])
-            return 0, backoff_s
-        except EndOfReplayError:
-            self.source_ended = True
-            return 0, backoff_s
-        except DeviceError as exc:
-            # Disconnected, or no acknowledgement on reconnect: the adapter logs the
-            # disconnect itself; wait and let the next read reopen the link.
-            if not isinstance(exc, ConnectionError) and backoff_s == cfg.backoff_initial_s:
-                self._emit(None, [LogEntry("error", self.elapsed_s(), detail=str(exc)[:120])])
-            self.stop.wait(backoff_s)
-            return 0, min(2.0 * backoff_s, cfg.backoff_max_s)
-        n = self._emit(batch)
-        return n, cfg.backoff_initial_s if n else backoff_s
-
-    def _record(self) -> None:
-        backoff = self.config.backoff_initial_s
-        while (not self.stop.is_set() and not self.source_ended
-               and self.elapsed_s() < self.config.duration_s):
-            _, backoff = self._read_once(backoff)
-
-    def _finish_simulation(self) -> None:
-        """End a simulated unit cleanly: faults off, its newest frames read, then paused."""
-        assert self.opened.simulator is not None
-        core = self.opened.simulator.core
-        core.clear_faults()
-        settle = time.monotonic() + 0.05
-        deadline = time.monotonic() + 10.0
-        backoff = 0.01
-        while time.monotonic() < deadline:
-            n, backoff = self._read_once(min(backoff, 0.05))
-            if n and time.monotonic() > settle:
-                break
-        core.pause()
-        time.sleep(0.02)  # the device thread finishes its last write
-
-    def _drain(self) -> None:
-        empty = 0
-        deadline = time.monotonic() + 5.0
-        while empty < 2 and time.monotonic() < deadline:
-            n, _ = self._read_once(0.01, timeout_s=0.01)
-            empty = 0 if n else empty + 1
-
-    def _run(self) -> None:
-        try:
-            self._record()
-            if self.opened.simulator is not None:
-                self._finish_simulation()
-            self._drain()
-            self._emit(None, [LogEntry("end", self.elapsed_s(), detail=(
-                "stopped" if self.stop.is_set() else
-                REASON_END_OF_REPLAY if self.source_ended else "duration"))])
-        except Exception as exc:  # noqa: BLE001 - one unit's failure must not end the others
-            self.error = exc
-            self._emit(None, [LogEntry("error", self.elapsed_s(),
-                                       detail=f"{type(exc).__name__}: {exc}"[:120])])
-        finally:
-            self.cpu_s = time.thread_time()
-            if self.opened.ledger is not None:
-                self.samples_sent = self.opened.ledger.generated
-            self.opened.close()
-            self.done.set()
-
-
-def _log_only(unit_id: str, seq: int, n_axes: int, log: Sequence[LogEntry]) -> EventBatch:
-    return EventBatch(unit_id, seq, np.empty((0, n_axes)), np.empty(0, np.int64),
-                      np.empty(0), np.empty(0, np.uint32), log=tuple(log))
-
-
-def _check_against_profile(unit: str, worker: UnitWorker, profile: Profile) -> list[str]:
-    d = worker.description
+def _check_against_profile(unit: str, d: DeviceDescription, profile: Profile) -> list[str]:
     problems = []
     if profile.sample_rate_hz is not None and not math.isclose(
             d.sample_rate_hz, profile.sample_rate_hz, rel_tol=1e-6):
@@ -358,6 +164,9 @@ class Recorder:
         Document subscribers besides the file writer (progress line, TUI bridge, ...).
     """
 
+    #: Longest a unit's process may take to start and open its device, wall s.
+    open_timeout_s = 120.0
+
     def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = ()) -> None:
         if not config.urls:
             raise UsageError("no unit to record: give --unit DEVICE_URL (or a profile with "
@@ -365,14 +174,14 @@ class Recorder:
         self.config = config
         self.uid = uuid.uuid4().hex
         self.path = run_file_path(config.out, self.uid)
-        self.queue: queue.Queue[EventBatch] = queue.Queue()
-        self.workers: list[UnitWorker] = []
+        self.workers: list[UnitProcess] = []
         self.writer: RunFileWriter | None = None
         self.dispatcher = Dispatcher()
         self._extra = list(subscribers)
         self._stop_reason: str | None = None
         self.stop_reason = ""
         self.engine_cpu_s = 0.0
+        self.wall_s = 0.0
 
     # -- before the run ------------------------------------------------------------
     def estimate_bytes(self) -> int:
@@ -380,45 +189,44 @@ class Recorder:
         total = 0.0
         for w in self.workers:
             per_sample = bytes_per_sample(w.descriptor())
-            total += per_sample * w.description.sample_rate_hz * self.config.duration_s
+            total += per_sample * w.descriptor().description.sample_rate_hz * \
+                self.config.duration_s
         return int(total * 1.05) + (1 << 20)
 
     def _reserve(self) -> int:
         if self.config.reserve_bytes is not None:
             return self.config.reserve_bytes
-        rate = sum(bytes_per_sample(w.descriptor()) * w.description.sample_rate_hz
+        rate = sum(bytes_per_sample(w.descriptor()) * w.descriptor().description.sample_rate_hz
                    for w in self.workers)
         return int((8 << 20) + 10 * rate)
 
     def _open_units(self) -> list[str]:
+        cfg = self.config
+        profile = cfg.profile
+        settings = ReadSettings(cfg.duration_s, cfg.read_timeout_s, cfg.backoff_initial_s,
+                                cfg.backoff_max_s)
+        limit = profile.range_deg_s if profile is not None else None
+        self.workers = [UnitProcess(f"unit{i + 1}", url, settings, limit)
+                        for i, url in enumerate(cfg.urls)]
+        deadline = time.monotonic() + self.open_timeout_s
         problems: list[str] = []
-        profile = self.config.profile
-        for i, url in enumerate(self.config.urls):
-            name = f"unit{i + 1} ({url})"
-            try:
-                opened = open_device(url)
-            except (DeviceConfigurationError, ValueError) as exc:
-                problems.append(f"{name}: bad device URL: {exc}; see `station devices "
-                                f"--json` for the URL of each protocol")
+        for w in self.workers:
+            w.wait_opened(max(1.0, deadline - time.monotonic()))
+            name = f"{w.unit_id} ({w.url})"
+            if profile is None and not w.url.lower().startswith("sim+"):
+                problems.append(f"{name}: real hardware (and a replayed capture of it) needs "
+                                f"--profile PROFILE (it gives the model, sample rate and "
+                                f"axes to check)")
+            if w.opened is None:
+                problems.append(
+                    f"{name}: bad device URL: {w.problem}; see `station devices --json` for "
+                    f"the URL of each protocol" if w.problem_stage == "url" else
+                    f"{name}: device not reachable: {w.problem}; check that it is "
+                    f"powered and connected, the port or address in the URL, and that no "
+                    f"other program holds the port")
                 continue
-            if opened.simulator is not None:
-                opened.simulator.core.pause()  # sampling starts when the recorder listens
-            elif profile is None:
-                problems.append(f"{name}: real hardware (and a replayed capture of it) "
-                                f"needs --profile PROFILE (it gives the model, sample rate "
-                                f"and axes to check)")
-            try:
-                opened.source.open()
-            except (DeviceError, OSError) as exc:
-                opened.close()
-                problems.append(f"{name}: device not reachable: {exc}; check that it is "
-                                f"powered and connected, the port or address in the URL, "
-                                f"and that no other program holds the port")
-                continue
-            worker = UnitWorker(f"unit{i + 1}", opened, self.config, self.queue)
-            self.workers.append(worker)
             if profile is not None:
-                problems += _check_against_profile(name, worker, profile)
+                problems += _check_against_profile(name, w.opened.description, profile)
         return problems
 
     def _check_disk(self) -> list[str]:
@@ -452,15 +260,8 @@ class Recorder:
             if not problems:
                 problems = self._check_disk()
             if not problems:
-                for w in self.workers:
-                    w.start()
-                deadline = time.monotonic() + self.config.answer_timeout_s
-                for w in self.workers:
-                    if not w.answered.wait(max(0.0, deadline - time.monotonic())):
-                        problems.append(
-                            f"{w.unit_id} ({w.opened.url}): no sample within "
-                            f"{self.config.answer_timeout_s:g} s: check the protocol and "
-                            f"rate in the URL, and that the device is streaming")
+                self._start_units()
+                problems = self._await_first_samples()
         except BaseException:
             self._abort()
             raise
@@ -468,14 +269,34 @@ class Recorder:
             self._abort()
             raise RunConfigurationError(problems)
 
+    def _start_units(self) -> None:
+        for w in self.workers:
+            w.start(utc_now())
+
+    def _await_first_samples(self) -> list[str]:
+        deadline = time.monotonic() + self.config.answer_timeout_s
+        waiting = list(self.workers)
+        while waiting and time.monotonic() < deadline:
+            ready = wait([w.conn for w in waiting], timeout=0.05)
+            for w in waiting:
+                if w.conn in ready:
+                    w.receive()
+            waiting = [w for w in waiting if not w.answered.is_set() and not w.done]
+        return [f"{w.unit_id} ({w.url}): no sample within {self.config.answer_timeout_s:g} s: "
+                f"check the protocol and rate in the URL, and that the device is streaming"
+                + (f" ({w.error})" if w.error else "")
+                for w in self.workers if not w.answered.is_set()]
+
     def _abort(self) -> None:
         for w in self.workers:
-            w.stop.set()
-        for w in self.workers:
             if w.start_utc:
-                w.join(15.0)
+                w.stop()
             else:
                 w.close()
+        for w in self.workers:
+            while not w.done and w.receive(10.0):
+                pass
+            w.join()
 
     # -- the run -------------------------------------------------------------------
     def request_stop(self, reason: str) -> None:
@@ -483,13 +304,20 @@ class Recorder:
         if self._stop_reason is None:
             self._stop_reason = reason
 
-    def _dispatch_pending(self, limit: int = 1000) -> None:
-        for _ in range(limit):
-            try:
-                doc = self.queue.get_nowait()
-            except queue.Empty:
-                return
-            self.dispatcher.emit(doc)
+    def _dispatch_pending(self) -> None:
+        for w in self.workers:
+            pending, w.pending = w.pending, []
+            for doc in pending:
+                self.dispatcher.emit(doc)
+
+    def _flush(self) -> None:
+        assert self.writer is not None
+        if self.writer.failed is not None:
+            return
+        try:
+            self.writer.flush_if_due()
+        except RecorderError as exc:
+            self.request_stop(getattr(exc, "reason", "") or f"write error: {exc}")
 
     def run(self) -> RunStop:
         """Record until every unit is done; returns the stop document.
@@ -499,9 +327,11 @@ class Recorder:
         if not self.workers:
             self.prepare()
         cfg = self.config
+        t0, cpu0 = time.monotonic(), time.process_time()
         self.writer = RunFileWriter(self.path, flush_interval_s=cfg.flush_interval_s,
                                     reserve_bytes=self._reserve())
-        for s in (self.writer, *self._extra):
+        subscribers: list[Subscriber] = [self.writer, *self._extra]
+        for s in subscribers:
             self.dispatcher.subscribe(s)
         p = cfg.profile
         self.dispatcher.emit(RunStart(
@@ -515,32 +345,37 @@ class Recorder:
             bench=cfg.bench_json))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
-        cpu0 = time.thread_time()
         stopping = False
-        while not all(w.done.is_set() for w in self.workers):
-            try:
-                self.dispatcher.emit(self.queue.get(timeout=0.05))
-            except queue.Empty:
-                pass
+        while not all(w.done for w in self.workers):
+            active = [w for w in self.workers if not w.done]
+            for conn in wait([w.conn for w in active], timeout=0.05):
+                for w in active:
+                    if w.conn is conn:
+                        while w.receive():
+                            pass
             self._dispatch_pending()
-            try:
-                self.writer.flush_if_due()
-            except DiskSpaceError as exc:
-                self.request_stop(f"disk full: {exc}")
+            self._flush()
             if self._stop_reason is not None and not stopping:
                 stopping = True
                 for w in self.workers:
-                    w.stop.set()
+                    w.stop()
         for w in self.workers:
             w.join()
-        self._dispatch_pending(limit=10**9)
-        self.engine_cpu_s = time.thread_time() - cpu0
+        self._dispatch_pending()
+        self.engine_cpu_s = time.process_time() - cpu0
+        self.wall_s = time.monotonic() - t0
+        ended = [w.end for w in self.workers if w.end is not None]
         self.stop_reason = self._stop_reason or (
-            REASON_END_OF_REPLAY if all(w.source_ended for w in self.workers)
-            else REASON_DURATION)
-        totals = tuple(UnitTotals(w.unit_id, w.opened.url, w.tally.samples, w.tally.missing,
-                                  w.tally.gaps, w.tally.crc_errors, w.tally.reconnects,
-                                  w.samples_sent) for w in self.workers)
-        stop = RunStop(utc_now(), self.stop_reason, totals)
+            REASON_END_OF_REPLAY if ended and all(e.source_ended for e in ended)
+            and len(ended) == len(self.workers) else REASON_DURATION)
+        stop = RunStop(utc_now(), self.stop_reason, tuple(self._totals(w) for w in self.workers))
         self.dispatcher.emit(stop)
         return stop
+
+    @staticmethod
+    def _totals(w: UnitProcess) -> UnitTotals:
+        t, end = w.tally, w.end
+        return UnitTotals(w.unit_id, w.url, t.samples, t.missing, t.gaps, t.crc_errors,
+                          t.reconnects, end.samples_sent if end else None, t.missing_low,
+                          t.missing_high, t.bad_samples, end.cpu_s if end else 0.0,
+                          end.reader_cpu_s if end else 0.0)

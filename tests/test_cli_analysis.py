@@ -47,6 +47,9 @@ def test_analyze_json_interface(record_csv: Path) -> None:
     for name in ("Q_urad", "N_deg_rt_h", "B_deg_h", "K_deg_h_1_5", "R_deg_h2"):
         assert name in fit and f"{name}_stderr" in fit
     assert fit["N_deg_rt_h"] == pytest.approx(0.05, rel=0.05)
+    # the record holds white rate and flicker noise: the fit keeps N and B, and says so
+    assert fit["terms"] == "NB" and fit["K_deg_h_1_5"] == 0.0 and fit["R_deg_h2"] == 0.0
+    assert any("not resolved" in note for note in fit["notes"])
     figures = axis["figures"]
     assert figures["bias_deg_h"] == pytest.approx(3.6, abs=0.5)  # flicker moves the mean
     for key in ("bias_stability_10s_deg_h", "bias_stability_100s_deg_h", "arw_deg_rt_h",
@@ -65,9 +68,12 @@ def test_analyze_options_and_table(record_csv: Path, capsys) -> None:
     assert len(out["axes"]) == 1 and out["axes"][0]["fit"]["method"] == "ols40"
     assert out["axes"][0]["fit"]["Q_urad"] is None  # not fitted: null
     assert len(out["axes"][0]["tau_s"]) == 72_000 // 2
+    assert main(["analyze", str(record_csv), "--terms", "NBK", "--no-select", "--axis", "x", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["axes"][0]["fit"]["terms"] == "NBK"
     assert main(["analyze", str(record_csv)]) == 0
     table = capsys.readouterr().out
     assert "ARW read-off [deg/sqrt(h)]" in table and "bias [deg/h]" in table
+    assert "fit note (x): standard errors" in table
 
 
 def test_analyze_errors_are_one_line_messages(tmp_path: Path, capsys) -> None:

@@ -16,8 +16,9 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5 import RunFileWriter, read_run, read_run_record
+from station.hdf5 import read_run, read_run_record
 from station.hdf5_recover import lookup3
+from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -181,6 +182,8 @@ def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
         full_disk_runs: dict[str, tuple], name: str) -> None:
     code, stdout, stderr, path, url, before, stop_after_s, limit = full_disk_runs[name]
     assert code == 1, stderr  # stopped on its own, reporting the failure
+    message = [line for line in stderr.splitlines() if not line.startswith("recording ")]
+    assert len(message) == 1 and "disk full" in message[0], stderr  # one line, no traceback
     assert stop_after_s < 30.0
     assert path.stat().st_size <= limit
     run = read_run(path)
@@ -190,6 +193,7 @@ def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
         h5py.File(path, "r").close()
     else:  # a write failed: the reason is reported, the file is left for recover
         assert "disk full" in stderr and f"station recover {path}" in stderr
+        assert read_run(path).stop_reason == "disk full: file size limit reached"
         with contextlib.redirect_stdout(io.StringIO()):
             assert main(["recover", str(path)]) == 0
         with h5py.File(path, "r") as f:
@@ -198,7 +202,13 @@ def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
     assert n >= before
     print(f"{name}: limit {limit} B, stopped {stop_after_s:.2f} s later with {n} samples "
           f"intact ({before} when the limit was set): {run.stop_reason[:60]}")
-    assert summaries(stdout)[0]["samples_recorded"] == n
+    obj = summaries(stdout)[0]
+    assert obj["samples_recorded"] == n
+    # the books: what was sent is recorded, declared missing, or counted as not written
+    unwritten = int(stderr.split("not written: unit1 ")[1].split(")")[0]) if (
+        "not written" in stderr) else 0
+    assert obj["samples_recorded"] + obj["samples_missing_declared"] + unwritten == \
+        obj["samples_sent"], (obj, stderr)
 
 
 def test_davar_reads_a_run_file(written: Path) -> None:

@@ -14,7 +14,12 @@ from station.cli import main
 from station.hdf5 import read_run
 from station.model.profiles import PROFILE_DIR
 from station.recorder import parse_duration
-from tests.test_recorder_helpers import start_recorder, summaries, wait_for_samples
+from tests.test_recorder_helpers import (
+    assert_summary_books,
+    start_recorder,
+    summaries,
+    wait_for_samples,
+)
 
 #: A STIM300 on a pty with every frame fault, a CAN node with drops and bad CRCs, and a
 #: Modbus TCP gyro whose server goes away for 3 s.
@@ -71,7 +76,10 @@ def test_json_summary_accounts_for_every_sample_the_simulators_sent(two_runs, wh
     for o in objs:
         assert o["file"] == str(path)
         assert o["samples_recorded"] > 50 and o["gaps"] > 0
+        assert_summary_books(o)
+        # 10 Hz: a counter period is 25.6 s, far beyond any timing doubt: every count exact
         assert o["samples_recorded"] + o["samples_missing_declared"] == o["samples_sent"], o
+        assert o["samples_missing_low"] == o["samples_missing_high"], o
     assert objs[0]["crc_errors"] > 0  # corrupted STIM300 datagrams are counted
 
 

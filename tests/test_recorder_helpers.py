@@ -17,9 +17,10 @@ import numpy as np
 from devices.sim.signal import SignalSource
 from station.hdf5 import open_run_file, read_unit, run_state
 
-#: Keys of one ``--json-summary`` object, exactly (issue 6).
-SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_sent", "gaps",
-                "crc_errors", "reconnects", "file"}
+#: Keys of one ``--json-summary`` object, exactly (issue 6, and the bounds of issue 21).
+SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_missing_low",
+                "samples_missing_high", "samples_sent", "gaps", "crc_errors", "reconnects",
+                "file"}
 #: Rate resolution per protocol: (absolute deg/s, relative); STIM300 sends value / 2^14
 #: deg/s, Xbus float32 rad/s.
 RESOLUTION = {"stim300": (2.0 ** -14, 0.0), "xbus": (1e-12, 2.0 ** -22)}
@@ -57,6 +58,22 @@ def summaries(stdout: str) -> list[dict]:
     return out
 
 
+def assert_books(recorded: int, low: int, declared: int, high: int, sent: int | None,
+                 what: object = "") -> None:
+    """The books of one unit: what its simulator sent lies within what was recorded plus
+    the fewest and the most samples its gaps may have lost, and the best count too."""
+    assert sent is not None, what
+    assert low <= declared <= high, what
+    assert recorded + low <= sent <= recorded + high, what
+
+
+def assert_summary_books(obj: dict) -> None:
+    """:func:`assert_books` of one ``--json-summary`` object."""
+    assert_books(obj["samples_recorded"], obj["samples_missing_low"],
+                 obj["samples_missing_declared"], obj["samples_missing_high"],
+                 obj["samples_sent"], obj)
+
+
 def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) -> Path:
     """The run file in ``folder`` once every unit has ``min_samples`` committed samples."""
     deadline = time.monotonic() + timeout_s
@@ -73,6 +90,37 @@ def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) ->
                 pass  # not created or not in SWMR mode yet
         time.sleep(0.05)
     raise TimeoutError(f"no run file with {min_samples} samples in {folder}")
+
+
+def wait_for_file(folder: Path, timeout_s: float = 120.0) -> Path:
+    """The run file in ``folder``, as soon as it exists."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        files = list(folder.glob("*.h5"))
+        if files:
+            return files[0]
+        time.sleep(0.005)
+    raise TimeoutError(f"no run file in {folder} after {timeout_s:g} s")
+
+
+def data_lost_s(path: Path, killed_at_s: float) -> float:
+    """Seconds of data a killed recorder lost: from its newest committed sample (or, with
+    none, the start of its run) to the kill (``time.time()``), the largest over its
+    units."""
+    from datetime import UTC, datetime
+
+    def stamp(text: str) -> float:
+        return datetime.strptime(text, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=UTC).timestamp()
+
+    lost = 0.0
+    with open_run_file(path) as f:
+        for uid in f["units"]:
+            unit = read_unit(f, uid)
+            start = stamp(unit.attrs["start_utc"])
+            warp = float(unit.attrs.get("time_warp", 1.0))
+            last = float(unit.receive_time_s[-1]) / warp if len(unit.counter) else 0.0
+            lost = max(lost, killed_at_s - (start + last))
+    return lost
 
 
 def last_flush_age_s(path: Path, at_utc_s: float) -> float:

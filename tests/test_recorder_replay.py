@@ -53,8 +53,12 @@ def test_replayed_run_has_the_same_samples_and_gaps(recorded_and_replayed) -> No
         assert len(rec_b.counter) == len(rec_a.counter) > 300, unit_id
         np.testing.assert_array_equal(rec_b.counter, rec_a.counter)
         np.testing.assert_array_equal(rec_b.rate_deg_s, rec_a.rate_deg_s)
-        gaps_a = [(e.missing_samples, e.detail) for e in a.events if e.kind == "gap"]
-        gaps_b = [(e.missing_samples, e.detail) for e in b.events if e.kind == "gap"]
+        # (a gap whose best count is 0 only bounds wraps the timing of the reads could
+        # hide: the replay reads at its own pace, so those bounds may differ)
+        gaps_a = [(e.missing_samples, e.detail) for e in a.events
+                  if e.kind == "gap" and e.missing_samples]
+        gaps_b = [(e.missing_samples, e.detail) for e in b.events
+                  if e.kind == "gap" and e.missing_samples]
         assert gaps_b == gaps_a and gaps_a, unit_id
         assert b.missing_samples == a.missing_samples
     long_gaps = [e for e in live.units[0].events if e.kind == "gap" and e.missing_samples > 128]

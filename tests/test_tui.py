@@ -20,7 +20,7 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.hdf5 import RunFileWriter
+from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,

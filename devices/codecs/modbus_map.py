@@ -9,6 +9,7 @@ says); 32-bit values take two registers whose order (``word_order``) varies by v
 from __future__ import annotations
 
 import math
+import operator
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -20,6 +21,17 @@ from devices.errors import CodecError, FrameError
 Kind = Literal["int16", "uint16", "int32", "uint32", "float32"]
 _FORMATS: dict[str, str] = {"int16": ">h", "uint16": ">H", "int32": ">i", "uint32": ">I",
                             "float32": ">f"}
+
+
+def _register(word: object, address: int) -> int:
+    """A register as received: an integer in 0..65535, else FrameError."""
+    try:
+        value = operator.index(word)  # type: ignore[call-overload]
+    except TypeError:
+        raise FrameError(f"register {address}: {word!r} is not an integer") from None
+    if isinstance(word, bool) or not 0 <= value <= 0xFFFF:
+        raise FrameError(f"register {address}: value {word!r} out of 0..65535")
+    return value
 
 
 @dataclass(frozen=True)
@@ -54,9 +66,19 @@ class RegisterField:
         return 1 if self.kind.endswith("16") else 2
 
     def unpack(self, registers: Sequence[int]) -> float:
-        words = list(registers[:self.n_registers])
-        if any(not 0 <= w <= 0xFFFF for w in words):
-            raise FrameError(f"register value out of 0..65535 at {self.address}")
+        """The value (physical units) of this field's registers, the first of
+        ``registers`` at :attr:`address`.
+
+        Raises
+        ------
+        FrameError
+            Too few registers, or one that is not an integer in 0..65535.
+        """
+        words = [_register(w, self.address + i)
+                 for i, w in enumerate(registers[:self.n_registers])]
+        if len(words) < self.n_registers:
+            raise FrameError(f"register {self.address}: {self.n_registers} registers "
+                             f"needed, got {len(words)}")
         if self.word_order == "little":
             words.reverse()
         raw = b"".join(w.to_bytes(2, "big") for w in words)
@@ -124,8 +146,13 @@ class ModbusRegisterMap:
             Block too short, or a register out of 0..65535.
         """
         start, count = self.span
-        if len(registers) < count:
-            raise FrameError(f"expected {count} registers, got {len(registers)}")
+        try:
+            if len(registers) < count:
+                raise FrameError(f"expected {count} registers, got {len(registers)}")
+            registers[0:0]
+        except TypeError:
+            raise FrameError(f"expected a block of {count} registers, got "
+                             f"{type(registers).__name__}") from None
 
         def value(f: RegisterField) -> float:
             return f.unpack(registers[f.address - start:])

@@ -21,8 +21,11 @@ GoToConfig (0x30) / GoToMeasurement (0x10) are acknowledged by MID + 1.
 
 Limitation of the protocol, not of this decoder: the 8-bit sum detects every single
 bit flip except one in the length byte, which shortens the frame so that a data byte
-becomes the checksum (accepted 1 time in 256). :meth:`XbusCodec.to_reading` checks the
-MTData2 item structure, which rejects most of those.
+becomes the checksum (accepted 1 time in 256), and misses two flips of the same bit in
+two bytes that change them in opposite directions (``benchmarks/bench_fuzz_checks.py``
+measures both). :meth:`XbusCodec.to_reading` checks the MTData2 item structure, which
+rejects most of the first kind; the adapter's sanity checks (counter continuity, the
+rate range, device time against the station's own timing) catch much of the rest.
 """
 
 from __future__ import annotations
@@ -106,6 +109,13 @@ class XbusCodec:
         Longest data field accepted (bytes); a candidate announcing more is garbage.
         Bounds how long a false preamble can hold up resynchronization.
     """
+
+    #: An 8-bit sum lets some corrupted frames through (two flipped bits that cancel):
+    #: the adapter checks counter continuity (:class:`~devices.batching.BatchBuilder`).
+    weak_check = True
+    #: Measurement range of the MTi family's gyros, deg/s: a larger rate is a corrupted
+    #: frame (used when no product profile gives the unit's own range).
+    rate_range_deg_s = 2000.0
 
     name = "xbus"
     counter_modulus = COUNTER_MODULUS

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 
+from devices.batching import BusClock
 from devices.codecs.can_frame import CanFrameLayout
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
@@ -26,15 +27,36 @@ class CanBroadcastDevice(DeviceLoop):
         Signal, schedule, faults and ledger.
     poll_s : float
         Wall-clock period of the device loop, s.
+    max_lag_wall_s : float
+        Samples this thread is later than this (wall s) are lost, never sent late: a
+        real node sends on its schedule.
+    stamped : bool
+        The bus keeps the time stamp each frame is sent with (python-can's ``virtual``
+        bus with ``preserve_timestamps``): frames carry the time their sample fell due,
+        so lateness cannot shift a gap's wrap count. Otherwise (the receiver's kernel
+        stamps them) the allowance is at most a quarter of a counter period.
     """
 
     def __init__(self, transport: CanTransport, layout: CanFrameLayout, core: SimCore, *,
-                 poll_s: float = 0.002) -> None:
+                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
+                 stamped: bool = False) -> None:
         super().__init__()
         self.transport = transport
         self.layout = layout
         self.core = core
         self.poll_s = poll_s
+        self.max_lag_wall_s = max_lag_wall_s
+        self.stamped = stamped
+
+    @property
+    def max_lag_s(self) -> float:
+        """Lateness allowance, simulated s (see :meth:`SimCore.due`)."""
+        core = self.core
+        lag = self.max_lag_wall_s * core.clock.warp
+        if self.stamped:
+            return lag
+        return min(lag, self.layout.counter_modulus / core.sample_rate_hz / 4.0)
+
 
     def start(self) -> CanBroadcastDevice:
         self.transport.open()
@@ -48,8 +70,12 @@ class CanBroadcastDevice(DeviceLoop):
     def _run(self) -> None:
         core = self.core
         silent = False
+        # Wall time of the clock's instants from one pairing of the two clocks, never
+        # from two readings a preempted thread takes 100 ms apart.
+        stamps = BusClock(core.clock, core.clock.warp)
+        next_sync = time.monotonic() + 10.0
         while not self._stop.wait(self.poll_s):
-            readings = core.due()
+            readings = core.due(max_lag_s=self.max_lag_s)
             if core.link_down() or core.stalled():
                 if not silent and core.link_down():
                     core.ledger.disconnects += 1
@@ -57,11 +83,13 @@ class CanBroadcastDevice(DeviceLoop):
                 core.lose(readings)
                 continue
             silent = False
-            wall, now = time.time(), core.clock()
+            if time.monotonic() >= next_sync:
+                stamps.sync()  # (the wall clock may be slewed: pair them again now and then)
+                next_sync = time.monotonic() + 10.0
             for reading in readings:
                 # Stamp each frame with the wall time it fell due: a real node sends on
                 # schedule, this thread sends in bursts.
-                stamp = wall - (now - core.due_time(reading.counter)) / core.clock.warp
+                stamp = stamps.wall(core.due_time(reading.counter))
                 for frame in self.layout.from_reading(reading):
                     fault = core.fault_for(reading.counter)
                     if fault == "drop":
@@ -70,3 +98,9 @@ class CanBroadcastDevice(DeviceLoop):
                     if fault == "corrupt":
                         data[self.layout.crc_byte ^ 1] ^= 0x01
                     self.transport.send(frame.arbitration_id, bytes(data), stamp)
+
+
+def broadcast_latency_s(layout: CanFrameLayout, sample_rate_hz: float, warp: float) -> float:
+    """Longest a :class:`CanBroadcastDevice` (default loop) sends a frame after its sample
+    fell due, simulated s: its loop period and lateness allowance."""
+    return 0.002 * warp + min(0.05 * warp, layout.counter_modulus / sample_rate_hz / 4.0)

@@ -121,7 +121,9 @@ class CanopenGyroNode(DeviceLoop):
         while not self._syncs.empty():
             self._syncs.get()
             if not self.core.link_down() and self.node.nmt.state == _OPERATIONAL:
-                readings.append(self.core.next_reading())
+                reading = self.core.next_reading()
+                if reading is not None:
+                    readings.append(reading)
         return readings
 
     def _run(self) -> None:
@@ -130,7 +132,10 @@ class CanopenGyroNode(DeviceLoop):
         while not self._stop.wait(self.poll_s):
             if self._remap.is_set():
                 self._apply_configuration()
-            readings = self._sync_readings() if self._synchronous() else core.due()
+            # A node sends on its schedule: samples overdue by more than 50 ms of wall
+            # time (a starved thread) are lost, never sent late.
+            readings = (self._sync_readings() if self._synchronous()
+                        else core.due(max_lag_s=0.05 * core.clock.warp))
             if core.link_down():
                 if not unplugged:
                     unplugged = True

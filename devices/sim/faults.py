@@ -190,6 +190,7 @@ class SimCore:
         self._origin_s = clock()
         self._holds: set[str] = set()
         self._paused_at: float | None = None
+        self._last_index: int | None = None
 
     def device_time(self) -> float:
         """Device clock, s since start (drifting by ``drift_ppm``)."""
@@ -246,6 +247,16 @@ class SimCore:
         self.faults = replace(self.faults, drop=0.0, corrupt=0.0, garbage=0.0,
                               disconnect_every_s=math.inf, stall_every_s=math.inf)
 
+    def stop_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (None: no end).
+
+        A run ends on a sample index, not on a hold: the device keeps its time line (a
+        hold would put a silence in it that no counter shows), it just produces nothing
+        more. Lifted again, it finds its samples due since then: those overdue by more
+        than the lateness allowance are lost, as a running gyro's would be.
+        """
+        self._last_index = n_samples
+
     def link_down(self) -> bool:
         """Whether the device is disconnected now."""
         return _in_window(self.device_time(), self.faults.disconnect_every_s,
@@ -271,6 +282,8 @@ class SimCore:
         if self._holds:
             return []
         target = int(self.device_time() * self.sample_rate_hz)
+        if self._last_index is not None:
+            target = min(target, self._last_index)
         if max_lag_s is not None:
             keep = max(1, int(max_lag_s * self.sample_rate_hz))
             self._skip(target - self.ledger.generated - keep)
@@ -288,8 +301,11 @@ class SimCore:
             self.ledger.lost_indices.extend(range(max(start, start + n - self.ledger.window),
                                                   start + n))
 
-    def next_reading(self) -> Reading:
-        """One more sample now, off the time schedule (a SYNC-triggered measurement)."""
+    def next_reading(self) -> Reading | None:
+        """One more sample now, off the time schedule (a SYNC-triggered measurement);
+        None past :meth:`stop_after`'s end."""
+        if self._last_index is not None and self.ledger.generated >= self._last_index:
+            return None
         return self._generate(1)[0]
 
     def _generate(self, n: int) -> list[Reading]:
@@ -319,6 +335,14 @@ class SimCore:
             An index outside the kept window.
         """
         return self._history.rates(indices)
+
+    def overrun(self, indices: list[int]) -> None:
+        """Samples booked delivered whose frames the transport could not take (a full
+        port): lost after all."""
+        self.ledger.delivered -= len(indices)
+        self.ledger.lost_in_outage += len(indices)
+        if self.ledger.window:
+            self.ledger.lost_indices.extend(indices)
 
     def lose(self, readings: list[Reading]) -> None:
         """Count samples lost to an outage or a stall."""

@@ -41,25 +41,28 @@ _SIM_GROUPS = ipaddress.ip_network("239.255.0.0/16")
 class MulticastChannel:
     """A python-can ``udp_multicast`` bus: a multicast group and a UDP port.
 
-    python-can binds the port on every address, so two buses on one host are kept apart
-    by their ports, not by their groups alone.
+    Two buses on one host are kept apart by their ports as well as their groups.
+    ``loopback`` (the default) keeps the bus on 127.0.0.1; False opens it on every
+    interface (python-can's own socket), with a warning.
     """
 
     group: str
     port: int
+    loopback: bool = True
 
     @classmethod
-    def fresh(cls) -> MulticastChannel:
+    def fresh(cls, *, loopback: bool = True) -> MulticastChannel:
         """An unused channel: a random group of 239.255.0.0/16 and a free UDP port."""
         group = _SIM_GROUPS[secrets.randbelow(_SIM_GROUPS.num_addresses - 2) + 1]
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
             probe.bind(("", 0))
             port = probe.getsockname()[1]
-        return cls(str(group), port)
+        return cls(str(group), port, loopback)
 
     def transport(self) -> CanTransport:
         """A transport on this bus (each end of the link opens its own)."""
-        return CanTransport("udp_multicast", self.group, port=self.port)
+        return CanTransport("udp_multicast", self.group, loopback_only=self.loopback,
+                            port=self.port)
 
 
 class LocalSimulator(Protocol):
@@ -72,7 +75,7 @@ class LocalSimulator(Protocol):
 
 
 #: Operator controls and read-outs the parent may ask of the child's core.
-_CALLS = frozenset({"pause", "resume", "history", "clear_faults"})
+_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after"})
 _READS = frozenset({"ledger", "history_start", "sample_rate_hz", "held"})
 
 
@@ -153,6 +156,10 @@ class RemoteSimCore:
     def pause(self) -> None:
         """Hold sampling (see :meth:`SimCore.pause`)."""
         self._ask("pause")
+
+    def stop_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (see :meth:`SimCore.stop_after`)."""
+        self._ask("stop_after", n_samples)
 
     def resume(self) -> None:
         """Release the operator's hold (see :meth:`SimCore.resume`)."""

@@ -11,9 +11,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
-import select
 import tempfile
-import time
 import tty
 from typing import Any
 
@@ -36,9 +34,10 @@ class PtySerialDevice(DeviceLoop):
     poll_s : float
         Wall-clock period of the device loop, s.
     max_lag_wall_s : float
-        Samples this thread is later than this (wall s, when not held up by the reader
-        and not catching up; at most a quarter of a counter period) are booked lost
-        instead of sent late (see :meth:`SimCore.due`).
+        Samples this thread is later than this (wall s; at most a quarter of a counter
+        period) are booked lost instead of sent late (see :meth:`SimCore.due`), and so
+        are frames the port cannot take when they are due: a real gyro sends on time,
+        whatever the host does.
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
@@ -75,10 +74,6 @@ class PtySerialDevice(DeviceLoop):
                     os.close(fd)
         self._master = self._slave = None
 
-    #: Shortest pause of the device thread (wall s) taken for starvation: at a high warp
-    #: a quarter counter period is less than the host's scheduling quantum.
-    min_starved_wall_s = 0.005
-
     @property
     def max_lag_s(self) -> float:
         """Lateness allowance of a starved device thread, simulated s (see
@@ -92,7 +87,7 @@ class PtySerialDevice(DeviceLoop):
     @property
     def max_latency_s(self) -> float:
         """Longest this device holds a sample before writing it, simulated s (its loop
-        period and lateness allowance), unless the reader holds it up."""
+        period and lateness allowance)."""
         return self.poll_s * self.core.clock.warp + self.max_lag_s
 
     @property
@@ -145,40 +140,40 @@ class PtySerialDevice(DeviceLoop):
                 self.core.enter_configuration()
         return reply
 
-    def _write(self, data: bytes) -> bool:
-        """Write everything (the reader's pace: lossless back-pressure); True if it waited."""
-        view = memoryview(data)
-        waited = False
-        while view and not self._stop.is_set() and self._master is not None:
+    def _write(self, frames: list[tuple[bytes, int, bool]]) -> None:
+        """Write the frames now, as a UART sends: what the port cannot take (the reader
+        not reading, the port closed) is lost, never sent late.
+
+        ``frames``: (bytes on the wire, sample index, booked delivered) in order; a frame
+        not written whole is booked lost (the bytes of one cut short reach the station,
+        which resynchronizes after them).
+        """
+        data = b"".join(f for f, _, _ in frames)
+        written = 0
+        if data and self._master is not None:
             try:
-                n = os.write(self._master, view)
-                view = view[n:]
+                written = os.write(self._master, data)
             except BlockingIOError:
-                waited = True
-                select.select([], [self._master], [], 0.05)
+                written = 0
             except OSError as exc:
-                if exc.errno in (errno.EIO, errno.EBADF):
-                    return waited
-                raise
-        return waited
+                if exc.errno not in (errno.EIO, errno.EBADF):
+                    raise
+        end = 0
+        lost = []
+        for frame, index, delivered in frames:
+            end += len(frame)
+            if end > written and delivered:
+                lost.append(index)
+        self.core.overrun(lost)
 
     def _run(self) -> None:
         core = self.core
-        behind = False
-        # At most this many frames per write: a device that has fallen behind (its reader
-        # slow, or the host too slow for its rate) catches up in small writes, back to
-        # back, instead of going silent while it encodes a large batch (a silence the
-        # reader would rightly take for lost samples).
+        # At most this many frames per pass: a device whose thread the host could not
+        # run for a while sends what is still due (within its lateness allowance, the
+        # rest is lost as a starved gyro loses it) in small writes, back to back.
         chunk = 64
-        last_pass = time.monotonic()
+        behind = False
         while not self._stop.wait(0.0 if behind else self.poll_s):
-            # Starved: this thread did not run for longer than its allowance (a gyro
-            # does not stop sampling: what it would have sent meanwhile is lost). Late
-            # only because the reader held a write up, or because the host cannot run
-            # it as fast as its rate (it runs flat out, catching up): nothing is lost.
-            starved = time.monotonic() - last_pass > max(self.max_lag_s / core.clock.warp,
-                                                         self.min_starved_wall_s)
-            last_pass = time.monotonic()
             if core.link_down():
                 if self.connected:
                     self._detach()
@@ -187,15 +182,19 @@ class PtySerialDevice(DeviceLoop):
                 continue
             if not self.connected:
                 self._attach()
-            out = bytearray(self._handle_commands())
-            readings = core.due(chunk, max_lag_s=self.max_lag_s if starved else None)
+            replies = self._handle_commands()
+            # A gyro sends on time or not at all: samples overdue by more than the
+            # lateness allowance are lost, whatever held this thread up.
+            readings = core.due(chunk, max_lag_s=self.max_lag_s)
             behind = len(readings) == chunk
             if core.stalled():
                 core.lose(readings)
                 readings = []
+            frames = [(replies, -1, False)] if replies else []
             for reading in readings:
-                out += core.wire(self.codec.encode(self.codec.from_reading(reading)),
+                before = core.ledger.delivered
+                wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
                                  reading.counter, header=self.header)
-            if out:
-                self._write(bytes(out))
-            last_pass = time.monotonic()
+                frames.append((wire, reading.counter, core.ledger.delivered > before))
+            if frames:
+                self._write(frames)

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import socket
+import struct
+import warnings
 from typing import Any, Protocol
 
 import can
+from can.interfaces.udp_multicast.bus import GeneralPurposeUdpMulticastBus, UdpMulticastBus
 
-from devices.errors import DeviceDisconnectedError
+from devices.errors import DeviceDisconnectedError, ExposedBusWarning
+
+#: The interface simulated devices and their recorders meet on: loopback only.
+LOOPBACK = "127.0.0.1"
 
 
 class CanLink(Protocol):
@@ -33,6 +40,49 @@ class CanLink(Protocol):
         """Send a standard-ID data frame."""
 
 
+class _LoopbackGroup(GeneralPurposeUdpMulticastBus):
+    """python-can's multicast socket, on the loopback interface only.
+
+    The socket is bound to the group's address (so no unicast datagram sent to the port
+    reaches it), joins the group on 127.0.0.1 only (a frame multicast on the LAN is not
+    taken), and sends on 127.0.0.1 with a time to live of 0 (nothing leaves the host).
+    """
+
+    def _create_socket(self, address_family: socket.AddressFamily) -> socket.socket:
+        if address_family != socket.AF_INET:
+            raise OSError("a loopback-only bus takes an IPv4 multicast group")
+        sock = socket.socket(address_family, socket.SOCK_DGRAM)
+        try:
+            sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, struct.pack("@I", 0))
+            sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_IF,
+                            socket.inet_aton(LOOPBACK))
+            sock.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_LOOP, 1)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            if hasattr(socket, "SO_REUSEPORT"):
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
+            try:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_TIMESTAMPNS, 1)
+                self.timestamp_nanosecond = True
+            except (OSError, AttributeError):
+                self.timestamp_nanosecond = False
+            sock.bind((self.group, self.port))
+            sock.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
+                            socket.inet_aton(self.group) + socket.inet_aton(LOOPBACK))
+        except OSError:
+            sock.close()
+            raise
+        return sock
+
+
+class LoopbackMulticastBus(UdpMulticastBus):
+    """python-can's ``udp_multicast`` bus confined to this host (see :class:`_LoopbackGroup`)."""
+
+    def __init__(self, channel: str, port: int = 43113, **kwargs: Any) -> None:
+        can.BusABC.__init__(self, channel, **kwargs)
+        self._multicast = _LoopbackGroup(channel, port, 0)
+        self._can_protocol = can.CanProtocol.CAN_FD
+
+
 class CanTransport:
     """A python-can bus opened on demand.
 
@@ -42,25 +92,43 @@ class CanTransport:
         python-can interface (``"socketcan"``, ``"virtual"``, ``"udp_multicast"``, ...).
     channel : str
         Channel (``"can0"``, a virtual channel name, a multicast group).
+    loopback_only : bool
+        For ``udp_multicast``: meet on 127.0.0.1 only (the default). False takes
+        python-can's own socket (every interface, the default route), which anyone on the
+        network can send frames to: it warns (:class:`ExposedBusWarning`).
     bus_kwargs
         Further arguments of :class:`can.Bus` (``bitrate``, ...).
     """
 
-    def __init__(self, interface: str, channel: str, **bus_kwargs: Any) -> None:
+    def __init__(self, interface: str, channel: str, *, loopback_only: bool = True,
+                 **bus_kwargs: Any) -> None:
         self.interface = interface
         self.channel = channel
+        self.loopback_only = loopback_only
         self.bus_kwargs = bus_kwargs
         self.bus: can.BusABC | None = None
 
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:
-        return (("interface", self.interface), ("channel", self.channel),
+        bind = (("bind", "loopback" if self.loopback_only else "all"),
+                ) if self.interface == "udp_multicast" else ()
+        return (("interface", self.interface), ("channel", self.channel), *bind,
                 *((k, str(v)) for k, v in self.bus_kwargs.items()))
+
+    def _make_bus(self) -> can.BusABC:
+        if self.interface != "udp_multicast":
+            return can.Bus(interface=self.interface, channel=self.channel, **self.bus_kwargs)
+        if self.loopback_only:
+            return LoopbackMulticastBus(self.channel, **self.bus_kwargs)
+        warnings.warn(f"CAN bus udp_multicast {self.channel} is open on every network "
+                      f"interface (bind=all): any host on the network can send it frames",
+                      ExposedBusWarning, stacklevel=3)
+        return can.Bus(interface=self.interface, channel=self.channel, **self.bus_kwargs)
 
     def open(self) -> None:
         self.close()
         try:
-            self.bus = can.Bus(interface=self.interface, channel=self.channel, **self.bus_kwargs)
+            self.bus = self._make_bus()
         except (can.CanError, OSError, ValueError) as exc:
             raise DeviceDisconnectedError(f"cannot open CAN {self.interface}:{self.channel}: "
                                           f"{exc}") from exc

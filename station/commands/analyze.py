@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
@@ -14,8 +16,16 @@ from station.commands.arguments import (
     print_notes,
     record_source,
 )
-from station.evaluation.analyze import DEFAULT_METHOD, OUTLIER_POLICIES, format_analysis
+from station.evaluation.analyze import (
+    DEFAULT_METHOD,
+    GMWM_METHOD,
+    OUTLIER_POLICIES,
+    format_analysis,
+)
 from station.evaluation.settings import TAU_GRIDS
+
+if TYPE_CHECKING:
+    from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,9 +43,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--taus", choices=TAU_GRIDS, default="log",
                    help="tau grid: log-spaced to the longest tau with two clusters (default), "
                         "octaves, or every m")
-    p.add_argument("--method", choices=FIT_METHODS, default=DEFAULT_METHOD,
-                   help=f"fit method (default {DEFAULT_METHOD})")
-    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR")
+    p.add_argument("--method", choices=(*FIT_METHODS, GMWM_METHOD), default=DEFAULT_METHOD,
+                   help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized "
+                        f"method of wavelet moments beside the {DEFAULT_METHOD} Allan fit")
+    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR "
+                                                    "(logwls keeps those the data resolve)")
+    p.add_argument("--no-select", dest="select", action="store_false", default=None,
+                   help="logwls: fit every term of --terms, resolved or not")
+    p.add_argument("--model", default="auto", metavar="MODEL",
+                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, "
+                        "rw, dr (e.g. 'wn+gm+rw', 'wn+qn+gm+gm+rw'), or auto (default): ranked "
+                        "by the WIC")
+    p.add_argument("--robust", action="store_true",
+                   help="--method gmwm: robust (Huber-type) wavelet variance, for records with "
+                        "outliers")
+    p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
+                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance "
+                        "with the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     add_bench_argument(p)
@@ -47,9 +71,14 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
     from station.services.analyze import AnalyzeRequest, analyze
 
+    def progress(step: Progress) -> None:
+        print(f"{step.text} ...", file=sys.stderr, flush=True)
+
     result = analyze(AnalyzeRequest(record_source(args), estimator=args.estimator,
                                     deviation=args.deviation, taus=args.taus, method=args.method,
-                                    terms=args.terms, outliers=args.outliers, bench=args.bench))
+                                    terms=args.terms, select=args.select, gmwm_model=args.model,
+                                    robust=args.robust, outliers=args.outliers, bench=args.bench,
+                                    png=args.png), progress)
     print_notes("analyze", result.notes)
     if args.json:
         json.dump(result.as_json(), sys.stdout)
@@ -63,4 +92,6 @@ def run(args: argparse.Namespace) -> int:
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
                   f"(warm-up {selection.warmup_s:g} s from {selection.warmup_from})")
         print(format_analysis(list(result.axes)))
+        if result.png is not None:
+            print(f"figure: {result.png}")
     return 0

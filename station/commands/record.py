@@ -8,8 +8,14 @@ Example::
 Stops at the duration (on each unit's own time base), on Ctrl-C or on SIGTERM, with
 the file closed and the stop reason recorded. ``--json-summary`` ends by printing one
 JSON object per unit: ``{"unit", "samples_recorded", "samples_missing_declared",
-"samples_sent", "gaps", "crc_errors", "reconnects", "file"}`` (``samples_sent``: for a
-simulated unit the simulator's own count of generated samples, null for hardware).
+"samples_missing_low", "samples_missing_high", "samples_sent", "gaps", "crc_errors",
+"reconnects", "file"}`` (``samples_sent``: for a simulated unit the simulator's own count
+of generated samples, null for hardware; it lies within ``samples_recorded`` plus the low
+and the high count of missing samples, which differ only where a counter's wrap count
+was not certain). Each unit runs in a process of its own; at the end the CPU time of each
+(reading, and its simulator) and of the recorder's process is printed (to stderr with
+``--json-summary``; not with ``--quiet``). A full disk stops the run with one message,
+exit status 1.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from station.errors import UsageError
 from station.model.documents import RunStop
 from station.progress import ProgressLine
 from station.recorder import Recorder, RunConfig, parse_duration
+from station.unit_process import cpu_cores
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -130,10 +137,26 @@ def json_summary(recorder: Recorder, stop: RunStop) -> list[dict]:
     for t in stop.totals:
         c = recorder.writer.committed[t.unit_id]
         out.append({"unit": t.url, "samples_recorded": c.samples,
-                    "samples_missing_declared": c.missing, "samples_sent": t.samples_sent,
+                    "samples_missing_declared": c.missing,
+                    "samples_missing_low": c.missing_low,
+                    "samples_missing_high": c.missing_high, "samples_sent": t.samples_sent,
                     "gaps": c.gaps, "crc_errors": c.crc_errors, "reconnects": c.reconnects,
                     "file": str(recorder.path)})
     return out
+
+
+def cpu_lines(recorder: Recorder, stop: RunStop) -> list[str]:
+    """CPU time per unit (its process: reader and simulator) and of the recorder's own
+    process (documents, HDF5), as shares of one core over the run's wall time."""
+    wall = max(recorder.wall_s, 1e-9)
+    lines = [f"CPU over {wall:.1f} s of wall time ({cpu_cores()} cores here):"]
+    for t in stop.totals:
+        sim = max(0.0, t.cpu_s - t.reader_cpu_s)
+        lines.append(f"  {t.unit_id}: {t.cpu_s:.2f} s = {t.cpu_s / wall:.0%} of a core "
+                     f"(reading {t.reader_cpu_s:.2f} s, simulator and the rest {sim:.2f} s)")
+    lines.append(f"  recorder process (documents, HDF5 writer): {recorder.engine_cpu_s:.2f} s = "
+                 f"{recorder.engine_cpu_s / wall:.0%} of a core")
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -153,19 +176,41 @@ def run(args: argparse.Namespace) -> int:
         print(f"{recorder.path}: stopped ({stop.reason})")
         for obj in summary:
             sent_text = "" if obj["samples_sent"] is None else f", sent {obj['samples_sent']}"
+            bounds = ("" if obj["samples_missing_low"] == obj["samples_missing_high"] else
+                      f" (between {obj['samples_missing_low']} and "
+                      f"{obj['samples_missing_high']}: wrap counts not certain)")
             print(f"  {obj['unit']}: recorded {obj['samples_recorded']}, declared missing "
-                  f"{obj['samples_missing_declared']} in {obj['gaps']} gaps{sent_text}, "
-                  f"CRC errors {obj['crc_errors']}, reconnects {obj['reconnects']}")
-    errors = [w for w in recorder.workers if w.error is not None]
-    for w in errors:
-        print(f"station record: {w.unit_id} ended on an error: {w.error}", file=sys.stderr)
-    code = 1 if errors or stop.reason.startswith("disk full") else 0
-    if recorder.writer is not None and recorder.writer.close_failed:
-        # HDF5 could not close the file (its last flush failed on the full disk) and would
-        # crash the interpreter at exit trying again: leave now, as a killed recorder would
-        # (everything committed is intact; `station recover` closes the file).
-        print(f"station record: {stop.reason}; the file could not be closed: run "
-              f"`station recover {recorder.path}` once there is space", file=sys.stderr)
+                  f"{obj['samples_missing_declared']}{bounds} in {obj['gaps']} gaps"
+                  f"{sent_text}, CRC errors {obj['crc_errors']}, reconnects "
+                  f"{obj['reconnects']}")
+    if not args.quiet:
+        print("\n".join(cpu_lines(recorder, stop)),
+              file=sys.stderr if args.json_summary else sys.stdout)
+    for w in recorder.workers:
+        if w.error:
+            print(f"station record: {w.unit_id} ended on an error: {w.error}", file=sys.stderr)
+    writer = recorder.writer
+    failed = writer is not None and writer.failed is not None
+    code = 1 if failed or any(w.error for w in recorder.workers) or \
+        stop.reason.startswith(("disk full", "write error")) else 0
+    if not failed and stop.reason.startswith(("disk full", "write error")):
+        print(f"station record: the run stopped early ({stop.reason}); {recorder.path} is "
+              f"closed with every sample received: free some space before the next run",
+              file=sys.stderr)
+    if failed:
+        assert writer is not None
+        lost = ", ".join(f"{t.unit_id} {writer.uncommitted(t.unit_id)}" for t in stop.totals)
+        print(f"station record: {writer.failed}. The run stopped; every sample committed "
+              f"before is intact (samples received or declared missing after that, not "
+              f"written: {lost}). Free some space, then run `station recover "
+              f"{recorder.path}`", file=sys.stderr)
+    if writer is not None and writer.close_failed:
+        # HDF5 could not close the file (a write failed on the full disk) and would try
+        # again, and fail, at exit: leave now, as a killed recorder would (everything
+        # committed is intact; `station recover` closes the file).
+        if not failed:
+            print(f"station record: {stop.reason}; the file could not be closed: run "
+                  f"`station recover {recorder.path}` once there is space", file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(code)

@@ -23,6 +23,7 @@ from analysis.deviations import (
 from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
+from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
 from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
 from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
@@ -32,6 +33,10 @@ from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
+#: ``--method gmwm``: the GMWM beside the default Allan fit (whose read-offs and terms stay).
+GMWM_METHOD: Literal["gmwm"] = "gmwm"
+#: What ``method`` may name: an Allan fit method, or the GMWM beside the default one.
+AnalysisMethod = FitMethod | Literal["gmwm"]
 #: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`
 #: says they are few (default), always keep them, or remove whatever is flagged.
 OutlierPolicy = Literal["auto", "keep", "remove"]
@@ -136,6 +141,7 @@ class AxisAnalysis:
     tones: tuple[Tone, ...] = ()
     zones: tuple[TauZone, ...] = ()
     curve: DeviationResult | None = None
+    gmwm: GmwmSelection | None = None
 
     @property
     def shown(self) -> DeviationResult:
@@ -174,6 +180,7 @@ class AxisAnalysis:
             "outliers": self.outliers.as_json(),
             "tones": [t.as_dict() for t in self.tones],
             "excluded_taus": [z.as_dict() for z in self.zones],
+            **({"gmwm": self.gmwm.as_json()} if self.gmwm is not None else {}),
         }
 
 
@@ -214,13 +221,20 @@ def analyze_record(
     *,
     estimator: Estimator = "overlapping",
     taus: str | np.ndarray = "log",
-    method: FitMethod = DEFAULT_METHOD,
+    method: AnalysisMethod = DEFAULT_METHOD,
     terms: str = "QNBKR",
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
     deviation_kind: DeviationKind | None = None,
+    select: bool | None = None,
+    gmwm_model: str = "auto",
+    robust: bool = False,
 ) -> list[AxisAnalysis]:
     """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
+
+    ``method="gmwm"`` adds the GMWM (``gmwm_model``: a model string or ``"auto"``
+    selection; ``robust``: the robust wavelet variance) beside the default Allan fit, on
+    the same samples (spikes removed as the rule says, no Haar window across a gap).
 
     Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
     and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
@@ -233,7 +247,8 @@ def analyze_record(
     ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
     the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's
     own grid). ``deviation_kind`` picks the curve shown (default: the Allan deviation of
-    ``estimator``); the fit and the figures stay on the Allan variance.
+    ``estimator``); the fit and the figures stay on the Allan variance. ``select`` is
+    :func:`analysis.fit.fit_noise_terms`' (default: on for logwls).
 
     Raises
     ------
@@ -242,6 +257,8 @@ def analyze_record(
         estimators skip gaps).
     """
     fs = record.sample_rate_hz
+    use_gmwm = method == GMWM_METHOD
+    allan_method: FitMethod = DEFAULT_METHOD if method == GMWM_METHOD else method
     gapped = record.sample_index is not None
     asked = taus
     if isinstance(taus, str) and taus == "log" and not gapped:
@@ -274,7 +291,8 @@ def analyze_record(
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
-        fit, zones = fit_outside_zones(axis, tones, method=method, terms=terms)
+        fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,
+                                       select=select)
         earth_deg_h = earth[i]
         analysed = grid_rate if earth_deg_h is None else grid_rate - earth_deg_h / S_PER_H
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
@@ -289,8 +307,10 @@ def analyze_record(
         curve = None
         if deviation_kind is not None and deviation_kind != own:
             curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
+        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped)
+              if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
-                                analysed, alternative, label, tones, zones, curve))
+                                analysed, alternative, label, tones, zones, curve, gm))
     return out
 
 
@@ -351,13 +371,36 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
              f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
+    if any(a.gmwm is not None for a in axes):
+        lines += gmwm_rows(axes, width, col)
     for a in axes:
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
+        lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
         lines += format_curve(axes)
     return "\n".join(lines)
+
+
+def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int) -> list[str]:
+    """The GMWM lines of the table: model, each parameter +- its standard error, fit test,
+    runner-up."""
+    fits = [a.gmwm for a in axes]
+    keys = list(dict.fromkeys(k for g in fits if g is not None for k in g.best.values))
+    rows: list[tuple[str, list[str]]] = [
+        ("GMWM model", [g.best.model.name if g else "-" for g in fits])]
+    for key in keys:
+        rows.append((f"GMWM {key}", [_fmt(g.best.values[key], g.best.stderr[key])
+                                     if g and key in g.best.values else "-" for g in fits]))
+    rows.append(("GMWM fit J / dof (p)",
+                 [f"{g.best.objective:.3g} / {g.best.dof} ({g.best.p_value:.2g})" if g else "-"
+                  for g in fits]))
+    rows.append(("GMWM runner-up (+WIC)",
+                 [f"{g.runner_up.model} (+{g.runner_up.criterion - g.ranking[0].criterion:.3g})"
+                  if g and g.runner_up else "-" for g in fits]))
+    width = max(width, *(len(label) for label, _ in rows))
+    return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
 
 
 def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:

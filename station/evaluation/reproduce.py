@@ -8,25 +8,71 @@ under 40 % error, WLS by cluster count). We add our own methods beside them.
 
 Our simulation: Q as white angle noise, N as white rate noise, B as flicker rate noise
 from Kasdin's fractional-differencing filter (plateau 0.664 B). The paper does not say
-how it simulated B.
+how it simulated B; :class:`Lv2015Setup` holds the alternatives that
+``benchmarks/lv2015_causes.py`` measures (a single first-order Gauss-Markov process, the
+station's Gauss-Markov bank, another tau grid or estimator, fewer samples).
 """
 
 from __future__ import annotations
 
 import math
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from typing import Any, Literal
 
 import numpy as np
+from scipy import signal
 
-from analysis.allan import cluster_allan_variance
-from analysis.fit import FIT_METHODS, fit_noise_terms
+from analysis.allan import Estimator, allan_variance
+from analysis.curves import gauss_markov_avar
+from analysis.fit import FIT_METHODS, fit_every_method
+from analysis.models import BiasInstability, NoiseModel
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
+from analysis.simulate import simulate
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 
 SAMPLE_RATE_HZ = 10.0
 DURATION_S = 4 * 3600.0
 TERMS = "QNB"
+BiasNoise = Literal["flicker", "markov", "bank"]
+
+
+@dataclass(frozen=True)
+class Lv2015Setup:
+    """How the Monte Carlo simulates and analyses each run (the defaults are the paper's).
+
+    Attributes
+    ----------
+    duration_s, sample_rate_hz : float
+        Record length (s) and rate (Hz): 4 h at 10 Hz in the paper.
+    estimator : {"clusters", "overlapping"}
+        Allan estimator; the paper's eq. 1-2 are the cluster one.
+    max_clusters_m : int
+        The largest m keeps at least this many clusters: 2 is the paper's every m up to
+        N/2; 9 stops at N/9 (Zhang 2015 eq. 20).
+    bias_noise : {"flicker", "markov", "bank"}
+        B as Kasdin flicker noise, as one first-order Gauss-Markov process whose Allan
+        deviation peaks at 0.664 B (``markov_correlation_s``), or as the station's bank of
+        Gauss-Markov processes (:func:`analysis.noise.flicker_bank`).
+    markov_correlation_s : float
+        Correlation time of the single Gauss-Markov process (s).
+    """
+
+    duration_s: float = DURATION_S
+    sample_rate_hz: float = SAMPLE_RATE_HZ
+    estimator: Estimator = "clusters"
+    max_clusters_m: int = 2
+    bias_noise: BiasNoise = "flicker"
+    markov_correlation_s: float = 100.0
+
+    @property
+    def n_samples(self) -> int:
+        """Samples per run."""
+        return int(round(self.duration_s * self.sample_rate_hz))
+
+    def m_values(self) -> np.ndarray:
+        """Every m from 1 up to the last with ``max_clusters_m`` clusters."""
+        return np.arange(1, self.n_samples // self.max_clusters_m + 1)
 PAPER_METHODS = {"ols": "Traditional least square (all data)",
                  "ols40": "Traditional least square (40% error)",
                  "wls": "Weighted least square"}
@@ -75,24 +121,45 @@ PAPER_GYROS = (
 )
 
 
+def _bias_instability(b_deg_s: float, setup: Lv2015Setup, rng: np.random.Generator) -> np.ndarray:
+    n, fs = setup.n_samples, setup.sample_rate_hz
+    if setup.bias_noise == "flicker":
+        return flicker_rate_noise(b_deg_s, n, fs, rng)
+    if setup.bias_noise == "markov":
+        # one exponentially correlated rate whose Allan deviation peaks at 0.664 B
+        t = setup.markov_correlation_s
+        peak = float(np.max(gauss_markov_avar(np.geomspace(0.01, 100, 2001) * t, 1.0, t)))
+        sigma = 0.664 * b_deg_s / math.sqrt(peak)
+        a = math.exp(-1.0 / (fs * t))
+        drive = sigma * math.sqrt(1.0 - a * a) * rng.standard_normal(n)
+        state = sigma * rng.standard_normal()
+        return signal.lfilter([1.0], [1.0, -a], drive, zi=[a * state])[0]
+    if setup.bias_noise == "bank":
+        model = NoiseModel((BiasInstability(B_deg_h=b_deg_s * 3600.0),))
+        seed = int(rng.integers(2**63))
+        return simulate(model, setup.duration_s, fs, seed=seed).rate_deg_s[:, 0]
+    raise ValueError(f"unknown bias noise {setup.bias_noise!r}; use flicker, markov or bank")
+
+
 def simulate_paper_gyro(true: dict[str, float], rng: np.random.Generator,
-                        n_samples: int = int(DURATION_S * SAMPLE_RATE_HZ)) -> np.ndarray:
+                        setup: Lv2015Setup | None = None) -> np.ndarray:
     """One simulated static run (deg/s) with the paper gyro's Q (urad), N (deg/sqrt(h)), B (deg/h)."""
-    fs = SAMPLE_RATE_HZ
-    return (white_angle_noise(q_urad_to_deg(true["Q"]), n_samples, fs, rng)
-            + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(true["N"]), n_samples, fs, rng)
-            + flicker_rate_noise(rate_deg_h_to_deg_s(true["B"]), n_samples, fs, rng))
+    setup = setup or Lv2015Setup()
+    n, fs = setup.n_samples, setup.sample_rate_hz
+    return (white_angle_noise(q_urad_to_deg(true["Q"]), n, fs, rng)
+            + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(true["N"]), n, fs, rng)
+            + _bias_instability(rate_deg_h_to_deg_s(true["B"]), setup, rng))
 
 
-def _one_run(task: tuple[int, np.random.SeedSequence]) -> tuple[int, dict[str, list]]:
+def _one_run(task: tuple[int, np.random.SeedSequence, Lv2015Setup]) -> tuple[int, dict[str, list]]:
     """Simulate one run of one gyro and fit it with every method: {method: [[Q,N,B],[stderrs]]}."""
-    gyro_index, seed_seq = task
+    gyro_index, seed_seq, setup = task
     gyro = PAPER_GYROS[gyro_index]
-    rate = simulate_paper_gyro(gyro.true, np.random.default_rng(seed_seq))
-    allan = cluster_allan_variance(rate, SAMPLE_RATE_HZ, taus="all")
+    rate = simulate_paper_gyro(gyro.true, np.random.default_rng(seed_seq), setup)
+    allan = allan_variance(rate, setup.sample_rate_hz, estimator=setup.estimator,
+                           taus=setup.m_values() / setup.sample_rate_hz)
     out: dict[str, list] = {}
-    for method in FIT_METHODS:
-        fit = fit_noise_terms(allan, method=method, terms=TERMS)
+    for method, fit in fit_every_method(allan, terms=TERMS).items():
         values = [math.nan if fit.values[t] is None else fit.values[t] for t in TERMS]
         errors = [math.nan if fit.stderr[t] is None else fit.stderr[t] for t in TERMS]
         out[method] = [values, errors]
@@ -104,39 +171,45 @@ def _stats(true: float, values: np.ndarray, stderrs: np.ndarray) -> dict[str, fl
     negative = int((~ok).sum())
     if not ok.any():
         return {"mean": None, "error_percent": None, "std": None, "negative": negative,
-                "rms_error_percent": None, "mean_stderr": None}
+                "rms_error_percent": None, "mean_stderr": None, "coverage": None}
     v = values[ok]
     mean = float(v.mean())
     se = stderrs[ok]
+    has_se = np.isfinite(se)
     return {
         "mean": mean,
         "error_percent": abs(mean - true) / true * 100.0,
         "std": float(v.std(ddof=1)) if len(v) > 1 else 0.0,
         "negative": negative,
         "rms_error_percent": float(np.sqrt(np.mean((v - true) ** 2))) / true * 100.0,
-        "mean_stderr": float(np.nanmean(se)) if np.isfinite(se).any() else None,
+        "mean_stderr": float(np.mean(se[has_se])) if has_se.any() else None,
+        # the share of runs whose value +- its own standard error holds the truth (68 % if honest)
+        "coverage": float(np.mean(np.abs(v[has_se] - true) <= se[has_se])) if has_se.any() else None,
     }
 
 
-def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2,
-                     progress=None) -> dict[str, object]:
+def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2, progress=None,
+                     setup: Lv2015Setup | None = None, gyros: tuple[str, ...] | None = None
+                     ) -> dict[str, object]:
     """Run the Monte Carlo and return the table as a JSON-ready dict.
 
-    ``{"runs", "seed", "sample_rate_hz", "duration_s", "gyros": [{"name", "table", "true",
-    "methods": [{"method", "paper_label", "Q": stats, "N": stats, "B": stats,
+    ``{"runs", "seed", "sample_rate_hz", "duration_s", "setup", "gyros": [{"name", "table",
+    "true", "methods": [{"method", "paper_label", "Q": stats, "N": stats, "B": stats,
     "paper": {"Q": {"mean", "error_percent", "std"} or None, ...} or None}]}]}`` where
     stats are ``mean``, ``error_percent`` (of the mean), ``std``, ``negative`` (count of
-    negative estimates, left out of the mean), ``rms_error_percent`` and ``mean_stderr``
-    (the fit's own standard error, averaged: compare it with ``std``).
-    ``progress(done, total)`` is called after each run.
+    negative estimates, left out of the mean), ``rms_error_percent``, ``mean_stderr`` (the
+    fit's own standard error, averaged: compare it with ``std``) and ``coverage`` (share
+    of runs whose estimate +- its standard error holds the true value; 0.68 when honest).
+    ``progress(done, total)`` is called after each run; ``gyros`` limits the study to
+    the named gyros.
     """
     if runs < 2:
         raise ValueError("runs must be at least 2 to give a standard deviation")
+    setup = setup or Lv2015Setup()
+    chosen = [g for g, gyro in enumerate(PAPER_GYROS) if gyros is None or gyro.name in gyros]
     seeds = np.random.SeedSequence(seed).spawn(len(PAPER_GYROS) * runs)
-    tasks = [(g, seeds[g * runs + r]) for g in range(len(PAPER_GYROS)) for r in range(runs)]
-    collected: list[dict[str, list]] = [dict() for _ in PAPER_GYROS]
-    for g in range(len(PAPER_GYROS)):
-        collected[g] = {m: [] for m in FIT_METHODS}
+    tasks = [(g, seeds[g * runs + r], setup) for g in chosen for r in range(runs)]
+    collected: dict[int, dict[str, list]] = {g: {m: [] for m in FIT_METHODS} for g in chosen}
     done = 0
     if workers > 1:
         with ProcessPoolExecutor(max_workers=workers) as pool:
@@ -155,8 +228,9 @@ def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2,
             done += 1
             if progress:
                 progress(done, len(tasks))
-    gyros = []
-    for g, gyro in enumerate(PAPER_GYROS):
+    table = []
+    for g in chosen:
+        gyro = PAPER_GYROS[g]
         methods = []
         for m in FIT_METHODS:
             arr = np.array(collected[g][m], dtype=float)  # runs x 2 x 3
@@ -165,27 +239,34 @@ def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2,
                 entry[term] = _stats(gyro.true[term], arr[:, 0, i], arr[:, 1, i])
             pub = gyro.published.get(m)
             entry["paper"] = None if pub is None else {
-                t: None if pub[t] is None else dict(zip(("mean", "error_percent", "std"), pub[t], strict=True))
+                t: None if (cell := pub[t]) is None
+                else dict(zip(("mean", "error_percent", "std"), cell, strict=True))
                 for t in TERMS
             }
             methods.append(entry)
-        gyros.append({"name": gyro.name, "table": gyro.table, "true": gyro.true, "methods": methods})
-    return {"runs": runs, "seed": seed, "sample_rate_hz": SAMPLE_RATE_HZ, "duration_s": DURATION_S,
-            "terms": TERMS, "gyros": gyros}
+        table.append({"name": gyro.name, "table": gyro.table, "true": gyro.true, "methods": methods})
+    return {"runs": runs, "seed": seed, "sample_rate_hz": setup.sample_rate_hz,
+            "duration_s": setup.duration_s, "terms": TERMS, "setup": asdict(setup), "gyros": table}
 
 
-def format_reproduction(table: dict[str, object]) -> str:
+def format_reproduction(table: dict[str, Any]) -> str:
     """The paper's table layout, ours beside the published values, as plain text."""
     units = {"Q": "Q [urad]", "N": "N [deg/sqrt(h)]", "B": "B [deg/h]"}
+    setup = table.get("setup", {})
+    grid = ("every m" if setup.get("max_clusters_m", 2) == 2 else
+            f"every m up to N/{setup['max_clusters_m']}")
     lines = [f"Lv 2015 Monte Carlo: {table['runs']} runs, seed {table['seed']}, "
-             f"{table['duration_s'] / 3600:g} h at {table['sample_rate_hz']:g} Hz, cluster AVAR at every m"]
+             f"{table['duration_s'] / 3600:g} h at {table['sample_rate_hz']:g} Hz, "
+             f"{setup.get('estimator', 'clusters')} AVAR at {grid}, B as {setup.get('bias_noise', 'flicker')} noise",
+             "std: over the runs; [se: the fit's own standard error averaged over the runs, and the "
+             "share of runs whose estimate +- se holds the true value, 68 % when honest]"]
 
-    for gyro in table["gyros"]:  # type: ignore[union-attr]
+    for gyro in table["gyros"]:
         lines.append("")
         true = gyro["true"]
         lines.append(f"{gyro['name']} (paper {gyro['table']}): true " +
                      ", ".join(f"{units[t]} = {true[t]:.4g}" for t in "QNB"))
-        lines.append(f"{'method':<8} {'':<6} " + "".join(f"{units[t]:>34}" for t in "QNB"))
+        lines.append(f"{'method':<8} {'':<6} " + "".join(f"{units[t]:>36}" for t in "QNB"))
         for m in gyro["methods"]:
             for who, stats in (("ours", {t: m[t] for t in "QNB"}), ("paper", m["paper"])):
                 if stats is None:
@@ -194,15 +275,16 @@ def format_reproduction(table: dict[str, object]) -> str:
                 for t in "QNB":
                     s = stats[t]
                     if s is None or s.get("mean") is None:
-                        row_mean.append(f"{'-':>34}")
-                        row_std.append(f"{'-':>34}")
+                        row_mean.append(f"{'-':>36}")
+                        row_std.append(f"{'-':>36}")
                         continue
                     neg = f" neg {s['negative']:2d}" if "negative" in s else "       "
-                    row_mean.append(f"{s['mean']:>15.4e} ({s['error_percent']:5.1f}%){neg}")
+                    row_mean.append(f"{s['mean']:>17.4e} ({s['error_percent']:5.1f}%){neg}")
                     sd = f"{s['std']:.4e}"
-                    if s.get("mean_stderr") is not None:
-                        sd += f" [fit se {s['mean_stderr']:.2e}]"
-                    row_std.append(f"{sd:>34}")
+                    if "mean_stderr" in s:
+                        sd += (" [se n/a]" if s["mean_stderr"] is None else
+                               f" [se {s['mean_stderr']:.2e} {100 * s['coverage']:3.0f}%]")
+                    row_std.append(f"{sd:>36}")
                 lines.append(f"{m['method']:<8} {who:<6} mean" + "".join(row_mean))
                 lines.append(f"{'':<8} {'':<6} std " + "".join(row_std))
     return "\n".join(lines)

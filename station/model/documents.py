@@ -23,8 +23,8 @@ from numpy.typing import NDArray
 from devices.protocols import DeviceDescription, Gap, SampleBatch
 
 #: Kinds of event-log entries: the adapters' link events, plus the recorder's own.
-LOG_KINDS = ("connect", "disconnect", "reconnect", "crc_error", "resync", "timeout", "gap",
-             "error", "end")
+LOG_KINDS = ("connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
+             "bad_sample", "gap", "error", "end")
 
 
 def utc_now() -> str:
@@ -132,13 +132,16 @@ class LogEntry:
     count : int
         How many (CRC errors, bytes skipped); 1 otherwise.
     missing_samples : int
-        For a gap: exact number of samples lost.
+        For a gap: number of samples lost (the best count).
     after_counter : int
         For a gap: unwrapped counter of the last sample before it (-1 otherwise).
     method : str
         For a gap: how it was counted (``counter``, ``counter+elapsed``, ``device_time``).
     detail : str
         Free text.
+    missing_low, missing_high : int or None
+        For a gap: the fewest and most samples it may have lost (a counter whose wrap
+        count the timing cannot pin down); None: exactly ``missing_samples``.
     """
 
     kind: str
@@ -148,6 +151,18 @@ class LogEntry:
     after_counter: int = -1
     method: str = ""
     detail: str = ""
+    missing_low: int | None = None
+    missing_high: int | None = None
+
+    @property
+    def low(self) -> int:
+        """The fewest samples this entry may have lost (a gap's bound; 0 otherwise)."""
+        return self.missing_samples if self.missing_low is None else self.missing_low
+
+    @property
+    def high(self) -> int:
+        """The most samples this entry may have lost (a gap's bound; 0 otherwise)."""
+        return self.missing_samples if self.missing_high is None else self.missing_high
 
 
 @dataclass(frozen=True)
@@ -174,11 +189,32 @@ class EventBatch:
         log = [LogEntry(e.kind, e.receive_time_s - t0_s, e.count, detail=e.detail)
                for e in batch.events]
         log += [LogEntry("gap", _gap_time_s(batch, g) - t0_s, 1, g.missing_samples,
-                         g.after_counter, g.method) for g in batch.gaps]
+                         g.after_counter, g.method, missing_low=g.low, missing_high=g.high)
+                for g in batch.gaps]
         log += list(extra_log)
         log.sort(key=lambda e: e.time_s)
         return cls(unit_id, seq, batch.rate_deg_s, batch.counter, batch.receive_time_s - t0_s,
                    batch.status, batch.device_time_s, batch.temperature_c, tuple(log))
+
+    @classmethod
+    def join(cls, batches: Sequence[EventBatch]) -> EventBatch:
+        """One batch holding ``batches`` (of one unit, in order) one after the other; it
+        takes the first one's ``seq``."""
+        first = batches[0]
+        if len(batches) == 1:
+            return first
+        full = [b for b in batches if len(b)] or [first]
+
+        def cat(name: str) -> NDArray | None:
+            parts = [getattr(b, name) for b in full]
+            return None if any(p is None for p in parts) else np.concatenate(parts)
+
+        return cls(first.unit_id, first.seq,
+                   np.concatenate([b.rate_deg_s for b in full]),
+                   np.concatenate([b.counter for b in full]),
+                   np.concatenate([b.receive_time_s for b in full]),
+                   np.concatenate([b.status for b in full]), cat("device_time_s"),
+                   cat("temperature_c"), tuple(e for b in batches for e in b.log))
 
 
 def _gap_time_s(batch: SampleBatch, gap: Gap) -> float:
@@ -197,7 +233,10 @@ class UnitTotals:
     """What one unit recorded, for the stop document and ``--json-summary``.
 
     ``samples_sent`` is the simulator's own count of samples it generated (None for real
-    hardware): ``samples_recorded + samples_missing_declared`` must equal it.
+    hardware): it must lie within ``samples_recorded + samples_missing_low`` and
+    ``samples_recorded + samples_missing_high`` (equal bounds where every gap's count is
+    certain). ``cpu_s`` is the CPU time of the unit's process (its reader, and its
+    simulator if it has one), ``reader_cpu_s`` the reading thread's alone, s.
     """
 
     unit_id: str
@@ -208,6 +247,11 @@ class UnitTotals:
     crc_errors: int
     reconnects: int
     samples_sent: int | None = None
+    samples_missing_low: int = 0
+    samples_missing_high: int = 0
+    bad_samples: int = 0
+    cpu_s: float = 0.0
+    reader_cpu_s: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -235,6 +279,9 @@ class UnitTally:
     disconnects: int = 0
     last_time_s: float = 0.0
     connected: bool = True
+    missing_low: int = 0
+    missing_high: int = 0
+    bad_samples: int = 0
 
     def add(self, batch: EventBatch) -> None:
         """Count a batch's samples and log entries."""
@@ -244,8 +291,13 @@ class UnitTally:
             self.connected = True
         for entry in batch.log:
             if entry.kind == "gap":
-                self.gaps += 1
+                # A gap whose best count is 0 only says whole wraps may be missing.
+                self.gaps += 1 if entry.missing_samples else 0
                 self.missing += entry.missing_samples
+                self.missing_low += entry.low
+                self.missing_high += entry.high
+            elif entry.kind == "bad_sample":
+                self.bad_samples += entry.count
             elif entry.kind == "crc_error":
                 self.crc_errors += entry.count
             elif entry.kind == "reconnect":

@@ -163,6 +163,9 @@ class Profile:
         Profile name (its file stem by convention), its version, the gyro model it tests.
     sample_rate_hz : float or None
         Output rate to configure, Hz; None to take the device's (or record's) rate.
+    range_deg_s : float or None
+        Measurement range, deg/s: the recorder takes a sample whose rate is larger on any
+        axis for a bad one (a corrupted frame its checksum let through); None: no check.
     axes : tuple of str
         Axes to record and grade.
     duration_s, warmup_s : float
@@ -209,6 +212,7 @@ class Profile:
     source: str = ""
     path: str = ""
     sha256: str = ""
+    range_deg_s: float | None = None
 
     def figure(self, name: str) -> FigureSpec:
         """The figure spec named ``name``."""
@@ -329,7 +333,7 @@ def _get(data: dict[str, Any], key: tuple[str, ...]) -> Any:
 
 _TOP_KEYS = {"name", "version", "model", "description", "source", "transport", "settings", "test",
              "grading", "figures"}
-_TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method"}
+_TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method", "range_deg_s"}
 _GRADING_KEYS = {"rule", "confidence", "grades", "reject", "figure_source"}
 _FIGURE_KEYS = {"unit", "limits"}
 
@@ -386,6 +390,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         version=c.string(data, ("version",), allow_int=True),
         model=c.string(data, ("model",)),
         sample_rate_hz=c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True),
+        range_deg_s=c.number(test, ("test", "range_deg_s"), positive=True, optional=True),
         axes=c.strings(test, ("test", "axes")),
         duration_s=duration,
         warmup_s=warmup,

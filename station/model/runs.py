@@ -16,7 +16,9 @@ from station.model.records import RateRecord
 class RunEvent:
     """One entry of a run's event log (connect, disconnect, crc_error, resync, gap, ...).
 
-    ``time_s`` is station time from the run start (s); ``missing_samples`` is set for gaps.
+    ``time_s`` is station time from the run start (s); ``missing_samples`` is set for gaps,
+    and ``missing_low``/``missing_high`` bound it where a counter's wrap count was not
+    certain (None: the count is exact, or the file predates the bounds).
     """
 
     unit_id: str
@@ -25,6 +27,8 @@ class RunEvent:
     count: int = 1
     missing_samples: int = 0
     detail: str = ""
+    missing_low: int | None = None
+    missing_high: int | None = None
 
 
 @dataclass(frozen=True)

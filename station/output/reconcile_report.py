@@ -80,6 +80,10 @@ def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
             lines.append(f"    explains tau {_fmt(e.tau_range_s[0])}-{_fmt(e.tau_range_s[1])} s; gap "
                          f"{_fmt(e.gap_before)} -> {_fmt(e.gap_after)}; Delta BIC {e.delta_bic:.1f}"
                          + (f"; {e.evidence}" if e.evidence else ""))
+            if e.alternatives:
+                what = "GMWM score" if e.criterion == "gmwm" else "Delta BIC"
+                others = ", ".join(f"{a.name} ({a.change}, {a.score:.3g})" for a in e.alternatives)
+                lines.append(f"    about as good ({what}; this one {e.score:.3g}): {others}")
     lines.append(_comparison_line("model after", result.after, opt.alpha))
     lines.append("model after (TOML):")
     lines.extend("  " + line for line in result.model_after.to_toml().splitlines())

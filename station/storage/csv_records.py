@@ -20,6 +20,7 @@ import gzip
 import io
 import math
 import warnings
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import IO
@@ -65,6 +66,16 @@ def read_csv_record(
     path = Path(path)
     if units not in UNIT_TO_DEG_S:
         raise RecordFormatError(f"unknown rate unit {units!r}; use one of {', '.join(UNIT_TO_DEG_S)}")
+    try:
+        return _read_csv(path, sample_rate_hz, units)
+    except (UnicodeDecodeError, EOFError, zlib.error, gzip.BadGzipFile) as exc:
+        raise RecordFormatError(f"{path}: not a text CSV record (its bytes are not UTF-8 "
+                                f"text{' compressed with gzip' if path.suffix == '.gz' else ''}"
+                                f": {type(exc).__name__}); give a CSV file or a run file "
+                                f"(.h5)") from None
+
+
+def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecord:
     with _open_text(path) as fh:
         header: list[str] | None = None
         header_line = 0

@@ -38,6 +38,8 @@ def read_record(
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(2, "No such file", str(path))
+    if path.is_dir():
+        raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
     if is_run_file(path):
         from station.hdf5 import read_run_record  # the recorder's layout
 

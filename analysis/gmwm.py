@@ -1,0 +1,493 @@
+"""The generalized method of wavelet moments (GMWM): a noise model fitted to the Haar WV.
+
+The estimator (Guerrier, Skaloud, Stebler and Victoria-Feser, JASA 108 (2013) 776, eq. 5)
+minimizes the weighted distance between the empirical wavelet variance ``nu_hat``
+(:mod:`analysis.wavelet`) and the model's ``nu(theta)`` (:mod:`analysis.gmwm_models`):
+
+    theta_hat = argmin (nu_hat - nu(theta))' Omega (nu_hat - nu(theta))                 (M1)
+
+**Weights.** ``Omega = V^-1``, ``V`` the covariance of ``nu_hat``, makes the estimator
+efficient among these (the efficient GMWM, eq. 7 there). ``V`` is estimated in two steps:
+first the diagonal of the nonparametric variances of ``nu_hat`` (Percival-Walden, from
+the data alone), then the full ``V`` of :mod:`analysis.gmwm_covariance` at the first
+estimate, and once more at the second (``steps``). When that matrix cannot be factored
+(or with ``weights="diagonal"``), its diagonal is used: the diagonal fallback.
+
+**Misspecified models.** A record of a million samples resolves the finest scales' WV
+to 0.1 %, better than any model of a real sensor holds (an anti-alias filter, the output
+quantization). With efficient weights such a model is then fitted through those scales at
+the price of every other, and the strongly correlated ``V`` can even put the fitted curve
+above all the data. When the J test below rejects the model (``p < REJECT_P``), its
+weights get a relative floor ``(model_error nu(theta))^2`` on the diagonal of ``V`` (2 %,
+the floor of the ``logwls`` Allan fit) and it is refitted; ``weights`` then ends in
+``"+floor"``. A model that holds keeps the efficient weights.
+
+**Solution.** For fixed correlation times the model is linear in its variance parameters,
+so M1 is a non-negative least-squares problem in them; a grid over the correlation times
+(``GRID_PER_OCTAVE``, ordered ``T_1 < T_2 < ...``) with NNLS in the variances gives global
+starting values, together with the five-term Allan fit's values (``logwls``,
+:func:`analysis.fit.fit_noise_terms` on the octave Allan curve ``2 nu_hat``) for the
+terms the two share; ``scipy.optimize.least_squares`` refines the best starts under
+``v >= 0`` and ``dt <= T <= N dt``. Each re-weighting starts from the previous solution;
+the last one also from the grid and the Allan fit again, since the first step's weights
+can leave the solution in a local minimum the efficient weights do not prefer.
+
+**Uncertainty.** ``cov(theta_hat) = (D' Omega D)^-1`` with ``D = d nu / d theta`` (eq. 8
+there with ``Omega = V^-1``), over the parameters not held at a bound, multiplied by
+``max(J / dof, 1)``: a model the test below rejects has standard errors widened by its
+misfit instead of the ones of a model that held. Values and errors are in data-sheet
+units (delta method); intervals are ``exp(log x +- z se/x)`` for positive values.
+
+**Goodness of fit.** ``J = (nu_hat - nu(theta_hat))' V^-1 (nu_hat - nu(theta_hat))`` is
+Hansen's over-identification statistic, chi-square with ``levels - free parameters``
+degrees of freedom when the model holds.
+
+Model selection among candidate models is :mod:`analysis.gmwm_selection`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import linalg, optimize, stats
+
+from analysis.allan import AllanResult
+from analysis.confidence import ONE_SIGMA, local_noise_alpha
+from analysis.errors import FitError, TooFewSamplesError
+from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
+from analysis.gmwm_covariance import wv_covariance
+from analysis.gmwm_models import GmwmModel
+from analysis.wavelet import WaveletVariance
+
+#: Correlation-time grid points per octave for one, two, three or more shaped terms.
+GRID_PER_OCTAVE = {1: 4, 2: 2, 3: 1}
+#: Starts refined by least squares with two or more correlation times (else the best one).
+REFINED_STARTS = 2
+#: Condition number above which V falls back to its diagonal.
+MAX_CONDITION = 1e13
+#: A model whose J test gives a p-value below this gets the model-error floor in its weights.
+REJECT_P = 1e-3
+#: Five-term Allan fit letter of each GMWM term.
+ALLAN_TERM = {"qn": "Q", "wn": "N", "bi": "B", "rw": "K", "dr": "R"}
+
+
+@dataclass(frozen=True)
+class GmwmFit:
+    """A noise model fitted to a Haar wavelet variance.
+
+    Attributes
+    ----------
+    model : GmwmModel
+        The model (``model.name`` e.g. ``"wn+gm+rw"``).
+    params : ndarray
+        Internal parameters (:mod:`analysis.gmwm_models`).
+    cov : ndarray
+        Their covariance (zero rows for parameters held at a bound).
+    values, stderr, ci_low, ci_high : dict
+        Data-sheet values (keys with units, e.g. ``gm_sigma_deg_h``), standard errors and
+        interval at ``confidence``.
+    objective : float
+        J of the final weights.
+    dof : int
+        Levels minus free parameters.
+    p_value : float
+        P(chi2_dof >= J); NaN with no degree of freedom.
+    weights : str
+        ``"efficient"`` (full V), ``"diagonal"`` (its diagonal) or ``"reference"`` (the
+        V of another model, as in model selection); ``"+floor"`` when the model was
+        rejected and its weights floored (``model_error``).
+    tau_s, wv, model_wv : ndarray
+        Averaging times (s), empirical and fitted wavelet variance ((deg/s)^2).
+    sample_rate_hz : float
+    n_samples : int
+    free : tuple of bool
+        Which parameters are not held at a bound.
+    confidence : float
+    model_error : float
+        The relative floor added to the weights' variances (0: none).
+    """
+
+    model: GmwmModel
+    params: NDArray[np.float64]
+    cov: NDArray[np.float64]
+    values: dict[str, float]
+    stderr: dict[str, float]
+    ci_low: dict[str, float]
+    ci_high: dict[str, float]
+    objective: float
+    dof: int
+    p_value: float
+    weights: str
+    tau_s: NDArray[np.float64]
+    wv: NDArray[np.float64]
+    model_wv: NDArray[np.float64]
+    sample_rate_hz: float
+    n_samples: int
+    free: tuple[bool, ...]
+    confidence: float = ONE_SIGMA
+    model_error: float = 0.0
+
+    @property
+    def n_free(self) -> int:
+        """Number of free parameters."""
+        return int(sum(self.free))
+
+    def model_wv_at(self, tau_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Fitted model's WV ((deg/s)^2) at any ``tau_s`` (its Allan variance is twice this)."""
+        return self.model.wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
+
+    def term_wv_at(self, tau_s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Each term's WV ((deg/s)^2), shape (n_terms, n_tau)."""
+        return self.model.term_wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
+
+    def as_json(self) -> dict[str, object]:
+        """JSON form: model, params, stderr (same keys), intervals, fit statistics, the WV."""
+        def clean(d: dict[str, float]) -> dict[str, float | None]:
+            return {k: (v if math.isfinite(v) else None) for k, v in d.items()}
+
+        return {"model": self.model.name, "params": clean(self.values), "stderr": clean(self.stderr),
+                "ci_low": clean(self.ci_low), "ci_high": clean(self.ci_high),
+                "confidence": self.confidence, "objective": self.objective, "dof": self.dof,
+                "p_value": self.p_value if math.isfinite(self.p_value) else None,
+                "weights": self.weights, "wv_tau_s": self.tau_s.tolist(), "wv": self.wv.tolist(),
+                "model_wv": self.model_wv.tolist()}
+
+
+# ------------------------------------------------------------------------------ the solver
+
+
+class _Problem:
+    """One model against one empirical WV: scaling, bounds, residuals and Jacobian of M1."""
+
+    def __init__(self, model: GmwmModel, wv: WaveletVariance) -> None:
+        self.model, self.wv = model, wv
+        self.tau = np.asarray(wv.tau_s, dtype=float)
+        self.nu = np.asarray(wv.wv, dtype=float)
+        if self.nu.ndim != 1:
+            raise FitError("fit one axis at a time: pass wv.axis(i)")
+        self.dt = 1.0 / wv.sample_rate_hz
+        self.slices = model.slices()
+        self.var_idx = [iv for iv, _ in self.slices]
+        self.shape_idx = [ish for _, ish in self.slices if ish is not None]
+        n = model.n_params
+        # each variance scaled by the largest value whose term stays under the data everywhere
+        self.scale = np.ones(n)
+        self.lower, self.upper = np.zeros(n), np.full(n, np.inf)
+        self.t_lo, self.t_hi = math.log(self.dt), math.log(wv.n_samples * self.dt)
+        for kind, (iv, ish) in zip(model.kinds, self.slices, strict=True):
+            unit = kind.unit_wv(self.tau, 0.5 * (self.t_lo + self.t_hi), self.dt)
+            self.scale[iv] = float(np.min(self.nu / np.maximum(unit, 1e-300)))
+            if ish is not None:
+                self.lower[ish], self.upper[ish] = self.t_lo, self.t_hi
+        self.scale[self.scale <= 0] = 1.0
+        self.whiten = np.eye(len(self.tau))
+
+    def theta(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        p = np.array(x, dtype=float)
+        p[self.var_idx] = p[self.var_idx] * self.scale[self.var_idx]
+        return p
+
+    def x_of(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        x = np.array(theta, dtype=float)
+        x[self.var_idx] = x[self.var_idx] / self.scale[self.var_idx]
+        return np.clip(x, self.lower, self.upper)
+
+    def set_weights(self, v: NDArray[np.float64], *, diagonal: bool = False) -> str:
+        """Whitening by ``V = L L'`` (or by its diagonal, the fallback); returns which."""
+        d = np.sqrt(np.diag(v))
+        if not diagonal:
+            corr = v / np.outer(d, d)
+            try:
+                if np.linalg.cond(corr) < MAX_CONDITION:
+                    chol = linalg.cholesky(corr, lower=True)
+                    self.whiten = linalg.solve_triangular(chol, np.eye(len(d)), lower=True) / d[None, :]
+                    return "efficient"
+            except (linalg.LinAlgError, ValueError):
+                pass
+        self.whiten = np.diag(1.0 / d)
+        return "diagonal"
+
+    def _apply(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``L^-1 y`` with ``V = L L'``."""
+        return self.whiten @ y
+
+    def nu_jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """d nu / d x, (levels, params)."""
+        p = self.theta(x)
+        jac = np.zeros((len(self.tau), len(p)))
+        for kind, (iv, ish) in zip(self.model.kinds, self.slices, strict=True):
+            shape = float(p[ish]) if ish is not None else 0.0
+            jac[:, iv] = kind.unit_wv(self.tau, shape, self.dt) * self.scale[iv]
+            if ish is not None:
+                h = 1e-5
+                jac[:, ish] = p[iv] * (kind.unit_wv(self.tau, shape + h, self.dt)
+                                       - kind.unit_wv(self.tau, shape - h, self.dt)) / (2 * h)
+        return jac
+
+    def residual(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self._apply(self.nu - self.model.wv(self.theta(x), self.tau, self.dt))
+
+    def jacobian(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return -self._apply(self.nu_jacobian(x))
+
+    def objective(self, x: NDArray[np.float64]) -> float:
+        r = self.residual(x)
+        return float(r @ r)
+
+    # ---------------------------------------------------------------------- starting values
+
+    def _columns(self, shapes: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Whitened WV columns of each term (scaled variance 1) at shape values ``shapes``."""
+        cols = np.zeros((len(self.tau), len(self.var_idx)))
+        for c, (kind, (iv, ish)) in enumerate(zip(self.model.kinds, self.slices, strict=True)):
+            shape = float(shapes[self.shape_idx.index(ish)]) if ish is not None else 0.0
+            cols[:, c] = kind.unit_wv(self.tau, shape, self.dt) * self.scale[iv]
+        return self._apply(cols)
+
+    def grid_starts(self, count: int) -> list[NDArray[np.float64]]:
+        """The ``count`` best grid points: NNLS in the variances at every combination of grid
+        correlation times (increasing within a repeated term)."""
+        b = self._apply(self.nu)
+        n_shaped = len(self.shape_idx)
+        x = np.zeros(self.model.n_params)
+        if n_shaped == 0:
+            x[self.var_idx] = optimize.nnls(self._columns(np.zeros(0)), b)[0]
+            return [x]
+        per_octave = GRID_PER_OCTAVE.get(n_shaped, 1)
+        n_points = max(int((self.t_hi - self.t_lo) / math.log(2.0) * per_octave) + 1, n_shaped)
+        grid = np.linspace(self.t_lo, self.t_hi - math.log(2.0), n_points)
+        shaped = [(c, kind, ish) for c, (kind, (_, ish)) in enumerate(zip(self.model.kinds, self.slices, strict=True))
+                  if ish is not None]
+        base = self._columns(np.full(n_shaped, grid[0]))
+        tables = {}
+        for _c, kind, _ in shaped:
+            if kind.code not in tables:
+                unit = kind.unit_wv(self.tau[None, :], grid[:, None], self.dt)
+                tables[kind.code] = (self.whiten @ unit.T).T
+        groups = {code: [c for c, kind, _ in shaped if kind.code == code] for code in tables}
+        per_group = [list(itertools.combinations(range(n_points), len(cols))) for cols in groups.values()]
+        scored = []
+        for combo in itertools.product(*per_group):
+            a = base.copy()
+            for (code, cols), picks in zip(groups.items(), combo, strict=True):
+                for c, g in zip(cols, picks, strict=True):
+                    a[:, c] = tables[code][g] * self.scale[self.var_idx[c]]
+            u, norm = optimize.nnls(a, b, maxiter=50 * a.shape[1])
+            scored.append((norm, u, combo))
+        scored.sort(key=lambda item: item[0])
+        starts = []
+        for _, u, combo in scored[:count]:
+            x = np.zeros(self.model.n_params)
+            x[self.var_idx] = u
+            for (_, cols), picks in zip(groups.items(), combo, strict=True):
+                for c, g in zip(cols, picks, strict=True):
+                    x[self.slices[c][1]] = grid[g]
+            starts.append(x)
+        return starts
+
+    def allan_start(self, base: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """``base`` with the terms the five-term Allan fit shares set from its logwls fit."""
+        letters = "".join(ALLAN_TERM[c] for c in self.model.codes if c in ALLAN_TERM)
+        if not letters:
+            return None
+        wv = self.wv
+        allan = AllanResult(tau_s=wv.tau_s, m=wv.m, avar=2.0 * wv.wv, n_clusters=wv.n_samples // wv.m,
+                            n_terms=wv.n_coefficients, edf=wv.edf, ci_low=2.0 * wv.ci_low,
+                            ci_high=2.0 * wv.ci_high, confidence=wv.confidence, estimator="overlapping",
+                            sample_rate_hz=wv.sample_rate_hz, n_samples=wv.n_samples,
+                            noise_alpha=local_noise_alpha(wv.m, 2.0 * wv.wv, wv.n_samples))
+        try:
+            fit = fit_noise_terms(allan, method="logwls", terms=letters)
+        except FitError:
+            return None
+        x = np.array(base, dtype=float)
+        for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
+            if code in ALLAN_TERM:
+                beta = fit.beta["QNBKR".index(ALLAN_TERM[code])]
+                x[iv] = max(float(beta), 0.0) / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
+        return x
+
+    def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
+        """Least squares from the ``count`` starts of lowest objective; the best solution."""
+        ready = []
+        for x0 in starts:
+            x0 = np.clip(x0, self.lower, self.upper)
+            x0[self.var_idx] = np.maximum(x0[self.var_idx], 1e-9)
+            ready.append((self.objective(x0), x0))
+        ready.sort(key=lambda item: item[0])
+        best, best_obj = ready[0][1], ready[0][0]
+        for _, x0 in ready[:count]:
+            sol = optimize.least_squares(self.residual, x0, jac=self.jacobian, bounds=(self.lower, self.upper),
+                                         method="trf", x_scale="jac", xtol=1e-9, ftol=1e-9, gtol=1e-9,
+                                         max_nfev=200)
+            obj = float(sol.fun @ sol.fun)
+            if obj < best_obj:
+                best, best_obj = sol.x, obj
+        return best
+
+    def solve(self, previous: NDArray[np.float64] | None = None, *, allan: bool = True,
+              fresh: bool = False) -> NDArray[np.float64]:
+        """Minimize M1 under the current weights: from the grid (and the Allan fit), or, when
+        re-weighting, from the ``previous`` solution (M1 moves little with the weights);
+        ``fresh`` adds the grid and the Allan fit to ``previous`` (the weights changed much)."""
+        if previous is not None and not fresh:
+            return self.refine([previous], 1)
+        count = REFINED_STARTS if len(self.shape_idx) > 1 else 1
+        starts = self.grid_starts(count)
+        start = self.allan_start(starts[0]) if allan else None
+        if start is not None:
+            starts.append(start)
+        if previous is not None:
+            starts.append(previous)
+        return self.refine(starts, count + (previous is not None))
+
+    def free(self, x: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Parameters not held at a bound (a shape is free only when its variance is)."""
+        free = np.ones(len(x), dtype=bool)
+        tol = 1e-7
+        for iv, ish in self.slices:
+            if x[iv] <= tol * max(1.0, float(np.max(x[self.var_idx]))):
+                free[iv] = False
+                if ish is not None:
+                    free[ish] = False
+            if ish is not None and (x[ish] <= self.lower[ish] + 1e-6 or x[ish] >= self.upper[ish] - 1e-6):
+                free[ish] = False
+        return free
+
+
+# --------------------------------------------------------------------------------- fitting
+
+
+def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence: float,
+            model_error: float = 0.0) -> GmwmFit:
+    model, dt = problem.model, problem.dt
+    x = np.array(x, dtype=float)
+    free = problem.free(x)
+    r = problem.residual(x)
+    obj = float(r @ r)
+    dof = len(problem.tau) - int(free.sum())
+    p_value = float(stats.chi2.sf(obj, dof)) if dof > 0 else math.nan
+    jac = problem.jacobian(x)
+    cov_x = np.zeros((len(x), len(x)))
+    # every variance gets a standard error (a zero one: the size the data cannot exclude)
+    use = free | np.isin(np.arange(len(x)), problem.var_idx)
+    if use.any():
+        cov_x[np.ix_(use, use)] = np.linalg.pinv(jac[:, use].T @ jac[:, use])
+    cov_x *= max(obj / dof, 1.0) if dof > 0 else 1.0
+    sx = np.array(problem.scale)
+    sx[problem.shape_idx] = 1.0
+    cov = cov_x * np.outer(sx, sx)
+    params = problem.theta(x)
+    values, stderr = model.physical(params, cov, dt)
+    for key, idx, role in model.keys(params):
+        if role == "shape" and not free[idx]:
+            stderr[key] = math.nan
+    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    low, high = {}, {}
+    for key, value in values.items():
+        se = stderr[key]
+        if value > 0 and math.isfinite(se) and se < 20.0 * value and not key.endswith("_phi"):
+            low[key], high[key] = value * math.exp(-z * se / value), value * math.exp(z * se / value)
+        else:
+            low[key], high[key] = max(value - z * se, 0.0), value + z * se
+    return GmwmFit(model=model, params=params, cov=cov, values=values, stderr=stderr, ci_low=low,
+                   ci_high=high, objective=obj, dof=dof, p_value=p_value, weights=weights,
+                   tau_s=problem.tau, wv=problem.nu, model_wv=model.wv(params, problem.tau, dt),
+                   sample_rate_hz=problem.wv.sample_rate_hz, n_samples=problem.wv.n_samples,
+                   free=tuple(bool(f) for f in free), confidence=confidence, model_error=model_error)
+
+
+def _as_model(model: GmwmModel | str) -> GmwmModel:
+    return model if isinstance(model, GmwmModel) else GmwmModel.parse(model)
+
+
+def _check(model: GmwmModel, wv: WaveletVariance) -> None:
+    if np.ndim(wv.wv) != 1:
+        raise FitError("fit one axis at a time: pass wv.axis(i)")
+    if len(wv.tau_s) < model.n_params + 1:
+        raise TooFewSamplesError(f"{len(wv.tau_s)} wavelet scales are too few for the {model.n_params} "
+                                 f"parameters of {model.name}; record longer or fit a smaller model")
+
+
+def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficient", steps: int = 2,
+         confidence: float = ONE_SIGMA, model_error: float = DEFAULT_MODEL_ERROR) -> GmwmFit:
+    """Fit a noise model to a single-axis Haar wavelet variance by the GMWM (eq. M1).
+
+    Parameters
+    ----------
+    wv : WaveletVariance
+        Empirical wavelet variance of one axis (deg/s)^2 (:func:`analysis.wavelet.haar_wavelet_variance`).
+    model : GmwmModel or str
+        E.g. ``"wn+gm+rw"`` (:mod:`analysis.gmwm_models`).
+    weights : {"efficient", "diagonal"}
+        ``V^-1`` of the model-based covariance (falling back to its diagonal when it is
+        ill-conditioned), or its diagonal from the start.
+    steps : int
+        Re-estimations of ``V`` after the first (nonparametric, diagonal) step.
+    confidence : float
+        Two-sided level of the parameter intervals (default +-1 sigma).
+    model_error : float
+        Relative accuracy (of the WV) to which a model the J test rejects (p < ``REJECT_P``)
+        is trusted: its weights are then refitted with this floor (default 2 %, the floor of
+        the ``logwls`` Allan fit); 0 keeps the efficient weights whatever the fit.
+
+    Returns
+    -------
+    GmwmFit
+
+    Raises
+    ------
+    GmwmModelError
+        An unknown model string.
+    FitError, TooFewSamplesError
+        A multi-axis WV, or fewer scales than parameters plus one.
+    """
+    if weights not in ("efficient", "diagonal"):
+        raise FitError(f"weights must be 'efficient' or 'diagonal', got {weights!r}")
+    model = _as_model(model)
+    _check(model, wv)
+    problem = _Problem(model, wv)
+    problem.set_weights(np.diag(np.asarray(wv.variance, dtype=float)), diagonal=True)
+    x = problem.solve()
+    used, floor = "diagonal", 0.0
+    for step in range(max(steps, 0)):
+        v = weight_covariance(model, problem.theta(x), wv, floor)
+        used = problem.set_weights(v, diagonal=weights == "diagonal")
+        # the last step searches afresh: the first, diagonal, weights can leave a local minimum
+        # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer
+        x = problem.solve(previous=x, fresh=step == steps - 1)
+    dof = len(wv.tau_s) - int(problem.free(x).sum())
+    if model_error > 0 and steps > 0 and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
+        # the record resolves the scales better than the model holds: cap their weight
+        floor = model_error
+        for _ in range(max(steps, 1)):
+            v = weight_covariance(model, problem.theta(x), wv, floor)
+            used = problem.set_weights(v, diagonal=weights == "diagonal") + "+floor"
+            x = problem.solve(previous=x, fresh=True)
+    return _finish(problem, x, used, confidence, floor)
+
+
+def weight_covariance(model: GmwmModel, params: NDArray[np.float64], wv: WaveletVariance,
+                      model_error: float = 0.0) -> NDArray[np.float64]:
+    """``V`` of the weights: the model-based covariance of the WV (:mod:`analysis.gmwm_covariance`)
+    plus ``(model_error nu(theta))^2`` on the diagonal (the floor of a rejected model)."""
+    v = wv_covariance(model, params, wv.m, wv.n_samples, wv.sample_rate_hz)
+    if model_error > 0:
+        v = v + np.diag((model_error * model.wv(params, wv.tau_s, 1.0 / wv.sample_rate_hz)) ** 2)
+    return v
+
+
+def gmwm_with_covariance(wv: WaveletVariance, model: GmwmModel | str, v: NDArray[np.float64], *,
+                         confidence: float = ONE_SIGMA) -> GmwmFit:
+    """Fit with fixed weights ``V^-1`` (``weights="reference"``): the objectives of models
+    fitted with the same ``V`` compare, as model selection needs."""
+    model = _as_model(model)
+    _check(model, wv)
+    problem = _Problem(model, wv)
+    kind = problem.set_weights(v)
+    x = problem.solve(allan=False)
+    return _finish(problem, x, "reference" if kind == "efficient" else "diagonal", confidence)

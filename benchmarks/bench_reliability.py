@@ -1,0 +1,250 @@
+"""Reliability: kill -9, a full disk, the fault matrix and damaged files, N times each.
+
+Cases (each repeated ``--trials`` times, on this machine as it is loaded):
+
+* ``kill -9``: a real recorder (one simulated Xsens over a pty, real time) killed with
+  SIGKILL at a moment drawn uniformly from 0.5 s before its run file appears to 3 s
+  after. Data lost: from the newest committed sample to the kill. A file left must open,
+  hold the simulated signal, and ``station recover`` must close it.
+* ``disk full (file size limit)``: the recorder's file size limit (RLIMIT_FSIZE) set
+  to its file's size plus 20-500 kB while it runs, with no reserve (``--reserve-mb 0``)
+  so that a write fails.
+* ``disk full (small file system)``: where this process may mount one, a 24 MB tmpfs
+  that another writer fills while the recorder runs (default reserve).
+* ``fault matrix warp 1`` / ``warp 4``: five units over five transports with drops,
+  corruption, outages and stalls (``tests/test_recorder_books.py``).
+* ``damaged files``: copies of a run file cut short and with single bits flipped, read by
+  every reader (``tests/damage_helpers.py``).
+
+Printed per case: trials, data lost (max, s), books balanced, and errors that were not
+one clear line (a traceback, several lines, a crash, a hang, a file that does not open).
+
+Run::
+
+    python -m benchmarks.bench_reliability --trials 20
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import resource
+import signal
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from station.hdf5 import read_run
+from station.hdf5_recover import recover_run
+from station.recorder import Recorder, RunConfig
+from tests.damage_helpers import damaged_copies, sweep
+from tests.test_damaged_runs import _write_run
+from tests.test_recorder_books import UNITS, _at_warp
+from tests.test_recorder_helpers import (
+    check_unit_against_signal,
+    data_lost_s,
+    start_recorder,
+    summaries,
+)
+
+URL = "sim+serial://STIM300?protocol=xbus&rate=500&seed={seed}"
+
+
+@dataclass
+class Case:
+    """Tallies of one case."""
+
+    name: str
+    trials: int = 0
+    lost_s: list[float] = field(default_factory=list)
+    balanced: int = 0
+    books_checked: int = 0
+    bad_errors: list[str] = field(default_factory=list)
+
+    def line(self) -> str:
+        lost = f"{max(self.lost_s):.3f}" if self.lost_s else "-"
+        books = f"{self.balanced}/{self.books_checked}" if self.books_checked else "-"
+        return (f"{self.name:34s}{self.trials:7d}{lost:>16s}{books:>16s}"
+                f"{len(self.bad_errors):>12d}")
+
+
+def _one_line(text: str) -> bool:
+    lines = [line for line in text.strip().splitlines() if line.strip()]
+    return len(lines) <= 1 and "Traceback" not in text
+
+
+def kill_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    folder = tmp / f"kill{case.trials}"
+    proc = start_recorder("--unit", URL.format(seed=case.trials + 1), "--duration", "1h",
+                          "--out", str(folder), "--quiet")
+    after = rng.uniform(-0.5, 3.0)
+    t_start = time.monotonic()
+    appeared = None
+    while True:
+        files = list(folder.glob("*.h5"))
+        if files and appeared is None:
+            appeared = time.monotonic()
+        due = appeared + after if appeared is not None else None
+        if due is not None and time.monotonic() >= due:
+            break
+        if appeared is None and after < 0 and time.monotonic() - t_start > 3.0 + after:
+            break  # a kill before the file: at a moment of the start-up
+        time.sleep(0.002)
+    os.kill(proc.pid, signal.SIGKILL)
+    killed_at = time.time()
+    proc.communicate(timeout=30)
+    case.trials += 1
+    files = list(folder.glob("*.h5"))
+    if not files:
+        return  # killed before the file existed: nothing to lose but the start
+    path = files[0]
+    try:
+        run = read_run(path)
+        if run.units[0].record.n_samples:
+            check_unit_against_signal(path, "unit1", URL.format(seed=case.trials))
+        case.lost_s.append(data_lost_s(path, killed_at))
+        recover_run(path)
+        read_run(path)
+    except Exception as exc:  # noqa: BLE001 - every failure is counted
+        case.bad_errors.append(f"{path}: {type(exc).__name__}: {exc}"[:300])
+
+
+def _books_from_summary(case: Case, stdout: str, stderr: str) -> None:
+    """Books of a disk-full stop: recorded + declared + what could not be written."""
+    unwritten = {}
+    if "not written:" in stderr:
+        part = stderr.split("not written:")[1].split(")")[0]
+        for item in part.split(","):
+            uid, count = item.split()
+            unwritten[uid] = int(count)
+    for i, obj in enumerate(summaries(stdout)):
+        extra = unwritten.get(f"unit{i + 1}", 0)
+        case.books_checked += 1
+        case.balanced += (obj["samples_recorded"] + obj["samples_missing_low"] + extra
+                          <= obj["samples_sent"] <=
+                          obj["samples_recorded"] + obj["samples_missing_high"] + extra)
+
+
+def _disk_full_outcome(case: Case, proc: subprocess.Popen, folder: Path, url: str) -> None:
+    stdout, stderr = proc.communicate(timeout=120)
+    case.trials += 1
+    message = "\n".join(line for line in stderr.splitlines() if not line.startswith("recording"))
+    if proc.returncode in (0, -signal.SIGSEGV, 139) or not _one_line(message):
+        case.bad_errors.append(f"rc {proc.returncode}: {message[:300]}")
+        return
+    path = next(folder.glob("*.h5"))
+    try:
+        if read_run(path).units[0].record.n_samples:  # (the disk may fill before a flush)
+            check_unit_against_signal(path, "unit1", url)  # every committed row real data
+        _books_from_summary(case, stdout, stderr)
+        recover_run(path)
+        read_run(path)
+    except Exception as exc:  # noqa: BLE001
+        case.bad_errors.append(f"{path}: {type(exc).__name__}: {exc}"[:300])
+
+
+def fsize_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    folder = tmp / f"fsize{case.trials}"
+    url = URL.format(seed=100 + case.trials)
+    proc = start_recorder("--unit", url, "--duration", "1h", "--out", str(folder),
+                          "--quiet", "--json-summary", "--reserve-mb", "0")
+    while not list(folder.glob("*.h5")):
+        time.sleep(0.01)
+    time.sleep(rng.uniform(0.2, 2.0))
+    path = next(folder.glob("*.h5"))
+    limit = path.stat().st_size + rng.randrange(20_000, 500_000)
+    resource.prlimit(proc.pid, resource.RLIMIT_FSIZE, (limit, limit))
+    _disk_full_outcome(case, proc, folder, url)
+
+
+def tmpfs_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    mount = tmp / f"fs{case.trials}"
+    mount.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=24m", "tmpfs", str(mount)],
+                      capture_output=True, check=False).returncode:
+        raise PermissionError("cannot mount a small file system here")
+    try:
+        url = URL.format(seed=200 + case.trials)
+        proc = start_recorder("--unit", url, "--duration", "30s", "--out", str(mount),
+                              "--quiet", "--json-summary")
+        while not list(mount.glob("*.h5")) and proc.poll() is None:
+            time.sleep(0.01)
+        time.sleep(rng.uniform(0.2, 3.0))
+        with open(mount / "filler", "wb") as fh:  # another program fills the disk
+            try:
+                while True:
+                    fh.write(b"\0" * (1 << 20))
+            except OSError:
+                pass
+        _disk_full_outcome(case, proc, mount, url)
+    finally:
+        subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def matrix_trial(case: Case, tmp: Path, warp: int) -> None:
+    urls = tuple(_at_warp(url, warp, case.trials * 10 + i + 1)
+                 for i, url in enumerate(UNITS.values()))
+    recorder = Recorder(RunConfig(urls, 8.0 * warp, tmp / f"m{warp}-{case.trials}.h5",
+                                  backoff_max_s=0.1))
+    stop = recorder.run()
+    case.trials += 1
+    for t in stop.totals:
+        case.books_checked += 1
+        sent = t.samples_sent or 0
+        case.balanced += (t.samples_recorded + t.samples_missing_low <= sent
+                          <= t.samples_recorded + t.samples_missing_high)
+
+
+def damaged_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    folder = tmp / f"damaged{case.trials}"
+    folder.mkdir()
+    original = folder / "run.h5"
+    _write_run(original, close=rng.random() < 0.5)
+    copies = damaged_copies(original, folder / "copies", flips=20, seed=rng.randrange(10**6),
+                            cuts=(0.0, rng.uniform(0.01, 0.99), 0.999))
+    outcomes = sweep(original, copies, timeout_s=300.0)
+    case.trials += len(copies)
+    case.bad_errors += [f"{o.reader} {o.path}: {o.kind} {o.message}" for o in outcomes
+                        if not o.ok or o.seconds > 5.0]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trials", type=int, default=10)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--only", default="", help="run the cases whose name contains this")
+    args = parser.parse_args()
+    rng = random.Random(args.seed)
+    cases = {"kill -9": kill_trial, "disk full (file size limit)": fsize_trial,
+             "disk full (small file system)": tmpfs_trial,
+             "fault matrix warp 1": lambda c, t, r: matrix_trial(c, t, 1),
+             "fault matrix warp 4": lambda c, t, r: matrix_trial(c, t, 4),
+             "damaged files": damaged_trial}
+    print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
+    print(f"{'case':34s}{'trials':>7s}{'data lost max s':>16s}{'books balanced':>16s}"
+          f"{'bad errors':>12s}")
+    bad: list[str] = []
+    for name, trial in cases.items():
+        if args.only not in name:
+            continue
+        case = Case(name)
+        with tempfile.TemporaryDirectory() as tmp:
+            try:
+                for _ in range(args.trials):
+                    trial(case, Path(tmp), rng)
+            except PermissionError as exc:
+                print(f"{name:34s}  skipped: {exc}")
+                continue
+        print(case.line(), flush=True)
+        bad += [f"{name}: {e}" for e in case.bad_errors]
+    for line in bad[:20]:
+        print("  " + line)
+    print(f"# load average at the end {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""The query part of a device URL: each key once, and only keys the scheme knows.
+
+A misspelt key (``dorp=0.5``) silently ignored, or a repeated one (``drop=0.1&drop=0.5``)
+of which the last wins, records a night with settings nobody asked for: both are refused
+with a message that names the key.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+from urllib.parse import parse_qsl
+
+from devices.errors import DeviceConfigurationError
+from devices.sim.params import FAULT_KEYS
+
+#: Keys every simulated device takes (``sim+`` URLs): the noise model, rate, warp, seed,
+#: history and the fault knobs.
+SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS})
+#: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
+SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram"}),
+                        "kvh1750": frozenset({"unit", "output"}),
+                        "xbus": frozenset()}
+#: Keys of a hardware URL besides the protocol's own: what the adapter needs to know.
+HARDWARE_KEYS = frozenset({"rate", "model", "serial"})
+#: Keys of a python-can bus a CAN or CANopen URL may set.
+CAN_BUS_KEYS = frozenset({"interface", "bitrate", "port", "bind"})
+
+
+def parse_query(text: str, url: str) -> dict[str, str]:
+    """The query keys of ``url`` (its query part ``text``), each given once.
+
+    Raises
+    ------
+    DeviceConfigurationError
+        A key given more than once.
+    """
+    query: dict[str, str] = {}
+    for key, value in parse_qsl(text, keep_blank_values=True):
+        if key in query:
+            raise DeviceConfigurationError(
+                f"URL key {key!r} is given twice in {url!r} ({key}={query[key]} and "
+                f"{key}={value}): give it once")
+        query[key] = value
+    return query
+
+
+def check_keys(query: dict[str, str], allowed: Iterable[str], url: str) -> None:
+    """Refuse a key ``allowed`` does not hold, naming it and the nearest known key.
+
+    Raises
+    ------
+    DeviceConfigurationError
+        An unknown key.
+    """
+    known = sorted(set(allowed))
+    for key in query:
+        if key not in known:
+            near = difflib.get_close_matches(key, known, n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            raise DeviceConfigurationError(
+                f"unknown URL key {key!r} in {url!r}{hint} (keys of this URL: "
+                f"{', '.join(known)})")

@@ -1,0 +1,306 @@
+"""Reading one unit: its adapter, its simulator if it has one, and its event batches.
+
+A :class:`UnitWorker` runs in the unit's own process (:mod:`station.unit_process`): it
+reads the device on the unit's own time base (a simulation's warped clock,
+``time.monotonic`` for hardware), reconnects with exponential backoff after a
+disconnect, turns every adapter batch into an :class:`~station.model.documents.EventBatch`
+and hands it to ``send``. It stops at the run's duration, when asked, or when a replayed
+capture ends.
+
+A simulated unit (a ``sim+`` URL) is held paused until the recorder listens, as a bench
+gyro switched on by the operator, and ends exactly: its faults are turned off, it is told
+to stop after a sample index a little ahead, and the unit reads up to that sample (if the
+last frames were lost, the simulator runs on, so that a later sample shows the gap).
+Every sample it generated is then recorded or declared missing.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+
+from devices.errors import DeviceError, DeviceTimeoutError
+from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch
+from devices.replay import EndOfReplayError
+from devices.urls import OpenedDevice
+from station.model.documents import EventBatch, LogEntry, UnitTally, utc_now
+
+#: Stop reasons a unit reports in its ``end`` log entry.
+END_DURATION = "duration"
+END_STOPPED = "stopped"
+END_OF_REPLAY = "end of the replayed capture"
+
+
+@dataclass(frozen=True)
+class ReadSettings:
+    """How a unit reads (times in wall s unless said).
+
+    Attributes
+    ----------
+    duration_s : float
+        Run length, s on the unit's own time base.
+    read_timeout_s : float
+        Wait per adapter read.
+    backoff_initial_s, backoff_max_s : float
+        Reconnect delays: doubled after each failed attempt up to the maximum.
+    batch_s : float
+        Longest a unit holds its batches before sending them on (they travel between
+        processes: fewer, larger messages).
+    rate_limit_deg_s : float or None
+        Measurement range (from the product profile): a larger rate is a bad sample.
+    """
+
+    duration_s: float
+    read_timeout_s: float = 0.05
+    backoff_initial_s: float = 0.05
+    backoff_max_s: float = 1.0
+    batch_s: float = 0.05
+    rate_limit_deg_s: float | None = None
+
+
+class Batcher:
+    """Joins a unit's event batches and sends them at most every ``batch_s`` (wall s)."""
+
+    def __init__(self, send: Callable[[EventBatch], None], batch_s: float) -> None:
+        self._send = send
+        self.batch_s = batch_s
+        self._held: list[EventBatch] = []
+        self._since = 0.0
+        self._lock = threading.Lock()
+
+    def add(self, doc: EventBatch) -> None:
+        """Hold ``doc``; send what is held if the oldest is ``batch_s`` old."""
+        with self._lock:
+            if not self._held:
+                self._since = time.monotonic()
+            self._held.append(doc)
+        self.tick()
+
+    def tick(self, *, force: bool = False) -> None:
+        """Send what is held if it is due (or ``force``)."""
+        with self._lock:
+            if not self._held or not (force or time.monotonic() - self._since >= self.batch_s):
+                return
+            held, self._held = self._held, []
+            self._send(EventBatch.join(held))
+
+
+class UnitWorker:
+    """Reads one unit in a thread and hands its event batches to ``send``.
+
+    Parameters
+    ----------
+    unit_id : str
+        ``unit1``, ``unit2``, ... in the order of the URLs.
+    opened : OpenedDevice
+        The adapter (opened) and, for a simulation, the simulator behind it.
+    settings : ReadSettings
+        Duration, timeouts, backoff.
+    send : callable
+        Where each event batch goes (in the reading thread).
+    """
+
+    def __init__(self, unit_id: str, opened: OpenedDevice, settings: ReadSettings,
+                 send: Callable[[EventBatch], None]) -> None:
+        self.unit_id = unit_id
+        self.opened = opened
+        self.settings = settings
+        self.description: DeviceDescription = opened.source.describe()
+        sim = opened.simulator
+        self.clock: Callable[[], float] = (sim.core.clock if sim is not None else
+                                           opened.clock or time.monotonic)
+        self.time_warp = sim.core.clock.warp if sim is not None else 1.0
+        self.time_base = (f"simulated device clock, warp x{self.time_warp:g}" if sim is not None
+                          else "the replayed capture's clock (s since it started)"
+                          if opened.clock is not None else "station monotonic clock")
+        self._out = Batcher(send, settings.batch_s)
+        #: The source has nothing more to give (the end of a replayed capture).
+        self.source_ended = False
+        self.tally = UnitTally()
+        self.done = threading.Event()
+        self.stop = threading.Event()
+        self.error: BaseException | None = None
+        self.cpu_s = 0.0
+        self.samples_sent: int | None = None
+        self.start_utc = ""
+        self.last_counter = -1
+        self._last_sample_at = 0.0
+        self._t0 = 0.0
+        self._seq = 0
+        self._thread = threading.Thread(target=self._run, name=f"recorder-{unit_id}",
+                                        daemon=True)
+
+    # -- life cycle ----------------------------------------------------------------
+    def start(self) -> None:
+        """Start reading (a held simulation starts sampling now)."""
+        self.start_utc = utc_now()
+        self._t0 = self.clock()
+        if self.opened.simulator is not None:
+            if isinstance(self.opened.source, HeldQuiet):
+                self.opened.source.quiet_until_now()  # held since it was opened
+            self.opened.simulator.core.resume()
+        self._thread.start()
+
+    def join(self, timeout_s: float | None = None) -> None:
+        """Wait for the thread to end."""
+        if self._thread.is_alive():
+            self._thread.join(timeout_s)
+
+    def elapsed_s(self) -> float:
+        """Time since the unit started, s on its own time base."""
+        return self.clock() - self._t0
+
+    # -- reading -------------------------------------------------------------------
+    def _emit(self, batch_or_none: object, extra: Sequence[LogEntry] = ()) -> int:
+        if isinstance(batch_or_none, SampleBatch):
+            doc = EventBatch.from_samples(self.unit_id, self._seq, batch_or_none, self._t0,
+                                          [*self._leading_gap(batch_or_none), *extra])
+        elif extra:
+            doc = _log_only(self.unit_id, self._seq, self.description.n_axes, extra)
+        else:
+            self._out.tick()
+            return 0
+        if len(doc) or doc.log:
+            self._seq += 1
+            self.tally.add(doc)
+            if len(doc):
+                self.last_counter = int(doc.counter[-1])
+                self._last_sample_at = time.monotonic()
+            self._out.add(doc)
+        return len(doc)
+
+    def _leading_gap(self, batch: SampleBatch) -> list[LogEntry]:
+        """A simulated unit starts at counter 0 when the recorder starts listening: samples
+        it produced before the first one received (a polled register overwritten, a CAN
+        frame before the bus was read) are declared as a gap counted by the counter."""
+        if self.tally.samples or not len(batch) or self.opened.simulator is None:
+            return []
+        first = int(batch.counter[0])
+        if first <= 0:
+            return []
+        return [LogEntry("gap", float(batch.receive_time_s[0]) - self._t0, 1, first, -1,
+                         "counter", "before the first sample received (the simulated "
+                                    "device starts at counter 0)")]
+
+    def _read_once(self, backoff_s: float, timeout_s: float | None = None) -> tuple[int, float]:
+        """One adapter read (``timeout_s`` wall s, default the settings'); returns
+        (samples, next backoff s)."""
+        cfg = self.settings
+        try:
+            batch = self.opened.source.read(cfg.read_timeout_s if timeout_s is None
+                                            else timeout_s)
+        except DeviceTimeoutError as exc:
+            self._emit(None, [LogEntry("timeout", self.elapsed_s(), detail=str(exc)[:120])])
+            return 0, backoff_s
+        except EndOfReplayError:
+            self.source_ended = True
+            return 0, backoff_s
+        except DeviceError as exc:
+            # Disconnected, or no acknowledgement on reconnect: the adapter logs the
+            # disconnect itself; wait and let the next read reopen the link.
+            if not isinstance(exc, ConnectionError) and backoff_s == cfg.backoff_initial_s:
+                self._emit(None, [LogEntry("error", self.elapsed_s(), detail=str(exc)[:120])])
+            self.stop.wait(backoff_s)
+            return 0, min(2.0 * backoff_s, cfg.backoff_max_s)
+        n = self._emit(batch)
+        return n, cfg.backoff_initial_s if n else backoff_s
+
+    def _record(self) -> None:
+        backoff = self.settings.backoff_initial_s
+        while (not self.stop.is_set() and not self.source_ended
+               and self.elapsed_s() < self.settings.duration_s):
+            _, backoff = self._read_once(backoff)
+
+    def _read_until(self, done: Callable[[], bool], quiet_s: float, limit_s: float) -> bool:
+        """Read until ``done()``, or no sample for ``quiet_s``, or ``limit_s`` (wall s)."""
+        deadline = time.monotonic() + limit_s
+        last_progress = time.monotonic()
+        backoff = 0.01
+        while not done():
+            now = time.monotonic()
+            if now > deadline or now - last_progress > quiet_s:
+                return False
+            n, backoff = self._read_once(min(backoff, 0.05), timeout_s=0.01)
+            if n:
+                last_progress = time.monotonic()
+        return True
+
+    def _finish_simulation(self) -> None:
+        """End a simulated unit exactly: faults off, then on a sample index, read to it."""
+        assert self.opened.simulator is not None
+        core = self.opened.simulator.core
+        core.clear_faults()
+        settle = time.monotonic() + 0.05
+        self._read_until(lambda: time.monotonic() > settle and self.tally.samples > 0,
+                         quiet_s=10.0, limit_s=10.0)
+        margin = max(1, round(0.05 * self.description.sample_rate_hz))
+        modulus = self.description.counter_modulus or 1 << 62
+        for _ in range(4):
+            end = core.ledger.generated + margin
+            core.stop_after(end)  # its time line goes on: no silence a counter cannot see
+            # (its last sample is recognized by its counter as sent: the unwrapped count
+            # may differ from the simulator's by the wraps a gap could not pin down)
+            if self._read_until(partial(self._read_through, end, modulus), quiet_s=2.0,
+                                limit_s=20.0):
+                break
+            # Its last frames were lost (a full port on a starved host): let it run on,
+            # so that a later sample shows the gap.
+            core.stop_after(None)
+            more = self.last_counter
+            self._read_until(partial(self._read_past, more), quiet_s=2.0, limit_s=10.0)
+        else:
+            self._emit(None, [LogEntry("error", self.elapsed_s(), detail=(
+                f"the simulator's last {core.ledger.generated - 1 - self.last_counter} "
+                f"samples never arrived")[:120])])
+        core.pause()
+
+    def _read_through(self, end: int, modulus: int) -> bool:
+        """Whether the sample before index ``end`` arrived and the line went quiet after."""
+        return (self.last_counter % modulus == (end - 1) % modulus
+                and time.monotonic() - self._last_sample_at > 0.2)
+
+    def _read_past(self, counter: int) -> bool:
+        """Whether a sample after ``counter`` arrived."""
+        return self.last_counter > counter
+
+    def _drain(self) -> None:
+        empty = 0
+        deadline = time.monotonic() + 5.0
+        while empty < 2 and time.monotonic() < deadline:
+            n, _ = self._read_once(0.01, timeout_s=0.01)
+            empty = 0 if n else empty + 1
+
+    def _run(self) -> None:
+        try:
+            self._record()
+            if self.opened.simulator is not None:
+                self._finish_simulation()
+            else:
+                self._drain()
+            self._emit(None, [LogEntry("end", self.elapsed_s(), detail=(
+                END_STOPPED if self.stop.is_set() else
+                END_OF_REPLAY if self.source_ended else END_DURATION))])
+        except Exception as exc:  # noqa: BLE001 - reported, and the run goes on
+            self.error = exc
+            self._emit(None, [LogEntry("error", self.elapsed_s(),
+                                       detail=f"{type(exc).__name__}: {exc}"[:120])])
+        finally:
+            self._out.tick(force=True)
+            self.cpu_s = time.thread_time()
+            if self.opened.ledger is not None:
+                try:
+                    self.samples_sent = self.opened.ledger.generated
+                except DeviceError:
+                    self.samples_sent = None  # its process is gone
+            self.opened.close()
+            self.done.set()
+
+
+def _log_only(unit_id: str, seq: int, n_axes: int, log: Sequence[LogEntry]) -> EventBatch:
+    return EventBatch(unit_id, seq, np.empty((0, n_axes)), np.empty(0, np.int64),
+                      np.empty(0), np.empty(0, np.uint32), log=tuple(log))

@@ -1,0 +1,76 @@
+"""The default fit (logwls with term selection) recovers the terms a record holds, and only those.
+
+A small Monte Carlo over pairs and triples of the five IEEE terms, each case one the data
+resolve (a fit of the true model to the exact expected curve gives every true term's
+variance coefficient a standard error under a third of itself). The full version, with
+more seeds, longer records and cases at the edge, is ``benchmarks/fit_monte_carlo.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from analysis.allan import overlapping_allan_variance
+from analysis.fit import COEFFICIENT_NAMES, TERMS, fit_noise_terms
+from analysis.models import (
+    AngleRandomWalk,
+    BiasInstability,
+    NoiseModel,
+    Quantization,
+    RateRamp,
+    RateRandomWalk,
+)
+from analysis.simulate import simulate
+
+TERM_CLASS = {"Q": Quantization, "N": AngleRandomWalk, "B": BiasInstability, "K": RateRandomWalk,
+              "R": RateRamp}
+#: (true coefficients in data-sheet units, hours, Hz, tau grid up to two clusters)
+CASES = [
+    ({"Q": 20.0, "N": 0.5}, 1 / 6, 100.0, False),
+    ({"N": 0.1, "B": 2.0}, 2.0, 10.0, False),
+    ({"N": 0.1, "K": 10.0}, 2.0, 10.0, False),
+    ({"N": 0.1, "R": 30.0}, 2.0, 10.0, False),
+    ({"N": 0.05, "B": 2.0, "K": 15.0}, 3.0, 10.0, False),
+    ({"N": 0.1, "K": 10.0}, 2.0, 10.0, True),
+]
+SEEDS = 4
+
+
+def _record(true: dict[str, float], hours: float, fs: float, seed: int) -> np.ndarray:
+    model = NoiseModel(tuple(TERM_CLASS[t](**{COEFFICIENT_NAMES[t]: v}) for t, v in true.items()))
+    return simulate(model, hours * 3600.0, fs, seed=seed).rate_deg_s[:, 0]
+
+
+def test_selected_fit_recovers_the_true_terms_with_honest_errors() -> None:
+    z_scores, invented, absent, right_model, fits = [], 0, 0, 0, 0
+    for true, hours, fs, to_two_clusters in CASES:
+        errors: dict[str, list[float]] = {t: [] for t in true}
+        for seed in range(SEEDS):
+            rate = _record(true, hours, fs, seed)
+            taus = "log"
+            if to_two_clusters:
+                # the longest tau with two clusters, as the analysis grid will reach
+                n = len(rate)
+                taus = np.unique(np.rint(np.geomspace(1, n // 2, 100)).astype(np.int64)) / fs
+            fit = fit_noise_terms(overlapping_allan_variance(rate, fs, taus=taus), method="logwls")
+            fits += 1
+            right_model += fit.terms == "".join(t for t in TERMS if t in true)
+            for term in TERMS:
+                if term in true:
+                    errors[term].append(fit.values[term] / true[term] - 1.0)
+                    z_scores.append((fit.values[term] - true[term]) / fit.stderr[term])
+                else:
+                    absent += 1
+                    invented += fit.values[term] > 0
+        for term, e in errors.items():
+            # mean error within 15 %, give or take the error of a mean of SEEDS runs
+            tolerance = 0.15 + 2.0 * np.std(e, ddof=1) / math.sqrt(SEEDS)
+            assert abs(np.mean(e)) < tolerance, (true, term, e)
+    assert right_model >= 0.8 * fits, (right_model, fits)
+    assert invented <= 0.1 * absent, (invented, absent)
+    # 1-sigma coverage in 55-85 %, widened by its binomial error over this many z-scores
+    coverage = np.mean(np.abs(z_scores) <= 1.0)
+    slack = 2.0 * math.sqrt(0.68 * 0.32 / len(z_scores))
+    assert 0.55 - slack < coverage < 0.85 + slack, (coverage, len(z_scores))
