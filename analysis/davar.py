@@ -207,7 +207,7 @@ def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n
         avar, edf, low, high = avar[..., 0], edf[..., 0], low[..., 0], high[..., 0]
         alpha = alpha[:, 0]
     return DavarResult(
-        t_s=(starts + plan.window / 2.0) / plan.fs, tau_s=tau, m=m, avar=avar, edf=edf,
+        t_s=np.asarray((starts + plan.window / 2.0) / plan.fs, dtype=np.float64), tau_s=tau, m=m, avar=avar, edf=edf,
         ci_low=low, ci_high=high, noise_alpha=alpha, n_terms=n_terms.astype(np.int64),
         confidence=confidence, window_samples=plan.window, step_samples=plan.step, sample_rate_hz=plan.fs,
         n_samples=n_samples,
@@ -270,7 +270,7 @@ def davar_recursive(
 
     def delta_sq(k: NDArray[np.int64]) -> NDArray[np.float64]:
         d = theta[k + 2 * plan.m] - 2.0 * theta[k + plan.m] + theta[k]
-        return d * d
+        return np.asarray(d * d, dtype=np.float64)
 
     acc = np.zeros((len(plan.m), theta.shape[1]))
     comp = np.zeros_like(acc)

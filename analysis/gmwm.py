@@ -308,7 +308,7 @@ class _Problem:
         for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
             if code in ALLAN_TERM:
                 beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
-                beta = beta if np.isfinite(beta) and beta > 0.0 else 0.0  # a term the fit left out
+                beta = beta if np.isfinite(beta) and beta > 0.0 else 0.0  # NaN: a term the fit left out
                 x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from station.hdf5 import REASON_END_OF_REPLAY, open_run_file, read_run, read_unit
-from station.profiles import load_profile
+from station.model.profiles import load_profile
 from station.recorder import Recorder, RunConfig
 
 UNITS = (
