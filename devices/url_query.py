@@ -12,11 +12,11 @@ from collections.abc import Iterable
 from urllib.parse import parse_qsl
 
 from devices.errors import DeviceConfigurationError
-from devices.sim.params import FAULT_KEYS
+from devices.sim.params import BENCH_KEYS, FAULT_KEYS
 
 #: Keys every simulated device takes (``sim+`` URLs): the noise model, rate, warp, seed,
-#: history and the fault knobs.
-SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS})
+#: history, the fault knobs and where the gyro sits on its bench (latitude, orientation).
+SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *BENCH_KEYS})
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
 SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram"}),
                         "kvh1750": frozenset({"unit", "output"}),
