@@ -472,6 +472,7 @@ def overlapping_allan_variance(
     taus: TauGrid | ArrayLike = "log",
     input_kind: InputKind = "rate",
     confidence: float = ONE_SIGMA,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> AllanResult:
     """Fully overlapping Allan variance from the cumulative angle.
 
@@ -496,6 +497,9 @@ def overlapping_allan_variance(
         Two-sided level of the chi-square interval (default +-1 sigma). The edf is
         computed (:mod:`analysis.confidence`) for the noise type identified at each tau
         (:mod:`analysis.noise_id`).
+    angle_out : ndarray, shape (N + 1, k), optional
+        Where to keep the cumulative angle: a memmap for a record too long for memory
+        (a long record is read a block at a time throughout, :mod:`analysis.blocks`).
 
     Returns
     -------
@@ -510,7 +514,7 @@ def overlapping_allan_variance(
     IEEE Std 952-1997, Annex C; Zhang et al., Acta Optica Sinica 35(4), 2015, eq. 5.
     """
     fs = check_sample_rate(sample_rate_hz)
-    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
     n = theta.shape[0] - 1
     m = resolve_m(taus, n, fs)
     sums = overlapping_sums(theta, m)

@@ -22,10 +22,10 @@ from collections.abc import Callable, Iterator
 import numpy as np
 from numpy.typing import NDArray
 
-#: Records longer than this many samples are walked in blocks (32 MB of float64).
-LONG_SAMPLES = 1 << 22
-#: Samples per block of a long record (8 MB of float64).
-BLOCK_SAMPLES = 1 << 20
+#: Records longer than this many samples are walked in blocks (8 MB of float64).
+LONG_SAMPLES = 1 << 20
+#: Samples per block of a long record (2 MB of float64).
+BLOCK_SAMPLES = 1 << 18
 #: Values gathered at once by :func:`order_statistic` when it narrows its range.
 _SELECT_GATHER = 1 << 20
 #: Bins per pass of :func:`order_statistic`.

@@ -42,8 +42,9 @@ def read_record(
         raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
     if is_run_file(path):
         from station.hdf5 import read_run_record  # the recorder's layout
+        from station.storage.mapped_runs import read_long_unit
 
-        return read_run_record(path, unit)
+        return read_long_unit(path, unit) or read_run_record(path, unit)
     if unit is not None:
         raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
     suffixes = "".join(path.suffixes[-2:]).lower()
