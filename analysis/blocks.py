@@ -27,7 +27,7 @@ LONG_SAMPLES = 1 << 20
 #: Samples per block of a long record (2 MB of float64).
 BLOCK_SAMPLES = 1 << 18
 #: Values gathered at once by :func:`order_statistic` when it narrows its range.
-_SELECT_GATHER = 1 << 20
+_SELECT_GATHER = 1 << 16
 #: Bins per pass of :func:`order_statistic`.
 _SELECT_BINS = 1 << 12
 

@@ -134,6 +134,22 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
     return Selection(best, criteria, float(penalty), len(rows), misfit)
 
 
+def _cholesky_jittered(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lower Cholesky factor of a covariance whose rows may be nearly equal (values at
+    neighbouring taus of a long record correlate to 1 within rounding): the diagonal is
+    raised by 1e-9 of itself, and by ten times more each time the factorization fails
+    (at most 1e-3: a relative error of 3 % on each value's own variance)."""
+    diag = np.diag_indices_from(c)
+    base = c[diag].copy()
+    for jitter in (1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3):
+        c[diag] = base * (1.0 + jitter)
+        try:
+            return np.asarray(linalg.cholesky(c, lower=True), dtype=np.float64)
+        except linalg.LinAlgError:
+            continue
+    raise linalg.LinAlgError("the covariance of the Allan values is not positive definite")
+
+
 def _deviance(result: AllanResult, data: LogData, beta: NDArray[np.float64], picks: NDArray[np.float64],
               rows: NDArray[np.int64], misfit: NDArray[np.float64]) -> float:
     """``-2 log L`` (up to a constant) of the thinned log values under the model ``beta``.
@@ -142,8 +158,7 @@ def _deviance(result: AllanResult, data: LogData, beta: NDArray[np.float64], pic
     that claims precise values (a deterministic ramp) must also meet them.
     """
     c = value_covariance(result, beta, keep=data.keep, random_ramp=True).sandwich(picks, log=True, misfit=misfit)
-    c[np.diag_indices_from(c)] *= 1.0 + 1e-9
-    chol = linalg.cholesky(c, lower=True)
+    chol = _cholesky_jittered(c)
     # the likelihood at its best: generalized least squares under that covariance
     # L^-1 by LAPACK's triangular inverse (solve_triangular with an identity is 100x slower)
     whiten = np.tril(lapack.dtrtri(chol, lower=1)[0])

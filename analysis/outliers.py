@@ -356,7 +356,7 @@ def _neighbour_residuals_long(x: NDArray[np.float64], positions: NDArray[np.int6
     return out
 
 
-def _resolution_long(x: NDArray[np.float64], cap: int = 1 << 20) -> float:
+def _resolution_long(x: NDArray[np.float64], cap: int = 1 << 16) -> float:
     """:func:`resolution` of a long record: exact while its distinct values number at most
     ``cap`` (a quantized record); beyond, the smallest step inside a block, an upper
     bound of the true one that only matters when larger than the noise scale it floors

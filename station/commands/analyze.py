@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
+from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
     add_record_arguments,
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command."""
-    p = sub.add_parser("analyze", help="Allan deviation, noise-term fit and spec figures of a record",
+    p = sub.add_parser("analyze", help=COMMAND_HELP["analyze"],
                        description=__doc__)
     add_record_arguments(p)
     p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,

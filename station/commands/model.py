@@ -17,12 +17,13 @@ import json
 from pathlib import Path
 
 from devices.model_files import load_noise_model
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``model`` sub-command and its actions."""
-    p = sub.add_parser("model", help="noise models: theoretical Allan curve, show, FOG from indicators",
+    p = sub.add_parser("model", help=COMMAND_HELP["model"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
 

@@ -30,6 +30,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
 
+from station.commands import COMMAND_HELP
 from station.errors import UsageError
 from station.model.documents import RunStop
 from station.progress import ProgressLine
@@ -56,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``record`` sub-command."""
-    p = sub.add_parser("record", help="record gyros into an HDF5 run file",
+    p = sub.add_parser("record", help=COMMAND_HELP["record"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--profile", default=None,
                    help="product profile (name in profiles/ or a TOML path); optional for "

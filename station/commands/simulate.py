@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
 
 if TYPE_CHECKING:
@@ -26,7 +27,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` sub-command."""
-    p = sub.add_parser("simulate", help="write a simulated gyro run (model file or ARW + bias stability)",
+    p = sub.add_parser("simulate", help=COMMAND_HELP["simulate"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     source = p.add_argument_group("what to simulate (a model, or the two indicators)")
     source.add_argument("--model", metavar="MODEL",
