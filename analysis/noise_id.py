@@ -337,6 +337,7 @@ def identify_noise(angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: i
                 a, how = b1_alpha(x[:, col], int(mi))
             else:
                 a, how = (last if last is not None else 0), "carried"
+            blocks.release(x)  # a decimated read of a memmap maps in every page it strides over
             if last is not None and n_points[i] < MONOTONE_BELOW_POINTS:
                 a = min(a, last)  # a sum of power laws never turns back to a shallower type
             alpha[i, col], method[i, col], last = a, how, a

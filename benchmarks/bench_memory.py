@@ -7,8 +7,8 @@ the recorder's writer, a second of samples at a time (bounded memory), then runs
 
     peak_rss_mb=... seconds=...
 
-the child's peak resident memory (``getrusage(RUSAGE_CHILDREN)``, file pages it maps
-included) and its wall time. ``--keep FILE`` keeps the run file (and reuses it when it
+the child's peak resident memory (its own ``ru_maxrss`` from ``wait4``, file pages it
+maps included) and its wall time. ``--keep FILE`` keeps the run file (and reuses it when it
 exists); ``--long-samples N`` makes records longer than N samples count as long (the
 block-wise path, :mod:`analysis.blocks`), so a short run exercises it.
 """
@@ -16,7 +16,7 @@ block-wise path, :mod:`analysis.blocks`), so a short run exercises it.
 from __future__ import annotations
 
 import argparse
-import resource
+import os
 import subprocess
 import sys
 import tempfile
@@ -71,16 +71,32 @@ def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int =
     return n
 
 
+def run_child(code: str) -> tuple[float, float, str]:
+    """(wall seconds, peak RSS in MB, stdout) of ``python -c code`` in a fresh process; the
+    peak is that child's own (``wait4``), file pages it maps included.
+
+    Raises
+    ------
+    SystemExit
+        The child failed (its stderr's end in the message).
+    """
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        if proc.returncode != 0:
+            raise SystemExit(f"child failed ({proc.returncode}): {err.read()[-2000:]}")
+        return seconds, usage.ru_maxrss / 1024.0, out.read()
+
+
 def measure(path: Path, long_samples: int | None) -> tuple[float, float]:
     """(peak RSS in MB, wall seconds) of ``station analyze FILE --json`` in a child."""
-    code = CHILD.format(long=long_samples, path=str(path))
-    start = time.perf_counter()
-    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
-    seconds = time.perf_counter() - start
-    if run.returncode != 0:
-        raise SystemExit(f"station analyze failed ({run.returncode}): {run.stderr[-2000:]}")
-    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return peak_kb / 1024.0, seconds
+    seconds, peak, _ = run_child(CHILD.format(long=long_samples, path=str(path)))
+    return peak, seconds
 
 
 def main(argv: list[str] | None = None) -> int:
