@@ -23,7 +23,6 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -33,6 +32,7 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.storage.hdf5_writer import RunFileWriter
 from tests.damage_helpers import damaged_copies, sweep_here
 
 RATE_HZ = 500.0

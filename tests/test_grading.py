@@ -290,7 +290,7 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
     since, the grade says so; gone, the profile of that name in profiles/ is used and the
     difference said too."""
     from station.model.profiles import PROFILE_DIR
-    from station.recorder import Recorder, RunConfig
+    from station.recording.recorder import Recorder, RunConfig
 
     own = tmp_path / "line7" / "VG951.toml"
     own.parent.mkdir()

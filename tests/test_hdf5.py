@@ -16,9 +16,6 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5 import read_run, read_run_record
-from station.hdf5_recover import lookup3
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -28,6 +25,9 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.storage.hdf5 import read_run, read_run_record
+from station.storage.hdf5_recover import lookup3
+from station.storage.hdf5_writer import RunFileWriter
 from station.storage.runs import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,

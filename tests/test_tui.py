@@ -20,7 +20,6 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -30,6 +29,7 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.storage.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
 from station.tui.launcher import (

@@ -22,7 +22,6 @@ from analysis.simulate import GyroSimulator, SimulatedChunk, n_samples_of
 from devices.model_files import load_noise_model
 from devices.protocols import DeviceDescription
 from station.errors import UsageError
-from station.hdf5 import REASON_DURATION, RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -34,6 +33,8 @@ from station.model.documents import (
 )
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.storage.csv_records import write_csv_record
+from station.storage.hdf5 import REASON_DURATION
+from station.storage.hdf5_writer import RunFileWriter
 
 #: Samples per axis generated and written at a time.
 CHUNK_SAMPLES = 1 << 17

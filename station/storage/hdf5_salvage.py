@@ -19,7 +19,8 @@ import numpy as np
 
 from devices.protocols import DeviceDescription
 from station.errors import RecordFormatError
-from station.hdf5 import (
+from station.model.documents import Descriptor, RunStart, data_keys
+from station.storage.hdf5 import (
     EVENT_DTYPE,
     FORMAT,
     SAMPLE_DATASETS,
@@ -27,9 +28,8 @@ from station.hdf5 import (
     fixed_text,
     text_value,
 )
-from station.hdf5_open import chunks_within, swmr_reader
-from station.hdf5_writer import write_layout
-from station.model.documents import Descriptor, RunStart, data_keys
+from station.storage.hdf5_open import chunks_within, swmr_reader
+from station.storage.hdf5_writer import write_layout
 
 REASON_SALVAGED = "interrupted: salvaged from a damaged run file (recovered)"
 

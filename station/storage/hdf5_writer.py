@@ -1,7 +1,7 @@
 """The run file's writer: layout, SWMR writing, flushing, and a full disk.
 
 :class:`RunFileWriter` is a subscriber of the recorder's documents (layout in
-``docs/hdf5-layout.md``, constants in :mod:`station.hdf5`). The file exists under its name
+``docs/hdf5-layout.md``, constants in :mod:`station.storage.hdf5`). The file exists under its name
 only once its whole layout is written and it is in SWMR mode (built under a hidden name,
 then linked into place), so a recorder killed at any instant leaves either no file or one
 that opens. Raw data carry Fletcher-32 checksums and go to the file at once (no chunk
@@ -24,17 +24,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import DiskSpaceError, RecorderError
-from station.hdf5 import (
-    EVENT_DTYPE,
-    EVENT_UNITS,
-    FORMAT,
-    FORMAT_VERSION,
-    SAMPLE_DATASETS,
-    STATE_DTYPE,
-    chunk_rows,
-    fixed_text,
-    writable_bytes,
-)
 from station.model.documents import (
     Descriptor,
     Document,
@@ -44,6 +33,17 @@ from station.model.documents import (
     RunStop,
     UnitTally,
     utc_now,
+)
+from station.storage.hdf5 import (
+    EVENT_DTYPE,
+    EVENT_UNITS,
+    FORMAT,
+    FORMAT_VERSION,
+    SAMPLE_DATASETS,
+    STATE_DTYPE,
+    chunk_rows,
+    fixed_text,
+    writable_bytes,
 )
 
 _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",

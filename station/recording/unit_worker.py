@@ -1,6 +1,6 @@
 """Reading one unit: its adapter, its simulator if it has one, and its event batches.
 
-A :class:`UnitWorker` runs in the unit's own process (:mod:`station.unit_process`): it
+A :class:`UnitWorker` runs in the unit's own process (:mod:`station.recording.unit_process`): it
 reads the device on the unit's own time base (a simulation's warped clock,
 ``time.monotonic`` for hardware), reconnects with exponential backoff after a
 disconnect, turns every adapter batch into an :class:`~station.model.documents.EventBatch`

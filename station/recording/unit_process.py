@@ -5,7 +5,7 @@ per sample; 16 units at 2 kHz do not fit one interpreter's lock next to the HDF5
 (they starved each other: simulators fell behind, readers read late). So every unit runs
 in its own process, forked from a server process that has the device code imported
 already (``multiprocessing``'s ``forkserver``): the adapter, the simulator behind a
-``sim+`` URL, and a :class:`~station.unit_worker.UnitWorker`. The recorder's process
+``sim+`` URL, and a :class:`~station.recording.unit_worker.UnitWorker`. The recorder's process
 keeps the HDF5 writer and the other subscribers; event batches come to it over a pipe,
 joined into one message per ``batch_s`` (default 50 ms).
 
@@ -42,7 +42,7 @@ from devices.protocols import DeviceDescription
 from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
 #: Modules the fork server imports once, so that each unit starts without importing them.
-PRELOAD = ["station.unit_worker"]
+PRELOAD = ["station.recording.unit_worker"]
 
 
 @dataclass(frozen=True)
@@ -104,7 +104,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     from devices.protocols import RateLimited
     from devices.urls import open_device
     from station.logs import configure_logging
-    from station.unit_worker import UnitWorker
+    from station.recording.unit_worker import UnitWorker
 
     # The recorder turns Ctrl-C and SIGTERM into a clean stop it sends here; the terminal
     # sends Ctrl-C to every process of its group.
@@ -175,7 +175,7 @@ class UnitProcess:
     unit_id, url : str
         The unit and its device URL.
     settings : ReadSettings
-        How it reads (:class:`station.unit_worker.ReadSettings`).
+        How it reads (:class:`station.recording.unit_worker.ReadSettings`).
     rate_limit_deg_s : float or None
         Measurement range from the product profile.
     """

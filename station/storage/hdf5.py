@@ -8,11 +8,11 @@ the last flush. The writer runs in SWMR mode and flushes at least every
 ``flush_interval_s`` so that a live reader (``station watch``, the TUI) reads while it
 writes; after a SIGKILL the file opens with ``h5py.File(path, "r", swmr=True)`` and
 everything up to the last flush is there. :func:`recover_run` closes such a file
-properly (:mod:`station.hdf5_recover`: clears the superblock's open-for-write flags,
+properly (:mod:`station.storage.hdf5_recover`: clears the superblock's open-for-write flags,
 trims to the committed lengths, records the run as interrupted).
 
-The writer is :class:`station.hdf5_writer.RunFileWriter`. Readers open files through
-:mod:`station.hdf5_open` (no SWMR hang on a damaged file, one-line errors).
+The writer is :class:`station.storage.hdf5_writer.RunFileWriter`. Readers open files through
+:mod:`station.storage.hdf5_open` (no SWMR hang on a damaged file, one-line errors).
 """
 
 from __future__ import annotations
@@ -32,10 +32,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
-from station.hdf5_open import chunks_within, cut_short, open_h5, reading
 from station.model.documents import Descriptor
 from station.model.records import RateRecord
 from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1
@@ -106,7 +106,7 @@ def open_run_file(path: str | Path) -> Iterator[h5py.File]:
     ``with`` block; an HDF5 failure inside the block is a one-line RecordFormatError.
 
     A file no writer holds is opened without SWMR; one a recorder holds (live or killed)
-    as a SWMR reader that gives up on a damaged block at once (:mod:`station.hdf5_open`).
+    as a SWMR reader that gives up on a damaged block at once (:mod:`station.storage.hdf5_open`).
 
     Raises
     ------
@@ -399,12 +399,3 @@ def read_run_record(path: str | Path, unit: str | None = None) -> RateRecord:
             raise RecordFormatError(f"{path}: no unit {unit!r}; units: {', '.join(ids)}")
         return unit_record(read_unit(f, chosen), f"{path}#{chosen}")
 
-
-def __getattr__(name: str) -> Any:
-    """``station.hdf5.RunFileWriter``, kept for the code that imports the writer from here
-    (it lives in :mod:`station.hdf5_writer`, which builds on this module)."""
-    if name == "RunFileWriter":
-        from station.hdf5_writer import RunFileWriter
-
-        return RunFileWriter
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
