@@ -52,8 +52,6 @@ class UnitOpened:
     description: DeviceDescription
     time_base: str
     time_warp: float
-    simulated: bool
-    hardware: bool
 
 
 @dataclass(frozen=True)
@@ -101,7 +99,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
               rate_limit_deg_s: float | None) -> None:
     """The unit's process: open the device, wait for the start, read, report the end."""
     from devices.errors import DeviceConfigurationError
-    from devices.protocols import RateLimited
+    from devices.protocols import RateLimited, Simulated
     from devices.urls import open_device
     from station.logs import configure_logging
     from station.recording.unit_worker import UnitWorker
@@ -129,8 +127,8 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
         send("error", ("open", f"{type(exc).__name__}: {exc}"))
         return
     try:
-        if opened.simulator is not None:
-            opened.simulator.core.pause()  # sampling starts when the recorder listens
+        if isinstance(opened, Simulated):
+            opened.pause()  # sampling starts when the recorder listens
         opened.source.open()
     except Exception as exc:  # noqa: BLE001 - reported to the engine, which says what to do
         send("error", ("open", str(exc) or type(exc).__name__))
@@ -139,9 +137,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     if isinstance(opened.source, RateLimited):
         opened.source.limit_rates(rate_limit_deg_s)
     worker = UnitWorker(unit_id, opened, settings, lambda doc: send("batch", doc))
-    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp,
-                              opened.simulator is not None,
-                              opened.simulator is None and opened.clock is None))
+    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp))
     started = False
     while not worker.done.is_set():
         try:
