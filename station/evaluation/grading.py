@@ -44,7 +44,7 @@ from analysis.units import S_PER_H
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.model.bench import Bench, bench_from_json
-from station.model.kinds import Verdict
+from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import (
     DEFAULT_FIGURE_SOURCE,
     FigureSpec,
@@ -55,7 +55,6 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.version import software_version
 
-INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.

@@ -21,10 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from devices.protocols import DeviceDescription, Gap, SampleBatch
-
-#: Kinds of event-log entries: the adapters' link events, plus the recorder's own.
-LOG_KINDS = ("connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
-             "bad_sample", "gap", "error", "end")
+from station.model.kinds import LogKind, LogMethod
 
 
 def utc_now() -> str:
@@ -126,7 +123,7 @@ class LogEntry:
     Attributes
     ----------
     kind : str
-        One of :data:`LOG_KINDS`.
+        One of :data:`station.model.kinds.LOG_KINDS`.
     time_s : float
         Unit time, s since the unit's start.
     count : int
@@ -144,12 +141,12 @@ class LogEntry:
         count the timing cannot pin down); None: exactly ``missing_samples``.
     """
 
-    kind: str
+    kind: LogKind
     time_s: float
     count: int = 1
     missing_samples: int = 0
     after_counter: int = -1
-    method: str = ""
+    method: LogMethod = ""
     detail: str = ""
     missing_low: int | None = None
     missing_high: int | None = None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from station.model.kinds import LogKind
 from station.model.records import RateRecord
 
 
@@ -22,7 +23,7 @@ class RunEvent:
     """
 
     unit_id: str
-    kind: str
+    kind: LogKind
     time_s: float
     count: int = 1
     missing_samples: int = 0

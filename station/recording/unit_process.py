@@ -36,11 +36,14 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, Literal
 
 from devices.protocols import DeviceDescription
 from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
+#: What the engine tells a unit's process, and what the unit reports back (the table above).
+Command = Literal["start", "stop", "close"]
+Report = Literal["opened", "batch", "done", "error"]
 #: Modules the fork server imports once, so that each unit starts without importing them.
 PRELOAD = ["station.recording.unit_worker"]
 
@@ -111,7 +114,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     configure_logging()
     send_lock = threading.Lock()
 
-    def send(kind: str, payload: object) -> None:
+    def send(kind: Report, payload: object) -> None:
         with send_lock:
             try:
                 conn.send((kind, payload))
@@ -229,7 +232,7 @@ class UnitProcess:
         return Descriptor(self.unit_id, self.url, d, data_keys(d), self.start_utc,
                           self.opened.time_base, self.opened.time_warp)
 
-    def _send(self, kind: str) -> None:
+    def _send(self, kind: Command) -> None:
         try:
             self.conn.send((kind, None))
         except OSError:

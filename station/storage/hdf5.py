@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
 from station.model.documents import Descriptor
+from station.model.kinds import log_kind
 from station.model.records import RateRecord
 from station.model.runs import RunEvent, RunInfo, UnitRun
 from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading
@@ -294,7 +295,12 @@ def run_events(unit: UnitData) -> tuple[RunEvent, ...]:
     for row, low, high in zip(unit.events, lows, highs, strict=True):
         method, detail = text_value(row["method"]), text_value(row["detail"])
         text = "; ".join(t for t in (f"counted by {method}" if method else "", detail) if t)
-        out.append(RunEvent(unit.unit_id, text_value(row["kind"]), float(row["time_s"]),
+        kind = log_kind(text_value(row["kind"]))
+        if kind is None:
+            raise RecordFormatError(f"unit {unit.unit_id}: an event-log entry of unknown kind "
+                                    f"{text_value(row['kind'])!r} (a damaged file, or one "
+                                    f"from a newer station)")
+        out.append(RunEvent(unit.unit_id, kind, float(row["time_s"]),
                             int(row["count"]), int(row["missing_samples"]), text,
                             int(low), int(high)))
     return tuple(out)

@@ -14,10 +14,12 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.kinds import Verdict
 from station.model.runs import UnitRun
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
-VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
+VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
+                                             "indeterminate": "#fbe7a9", None: "#ffffff"}
 #: How many individual events a report lists before it only counts them.
 MAX_EVENTS_LISTED = 12
 
@@ -45,7 +47,7 @@ class FigureRow:
     ci_high: float | None
     limit: float | None
     grade: str
-    verdict: str | None
+    verdict: Verdict | None
     note: str
 
 
