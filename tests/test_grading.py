@@ -300,7 +300,8 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
                                   tmp_path / "run.h5", profile=load_profile(own)))
     recorder.run()
     run = open_run(recorder.path)
-    assert run.profile_path == str(own.resolve()) and run.profile_version == "1-line7"
+    assert run.metadata.profile_path == str(own.resolve())
+    assert run.metadata.profile_version == "1-line7"
 
     def grade() -> tuple[dict, str]:
         assert main(["grade", str(recorder.path), "--no-store", "--json"]) == 0

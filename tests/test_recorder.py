@@ -91,7 +91,7 @@ def test_a_run_that_reached_its_duration_is_complete_and_closed(two_runs) -> Non
         assert f.attrs["stop_reason"].decode() == "duration"
         assert f.attrs["operator"] == "tester" and f.attrs["lot"] == "L7"
     run = read_run(path)
-    assert not run.interrupted and run.operator == "tester"
+    assert not run.interrupted and run.metadata.operator == "tester"
     for unit, obj in zip(run.units, summaries(out), strict=True):
         assert unit.record.n_samples == obj["samples_recorded"]
         # recorded + declared missing samples span the run, in simulated seconds

@@ -268,8 +268,9 @@ class ResultsDatabase:
                                    "confidence": p.confidence, "grades": json.dumps(list(p.grades)),
                                    "text": text})
             run_id = self._id(con, "runs", {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
-                              {"stop_utc": r.stop_utc, "operator": r.operator, "lot": r.lot,
-                               "station": r.station_host, "software_version": r.software_version,
+                              {"stop_utc": r.stop_utc, "operator": r.metadata.operator,
+                               "lot": r.metadata.lot, "station": r.metadata.station_host,
+                               "software_version": r.metadata.software_version,
                                "interrupted": int(r.interrupted)})
             return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
 
@@ -282,7 +283,7 @@ class ResultsDatabase:
         cur = con.execute(
             "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
             " verdict, software_version, notes, review) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.lot,
+            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.metadata.lot,
              u.grade, verdict_of_grade(u.grade, graded.profile.reject), graded.software_version,
              "\n".join(u.notes), "\n".join(u.review)))
         grading_id = int(cur.lastrowid or 0)

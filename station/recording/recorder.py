@@ -36,6 +36,7 @@ from station.model.documents import (
     UnitTotals,
     utc_now,
 )
+from station.model.runs import RunMetadata
 from station.model.version import software_version
 from station.recording.unit_process import UnitProcess
 from station.recording.unit_worker import ReadSettings
@@ -304,12 +305,11 @@ class Recorder:
         self.dispatcher.emit(RunStart(
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
-            profile=p.name if p else "", profile_version=p.version if p else "",
-            profile_sha256=p.sha256 if p else "",
-            profile_path=str(Path(p.path).resolve()) if p and p.path else "",
-            operator=cfg.operator, lot=cfg.lot,
-            station_host=socket.gethostname(), software_version=software_version(),
-            bench=cfg.bench_json))
+            RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
+                        profile_sha256=p.sha256 if p else "",
+                        profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+                        operator=cfg.operator, lot=cfg.lot, station_host=socket.gethostname(),
+                        software_version=software_version(), bench=cfg.bench_json)))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         stopping = False

@@ -35,7 +35,7 @@ from station.errors import RecordFormatError
 from station.model.documents import Descriptor
 from station.model.kinds import log_kind
 from station.model.records import RateRecord
-from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
 from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading
 
 FORMAT = "gyro-station-run"
@@ -364,13 +364,8 @@ def read_run(path: str | Path) -> RunInfo:
         a = {k: text_value(v) for k, v in f.attrs.items()}
     stopped = state["state"] == "stopped"
     return RunInfo(
-        path=str(path), units=tuple(units), profile=a.get("profile", ""),
-        profile_version=a.get("profile_version", ""),
-        profile_sha256=a.get("profile_sha256", ""), profile_path=a.get("profile_path", ""),
-        operator=a.get("operator", ""), lot=a.get("lot", ""),
-        station_host=a.get("station_host", ""),
-        software_version=a.get("software_version", ""), start_utc=a.get("start_utc", ""),
-        bench=a.get("bench", ""),
+        path=str(path), units=tuple(units), metadata=RunMetadata.from_attributes(a),
+        start_utc=a.get("start_utc", ""),
         stop_utc=state["stop_utc"] if stopped else state["last_flush_utc"],
         stop_reason=state["stop_reason"] if stopped else "interrupted: file not closed "
                                                          "(recorder killed or crashed)",

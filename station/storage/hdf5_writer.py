@@ -334,14 +334,11 @@ def _checked_dataset(g: h5py.Group, name: str, **kwargs: Any) -> h5py.Dataset:
 
 def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> None:
     """Root metadata, run state and every unit's group, datasets and markers."""
+    metadata = doc.metadata.as_attributes()
+    metadata["station_host"] = metadata["station_host"] or socket.gethostname()
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
-            "profile": doc.profile, "profile_version": doc.profile_version,
-            "profile_sha256": doc.profile_sha256, "profile_path": doc.profile_path,
-            "operator": doc.operator,
-            "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
-            "software_version": doc.software_version, "start_utc": doc.start_utc,
-            "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
-            "unit_ids": json.dumps(list(doc.unit_ids)), "bench": doc.bench}
+            **metadata, "start_utc": doc.start_utc, "duration_requested_s": doc.duration_s,
+            "writer_pid": os.getpid(), "unit_ids": json.dumps(list(doc.unit_ids))}
     f.attrs.update(meta)
     f.attrs["duration_requested_s_units"] = "s"
     # Fixed-size so they can be modified in place in SWMR mode and on a full disk.

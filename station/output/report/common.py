@@ -107,10 +107,11 @@ def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
         ("Duration", f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
                      f"discarded"),
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
-        ("Station", run.station_host or "-"),
-        ("Operator", run.operator or "-"),
-        ("Lot", run.lot or "-"),
-        ("Software version", f"{graded.software_version} (recorded with {run.software_version or '-'})"),
+        ("Station", run.metadata.station_host or "-"),
+        ("Operator", run.metadata.operator or "-"),
+        ("Lot", run.metadata.lot or "-"),
+        ("Software version", f"{graded.software_version} (recorded with "
+                             f"{run.metadata.software_version or '-'})"),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
         ("Graded (UTC)", graded.graded_utc),
