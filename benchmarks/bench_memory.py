@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from devices.protocols import DeviceDescription
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys, utc_now
+from station.storage.hdf5_writer import RunFileWriter
 
 #: Samples written per batch (and per flush of the writer).
 BATCH = 1 << 18

@@ -15,8 +15,8 @@ import argparse
 from pathlib import Path
 
 from station.commands import COMMAND_HELP
-from station.hdf5 import REASON_RECOVERED
-from station.hdf5_recover import recover_run
+from station.storage.hdf5 import REASON_RECOVERED
+from station.storage.hdf5_recover import recover_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:

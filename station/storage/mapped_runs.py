@@ -4,7 +4,7 @@
 datasets into axis-major scratch arrays (:mod:`station.storage.scratch`), reading a few
 chunks at a time and only those columns; the :class:`RateRecord` it returns views them
 (``rate_deg_s[:, i]`` is one contiguous axis). Short units, and units with gaps (whose
-time grid the in-memory reader builds), are read by :func:`station.hdf5.read_run_record`.
+time grid the in-memory reader builds), are read by :func:`station.storage.hdf5.read_run_record`.
 """
 
 from __future__ import annotations
@@ -15,14 +15,14 @@ from pathlib import Path
 import numpy as np
 
 from analysis import blocks
-from station.hdf5 import (
+from station.model.records import RateRecord
+from station.storage.hdf5 import (
     _check_inside,
     chosen_unit,
     committed_events,
     open_run_file,
     text_value,
 )
-from station.model.records import RateRecord
 from station.storage.scratch import scratch_array
 
 #: Rows read from the HDF5 dataset at a time (8 MB of a 1-axis float64 rate).
