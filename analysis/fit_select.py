@@ -135,19 +135,25 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
 
 
 def _cholesky_jittered(c: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Lower Cholesky factor of a covariance whose rows may be nearly equal (values at
-    neighbouring taus of a long record correlate to 1 within rounding): the diagonal is
-    raised by 1e-9 of itself, and by ten times more each time the factorization fails
-    (at most 1e-3: a relative error of 3 % on each value's own variance)."""
+    """Lower Cholesky factor of a covariance that rounding (or its approximations) may
+    leave short of positive definite: values at neighbouring taus of a long record
+    correlate to 1 within rounding (a 24 h record at 1 kHz does). The diagonal is raised
+    by 1e-9 of itself, then by ten times more each time the factorization fails (up to
+    1e-6); past that, the eigenvalues are floored at 1e-9 of the largest (the nearest
+    positive definite matrix of the same eigenvectors)."""
     diag = np.diag_indices_from(c)
     base = c[diag].copy()
-    for jitter in (1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3):
+    for jitter in (1e-9, 1e-8, 1e-7, 1e-6):
         c[diag] = base * (1.0 + jitter)
         try:
             return np.asarray(linalg.cholesky(c, lower=True), dtype=np.float64)
         except linalg.LinAlgError:
             continue
-    raise linalg.LinAlgError("the covariance of the Allan values is not positive definite")
+    c[diag] = base
+    values, vectors = np.linalg.eigh((c + c.T) / 2.0)
+    floored = np.maximum(values, 1e-9 * float(values.max()))
+    repaired = (vectors * floored) @ vectors.T
+    return np.asarray(linalg.cholesky((repaired + repaired.T) / 2.0, lower=True), dtype=np.float64)
 
 
 def _deviance(result: AllanResult, data: LogData, beta: NDArray[np.float64], picks: NDArray[np.float64],
