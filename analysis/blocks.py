@@ -85,12 +85,11 @@ def first_non_finite(x: NDArray[np.float64]) -> int:
     """Index (along the first axis) of the first row holding a NaN or an infinity; -1 if none."""
     for a, b in spans(0, x.shape[0]):
         bad = ~np.isfinite(np.asarray(x[a:b]))
+        release(x)
         if bad.ndim > 1:
             bad = bad.any(axis=tuple(range(1, bad.ndim)))
         if bad.any():
-            release(x)
             return a + int(np.argmax(bad))
-    release(x)
     return -1
 
 
@@ -173,8 +172,8 @@ def any_where(x: NDArray[np.float64], test: Callable[[NDArray[np.float64]], NDAr
     """Whether ``test`` (elementwise, e.g. ``np.isnan``) holds anywhere in a record, a
     block at a time."""
     for a, b in spans(0, len(x)):
-        if test(np.asarray(x[a:b])).any():
-            release(x)
+        found = bool(test(np.asarray(x[a:b])).any())
+        release(x)
+        if found:
             return True
-    release(x)
     return False

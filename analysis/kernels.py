@@ -49,10 +49,10 @@ Backend = Literal["auto", "numpy", "numba"]
 #: Samples per block of the numpy overlapping kernel: 2 x 32 k doubles stay in L2.
 _NUMPY_BLOCK = 1 << 15
 #: Terms per block of a long record's compiled overlapping sums (one m at a time: three
-#: ranges of 8 MB of the angle, then handed back).
-_LONG_BLOCK = 1 << 20
+#: ranges of 2 MB of the angle, then handed back).
+_LONG_BLOCK = 1 << 18
 #: Blocks of the long numpy kernel between two hand-backs of a memory-mapped angle.
-_RELEASE_EVERY = 32
+_RELEASE_EVERY = 8
 #: Up to this many window starts per window length, the compiled DAVAR kernel sums the
 #: segments between window edges; beyond, it slides a compensated running sum.
 _SEGMENTS_MAX_OVERLAP = 32

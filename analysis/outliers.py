@@ -331,6 +331,7 @@ def _linear_residuals(x: NDArray[np.float64], a: int, b: int) -> NDArray[np.floa
         out[0] = v[0] - v[1]
     if b == n:
         out[-1] = v[-1] - v[-2]
+    blocks.release(x)
     return out
 
 

@@ -206,8 +206,8 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
     if len(x) < min_samples():
         return x, OutlierReport(rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}")
     detection = detect_spikes(x)
-    grid = np.arange(len(x)) if positions is None else positions
-    times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
+    times = tuple(float(sp.index if positions is None else positions[sp.index]) / fs
+                  for sp in detection.spikes)
     remove = detection.count > 0 and (policy == "remove" or (policy == "auto" and detection.removable))
     rule = detection.rule_text()
     if detection.count and policy != "auto":
