@@ -44,27 +44,24 @@ import bench_memory  # noqa: E402  (beside this file)
 NO_NUMBA = "import sys; sys.modules['numba'] = None\n"
 
 
-def timed(fn: Callable[[], object]) -> tuple[float, float]:
-    """(seconds, peak MB of Python-side allocations) of one call."""
+def peak_mb(fn: Callable[[], object]) -> float:
+    """Peak MB of the Python-side (numpy) allocations of one call (tracemalloc; untimed)."""
     tracemalloc.start()
-    start = time.perf_counter()
     fn()
-    seconds = time.perf_counter() - start
     peak = tracemalloc.get_traced_memory()[1] / 1e6
     tracemalloc.stop()
-    return seconds, peak
+    return peak
 
 
 def paired(fns: dict[str, Callable[[], object]], runs: int) -> dict[str, tuple[float, float]]:
-    """Median seconds and largest peak MB of each callable, run in turns."""
+    """Median seconds of each callable, run in turns, and its peak MB (one more run)."""
     times: dict[str, list[float]] = {k: [] for k in fns}
-    peaks: dict[str, float] = dict.fromkeys(fns, 0.0)
     for _ in range(runs):
         for name, fn in fns.items():
-            seconds, peak = timed(fn)
-            times[name].append(seconds)
-            peaks[name] = max(peaks[name], peak)
-    return {k: (statistics.median(v), peaks[k]) for k, v in times.items()}
+            start = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - start)
+    return {k: (statistics.median(v), peak_mb(fns[k])) for k, v in times.items()}
 
 
 def child(code: str) -> tuple[float, float, str]:
