@@ -307,8 +307,9 @@ class _Problem:
         x = np.array(base, dtype=float)
         for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
             if code in ALLAN_TERM:
-                beta = fit.beta["QNBKR".index(ALLAN_TERM[code])]
-                x[iv] = max(float(beta), 0.0) / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
+                beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
+                beta = beta if np.isfinite(beta) and beta > 0 else 0.0  # NaN: not resolved
+                x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 
     def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
