@@ -58,6 +58,8 @@ class ExportRequest:
         Kalibr, OpenVINS, allan_variance_ros: the IMU topic written.
     bench : Bench or None
         Latitude and axis directions: the bias is written with the Earth rate removed.
+    gmwm_model : str
+        ``method="gmwm"``: the model (``"wn+gm+rw"``...) or ``"auto"`` (ranked by the WIC).
     """
 
     file: str
@@ -67,6 +69,7 @@ class ExportRequest:
     unit: str | None = None
     rostopic: str = "/imu0"
     bench: Bench | None = None
+    gmwm_model: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -171,7 +174,10 @@ def export_noise(record: RateRecord, request: ExportRequest) -> ExportResult:
     if request.method not in EXPORT_METHODS:
         raise UsageError(f"unknown method {request.method!r}: one of {', '.join(EXPORT_METHODS)}")
     FORMATS[request.format].check_axes(len(record.axis_names), record.axis_names)
-    analyses = analyze_record(record, method=request.method, bench=request.bench)
+    if request.method != GMWM_METHOD and request.gmwm_model != "auto":
+        raise UsageError("--model goes with --method gmwm")
+    analyses = analyze_record(record, method=request.method, bench=request.bench,
+                              gmwm_model=request.gmwm_model)
     axes = tuple(axis_noise(a, request.method) for a in analyses)
     earth = [a.figures.earth_rate_removed_deg_h is not None for a in analyses]
     context = ExportContext(source=request.file, unit=request.unit, method=request.method,

@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="logwls (default): the Allan fit and the IEEE 952 read-offs; gmwm: the "
                         "GMWM's model (white noise, random walk, Gauss-Markov terms: gnss-ins-sim's "
                         "gyro_b_corr)")
+    p.add_argument("--model", default="auto", metavar="MODEL",
+                   help="--method gmwm: the model, terms joined by '+' (e.g. 'wn+gm+rw'), or auto "
+                        "(default): ranked by the WIC, as station analyze --method gmwm")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="where to write ('-': standard output; default <record>[_<unit>]_<tool's "
                         "file name> in the current folder)")
@@ -64,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
               f"({args.method}) ...", file=sys.stderr, flush=True)
     request = ExportRequest(file=str(args.file), format=args.format, out=args.out, method=args.method,
                             unit=args.unit, rostopic=args.rostopic,
-                            bench=bench_for(args.bench, recorded))
+                            bench=bench_for(args.bench, recorded), gmwm_model=args.model)
     result = export_noise(record, request)
     for note in result.notes:
         print(f"station export: note: {note}", file=sys.stderr)
