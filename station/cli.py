@@ -1,3 +1,4 @@
+# PYTHON_ARGCOMPLETE_OK
 """The ``station`` command line: a thin layer of argument parsing over station functions.
 
 Each sub-command lives in :mod:`station.commands` as a module with ``register`` (adds its
@@ -12,6 +13,7 @@ from collections.abc import Sequence
 
 from analysis.errors import AnalysisError
 from devices.errors import DeviceError
+from station.cli_conventions import StationParser, add_version, enable_completion, report_unexpected
 from station.commands import (
     analyze,
     davar,
@@ -38,10 +40,11 @@ COMMANDS: tuple = (demo, analyze, reproduce, simulate, model, davar, devices, gr
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``station`` with every sub-command registered."""
-    parser = argparse.ArgumentParser(
+    parser = StationParser(
         prog="station",
         description="Gyro characterization station: record, analyze, grade and report gyros.",
     )
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
@@ -51,6 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``station`` console script; returns the process exit code."""
     parser = build_parser()
+    enable_completion(parser)
     args = parser.parse_args(argv)
     configure_logging()
     try:
@@ -64,6 +68,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"station {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a bug or the system: one line, not a traceback
+        return report_unexpected(args.command, exc)
 
 
 if __name__ == "__main__":
