@@ -308,7 +308,7 @@ class _Problem:
         for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
             if code in ALLAN_TERM:
                 beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
-                beta = beta if np.isfinite(beta) and beta > 0 else 0.0  # NaN: not resolved
+                beta = beta if np.isfinite(beta) and beta > 0.0 else 0.0  # NaN: a term the fit left out
                 x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 
@@ -316,7 +316,7 @@ class _Problem:
         """Least squares from the ``count`` starts of lowest objective; the best solution."""
         ready = []
         for x0 in starts:
-            x0 = np.clip(x0, self.lower, self.upper)
+            x0 = np.clip(np.nan_to_num(x0, nan=0.0), self.lower, self.upper)
             x0[self.var_idx] = np.maximum(x0[self.var_idx], 1e-9)
             ready.append((self.objective(x0), x0))
         ready.sort(key=lambda item: item[0])
