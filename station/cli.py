@@ -13,7 +13,6 @@ from collections.abc import Sequence
 
 from analysis.errors import AnalysisError
 from devices.errors import DeviceError
-from station.cli_conventions import StationParser, add_version, enable_completion, report_unexpected
 from station.commands import (
     analyze,
     davar,
@@ -31,6 +30,12 @@ from station.commands import (
     simulate,
     tui,
     watch,
+)
+from station.commands.conventions import (
+    StationParser,
+    add_version,
+    enable_completion,
+    report_unexpected,
 )
 from station.errors import StationError
 from station.logs import configure_logging

@@ -29,12 +29,14 @@ from analysis.tool_units import (
     rrw_deg_h_1_5_from_random_walk,
 )
 from analysis.units import arw_deg_rt_h_to_deg_rt_s
-from station.atomic_files import write_text_atomically
 from station.cli import main
 from station.errors import UsageError
-from station.export_formats import FORMATS, ExportContext, render
-from station.noise_export import ExportRequest, default_output, export_noise
-from station.record_files import RateRecord, write_csv_record
+from station.model.records import RateRecord
+from station.output.export_formats import FORMATS, ExportContext, render
+from station.services.export import ExportRequest, default_output, export_noise, noise_of
+from station.services.records import RecordSource
+from station.storage.atomic_files import write_text_atomically
+from station.storage.csv_records import write_csv_record
 
 D2R = math.pi / 180
 
@@ -221,9 +223,7 @@ def test_gmwm_export_gives_gnss_ins_sim_its_correlation_time(tmp_path: Path) -> 
         gm[i] = a * gm[i - 1] + drive[i]
     rate = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.2), n, fs, rng) + gm
     record = RateRecord(rate[:, None], fs, ("x",))
-    result = export_noise(record, ExportRequest(file="gm.csv", format="json", method="gmwm",
-                                                gmwm_model="wn+gm", out=tmp_path / "n.json"))
-    (axis,) = result.axes
+    ((axis, _),) = [(a.noise, a.earth_rate_removed) for a in noise_of(record, "gmwm", "wn+gm")]
     assert axis.sources and axis.sources["arw"] == "GMWM (wn+gm)"
     assert axis.main_gauss_markov is not None
     assert 0.5 * sigma_deg_h < axis.main_gauss_markov.sigma_deg_h < 2 * sigma_deg_h
@@ -235,4 +235,4 @@ def test_gmwm_export_gives_gnss_ins_sim_its_correlation_time(tmp_path: Path) -> 
     assert err["gyro_b_corr"].tolist() == [axis.main_gauss_markov.tau_s] * 3
     assert err["gyro_b_stability"].tolist() == [axis.main_gauss_markov.sigma_deg_h] * 3
     with pytest.raises(UsageError, match="--model goes with --method gmwm"):
-        export_noise(record, ExportRequest(file="gm.csv", format="json", gmwm_model="wn+gm"))
+        export_noise(ExportRequest(RecordSource("gm.csv"), "json", gmwm_model="wn+gm"))

@@ -14,14 +14,14 @@ import json
 import sys
 from pathlib import Path
 
-from station.commands.analyze import (
+from station.commands.arguments import (
     add_bench_argument,
     add_record_arguments,
-    bench_for,
-    load_record,
+    print_notes,
+    record_source,
 )
-from station.export_formats import FORMATS
-from station.noise_export import EXPORT_METHODS, ExportRequest, export_noise
+from station.evaluation.noise_parameters import EXPORT_METHODS
+from station.output.export_formats import FORMATS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,22 +55,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Read the record, export its noise parameters, say where they went."""
-    record, _ = load_record(args)
-    recorded = ""
-    if args.bench is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
-        from station.hdf5 import run_attributes
+    """Export the noise parameters; say where they went (or print the file, or the JSON)."""
+    from station.services.export import ExportRequest, export_noise
+    from station.services.progress import Progress
 
-        recorded = run_attributes(args.file).get("bench", "")
-    if not args.quiet and sys.stderr.isatty():
-        print(f"analyzing {len(record.axis_names)} axis(es) of {record.n_samples} samples "
-              f"({args.method}) ...", file=sys.stderr, flush=True)
-    request = ExportRequest(file=str(args.file), format=args.format, out=args.out, method=args.method,
-                            unit=args.unit, rostopic=args.rostopic,
-                            bench=bench_for(args.bench, recorded), gmwm_model=args.model)
-    result = export_noise(record, request)
-    for note in result.notes:
-        print(f"station export: note: {note}", file=sys.stderr)
+    def progress(step: Progress) -> None:
+        if not args.quiet and sys.stderr.isatty():
+            print(f"{step.text} ...", file=sys.stderr, flush=True)
+
+    result = export_noise(ExportRequest(record_source(args), args.format, out=args.out,
+                                        method=args.method, gmwm_model=args.model,
+                                        rostopic=args.rostopic, bench=args.bench), progress)
+    print_notes("export", result.notes)
     if args.json:
         json.dump(result.as_json(), sys.stdout)
         sys.stdout.write("\n")

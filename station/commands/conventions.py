@@ -15,8 +15,9 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from importlib import metadata
 from typing import NoReturn
+
+from station.model.version import software_version
 
 #: Set to show the traceback of an unexpected error (a bug) instead of one line.
 TRACEBACK_ENV = "STATION_TRACEBACK"
@@ -43,14 +44,6 @@ class StationParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         """One line, ``PROG: error: MESSAGE (PROG --help lists the options)``, exit status 2."""
         self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
-
-
-def software_version() -> str:
-    """Version of the installed gyro-station package (``"unknown"`` when not installed)."""
-    try:
-        return metadata.version("gyro-station")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def add_version(parser: argparse.ArgumentParser) -> None:
