@@ -24,9 +24,15 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
                         help="unit of the rate columns (default deg/s)")
     parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
+    add_slice_arguments(parser)
+
+
+def add_slice_arguments(parser: argparse.ArgumentParser, *, unit_default: str = "the first") -> None:
+    """``--unit``, ``--start-s``, ``--stop-s``, ``--profile``, ``--warmup-s``: which unit of a
+    run file and which part of its record (:class:`station.services.records.RecordSource`)."""
     parser.add_argument("--unit", default=None,
-                        help="run files: the unit (unit1, unit2, ... or its serial number; "
-                             "default the first)")
+                        help=f"run files: the unit (unit1, unit2, ... or its serial number; "
+                             f"default {unit_default})")
     parser.add_argument("--start-s", type=float, default=0.0, metavar="S",
                         help="analyze from S seconds after the record start (default 0)")
     parser.add_argument("--stop-s", type=float, default=None, metavar="S",

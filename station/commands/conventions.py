@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from collections.abc import Callable
 from typing import NoReturn
 
 from station.model.version import software_version
@@ -52,16 +53,17 @@ def add_version(parser: argparse.ArgumentParser) -> None:
                         help="print the station software's version and exit")
 
 
-def enable_completion(parser: argparse.ArgumentParser) -> None:
-    """Answer a completing shell (argcomplete's ``_ARGCOMPLETE`` request) and exit; a no-op
-    otherwise, and when argcomplete is not installed."""
+def enable_completion(parser: argparse.ArgumentParser, *,
+                      exit_method: Callable[[int], object] = os._exit) -> None:
+    """Answer a completing shell (argcomplete's ``_ARGCOMPLETE`` request) and exit through
+    ``exit_method``; a no-op otherwise, and when argcomplete is not installed."""
     if "_ARGCOMPLETE" not in os.environ:
         return
     try:
         import argcomplete
     except ImportError:
         return
-    argcomplete.autocomplete(parser)
+    argcomplete.autocomplete(parser, exit_method=exit_method)
 
 
 def report_unexpected(command: str, exc: BaseException) -> int:

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
+from station.commands.arguments import add_slice_arguments, print_notes
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
@@ -36,6 +37,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="unit of a CSV's rate columns (default deg/s)")
     p.add_argument("--model", required=True, metavar="MODEL.toml", help="noise model TOML file or preset name")
     p.add_argument("--axis", default=None, help="reconcile only this axis (column name); default every axis")
+    add_slice_arguments(p, unit_default="every unit")
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png", help="write the figure here")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of the text report")
     defaults = ReconcileOptions()
@@ -60,8 +62,11 @@ def run(args: argparse.Namespace) -> int:
 
     answer = reconcile_run(ReconcileRequest(
         args.measured, args.model, rate_hz=args.rate, units=args.units, axis=args.axis,
+        unit=args.unit, start_s=args.start_s, stop_s=args.stop_s, profile=args.profile,
+        warmup_s=args.warmup_s,
         runs=args.runs, seed=args.seed, alpha=args.alpha, max_samples=args.max_samples,
         png=args.png), progress)
+    print_notes("reconcile", answer.notes)
     if args.json:
         json.dump(answer.as_json(), sys.stdout)
         sys.stdout.write("\n")

@@ -1,0 +1,91 @@
+"""Command-line conventions: no abbreviations, one-line errors with exit 2, --version,
+shell completion, and what a new user tripped over in reconcile."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analysis.discrepancy import measure_curve
+from station.cli import build_parser, main
+from station.commands.conventions import enable_completion, report_unexpected
+from station.model.version import software_version
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("conv") / "v.h5"
+    assert main(["simulate", "--model", "VG951", "--duration", "10min", "--rate", "10",
+                 "--seed", "1", "--out", str(path)]) == 0
+    return path
+
+
+def _one_line_error(capsys, argv: list[str]) -> str:
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "usage:" not in err
+    return err
+
+
+def test_version(capsys) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--version"])
+    assert exit_info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"station {software_version()}"
+
+
+def test_no_option_is_abbreviated_anywhere(capsys) -> None:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if hasattr(a, "choices") and isinstance(a.choices, dict))
+    assert not parser.allow_abbrev and all(not p.allow_abbrev for p in sub.choices.values())
+    err = _one_line_error(capsys, ["analyze", "rec.csv", "--war", "10"])  # not --warmup-s
+    assert err.startswith("station analyze: error: unrecognized arguments: --war")
+    err = _one_line_error(capsys, ["analyze", "rec.csv", "--units", "furlongs"])
+    assert "invalid choice" in err and "station analyze --help" in err
+
+
+def test_reconcile_takes_unit_and_time_slice_like_analyze(run_file: Path, capsys) -> None:
+    # the new user's line: --unit is reconcile's own option now, never an abbreviation of --units
+    assert main(["reconcile", str(run_file), "--model", "VG951", "--unit", "unit2"]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"station reconcile: error: {run_file}: no unit 'unit2'; units: sim"
+    assert main(["reconcile", str(run_file), "--model", "VG951", "--unit", "sim", "--start-s", "60",
+                 "--runs", "4", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "(5400 samples)" in err and "reconciled 60 s .. end" in err
+
+
+def test_constant_temperature_channel_raises_no_warning() -> None:
+    rate = np.random.default_rng(1).normal(0.0, 0.01, 4096)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the RuntimeWarning of a 0/0 slope reached users
+        curve = measure_curve(rate, 10.0, temperature_c=np.full(4096, 25.0))
+    assert curve.temperature_c is None
+    varying = measure_curve(rate, 10.0, temperature_c=np.linspace(20, 30, 4096))
+    assert varying.temperature_c is not None
+
+
+def test_unexpected_errors_are_one_line(capsys) -> None:
+    assert report_unexpected("analyze", ValueError("boom")) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "internal error: ValueError: boom" in err
+    assert report_unexpected("export", PermissionError(13, "Permission denied", "/x/y")) == 2
+    assert capsys.readouterr().err == "station export: error: Permission denied: /x/y\n"
+
+
+def test_shell_completion_answers_the_shell(tmp_path: Path, monkeypatch) -> None:
+    out = tmp_path / "completions"
+    for key, value in {"_ARGCOMPLETE": "1", "COMP_LINE": "station export x --for", "COMP_POINT": "22",
+                       "_ARGCOMPLETE_STDOUT_FILENAME": str(out)}.items():
+        monkeypatch.setenv(key, value)
+    codes: list[int] = []
+    enable_completion(build_parser(), exit_method=codes.append)
+    assert codes == [0] and out.read_text().split("\v") == ["--format "]
+    monkeypatch.delenv("_ARGCOMPLETE")
+    enable_completion(build_parser(), exit_method=codes.append)  # no request: nothing happens
+    assert codes == [0]
