@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import io
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -45,11 +47,32 @@ def test_long_runs_are_written_in_chunks_identical_to_one_piece(tmp_path, capsys
     monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
     rc, _, err = _run(capsys, *args, "--out", str(pieces))
     assert rc == 0
-    assert "100.0 % (10000 of 10000 samples)" in err and "\r" in err
+    # stderr is not a terminal here (a log file, a pipe): no progress, no carriage returns
+    assert "\r" not in err and err == f"wrote 10000 samples x 1 axis at 20 Hz to {pieces}\n"
     with gzip.open(pieces, "rt", encoding="utf-8") as fh:
         assert fh.read() == whole.read_text(encoding="utf-8")
     record = read_csv_record(pieces)
     assert record.temperature_c is not None and record.n_samples == 10000
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_shows_on_a_terminal_with_its_eta_and_quiet_silences_it(tmp_path, monkeypatch):
+    monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
+    args = ["simulate", "--model", "VG951", "--duration", "500s", "--rate", "20", "--seed", "4", "--axes", "3"]
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert cli.main([*args, "--out", str(tmp_path / "a.csv")]) == 0
+    shown = terminal.getvalue()
+    assert "\r" in shown and "ETA" in shown and "100.0 % (10000 of 10000 samples)" in shown
+    assert "x 3 axes at 20 Hz" in shown
+    quiet = _Terminal()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    assert cli.main([*args, "--quiet", "--json", "--out", str(tmp_path / "b.csv")]) == 0
+    assert "\r" not in quiet.getvalue()
 
 
 def test_simulate_from_two_indicators(tmp_path, capsys):

@@ -16,6 +16,7 @@ from station.commands.arguments import (
     print_notes,
     record_source,
 )
+from station.commands.terminal import plural
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
     GMWM_METHOD,
@@ -86,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
-              f"{len(result.axes)} axis/axes")
+              f"{plural(len(result.axes), 'axis')}")
         if selection.start_s > 0 or selection.stop_s is not None:
             print(f"analyzed {selection.start_s:g} s .. "
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "

@@ -19,6 +19,7 @@ from station.evaluation.analyze import (
 )
 from station.evaluation.settings import TauGrid
 from station.model.records import RateRecord
+from station.model.wording import plural
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.services.records import RecordSelection, RecordSource, bench_of, load_record
 
@@ -111,8 +112,8 @@ def analyze(request: AnalyzeRequest,
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm:
-        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {len(record.axis_names)} "
-                                     f"axis/axes of {record.n_samples} samples"))
+        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of "
+                                     f"{plural(len(record.axis_names), 'axis')} of {record.n_samples} samples"))
     estimator = request.estimator or ("clusters" if request.deviation == "adev" else "overlapping")
     bench = bench_of(request.bench, request.source.file)
     axes = analyze_record(record, estimator=estimator, taus=request.taus,

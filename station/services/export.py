@@ -21,6 +21,7 @@ from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, analyze_reco
 from station.evaluation.noise_parameters import EXPORT_METHODS, axis_noise
 from station.model.bench import Bench
 from station.model.records import RateRecord
+from station.model.wording import plural
 from station.output.export_formats import FORMATS, ExportContext, render
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.services.records import RecordSource, bench_of, load_record
@@ -112,7 +113,7 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
     loaded = load_record(request.source)
     record = loaded.record
     FORMATS[request.format].check_axes(len(record.axis_names), record.axis_names)
-    progress(Progress("export", f"{request.method} analysis of {len(record.axis_names)} axis(es) "
+    progress(Progress("export", f"{request.method} analysis of {plural(len(record.axis_names), 'axis')} "
                                 f"of {record.n_samples} samples"))
     axes = noise_of(record, request.method, request.gmwm_model,
                     bench_of(request.bench, request.source.file))
