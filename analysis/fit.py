@@ -58,7 +58,7 @@ from analysis.fit_uncertainty import LinearizedFit, value_covariance
 
 __all__ = [
     "BETA_FACTOR", "COEFFICIENT_NAMES", "DEFAULT_MODEL_ERROR", "FIT_METHODS", "FitMethod",
-    "NoiseCoefficients", "TAU_POWER", "TERMS", "TO_DATASHEET", "design_matrix", "fit_every_method",
+    "NoiseCoefficients", "TAU_POWER", "TERMS", "TO_DATASHEET", "check_terms", "design_matrix", "fit_every_method",
     "fit_noise_terms",
     "log_tau_share", "theoretical_avar",
 ]
@@ -154,16 +154,27 @@ class NoiseCoefficients:
         return out
 
 
-def _check_terms(terms: str) -> str:
-    extra = set(terms.upper()) - set(TERMS)
-    terms = "".join(t for t in TERMS if t in terms.upper())
-    if not terms or extra:
-        raise FitError(f"terms must be a non-empty subset of 'QNBKR', got {terms!r}")
-    return terms
+def check_terms(terms: str) -> str:
+    """The terms of ``terms`` (letters of ``QNBKR``, any case) in model order.
+
+    Raises
+    ------
+    FitError
+        A letter that is not a term (named, with the valid ones), or no term at all.
+    """
+    extra = sorted(set(terms.upper()) - set(TERMS))
+    kept = "".join(t for t in TERMS if t in terms.upper())
+    if not kept or extra:
+        what = f"{', '.join(repr(c) for c in extra)} {'is' if len(extra) == 1 else 'are'} not" if extra \
+            else "no letter is"
+        raise FitError(f"terms {terms!r}: {what} one of Q (quantization), N (angle random walk), "
+                       f"B (bias instability), K (rate random walk), R (rate ramp); give a "
+                       f"subset such as QNBKR or NBK")
+    return kept
 
 
 def _checked(result: AllanResult, terms: str, model_error: float) -> tuple[str, NDArray[np.float64]]:
-    terms = _check_terms(terms)
+    terms = check_terms(terms)
     avar = np.asarray(result.avar, dtype=float)
     if avar.ndim != 1:
         raise FitError("fit one axis at a time: pass result.axis(i)")

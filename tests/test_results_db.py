@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from station.cli import main
-from station.errors import ResultsDatabaseError
+from station.errors import ResultsDatabaseError, UsageError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
 from station.output.results import MIGRATIONS, SCHEMA_VERSION, ResultsDatabase, export_csv
@@ -116,6 +116,9 @@ def test_filters_yield_and_trend(filled: Path) -> None:
         grading_id = db.gradings()[0].id
         names = {r["name"] for r in db.figures(grading_id)}
         assert names == {"arw", "bias_instability", "bias_stability_10s", "bias"}
+        with pytest.raises(UsageError, match="no figure 'nonsense' in the results database; its "
+                                             "figures: arw, bias, bias_instability, bias_stability_10s"):
+            db.trend("nonsense")
         rows = export_csv(db.gradings(), filled.parent / "all.csv")
     with rows.open() as fh:
         table = list(csv.DictReader(fh))

@@ -31,7 +31,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from station.errors import ResultsDatabaseError
+from station.errors import ResultsDatabaseError, UsageError
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
     from station.evaluation.grading import RunGrade, UnitGrade
@@ -367,7 +367,17 @@ class ResultsDatabase:
 
     def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
               lot: str | None = None) -> list[TrendPoint]:
-        """A figure over test dates, one point per grading and axis, oldest first."""
+        """A figure over test dates, one point per grading and axis, oldest first.
+
+        Raises
+        ------
+        UsageError
+            A figure no grading in the database has (the names stored are listed).
+        """
+        names = self.figure_names()
+        if figure not in names:
+            raise UsageError(f"no figure {figure!r} in the results database; its figures: "
+                             f"{', '.join(names) or 'none yet (station grade stores them)'}")
         clauses, params = _equal_to(("f.name", figure), ("u.model", model), ("f.axis", axis),
                                     ("g.lot", lot))
         rows = self._con.execute(
@@ -376,6 +386,10 @@ class ResultsDatabase:
             " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = g.unit_id"
             f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis", params).fetchall()
         return [TrendPoint(*row) for row in rows]
+
+    def figure_names(self) -> list[str]:
+        """The names of the figures stored (``arw``, ``bias_instability``, ...), sorted."""
+        return [row[0] for row in self._con.execute("SELECT DISTINCT name FROM figures ORDER BY name")]
 
     def integrity_check(self) -> str:
         """SQLite's ``PRAGMA integrity_check`` answer ("ok" when sound)."""

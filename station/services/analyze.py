@@ -7,6 +7,7 @@ from pathlib import Path
 
 from analysis.allan import Estimator
 from analysis.deviations import DeviationKind
+from analysis.fit import check_terms
 from analysis.gmwm_models import GmwmModel
 from station.errors import UsageError
 from station.evaluation.analyze import (
@@ -109,6 +110,7 @@ def analyze(request: AnalyzeRequest,
         raise UsageError("--model and --robust go with --method gmwm")
     if gmwm and request.gmwm_model.strip().lower() != "auto":
         GmwmModel.parse(request.gmwm_model)  # a bad model string fails before the record is read
+    check_terms(request.terms)  # a bad --terms fails before the record is read
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm:
