@@ -3,6 +3,8 @@ shell completion, and what a new user tripped over in reconcile."""
 
 from __future__ import annotations
 
+import argparse
+import re
 import warnings
 from pathlib import Path
 
@@ -10,6 +12,8 @@ import numpy as np
 import pytest
 
 from analysis.discrepancy import measure_curve
+from analysis.errors import FitError
+from analysis.fit import check_terms
 from station.cli import build_parser, main
 from station.commands.conventions import enable_completion, report_unexpected
 from station.model.version import software_version
@@ -89,3 +93,29 @@ def test_shell_completion_answers_the_shell(tmp_path: Path, monkeypatch) -> None
     monkeypatch.delenv("_ARGCOMPLETE")
     enable_completion(build_parser(), exit_method=codes.append)  # no request: nothing happens
     assert codes == [0]
+
+
+def _parsers(parser: argparse.ArgumentParser, name: str = "station"):
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_name, sub in action.choices.items():
+                yield from _parsers(sub, f"{name} {sub_name}")
+
+
+def test_help_is_plain_text_with_a_line_for_every_option() -> None:
+    for name, parser in _parsers(build_parser()):
+        missing = [a.option_strings or a.dest for a in parser._actions
+                   if a.help is None and not isinstance(a, argparse._SubParsersAction)]
+        assert not missing, f"{name}: options without help: {missing}"
+        text = parser.format_help()
+        assert not re.search(r":\w+:`|``", text), f"{name}: reStructuredText markup in its help"
+
+
+@pytest.mark.parametrize(("terms", "named"), [("QNX", "'X' is not one of Q (quantization)"),
+                                               ("XYZ", "'X', 'Y', 'Z' are not one of"),
+                                               ("", "no letter is one of")])
+def test_terms_name_what_is_wrong_and_the_valid_letters(terms: str, named: str) -> None:
+    with pytest.raises(FitError, match=re.escape(named)):
+        check_terms(terms)
+    assert check_terms("knb") == "NBK"

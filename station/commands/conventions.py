@@ -3,6 +3,8 @@ exit status 2, ``--version``, shell completion.
 
 * Options are never abbreviated (``allow_abbrev=False``): ``--unit`` is not taken for
   ``--units``, and an option added later cannot change what an old script meant.
+* Help shows plain text (the docstrings' reStructuredText markup is taken out) and every
+  option has its line.
 * A bad command line is one line on stderr, ``station COMMAND: error: ...`` with a pointer to
   ``--help``, and exit status 2 (argparse's usage block is not repeated above it).
 * ``station --version`` prints the installed package's version.
@@ -14,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from collections.abc import Callable
 from typing import NoReturn
@@ -42,9 +45,20 @@ class StationParser(argparse.ArgumentParser):
             (target or self).error(f"unrecognized arguments: {' '.join(extras)}")
         return ns
 
+    def format_help(self) -> str:
+        """argparse's help without the docstrings' reStructuredText markup (``code``,
+        :mod:`x`), which a terminal shows literally."""
+        return plain_text(super().format_help())
+
     def error(self, message: str) -> NoReturn:
         """One line, ``PROG: error: MESSAGE (PROG --help lists the options)``, exit status 2."""
         self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
+
+
+def plain_text(text: str) -> str:
+    """``text`` without reStructuredText roles (``:mod:`x``` -> ``x``) and literals (````x```` -> ``x``)."""
+    text = re.sub(r":\w+:`~?([^`]*)`", r"\1", text)
+    return re.sub(r"``([^`]*)``", r"\1", text)
 
 
 def add_version(parser: argparse.ArgumentParser) -> None:

@@ -67,7 +67,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")
     p.add_argument("--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=1,
+                   help="seed of the simulated gyros (default 1: the same demo every time)")
     p.add_argument("--out", type=Path, default=Path("station-demo"),
                    help="folder for the run file and the plot (default ./station-demo)")
     p.set_defaults(handler=run)

@@ -1,7 +1,7 @@
 """``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
 
-Prints a table per unit (or, with ``--json``, the document of
-:meth:`station.evaluation.grading.RunGrade.as_json`) and stores each graded unit in the results
+Prints a table per unit (or, with ``--json``, one JSON document: the run, and per unit its
+figures with intervals, limits and verdicts; docs/json.md) and stores each graded unit in the results
 database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
 ``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
 """

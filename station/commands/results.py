@@ -26,12 +26,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_database_argument(p)
-    p.add_argument("--model", default=None)
-    p.add_argument("--lot", default=None)
-    p.add_argument("--serial", default=None)
+    p.add_argument("--model", default=None, help="only this gyro model (as graded, e.g. CRG20)")
+    p.add_argument("--lot", default=None, help="only this production lot")
+    p.add_argument("--serial", default=None, help="only this unit's serial number")
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
     p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
-    p.add_argument("--verdict", choices=get_args(Verdict), default=None)
+    p.add_argument("--verdict", choices=get_args(Verdict), default=None,
+                   help="only gradings with this verdict")
     p.add_argument("--review", action="store_true",
                    help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
