@@ -4,9 +4,11 @@ shell completion, and what a new user tripped over in reconcile."""
 from __future__ import annotations
 
 import argparse
+import json
 import re
 import warnings
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import numpy as np
 import pytest
@@ -14,6 +16,8 @@ import pytest
 from analysis.discrepancy import measure_curve
 from analysis.errors import FitError
 from analysis.fit import check_terms
+from devices.url_query import check_keys, parse_query
+from devices.urls import SUPPORTED, _allowed_keys
 from station.cli import build_parser, main
 from station.commands.conventions import enable_completion, report_unexpected
 from station.model.version import software_version
@@ -119,3 +123,18 @@ def test_terms_name_what_is_wrong_and_the_valid_letters(terms: str, named: str) 
     with pytest.raises(FitError, match=re.escape(named)):
         check_terms(terms)
     assert check_terms("knb") == "NBK"
+
+
+def test_devices_lists_each_protocol_real_hardware_url_with_keys_it_accepts(capsys) -> None:
+    assert main(["devices", "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    assert len(listed) == len(SUPPORTED)
+    for entry in listed:
+        url = entry["hardware_url"]
+        parts = urlsplit(url)
+        assert parts.scheme == entry["transport"] and entry["sim_url"].startswith("sim+")
+        query = parse_query(parts.query, url)
+        check_keys(query, _allowed_keys(entry["transport"], False, query), url)  # raises if not
+    assert main(["devices"]) == 0
+    text = capsys.readouterr().out
+    assert text.count("hardware:  ") == len(SUPPORTED) == text.count("simulated: ")

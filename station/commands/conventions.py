@@ -15,6 +15,8 @@ exit status 2, ``--version``, shell completion.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import os
 import re
 import sys
@@ -88,6 +90,10 @@ def report_unexpected(command: str, exc: BaseException) -> int:
     """
     if os.environ.get(TRACEBACK_ENV):
         raise exc
+    if isinstance(exc, BrokenPipeError):  # `station ... | head`: the reader has what it wanted
+        with contextlib.suppress(OSError, ValueError, io.UnsupportedOperation):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     if isinstance(exc, OSError):
         where = f": {exc.filename}" if exc.filename else ""
         print(f"station {command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
