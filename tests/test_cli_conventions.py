@@ -4,6 +4,7 @@ shell completion, and what a new user tripped over in reconcile."""
 from __future__ import annotations
 
 import argparse
+import csv
 import json
 import re
 import warnings
@@ -21,6 +22,7 @@ from devices.urls import SUPPORTED, _allowed_keys
 from station.cli import build_parser, main
 from station.commands.conventions import enable_completion, report_unexpected
 from station.model.version import software_version
+from station.storage.csv_records import write_csv_record
 
 
 @pytest.fixture(scope="module")
@@ -138,3 +140,19 @@ def test_devices_lists_each_protocol_real_hardware_url_with_keys_it_accepts(caps
     assert main(["devices"]) == 0
     text = capsys.readouterr().out
     assert text.count("hardware:  ") == len(SUPPORTED) == text.count("simulated: ")
+
+
+def test_analyze_writes_the_curve_as_csv_without_a_profile(tmp_path: Path, capsys) -> None:
+    rate = np.random.default_rng(2).normal(0.0, 0.01, (6000, 2))
+    record = write_csv_record(tmp_path / "r.csv", rate, 10.0, axis_names=["x", "y"])
+    out_csv = tmp_path / "curve.csv"  # (--png draws the same curve: tests/test_cli_analysis.py)
+    assert main(["analyze", str(record), "--csv", str(out_csv), "--json"]) == 0
+    axes = json.loads(capsys.readouterr().out)["axes"]
+    with out_csv.open() as fh:
+        rows = list(csv.DictReader(fh))
+    for axis in axes:
+        mine = [r for r in rows if r["axis"] == axis["name"]]
+        assert [float(r["tau_s"]) for r in mine] == axis["tau_s"]
+        np.testing.assert_allclose([float(r["oadev_deg_h"]) for r in mine], axis["adev_deg_h"], rtol=1e-12)
+        np.testing.assert_allclose(axis["adev_deg_h"], np.array(axis["adev"]) * 3600, rtol=1e-12)
+        assert all(float(r["fit_adev_deg_h"]) > 0 for r in mine)

@@ -59,6 +59,8 @@ class AnalyzeRequest:
         run's bench).
     png : Path or None
         Where to draw the Allan deviation (with ``method="gmwm"``: the wavelet variance).
+    csv : Path or None
+        Where to write the curve (:mod:`station.output.curve_csv`).
     """
 
     source: RecordSource
@@ -73,6 +75,7 @@ class AnalyzeRequest:
     outliers: OutlierPolicy = "auto"
     bench: str | Path | None = None
     png: Path | None = None
+    csv: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -131,5 +134,9 @@ def analyze(request: AnalyzeRequest,
 
         plot = plot_wavelet if gmwm else plot_allan
         plot(axes, request.png, title=str(request.source.file))
+    if request.csv is not None:
+        from station.output.curve_csv import write_curve_csv
+
+        write_curve_csv(axes, request.csv)
     return AnalyzeResult(str(request.source.file), record, loaded.selection, tuple(axes),
                          loaded.notes, request.png)
