@@ -145,7 +145,7 @@ def test_devices_lists_each_protocol_real_hardware_url_with_keys_it_accepts(caps
 def test_analyze_writes_the_curve_as_csv_without_a_profile(tmp_path: Path, capsys) -> None:
     rate = np.random.default_rng(2).normal(0.0, 0.01, (6000, 2))
     record = write_csv_record(tmp_path / "r.csv", rate, 10.0, axis_names=["x", "y"])
-    out_csv = tmp_path / "curve.csv"  # (--png draws the same curve: tests/test_cli_analysis.py)
+    out_csv = tmp_path / "curve.csv"
     assert main(["analyze", str(record), "--csv", str(out_csv), "--json"]) == 0
     axes = json.loads(capsys.readouterr().out)["axes"]
     with out_csv.open() as fh:
