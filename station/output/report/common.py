@@ -10,11 +10,15 @@ from __future__ import annotations
 import re
 from collections import Counter
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
+
+import numpy as np
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
 from station.model.runs import UnitRun
+from station.model.sheet_header import station_name
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
 VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
@@ -94,26 +98,57 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
     return review + lines
 
 
+def to_the_second(utc: str) -> str:
+    """An ISO 8601 time to the second (``2026-05-01T10:22:03.123456+00:00`` ->
+    ``2026-05-01 10:22:03``, in UTC); text that is not a time comes back as it is."""
+    try:
+        t = datetime.fromisoformat(utc.replace("Z", "+00:00"))
+    except ValueError:
+        return utc
+    if t.tzinfo is not None:
+        t = t.astimezone(UTC)
+    return t.strftime("%Y-%m-%d %H:%M:%S")
+
+
+def temperature_text(unit: UnitGrade) -> str:
+    """The test temperature from the unit's channel: mean and range (degC), or "not recorded"."""
+    temp = unit.unit.record.temperature_c
+    if temp is None or not np.isfinite(temp).any():
+        return "not recorded (no temperature channel)"
+    t = temp[np.isfinite(temp)]
+    return f"{float(t.mean()):.1f} degC (mean; {float(t.min()):.1f} to {float(t.max()):.1f} degC)"
+
+
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
-    """(label, text) pairs of a spec sheet's header."""
-    run, p, u = graded.run, graded.profile, unit.unit
+    """(label, text) pairs of a spec sheet's header (the test house's from ``graded.sheet``)."""
+    run, p, u, sheet = graded.run, graded.profile, unit.unit, graded.sheet
     duration = u.record.duration_s
+    recorded = f" (recorded with {run.software_version})" if run.software_version else ""
     return [
+        *([("Company", sheet.company)] if sheet is not None and sheet.company else []),
         ("Model", u.model or p.model),
         ("Serial number", u.serial_number or f"({u.unit_id})"),
-        ("Test date (UTC)", run.start_utc or "not recorded"),
+        ("Test date (UTC)", to_the_second(run.start_utc) if run.start_utc else "not recorded"),
         ("Duration", f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
                      f"discarded"),
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
-        ("Station", run.station_host or "-"),
+        ("Temperature", temperature_text(unit)),
+        *([("Conditions", sheet.conditions)] if sheet is not None and sheet.conditions else []),
+        ("Station", station_name(sheet, run.station_host)),
         ("Operator", run.operator or "-"),
         ("Lot", run.lot or "-"),
-        ("Software version", f"{graded.software_version} (recorded with {run.software_version or '-'})"),
+        ("Software version", f"{graded.software_version}{recorded}"),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
-        ("Graded (UTC)", graded.graded_utc),
+        ("Graded (UTC)", to_the_second(graded.graded_utc)),
         ("Run file", Path(run.path).name),
     ]
+
+
+#: The sheet's statement of the Allan plot's bias-instability limit line (and of B).
+LIMIT_LINE_NOTE = ("Allan plot: the bias-instability limit is drawn at 0.664 x the limit, the "
+                   "flat Allan deviation of a unit at the limit; B = sigma_min / 0.664 (IEEE Std 952 "
+                   "Annex C; imu_utils and kalibr_allan report sigma_min itself)")
 
 
 @dataclass(frozen=True)

@@ -69,13 +69,17 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
     ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=fontsize - 1, loc="upper right", ncol=2 if len(axes) > 1 else 1)
+    # lower left: the curves fall from the upper left, and the long-tau end on the right is
+    # where the bias instability and random walk are read
+    ax.legend(fontsize=fontsize - 1, loc="lower left", ncol=2 if len(axes) > 1 else 1, framealpha=0.85)
 
 
 def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
     """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum limit."""
     for line in limit_lines(axis):
         label = f"{line.label} limit ({line.grade})"
+        if line.shape == "level" and line.figure != "adev_min":
+            label = f"0.664 x {line.label} limit ({line.grade})"
         if line.shape == "slope":
             ax.loglog(line.tau_s, line.adev_deg_h, "--", color="0.3", lw=0.9, label=label)
         else:
