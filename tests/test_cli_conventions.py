@@ -156,3 +156,15 @@ def test_analyze_writes_the_curve_as_csv_without_a_profile(tmp_path: Path, capsy
         np.testing.assert_allclose([float(r["oadev_deg_h"]) for r in mine], axis["adev_deg_h"], rtol=1e-12)
         np.testing.assert_allclose(axis["adev_deg_h"], np.array(axis["adev"]) * 3600, rtol=1e-12)
         assert all(float(r["fit_adev_deg_h"]) > 0 for r in mine)
+
+
+def test_recover_and_simulate_print_json(run_file: Path, tmp_path: Path, capsys) -> None:
+    assert main(["recover", str(run_file), "--json"]) == 0
+    answer = json.loads(capsys.readouterr().out)
+    assert answer["already_closed"] is True and answer["path"] == str(run_file)
+    assert main(["simulate", "--model", "VG951", "--duration", "30s", "--axes", "3", "--seed", "2",
+                 "--json", "--out", str(tmp_path / "s.csv")]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == {"out": str(tmp_path / "s.csv"), "n_samples": 300, "axes": 3,
+                                        "rate_hz": 10.0, "model": "VG951"}
+    assert captured.err == ""

@@ -139,7 +139,8 @@ def test_model_curve_json_is_the_theoretical_allan_deviation(capsys):
     rc, out, _ = _run(capsys, "model", "curve", "zhang2015-fog", "--taus", "log", "--json")
     assert rc == 0
     doc = json.loads(out)
-    assert set(doc) == {"tau_s", "adev", "terms"}
+    assert set(doc) == {"tau_s", "adev", "terms", "adev_deg_h", "terms_deg_h"}
+    np.testing.assert_allclose(doc["adev_deg_h"], 3600 * np.array(doc["adev"]), rtol=1e-12)
     model = load_noise_model("zhang2015-fog")
     tau = np.array(doc["tau_s"])
     np.testing.assert_allclose(tau, log_m(4 * 3600 * 10) / 10.0)  # default: 4 h at 10 Hz
