@@ -74,6 +74,15 @@ class RateRecord:
         out[self.sample_index] = self.rate_deg_s[:, column]
         return out
 
+    def on_time_grid(self) -> NDArray[np.float64]:
+        """Every axis' rate (deg/s) on the sample grid, NaN where a sample is missing
+        (shape (:attr:`span_samples`, axes)); the rates themselves when nothing is."""
+        if self.sample_index is None:
+            return self.rate_deg_s
+        out = np.full((self.span_samples, self.rate_deg_s.shape[1]), np.nan)
+        out[self.sample_index] = self.rate_deg_s
+        return out
+
     def select(self, axis: str | int) -> RateRecord:
         """A record with only one axis, chosen by name or index."""
         if isinstance(axis, str):

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+import numpy as np
 
 from analysis.davar import DavarResult, dynamic_allan_variance
 from analysis.units import S_PER_H
@@ -42,14 +45,16 @@ class DavarAnswer:
     def as_json(self) -> dict[str, object]:
         """``{"axes": [{"name", "t_s", "tau_s", "adev_deg_h", "adev_deg_s", "adev",
         "warmup_end_s", "stationary"}]}``: window centres (s), taus (s), ADEV per window and
-        tau (``adev`` is ``adev_deg_s``, the key older readers know), the verdict."""
+        tau (null in a window that holds a recorded gap; ``adev`` is ``adev_deg_s``, the key
+        older readers know), the verdict."""
         axes = []
         for i, (name, verdict) in enumerate(zip(self.record.axis_names, self.verdicts,
                                                 strict=True)):
             one = self.result.axis(i)
+            adev = [[None if math.isnan(v) else v for v in row] for row in one.adev.tolist()]
+            adev_deg_h = [[None if v is None else v * S_PER_H for v in row] for row in adev]
             axes.append({"name": name, "t_s": one.t_s.tolist(), "tau_s": one.tau_s.tolist(),
-                         "adev_deg_h": (one.adev * S_PER_H).tolist(),
-                         "adev_deg_s": one.adev.tolist(), "adev": one.adev.tolist(),
+                         "adev_deg_h": adev_deg_h, "adev_deg_s": adev, "adev": adev,
                          "warmup_end_s": verdict.warmup_end_s,
                          "stationary": bool(verdict.stationary)})
         return {"axes": axes}
@@ -74,11 +79,14 @@ def davar(request: DavarRequest) -> DavarAnswer:
     if loaded.selection.warmup_s > 0 and offset == loaded.selection.warmup_s:
         notes += (f"the first {offset:g} s are left out (warm-up from "
                   f"{loaded.selection.warmup_from}); --warmup-s 0 shows the whole record",)
+    result = dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
+                                    window_s=request.window_s, step_s=request.step_s,
+                                    missing="gap" if record.missing_samples else "raise")
     if record.missing_samples:
-        notes += (f"{record.missing_samples} samples are missing in gaps; the DAVAR joins the "
-                  f"stretches between them (window times are sample counts)",)
-    result = dynamic_allan_variance(record.rate_deg_s, record.sample_rate_hz,
-                                    window_s=request.window_s, step_s=request.step_s)
+        broken = int(np.isnan(result.avar).any(axis=(1, 2)).sum())
+        notes += (f"{record.missing_samples} samples are missing in gaps; the {broken} of "
+                  f"{len(result.t_s)} windows that hold one are left out (blank on the heat "
+                  f"map, null in the JSON)",)
     verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
     if offset > 0:  # times since the record's start, not since the cut
         result = replace(result, t_s=result.t_s + offset)
