@@ -245,10 +245,39 @@ async def _setup_checks(tmp_path: Path) -> None:
         assert good.ok and good.model == "VG951" and good.serial_number == "SIM-2"
         assert "does not answer" in notifications(app)
         rows = cell_texts(setup.query_one("#units", DataTable))
-        assert rows[1][2] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
+        assert rows[1][3] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
         await pilot.press("f5")
         assert "did not answer" in notifications(app)
         assert not list((tmp_path / "runs").glob("*.h5"))  # nothing was started
+
+
+def test_setup_screen_says_what_f6_adds_and_ctrl_d_keeps_focus_off_the_profiles(tmp_path: Path) -> None:
+    asyncio.run(_setup_keys(tmp_path))
+
+
+async def _setup_keys(tmp_path: Path) -> None:
+    app = StationApp(settings(tmp_path))
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
+        setup = app.screen
+        assert isinstance(setup, SetupScreen)
+        setup.check_units = False
+        await pilot.press("f6", "f6")
+        told = notifications(app)
+        assert "no profile chosen" in told and "x60 (1h in 1min) of wall time" in told
+        table = setup.query_one("#units", DataTable)
+        rows = cell_texts(table)
+        assert all("warp=60" in row[1] and row[2] == "x60 (1h in 1min)" for row in rows)
+        setup.query_one("#duration", Input).value = "2h"
+        await pilot.pause()
+        assert cell_texts(table)[0][2] == "x60 (2h in 2min)"
+        table.focus()
+        await pilot.press("ctrl+d")
+        assert len(setup.units) == 1 and app.focused is table
+        await pilot.press("ctrl+d")
+        url = setup.query_one("#url", Input)
+        assert not setup.units and app.focused is url
+        await pilot.press(*"sim")  # goes into the URL field, not the profile list
+        assert url.value == "sim" and setup.profile is None
 
 
 class _Buggy(StationApp):

@@ -17,7 +17,7 @@ from textual.widgets import DataTable, Input, ProgressBar
 from station.tui.app import StationApp, TuiSettings
 from station.tui.launcher import RecorderProcess, pid_alive
 from station.tui.live_screen import LiveScreen
-from station.tui.setup_screen import SetupScreen
+from station.tui.setup_screen import SetupScreen, short_url
 from station.tui.spec_screen import SpecSheetScreen
 from tests.test_tui import SIZE, cell_texts, notifications, screen_text, until
 
@@ -63,7 +63,7 @@ async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess])
         await pilot.press(*"4h")
         await pilot.click("#operator")
         await pilot.press(*"ann")
-        assert [r[1] for r in cell_texts(setup.query_one("#units", DataTable))] == list(URLS)
+        assert [r[1] for r in cell_texts(setup.query_one("#units", DataTable))] == [short_url(u) for u in URLS]
         await pilot.press("f5")
         await until(pilot, lambda: app.recorders.started, 10, "the recorder process")
         started.extend(app.recorders.started)
@@ -72,7 +72,8 @@ async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess])
         assert isinstance(live, LiveScreen)
         await until(pilot, lambda: live.snapshot is not None and live.snapshot.units
                     and all(u.samples for u in live.snapshot.units), 30, "samples")
-        assert "Run started" in notifications(app)
+        # where it records is in the header, not in a toast over the Allan plot
+        assert f"recorder pid {started[0].pid}" in live.sub_title and "Run started" not in notifications(app)
         return live.path
 
 

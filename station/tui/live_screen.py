@@ -109,6 +109,9 @@ class LiveScreen(Screen[None]):
     def on_mount(self) -> None:
         """Set up the table and start polling the file."""
         self.sub_title = f"Live: {self.path.name}"
+        if self.process is not None:  # said in the header, not a toast over the plots
+            self.sub_title += (f" (recorder pid {self.process.pid}, log {self.process.log_path.name}; "
+                               f"it goes on if the TUI is closed)")
         table = self.query_one("#units", DataTable)
         for label, key in _COLUMNS:
             table.add_column(label, key=key)
