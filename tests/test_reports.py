@@ -16,7 +16,7 @@ from station.cli import main
 from station.errors import UsageError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
-from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
 from station.model.sheet_header import load_sheet_header
 from station.output.report import FORMATS, write_report
 from station.output.report.common import header_fields
@@ -50,8 +50,9 @@ def graded(tmp_path_factory) -> RunGrade:
             RunEvent(f"u{i}", "gap", 120.5, missing_samples=40), RunEvent(f"u{i}", "resync", 120.6),
             RunEvent(f"u{i}", "gap", 400.0, missing_samples=3))
         units.append(UnitRun(f"u{i}", "TG-1", serial, record, events=events))
-    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), profile="TEST", operator="A. Tester",
-                  lot="LOT-7", station_host="bench-3", software_version="0.1.0",
+    metadata = RunMetadata(profile="TEST", operator="A. Tester", lot="LOT-7",
+                           station_host="bench-3", software_version="0.1.0")
+    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), metadata=metadata,
                   start_utc="2026-11-20T08:00:00Z", stop_utc="2026-11-20T08:15:00Z")
     return grade_run(run, profile)
 
@@ -212,7 +213,7 @@ def test_sheet_header_company_logo_station_approval_and_conventions(graded: RunG
     for expected in ("Gyro Works Ltd.", "EOL bench 3", "Tested by:", "Approved by:", "0.664 x"):
         assert expected in text, expected
     # without a header: the host name says what it is, a CSV's unknown recording software is not "-"
-    bare = replace(graded, run=replace(graded.run, software_version=""))
+    bare = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, software_version="")))
     fields = dict(header_fields(bare, bare.units[0]))
     assert fields["Station"] == "bench-3 (host name)" and "recorded with" not in fields["Software version"]
     monkeypatch.setenv("STATION_NAME", "line 2")

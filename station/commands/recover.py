@@ -17,8 +17,8 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from station.hdf5 import REASON_RECOVERED
-from station.hdf5_recover import recover_run
+from station.storage.hdf5 import REASON_RECOVERED
+from station.storage.hdf5_recover import recover_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -17,11 +17,13 @@ import numpy as np
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.kinds import Verdict
 from station.model.runs import UnitRun
 from station.model.sheet_header import station_name
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
-VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
+VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
+                                             "indeterminate": "#fbe7a9", None: "#ffffff"}
 #: How many individual events a report lists before it only counts them.
 MAX_EVENTS_LISTED = 12
 
@@ -49,7 +51,7 @@ class FigureRow:
     ci_high: float | None
     limit: float | None
     grade: str
-    verdict: str | None
+    verdict: Verdict | None
     note: str
 
 
@@ -123,7 +125,8 @@ def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
     """(label, text) pairs of a spec sheet's header (the test house's from ``graded.sheet``)."""
     run, p, u, sheet = graded.run, graded.profile, unit.unit, graded.sheet
     duration = u.record.duration_s
-    recorded = f" (recorded with {run.software_version})" if run.software_version else ""
+    recorded = (f" (recorded with {run.metadata.software_version})"
+                if run.metadata.software_version else "")
     return [
         *([("Company", sheet.company)] if sheet is not None and sheet.company else []),
         ("Model", u.model or p.model),
@@ -134,9 +137,9 @@ def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
         ("Temperature", temperature_text(unit)),
         *([("Conditions", sheet.conditions)] if sheet is not None and sheet.conditions else []),
-        ("Station", station_name(sheet, run.station_host)),
-        ("Operator", run.operator or "-"),
-        ("Lot", run.lot or "-"),
+        ("Station", station_name(sheet, run.metadata.station_host)),
+        ("Operator", run.metadata.operator or "-"),
+        ("Lot", run.metadata.lot or "-"),
         ("Software version", f"{graded.software_version}{recorded}"),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
