@@ -210,7 +210,7 @@ def test_sheet_header_company_logo_station_approval_and_conventions(graded: RunG
     assert fields["Software version"].endswith("(recorded with 0.1.0)")
     assert fields["Temperature"].startswith("not recorded") and fields["Conditions"] == "static, granite table"
     text = PdfReader(write_report(headed, "pdf", tmp_path)).pages[0].extract_text()
-    for expected in ("Gyro Works Ltd.", "EOL bench 3", "Tested by:", "Approved by:", "0.664 x"):
+    for expected in ("Gyro Works Ltd.", "EOL bench 3", "Tested by (name, date, signature):", "Approved by", "0.664 x"):
         assert expected in text, expected
     # without a header: the host name says what it is, a CSV's unknown recording software is not "-"
     bare = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, software_version="")))
