@@ -21,6 +21,7 @@ from station.profiles import load_profile
 from station.record_files import UNIT_TO_DEG_S
 from station.report.common import analysis_lines
 from station.results import ResultsDatabase, default_database_path
+from station.results_backends import database_location
 from station.runs import RunInfo, open_run
 
 
@@ -38,8 +39,9 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
+                   help="results database: an SQLite file or a postgresql:// URL (default: "
+                        "$STATION_RESULTS_DB or ~/.local/share/gyro-station)")
     p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
     add_bench_argument(p)
 

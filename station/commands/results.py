@@ -22,14 +22,16 @@ from station.results import (
     default_database_path,
     export_csv,
 )
+from station.results_backends import database_exists, database_location
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``results`` sub-command."""
     p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
+                   help="results database: an SQLite file or a postgresql:// URL (default: "
+                        "$STATION_RESULTS_DB or ~/.local/share/gyro-station)")
     p.add_argument("--model", default=None)
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)
@@ -52,7 +54,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Open the database and print what was asked."""
     db_path = args.db or default_database_path()
-    if not db_path.exists():
+    if not database_exists(db_path):
         print(f"no results database at {db_path} yet (station grade stores into it)")
         return 0
     with ResultsDatabase(db_path) as db:

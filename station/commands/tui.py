@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.results_backends import database_location
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``tui`` sub-command."""
@@ -20,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of the run files (default ./runs)")
     p.add_argument("--reports", type=Path, default=Path("reports"), metavar="DIR",
                    help="folder for exported reports (default ./reports)")
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
+    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
                    help="results database (default: $STATION_RESULTS_DB or "
                         "~/.local/share/gyro-station)")
     p.add_argument("--no-check", action="store_true",
