@@ -10,9 +10,9 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from devices.protocols import DeviceDescription
-from station.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys
 from station.hdf5_writer import RunFileWriter
-from station.profiles import load_profile
+from station.model.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys
+from station.model.profiles import load_profile
 
 #: Rows written per batch (bounds the writer's memory on long runs).
 BATCH = 100_000

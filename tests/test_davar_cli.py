@@ -13,7 +13,7 @@ from matplotlib import image
 
 from analysis.davar import dynamic_allan_variance
 from station.cli import main
-from station.record_files import write_csv_record
+from station.storage.csv_records import write_csv_record
 
 FS = 10.0
 N = 30_000  # 3000 s
@@ -90,3 +90,24 @@ def test_errors_are_one_line_messages(record_csv: Path, capsys: pytest.CaptureFi
     assert "no such file" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["davar", str(record_csv)])  # --window-s is required
+
+
+def test_a_record_with_gaps_leaves_out_the_windows_that_hold_one(
+        tmp_path: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+    """A CSV whose time column jumps over 100 s: the windows across the gap are null in the
+    JSON, the others equal the DAVAR of the unbroken record at their true times, and the
+    summary says how many windows were left out."""
+    index = np.r_[0:12_000, 13_000:N]  # 1000 samples (100 s) lost
+    path = write_csv_record(tmp_path / "gap.csv", rate[index], FS, axis_names=["x", "y"],
+                            sample_index=index)
+    assert main(["davar", str(path), "--window-s", "300", "--json"]) == 0
+    axis = json.loads(capsys.readouterr().out)["axes"][1]
+    ref = dynamic_allan_variance(rate[:, 1], FS, window_s=300.0)
+    np.testing.assert_allclose(axis["t_s"], ref.t_s)
+    broken = [any(v is None for v in row) for row in axis["adev"]]
+    starts = np.asarray(axis["t_s"]) * FS - 1500
+    assert broken == list((starts < 13_000) & (starts + 3000 > 12_000))
+    whole = [row for row, b in zip(axis["adev"], broken, strict=True) if not b]
+    np.testing.assert_allclose(whole, ref.adev[~np.asarray(broken)], rtol=1e-9)
+    assert main(["davar", str(path), "--window-s", "300"]) == 0
+    assert "windows that hold one are left out" in capsys.readouterr().err

@@ -24,11 +24,10 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from station.bench import load_bench
-from station.fleet import ACTIONS, LOCAL, FleetProgress, FleetRequest, FleetResult, fleet
-from station.profiles import load_profile
-from station.report import FORMATS
-from station.results_backends import database_location, redacted
+from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
+from station.output.report import FORMATS
+from station.output.results_backends import redacted
+from station.services.fleet import ACTIONS, LOCAL, FleetProgress, FleetRequest, FleetResult, fleet
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -45,13 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(tcp://host:8786)")
     p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="worker processes of the local cluster (default: one per CPU)")
-    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
-                   help="results database: an SQLite file or a postgresql:// URL (default: "
-                        "$STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--no-store", action="store_true", help="do not store the gradings")
-    p.add_argument("--bench", default=None, metavar="FILE",
-                   help="bench file (latitude, axis directions): biases without the Earth rate "
-                        "(default: each run's bench)")
+    add_bench_argument(p)
     p.add_argument("--format", dest="formats", action="append", choices=FORMATS, default=None,
                    help="report: report format; repeatable (default pdf)")
     p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
@@ -63,9 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Build the request, run it with a progress bar, print the result."""
     request = FleetRequest(
-        action=args.action, sources=tuple(args.runs),
-        profile=load_profile(args.profile) if args.profile else None,  # a bad profile: exit 2 now
-        bench=load_bench(args.bench) if args.bench else None, scheduler=args.scheduler,
+        action=args.action, sources=tuple(args.runs), profile=args.profile,
+        bench=args.bench, scheduler=args.scheduler,
         workers=args.workers, db=args.db, store=not args.no_store,
         formats=tuple(args.formats or ["pdf"]), out=args.out)
     bar = ProgressBar(sys.stderr)
@@ -78,8 +72,7 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.write("\n")
     else:
         print(format_fleet(result, None if args.no_store else redacted(request.database)))
-    for warning in result.warnings:
-        print(f"station fleet: warning: {warning}", file=sys.stderr)
+    print_warnings("fleet", result.warnings)
     return 1 if result.failed else 0
 
 

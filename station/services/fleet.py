@@ -24,9 +24,15 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Literal
 
-from station.bench import Bench
 from station.errors import StationError, UsageError
-from station.fleet_tasks import (
+from station.evaluation.grading import RunGrade
+from station.model.bench import Bench, load_bench
+from station.model.profiles import Profile, load_profile
+from station.model.version import software_version
+from station.output.report import FORMATS, ReportFormat
+from station.output.results import ResultsDatabase, default_database_path
+from station.output.results_backends import DatabaseLocation
+from station.services.fleet_tasks import (
     UnitOutcome,
     analyze_task,
     error_text,
@@ -34,10 +40,6 @@ from station.fleet_tasks import (
     list_units,
     report_task,
 )
-from station.grading import RunGrade, software_version
-from station.profiles import Profile
-from station.results import ResultsDatabase, default_database_path
-from station.results_backends import DatabaseLocation
 
 FleetAction = Literal["grade", "analyze", "report"]
 ACTIONS: tuple[str, ...] = ("grade", "analyze", "report")
@@ -62,10 +64,11 @@ class FleetRequest:
     sources : tuple of str or Path
         Run files (``.h5``, or a CSV record: a run of one unit) and directories (searched
         recursively for ``.h5``/``.hdf5`` files).
-    profile : Profile or None
-        The profile to grade with (None: each run's own).
-    bench : Bench or None
-        The bench whose Earth rate the biases are reported without (None: each run's).
+    profile : str or None
+        The profile to grade with, a name or a TOML file (None: each run's own); loaded
+        once here, and sent to the workers whole.
+    bench : str, Path or None
+        The bench file whose Earth rate the biases are reported without (None: each run's).
     scheduler : str
         ``"local"``: a local cluster of ``workers`` processes; else a scheduler address
         (``tcp://host:8786``).
@@ -83,13 +86,13 @@ class FleetRequest:
 
     action: FleetAction
     sources: tuple[str | Path, ...]
-    profile: Profile | None = None
-    bench: Bench | None = None
+    profile: str | None = None
+    bench: str | Path | None = None
     scheduler: str = LOCAL
     workers: int | None = None
     db: DatabaseLocation | None = None
     store: bool = True
-    formats: tuple[str, ...] = ("pdf",)
+    formats: tuple[ReportFormat, ...] = ("pdf",)
     out: Path = Path(".")
 
     @property
@@ -274,6 +277,8 @@ class _Driver:
         from distributed import as_completed
 
         self.request, self.client, self.progress, self.db = request, client, progress, db
+        self.profile: Profile | None = load_profile(request.profile) if request.profile else None
+        self.bench: Bench | None = load_bench(request.bench) if request.bench is not None else None
         self.pending = as_completed()
         self.kind: dict[Any, tuple[str, Any]] = {}
         self.runs: dict[str, _Run] = {}
@@ -314,11 +319,14 @@ class _Driver:
             self.done += 1
             self.failed.append(TaskFailure(file, "", error or "the run has no units"))
             return
-        task = grade_task if self.request.action != "analyze" else analyze_task
         self.runs[file].units = list(units)
         for unit in units:
             self.tasks += 1
-            self.submit("unit", (file, unit), task, file, unit, self.request.profile, self.request.bench)
+            if self.request.action == "analyze":  # the analyze service, with the references
+                bench = None if self.request.bench is None else str(self.request.bench)
+                self.submit("unit", (file, unit), analyze_task, file, unit, self.request.profile, bench)
+            else:
+                self.submit("unit", (file, unit), grade_task, file, unit, self.profile, self.bench)
 
     def _on_unit(self, key: tuple[str, str], outcome: UnitOutcome | None, error: str) -> None:
         file, unit = key
@@ -378,7 +386,9 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     Raises
     ------
     UsageError
-        A source that does not exist, no run files, a bad ``workers``.
+        A source that does not exist, no run files, a bad ``workers`` or format.
+    ProfileError, BenchError
+        The profile or bench given cannot be loaded (before anything runs).
     FleetError
         The cluster cannot be started or reached.
     ResultsDatabaseError
@@ -386,6 +396,9 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     """
     if request.action not in ACTIONS:
         raise UsageError(f"unknown fleet action {request.action!r}; use one of {', '.join(ACTIONS)}")
+    unknown = [f for f in request.formats if f not in FORMATS]
+    if unknown:
+        raise UsageError(f"unknown report format {unknown[0]!r}; use one of {', '.join(FORMATS)}")
     files = run_files(request.sources)
     store = request.store and request.action != "analyze"
     with _database(request.database if store else None) as db, \

@@ -18,17 +18,19 @@ import numpy as np
 
 from analysis.errors import AnalysisError
 from devices.errors import DeviceError
-from station.bench import Bench
 from station.errors import StationError
-from station.grading import UnitGrade, grade_run, profile_changed_note, run_profile_ref
-from station.profiles import Profile, load_profile
-from station.record_files import RateRecord
-from station.runs import RunInfo, UnitRun, open_run
-
-
-def is_run_file(path: str | Path) -> bool:
-    """Whether ``path`` names a recorder run file (``.h5``/``.hdf5``) rather than a CSV record."""
-    return Path(path).suffix.lower() in (".h5", ".hdf5")
+from station.evaluation.grading import (
+    RunGrade,
+    UnitGrade,
+    grade_run,
+    profile_changed_note,
+    run_profile_ref,
+)
+from station.model.bench import Bench
+from station.model.profiles import Profile, load_profile
+from station.model.records import RateRecord
+from station.model.runs import RunInfo, UnitRun
+from station.storage.runs import is_run_file, open_run
 
 
 def error_text(exc: BaseException) -> str:
@@ -98,7 +100,7 @@ def list_units(path: str) -> tuple[list[str], str]:
     no units and why the file cannot be read (the driver reports it as the file's failure)."""
     if not is_run_file(path):
         return [Path(path).name.split(".")[0]], ""
-    from station.hdf5 import open_run_file, unit_ids
+    from station.hdf5 import open_run_file, unit_ids  # the recorder's layout
 
     try:
         with open_run_file(path) as f:
@@ -109,11 +111,7 @@ def list_units(path: str) -> tuple[list[str], str]:
 
 def read_unit_run(path: str, unit: str) -> RunInfo:
     """The run with only ``unit`` read (a CSV record: the whole record)."""
-    if not is_run_file(path):
-        return open_run(path)
-    from station.hdf5 import read_run
-
-    run = read_run(path, only=(unit,))
+    run = open_run(path, only=(unit,))
     if not run.units:
         raise StationError(f"{path}: no unit {unit!r}")
     return run
@@ -143,32 +141,15 @@ def grade_task(path: str, unit: str, profile: Profile | None, bench: Bench | Non
         return UnitOutcome(path, unit, error=error_text(exc))
 
 
-def analyze_task(path: str, unit: str, profile: Profile | None, bench: Bench | None) -> UnitOutcome:
-    """Analyse one unit of a run file as ``station analyze FILE --unit U --json`` does: every
-    axis after the warm-up of the given profile (else the run's, else none)."""
-    from station.analyze import analyze_record
-    from station.bench import bench_from_json
+def analyze_task(path: str, unit: str, profile: str | None, bench: str | None) -> UnitOutcome:
+    """Analyse one unit of a run file as ``station analyze FILE --unit U [--profile P]
+    [--bench B] --json`` does (the analyze service, on this worker)."""
+    from station.services.analyze import AnalyzeRequest, analyze
+    from station.services.records import RecordSource
 
     try:
-        run = read_unit_run(path, unit)
-        warmup_s, warmup_from, warnings = 0.0, "none", ()
-        if profile is not None:
-            warmup_s, warmup_from = profile.warmup_s, f"profile {profile.name}"
-        elif run.profile:
-            try:
-                used, warnings = _profile_of(run, None)
-                warmup_s, warmup_from = used.warmup_s, f"profile {run.profile} (recorded in the run)"
-            except StationError as exc:
-                warnings = (f"the run's profile {run.profile!r} cannot be loaded ({exc}); "
-                            f"no warm-up discarded",)
-        record = run.units[0].record
-        if warmup_s > 0:
-            record = record.slice_time(warmup_s, None)
-        axes = analyze_record(record, bench=bench if bench is not None else bench_from_json(run.bench))
-        selection = {"unit": unit, "axis": None, "start_s": warmup_s, "stop_s": None,
-                     "warmup_s": warmup_s, "warmup_from": warmup_from}
-        document = {"file": path, "axes": [a.as_json() for a in axes], "selection": selection}
-        return UnitOutcome(path, unit, run=strip_run(run), warnings=warnings, analysis=document)
+        result = analyze(AnalyzeRequest(RecordSource(path, unit=unit, profile=profile), bench=bench))
+        return UnitOutcome(path, unit, warnings=result.notes, analysis=result.as_json())
     except Exception as exc:  # every failure goes back as text: the other tasks go on
         return UnitOutcome(path, unit, error=error_text(exc))
 
@@ -183,17 +164,10 @@ def report_task(graded_run: object, formats: tuple[str, ...]) -> list[tuple[str,
     StationError, OSError
         The run file cannot be read again (the driver reports it for the run).
     """
-    from station.grading import RunGrade
-    from station.report import write_report
+    from station.output.report import write_report
 
     assert isinstance(graded_run, RunGrade)
-    ids = [u.unit.unit_id for u in graded_run.units]
-    if is_run_file(graded_run.run.path):
-        from station.hdf5 import read_run
-
-        full = read_run(graded_run.run.path, only=ids)
-    else:
-        full = open_run(graded_run.run.path)
+    full = open_run(graded_run.run.path, only=[u.unit.unit_id for u in graded_run.units])
     records = {u.unit_id: u for u in full.units}
     units = tuple(replace(u, unit=_with_record(u.unit, records[u.unit.unit_id]))
                   for u in graded_run.units)
