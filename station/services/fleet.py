@@ -220,7 +220,8 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
         if scheduler == LOCAL:
             try:
                 cluster = LocalCluster(n_workers=local_workers(workers), threads_per_worker=1,
-                                       processes=True, host="127.0.0.1", dashboard_address=None,
+                                       processes=True, host="127.0.0.1",
+                                       dashboard_address="127.0.0.1:0",
                                        silence_logs=logging.ERROR)
             except (OSError, RuntimeError, TimeoutError) as exc:
                 raise FleetError(f"cannot start a local Dask cluster: {error_text(exc)}") from exc
@@ -273,12 +274,11 @@ class _Driver:
     """Submits the tasks, collects what comes back, stores and writes as runs complete."""
 
     def __init__(self, request: FleetRequest, client: Any, progress: ProgressSink,
-                 db: ResultsDatabase | None) -> None:
+                 db: ResultsDatabase | None, profile: Profile | None, bench: Bench | None) -> None:
         from distributed import as_completed
 
         self.request, self.client, self.progress, self.db = request, client, progress, db
-        self.profile: Profile | None = load_profile(request.profile) if request.profile else None
-        self.bench: Bench | None = load_bench(request.bench) if request.bench is not None else None
+        self.profile, self.bench = profile, bench
         self.pending = as_completed()
         self.kind: dict[Any, tuple[str, Any]] = {}
         self.runs: dict[str, _Run] = {}
@@ -400,11 +400,13 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     if unknown:
         raise UsageError(f"unknown report format {unknown[0]!r}; use one of {', '.join(FORMATS)}")
     files = run_files(request.sources)
+    profile = load_profile(request.profile) if request.profile else None  # bad input: before
+    bench = load_bench(request.bench) if request.bench is not None else None  # any cluster
     store = request.store and request.action != "analyze"
     with _database(request.database if store else None) as db, \
             cluster_client(request.scheduler, request.workers) as client:
         workers = len(client.scheduler_info().get("workers", {}))
-        driver = _Driver(request, client, progress, db)
+        driver = _Driver(request, client, progress, db, profile, bench)
         driver.run(files)
         return driver.result(files, workers)
 
