@@ -107,6 +107,26 @@ def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]
     return [f"{column} = ?" for column, _ in given], [value for _, value in given]
 
 
+def _grading_filter(*, model: str | None = None, lot: str | None = None, since: str | None = None,
+                    until: str | None = None, verdict: str | None = None, serial: str | None = None,
+                    latest: bool = False, review: bool = False) -> tuple[str, list[object]]:
+    """The ``WHERE`` clause (never empty) over gradings ``g`` and units ``u``, and its
+    parameters (see :meth:`ResultsDatabase.gradings`)."""
+    clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
+                                ("u.serial_number", serial))
+    if since:
+        clauses.append("g.test_date >= ?")
+        params.append(since)
+    if until:
+        clauses.append("g.test_date < ?")
+        params.append(until + "\uffff")
+    if latest:
+        clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
+    if review:
+        clauses.append("g.review != ''")
+    return "WHERE " + " AND ".join(clauses or ["1 = 1"]), params
+
+
 def default_database_path() -> DatabaseLocation:
     """``$STATION_RESULTS_DB`` (a file or a ``postgresql://`` URL), else
     ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
@@ -180,6 +200,21 @@ class TrendPoint:
     unit: str
     verdict: str | None
     limit: float | None = None
+
+
+@dataclass(frozen=True)
+class FigureValue:
+    """One graded figure of one unit's axis, in ``unit``, with the limit it was decided at."""
+
+    grading_id: int
+    test_date: str
+    serial_number: str
+    lot: str
+    axis: str
+    name: str
+    unit: str
+    value: float | None
+    limit: float | None
 
 
 class ResultsDatabase:
@@ -345,25 +380,33 @@ class ResultsDatabase:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
         only the gradings flagged for review."""
-        clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
-                                    ("u.serial_number", serial))
-        if since:
-            clauses.append("g.test_date >= ?")
-            params.append(since)
-        if until:
-            clauses.append("g.test_date < ?")
-            params.append(until + "\uffff")
-        if latest:
-            clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
-        if review:
-            clauses.append("g.review != ''")
-        where = ("WHERE " + " AND ".join(clauses)) if clauses else ""
+        where, params = _grading_filter(model=model, lot=lot, since=since, until=until,
+                                        verdict=verdict, serial=serial, latest=latest, review=review)
         rows = self._con.execute(
             "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, g.verdict,"
             " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM gradings g"
             " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
             f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id", params).fetchall()
         return [GradingRow(*row) for row in rows]
+
+    def figure_values(self, *, model: str | None = None, lot: str | None = None,
+                      since: str | None = None) -> list[FigureValue]:
+        """The graded figures (those a grade limits) of each unit's latest grading, filtered
+        as :meth:`gradings` filters, in test order (date, grading, axis, name)."""
+        where, params = _grading_filter(model=model, lot=lot, since=since, latest=True)
+        rows = self._con.execute(
+            "SELECT g.id, g.test_date, u.serial_number, g.lot, f.axis, f.name, f.unit, f.value,"
+            " f.limit_value FROM figures f JOIN gradings g ON g.id = f.grading_id"
+            f" JOIN units u ON u.id = g.unit_id {where} AND f.verdict IS NOT NULL"
+            " ORDER BY g.test_date, g.id, f.axis, f.name", params).fetchall()
+        return [FigureValue(*row) for row in rows]
+
+    def profile_text(self, grading_id: int) -> tuple[str, str | None]:
+        """(``name@version``, TOML text or None) of the profile a grading used."""
+        row = self._con.execute("SELECT p.name || '@' || p.version, p.text FROM gradings g JOIN"
+                                " profiles p ON p.id = g.profile_id WHERE g.id = ?",
+                                (grading_id,)).fetchone()
+        return (str(row[0]), row[1]) if row else ("", None)
 
     def latest_grading(self, run_path: str | Path, run_unit: str, profile_sha256: str) -> int | None:
         """Id of the newest grading of one unit of a run with one profile file, if stored."""
