@@ -196,7 +196,7 @@ def postgres_ddl(script: str) -> str:
     return script
 
 
-class Row(tuple):  # type: ignore[type-arg]
+class Row(tuple):
     """A result row read by position or by column name (as :class:`sqlite3.Row` is)."""
 
     _names: tuple[str, ...] = ()
@@ -234,8 +234,9 @@ class PostgresBackend:
 
         self.name = redacted(url)
         self._psycopg = psycopg
-        self.retryable = (errors.DeadlockDetected, errors.SerializationFailure)
-        self.errors = (psycopg.Error,)
+        self.retryable: tuple[type[BaseException], ...] = (errors.DeadlockDetected,
+                                                            errors.SerializationFailure)
+        self.errors: tuple[type[BaseException], ...] = (psycopg.Error,)
         timeout = os.environ.get("PGCONNECT_TIMEOUT", "10")
         try:
             self._con = psycopg.connect(url, autocommit=True, row_factory=_row_factory,
@@ -246,7 +247,7 @@ class PostgresBackend:
 
     def execute(self, sql: str, params: Sequence[object] = ()) -> Any:
         """Run one statement; ``?`` placeholders become psycopg's ``%s``."""
-        return self._con.execute(sql.replace("%", "%%").replace("?", "%s"),  # type: ignore[arg-type]
+        return self._con.execute(sql.replace("%", "%%").replace("?", "%s"),
                                  tuple(params))
 
     @contextmanager
@@ -278,7 +279,7 @@ class PostgresBackend:
     def run_ddl(self, script: str) -> None:
         """Each statement of the script in PostgreSQL's spelling (:func:`postgres_ddl`)."""
         for statement in _statements(postgres_ddl(script)):
-            self._con.execute(statement)  # type: ignore[call-overload]
+            self._con.execute(statement)
 
     def set_schema_version(self, version: int) -> None:
         """Nothing: ``schema_migrations`` is the record."""

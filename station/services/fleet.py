@@ -188,8 +188,10 @@ def run_files(sources: Sequence[str | Path]) -> list[str]:
             files.append(str(source))
         else:
             raise UsageError(f"no such file or directory: {source}")
-    seen: set[str] = set()
-    return [f for f in files if not (os.path.realpath(f) in seen or seen.add(os.path.realpath(f)))]
+    unique: dict[str, str] = {}
+    for f in files:
+        unique.setdefault(os.path.realpath(f), f)
+    return list(unique.values())
 
 
 def local_workers(workers: int | None) -> int:

@@ -21,6 +21,7 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.worker import get_current_worker
 
+from station.output.results_backends import DatabaseLocation
 from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
 from station.tui.launcher import (
     RecorderProcess,
@@ -76,7 +77,7 @@ class TuiSettings:
         Folder of the run files (new runs go here; reattaching looks here).
     reports_dir : Path
         Folder the exported reports go to.
-    db_path : Path or None
+    db_path : str, Path or None
         Results database (None: gradings are not stored).
     check_units : bool
         Check that each unit answers when it is added.
@@ -88,7 +89,7 @@ class TuiSettings:
 
     runs_dir: Path = Path("runs")
     reports_dir: Path = Path("reports")
-    db_path: Path | None = None
+    db_path: DatabaseLocation | None = None
     check_units: bool = True
     poll_s: float = 1.0
     attach: bool = True
