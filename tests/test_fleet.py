@@ -93,7 +93,7 @@ def test_fleet_report_writes_files_from_the_driver(runs, scheduler, tmp_path: Pa
     db, out_dir = tmp_path / "r.sqlite", tmp_path / "reports"
     code, out = _fleet(capsys, "report", str(folder / "run2.h5"), "--scheduler", scheduler,
                        "--db", str(db), "--format", "json", "--format", "csv", "--out", str(out_dir))
-    assert code == 0 and len(out["reports"]) == 2
+    assert code == 0 and len(out["reports"]) == 2 and out["tasks"] == 3  # two units, one report
     report = json.loads((out_dir / "run2_TEST.json").read_text())
     assert [u["serial_number"] for u in report["units"]] == ["SN-3-1", "SN-3-2"]
     with ResultsDatabase(db) as results:

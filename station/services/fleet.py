@@ -351,9 +351,11 @@ class _Driver:
             self.grading_ids[run.file] = self.db.store(graded)
             self.stored += len(self.grading_ids[run.file])
         if self.request.action == "report":
+            self.tasks += 1
             self.submit("report", run.file, report_task, graded, self.request.formats)
 
     def _on_report(self, file: str, files: list[tuple[str, str, bytes]] | None, error: str) -> None:
+        self.done += 1
         if error or files is None:
             self.failed.append(TaskFailure(file, "", f"report not written: {error}"))
             return
