@@ -19,7 +19,7 @@ from station.services.fleet import LOCAL, FleetProgress, cluster_client, run_fil
 from tests.fleet_runs import write_run
 from tests.test_grading import profile_text, write_profile
 
-GOOD = 3  # runs of two units each
+GOOD = 2  # runs of two units each
 
 
 @pytest.fixture(scope="module")
@@ -76,11 +76,11 @@ def test_fleet_grade_is_station_grade_file_by_file(runs, scheduler, tmp_path: Pa
     assert {r.lot for r in rows} == {"L0", "L1"}
 
 
-def test_fleet_stores_into_postgresql(runs, scheduler, postgres_url: str, capsys) -> None:
+def test_fleet_stores_into_postgresql(runs, scheduler, postgres_url: str, capsys, monkeypatch) -> None:
     folder, profile = runs
     files = [str(folder / "run0.h5"), str(folder / "run1.h5")]
-    code, out = _fleet(capsys, "grade", *files, "--profile", str(profile), "--scheduler", scheduler,
-                       "--db", postgres_url)
+    monkeypatch.setenv("STATION_RESULTS_DB", postgres_url)  # the line's database, no --db
+    code, out = _fleet(capsys, "grade", *files, "--profile", str(profile), "--scheduler", scheduler)
     assert code == 0 and out["tasks"] == 4 and out["failed"] == []
     with ResultsDatabase(postgres_url) as results:
         rows = results.gradings()
@@ -91,11 +91,11 @@ def test_fleet_stores_into_postgresql(runs, scheduler, postgres_url: str, capsys
 def test_fleet_report_writes_files_from_the_driver(runs, scheduler, tmp_path: Path, capsys) -> None:
     folder, _ = runs
     db, out_dir = tmp_path / "r.sqlite", tmp_path / "reports"
-    code, out = _fleet(capsys, "report", str(folder / "run2.h5"), "--scheduler", scheduler,
+    code, out = _fleet(capsys, "report", str(folder / "run1.h5"), "--scheduler", scheduler,
                        "--db", str(db), "--format", "json", "--format", "csv", "--out", str(out_dir))
     assert code == 0 and len(out["reports"]) == 2 and out["tasks"] == 3  # two units, one report
-    report = json.loads((out_dir / "run2_TEST.json").read_text())
-    assert [u["serial_number"] for u in report["units"]] == ["SN-3-1", "SN-3-2"]
+    report = json.loads((out_dir / "run1_TEST.json").read_text())
+    assert [u["serial_number"] for u in report["units"]] == ["SN-2-1", "SN-2-2"]
     with ResultsDatabase(db) as results:
         rows = results.gradings()
         assert len(rows) == 2
