@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
 
 
 def _self_cpu_s() -> float:

@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
 
 KINDS = ("serial/stim300", "serial/kvh1750", "serial/xbus", "can/shared")
 

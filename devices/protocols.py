@@ -228,3 +228,33 @@ class HeldQuiet(Protocol):
 
     def quiet_until_now(self) -> None:
         """Nothing was sent before this moment."""
+
+
+@runtime_checkable
+class Simulated(Protocol):
+    """A unit whose device is simulated (a ``sim+`` URL), as the recorder may use it: held
+    until the recorder listens, ended on a sample index, and counted by the simulator
+    itself. Real hardware offers none of this; the recorder asks ``isinstance(unit,
+    Simulated)`` (an optional capability, as bluesky's ``Pausable``)."""
+
+    def pause(self) -> None:
+        """Hold sampling (nothing is generated, its time line stands)."""
+
+    def resume(self) -> None:
+        """Release the hold: sampling starts (again) now."""
+
+    def clear_faults(self) -> None:
+        """Turn the injected faults off (a clean end of a run)."""
+
+    def finish_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (None: go on); its time line
+        goes on, so that a counter sees no silence it cannot explain."""
+
+    def samples_sent(self) -> int:
+        """Samples the simulated device has generated so far (its own count).
+
+        Raises
+        ------
+        DeviceError
+            The simulator is gone (its process ended).
+        """

@@ -10,9 +10,10 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from devices.protocols import DeviceDescription
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys
 from station.model.profiles import load_profile
+from station.model.runs import RunMetadata
+from station.storage.hdf5_writer import RunFileWriter
 
 #: Rows written per batch (bounds the writer's memory on long runs).
 BATCH = 100_000
@@ -29,10 +30,10 @@ def write_run(path: Path, *, units: int = 2, duration_s: float = 600.0, rate_hz:
     ids = tuple(f"unit{i + 1}" for i in range(units))
     path.parent.mkdir(parents=True, exist_ok=True)
     writer = RunFileWriter(path, flush_interval_s=1.0)
-    writer(RunStart(f"uid-{seed}", start_utc, ids, duration_s, str(path),
-                    profile=p.name if p else "", profile_version=p.version if p else "",
-                    profile_sha256=p.sha256 if p else "", profile_path=str(profile or ""),
-                    operator="ann", lot=lot, station_host="bench-1", software_version="0.1.0"))
+    metadata = RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
+                           profile_sha256=p.sha256 if p else "", profile_path=str(profile or ""),
+                           operator="ann", lot=lot, station_host="bench-1", software_version="0.1.0")
+    writer(RunStart(f"uid-{seed}", start_utc, ids, duration_s, str(path), metadata))
     n = int(duration_s * rate_hz)
     rng = np.random.default_rng(seed)
     for i, uid in enumerate(ids):  # every unit's descriptor first

@@ -23,7 +23,6 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -33,6 +32,8 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.runs import RunMetadata
+from station.storage.hdf5_writer import RunFileWriter
 from tests.damage_helpers import damaged_copies, sweep_here
 
 RATE_HZ = 500.0
@@ -40,7 +41,7 @@ RATE_HZ = 500.0
 
 def _write_run(path: Path, *, close: bool) -> RunFileWriter:
     writer = RunFileWriter(path, flush_interval_s=0.5)
-    writer(RunStart("uid", utc_now(), ("unit1", "unit2"), 10.0, str(path), profile="VG951"))
+    writer(RunStart("uid", utc_now(), ("unit1", "unit2"), 10.0, str(path), RunMetadata(profile="VG951")))
     for uid in ("unit1", "unit2"):
         d = DeviceDescription("TEST", uid, "stim300", "serial", ("x", "y", "z"), RATE_HZ, True,
                               256, False, True)

@@ -290,7 +290,7 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
     since, the grade says so; gone, the profile of that name in profiles/ is used and the
     difference said too."""
     from station.model.profiles import PROFILE_DIR
-    from station.recorder import Recorder, RunConfig
+    from station.recording.recorder import Recorder, RunConfig
 
     own = tmp_path / "line7" / "VG951.toml"
     own.parent.mkdir()
@@ -300,7 +300,8 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
                                   tmp_path / "run.h5", profile=load_profile(own)))
     recorder.run()
     run = open_run(recorder.path)
-    assert run.profile_path == str(own.resolve()) and run.profile_version == "1-line7"
+    assert run.metadata.profile_path == str(own.resolve())
+    assert run.metadata.profile_version == "1-line7"
 
     def grade() -> tuple[dict, str]:
         assert main(["grade", str(recorder.path), "--no-store", "--json"]) == 0

@@ -53,7 +53,8 @@ def _unit(graded: RunGrade, i: int) -> RunGrade:
     unit = graded.units[0]
     axis = unit.axes[0]
     figures = tuple(replace(f, value=ARW[i]) if f.name == "arw" else f for f in axis.figures)
-    run = replace(graded.run, lot="L1" if i < 6 else "L2", start_utc=f"2026-06-{i + 1:02d}T08:00:00Z",
+    run = replace(graded.run, metadata=replace(graded.run.metadata, lot="L1" if i < 6 else "L2"),
+                  start_utc=f"2026-06-{i + 1:02d}T08:00:00Z",
                   units=(replace(unit.unit, serial_number=f"S{i:02d}"),))
     return replace(graded, run=run, units=(replace(unit, unit=run.units[0], grade=GRADES[i],
                                                    axes=(replace(axis, figures=figures, review=()),)),))

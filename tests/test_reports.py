@@ -13,7 +13,7 @@ from pypdf import PdfReader
 from station.cli import main
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
-from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
 from station.output.report import FORMATS, write_report
 from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
 from station.storage.runs import read_record
@@ -45,8 +45,9 @@ def graded(tmp_path_factory) -> RunGrade:
             RunEvent(f"u{i}", "gap", 120.5, missing_samples=40), RunEvent(f"u{i}", "resync", 120.6),
             RunEvent(f"u{i}", "gap", 400.0, missing_samples=3))
         units.append(UnitRun(f"u{i}", "TG-1", serial, record, events=events))
-    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), profile="TEST", operator="A. Tester",
-                  lot="LOT-7", station_host="bench-3", software_version="0.1.0",
+    metadata = RunMetadata(profile="TEST", operator="A. Tester", lot="LOT-7",
+                           station_host="bench-3", software_version="0.1.0")
+    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), metadata=metadata,
                   start_utc="2026-11-20T08:00:00Z", stop_utc="2026-11-20T08:15:00Z")
     return grade_run(run, profile)
 

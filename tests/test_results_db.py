@@ -41,7 +41,7 @@ def setup(tmp_path_factory) -> tuple[Path, Path, RunGrade]:
 def _variant(graded: RunGrade, serial: str, lot: str, start: str, grade: str) -> RunGrade:
     """The same grading as another unit, lot, date and grade (what several runs would give)."""
     unit = graded.units[0]
-    run = replace(graded.run, lot=lot, start_utc=start,
+    run = replace(graded.run, metadata=replace(graded.run.metadata, lot=lot), start_utc=start,
                   units=(replace(unit.unit, serial_number=serial),))
     return replace(graded, run=run, units=(replace(unit, unit=run.units[0], grade=grade),))
 
@@ -190,7 +190,7 @@ import os, pickle, sys, time
 from dataclasses import replace
 from station.output.results import ResultsDatabase
 graded = pickle.load(open(sys.argv[1], "rb"))
-graded = replace(graded, run=replace(graded.run, lot=sys.argv[5]))
+graded = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, lot=sys.argv[5])))
 with ResultsDatabase(sys.argv[2]) as db:
     print("ready", flush=True)
     while not os.path.exists(sys.argv[4]):
@@ -235,7 +235,7 @@ def _store_many(graded: RunGrade, location: str | Path, lot: str, start: object,
     """One station (a forked process): open the database, wait for the start, store ``STORES``
     gradings, report its write window (or the error that stopped it)."""
     try:
-        graded = replace(graded, run=replace(graded.run, lot=lot))
+        graded = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, lot=lot)))
         with ResultsDatabase(location) as db:
             start.wait(timeout=60)  # type: ignore[attr-defined]
             t0 = time.time()

@@ -15,9 +15,9 @@ from analysis.simulate import GyroSimulator
 from devices.model_files import load_noise_model
 from station import cli
 from station.commands.arguments import duration_type
-from station.hdf5 import read_run, read_run_record
 from station.services import simulate as simulate_service
 from station.storage.csv_records import read_csv_record
+from station.storage.hdf5 import read_run, read_run_record
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:

@@ -20,7 +20,6 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -30,6 +29,8 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.runs import RunMetadata
+from station.storage.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
 from station.tui.launcher import (
@@ -51,8 +52,8 @@ def write_run(path: Path, *, duration_s: float = 1800.0, close: bool = True) -> 
     """A two-unit VG951 run file written from run documents (no device, no recorder)."""
     writer = RunFileWriter(path, flush_interval_s=0.5)
     writer(RunStart("uid-tui", "2026-11-20T08:00:00Z", ("unit1", "unit2"), duration_s, str(path),
-                    profile="VG951", profile_version="1", operator="ann", lot="LOT-9",
-                    station_host="bench", software_version="0.1.0"))
+                    RunMetadata(profile="VG951", profile_version="1", operator="ann",
+                                lot="LOT-9", station_host="bench", software_version="0.1.0")))
     for i, uid in enumerate(("unit1", "unit2")):
         d = DeviceDescription(model="VG951", serial_number=f"SN-{i + 1}", protocol="stim300",
                               transport="serial", axes=("x", "y", "z"), sample_rate_hz=RATE_HZ,

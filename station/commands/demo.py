@@ -75,8 +75,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def record_demo_run(args: argparse.Namespace, path: Path) -> None:
     """Record the two simulated units into ``path`` with the real recorder."""
-    from station.progress import ProgressLine
-    from station.recorder import Recorder, RunConfig
+    from station.recording.progress import ProgressLine
+    from station.recording.recorder import Recorder, RunConfig
 
     urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
     recorder = Recorder(RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
@@ -91,7 +91,7 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Record, analyze, print, plot."""
-    from station.hdf5 import read_run_record
+    from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()
     args.out.mkdir(parents=True, exist_ok=True)

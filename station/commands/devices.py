@@ -13,6 +13,7 @@ from dataclasses import asdict
 from types import FrameType
 from urllib.parse import parse_qsl, urlsplit
 
+from devices.opened import SimulatedDevice
 from devices.sim.params import parse_sim_params
 from devices.urls import SUPPORTED, open_device
 from station.errors import UsageError
@@ -78,12 +79,11 @@ def run_serve(args: argparse.Namespace) -> int:
     previous = signal.signal(signal.SIGTERM, on_term)
     opened = open_device(args.url)
     try:
-        if opened.hardware_url is None:
+        if not isinstance(opened, SimulatedDevice) or opened.hardware_url is None:
             raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(args.url)}")
-        simulator = opened.simulator
         # the process that runs the simulated device: a child (CAN and CANopen on
         # udp_multicast) or this one
-        pid = getattr(simulator, "pid", None) or os.getpid()
+        pid = getattr(opened.simulator, "pid", None) or os.getpid()
         if args.serve_json:
             print(json.dumps({"url": opened.hardware_url, "sim_url": args.url, "pid": pid}),
                   flush=True)
@@ -95,7 +95,7 @@ def run_serve(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             pass
         ledger = opened.ledger
-        counts = {} if ledger is None else {
+        counts = {
             "generated": ledger.generated, "delivered": ledger.delivered,
             "dropped": ledger.dropped, "corrupted": ledger.corrupted,
             "lost_in_outage": ledger.lost_in_outage, "disconnects": ledger.disconnects}

@@ -32,9 +32,10 @@ from types import FrameType
 
 from station.errors import UsageError
 from station.model.documents import RunStop
-from station.progress import ProgressLine
-from station.recorder import Recorder, RunConfig, parse_duration
-from station.unit_process import cpu_cores
+from station.model.durations import parse_duration
+from station.recording.progress import ProgressLine
+from station.recording.recorder import Recorder, RunConfig
+from station.recording.unit_process import cpu_cores
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -44,7 +44,7 @@ from analysis.units import S_PER_H
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.model.bench import Bench, bench_from_json
-from station.model.kinds import Verdict
+from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import (
     DEFAULT_FIGURE_SOURCE,
     FigureSpec,
@@ -55,7 +55,6 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.version import software_version
 
-INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
@@ -197,7 +196,7 @@ class RunGrade:
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
-        p, r = self.profile, self.run
+        p, r, m = self.profile, self.run, self.run.metadata
         return {
             "schema": "gyro-station/grade",
             "schema_version": 1,
@@ -208,8 +207,8 @@ class RunGrade:
                         "figure_source": p.figure_source,
                         "grades": list(p.grades), "reject": p.reject},
             "run": {"path": r.path, "start_utc": r.start_utc, "stop_utc": r.stop_utc,
-                    "operator": r.operator, "lot": r.lot, "station": r.station_host,
-                    "software_version": r.software_version, "profile": r.profile,
+                    "operator": m.operator, "lot": m.lot, "station": m.station_host,
+                    "software_version": m.software_version, "profile": m.profile,
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
@@ -464,7 +463,7 @@ def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),
     on any stored run: nothing here talks to a device.
     """
     chosen = [run.unit(u) for u in units] if units else list(run.units)
-    bench = bench if bench is not None else bench_from_json(run.bench)
+    bench = bench if bench is not None else bench_from_json(run.metadata.bench)
     graded = tuple(grade_unit(u, profile, bench) for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return RunGrade(run, profile, graded, now, software_version(), bench=bench)
@@ -474,9 +473,10 @@ def run_profile_ref(run: RunInfo) -> str:
     """How to load the profile ``run`` was recorded with: the file it was read from if it
     is still there (a line's own profile folder), else its name (``profiles/NAME.toml``);
     "" when the run names none."""
-    if run.profile_path and Path(run.profile_path).is_file():
-        return run.profile_path
-    return run.profile
+    recorded = run.metadata
+    if recorded.profile_path and Path(recorded.profile_path).is_file():
+        return recorded.profile_path
+    return recorded.profile
 
 
 def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
@@ -487,11 +487,12 @@ def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
     limits, a new grade) grades the old run by today's rules, which a re-grade may
     intend but should say.
     """
-    if not run.profile_sha256 or run.profile_sha256 == profile.sha256:
+    recorded = run.metadata
+    if not recorded.profile_sha256 or recorded.profile_sha256 == profile.sha256:
         return None
     return (f"profile {profile.name} changed since {run.path} was recorded with it "
-            f"(recorded: version {run.profile_version or '?'}, sha256 "
-            f"{run.profile_sha256[:12]}; now: version {profile.version}, sha256 "
+            f"(recorded: version {recorded.profile_version or '?'}, sha256 "
+            f"{recorded.profile_sha256[:12]}; now: version {profile.version}, sha256 "
             f"{profile.sha256[:12]} in {profile.path}): grading with the current file")
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from station.errors import ResultsDatabaseError
+from station.model.kinds import Verdict, verdict_of_grade
 from station.output.results_backends import (
     DB_ENV,
     WRITE_ATTEMPTS,
@@ -140,11 +141,6 @@ def _now() -> str:
     return datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
 
 
-def verdict_of(grade: str, reject: str) -> str:
-    """pass / fail / indeterminate of a unit grade."""
-    if grade == "indeterminate":  # station.evaluation.grading.INDETERMINATE
-        return grade
-    return "fail" if grade == reject else "pass"
 
 
 @dataclass(frozen=True)
@@ -158,7 +154,7 @@ class GradingRow:
     serial_number: str
     lot: str
     grade: str
-    verdict: str
+    verdict: Verdict
     profile: str
     run_path: str
     run_unit: str
@@ -198,7 +194,7 @@ class TrendPoint:
     ci_low: float | None
     ci_high: float | None
     unit: str
-    verdict: str | None
+    verdict: Verdict | None
     limit: float | None = None
 
 
@@ -334,8 +330,9 @@ class ResultsDatabase:
                                    "confidence": p.confidence, "grades": json.dumps(list(p.grades)),
                                    "text": text})
             run_id = self._id(con, "runs", {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
-                              {"stop_utc": r.stop_utc, "operator": r.operator, "lot": r.lot,
-                               "station": r.station_host, "software_version": r.software_version,
+                              {"stop_utc": r.stop_utc, "operator": r.metadata.operator,
+                               "lot": r.metadata.lot, "station": r.metadata.station_host,
+                               "software_version": r.metadata.software_version,
                                "interrupted": int(r.interrupted)})
             return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
 
@@ -349,8 +346,8 @@ class ResultsDatabase:
             "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
             " verdict, software_version, notes, review) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
             " RETURNING id",
-            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.lot,
-             u.grade, verdict_of(u.grade, graded.profile.reject), graded.software_version,
+            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.metadata.lot,
+             u.grade, verdict_of_grade(u.grade, graded.profile.reject), graded.software_version,
              "\n".join(u.notes), "\n".join(u.review)))
         grading_id = int(cur.fetchone()[0])
         for a in u.axes:
@@ -375,7 +372,7 @@ class ResultsDatabase:
     # --- reading ------------------------------------------------------------------------
 
     def gradings(self, *, model: str | None = None, lot: str | None = None, since: str | None = None,
-                 until: str | None = None, verdict: str | None = None, serial: str | None = None,
+                 until: str | None = None, verdict: Verdict | None = None, serial: str | None = None,
                  latest: bool = False, review: bool = False) -> list[GradingRow]:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``

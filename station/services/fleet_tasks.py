@@ -1,7 +1,7 @@
 """What a fleet worker runs: one task per (run file, unit), and one report task per run.
 
 Tasks take file paths, never open files or h5py objects: each opens its run file
-read-only itself (:func:`station.hdf5.read_run` of the one unit), and returns a small
+read-only itself (:func:`station.storage.hdf5.read_run` of the one unit), and returns a small
 result: the unit's grade without its samples (:func:`strip_unit`), the run's metadata
 without records, or a report's bytes. A task never raises for a bad input: a corrupt
 file, a bad profile or a run too short comes back as :attr:`UnitOutcome.error` (one line,
@@ -100,7 +100,7 @@ def list_units(path: str) -> tuple[list[str], str]:
     no units and why the file cannot be read (the driver reports it as the file's failure)."""
     if not is_run_file(path):
         return [Path(path).name.split(".")[0]], ""
-    from station.hdf5 import open_run_file, unit_ids  # the recorder's layout
+    from station.storage.hdf5 import open_run_file, unit_ids
 
     try:
         with open_run_file(path) as f:

@@ -104,12 +104,12 @@ def open_run_source(source: RunSource) -> RunInfo:
         run = replace(run, units=(replace(run.units[0], serial_number=source.serial),))
     changes = {k: v for k, v in (("lot", source.lot), ("operator", source.operator))
                if v is not None}
-    return replace(run, **changes) if changes else run  # type: ignore[arg-type]
+    return replace(run, metadata=replace(run.metadata, **changes)) if changes else run
 
 
 def guess_profile(run: RunInfo) -> str | None:
     """The run's profile, else the first profile whose model is a unit's model."""
-    if run.profile:
+    if run.metadata.profile:
         return run_profile_ref(run)
     models = {u.model for u in run.units}
     for name in available_profiles():

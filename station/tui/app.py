@@ -245,7 +245,7 @@ class StationApp(App[None]):
     @work(thread=True, exclusive=True, group="start", exit_on_error=False)
     def _start(self, request: RunRequest) -> None:
         try:
-            from station.recorder import parse_duration
+            from station.model.durations import parse_duration
 
             parse_duration(request.duration)
             process = start_recorder(request)

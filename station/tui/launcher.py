@@ -28,7 +28,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 from station.errors import RecorderError, StationError
-from station.hdf5 import open_run_file, run_state, text_value, unit_ids
+from station.storage.hdf5 import open_run_file, run_state, text_value, unit_ids
 
 #: Simulated seconds (or real seconds for hardware) a unit check records.
 PROBE_DURATION_S = 0.2

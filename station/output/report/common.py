@@ -14,10 +14,12 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.kinds import Verdict
 from station.model.runs import UnitRun
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
-VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
+VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
+                                             "indeterminate": "#fbe7a9", None: "#ffffff"}
 #: How many individual events a report lists before it only counts them.
 MAX_EVENTS_LISTED = 12
 
@@ -45,7 +47,7 @@ class FigureRow:
     ci_high: float | None
     limit: float | None
     grade: str
-    verdict: str | None
+    verdict: Verdict | None
     note: str
 
 
@@ -105,10 +107,11 @@ def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
         ("Duration", f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
                      f"discarded"),
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
-        ("Station", run.station_host or "-"),
-        ("Operator", run.operator or "-"),
-        ("Lot", run.lot or "-"),
-        ("Software version", f"{graded.software_version} (recorded with {run.software_version or '-'})"),
+        ("Station", run.metadata.station_host or "-"),
+        ("Operator", run.metadata.operator or "-"),
+        ("Lot", run.metadata.lot or "-"),
+        ("Software version", f"{graded.software_version} (recorded with "
+                             f"{run.metadata.software_version or '-'})"),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
         ("Graded (UTC)", graded.graded_utc),

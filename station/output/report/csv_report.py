@@ -41,7 +41,7 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
             u = unit.unit
             for axis in unit.axes:
                 rows = {r.name: r for r in figure_rows(axis)}
-                fixed = [run.path, u.unit_id, u.model or p.model, u.serial_number, run.lot,
+                fixed = [run.path, u.unit_id, u.model or p.model, u.serial_number, run.metadata.lot,
                          run.start_utc or graded.graded_utc, p.ref, p.rule, p.confidence, unit.grade,
                          axis.axis, axis.grade, axis.deciding_grade]
                 cells = []

@@ -1,10 +1,10 @@
 """The recorder engine: several gyros at once, each in a process of its own, into one file.
 
-:class:`Recorder` starts one process per unit (:mod:`station.unit_process`), which opens
+:class:`Recorder` starts one process per unit (:mod:`station.recording.unit_process`), which opens
 the unit's adapter from its device URL (and the simulated device behind a ``sim+`` URL),
 refuses a bad configuration before anything is recorded (:meth:`Recorder.prepare`), then
 starts every unit. Each unit reads its device on its own time base, reconnects after a
-disconnect while the others go on (:mod:`station.unit_worker`), and sends its event
+disconnect while the others go on (:mod:`station.recording.unit_worker`), and sends its event
 batches here. The engine routes documents to the subscribers (the HDF5 writer first,
 then the progress line and anything else) and flushes the file at least every
 ``flush_interval_s``. A unit stops at its duration, on :meth:`Recorder.request_stop`
@@ -17,26 +17,17 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import re
 import socket
 import time
 import uuid
 from collections.abc import Sequence
 from datetime import UTC, datetime
-from importlib import metadata
 from multiprocessing.connection import wait
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from devices.protocols import DeviceDescription
 from station.errors import RecorderError, RunConfigurationError, UsageError
-from station.hdf5 import (
-    REASON_DURATION,
-    REASON_END_OF_REPLAY,
-    bytes_per_sample,
-    writable_bytes,
-)
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Dispatcher,
     RunStart,
@@ -45,35 +36,20 @@ from station.model.documents import (
     UnitTotals,
     utc_now,
 )
-from station.unit_process import UnitProcess
-from station.unit_worker import ReadSettings
+from station.model.runs import RunMetadata
+from station.model.version import software_version
+from station.recording.unit_process import UnitProcess
+from station.recording.unit_worker import ReadSettings
+from station.storage.hdf5 import (
+    REASON_DURATION,
+    REASON_END_OF_REPLAY,
+    bytes_per_sample,
+    writable_bytes,
+)
+from station.storage.hdf5_writer import RunFileWriter
 
 if TYPE_CHECKING:
     from station.model.profiles import Profile
-
-_DURATION_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)\s*(ms|min|d|h|m|s)?", re.IGNORECASE)
-_UNIT_S = {"d": 86400.0, "h": 3600.0, "min": 60.0, "m": 60.0, "s": 1.0, "ms": 1e-3, None: 1.0}
-
-
-def parse_duration(text: str) -> float:
-    """A duration in seconds from ``12h``, ``1h30m``, ``90s``, ``2.5min`` or plain seconds.
-
-    Raises
-    ------
-    UsageError
-        Not a duration, or not > 0.
-    """
-    s = text.strip().replace(" ", "")
-    pos, total = 0, 0.0
-    for m in _DURATION_RE.finditer(s):
-        if m.start() != pos:
-            break
-        total += float(m.group(1)) * _UNIT_S[m.group(2).lower() if m.group(2) else None]
-        pos = m.end()
-    if pos != len(s) or not s or not total > 0 or not math.isfinite(total):
-        raise UsageError(f"duration {text!r}: use e.g. 12h, 1h30m, 90s or a number of seconds")
-    return total
-
 
 @dataclasses.dataclass(frozen=True)
 class RunConfig:
@@ -128,14 +104,6 @@ def run_file_path(out: Path, uid: str) -> Path:
         return out
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
     return out / f"run-{stamp}-{uid[:8]}.h5"
-
-
-def software_version() -> str:
-    """The installed gyro-station version ("unknown" when not installed)."""
-    try:
-        return metadata.version("gyro-station")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def _check_against_profile(unit: str, d: DeviceDescription, profile: Profile) -> list[str]:
@@ -337,12 +305,11 @@ class Recorder:
         self.dispatcher.emit(RunStart(
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
-            profile=p.name if p else "", profile_version=p.version if p else "",
-            profile_sha256=p.sha256 if p else "",
-            profile_path=str(Path(p.path).resolve()) if p and p.path else "",
-            operator=cfg.operator, lot=cfg.lot,
-            station_host=socket.gethostname(), software_version=software_version(),
-            bench=cfg.bench_json))
+            RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
+                        profile_sha256=p.sha256 if p else "",
+                        profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+                        operator=cfg.operator, lot=cfg.lot, station_host=socket.gethostname(),
+                        software_version=software_version(), bench=cfg.bench_json)))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         stopping = False
