@@ -41,6 +41,7 @@ from typing import Any, Literal, get_args
 
 from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
+from devices.url_query import url_keys, with_keys
 from station.errors import ProfileError
 
 DecisionRule = Literal["strict", "guard-banded", "simple"]
@@ -488,3 +489,14 @@ def load_profile(ref: str | Path, *, search_dir: Path | None = None) -> Profile:
     except (OSError, UnicodeDecodeError) as exc:
         raise ProfileError(f"cannot read: {exc}", path=str(path)) from exc
     return parse_profile(text, path=str(path))
+
+
+def anchored_model(url: str) -> str:
+    """``url`` with a relative ``model=`` file that does not exist from here made absolute
+    against the project folder (profiles name ``profiles/models/X.toml`` from there), so
+    that a profile's simulation works from any folder."""
+    model = url_keys(url).get("model", "")
+    if not model.endswith(".toml") or Path(model).is_absolute() or Path(model).exists():
+        return url
+    anchored = PROFILE_DIR.parent / model
+    return with_keys(url, {"model": str(anchored)}) if anchored.exists() else url
