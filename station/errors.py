@@ -35,7 +35,9 @@ class ProfileError(StationError, ValueError):
         Dotted TOML key at fault (``"figures.arw.limits.navigation"``), "" for the whole file.
     """
 
-    def __init__(self, message: str, *, path: str = "", line: int | None = None, key: str = "") -> None:
+    def __init__(
+        self, message: str, *, path: str = "", line: int | None = None, key: str = ""
+    ) -> None:
         where = path + (f":{line}" if line else "")
         prefix = f"{where}: " if where else ""
         if key:

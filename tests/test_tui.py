@@ -147,7 +147,9 @@ def test_poller_reads_a_growing_file_incrementally(tmp_path: Path) -> None:
     assert [u.samples for u in first.units] == [36000, 36000]
     while not (snap := poller.poll()).caught_up:
         pass
-    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(1, abs=1e-3)
+    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(
+        1, abs=1e-3
+    )
     assert snap.units[1].gaps == 1 and snap.units[1].missing == 5
     assert snap.units[0].temperature_c == 31.5 and snap.units[0].model == "VG951"
     tau, adev = snap.adev[0].x, snap.adev[0].y
@@ -180,7 +182,9 @@ async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
         assert "N ARW (fit) [deg/sqrt(h)]" in labels and "|bias| [deg/h]" in labels
         assert {r[3] for r in rows} <= {"pass", "fail", "indeterminate", "info"}
         text = screen_text(app)
-        assert "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        assert (
+            "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        )
         assert "N ARW (fit) [deg/sqrt(h)]" in text and "PDF (p)" in text
         assert all(r[4] in text for r in rows)  # the CI column fits in 80 columns
         sheet.query_one("#profile", Select).value = "CRG20"  # re-grade with another profile

@@ -161,8 +161,13 @@ class StationApp(App[None]):
         #: the screen: Textual prints it on the app's error console. The recorder is
         #: another process: a run in progress goes on.
         self.crash_log = CrashLog(crash_log_path(self.settings.runs_dir))
-        self.error_console = Console(file=cast(IO[str], self.crash_log), markup=False, highlight=False,
-                                     color_system=None, width=120)
+        self.error_console = Console(
+            file=cast(IO[str], self.crash_log),
+            markup=False,
+            highlight=False,
+            color_system=None,
+            width=120,
+        )
 
     @property
     def crash_message(self) -> str:
