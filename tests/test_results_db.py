@@ -1,4 +1,5 @@
-"""The results database: migrations, storing and filtering, yield, trends, CSV, concurrency, crashes."""
+"""The results database: migrations, storing and filtering, yield, trends, CSV, concurrency,
+crashes."""
 
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ def setup(tmp_path_factory) -> tuple[Path, Path, RunGrade]:
 def _variant(graded: RunGrade, serial: str, lot: str, start: str, grade: str) -> RunGrade:
     """The same grading as another unit, lot, date and grade (what several runs would give)."""
     unit = graded.units[0]
-    run = replace(graded.run, lot=lot, start_utc=start,
+    run = replace(graded.run, metadata=replace(graded.run.metadata, lot=lot), start_utc=start,
                   units=(replace(unit.unit, serial_number=serial),))
     return replace(graded, run=run, units=(replace(unit, unit=run.units[0], grade=grade),))
 
@@ -57,7 +58,9 @@ def test_old_schema_is_migrated_keeping_its_rows(tmp_path: Path, setup) -> None:
     path = tmp_path / "old.sqlite"
     con = sqlite3.connect(path)
     con.executescript(MIGRATIONS[0])
-    con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
+    con.execute(
+        "CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)"
+    )
     con.execute("INSERT INTO schema_migrations VALUES (1, '2026-01-01T00:00:00Z')")
     con.execute("INSERT INTO units (model, serial_number) VALUES ('M', 'OLD-1')")
     con.execute("PRAGMA user_version = 1")
@@ -67,8 +70,9 @@ def test_old_schema_is_migrated_keeping_its_rows(tmp_path: Path, setup) -> None:
         assert db.schema_version == SCHEMA_VERSION
         db.store(setup[2])  # the new tables and columns are there
         assert len(db.gradings()) == 1
-    assert sqlite3.connect(path).execute("SELECT serial_number FROM units WHERE model = 'M'").fetchone() == (
-        "OLD-1",)
+    assert sqlite3.connect(path).execute(
+        "SELECT serial_number FROM units WHERE model = 'M'"
+    ).fetchone() == ("OLD-1",)
 
 
 def test_newer_schema_is_refused(tmp_path: Path) -> None:
@@ -109,7 +113,11 @@ def test_filters_yield_and_trend(filled: Path) -> None:
         assert [r.grade for r in db.gradings(serial="S2", latest=True)] == ["B"]
         by_lot = {y.lot: y for y in db.yield_by_lot()}
         assert (by_lot["L1"].total, by_lot["L1"].passed, by_lot["L1"].yield_fraction) == (2, 2, 1.0)
-        assert (by_lot["L2"].total, by_lot["L2"].indeterminate, by_lot["L2"].yield_fraction) == (1, 1, 0.0)
+        assert (by_lot["L2"].total, by_lot["L2"].indeterminate, by_lot["L2"].yield_fraction) == (
+            1,
+            1,
+            0.0,
+        )
         trend = db.trend("arw", axis="x")
         assert [p.serial_number for p in trend] == ["S1", "S2", "S2", "S3"]
         assert all(p.unit == "deg/sqrt(h)" and p.ci_low <= p.value <= p.ci_high for p in trend)
@@ -123,7 +131,10 @@ def test_filters_yield_and_trend(filled: Path) -> None:
 
 
 def test_results_command(filled: Path, tmp_path: Path, capsys) -> None:
-    assert main(["results", "--db", str(filled), "--lot", "L1", "--csv", str(tmp_path / "l1.csv")]) == 0
+    assert (
+        main(["results", "--db", str(filled), "--lot", "L1", "--csv", str(tmp_path / "l1.csv")])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "S1" in out and "S3" not in out and "3 gradings" in out
     assert len((tmp_path / "l1.csv").read_text().splitlines()) == 4
@@ -139,9 +150,26 @@ def test_results_command(filled: Path, tmp_path: Path, capsys) -> None:
 def test_report_files_are_recorded(setup, tmp_path: Path, capsys) -> None:
     record, profile, _ = setup
     db = tmp_path / "r.sqlite"
-    assert main(["grade", str(record), "--profile", str(profile), "--db", str(db), "--lot", "L9"]) == 0
-    assert main(["report", str(record), "--profile", str(profile), "--db", str(db), "--format", "csv",
-                 "--out", str(tmp_path / "out")]) == 0
+    assert (
+        main(["grade", str(record), "--profile", str(profile), "--db", str(db), "--lot", "L9"]) == 0
+    )
+    assert (
+        main(
+            [
+                "report",
+                str(record),
+                "--profile",
+                str(profile),
+                "--db",
+                str(db),
+                "--format",
+                "csv",
+                "--out",
+                str(tmp_path / "out"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     with ResultsDatabase(db) as results:
         rows = results.gradings()
@@ -155,7 +183,8 @@ import os, pickle, sys, time
 from dataclasses import replace
 from station.output.results import ResultsDatabase
 graded = pickle.load(open(sys.argv[1], "rb"))
-graded = replace(graded, run=replace(graded.run, lot=sys.argv[5]))
+run = graded.run
+graded = replace(graded, run=replace(run, metadata=replace(run.metadata, lot=sys.argv[5])))
 with ResultsDatabase(sys.argv[2]) as db:
     print("ready", flush=True)
     while not os.path.exists(sys.argv[4]):
@@ -170,8 +199,13 @@ with ResultsDatabase(sys.argv[2]) as db:
 
 def _writer(pickled: Path, db: Path, count: int, go: Path, lot: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.Popen([sys.executable, "-c", WRITER, str(pickled), str(db), str(count), str(go), lot],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    return subprocess.Popen(
+        [sys.executable, "-c", WRITER, str(pickled), str(db), str(count), str(go), lot],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
 
 
 def _pickle(graded: RunGrade, path: Path) -> Path:

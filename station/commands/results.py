@@ -30,18 +30,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
-    p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
+    p.add_argument(
+        "--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)"
+    )
     p.add_argument("--verdict", choices=get_args(Verdict), default=None)
-    p.add_argument("--review", action="store_true",
-                   help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
+    p.add_argument(
+        "--review",
+        action="store_true",
+        help="only gradings flagged for review (read-off and fit of a graded figure disagree)",
+    )
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
-    p.add_argument("--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV")
+    p.add_argument(
+        "--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV"
+    )
     what = p.add_mutually_exclusive_group()
     what.add_argument("--yield", dest="show_yield", action="store_true", help="yield per lot")
     what.add_argument("--trend", default=None, metavar="FIGURE",
                       help="trend of a figure (a profile figure name such as arw)")
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot")
+    p.add_argument(
+        "--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot"
+    )
     p.set_defaults(handler=run)
 
 
@@ -73,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)]
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)
+    ]
     lines = ["  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))]
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
@@ -84,15 +95,36 @@ def format_gradings(rows: list[GradingRow]) -> str:
     """The gradings as a terminal table."""
     body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict,
              "REVIEW" if r.needs_review else "-", r.profile, Path(r.run_path).name] for r in rows]
-    header = ["id", "test date (UTC)", "model", "serial", "lot", "grade", "verdict", "review", "profile", "run"]
+    header = [
+        "id",
+        "test date (UTC)",
+        "model",
+        "serial",
+        "lot",
+        "grade",
+        "verdict",
+        "review",
+        "profile",
+        "run",
+    ]
     reasons = [f"review {r.id}: {line}" for r in rows for line in r.review.splitlines()]
     return "\n".join([_table(header, body) + f"\n{len(rows)} gradings", *reasons])
 
 
 def format_yield(rows: list[LotYield]) -> str:
     """Yield per lot as a terminal table (latest grading of each unit)."""
-    body = [[y.lot or "-", y.model, str(y.total), str(y.passed), str(y.failed), str(y.indeterminate),
-             f"{100 * y.yield_fraction:.1f} %"] for y in rows]
+    body = [
+        [
+            y.lot or "-",
+            y.model,
+            str(y.total),
+            str(y.passed),
+            str(y.failed),
+            str(y.indeterminate),
+            f"{100 * y.yield_fraction:.1f} %",
+        ]
+        for y in rows
+    ]
     return _table(["lot", "model", "units", "pass", "fail", "indeterminate", "yield"], body)
 
 
@@ -103,7 +135,25 @@ def _num(v: float | None) -> str:
 def format_trend(figure: str, points: list[TrendPoint]) -> str:
     """A figure over test dates as a terminal table."""
     unit = points[0].unit if points else ""
-    body = [[p.test_date, p.serial_number, p.axis, _num(p.value), f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
-             _num(p.limit), p.verdict or "info"] for p in points]
-    header = ["test date (UTC)", "serial", "axis", f"{figure} [{unit}]", "interval", "limit", "verdict"]
+    body = [
+        [
+            p.test_date,
+            p.serial_number,
+            p.axis,
+            _num(p.value),
+            f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
+            _num(p.limit),
+            p.verdict or "info",
+        ]
+        for p in points
+    ]
+    header = [
+        "test date (UTC)",
+        "serial",
+        "axis",
+        f"{figure} [{unit}]",
+        "interval",
+        "limit",
+        "verdict",
+    ]
     return _table(header, body) + f"\n{len(points)} points"
