@@ -67,7 +67,9 @@ def _as_postgres() -> list[str]:
 def postgres_server() -> Iterator[PostgresServer]:
     """Start a PostgreSQL server for the session (stopped and removed at its end)."""
     if not (PG_BIN / "initdb").exists() or not (PG_BIN / "pg_ctl").exists():
-        pytest.skip(f"PostgreSQL server binaries not installed in {PG_BIN} (apt install postgresql-15)")
+        pytest.skip(
+            f"PostgreSQL server binaries not installed in {PG_BIN} (apt install postgresql-15)"
+        )
     prefix = _as_postgres()
     root = Path(tempfile.mkdtemp(prefix="station-pg-"))
     data = root / "data"
@@ -81,18 +83,45 @@ def postgres_server() -> Iterator[PostgresServer]:
         result = subprocess.run([*prefix, *command], capture_output=True, text=True, timeout=120)
         if result.returncode != 0:
             server_log = log.read_text() if log.exists() else ""
-            raise RuntimeError(f"{' '.join(command)} failed: {result.stderr}{result.stdout}{server_log}")
+            raise RuntimeError(
+                f"{' '.join(command)} failed: {result.stderr}{result.stdout}{server_log}"
+            )
 
-    run(str(PG_BIN / "initdb"), "-D", str(data), "-U", "postgres", "--auth=trust", "-E", "UTF8",
-        "--no-sync")
-    options = f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off -c max_connections=60"
-    run(str(PG_BIN / "pg_ctl"), "-D", str(data), "-l", str(log), "-o", options, "-w", "-t", "60",
-        "start")
+    run(
+        str(PG_BIN / "initdb"),
+        "-D",
+        str(data),
+        "-U",
+        "postgres",
+        "--auth=trust",
+        "-E",
+        "UTF8",
+        "--no-sync",
+    )
+    options = (
+        f"-c listen_addresses=127.0.0.1 -p {port} -k {data} -c fsync=off -c max_connections=60"
+    )
+    run(
+        str(PG_BIN / "pg_ctl"),
+        "-D",
+        str(data),
+        "-l",
+        str(log),
+        "-o",
+        options,
+        "-w",
+        "-t",
+        "60",
+        "start",
+    )
     try:
         yield PostgresServer("127.0.0.1", port, data)
     finally:
-        subprocess.run([*prefix, str(PG_BIN / "pg_ctl"), "-D", str(data), "-m", "immediate", "-w",
-                        "stop"], capture_output=True, timeout=60)
+        subprocess.run(
+            [*prefix, str(PG_BIN / "pg_ctl"), "-D", str(data), "-m", "immediate", "-w", "stop"],
+            capture_output=True,
+            timeout=60,
+        )
         shutil.rmtree(root, ignore_errors=True)
 
 

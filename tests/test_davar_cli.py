@@ -58,7 +58,9 @@ def test_json_interface(record_csv: Path, rate: np.ndarray) -> None:
     assert y["stationary"] is True and y["warmup_end_s"] == 0.0
 
 
-def test_summary_and_heat_map(record_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+def test_summary_and_heat_map(
+    record_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     png = tmp_path / "maps" / "davar.png"
     assert main(["davar", str(record_csv), "--window-s", "100", "--step-s", "20",
                  "--png", str(png)]) == 0
@@ -73,7 +75,9 @@ def test_summary_and_heat_map(record_csv: Path, tmp_path: Path, capsys: pytest.C
     assert pixels[..., :3].std() > 0.1  # a coloured map, not a blank canvas
 
 
-def test_units_and_axis_selection(record_csv: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+def test_units_and_axis_selection(
+    record_csv: Path, rate: np.ndarray, capsys: pytest.CaptureFixture
+) -> None:
     assert main(["davar", str(record_csv), "--window-s", "300", "--axis", "y",
                  "--units", "deg/h", "--json"]) == 0
     (axis,) = json.loads(capsys.readouterr().out)["axes"]

@@ -29,8 +29,15 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
     profile = write_profile(root, profile_text(warmup_s=10.0))
     folder = root / "runs"
     for k in range(GOOD):
-        write_run(folder / f"run{k}.h5", units=2, duration_s=600.0, seed=k + 1, profile=profile,
-                  lot=f"L{k % 2}", start_utc=f"2026-05-0{k + 1}T08:00:00Z")
+        write_run(
+            folder / f"run{k}.h5",
+            units=2,
+            duration_s=600.0,
+            seed=k + 1,
+            profile=profile,
+            lot=f"L{k % 2}",
+            start_utc=f"2026-05-0{k + 1}T08:00:00Z",
+        )
     (folder / "corrupt.h5").write_bytes(b"this is no HDF5 file" * 50)
     write_run(folder / "short.h5", units=1, duration_s=60.0, seed=9, profile=profile)
     return folder, profile
@@ -64,7 +71,9 @@ def test_fleet_grade_is_station_grade_file_by_file(runs, scheduler, tmp_path: Pa
     assert set(failed) == {(str(folder / "corrupt.h5"), ""), (str(folder / "short.h5"), "unit1")}
     assert "not an HDF5 file" in failed[(str(folder / "corrupt.h5"), "")]
     assert "fewer than 1000" in failed[(str(folder / "short.h5"), "unit1")]
-    assert [r["run"]["path"] for r in out["runs"]] == [str(folder / f"run{k}.h5") for k in range(GOOD)]
+    assert [r["run"]["path"] for r in out["runs"]] == [
+        str(folder / f"run{k}.h5") for k in range(GOOD)
+    ]
     for doc in out["runs"]:
         assert main(["grade", doc["run"]["path"], "--json", "--no-store"]) == 0
         alone = json.loads(capsys.readouterr().out)
@@ -72,11 +81,14 @@ def test_fleet_grade_is_station_grade_file_by_file(runs, scheduler, tmp_path: Pa
     with ResultsDatabase(db) as results:
         rows = results.gradings()
     assert sorted(r.serial_number for r in rows) == sorted(
-        f"SN-{k + 1}-{i + 1}" for k in range(GOOD) for i in range(2))
+        f"SN-{k + 1}-{i + 1}" for k in range(GOOD) for i in range(2)
+    )
     assert {r.lot for r in rows} == {"L0", "L1"}
 
 
-def test_fleet_stores_into_postgresql(runs, scheduler, postgres_url: str, capsys, monkeypatch) -> None:
+def test_fleet_stores_into_postgresql(
+    runs, scheduler, postgres_url: str, capsys, monkeypatch
+) -> None:
     folder, profile = runs
     files = [str(folder / "run0.h5"), str(folder / "run1.h5")]
     monkeypatch.setenv("STATION_RESULTS_DB", postgres_url)  # the line's database, no --db
@@ -84,15 +96,30 @@ def test_fleet_stores_into_postgresql(runs, scheduler, postgres_url: str, capsys
     assert code == 0 and out["tasks"] == 4 and out["failed"] == []
     with ResultsDatabase(postgres_url) as results:
         rows = results.gradings()
-        assert len(rows) == 4 and {r.run_path for r in rows} == {str(Path(f).resolve()) for f in files}
+        assert len(rows) == 4 and {r.run_path for r in rows} == {
+            str(Path(f).resolve()) for f in files
+        }
         assert all(len(results.figures(r.id)) == 4 for r in rows)
 
 
 def test_fleet_report_writes_files_from_the_driver(runs, scheduler, tmp_path: Path, capsys) -> None:
     folder, _ = runs
     db, out_dir = tmp_path / "r.sqlite", tmp_path / "reports"
-    code, out = _fleet(capsys, "report", str(folder / "run1.h5"), "--scheduler", scheduler,
-                       "--db", str(db), "--format", "json", "--format", "csv", "--out", str(out_dir))
+    code, out = _fleet(
+        capsys,
+        "report",
+        str(folder / "run1.h5"),
+        "--scheduler",
+        scheduler,
+        "--db",
+        str(db),
+        "--format",
+        "json",
+        "--format",
+        "csv",
+        "--out",
+        str(out_dir),
+    )
     assert code == 0 and len(out["reports"]) == 2 and out["tasks"] == 3  # two units, one report
     report = json.loads((out_dir / "run1_TEST.json").read_text())
     assert [u["serial_number"] for u in report["units"]] == ["SN-2-1", "SN-2-2"]
@@ -117,7 +144,10 @@ def test_bad_input_is_refused_before_any_cluster(runs, tmp_path: Path, capsys) -
     assert main(["fleet", "grade", str(tmp_path / "nothing-here")]) == 2
     assert main(["fleet", "grade", str(folder), "--workers", "0"]) == 2
     assert main(["fleet", "grade", str(folder), "--profile", "no-such-profile"]) == 2
-    assert main(["fleet", "grade", str(folder), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"]) == 2
+    assert (
+        main(["fleet", "grade", str(folder), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"])
+        == 2
+    )
     err = capsys.readouterr().err
     assert "no such file or directory" in err and "at least 1" in err and "local cluster" in err
     assert run_files([folder, folder / "run0.h5"]).count(str(folder / "run0.h5")) == 1

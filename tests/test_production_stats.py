@@ -53,11 +53,24 @@ def _unit(graded: RunGrade, i: int) -> RunGrade:
     unit = graded.units[0]
     axis = unit.axes[0]
     figures = tuple(replace(f, value=ARW[i]) if f.name == "arw" else f for f in axis.figures)
-    run = replace(graded.run, metadata=replace(graded.run.metadata, lot="L1" if i < 6 else "L2"),
-                  start_utc=f"2026-06-{i + 1:02d}T08:00:00Z",
-                  units=(replace(unit.unit, serial_number=f"S{i:02d}"),))
-    return replace(graded, run=run, units=(replace(unit, unit=run.units[0], grade=GRADES[i],
-                                                   axes=(replace(axis, figures=figures, review=()),)),))
+    run = replace(
+        graded.run,
+        metadata=replace(graded.run.metadata, lot="L1" if i < 6 else "L2"),
+        start_utc=f"2026-06-{i + 1:02d}T08:00:00Z",
+        units=(replace(unit.unit, serial_number=f"S{i:02d}"),),
+    )
+    return replace(
+        graded,
+        run=run,
+        units=(
+            replace(
+                unit,
+                unit=run.units[0],
+                grade=GRADES[i],
+                axes=(replace(axis, figures=figures, review=()),),
+            ),
+        ),
+    )
 
 
 def _fill(location: str, graded: RunGrade) -> str:
@@ -71,8 +84,11 @@ def _fill(location: str, graded: RunGrade) -> str:
 @pytest.fixture(params=["sqlite", "postgresql"])
 def line_db(request, graded: RunGrade, tmp_path: Path) -> str:
     """The line's gradings on each back end."""
-    location = str(tmp_path / "line.sqlite") if request.param == "sqlite" else \
-        request.getfixturevalue("postgres_url")
+    location = (
+        str(tmp_path / "line.sqlite")
+        if request.param == "sqlite"
+        else request.getfixturevalue("postgres_url")
+    )
     return _fill(location, graded)
 
 
@@ -95,7 +111,9 @@ def test_stats_of_a_line(line_db: str, capsys) -> None:
     assert arw["limits"] == [0.06, 0.2] and arw["limit"] == 0.2
     mean, std = float(np.mean(ARW)), float(np.std(ARW, ddof=1))
     assert (arw["mean"], arw["std"]) == (pytest.approx(mean), pytest.approx(std))
-    assert arw["cp"] == pytest.approx(0.2 / (6 * std)) and arw["cpk"] == pytest.approx((0.2 - mean) / (3 * std))
+    assert arw["cp"] == pytest.approx(0.2 / (6 * std)) and arw["cpk"] == pytest.approx(
+        (0.2 - mean) / (3 * std)
+    )
     assert [p["serial_number"] for p in arw["out_of_control"]] == ["S08"]
     assert set(out["figures"]) == {"arw", "bias_instability"}  # the graded figures only
     assert [u["serial_number"] for u in out["review"]] == ["S08"]
@@ -108,7 +126,9 @@ def test_stats_of_a_line(line_db: str, capsys) -> None:
 def test_stats_drawn_as_html_and_pdf(line_file: str, tmp_path: Path, capsys) -> None:
     line_db = line_file
     html, pdf = tmp_path / "stats.html", tmp_path / "stats.pdf"
-    assert main(["results", "--stats", "--db", line_db, "--html", str(html), "--pdf", str(pdf)]) == 0
+    assert (
+        main(["results", "--stats", "--db", line_db, "--html", str(html), "--pdf", str(pdf)]) == 0
+    )
     text = capsys.readouterr().out
     assert "arw" in text and "1 units flagged for review" in text and "S08" in text
     page = html.read_text()

@@ -1,5 +1,5 @@
-"""The results database: migrations, storing and filtering, yield, trends, CSV, concurrency, crashes,
-on SQLite and on a real PostgreSQL server (tests/postgres_server.py)."""
+"""The results database: migrations, storing and filtering, yield, trends, CSV, concurrency,
+crashes, on SQLite and on a real PostgreSQL server (tests/postgres_server.py)."""
 
 from __future__ import annotations
 
@@ -60,7 +60,9 @@ def test_old_schema_is_migrated_keeping_its_rows(tmp_path: Path, setup) -> None:
     path = tmp_path / "old.sqlite"
     con = sqlite3.connect(path)
     con.executescript(MIGRATIONS[0])
-    con.execute("CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
+    con.execute(
+        "CREATE TABLE schema_migrations (version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)"
+    )
     con.execute("INSERT INTO schema_migrations VALUES (1, '2026-01-01T00:00:00Z')")
     con.execute("INSERT INTO units (model, serial_number) VALUES ('M', 'OLD-1')")
     con.execute("PRAGMA user_version = 1")
@@ -70,8 +72,9 @@ def test_old_schema_is_migrated_keeping_its_rows(tmp_path: Path, setup) -> None:
         assert db.schema_version == SCHEMA_VERSION
         db.store(setup[2])  # the new tables and columns are there
         assert len(db.gradings()) == 1
-    assert sqlite3.connect(path).execute("SELECT serial_number FROM units WHERE model = 'M'").fetchone() == (
-        "OLD-1",)
+    assert sqlite3.connect(path).execute(
+        "SELECT serial_number FROM units WHERE model = 'M'"
+    ).fetchone() == ("OLD-1",)
 
 
 def test_newer_schema_is_refused(tmp_path: Path) -> None:
@@ -105,7 +108,8 @@ def test_postgres_database_is_migrated_once(postgres_url: str) -> None:
         rows = db._con.execute("SELECT version FROM schema_migrations ORDER BY version").fetchall()
         assert [r[0] for r in rows] == list(range(1, SCHEMA_VERSION + 1))
         kinds = dict(db._con.execute(  # figures keep double precision, as in SQLite
-            "SELECT column_name, data_type FROM information_schema.columns WHERE table_name = 'figures'"
+            "SELECT column_name, data_type FROM information_schema.columns"
+            " WHERE table_name = 'figures'"
         ).fetchall())
         assert kinds["value"] == kinds["ci_low"] == "double precision"
 
@@ -144,7 +148,11 @@ def test_filters_yield_and_trend(filled, tmp_path: Path) -> None:
         assert [r.grade for r in db.gradings(serial="S2", latest=True)] == ["B"]
         by_lot = {y.lot: y for y in db.yield_by_lot()}
         assert (by_lot["L1"].total, by_lot["L1"].passed, by_lot["L1"].yield_fraction) == (2, 2, 1.0)
-        assert (by_lot["L2"].total, by_lot["L2"].indeterminate, by_lot["L2"].yield_fraction) == (1, 1, 0.0)
+        assert (by_lot["L2"].total, by_lot["L2"].indeterminate, by_lot["L2"].yield_fraction) == (
+            1,
+            1,
+            0.0,
+        )
         trend = db.trend("arw", axis="x")
         assert [p.serial_number for p in trend] == ["S1", "S2", "S2", "S3"]
         assert all(p.unit == "deg/sqrt(h)" and p.ci_low <= p.value <= p.ci_high for p in trend)
@@ -158,7 +166,10 @@ def test_filters_yield_and_trend(filled, tmp_path: Path) -> None:
 
 
 def test_results_command(filled, tmp_path: Path, capsys) -> None:
-    assert main(["results", "--db", str(filled), "--lot", "L1", "--csv", str(tmp_path / "l1.csv")]) == 0
+    assert (
+        main(["results", "--db", str(filled), "--lot", "L1", "--csv", str(tmp_path / "l1.csv")])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "S1" in out and "S3" not in out and "3 gradings" in out
     assert len((tmp_path / "l1.csv").read_text().splitlines()) == 4
@@ -174,9 +185,26 @@ def test_results_command(filled, tmp_path: Path, capsys) -> None:
 def test_report_files_are_recorded(setup, tmp_path: Path, capsys) -> None:
     record, profile, _ = setup
     db = tmp_path / "r.sqlite"
-    assert main(["grade", str(record), "--profile", str(profile), "--db", str(db), "--lot", "L9"]) == 0
-    assert main(["report", str(record), "--profile", str(profile), "--db", str(db), "--format", "csv",
-                 "--out", str(tmp_path / "out")]) == 0
+    assert (
+        main(["grade", str(record), "--profile", str(profile), "--db", str(db), "--lot", "L9"]) == 0
+    )
+    assert (
+        main(
+            [
+                "report",
+                str(record),
+                "--profile",
+                str(profile),
+                "--db",
+                str(db),
+                "--format",
+                "csv",
+                "--out",
+                str(tmp_path / "out"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     with ResultsDatabase(db) as results:
         rows = results.gradings()
@@ -190,7 +218,8 @@ import os, pickle, sys, time
 from dataclasses import replace
 from station.output.results import ResultsDatabase
 graded = pickle.load(open(sys.argv[1], "rb"))
-graded = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, lot=sys.argv[5])))
+run = graded.run
+graded = replace(graded, run=replace(run, metadata=replace(run.metadata, lot=sys.argv[5])))
 with ResultsDatabase(sys.argv[2]) as db:
     print("ready", flush=True)
     while not os.path.exists(sys.argv[4]):
@@ -205,8 +234,13 @@ with ResultsDatabase(sys.argv[2]) as db:
 
 def _writer(pickled: Path, db: str | Path, count: int, go: Path, lot: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.Popen([sys.executable, "-c", WRITER, str(pickled), str(db), str(count), str(go), lot],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    return subprocess.Popen(
+        [sys.executable, "-c", WRITER, str(pickled), str(db), str(count), str(go), lot],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
 
 
 def _pickle(graded: RunGrade, path: Path) -> Path:
@@ -235,7 +269,8 @@ def _store_many(graded: RunGrade, location: str | Path, lot: str, start: object,
     """One station (a forked process): open the database, wait for the start, store ``STORES``
     gradings, report its write window (or the error that stopped it)."""
     try:
-        graded = replace(graded, run=replace(graded.run, metadata=replace(graded.run.metadata, lot=lot)))
+        run = graded.run
+        graded = replace(graded, run=replace(run, metadata=replace(run.metadata, lot=lot)))
         with ResultsDatabase(location) as db:
             start.wait(timeout=60)  # type: ignore[attr-defined]
             t0 = time.time()
@@ -256,13 +291,16 @@ def test_eight_processes_write_at_once(setup, location, tmp_path: Path) -> None:
     ctx = multiprocessing.get_context("fork")  # the gradings' classes are already imported
     start, out = ctx.Barrier(WRITERS + 1), ctx.Queue()
     lots = [f"P{i}" for i in range(WRITERS)]
-    procs = [ctx.Process(target=_store_many, args=(graded, location, lot, start, out)) for lot in lots]
+    procs = [ctx.Process(target=_store_many, args=(graded, location, lot, start, out))
+             for lot in lots]
     for p in procs:
         p.start()
     try:
         start.wait(timeout=60)  # every writer has its connection: go
     except threading.BrokenBarrierError:
-        raise AssertionError(f"a writer failed to open the database: {out.get(timeout=10)}") from None
+        raise AssertionError(
+            f"a writer failed to open the database: {out.get(timeout=10)}"
+        ) from None
     reports = [out.get(timeout=180) for _ in procs]
     for p in procs:
         p.join(timeout=60)

@@ -44,12 +44,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
-    p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
+    p.add_argument(
+        "--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)"
+    )
     p.add_argument("--verdict", choices=get_args(Verdict), default=None)
-    p.add_argument("--review", action="store_true",
-                   help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
+    p.add_argument(
+        "--review",
+        action="store_true",
+        help="only gradings flagged for review (read-off and fit of a graded figure disagree)",
+    )
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
-    p.add_argument("--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV")
+    p.add_argument(
+        "--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV"
+    )
     what = p.add_mutually_exclusive_group()
     what.add_argument("--yield", dest="show_yield", action="store_true", help="yield per lot")
     what.add_argument("--trend", default=None, metavar="FIGURE",
@@ -57,12 +64,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     what.add_argument("--stats", action="store_true",
                       help="production statistics: yield per grade, Cp/Cpk, control charts, review")
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot")
+    p.add_argument(
+        "--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot"
+    )
     p.add_argument("--html", type=Path, default=None, metavar="OUT",
                    help="with --stats: write the statistics and their plots as one HTML page")
     p.add_argument("--pdf", type=Path, default=None, metavar="OUT",
                    help="with --stats: write the statistics and their plots as a PDF")
-    p.add_argument("--json", action="store_true", help="print one JSON document instead of a table")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON document instead of a table")
     p.set_defaults(handler=run)
 
 
@@ -82,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
         until=args.until, verdict=args.verdict, review=args.review, latest=args.latest,
         figure=args.trend, axis=args.axis, csv=args.csv))
     if args.json:
-        document: dict[str, object] = {"database": redacted(answer.database), "exists": answer.exists}
+        document: dict[str, object] = {"database": redacted(answer.database),
+                                       "exists": answer.exists}
         if show == "yield":
             document["yield"] = [{**asdict(y), "yield": y.yield_fraction} for y in answer.yields]
         elif show == "trend":
@@ -91,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
             document["gradings"] = [asdict(r) for r in answer.gradings]
         _print_json(document)
     elif not answer.exists:
-        print(f"no results database at {redacted(answer.database)} yet (station grade stores into it)")
+        print(f"no results database at {redacted(answer.database)} yet "
+              "(station grade stores into it)")
     elif show == "yield":
         print(format_yield(list(answer.yields)))
     elif show == "trend":
@@ -123,7 +135,8 @@ def run_stats(args: argparse.Namespace) -> int:
             _print_json({"database": redacted(answer.database), "exists": False, "units": 0,
                          "yield": {}, "figures": {}})
         else:
-            print(f"no results database at {redacted(answer.database)} yet (station grade stores into it)")
+            print(f"no results database at {redacted(answer.database)} yet "
+                  "(station grade stores into it)")
         return 0
     if args.json:
         _print_json(answer.stats.as_json())
@@ -142,11 +155,12 @@ def format_stats(stats: ProductionStats) -> str:
         return lines[0]
     lines.append(_table(["grade", "units", "share"], [
         [g, str(n), f"{100 * n / stats.units:.1f} %"] for g, n in stats.grades.items()]))
-    body = [[name, f.unit, str(f.capability.n), _num(f.capability.mean), _num(f.capability.std),
-             " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-", _num(f.capability.cp),
-             _num(f.capability.cpk), str(len(f.chart.out_of_control))] for name, f in stats.figures.items()]
-    lines.append(_table(["figure", "unit", "n", "mean", "std", "limits", "Cp", "Cpk", "out of control"],
-                        body))
+    body = [[name, f.unit, str(c.n), _num(c.mean), _num(c.std),
+             " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-", _num(c.cp),
+             _num(c.cpk), str(len(f.chart.out_of_control))]
+            for name, f in stats.figures.items() for c in (f.capability,)]
+    header = ["figure", "unit", "n", "mean", "std", "limits", "Cp", "Cpk", "out of control"]
+    lines.append(_table(header, body))
     lines.append(f"{len(stats.review)} units flagged for review")
     lines += [f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"
               for u in stats.review for reason in u.reasons]
@@ -154,7 +168,9 @@ def format_stats(stats: ProductionStats) -> str:
 
 
 def _table(header: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)]
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)
+    ]
     lines = ["  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))]
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
@@ -165,15 +181,36 @@ def format_gradings(rows: list[GradingRow]) -> str:
     """The gradings as a terminal table."""
     body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict,
              "REVIEW" if r.needs_review else "-", r.profile, Path(r.run_path).name] for r in rows]
-    header = ["id", "test date (UTC)", "model", "serial", "lot", "grade", "verdict", "review", "profile", "run"]
+    header = [
+        "id",
+        "test date (UTC)",
+        "model",
+        "serial",
+        "lot",
+        "grade",
+        "verdict",
+        "review",
+        "profile",
+        "run",
+    ]
     reasons = [f"review {r.id}: {line}" for r in rows for line in r.review.splitlines()]
     return "\n".join([_table(header, body) + f"\n{len(rows)} gradings", *reasons])
 
 
 def format_yield(rows: list[LotYield]) -> str:
     """Yield per lot as a terminal table (latest grading of each unit)."""
-    body = [[y.lot or "-", y.model, str(y.total), str(y.passed), str(y.failed), str(y.indeterminate),
-             f"{100 * y.yield_fraction:.1f} %"] for y in rows]
+    body = [
+        [
+            y.lot or "-",
+            y.model,
+            str(y.total),
+            str(y.passed),
+            str(y.failed),
+            str(y.indeterminate),
+            f"{100 * y.yield_fraction:.1f} %",
+        ]
+        for y in rows
+    ]
     return _table(["lot", "model", "units", "pass", "fail", "indeterminate", "yield"], body)
 
 
@@ -184,7 +221,25 @@ def _num(v: float | None) -> str:
 def format_trend(figure: str, points: list[TrendPoint]) -> str:
     """A figure over test dates as a terminal table."""
     unit = points[0].unit if points else ""
-    body = [[p.test_date, p.serial_number, p.axis, _num(p.value), f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
-             _num(p.limit), p.verdict or "info"] for p in points]
-    header = ["test date (UTC)", "serial", "axis", f"{figure} [{unit}]", "interval", "limit", "verdict"]
+    body = [
+        [
+            p.test_date,
+            p.serial_number,
+            p.axis,
+            _num(p.value),
+            f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
+            _num(p.limit),
+            p.verdict or "info",
+        ]
+        for p in points
+    ]
+    header = [
+        "test date (UTC)",
+        "serial",
+        "axis",
+        f"{figure} [{unit}]",
+        "interval",
+        "limit",
+        "verdict",
+    ]
     return _table(header, body) + f"\n{len(points)} points"

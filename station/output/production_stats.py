@@ -46,14 +46,30 @@ class FigureStats:
         """``{"mean", "std", "cp", "cpk", "limits", ...}`` (``limits``: the grades' upper
         limits, best grade first; ``limit``: the acceptance limit Cp and Cpk use)."""
         c, k = self.capability, self.chart
-        return {"mean": c.mean, "std": c.std, "cp": finite_or_none(c.cp),
-                "cpk": finite_or_none(c.cpk), "limits": list(self.limits.values()),
-                "limit_grades": list(self.limits), "limit": c.limit, "unit": self.unit,
-                "n": c.n, "above_limit": c.above_limit, "center": k.center,
-                "ucl": k.ucl, "lcl": k.lcl,
-                "out_of_control": [{"serial_number": v.serial_number, "axis": v.axis,
-                                    "test_date": v.test_date, "value": v.value}
-                                   for v in self.out_of_control]}
+        return {
+            "mean": c.mean,
+            "std": c.std,
+            "cp": finite_or_none(c.cp),
+            "cpk": finite_or_none(c.cpk),
+            "limits": list(self.limits.values()),
+            "limit_grades": list(self.limits),
+            "limit": c.limit,
+            "unit": self.unit,
+            "n": c.n,
+            "above_limit": c.above_limit,
+            "center": k.center,
+            "ucl": k.ucl,
+            "lcl": k.lcl,
+            "out_of_control": [
+                {
+                    "serial_number": v.serial_number,
+                    "axis": v.axis,
+                    "test_date": v.test_date,
+                    "value": v.value,
+                }
+                for v in self.out_of_control
+            ],
+        }
 
 
 @dataclass(frozen=True)
@@ -69,9 +85,14 @@ class ReviewUnit:
 
     def as_json(self) -> dict[str, object]:
         """The unit and its reasons."""
-        return {"serial_number": self.serial_number, "model": self.model, "lot": self.lot,
-                "grading_id": self.grading_id, "test_date": self.test_date,
-                "reasons": list(self.reasons)}
+        return {
+            "serial_number": self.serial_number,
+            "model": self.model,
+            "lot": self.lot,
+            "grading_id": self.grading_id,
+            "test_date": self.test_date,
+            "reasons": list(self.reasons),
+        }
 
 
 @dataclass(frozen=True)
@@ -94,14 +115,22 @@ class ProductionStats:
 
     def as_json(self) -> dict[str, object]:
         """``{"units", "yield": {grade: share}, "figures": {name: {...}}, ...}``."""
-        return {"units": self.units, "yield": self.yield_by_grade,
-                "figures": {name: f.as_json() for name, f in self.figures.items()},
-                "grades": dict(self.grades), "review": [u.as_json() for u in self.review],
-                "model": self.model, "lot": self.lot, "since": self.since, "profile": self.profile}
+        return {
+            "units": self.units,
+            "yield": self.yield_by_grade,
+            "figures": {name: f.as_json() for name, f in self.figures.items()},
+            "grades": dict(self.grades),
+            "review": [u.as_json() for u in self.review],
+            "model": self.model,
+            "lot": self.lot,
+            "since": self.since,
+            "profile": self.profile,
+        }
 
 
-def _limits(db: ResultsDatabase, rows: list[GradingRow]) -> tuple[str, dict[str, dict[str, float]],
-                                                                  tuple[str, ...]]:
+def _limits(
+    db: ResultsDatabase, rows: list[GradingRow]
+) -> tuple[str, dict[str, dict[str, float]], tuple[str, ...]]:
     """(profile, limits per figure, grades best first) of the newest grading's profile."""
     if not rows:
         return "", {}, ()
@@ -112,19 +141,33 @@ def _limits(db: ResultsDatabase, rows: list[GradingRow]) -> tuple[str, dict[str,
         profile = parse_profile(text, path=ref)
     except ProfileError:
         return ref, {}, ()
-    return ref, {f.name: {g: f.limits[g] for g in profile.grades if g in f.limits}
-                 for f in profile.figures if f.graded}, (*profile.grades, "indeterminate", profile.reject)
+    return (
+        ref,
+        {
+            f.name: {g: f.limits[g] for g in profile.grades if g in f.limits}
+            for f in profile.figures
+            if f.graded
+        },
+        (*profile.grades, "indeterminate", profile.reject),
+    )
 
 
-def compute_stats(db: ResultsDatabase, *, model: str | None = None, lot: str | None = None,
-                  since: str | None = None) -> ProductionStats:
+def compute_stats(
+    db: ResultsDatabase,
+    *,
+    model: str | None = None,
+    lot: str | None = None,
+    since: str | None = None,
+) -> ProductionStats:
     """The statistics of the latest grading of each unit that ``model``, ``lot`` and
     ``since`` (ISO 8601 test date) select."""
     rows = db.gradings(model=model, lot=lot, since=since, latest=True)
     values = db.figure_values(model=model, lot=lot, since=since)
     profile, limits, order = _limits(db, rows)
     counts = Counter(r.grade for r in rows)
-    grades = {g: counts[g] for g in order if counts[g]} | {g: n for g, n in counts.items() if g not in order}
+    grades = {g: counts[g] for g in order if counts[g]} | {
+        g: n for g, n in counts.items() if g not in order
+    }
     by_name: dict[str, list[FigureValue]] = {}
     for v in values:
         by_name.setdefault(v.name, []).append(v)
@@ -136,10 +179,17 @@ def compute_stats(db: ResultsDatabase, *, model: str | None = None, lot: str | N
             figure_limits = {"stored": max(seen)} if seen else {}
         acceptance = max(figure_limits.values()) if figure_limits else None
         x = [float("nan") if v.value is None else v.value for v in vs]
-        figures[name] = FigureStats(name, vs[0].unit, figure_limits, tuple(vs),
-                                    capability(x, acceptance), individuals_chart(x))
-    return ProductionStats(model, lot, since, len(rows), grades, figures, _review(rows, figures),
-                           profile)
+        figures[name] = FigureStats(
+            name,
+            vs[0].unit,
+            figure_limits,
+            tuple(vs),
+            capability(x, acceptance),
+            individuals_chart(x),
+        )
+    return ProductionStats(
+        model, lot, since, len(rows), grades, figures, _review(rows, figures), profile
+    )
 
 
 def _review(rows: list[GradingRow], figures: dict[str, FigureStats]) -> tuple[ReviewUnit, ...]:
@@ -147,9 +197,18 @@ def _review(rows: list[GradingRow], figures: dict[str, FigureStats]) -> tuple[Re
     for f in figures.values():
         k = f.chart
         for v in f.out_of_control:
-            side = "above the upper" if k.ucl is not None and (v.value or 0) > k.ucl else "below the lower"
+            side = (
+                "above the upper"
+                if k.ucl is not None and (v.value or 0) > k.ucl
+                else "below the lower"
+            )
             bound = k.ucl if "upper" in side else k.lcl
-            reasons[v.grading_id].append(f"{f.name} {v.axis} = {v.value:.4g} {f.unit} is out of control "
-                                         f"({side} control limit {bound:.4g})")
-    return tuple(ReviewUnit(r.serial_number, r.model, r.lot, r.id, r.test_date, tuple(reasons[r.id]))
-                 for r in rows if reasons[r.id])
+            reasons[v.grading_id].append(
+                f"{f.name} {v.axis} = {v.value:.4g} {f.unit} is out of control "
+                f"({side} control limit {bound:.4g})"
+            )
+    return tuple(
+        ReviewUnit(r.serial_number, r.model, r.lot, r.id, r.test_date, tuple(reasons[r.id]))
+        for r in rows
+        if reasons[r.id]
+    )

@@ -274,8 +274,10 @@ class ResultsDatabase:
             con = self._con
             version = self.schema_version
             if version > SCHEMA_VERSION:
-                raise ResultsDatabaseError(f"{self.name}: schema version {version} is newer than this "
-                                           f"station's {SCHEMA_VERSION}; update the station")
+                raise ResultsDatabaseError(
+                    f"{self.name}: schema version {version} is newer than this "
+                    f"station's {SCHEMA_VERSION}; update the station"
+                )
             con.run_ddl("CREATE TABLE IF NOT EXISTS schema_migrations "
                         "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
             for number in range(version + 1, SCHEMA_VERSION + 1):
@@ -325,15 +327,32 @@ class ResultsDatabase:
         except OSError:
             text = None
         with self.transaction() as con:
-            profile_id = self._id(con, "profiles", {"name": p.name, "version": p.version, "sha256": p.sha256},
-                                  {"model": p.model, "path": p.path, "rule": p.rule,
-                                   "confidence": p.confidence, "grades": json.dumps(list(p.grades)),
-                                   "text": text})
-            run_id = self._id(con, "runs", {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
-                              {"stop_utc": r.stop_utc, "operator": r.metadata.operator,
-                               "lot": r.metadata.lot, "station": r.metadata.station_host,
-                               "software_version": r.metadata.software_version,
-                               "interrupted": int(r.interrupted)})
+            profile_id = self._id(
+                con,
+                "profiles",
+                {"name": p.name, "version": p.version, "sha256": p.sha256},
+                {
+                    "model": p.model,
+                    "path": p.path,
+                    "rule": p.rule,
+                    "confidence": p.confidence,
+                    "grades": json.dumps(list(p.grades)),
+                    "text": text,
+                },
+            )
+            run_id = self._id(
+                con,
+                "runs",
+                {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
+                {
+                    "stop_utc": r.stop_utc,
+                    "operator": r.metadata.operator,
+                    "lot": r.metadata.lot,
+                    "station": r.metadata.station_host,
+                    "software_version": r.metadata.software_version,
+                    "interrupted": int(r.interrupted),
+                },
+            )
             return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
 
     def _store_unit(self, con: Backend, graded: RunGrade, u: UnitGrade, profile_id: int,
@@ -343,18 +362,39 @@ class ResultsDatabase:
         unit_id = self._id(con, "units", {"model": model, "serial_number": serial})
         test_date = graded.run.start_utc or graded.graded_utc
         cur = con.execute(
-            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
-            " verdict, software_version, notes, review) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)"
-            " RETURNING id",
-            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.metadata.lot,
-             u.grade, verdict_of_grade(u.grade, graded.profile.reject), graded.software_version,
-             "\n".join(u.notes), "\n".join(u.review)))
+            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date,"
+            " lot, grade, verdict, software_version, notes, review)"
+            " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+            (
+                run_id,
+                unit_id,
+                profile_id,
+                u.unit.unit_id,
+                graded.graded_utc,
+                test_date,
+                graded.run.metadata.lot,
+                u.grade,
+                verdict_of_grade(u.grade, graded.profile.reject),
+                graded.software_version,
+                "\n".join(u.notes),
+                "\n".join(u.review),
+            ),
+        )
         grading_id = int(cur.fetchone()[0])
         for a in u.axes:
-            con.execute("INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
-                        " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                        (grading_id, a.axis, a.grade, a.deciding_grade, a.analysis.n_samples,
-                         a.analysis.sample_rate_hz, "\n".join(a.review)))
+            con.execute(
+                "INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
+                " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (
+                    grading_id,
+                    a.axis,
+                    a.grade,
+                    a.deciding_grade,
+                    a.analysis.n_samples,
+                    a.analysis.sample_rate_hz,
+                    "\n".join(a.review),
+                ),
+            )
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else None
@@ -366,24 +406,41 @@ class ResultsDatabase:
     def add_report(self, grading_id: int, fmt: str, path: str | Path) -> None:
         """Record a report file written for a grading."""
         with self.transaction() as con:
-            con.execute("INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
-                        (grading_id, fmt, str(Path(path).resolve()), _now()))
+            con.execute(
+                "INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
+                (grading_id, fmt, str(Path(path).resolve()), _now()),
+            )
 
     # --- reading ------------------------------------------------------------------------
 
-    def gradings(self, *, model: str | None = None, lot: str | None = None, since: str | None = None,
-                 until: str | None = None, verdict: Verdict | None = None, serial: str | None = None,
-                 latest: bool = False, review: bool = False) -> list[GradingRow]:
+    def gradings(
+        self,
+        *,
+        model: str | None = None,
+        lot: str | None = None,
+        since: str | None = None,
+        until: str | None = None,
+        verdict: Verdict | None = None,
+        serial: str | None = None,
+        latest: bool = False,
+        review: bool = False,
+    ) -> list[GradingRow]:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
         only the gradings flagged for review."""
-        where, params = _grading_filter(model=model, lot=lot, since=since, until=until,
-                                        verdict=verdict, serial=serial, latest=latest, review=review)
+        where, params = _grading_filter(
+            model=model, lot=lot, since=since, until=until, verdict=verdict, serial=serial,
+            latest=latest, review=review,
+        )
         rows = self._con.execute(
-            "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, g.verdict,"
-            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM gradings g"
+            "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, "
+            "g.verdict,"
+            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM "
+            "gradings g"
             " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
-            f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id", params).fetchall()
+            f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id",
+            params,
+        ).fetchall()
         return [GradingRow(*row) for row in rows]
 
     def figure_values(self, *, model: str | None = None, lot: str | None = None,
@@ -405,7 +462,9 @@ class ResultsDatabase:
                                 (grading_id,)).fetchone()
         return (str(row[0]), row[1]) if row else ("", None)
 
-    def latest_grading(self, run_path: str | Path, run_unit: str, profile_sha256: str) -> int | None:
+    def latest_grading(
+        self, run_path: str | Path, run_unit: str, profile_sha256: str
+    ) -> int | None:
         """Id of the newest grading of one unit of a run with one profile file, if stored."""
         row = self._con.execute(
             "SELECT MAX(g.id) FROM gradings g JOIN runs r ON r.id = g.run_id JOIN profiles p"
@@ -428,10 +487,13 @@ class ResultsDatabase:
         rows = self._con.execute(
             "SELECT g.lot, u.model, COUNT(*), SUM(CASE WHEN g.verdict = 'pass' THEN 1 ELSE 0 END),"
             " SUM(CASE WHEN g.verdict = 'fail' THEN 1 ELSE 0 END),"
-            " SUM(CASE WHEN g.verdict = 'indeterminate' THEN 1 ELSE 0 END) FROM gradings g JOIN units u ON u.id = g.unit_id"
+            " SUM(CASE WHEN g.verdict = 'indeterminate' THEN 1 ELSE 0 END)"
+            " FROM gradings g JOIN units u ON u.id = g.unit_id"
             " WHERE g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)"
-            + (" AND u.model = ?" if model else "") + " GROUP BY g.lot, u.model ORDER BY g.lot, u.model",
-            (model,) if model else ()).fetchall()
+            + (" AND u.model = ?" if model else "")
+            + " GROUP BY g.lot, u.model ORDER BY g.lot, u.model",
+            (model,) if model else (),
+        ).fetchall()
         return [LotYield(*row) for row in rows]
 
     def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
@@ -440,10 +502,14 @@ class ResultsDatabase:
         clauses, params = _equal_to(("f.name", figure), ("u.model", model), ("f.axis", axis),
                                     ("g.lot", lot))
         rows = self._con.execute(
-            "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, f.verdict,"
+            "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, "
+            "f.verdict,"
             " f.limit_value"
-            " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = g.unit_id"
-            f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis", params).fetchall()
+            " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = "
+            "g.unit_id"
+            f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis",
+            params,
+        ).fetchall()
         return [TrendPoint(*row) for row in rows]
 
     def integrity_check(self) -> str:

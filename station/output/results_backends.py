@@ -234,21 +234,24 @@ class PostgresBackend:
 
         self.name = redacted(url)
         self._psycopg = psycopg
-        self.retryable: tuple[type[BaseException], ...] = (errors.DeadlockDetected,
-                                                            errors.SerializationFailure)
+        self.retryable: tuple[type[BaseException], ...] = (
+            errors.DeadlockDetected,
+            errors.SerializationFailure,
+        )
         self.errors: tuple[type[BaseException], ...] = (psycopg.Error,)
         timeout = os.environ.get("PGCONNECT_TIMEOUT", "10")
         try:
-            self._con = psycopg.connect(url, autocommit=True, row_factory=_row_factory,
-                                        connect_timeout=int(timeout))
+            self._con = psycopg.connect(
+                url, autocommit=True, row_factory=_row_factory, connect_timeout=int(timeout)
+            )
         except (psycopg.Error, ValueError) as exc:
-            raise ResultsDatabaseError(f"cannot open the results database {self.name}: "
-                                       f"{str(exc).strip().splitlines()[0]}") from exc
+            raise ResultsDatabaseError(
+                f"cannot open the results database {self.name}: {str(exc).strip().splitlines()[0]}"
+            ) from exc
 
     def execute(self, sql: str, params: Sequence[object] = ()) -> Any:
         """Run one statement; ``?`` placeholders become psycopg's ``%s``."""
-        return self._con.execute(sql.replace("%", "%%").replace("?", "%s"),
-                                 tuple(params))
+        return self._con.execute(sql.replace("%", "%%").replace("?", "%s"), tuple(params))
 
     @contextmanager
     def transaction(self) -> Iterator[None]:
@@ -263,11 +266,14 @@ class PostgresBackend:
         server's catalog cache (``to_regclass``) may not yet show a table another station
         created while this one waited for the migration lock.
         """
-        if not self.execute("SELECT COUNT(*) FROM pg_catalog.pg_tables WHERE tablename ="
-                            " 'schema_migrations' AND schemaname = current_schema()").fetchone()[0]:
+        if not self.execute(
+            "SELECT COUNT(*) FROM pg_catalog.pg_tables WHERE tablename ="
+            " 'schema_migrations' AND schemaname = current_schema()"
+        ).fetchone()[0]:
             return 0
-        return int(self.execute("SELECT COALESCE(MAX(version), 0) FROM schema_migrations")
-                   .fetchone()[0])
+        return int(
+            self.execute("SELECT COALESCE(MAX(version), 0) FROM schema_migrations").fetchone()[0]
+        )
 
     @contextmanager
     def migration(self) -> Iterator[None]:
@@ -287,8 +293,15 @@ class PostgresBackend:
     def integrity_check(self) -> str:
         """``"ok"`` when every table of the schema answers (the server keeps its own pages)."""
         try:
-            for table in ("profiles", "runs", "units", "gradings", "axis_grades", "figures",
-                          "reports"):
+            for table in (
+                "profiles",
+                "runs",
+                "units",
+                "gradings",
+                "axis_grades",
+                "figures",
+                "reports",
+            ):
                 self.execute(f"SELECT COUNT(*) FROM {table}").fetchone()
         except self._psycopg.Error as exc:
             return str(exc).strip()

@@ -152,8 +152,11 @@ class FleetResult:
         document ``station grade --json`` prints for it (``analyze``: per unit, the one
         ``station analyze --json --unit U`` prints)."""
         runs = [r.as_json() for r in self.runs] if self.action != "analyze" else list(self.analyses)
-        out: dict[str, object] = {"tasks": self.tasks,
-                                  "failed": [f.as_json() for f in self.failed], "runs": runs}
+        out: dict[str, object] = {
+            "tasks": self.tasks,
+            "failed": [f.as_json() for f in self.failed],
+            "runs": runs,
+        }
         if self.reports:
             out["reports"] = [str(p) for p in self.reports]
         out["warnings"] = list(self.warnings)
@@ -180,7 +183,9 @@ def run_files(sources: Sequence[str | Path]) -> list[str]:
     for source in sources:
         path = Path(source)
         if path.is_dir():
-            found = sorted(p for p in path.rglob("*") if p.suffix.lower() in RUN_SUFFIXES and p.is_file())
+            found = sorted(
+                p for p in path.rglob("*") if p.suffix.lower() in RUN_SUFFIXES and p.is_file()
+            )
             if not found:
                 raise UsageError(f"no run files (.h5) in {path}")
             files += [str(p) for p in found]
@@ -216,15 +221,21 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
     import dask
     from distributed import Client, LocalCluster
 
-    quiet = {"distributed.scheduler.allowed-failures": 1,  # a task that kills its worker: once
-             "distributed.admin.tick.limit": "1h"}  # long tasks on a busy machine are no news
+    quiet = {
+        "distributed.scheduler.allowed-failures": 1,  # a task that kills its worker: once
+        "distributed.admin.tick.limit": "1h",
+    }  # long tasks on a busy machine are no news
     with dask.config.set(quiet):
         if scheduler == LOCAL:
             try:
-                cluster = LocalCluster(n_workers=local_workers(workers), threads_per_worker=1,
-                                       processes=True, host="127.0.0.1",
-                                       dashboard_address="127.0.0.1:0",
-                                       silence_logs=logging.ERROR)
+                cluster = LocalCluster(
+                    n_workers=local_workers(workers),
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",
+                    silence_logs=logging.ERROR,
+                )
             except (OSError, RuntimeError, TimeoutError) as exc:
                 raise FleetError(f"cannot start a local Dask cluster: {error_text(exc)}") from exc
             try:
@@ -234,11 +245,15 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
                 cluster.close()
             return
         if workers is not None:
-            raise UsageError("--workers sizes the local cluster; a remote scheduler has its own workers")
+            raise UsageError(
+                "--workers sizes the local cluster; a remote scheduler has its own workers"
+            )
         try:
             client = Client(scheduler, timeout=30)
         except (OSError, TimeoutError, ValueError) as exc:
-            raise FleetError(f"cannot reach the Dask scheduler at {scheduler}: {error_text(exc)}") from exc
+            raise FleetError(
+                f"cannot reach the Dask scheduler at {scheduler}: {error_text(exc)}"
+            ) from exc
         with client:
             yield client
 
@@ -267,16 +282,27 @@ class _Run:
         first = done[0]
         assert first.run is not None and first.profile is not None
         run_units = tuple(o.run.units[0] for o in done if o.run is not None)
-        return RunGrade(run=replace(first.run, units=run_units), profile=first.profile,
-                        units=tuple(o.grade for o in done if o.grade is not None),
-                        graded_utc=_now(), software_version=software_version())
+        return RunGrade(
+            run=replace(first.run, units=run_units),
+            profile=first.profile,
+            units=tuple(o.grade for o in done if o.grade is not None),
+            graded_utc=_now(),
+            software_version=software_version(),
+        )
 
 
 class _Driver:
     """Submits the tasks, collects what comes back, stores and writes as runs complete."""
 
-    def __init__(self, request: FleetRequest, client: Any, progress: ProgressSink,
-                 db: ResultsDatabase | None, profile: Profile | None, bench: Bench | None) -> None:
+    def __init__(
+        self,
+        request: FleetRequest,
+        client: Any,
+        progress: ProgressSink,
+        db: ResultsDatabase | None,
+        profile: Profile | None,
+        bench: Bench | None,
+    ) -> None:
         from distributed import as_completed
 
         self.request, self.client, self.progress, self.db = request, client, progress, db
@@ -298,7 +324,9 @@ class _Driver:
         self.pending.add(future)
 
     def tell(self) -> None:
-        self.progress(FleetProgress(self.done, self.tasks, time.monotonic() - self.t0, len(self.failed)))
+        self.progress(
+            FleetProgress(self.done, self.tasks, time.monotonic() - self.t0, len(self.failed))
+        )
 
     def run(self, files: list[str]) -> None:
         for f in files:
@@ -326,7 +354,9 @@ class _Driver:
             self.tasks += 1
             if self.request.action == "analyze":  # the analyze service, with the references
                 bench = None if self.request.bench is None else str(self.request.bench)
-                self.submit("unit", (file, unit), analyze_task, file, unit, self.request.profile, bench)
+                self.submit(
+                    "unit", (file, unit), analyze_task, file, unit, self.request.profile, bench
+                )
             else:
                 self.submit("unit", (file, unit), grade_task, file, unit, self.profile, self.bench)
 
@@ -376,11 +406,24 @@ class _Driver:
         order = {f: i for i, f in enumerate(files)}
         failed = sorted(self.failed, key=lambda f: (order.get(f.file, 0), f.unit))
         runs = tuple(self.graded[f] for f in files if f in self.graded)
-        analyses = tuple(self.runs[f].outcomes[u].analysis for f in files for u in self.runs[f].units
-                         if u in self.runs[f].outcomes and self.runs[f].outcomes[u].analysis is not None)
-        return FleetResult(self.request.action, self.tasks, tuple(failed), runs,
-                           tuple(a for a in analyses if a is not None), tuple(self.reports),
-                           tuple(self.warnings), workers, time.monotonic() - self.t0, self.stored)
+        analyses = tuple(
+            self.runs[f].outcomes[u].analysis
+            for f in files
+            for u in self.runs[f].units
+            if u in self.runs[f].outcomes and self.runs[f].outcomes[u].analysis is not None
+        )
+        return FleetResult(
+            self.request.action,
+            self.tasks,
+            tuple(failed),
+            runs,
+            tuple(a for a in analyses if a is not None),
+            tuple(self.reports),
+            tuple(self.warnings),
+            workers,
+            time.monotonic() - self.t0,
+            self.stored,
+        )
 
 
 def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResult:
@@ -399,7 +442,9 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
         The results database cannot be opened or written.
     """
     if request.action not in ACTIONS:
-        raise UsageError(f"unknown fleet action {request.action!r}; use one of {', '.join(ACTIONS)}")
+        raise UsageError(
+            f"unknown fleet action {request.action!r}; use one of {', '.join(ACTIONS)}"
+        )
     unknown = [f for f in request.formats if f not in FORMATS]
     if unknown:
         raise UsageError(f"unknown report format {unknown[0]!r}; use one of {', '.join(FORMATS)}")
@@ -407,8 +452,10 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     profile = load_profile(request.profile) if request.profile else None  # bad input: before
     bench = load_bench(request.bench) if request.bench is not None else None  # any cluster
     store = request.store and request.action != "analyze"
-    with _database(request.database if store else None) as db, \
-            cluster_client(request.scheduler, request.workers) as client:
+    with (
+        _database(request.database if store else None) as db,
+        cluster_client(request.scheduler, request.workers) as client,
+    ):
         workers = len(client.scheduler_info().get("workers", {}))
         driver = _Driver(request, client, progress, db, profile, bench)
         driver.run(files)

@@ -46,8 +46,12 @@ def error_text(exc: BaseException) -> str:
 
 def _empty(record: RateRecord) -> RateRecord:
     """The record's description (rate, axes, source) without its samples."""
-    return RateRecord(np.empty((0, len(record.axis_names))), record.sample_rate_hz,
-                      record.axis_names, record.source)
+    return RateRecord(
+        np.empty((0, len(record.axis_names))),
+        record.sample_rate_hz,
+        record.axis_names,
+        record.source,
+    )
 
 
 def strip_run(run: RunInfo) -> RunInfo:
@@ -135,8 +139,14 @@ def grade_task(path: str, unit: str, profile: Profile | None, bench: Bench | Non
         run = read_unit_run(path, unit)
         used, warnings = _profile_of(run, profile)
         graded = grade_run(run, used, bench=bench)
-        return UnitOutcome(path, unit, run=strip_run(run), grade=strip_unit(graded.units[0]),
-                           profile=used, warnings=warnings)
+        return UnitOutcome(
+            path,
+            unit,
+            run=strip_run(run),
+            grade=strip_unit(graded.units[0]),
+            profile=used,
+            warnings=warnings,
+        )
     except Exception as exc:  # every failure goes back as text: the other tasks go on
         return UnitOutcome(path, unit, error=error_text(exc))
 
@@ -148,7 +158,9 @@ def analyze_task(path: str, unit: str, profile: str | None, bench: str | None) -
     from station.services.records import RecordSource
 
     try:
-        result = analyze(AnalyzeRequest(RecordSource(path, unit=unit, profile=profile), bench=bench))
+        result = analyze(
+            AnalyzeRequest(RecordSource(path, unit=unit, profile=profile), bench=bench)
+        )
         return UnitOutcome(path, unit, warnings=result.notes, analysis=result.as_json())
     except Exception as exc:  # every failure goes back as text: the other tasks go on
         return UnitOutcome(path, unit, error=error_text(exc))
@@ -169,8 +181,9 @@ def report_task(graded_run: object, formats: tuple[str, ...]) -> list[tuple[str,
     assert isinstance(graded_run, RunGrade)
     full = open_run(graded_run.run.path, only=[u.unit.unit_id for u in graded_run.units])
     records = {u.unit_id: u for u in full.units}
-    units = tuple(replace(u, unit=_with_record(u.unit, records[u.unit.unit_id]))
-                  for u in graded_run.units)
+    units = tuple(
+        replace(u, unit=_with_record(u.unit, records[u.unit.unit_id])) for u in graded_run.units
+    )
     graded = replace(graded_run, units=units)
     out = []
     with tempfile.TemporaryDirectory(prefix="station-fleet-") as tmp:

@@ -1,4 +1,5 @@
-"""``report``: spec sheets (PDF, HTML, JSON, CSV) of a graded run, recorded in the results database."""
+"""``report``: spec sheets (PDF, HTML, JSON, CSV) of a graded run, recorded in the results
+database."""
 
 from __future__ import annotations
 

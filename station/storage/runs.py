@@ -52,8 +52,13 @@ def read_record(
     raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")
 
 
-def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s",
-             only: Collection[str] | None = None) -> RunInfo:
+def open_run(
+    path: str | Path,
+    *,
+    sample_rate_hz: float | None = None,
+    units: str = "deg/s",
+    only: Collection[str] | None = None,
+) -> RunInfo:
     """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
 
     ``sample_rate_hz`` and ``units`` apply to CSV records only (see

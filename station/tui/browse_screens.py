@@ -47,7 +47,7 @@ class RunListing:
 
 def list_runs(runs_dir: Path, limit: int = 200) -> list[RunListing]:
     """Run files of ``runs_dir``, newest first, with their state."""
-    from station.tui.launcher import run_file_state
+    from station.services.recorder_process import run_file_state
 
     if not runs_dir.is_dir():
         return []
@@ -129,7 +129,7 @@ class RunsScreen(Screen[None]):
         if not path.is_file():
             self.notify(f"No file {path}: check the path.", severity="error")
             return
-        from station.tui.launcher import run_file_state
+        from station.services.recorder_process import run_file_state
 
         try:
             recording = path.suffix.lower() in (".h5", ".hdf5") and run_file_state(path).recording
