@@ -22,6 +22,7 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.worker import get_current_worker
 
+from station.output.results_backends import DatabaseLocation
 from station.services.record import RecordRequest
 from station.services.recorder_process import (
     RecorderProcess,
@@ -78,7 +79,7 @@ class TuiSettings:
         Folder of the run files (new runs go here; reattaching looks here).
     reports_dir : Path
         Folder the exported reports go to.
-    db_path : Path or None
+    db_path : str, Path or None
         Results database (None: gradings are not stored).
     check_units : bool
         Check that each unit answers when it is added.
@@ -90,7 +91,7 @@ class TuiSettings:
 
     runs_dir: Path = Path("runs")
     reports_dir: Path = Path("reports")
-    db_path: Path | None = None
+    db_path: DatabaseLocation | None = None
     check_units: bool = True
     poll_s: float = 1.0
     attach: bool = True

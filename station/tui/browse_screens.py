@@ -16,6 +16,7 @@ from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Static
 
 from station.model.kinds import VERDICTS, Verdict
+from station.output.results_backends import DatabaseLocation
 from station.tui.messages import explain
 
 if TYPE_CHECKING:
@@ -146,7 +147,7 @@ class ResultsScreen(Screen[None]):
 
     BINDINGS = [Binding("escape", "app.pop_screen", "Back"), Binding("f5", "refresh", "Refresh")]
 
-    def __init__(self, db_path: Path) -> None:
+    def __init__(self, db_path: DatabaseLocation) -> None:
         super().__init__()
         self.db_path = db_path
         self.rows: list[GradingRow] = []
