@@ -101,7 +101,9 @@ def arw_deg_rt_h_from_density(noise_density_rad_s_rt_hz: float) -> float:
     ValueError
         A value that is not finite.
     """
-    return _finite(noise_density_rad_s_rt_hz, "noise_density_rad_s_rt_hz") * RT_S_PER_H / RAD_PER_DEG
+    return (
+        _finite(noise_density_rad_s_rt_hz, "noise_density_rad_s_rt_hz") * RT_S_PER_H / RAD_PER_DEG
+    )
 
 
 def discrete_noise_std(noise_density: float, sample_rate_hz: float) -> float:
@@ -116,7 +118,9 @@ def discrete_noise_std(noise_density: float, sample_rate_hz: float) -> float:
     ValueError
         A density that is not finite, or a rate that is not positive.
     """
-    return _finite(noise_density, "noise_density") * math.sqrt(_positive(sample_rate_hz, "sample_rate_hz"))
+    return _finite(noise_density, "noise_density") * math.sqrt(
+        _positive(sample_rate_hz, "sample_rate_hz")
+    )
 
 
 def random_walk_rad_s2_rt_hz(rrw_deg_h_1_5: float) -> float:
@@ -144,7 +148,9 @@ def rrw_deg_h_1_5_from_random_walk(random_walk_rad_s2_rt_hz: float) -> float:
     ValueError
         A value that is not finite.
     """
-    return _finite(random_walk_rad_s2_rt_hz, "random_walk_rad_s2_rt_hz") * S_PER_H**1.5 / RAD_PER_DEG
+    return (
+        _finite(random_walk_rad_s2_rt_hz, "random_walk_rad_s2_rt_hz") * S_PER_H**1.5 / RAD_PER_DEG
+    )
 
 
 def discrete_random_walk_std(random_walk: float, sample_rate_hz: float) -> float:
@@ -156,7 +162,9 @@ def discrete_random_walk_std(random_walk: float, sample_rate_hz: float) -> float
     ValueError
         A density that is not finite, or a rate that is not positive.
     """
-    return _finite(random_walk, "random_walk") / math.sqrt(_positive(sample_rate_hz, "sample_rate_hz"))
+    return _finite(random_walk, "random_walk") / math.sqrt(
+        _positive(sample_rate_hz, "sample_rate_hz")
+    )
 
 
 def rate_rad_s(rate_deg_h: float) -> float:
@@ -208,7 +216,9 @@ def gauss_markov_driving_density(sigma: float, correlation_time_s: float) -> flo
     ValueError
         A sigma that is not finite, or a correlation time that is not positive.
     """
-    return _finite(sigma, "sigma") * math.sqrt(2.0 / _positive(correlation_time_s, "correlation_time_s"))
+    return _finite(sigma, "sigma") * math.sqrt(
+        2.0 / _positive(correlation_time_s, "correlation_time_s")
+    )
 
 
 @dataclass(frozen=True)
@@ -221,8 +231,12 @@ class GaussMarkovBias:
     def as_json(self) -> dict[str, float]:
         """``sigma_deg_h``, ``sigma_rad_s``, ``tau_s`` and ``driving_density_rad_s2_rt_hz``."""
         sigma = rate_rad_s(self.sigma_deg_h)
-        return {"sigma_deg_h": self.sigma_deg_h, "sigma_rad_s": sigma, "tau_s": self.tau_s,
-                "driving_density_rad_s2_rt_hz": gauss_markov_driving_density(sigma, self.tau_s)}
+        return {
+            "sigma_deg_h": self.sigma_deg_h,
+            "sigma_rad_s": sigma,
+            "tau_s": self.tau_s,
+            "driving_density_rad_s2_rt_hz": gauss_markov_driving_density(sigma, self.tau_s),
+        }
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ from station.commands import (
     demo,
     devices,
     export,
+    fleet,
     grade,
     model,
     reconcile,
@@ -40,7 +41,25 @@ from station.commands.conventions import (
 from station.errors import StationError
 from station.logs import configure_logging
 
-COMMANDS: tuple = (demo, analyze, reproduce, simulate, model, davar, devices, grade, report, results, record, watch, recover, reconcile, export, tui,)
+COMMANDS: tuple = (
+    demo,
+    analyze,
+    reproduce,
+    simulate,
+    model,
+    davar,
+    devices,
+    grade,
+    report,
+    fleet,
+    results,
+    record,
+    watch,
+    recover,
+    reconcile,
+    export,
+    tui,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

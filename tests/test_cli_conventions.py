@@ -28,8 +28,24 @@ from station.storage.csv_records import write_csv_record
 @pytest.fixture(scope="module")
 def run_file(tmp_path_factory) -> Path:
     path = tmp_path_factory.mktemp("conv") / "v.h5"
-    assert main(["simulate", "--model", "VG951", "--duration", "10min", "--rate", "10",
-                 "--seed", "1", "--out", str(path)]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--model",
+                "VG951",
+                "--duration",
+                "10min",
+                "--rate",
+                "10",
+                "--seed",
+                "1",
+                "--out",
+                str(path),
+            ]
+        )
+        == 0
+    )
     return path
 
 
@@ -64,8 +80,24 @@ def test_reconcile_takes_unit_and_time_slice_like_analyze(run_file: Path, capsys
     assert main(["reconcile", str(run_file), "--model", "VG951", "--unit", "unit2"]) == 2
     err = capsys.readouterr().err
     assert err.strip() == f"station reconcile: error: {run_file}: no unit 'unit2'; units: sim"
-    assert main(["reconcile", str(run_file), "--model", "VG951", "--unit", "sim", "--start-s", "60",
-                 "--runs", "4", "--json"]) == 0
+    assert (
+        main(
+            [
+                "reconcile",
+                str(run_file),
+                "--model",
+                "VG951",
+                "--unit",
+                "sim",
+                "--start-s",
+                "60",
+                "--runs",
+                "4",
+                "--json",
+            ]
+        )
+        == 0
+    )
     err = capsys.readouterr().err
     assert "(5400 samples)" in err and "reconciled 60 s .. end" in err
 
@@ -90,8 +122,12 @@ def test_unexpected_errors_are_one_line(capsys) -> None:
 
 def test_shell_completion_answers_the_shell(tmp_path: Path, monkeypatch) -> None:
     out = tmp_path / "completions"
-    for key, value in {"_ARGCOMPLETE": "1", "COMP_LINE": "station export x --for", "COMP_POINT": "22",
-                       "_ARGCOMPLETE_STDOUT_FILENAME": str(out)}.items():
+    for key, value in {
+        "_ARGCOMPLETE": "1",
+        "COMP_LINE": "station export x --for",
+        "COMP_POINT": "22",
+        "_ARGCOMPLETE_STDOUT_FILENAME": str(out),
+    }.items():
         monkeypatch.setenv(key, value)
     codes: list[int] = []
     enable_completion(build_parser(), exit_method=codes.append)
@@ -111,16 +147,24 @@ def _parsers(parser: argparse.ArgumentParser, name: str = "station"):
 
 def test_help_is_plain_text_with_a_line_for_every_option() -> None:
     for name, parser in _parsers(build_parser()):
-        missing = [a.option_strings or a.dest for a in parser._actions
-                   if a.help is None and not isinstance(a, argparse._SubParsersAction)]
+        missing = [
+            a.option_strings or a.dest
+            for a in parser._actions
+            if a.help is None and not isinstance(a, argparse._SubParsersAction)
+        ]
         assert not missing, f"{name}: options without help: {missing}"
         text = parser.format_help()
         assert not re.search(r":\w+:`|``", text), f"{name}: reStructuredText markup in its help"
 
 
-@pytest.mark.parametrize(("terms", "named"), [("QNX", "'X' is not one of Q (quantization)"),
-                                               ("XYZ", "'X', 'Y', 'Z' are not one of"),
-                                               ("", "no letter is one of")])
+@pytest.mark.parametrize(
+    ("terms", "named"),
+    [
+        ("QNX", "'X' is not one of Q (quantization)"),
+        ("XYZ", "'X', 'Y', 'Z' are not one of"),
+        ("", "no letter is one of"),
+    ],
+)
 def test_terms_name_what_is_wrong_and_the_valid_letters(terms: str, named: str) -> None:
     with pytest.raises(FitError, match=re.escape(named)):
         check_terms(terms)
@@ -153,7 +197,9 @@ def test_analyze_writes_the_curve_as_csv_without_a_profile(tmp_path: Path, capsy
     for axis in axes:
         mine = [r for r in rows if r["axis"] == axis["name"]]
         assert [float(r["tau_s"]) for r in mine] == axis["tau_s"]
-        np.testing.assert_allclose([float(r["oadev_deg_h"]) for r in mine], axis["adev_deg_h"], rtol=1e-12)
+        np.testing.assert_allclose(
+            [float(r["oadev_deg_h"]) for r in mine], axis["adev_deg_h"], rtol=1e-12
+        )
         np.testing.assert_allclose(axis["adev_deg_h"], np.array(axis["adev"]) * 3600, rtol=1e-12)
         assert all(float(r["fit_adev_deg_h"]) > 0 for r in mine)
 
@@ -162,9 +208,31 @@ def test_recover_and_simulate_print_json(run_file: Path, tmp_path: Path, capsys)
     assert main(["recover", str(run_file), "--json"]) == 0
     answer = json.loads(capsys.readouterr().out)
     assert answer["already_closed"] is True and answer["path"] == str(run_file)
-    assert main(["simulate", "--model", "VG951", "--duration", "30s", "--axes", "3", "--seed", "2",
-                 "--json", "--out", str(tmp_path / "s.csv")]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--model",
+                "VG951",
+                "--duration",
+                "30s",
+                "--axes",
+                "3",
+                "--seed",
+                "2",
+                "--json",
+                "--out",
+                str(tmp_path / "s.csv"),
+            ]
+        )
+        == 0
+    )
     captured = capsys.readouterr()
-    assert json.loads(captured.out) == {"out": str(tmp_path / "s.csv"), "n_samples": 300, "axes": 3,
-                                        "rate_hz": 10.0, "model": "VG951"}
+    assert json.loads(captured.out) == {
+        "out": str(tmp_path / "s.csv"),
+        "n_samples": 300,
+        "axes": 3,
+        "rate_hz": 10.0,
+        "model": "VG951",
+    }
     assert captured.err == ""

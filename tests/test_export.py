@@ -1,4 +1,5 @@
-"""station export: each tool's file read back with its own parser and checked against the formulas."""
+"""station export: each tool's file read back with its own parser and checked against the
+formulas."""
 
 from __future__ import annotations
 
@@ -48,13 +49,16 @@ def test_noise_density_is_the_arw_in_radians_per_root_second() -> None:
     # 1 deg/sqrt(h) = 1/60 deg/sqrt(s) = (pi/180)/60 rad/s/sqrt(Hz)
     assert noise_density_rad_s_rt_hz(1.0) == pytest.approx(D2R / 60, rel=1e-15)
     assert noise_density_deg_s_rt_hz(0.3) == pytest.approx(0.005, rel=1e-15)
-    assert arw_deg_rt_h_from_density(noise_density_rad_s_rt_hz(0.37)) == pytest.approx(0.37, rel=1e-14)
+    assert arw_deg_rt_h_from_density(noise_density_rad_s_rt_hz(0.37)) == pytest.approx(
+        0.37, rel=1e-14
+    )
     # discrete: a sample at fs is the mean over 1/fs, variance density^2 * fs
     assert discrete_noise_std(1e-4, 400.0) == pytest.approx(2e-3, rel=1e-15)
 
 
 def test_white_noise_of_a_density_has_that_allan_deviation_at_one_second() -> None:
-    """The convention checked on data: white noise drawn as N sqrt(fs) per sample has sigma(1 s) = N."""
+    """The convention checked on data: white noise drawn as N sqrt(fs) per sample has
+    sigma(1 s) = N."""
     fs, n = 50.0, 200_000
     density = noise_density_rad_s_rt_hz(0.5)
     x = np.random.default_rng(3).normal(0.0, discrete_noise_std(density, fs), n)
@@ -65,7 +69,9 @@ def test_white_noise_of_a_density_has_that_allan_deviation_at_one_second() -> No
 
 def test_random_walk_and_bias_instability_conventions() -> None:
     assert random_walk_rad_s2_rt_hz(1.0) == pytest.approx(D2R / 3600**1.5, rel=1e-15)
-    assert rrw_deg_h_1_5_from_random_walk(random_walk_rad_s2_rt_hz(12.5)) == pytest.approx(12.5, rel=1e-14)
+    assert rrw_deg_h_1_5_from_random_walk(random_walk_rad_s2_rt_hz(12.5)) == pytest.approx(
+        12.5, rel=1e-14
+    )
     assert discrete_random_walk_std(1e-6, 100.0) == pytest.approx(1e-7, rel=1e-15)
     assert rate_rad_s(3600.0) == pytest.approx(D2R, rel=1e-15)
     # imu_utils / kalibr_allan's "bias instability" is the floor, 0.664 B
@@ -82,9 +88,14 @@ def test_random_walk_and_bias_instability_conventions() -> None:
 
 def _axes(gauss_markov: bool = False) -> list[AxisNoise]:
     gm = (GaussMarkovBias(4.0, 30.0), GaussMarkovBias(9.0, 400.0)) if gauss_markov else ()
-    return [AxisNoise(f"gyro_{c}", 200.0, arw, b, k, bias, gm if c != "y" else (), {"arw": "fit"})
-            for c, arw, b, k, bias in (("x", 0.2, 3.0, 5.0, 10.0), ("y", 0.3, 2.0, 7.0, -20.0),
-                                       ("z", 0.25, 4.0, 6.0, 0.5))]
+    return [
+        AxisNoise(f"gyro_{c}", 200.0, arw, b, k, bias, gm if c != "y" else (), {"arw": "fit"})
+        for c, arw, b, k, bias in (
+            ("x", 0.2, 3.0, 5.0, 10.0),
+            ("y", 0.3, 2.0, 7.0, -20.0),
+            ("z", 0.25, 4.0, 6.0, 0.5),
+        )
+    ]
 
 
 CTX = ExportContext(source="run.h5", unit="unit2", rostopic="/bench/imu")
@@ -105,7 +116,9 @@ def test_openvins_chain_has_the_opencv_header_and_an_imu0_block() -> None:
     first, _, rest = text.partition("\n")
     assert first.startswith("%YAML:1.0")  # OpenCV's FileStorage needs it; PyYAML reads the rest
     imu0 = yaml.safe_load(rest)["imu0"]
-    assert imu0["gyroscope_noise_density"] == pytest.approx(noise_density_rad_s_rt_hz(0.3), rel=1e-12)
+    assert imu0["gyroscope_noise_density"] == pytest.approx(
+        noise_density_rad_s_rt_hz(0.3), rel=1e-12
+    )
     assert imu0["gyroscope_random_walk"] == pytest.approx(random_walk_rad_s2_rt_hz(7.0), rel=1e-12)
     assert imu0["update_rate"] == 200.0 and imu0["time_offset"] == 0.0 and imu0["model"] == "kalibr"
 
@@ -122,9 +135,13 @@ def test_matlab_script_and_json_hold_gyroparams_units() -> None:
     fields = _matlab_call(render("matlab", _axes(), CTX))
     from_json = json.loads(render("matlab", _axes(), CTX, suffix=".json"))
     for values in (fields, from_json):
-        assert values["NoiseDensity"] == pytest.approx([noise_density_rad_s_rt_hz(a) for a in (0.2, 0.3, 0.25)])
+        assert values["NoiseDensity"] == pytest.approx(
+            [noise_density_rad_s_rt_hz(a) for a in (0.2, 0.3, 0.25)]
+        )
         assert values["BiasInstability"] == pytest.approx([rate_rad_s(b) for b in (3.0, 2.0, 4.0)])
-        assert values["RandomWalk"] == pytest.approx([random_walk_rad_s2_rt_hz(k) for k in (5.0, 7.0, 6.0)])
+        assert values["RandomWalk"] == pytest.approx(
+            [random_walk_rad_s2_rt_hz(k) for k in (5.0, 7.0, 6.0)]
+        )
         assert values["ConstantBias"] == pytest.approx([rate_rad_s(b) for b in (10.0, -20.0, 0.5)])
     one = _matlab_call(render("matlab", _axes()[:1], CTX))
     assert one["NoiseDensity"] == pytest.approx([noise_density_rad_s_rt_hz(0.2)])  # a scalar
@@ -144,7 +161,9 @@ def test_gnss_ins_sim_module_runs_and_names_its_units(tmp_path: Path) -> None:
     err = runpy.run_path(str(path))["gyro_err"]
     # the Gauss-Markov term of largest sigma on x and z; y has none: B and an infinite time
     assert err["gyro_b_stability"].tolist() == [9.0, 2.0, 9.0]
-    assert err["gyro_b_corr"][[0, 2]].tolist() == [400.0, 400.0] and math.isinf(err["gyro_b_corr"][1])
+    assert err["gyro_b_corr"][[0, 2]].tolist() == [400.0, 400.0] and math.isinf(
+        err["gyro_b_corr"][1]
+    )
     with pytest.raises(UsageError, match="three axes"):
         render("gnss-ins-sim", _axes()[:1], CTX)
 
@@ -153,7 +172,9 @@ def test_json_names_every_unit() -> None:
     data = json.loads(render("json", _axes(gauss_markov=True), CTX))
     x = data["axes"][0]
     assert x["noise_density_rad_s_rt_hz"] == pytest.approx(noise_density_rad_s_rt_hz(0.2))
-    assert x["noise_discrete_rad_s"] == pytest.approx(noise_density_rad_s_rt_hz(0.2) * math.sqrt(200))
+    assert x["noise_discrete_rad_s"] == pytest.approx(
+        noise_density_rad_s_rt_hz(0.2) * math.sqrt(200)
+    )
     assert x["allan_floor_deg_h"] == pytest.approx(0.664 * 3.0)
     assert x["gauss_markov"][1]["sigma_rad_s"] == pytest.approx(rate_rad_s(9.0))
     unitless = {"name", "sources", "gauss_markov"}
@@ -165,7 +186,14 @@ def test_default_names_are_identifiers_where_the_tool_loads_them_as_code() -> No
     assert default_output("a/b/run-7.h5", "matlab", "unit2").name == "run_7_unit2_gyro_params.m"
     assert default_output("2024 run.csv.gz", "gnss-ins-sim").name == "g_2024_run_gyro_err.py"
     assert default_output("run.csv", "kalibr").name == "run_imu.yaml"
-    assert set(FORMATS) == {"kalibr", "openvins", "matlab", "gnss-ins-sim", "allan-variance-ros", "json"}
+    assert set(FORMATS) == {
+        "kalibr",
+        "openvins",
+        "matlab",
+        "gnss-ins-sim",
+        "allan-variance-ros",
+        "json",
+    }
 
 
 # ------------------------------------------------------------------ end to end
@@ -178,22 +206,30 @@ def record_csv(tmp_path_factory) -> Path:
     return write_csv_record(tmp_path_factory.mktemp("exp") / "run.csv", rate, fs, axis_names=["x"])
 
 
-def test_export_kalibr_from_a_record_matches_the_analysis(record_csv: Path, tmp_path: Path, capsys) -> None:
+def test_export_kalibr_from_a_record_matches_the_analysis(
+    record_csv: Path, tmp_path: Path, capsys
+) -> None:
     out = tmp_path / "imu.yaml"
     assert main(["export", str(record_csv), "--format", "kalibr", "--out", str(out), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     x = report["axes"][0]
     assert report["out"] == str(out) and x["arw_deg_rt_h"] == pytest.approx(0.4, rel=0.05)
     data = yaml.safe_load(out.read_text())
-    assert data["gyroscope_noise_density"] == pytest.approx(noise_density_rad_s_rt_hz(x["arw_deg_rt_h"]))
-    assert data["gyroscope_random_walk"] == pytest.approx(random_walk_rad_s2_rt_hz(x["rrw_deg_h_1_5"]))
+    assert data["gyroscope_noise_density"] == pytest.approx(
+        noise_density_rad_s_rt_hz(x["arw_deg_rt_h"])
+    )
+    assert data["gyroscope_random_walk"] == pytest.approx(
+        random_walk_rad_s2_rt_hz(x["rrw_deg_h_1_5"])
+    )
     assert data["update_rate"] == 50.0
     # white noise only: K is not resolved, and its bound is what the file holds, said so
     assert "upper bound" in x["sources"]["rrw"]
     assert [p.name for p in tmp_path.iterdir()] == ["imu.yaml"]  # no temporary file left
 
 
-def test_a_refused_export_leaves_the_previous_file_alone(record_csv: Path, tmp_path: Path, capsys) -> None:
+def test_a_refused_export_leaves_the_previous_file_alone(
+    record_csv: Path, tmp_path: Path, capsys
+) -> None:
     out = tmp_path / "gyro_err.py"
     out.write_text("previous\n")
     assert main(["export", str(record_csv), "--format", "gnss-ins-sim", "--out", str(out)]) == 2
@@ -213,7 +249,8 @@ def test_atomic_write_refuses_a_missing_folder_and_leaves_nothing(tmp_path: Path
 
 
 def test_gmwm_export_gives_gnss_ins_sim_its_correlation_time(tmp_path: Path) -> None:
-    """A white plus Gauss-Markov record: the GMWM's term becomes gyro_b_stability and gyro_b_corr."""
+    """A white plus Gauss-Markov record: the GMWM's term becomes gyro_b_stability and
+    gyro_b_corr."""
     fs, n, tau_s, sigma_deg_h = 10.0, 8000, 30.0, 10.0
     rng = np.random.default_rng(5)
     a = math.exp(-1.0 / (fs * tau_s))
@@ -227,8 +264,18 @@ def test_gmwm_export_gives_gnss_ins_sim_its_correlation_time(tmp_path: Path) -> 
     assert axis.sources and axis.sources["arw"] == "GMWM (wn+gm)"
     assert axis.main_gauss_markov is not None
     assert 0.5 * sigma_deg_h < axis.main_gauss_markov.sigma_deg_h < 2 * sigma_deg_h
-    three = [AxisNoise(c, fs, axis.arw_deg_rt_h, axis.bias_instability_deg_h, axis.rrw_deg_h_1_5,
-                       axis.bias_deg_h, axis.gauss_markov) for c in "xyz"]
+    three = [
+        AxisNoise(
+            c,
+            fs,
+            axis.arw_deg_rt_h,
+            axis.bias_instability_deg_h,
+            axis.rrw_deg_h_1_5,
+            axis.bias_deg_h,
+            axis.gauss_markov,
+        )
+        for c in "xyz"
+    ]
     path = tmp_path / "gyro_err.py"
     path.write_text(render("gnss-ins-sim", three, CTX))
     err = runpy.run_path(str(path))["gyro_err"]

@@ -42,8 +42,14 @@ class StationParser(argparse.ArgumentParser):
         (``station analyze: error: unrecognized arguments: ...``)."""
         ns, extras = self.parse_known_args(args, namespace)
         if extras:
-            target = next((a.choices.get(getattr(ns, a.dest, None) or "") for a in self._actions
-                           if isinstance(a, argparse._SubParsersAction)), None)
+            target = next(
+                (
+                    a.choices.get(getattr(ns, a.dest, None) or "")
+                    for a in self._actions
+                    if isinstance(a, argparse._SubParsersAction)
+                ),
+                None,
+            )
             (target or self).error(f"unrecognized arguments: {' '.join(extras)}")
         return ns
 
@@ -58,19 +64,25 @@ class StationParser(argparse.ArgumentParser):
 
 
 def plain_text(text: str) -> str:
-    """``text`` without reStructuredText roles (``:mod:`x``` -> ``x``) and literals (````x```` -> ``x``)."""
+    """``text`` without reStructuredText roles (``:mod:`x``` -> ``x``) and literals
+    (````x```` -> ``x``)."""
     text = re.sub(r":\w+:`~?([^`]*)`", r"\1", text)
     return re.sub(r"``([^`]*)``", r"\1", text)
 
 
 def add_version(parser: argparse.ArgumentParser) -> None:
     """``--version``: ``station X.Y.Z``."""
-    parser.add_argument("--version", action="version", version=f"%(prog)s {software_version()}",
-                        help="print the station software's version and exit")
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"%(prog)s {software_version()}",
+        help="print the station software's version and exit",
+    )
 
 
-def enable_completion(parser: argparse.ArgumentParser, *,
-                      exit_method: Callable[[int], object] = os._exit) -> None:
+def enable_completion(
+    parser: argparse.ArgumentParser, *, exit_method: Callable[[int], object] = os._exit
+) -> None:
     """Answer a completing shell (argcomplete's ``_ARGCOMPLETE`` request) and exit through
     ``exit_method``; a no-op otherwise, and when argcomplete is not installed."""
     if "_ARGCOMPLETE" not in os.environ:
@@ -98,6 +110,9 @@ def report_unexpected(command: str, exc: BaseException) -> int:
         where = f": {exc.filename}" if exc.filename else ""
         print(f"station {command}: error: {exc.strerror or exc}{where}", file=sys.stderr)
         return 2
-    print(f"station {command}: internal error: {type(exc).__name__}: {exc} (please report it; "
-          f"{TRACEBACK_ENV}=1 shows the traceback)", file=sys.stderr)
+    print(
+        f"station {command}: internal error: {type(exc).__name__}: {exc} (please report it; "
+        f"{TRACEBACK_ENV}=1 shows the traceback)",
+        file=sys.stderr,
+    )
     return 1

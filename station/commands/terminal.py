@@ -15,6 +15,7 @@ from station.model.wording import duration_text, plural
 
 __all__ = ["ProgressLine", "duration_text", "plural"]
 
+
 class ProgressLine:
     """``PREFIX: 42.0 % (N of M UNIT), ETA 3 min 20 s`` rewritten in place on a terminal.
 
@@ -22,8 +23,14 @@ class ProgressLine:
     time scaled to what is left.
     """
 
-    def __init__(self, prefix: str, unit: str = "samples", *, quiet: bool = False,
-                 stream: TextIO | None = None) -> None:
+    def __init__(
+        self,
+        prefix: str,
+        unit: str = "samples",
+        *,
+        quiet: bool = False,
+        stream: TextIO | None = None,
+    ) -> None:
         self.prefix, self.unit = prefix, unit
         self.stream = sys.stderr if stream is None else stream
         self.shown = not quiet and self.stream.isatty()
@@ -37,6 +44,11 @@ class ProgressLine:
         elapsed = time.monotonic() - self._start
         eta = f", ETA {duration_text(elapsed * (total - done) / done)}" if 0 < done < total else ""
         end = "\n" if done >= total else ""
-        print(f"\r{self.prefix}: {100.0 * done / total:5.1f} % ({done} of {total} {self.unit})"
-              f"{eta}\033[K", end=end, file=self.stream, flush=True)
+        print(
+            f"\r{self.prefix}: {100.0 * done / total:5.1f} % ({done} of {total} {self.unit})"
+            f"{eta}\033[K",
+            end=end,
+            file=self.stream,
+            flush=True,
+        )
         self._open = done < total

@@ -49,15 +49,23 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     """
     fit, fig = axis.fit, axis.figures
     n_fit = fit.values.get("N")
-    arw, arw_from = (n_fit, f"fit ({fit.method})") if _positive(n_fit) else (fig.arw_deg_rt_h, "read-off")
+    arw, arw_from = (
+        (n_fit, f"fit ({fit.method})") if _positive(n_fit) else (fig.arw_deg_rt_h, "read-off")
+    )
     b, b_from = fig.bias_instability_deg_h, "read-off (sigma_min / 0.664)"
     if not _positive(b):
-        b, b_from = (fit.values.get("B"), f"fit ({fit.method})") if _positive(fit.values.get("B")) else (None, "none")
+        b, b_from = (
+            (fit.values.get("B"), f"fit ({fit.method})")
+            if _positive(fit.values.get("B"))
+            else (None, "none")
+        )
     k, k_from = _rrw(fit.values.get("K"), fit.stderr.get("K"), f"fit ({fit.method})")
     gauss_markov: list[GaussMarkovBias] = []
     if method == GMWM_METHOD:
         if axis.gmwm is None:
-            raise UsageError(f"axis {axis.name}: no GMWM in this analysis (analyze with method gmwm)")
+            raise UsageError(
+                f"axis {axis.name}: no GMWM in this analysis (analyze with method gmwm)"
+            )
         best = axis.gmwm.best
         values, errors = best.values, best.stderr
         model = f"GMWM ({best.model.name})"
@@ -72,10 +80,18 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
                 tau = values[key.removesuffix("_sigma_deg_h") + "_tau_s"]
                 gauss_markov.append(GaussMarkovBias(float(sigma), float(tau)))
     if not _positive(arw):
-        raise UsageError(f"axis {axis.name}: no angle random walk found (neither fit nor read-off): "
-                         f"record longer or at a higher rate")
+        raise UsageError(
+            f"axis {axis.name}: no angle random walk found (neither fit nor read-off): "
+            f"record longer or at a higher rate"
+        )
     gauss_markov.sort(key=lambda g: g.tau_s)
-    return AxisNoise(name=axis.name, sample_rate_hz=axis.sample_rate_hz, arw_deg_rt_h=float(arw),  # type: ignore[arg-type]
-                     bias_instability_deg_h=None if b is None else float(b), rrw_deg_h_1_5=k,
-                     bias_deg_h=fig.bias_deg_h, gauss_markov=tuple(gauss_markov),
-                     sources={"arw": arw_from, "bias_instability": b_from, "rrw": k_from})
+    return AxisNoise(
+        name=axis.name,
+        sample_rate_hz=axis.sample_rate_hz,
+        arw_deg_rt_h=float(arw),  # type: ignore[arg-type]
+        bias_instability_deg_h=None if b is None else float(b),
+        rrw_deg_h_1_5=k,
+        bias_deg_h=fig.bias_deg_h,
+        gauss_markov=tuple(gauss_markov),
+        sources={"arw": arw_from, "bias_instability": b_from, "rrw": k_from},
+    )

@@ -59,21 +59,30 @@ def load_sheet_header(path: str | Path) -> SheetHeader:
         raise UsageError(f"{path}: not a TOML sheet header ({exc})") from None
     unknown = sorted(set(data) - set(_KEYS))
     if unknown:
-        raise UsageError(f"{path}: unknown key {', '.join(map(repr, unknown))}; a sheet header "
-                         f"takes {', '.join(_KEYS)}")
+        raise UsageError(
+            f"{path}: unknown key {', '.join(map(repr, unknown))}; a sheet header "
+            f"takes {', '.join(_KEYS)}"
+        )
     for key in ("company", "station", "logo", "conditions"):
         if not isinstance(data.get(key, ""), str):
             raise UsageError(f"{path}: {key} must be text")
     approval = data.get("approval", [])
     if not isinstance(approval, list) or not all(isinstance(a, str) for a in approval):
-        raise UsageError(f"{path}: approval must be a list of texts, e.g. [\"Tested by\", \"Approved by\"]")
+        raise UsageError(
+            f'{path}: approval must be a list of texts, e.g. ["Tested by", "Approved by"]'
+        )
     logo = None
     if data.get("logo"):
         logo = (path.parent / data["logo"]).resolve()
         if logo.suffix.lower() != ".png" or not logo.is_file():
             raise UsageError(f"{path}: logo {data['logo']!r} must be an existing PNG file")
-    return SheetHeader(data.get("company", ""), data.get("station", ""), logo,
-                       data.get("conditions", ""), tuple(approval))
+    return SheetHeader(
+        data.get("company", ""),
+        data.get("station", ""),
+        logo,
+        data.get("conditions", ""),
+        tuple(approval),
+    )
 
 
 def station_name(header: SheetHeader | None, host: str) -> str:

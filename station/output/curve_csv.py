@@ -29,8 +29,15 @@ def curve_table(axes: Sequence[AxisAnalysis]) -> str:
     angle = bool(shown) and shown[0].unit == "angle"
     unit, scale = ("deg", 1.0) if angle else ("deg_h", S_PER_H)
     fitted = all(c.kind == from_allan(a.allan).kind for a, c in zip(axes, shown, strict=True))
-    header = ["axis", "tau_s", f"{kind}_{unit}", f"{kind}_ci_low_{unit}", f"{kind}_ci_high_{unit}",
-              "n_clusters", *(["fit_adev_deg_h"] if fitted else [])]
+    header = [
+        "axis",
+        "tau_s",
+        f"{kind}_{unit}",
+        f"{kind}_ci_low_{unit}",
+        f"{kind}_ci_high_{unit}",
+        "n_clusters",
+        *(["fit_adev_deg_h"] if fitted else []),
+    ]
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(header)

@@ -117,15 +117,24 @@ def analyze(request: AnalyzeRequest,
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm:
-        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of "
-                                     f"{plural(len(record.axis_names), 'axis')} of {record.n_samples} samples"))
+        axes = plural(len(record.axis_names), "axis")
+        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {axes} of "
+                                     f"{record.n_samples} samples"))
     estimator = request.estimator or ("clusters" if request.deviation == "adev" else "overlapping")
     bench = bench_of(request.bench, request.source.file)
-    axes = analyze_record(record, estimator=estimator, taus=request.taus,
-                          method=request.method, terms=request.terms,
-                          outliers=request.outliers, bench=bench,
-                          deviation_kind=request.deviation, select=request.select,
-                          gmwm_model=request.gmwm_model, robust=request.robust)
+    axes = analyze_record(
+        record,
+        estimator=estimator,
+        taus=request.taus,
+        method=request.method,
+        terms=request.terms,
+        outliers=request.outliers,
+        bench=bench,
+        deviation_kind=request.deviation,
+        select=request.select,
+        gmwm_model=request.gmwm_model,
+        robust=request.robust,
+    )
     if request.png is not None:
         from station.output.plots import (  # matplotlib: only when a plot is asked for
             plot_allan,
@@ -138,5 +147,6 @@ def analyze(request: AnalyzeRequest,
         from station.output.curve_csv import write_curve_csv
 
         write_curve_csv(axes, request.csv)
-    return AnalyzeResult(str(request.source.file), record, loaded.selection, tuple(axes),
-                         loaded.notes, request.png)
+    return AnalyzeResult(
+        str(request.source.file), record, loaded.selection, tuple(axes), loaded.notes, request.png
+    )

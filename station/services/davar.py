@@ -90,8 +90,14 @@ def davar(request: DavarRequest) -> DavarAnswer:
     verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
     if offset > 0:  # times since the record's start, not since the cut
         result = replace(result, t_s=result.t_s + offset)
-        verdicts = tuple(replace(v, warmup_end_s=None if v.warmup_end_s is None else v.warmup_end_s + offset,
-                                 window_start_s=v.window_start_s + offset) for v in verdicts)
+        verdicts = tuple(
+            replace(
+                v,
+                warmup_end_s=None if v.warmup_end_s is None else v.warmup_end_s + offset,
+                window_start_s=v.window_start_s + offset,
+            )
+            for v in verdicts
+        )
     if request.png is not None:
         from station.output.plots import plot_davar  # matplotlib: only for a heat map
 

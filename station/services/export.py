@@ -72,9 +72,14 @@ class ExportResult:
     notes: tuple[str, ...] = ()
 
     def as_json(self) -> dict[str, object]:
-        """``{"format", "out", "axes": [AxisNoise.as_json()...], "notes"}`` (``station export --json``)."""
-        return {"format": self.format, "out": None if self.out is None else str(self.out),
-                "axes": [a.as_json() for a in self.axes], "notes": list(self.notes)}
+        """``{"format", "out", "axes": [AxisNoise.as_json()...], "notes"}``
+        (``station export --json``)."""
+        return {
+            "format": self.format,
+            "out": None if self.out is None else str(self.out),
+            "axes": [a.as_json() for a in self.axes],
+            "notes": list(self.notes),
+        }
 
 
 def default_output(file: str, fmt: str, unit: str | None = None) -> Path:
@@ -113,22 +118,38 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
     loaded = load_record(request.source)
     record = loaded.record
     FORMATS[request.format].check_axes(len(record.axis_names), record.axis_names)
-    progress(Progress("export", f"{request.method} analysis of {plural(len(record.axis_names), 'axis')} "
-                                f"of {record.n_samples} samples"))
-    axes = noise_of(record, request.method, request.gmwm_model,
-                    bench_of(request.bench, request.source.file))
+    progress(
+        Progress(
+            "export",
+            f"{request.method} analysis of {plural(len(record.axis_names), 'axis')} "
+            f"of {record.n_samples} samples",
+        )
+    )
+    axes = noise_of(
+        record, request.method, request.gmwm_model, bench_of(request.bench, request.source.file)
+    )
     earth_removed = all(a.earth_rate_removed for a in axes)
     file, unit = str(request.source.file), request.source.unit
-    context = ExportContext(source=file, unit=unit, method=request.method,
-                            rostopic=request.rostopic, earth_rate_removed=earth_removed)
+    context = ExportContext(
+        source=file,
+        unit=unit,
+        method=request.method,
+        rostopic=request.rostopic,
+        earth_rate_removed=earth_removed,
+    )
     out = request.out if request.out is not None else default_output(file, request.format, unit)
     text = render(request.format, [a.noise for a in axes], context, suffix=out.suffix)
     notes = list(loaded.notes)
-    notes += [f"{a.noise.name}: rate random walk is {a.noise.sources['rrw'].split(': ', 1)[1]}"
-              for a in axes if a.noise.sources and "upper bound" in a.noise.sources["rrw"]]
+    notes += [
+        f"{a.noise.name}: rate random walk is {a.noise.sources['rrw'].split(': ', 1)[1]}"
+        for a in axes
+        if a.noise.sources and "upper bound" in a.noise.sources["rrw"]
+    ]
     if request.format == "gnss-ins-sim" and not any(a.noise.gauss_markov for a in axes):
-        notes.append("no Gauss-Markov term (--method gmwm finds one where the record shows it): "
-                     "gnss-ins-sim draws gyro_b_stability as white noise without gyro_b_corr")
+        notes.append(
+            "no Gauss-Markov term (--method gmwm finds one where the record shows it): "
+            "gnss-ins-sim draws gyro_b_stability as white noise without gyro_b_corr"
+        )
     noise = tuple(a.noise for a in axes)
     if str(out) == "-":
         return ExportResult(request.format, None, noise, text, tuple(notes))
@@ -142,10 +163,16 @@ class _Exported:
     earth_rate_removed: bool
 
 
-def noise_of(record: RateRecord, method: str = DEFAULT_METHOD, gmwm_model: str = "auto",
-             bench: Bench | None = None) -> list[_Exported]:
+def noise_of(
+    record: RateRecord,
+    method: str = DEFAULT_METHOD,
+    gmwm_model: str = "auto",
+    bench: Bench | None = None,
+) -> list[_Exported]:
     """Each axis' noise parameters (``method``: ``logwls`` or ``gmwm``) and whether its bias
     has the Earth rate removed."""
     analyses = analyze_record(record, method=method, bench=bench, gmwm_model=gmwm_model)
-    return [_Exported(axis_noise(a, method), a.figures.earth_rate_removed_deg_h is not None)
-            for a in analyses]
+    return [
+        _Exported(axis_noise(a, method), a.figures.earth_rate_removed_deg_h is not None)
+        for a in analyses
+    ]

@@ -102,9 +102,11 @@ def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tupl
         loaded = cut_record(record, source)
         notes += [n for n in loaded.notes if n not in notes]
         if loaded.selection.start_s > 0 or loaded.selection.stop_s is not None:
-            note = (f"reconciled {loaded.selection.start_s:g} s .. "
-                    f"{'end' if loaded.selection.stop_s is None else f'{loaded.selection.stop_s:g} s'}"
-                    f" (warm-up {loaded.selection.warmup_s:g} s from {loaded.selection.warmup_from})")
+            note = (
+                f"reconciled {loaded.selection.start_s:g} s .. "
+                f"{'end' if loaded.selection.stop_s is None else f'{loaded.selection.stop_s:g} s'}"
+                f" (warm-up {loaded.selection.warmup_s:g} s from {loaded.selection.warmup_from})"
+            )
             if note not in notes:
                 notes.append(note)
         for name in names:
@@ -115,8 +117,9 @@ def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tupl
     return out, tuple(notes)
 
 
-def reconcile_run(request: ReconcileRequest,
-                  progress: ProgressSink = ignore_progress) -> ReconcileAnswer:
+def reconcile_run(
+    request: ReconcileRequest, progress: ProgressSink = ignore_progress
+) -> ReconcileAnswer:
     """Reconcile each axis with the model (:func:`analysis.reconcile.reconcile`); draw the figure.
 
     ``progress`` hears of each axis as it starts.
@@ -129,17 +132,28 @@ def reconcile_run(request: ReconcileRequest,
     if request.runs < 4:
         raise UsageError(f"--runs must be at least 4, got {request.runs}")
     model = load_noise_model(request.model)
-    options = ReconcileOptions(runs=request.runs, seed=request.seed, alpha=request.alpha,
-                               max_samples=request.max_samples)
+    options = ReconcileOptions(
+        runs=request.runs, seed=request.seed, alpha=request.alpha, max_samples=request.max_samples
+    )
     cache = ComparisonCache()
     axes, notes = _axes(request)
     results: list[tuple[str, ReconcileResult]] = []
     for i, (label, record) in enumerate(axes):
-        lost = (f"; {record.missing_samples} samples missing in gaps: reconcile joins the "
-                f"stretches between them" if record.missing_samples else "")
+        lost = (
+            f"; {record.missing_samples} samples missing in gaps: reconcile joins the "
+            f"stretches between them"
+            if record.missing_samples
+            else ""
+        )
         progress(Progress("reconcile", f"{label} ({record.n_samples} samples{lost})", i, len(axes)))
-        res = reconcile(record.rate_deg_s[:, 0], record.sample_rate_hz, model,
-                        temperature_c=record.temperature_c, options=options, cache=cache)
+        res = reconcile(
+            record.rate_deg_s[:, 0],
+            record.sample_rate_hz,
+            model,
+            temperature_c=record.temperature_c,
+            options=options,
+            cache=cache,
+        )
         results.append((label, res))
     if request.png is not None:
         from station.output.reconcile_report import plot_reconcile  # matplotlib
