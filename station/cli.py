@@ -1,3 +1,4 @@
+# PYTHON_ARGCOMPLETE_OK
 """The ``station`` command line: a thin layer of argument parsing over station functions.
 
 Each sub-command lives in :mod:`station.commands` as a module with ``register`` (adds its
@@ -17,6 +18,7 @@ from station.commands import (
     davar,
     demo,
     devices,
+    export,
     fleet,
     grade,
     model,
@@ -29,6 +31,12 @@ from station.commands import (
     simulate,
     tui,
     watch,
+)
+from station.commands.conventions import (
+    StationParser,
+    add_version,
+    enable_completion,
+    report_unexpected,
 )
 from station.errors import StationError
 from station.logs import configure_logging
@@ -49,16 +57,18 @@ COMMANDS: tuple = (
     watch,
     recover,
     reconcile,
+    export,
     tui,
 )
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``station`` with every sub-command registered."""
-    parser = argparse.ArgumentParser(
+    parser = StationParser(
         prog="station",
         description="Gyro characterization station: record, analyze, grade and report gyros.",
     )
+    add_version(parser)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.register(sub)
@@ -68,6 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``station`` console script; returns the process exit code."""
     parser = build_parser()
+    enable_completion(parser)
     args = parser.parse_args(argv)
     configure_logging()
     try:
@@ -81,6 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"station {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # a bug or the system: one line, not a traceback
+        return report_unexpected(args.command, exc)
 
 
 if __name__ == "__main__":

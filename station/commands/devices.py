@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("devices", help="list supported device protocols and their simulations; "
                        "serve a simulated gyro", description=__doc__)
     p.add_argument("--json", action="store_true",
-                   help='print [{"protocol", "transport", "sim_url"}, ...] as JSON')
+                   help='print [{"protocol", "transport", "hardware_url", "sim_url"}, ...] as JSON')
     p.set_defaults(handler=run)
     actions = p.add_subparsers(dest="action", metavar="ACTION")
     serve = actions.add_parser(
@@ -49,9 +49,13 @@ def run(args: argparse.Namespace) -> int:
                           for p in SUPPORTED], indent=2))
         return 0
     width = max(len(p.protocol) for p in SUPPORTED)
+    pad = " " * (width + 15)
     for p in SUPPORTED:
         print(f"{p.protocol:<{width}}  {p.transport:<11}  {p.description}")
-        print(f"{'':<{width}}  {'':<11}  {p.sim_url}")
+        print(f"{pad}hardware:  {p.hardware_url}")
+        print(f"{pad}simulated: {p.sim_url}")
+    print("\nNames in capitals (PROFILE.toml, FILE.eds) and the port or address are yours to fill "
+          "in; docs/devices.md lists every key.")
     return 0
 
 

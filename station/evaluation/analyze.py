@@ -116,6 +116,17 @@ class OutlierReport:
         )
 
 
+def _in_station_units(c: DeviationResult) -> dict[str, list[float]]:
+    """The curve in the deg/h family of every other figure: ``adev_deg_h``, ``adev_ci_low_deg_h``,
+    ``adev_ci_high_deg_h`` (an angle deviation, tdev: ``adev_deg``... in deg, as it is)."""
+    if c.unit == "angle":
+        return {"adev_deg": c.deviation.tolist(), "adev_ci_low_deg": c.deviation_ci_low.tolist(),
+                "adev_ci_high_deg": c.deviation_ci_high.tolist()}
+    return {"adev_deg_h": (c.deviation * S_PER_H).tolist(),
+            "adev_ci_low_deg_h": (c.deviation_ci_low * S_PER_H).tolist(),
+            "adev_ci_high_deg_h": (c.deviation_ci_high * S_PER_H).tolist()}
+
+
 @dataclass(frozen=True)
 class AxisAnalysis:
     """Everything ``station analyze`` reports for one axis.
@@ -169,6 +180,7 @@ class AxisAnalysis:
             "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
             "tau_s": c.tau_s.tolist(),
             "adev": c.deviation.tolist(),
+            **_in_station_units(c),
             "adev_ci_low": c.deviation_ci_low.tolist(),
             "adev_ci_high": c.deviation_ci_high.tolist(),
             "n_clusters": c.n_clusters.tolist(),
