@@ -371,7 +371,8 @@ def _linear_solution(
         bs, _ = optimize.nnls(xs, ys, maxiter=50 * xs.shape[1])
     else:
         bs = np.linalg.lstsq(xs, ys, rcond=None)[0]
-    return bs * y_scale / scale
+    out: NDArray[np.float64] = bs * y_scale / scale
+    return out
 
 
 def _fit_linear(
@@ -453,16 +454,9 @@ def _finish(
         cov = value_covariance(result, model_beta, keep=keep)
         free = _free_columns(beta)
         # a misfit worth naming: above 1 % and twice the sampling error of the value
-        noted = (
-            None
-            if misfit is None
-            else np.where(
-                misfit > np.maximum(NOTED_MISFIT, 2.0 * np.sqrt(cov.diagonal(log=True))),
-                misfit,
-                0.0,
-            )
-        )
-        if noted is not None and noted.max(initial=0.0) > 0:
+        noted = None if misfit is None else np.where(
+            misfit > np.maximum(NOTED_MISFIT, 2.0 * np.sqrt(cov.diagonal(log=True))), misfit, 0.0)
+        if misfit is not None and noted is not None and noted.max(initial=0.0) > 0:
             worst = int(np.argmax(noted))
             size = (
                 f"{misfit[worst]:.1%}"
@@ -494,13 +488,13 @@ def _finish(
         b = float(beta[col]) if np.isfinite(beta[col]) else 0.0
         var = variances[term]
         sb = math.sqrt(max(var, 0.0)) if var is not None else None
-        c, unit = BETA_FACTOR[term], TO_DATASHEET[term]
+        factor, unit = BETA_FACTOR[term], TO_DATASHEET[term]
         if b > 0:
-            values[term] = math.sqrt(b / c) * unit
-            stderr[term] = None if sb is None else sb / (2.0 * math.sqrt(c * b)) * unit
+            values[term] = math.sqrt(b / factor) * unit
+            stderr[term] = None if sb is None else sb / (2.0 * math.sqrt(factor * b)) * unit
         elif b == 0:
             values[term] = 0.0
-            stderr[term] = None if sb is None else math.sqrt(sb / c) * unit
+            stderr[term] = None if sb is None else math.sqrt(sb / factor) * unit
         else:
             negative += term
     full = np.where(np.isfinite(beta), beta, np.nan)

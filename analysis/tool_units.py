@@ -38,6 +38,8 @@ from analysis.units import S_PER_H
 
 #: radians per degree.
 RAD_PER_DEG = math.pi / 180.0
+#: Seconds per hour to the power 1.5 (s^1.5 per h^1.5), for rate random walks.
+S_PER_H_1_5: float = S_PER_H * math.sqrt(S_PER_H)
 #: sqrt(s per h): deg/sqrt(h) per deg/sqrt(s).
 RT_S_PER_H = math.sqrt(S_PER_H)
 
@@ -136,7 +138,7 @@ def random_walk_rad_s2_rt_hz(rrw_deg_h_1_5: float) -> float:
     ValueError
         A value that is not finite.
     """
-    return _finite(rrw_deg_h_1_5, "rrw_deg_h_1_5") * RAD_PER_DEG / S_PER_H**1.5
+    return _finite(rrw_deg_h_1_5, "rrw_deg_h_1_5") * RAD_PER_DEG / S_PER_H_1_5
 
 
 def rrw_deg_h_1_5_from_random_walk(random_walk_rad_s2_rt_hz: float) -> float:
@@ -149,7 +151,7 @@ def rrw_deg_h_1_5_from_random_walk(random_walk_rad_s2_rt_hz: float) -> float:
         A value that is not finite.
     """
     return (
-        _finite(random_walk_rad_s2_rt_hz, "random_walk_rad_s2_rt_hz") * S_PER_H**1.5 / RAD_PER_DEG
+        _finite(random_walk_rad_s2_rt_hz, "random_walk_rad_s2_rt_hz") * S_PER_H_1_5 / RAD_PER_DEG
     )
 
 

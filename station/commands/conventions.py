@@ -37,7 +37,7 @@ class StationParser(argparse.ArgumentParser):
         kwargs["allow_abbrev"] = False
         super().__init__(*args, **kwargs)  # type: ignore[arg-type]
 
-    def parse_args(self, args=None, namespace=None):  # type: ignore[no-untyped-def,override]
+    def parse_args(self, args=None, namespace=None):
         """As argparse's, but arguments no option takes are reported by the sub-command's parser
         (``station analyze: error: unrecognized arguments: ...``)."""
         ns, extras = self.parse_known_args(args, namespace)

@@ -117,8 +117,8 @@ def analyze(request: AnalyzeRequest,
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm:
-        axes = plural(len(record.axis_names), "axis")
-        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {axes} of "
+        counted = plural(len(record.axis_names), "axis")
+        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {counted} of "
                                      f"{record.n_samples} samples"))
     estimator = request.estimator or ("clusters" if request.deviation == "adev" else "overlapping")
     bench = bench_of(request.bench, request.source.file)

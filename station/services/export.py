@@ -14,10 +14,16 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 from analysis.tool_units import AxisNoise
 from station.errors import UsageError
-from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, analyze_record
+from station.evaluation.analyze import (
+    DEFAULT_METHOD,
+    GMWM_METHOD,
+    AnalysisMethod,
+    analyze_record,
+)
 from station.evaluation.noise_parameters import EXPORT_METHODS, axis_noise
 from station.model.bench import Bench
 from station.model.records import RateRecord
@@ -171,7 +177,8 @@ def noise_of(
 ) -> list[_Exported]:
     """Each axis' noise parameters (``method``: ``logwls`` or ``gmwm``) and whether its bias
     has the Earth rate removed."""
-    analyses = analyze_record(record, method=method, bench=bench, gmwm_model=gmwm_model)
+    analyses = analyze_record(record, method=cast(AnalysisMethod, method), bench=bench,
+                              gmwm_model=gmwm_model)
     return [
         _Exported(axis_noise(a, method), a.figures.earth_rate_removed_deg_h is not None)
         for a in analyses
