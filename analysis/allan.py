@@ -386,7 +386,9 @@ def resolve_m(
 # --------------------------------------------------------------------------------- kernels
 
 
-def overlapping_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
+def overlapping_sums(
+    theta: NDArray[np.float64], m_values: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Sum of squared second differences ``theta[n+2m] - 2 theta[n+m] + theta[n]`` per m.
 
     ``theta`` is (N + 1) x k; the sum runs over the ``N + 1 - 2m`` available ``n``.

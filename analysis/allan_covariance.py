@@ -86,7 +86,8 @@ def _mixed_difference(mi: ArrayLike, mj: ArrayLike, u: NDArray[np.float64]) -> N
 
 
 def _nine_lags(mi: ArrayLike, mj: ArrayLike) -> NDArray[np.float64]:
-    """The lags ``a m_i - b m_j`` (a, b in 0..2) where the terms of ``c_ij`` change form: (..., 9)."""
+    """The lags ``a m_i - b m_j`` (a, b in 0..2) where the terms of ``c_ij`` change form: (...,
+    9)."""
     return np.stack([a * np.asarray(mi, dtype=float) - b * np.asarray(mj, dtype=float)
                      for a in range(3) for b in range(3)], axis=-1)
 
@@ -108,8 +109,11 @@ def _spikes(lags: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
 
 
 def _span_overlap(u: NDArray[np.float64], ti: ArrayLike, tj: ArrayLike) -> NDArray[np.float64]:
-    """Length of ``[0, ti) & [-u, tj - u)``: how much of the record holds both positions at lag u."""
-    return np.maximum(0.0, np.minimum(ti, np.subtract(tj, u)) - np.maximum(0.0, -u))
+    """Length of ``[0, ti) & [-u, tj - u)``: how much of the record holds both positions at lag
+    u."""
+    out: NDArray[np.float64] = np.maximum(
+        0.0, np.minimum(ti, np.subtract(tj, u)) - np.maximum(0.0, -u))
+    return out
 
 
 def _sums(c: NDArray[np.float64], weight: NDArray[np.float64], lags: NDArray[np.float64],
@@ -149,7 +153,9 @@ def _exact_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
         return _near_lags(mi, mj, si, sj, li, lj)
     lcm = si * sj // g
     tail = FLICKER_TAIL_M * max(mi, mj)
-    u = g * np.arange(math.ceil((-2 * mj - tail) / g), math.floor((2 * mi + tail) / g) + 1, dtype=float)
+    u = g * np.arange(
+        math.ceil((-2 * mj - tail) / g), math.floor((2 * mi + tail) / g) + 1, dtype=float
+    )
     return u, _span_overlap(u, li * si, lj * sj) / lcm
 
 
@@ -187,8 +193,13 @@ def _near_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
     steps = width * 2.0 ** np.arange(6)
     edges_hi = np.unique(np.clip(np.concatenate([[2.0 * mi], 2.0 * mi + steps, [2.0 * mi + tail]]),
                                  2.0 * mi, 2.0 * mi + tail))
-    edges_lo = np.unique(np.clip(np.concatenate([[-2.0 * mj], -2.0 * mj - steps, [-2.0 * mj - tail]]),
-                                 -2.0 * mj - tail, -2.0 * mj))
+    edges_lo = np.unique(
+        np.clip(
+            np.concatenate([[-2.0 * mj], -2.0 * mj - steps, [-2.0 * mj - tail]]),
+            -2.0 * mj - tail,
+            -2.0 * mj,
+        )
+    )
     nodes, weights = [support_u], [support_w]
     for edges in (edges_hi, edges_lo):
         half = (edges[1:] - edges[:-1]) / 2.0
@@ -240,7 +251,9 @@ def _quadrature_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[
     overlap over ``lcm(s_i, s_j)``) is the integral of the continuous lag function over
     ``g``; white angle noise stays a set of spikes.
     """
-    col = lambda v: np.asarray(v, dtype=float)[:, None]  # noqa: E731
+    def col(v: ArrayLike) -> NDArray[np.float64]:
+        return np.asarray(v, dtype=float)[:, None]
+
     mi_f, mj_f = col(mi), col(mj)
     g = col(np.gcd(si, sj))
     lcm = col(si) * col(sj) / g
@@ -255,7 +268,9 @@ def _quadrature_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[
     half = (edges[:, 1:] - edges[:, :-1]) / 2.0
     mid = (edges[:, 1:] + edges[:, :-1]) / 2.0
     u = (mid[:, :, None] + half[:, :, None] * _GL_X).reshape(len(mi_f), -1)
-    weight = (half[:, :, None] * _GL_W).reshape(len(mi_f), -1) * _span_overlap(u, ti, tj) / (lcm * g)
+    weight = (
+        (half[:, :, None] * _GL_W).reshape(len(mi_f), -1) * _span_overlap(u, ti, tj) / (lcm * g)
+    )
     lags = _nine_lags(mi_f[:, 0], mj_f[:, 0])
     spike_weight = _span_overlap(lags, ti, tj) / lcm
     return _sums(_mixed_difference(mi_f, mj_f, u), weight, lags, spike_weight, mi_f, mj_f)
@@ -292,13 +307,16 @@ class CovarianceBasis:
         """Structure-function coefficient of Q, N, B, K (deg^2) from beta (eq. 6, base units)."""
         dt = 1.0 / self.sample_rate_hz
         b = np.where(np.isfinite(beta[:4]) & (beta[:4] > 0), beta[:4], 0.0)
-        return b * np.array([2.0 / 3.0, dt, dt**2 / (2.0 * math.log(2.0)), dt**3 / 2.0])
+        out: NDArray[np.float64] = b * np.array(
+            [2.0 / 3.0, dt, dt**2 / (2.0 * math.log(2.0)), dt**3 / 2.0])
+        return out
 
     def mean(self, beta: ArrayLike) -> NDArray[np.float64]:
         """Expected Allan variance ((deg/s)^2) of the model ``beta`` (QNBKR, eq. 6) on this grid."""
         b = np.where(np.isfinite(beta) & (np.asarray(beta) > 0), beta, 0.0)
         tau = self.tau_s
-        return b[0] / tau**2 + b[1] / tau + b[2] + b[3] * tau + b[4] * tau**2
+        out: NDArray[np.float64] = b[0] / tau**2 + b[1] / tau + b[2] + b[3] * tau + b[4] * tau**2
+        return out
 
     def covariance(self, beta: ArrayLike, *, random_ramp: bool = False) -> NDArray[np.float64]:
         """Covariance ((deg/s)^4) of the Allan values for the model ``beta`` (QNBKR, eq. 6).
@@ -318,13 +336,17 @@ class CovarianceBasis:
         if random_ramp:
             qij = np.broadcast_to(q, tau.shape * 2 + (4,)).copy()
             qij[..., 3] += ramp * np.sqrt(np.outer(tau, tau)) / (2.0 * self.sample_rate_hz**3)
-            return 2.0 * np.einsum("ijts,ijt,ijs->ij", self.g2, qij, qij) / norm
+            random: NDArray[np.float64] = np.einsum("ijts,ijt,ijs->ij", self.g2, qij, qij)
+            return 2.0 * random / norm
         mu = math.sqrt(2.0 * ramp) * tau**2
         quad = np.einsum("ijts,t,s->ij", self.g2, q, q)
         lin = np.einsum("ijt,t->ij", self.g1, q)
-        return (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
+        out: NDArray[np.float64] = (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
+        return out
 
-    def relative_covariance(self, beta: ArrayLike, *, random_ramp: bool = False) -> NDArray[np.float64]:
+    def relative_covariance(
+        self, beta: ArrayLike, *, random_ramp: bool = False
+    ) -> NDArray[np.float64]:
         """``Cov(A_i, A_j) / (E A_i E A_j)``: the covariance of the log values to first order."""
         mean = self.mean(beta)
         return self.covariance(beta, random_ramp=random_ramp) / np.outer(mean, mean)
@@ -357,7 +379,9 @@ def covariance_basis(
     """
     m = np.asarray(m, dtype=np.int64)
     if m.size == 0 or m.min() < 1 or m.max() > n_samples // 2:
-        raise ValueError(f"averaging factors must lie in 1..{n_samples // 2} for {n_samples} samples")
+        raise ValueError(
+            f"averaging factors must lie in 1..{n_samples // 2} for {n_samples} samples"
+        )
     n_terms = (n_samples + 1 - 2 * m) if overlapping else (n_samples // m - 1)
     stride = np.ones_like(m) if overlapping else m
     n = len(m)
@@ -367,7 +391,11 @@ def covariance_basis(
     si, sj, li, lj = stride[i], stride[j], n_terms[i], n_terms[j]
     lattice = (FLICKER_TAIL_M + 2) * 2 * np.maximum(m[i], m[j]) / np.gcd(si, sj)
     clusters = (si > 1) | (sj > 1)
-    exact = (lattice <= EXACT_LAGS) | (clusters & (li * lj <= EXACT_PAIRS)) | _few_periods(si, sj, li, lj)
+    exact = (
+        (lattice <= EXACT_LAGS)
+        | (clusters & (li * lj <= EXACT_PAIRS))
+        | _few_periods(si, sj, li, lj)
+    )
     for picks, method, size in ((np.flatnonzero(exact), _exact_pairs, EXACT_CHUNK),
                                 (np.flatnonzero(~exact), _quadrature_pairs, QUADRATURE_CHUNK)):
         for chunk in np.array_split(picks, max(1, len(picks) // size)):
@@ -376,5 +404,6 @@ def covariance_basis(
                     m[i[chunk]], m[j[chunk]], si[chunk], sj[chunk], li[chunk], lj[chunk])
     # c_ji(u) = c_ij(-u): the lower triangle holds the same sums
     g2[j, i], g1[j, i] = g2[i, j], g1[i, j]
-    return CovarianceBasis(m / float(sample_rate_hz), m, n_terms.astype(np.int64), float(sample_rate_hz),
-                           g2, g1)
+    return CovarianceBasis(
+        m / float(sample_rate_hz), m, n_terms.astype(np.int64), float(sample_rate_hz), g2, g1
+    )

@@ -93,8 +93,9 @@ def first_non_finite(x: NDArray[np.float64]) -> int:
     return -1
 
 
-def order_statistic(values: Callable[[int, int], NDArray[np.float64]], n: int, ranks: list[int]
-                    ) -> list[float]:
+def order_statistic(
+    values: Callable[[int, int], NDArray[np.float64]], n: int, ranks: list[int]
+) -> list[float]:
     """Exact order statistics of ``n`` values produced block by block, in bounded memory.
 
     ``values(a, b)`` returns values ``a .. b - 1`` (it is called again on each pass). The
@@ -150,7 +151,7 @@ def group_means(x: NDArray[np.float64], size: int, count: int) -> NDArray[np.flo
     rows = max(1, BLOCK_SAMPLES // size)
     parts = []
     for a, b in spans(0, count, rows):
-        chunk = np.asarray(x[a * size: b * size], dtype=np.float64)
+        chunk = np.asarray(x[a * size : b * size], dtype=np.float64)
         parts.append(chunk.reshape(b - a, size, *x.shape[1:]).mean(axis=1))
         release(x)
     return np.concatenate(parts) if parts else np.zeros((0, *x.shape[1:]))
@@ -168,7 +169,9 @@ def nan_mean(x: NDArray[np.float64]) -> float:
     return total / count if count else float("nan")
 
 
-def any_where(x: NDArray[np.float64], test: Callable[[NDArray[np.float64]], NDArray[np.bool_]]) -> bool:
+def any_where(
+    x: NDArray[np.float64], test: Callable[[NDArray[np.float64]], NDArray[np.bool_]]
+) -> bool:
     """Whether ``test`` (elementwise, e.g. ``np.isnan``) holds anywhere in a record, a
     block at a time."""
     for a, b in spans(0, len(x)):

@@ -200,8 +200,9 @@ def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
 
 
 def _second_differences(x: NDArray[np.float64], m: int, a: int, b: int) -> NDArray[np.float64]:
-    return (np.asarray(x[a + 2 * m: b + 2 * m], dtype=float) - 2.0 * np.asarray(x[a + m: b + m], dtype=float)
-            + np.asarray(x[a:b], dtype=float))
+    ahead = np.asarray(x[a + 2 * m : b + 2 * m], dtype=float)
+    middle = np.asarray(x[a + m : b + m], dtype=float)
+    return ahead - 2.0 * middle + np.asarray(x[a:b], dtype=float)
 
 
 def _running_sums(x: NDArray[np.float64], m: int, length: int, offset: int
@@ -290,7 +291,9 @@ def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:
     return (2 if rn < boundary else 1), "rn"
 
 
-def identify_noise(angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2) -> NoiseIdentification:
+def identify_noise(
+    angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2
+) -> NoiseIdentification:
     """Dominant noise exponent at each averaging factor, for one axis or several.
 
     Parameters

@@ -161,10 +161,15 @@ class SpikeDetection:
             return (f"few and isolated (at most {MAX_REMOVED_SHARE:.1%} of the samples, runs of "
                     f"at most {MAX_SPIKE_SAMPLES})")
         if self.count > MAX_REMOVED_SHARE * self.n_samples:
-            return (f"{self.share:.2%} of the samples are beyond the threshold (more than "
-                    f"{MAX_REMOVED_SHARE:.1%}): the record's own heavy-tailed noise, not isolated spikes")
-        return (f"runs of up to {self.longest_run} samples (more than {MAX_SPIKE_SAMPLES}): bursts, "
-                f"not isolated spikes")
+            return (
+                f"{self.share:.2%} of the samples are beyond the threshold (more than "
+                f"{MAX_REMOVED_SHARE:.1%}): the record's own heavy-tailed noise, not isolated "
+                "spikes"
+            )
+        return (
+            f"runs of up to {self.longest_run} samples (more than {MAX_SPIKE_SAMPLES}): bursts, "
+            f"not isolated spikes"
+        )
 
 
 def min_samples(half_window: int = HALF_WINDOW) -> int:
@@ -206,8 +211,13 @@ def neighbour_residuals(x: NDArray[np.float64], positions: NDArray[np.int64] | N
     return x[at] - np.median(neighbours, axis=1)
 
 
-def _grow(seeds: NDArray[np.int64], x: NDArray[np.float64], signs: NDArray[np.float64], limit: float,
-          half_window: int) -> NDArray[np.bool_]:
+def _grow(
+    seeds: NDArray[np.int64],
+    x: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    limit: float,
+    half_window: int,
+) -> NDArray[np.bool_]:
     """Flags: the seeds, extended to adjacent samples whose median residual exceeds ``limit``
     with the seed's sign (the inside of a burst)."""
     flags = np.zeros(len(x), dtype=bool)
@@ -253,7 +263,9 @@ def detect_spikes(
     if (blocks.first_non_finite(x) >= 0) if blocks.is_long(len(x)) else not np.isfinite(x).all():
         raise ValueError("samples must be finite (leave missing samples out)")
     if len(x) < min_samples(half_window):
-        raise ValueError(f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})")
+        raise ValueError(
+            f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})"
+        )
     if blocks.is_long(len(x)):
         return _detect_long(x, false_alarm, half_window)
     lin = np.empty_like(x)
@@ -270,8 +282,12 @@ def detect_spikes(
     else:
         candidates = np.flatnonzero(np.abs(lin) > threshold * scale)
         med_at = neighbour_residuals(x, candidates, half_window)
-        seed = (np.abs(med_at) > threshold * scale_med) & (np.sign(med_at) == np.sign(lin[candidates]))
-        flags = _grow(candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med, half_window)
+        seed = (np.abs(med_at) > threshold * scale_med) & (
+            np.sign(med_at) == np.sign(lin[candidates])
+        )
+        flags = _grow(
+            candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med, half_window
+        )
     starts = np.flatnonzero(flags & ~np.concatenate(([False], flags[:-1])))
     stops = np.flatnonzero(flags & ~np.concatenate((flags[1:], [False]))) + 1
     med = neighbour_residuals(x, np.flatnonzero(flags), half_window)
@@ -410,7 +426,8 @@ def _detect_long(x: NDArray[np.float64], false_alarm: float, half_window: int) -
     scale_med = max(_robust_scale(_neighbour_residuals_long(x, sampled, half_window)), quantum)
     flagged = np.zeros(0, dtype=np.int64)
     if scale > 0.0 and scale_med > 0.0:  # a constant record has no spike
-        found = [np.flatnonzero(np.abs(lin(a, b)) > threshold * scale) + a for a, b in blocks.spans(0, n)]
+        found = [np.flatnonzero(np.abs(lin(a, b)) > threshold * scale) + a
+                 for a, b in blocks.spans(0, n)]
         blocks.release(x)
         candidates = np.concatenate(found)
         med_at = _neighbour_residuals_long(x, candidates, half_window)
@@ -419,8 +436,9 @@ def _detect_long(x: NDArray[np.float64], false_alarm: float, half_window: int) -
         flagged = _grow_sparse(candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med,
                                half_window)
     breaks = np.flatnonzero(np.diff(flagged) != 1) + 1
-    starts = np.concatenate(([0], breaks)) if len(flagged) else np.zeros(0, dtype=np.int64)
-    stops = np.concatenate((breaks, [len(flagged)])) if len(flagged) else np.zeros(0, dtype=np.int64)
+    none = np.zeros(0, dtype=np.int64)
+    starts = np.concatenate(([0], breaks)) if len(flagged) else none
+    stops = np.concatenate((breaks, [len(flagged)])) if len(flagged) else none
     med = _neighbour_residuals_long(x, flagged, half_window)
     spikes = []
     for a, b in zip(starts, stops, strict=True):

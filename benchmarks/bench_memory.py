@@ -47,14 +47,24 @@ def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int =
     """Write a simulated one-unit run file; returns its samples per axis."""
     n = int(round(hours * 3600 * rate_hz))
     axes = tuple("xyzuvw"[:n_axes])
-    desc = DeviceDescription(model="SIM", serial_number="MEM1", protocol="stim300",
-                             transport="serial", axes=axes, sample_rate_hz=rate_hz,
-                             has_counter=True, counter_modulus=None, has_device_time=False,
-                             has_temperature=False, settings=())
+    desc = DeviceDescription(
+        model="SIM",
+        serial_number="MEM1",
+        protocol="stim300",
+        transport="serial",
+        axes=axes,
+        sample_rate_hz=rate_hz,
+        has_counter=True,
+        counter_modulus=None,
+        has_device_time=False,
+        has_temperature=False,
+        settings=(),
+    )
     writer = RunFileWriter(path, flush_interval_s=1.0, sync=False)
     writer(RunStart("bench-memory", utc_now(), ("unit1",), hours * 3600, str(path)))
-    writer(Descriptor("unit1", "sim+serial://MEM1", desc, data_keys(desc), utc_now(),
-                      "simulated", 1.0))
+    writer(
+        Descriptor("unit1", "sim+serial://MEM1", desc, data_keys(desc), utc_now(), "simulated", 1.0)
+    )
     rng = np.random.default_rng(seed)
     walk = np.zeros(n_axes)
     for seq, a in enumerate(range(0, n, BATCH)):
@@ -64,8 +74,9 @@ def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int =
         walk = drift[-1]
         rate = 0.002 + 0.01 * rng.standard_normal((b - a, n_axes)) + drift
         counter = np.arange(a, b, dtype=np.int64)
-        writer(EventBatch("unit1", seq, rate, counter, counter / rate_hz,
-                          np.zeros(b - a, np.uint32)))
+        writer(
+            EventBatch("unit1", seq, rate, counter, counter / rate_hz, np.zeros(b - a, np.uint32))
+        )
         writer.flush()
     writer(RunStop(utc_now(), "duration"))
     return n
@@ -104,10 +115,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--hours", type=float, required=True)
     p.add_argument("--rate-hz", type=float, required=True)
     p.add_argument("--axes", type=int, required=True)
-    p.add_argument("--keep", type=Path, default=None, metavar="FILE",
-                   help="keep the run file here (reused when it exists)")
-    p.add_argument("--long-samples", type=int, default=None, metavar="N",
-                   help="records longer than N samples take the block-wise path")
+    p.add_argument(
+        "--keep",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="keep the run file here (reused when it exists)",
+    )
+    p.add_argument(
+        "--long-samples",
+        type=int,
+        default=None,
+        metavar="N",
+        help="records longer than N samples take the block-wise path",
+    )
     args = p.parse_args(argv)
     if not 1 <= args.axes <= 6 or args.hours <= 0 or args.rate_hz <= 0:
         p.error("--hours and --rate-hz must be positive, --axes 1..6")

@@ -73,26 +73,43 @@ def row_davar(runs: int) -> str:
     rate = np.random.default_rng(0).standard_normal(1_000_000)
     kw = {"window_s": 1e5, "step_s": 1e4}
     dynamic_allan_variance(rate, 1.0, backend="numba", **kw)  # the compiled kernels are loaded
-    r = paired({b: (lambda b=b: dynamic_allan_variance(rate, 1.0, backend=b, **kw))
-                for b in ("auto", "numpy")}, runs)
-    return (f"davar N=1e6 Nw=1e5 step=1e4: default={r['auto'][0]:.3f}s numpy={r['numpy'][0]:.3f}s "
-            f"numpy/default={r['numpy'][0] / r['auto'][0]:.1f} goal=0.1s default/goal="
-            f"{r['auto'][0] / 0.1:.2f} peak default={r['auto'][1]:.0f}MB numpy={r['numpy'][1]:.0f}MB")
+    r = paired(
+        {
+            b: (lambda b=b: dynamic_allan_variance(rate, 1.0, backend=b, **kw))
+            for b in ("auto", "numpy")
+        },
+        runs,
+    )
+    return (
+        f"davar N=1e6 Nw=1e5 step=1e4: default={r['auto'][0]:.3f}s numpy={r['numpy'][0]:.3f}s "
+        f"numpy/default={r['numpy'][0] / r['auto'][0]:.1f} goal=0.1s default/goal="
+        f"{r['auto'][0] / 0.1:.2f} peak default={r['auto'][1]:.0f}MB numpy={r['numpy'][1]:.0f}MB"
+    )
 
 
 def row_oadev(runs: int, n: int) -> str:
     theta = cumulative_angle(np.random.default_rng(1).standard_normal(n), 1.0)
     m = log_m(n, n_points=100)
-    r = paired({b: (lambda b=b: kernels.overlapping_sums(theta, m, backend=b))
-                for b in ("auto", "numba", "numpy")}, runs)
-    return (f"oadev N={n:.0e} taus={len(m)}: default={r['auto'][0]:.3f}s numba={r['numba'][0]:.3f}s "
-            f"numpy={r['numpy'][0]:.3f}s default/numba={r['auto'][0] / r['numba'][0]:.2f} (goal <= 1.5) "
-            f"peak default={r['auto'][1]:.0f}MB")
+    r = paired(
+        {
+            b: (lambda b=b: kernels.overlapping_sums(theta, m, backend=b))
+            for b in ("auto", "numba", "numpy")
+        },
+        runs,
+    )
+    return (
+        f"oadev N={n:.0e} taus={len(m)}: default={r['auto'][0]:.3f}s numba={r['numba'][0]:.3f}s "
+        f"numpy={r['numpy'][0]:.3f}s default/numba={r['auto'][0] / r['numba'][0]:.2f} "
+        f"(goal <= 1.5) "
+        f"peak default={r['auto'][1]:.0f}MB"
+    )
 
 
 def row_help(runs: int) -> str:
-    code = ("import sys\nfrom station.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n"
-            "    pass\nprint(' '.join(m for m in ('scipy', 'matplotlib', 'numba') if m in sys.modules))")
+    code = (
+        "import sys\nfrom station.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n"
+        "    pass\nprint(' '.join(m for m in ('scipy', 'matplotlib', 'numba') if m in sys.modules))"
+    )
     helps, numpys = [], []
     loaded = ""
     for _ in range(runs):
@@ -101,8 +118,10 @@ def row_help(runs: int) -> str:
         loaded = out.strip().splitlines()[-1] if out.strip() else ""
         numpys.append(child("import numpy")[0])
     h, npy = statistics.median(helps), statistics.median(numpys)
-    return (f"station --help: {h:.3f}s import-numpy={npy:.3f}s ratio={h / npy:.2f} goal=0.3s "
-            f"heavy modules imported: {loaded or 'none'} peak<={peak:.0f}MB")
+    return (
+        f"station --help: {h:.3f}s import-numpy={npy:.3f}s ratio={h / npy:.2f} goal=0.3s "
+        f"heavy modules imported: {loaded or 'none'} peak<={peak:.0f}MB"
+    )
 
 
 def row_analyze_csv(runs: int, tmp: Path) -> str:
@@ -119,8 +138,10 @@ def row_analyze_csv(runs: int, tmp: Path) -> str:
         with_numba.append(child(run)[0])
         without.append(child(NO_NUMBA + run)[0])
     a, b = statistics.median(with_numba), statistics.median(without)
-    return (f"station analyze 1 h CSV (100 Hz, 3 axes): with numba={a:.2f}s without={b:.2f}s "
-            f"with/without={a / b:.2f} (goal <= 1)")
+    return (
+        f"station analyze 1 h CSV (100 Hz, 3 axes): with numba={a:.2f}s without={b:.2f}s "
+        f"with/without={a / b:.2f} (goal <= 1)"
+    )
 
 
 def row_analyze_h5(hours: float) -> str:
@@ -129,22 +150,29 @@ def row_analyze_h5(hours: float) -> str:
         n = bench_memory.write_run(path, hours, 1000.0, 3)
         bounded, t_bounded = bench_memory.measure(path, None)
         whole, t_whole = bench_memory.measure(path, 1 << 40)
-    return (f"station analyze {hours:g} h x 1 kHz x 3 axes run file: block-wise peak={bounded:.0f}MB "
-            f"({t_bounded:.1f}s) in-memory peak={whole:.0f}MB ({t_whole:.1f}s) "
-            f"in-memory/block-wise={whole / bounded:.2f}; {n} samples per axis")
+    return (
+        f"station analyze {hours:g} h x 1 kHz x 3 axes run file: block-wise peak={bounded:.0f}MB "
+        f"({t_bounded:.1f}s) in-memory peak={whole:.0f}MB ({t_whole:.1f}s) "
+        f"in-memory/block-wise={whole / bounded:.2f}; {n} samples per axis"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller records, fewer runs")
-    p.add_argument("--runs", type=int, default=None, help="paired runs per row (default 5; 3 quick)")
+    p.add_argument(
+        "--runs", type=int, default=None, help="paired runs per row (default 5; 3 quick)"
+    )
     args = p.parse_args(argv)
     runs = args.runs or (3 if args.quick else 5)
     import numba
 
-    print(f"# bench_speed{' --quick' if args.quick else ''}: numpy {np.__version__}, numba "
-          f"{numba.__version__}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}, "
-          f"medians of {runs} paired runs", flush=True)
+    print(
+        f"# bench_speed{' --quick' if args.quick else ''}: numpy {np.__version__}, numba "
+        f"{numba.__version__}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}, "
+        f"medians of {runs} paired runs",
+        flush=True,
+    )
     print(row_davar(runs), flush=True)
     print(row_oadev(runs, 10_000_000), flush=True)
     print(row_help(runs), flush=True)

@@ -4,7 +4,8 @@ A capture is recorded once on the bench (:class:`RecordingByteTransport`,
 :class:`RecordingCanTransport` wrap the real transport) and replayed in CI by
 :mod:`devices.replay`. The file is JSON Lines: a header, then one step per line::
 
-    {"capture": 1, "kind": "serial", "settings": {"port": "/dev/ttyUSB0", ...}, "started_unix_s": ...}
+    {"capture": 1, "kind": "serial", "settings": {"port": "/dev/ttyUSB0", ...}, "started_unix_s":
+    ...}
     {"t": 0.0, "dir": "open"}
     {"t": 0.0123, "dir": "read", "hex": "94a1..."}         bytes the device sent (one read)
     {"t": 0.0125, "dir": "write", "hex": "faff3000d1"}     bytes the host sent
@@ -316,7 +317,7 @@ class _Recorder:
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:
         """The inner transport's settings."""
-        return self.inner.settings
+        return tuple(self.inner.settings)
 
     def open(self) -> None:
         """Open ``inner``; records ``open``, or ``lost`` if it raised."""
@@ -412,12 +413,12 @@ class RecordingCanTransport(_Recorder):
     @property
     def interface(self) -> str:
         """The inner transport's python-can interface."""
-        return self.inner.interface
+        return str(self.inner.interface)
 
     @property
     def channel(self) -> str:
         """The inner transport's channel."""
-        return self.inner.channel
+        return str(self.inner.channel)
 
     def recv(self, timeout_s: float) -> can.Message | None:
         """``inner.recv(timeout_s)`` (wall s); a frame is recorded with its bus stamp."""

@@ -70,7 +70,7 @@ def _tui_live(path: Path) -> Any:
 
 
 def _tui_runs(path: Path) -> Any:
-    from station.tui.launcher import run_file_state
+    from station.services.recorder_process import run_file_state
 
     state = run_file_state(path)
     return (state.state, state.stop_reason)

@@ -10,8 +10,11 @@ HEAVY = ("scipy", "matplotlib", "numba", "h5py", "textual", "can", "serial", "py
 
 
 def _modules_after(argv: list[str]) -> list[str]:
-    code = (f"import sys\nfrom station.cli import main\ntry:\n    main({argv!r})\n"
-            f"except SystemExit:\n    pass\nprint('loaded:', *(m for m in {HEAVY!r} if m in sys.modules))")
+    code = (
+        f"import sys\nfrom station.cli import main\ntry:\n    main({argv!r})\n"
+        f"except SystemExit:\n    pass\n"
+        f"print('loaded:', *(m for m in {HEAVY!r} if m in sys.modules))"
+    )
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     return run.stdout.strip().splitlines()[-1].split()[1:]
@@ -19,8 +22,9 @@ def _modules_after(argv: list[str]) -> list[str]:
 
 def test_help_imports_no_heavy_library_and_lists_every_command() -> None:
     assert _modules_after(["--help"]) == []
-    run = subprocess.run([sys.executable, "-m", "station", "--help"], capture_output=True,
-                         text=True, timeout=120)
+    run = subprocess.run(
+        [sys.executable, "-m", "station", "--help"], capture_output=True, text=True, timeout=120
+    )
     assert run.returncode == 0
     for name in ("analyze", "record", "grade", "report", "tui", "davar", "recover"):
         assert f"    {name}" in run.stdout, name

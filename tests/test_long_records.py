@@ -49,7 +49,8 @@ def _memmap(tmp_path: Path, x: np.ndarray) -> np.memmap:
 
 
 def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
-        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     x = _record()
     whole_angle = cumulative_angle(x, 100.0)
     whole = overlapping_allan_variance(x, 100.0)
@@ -64,8 +65,12 @@ def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
     # one running sum either way: the angle is the same to the last bit
     np.testing.assert_array_equal(cumulative_angle(mm, 100.0, out=angle), whole_angle)
     for backend in ("numpy", "numba"):
-        monkeypatch.setattr("analysis.kernels._pick", lambda b, w, _b=backend: (
-            None if _b == "numpy" else __import__("analysis.kernels_numba").kernels_numba))
+        monkeypatch.setattr(
+            "analysis.kernels._pick",
+            lambda b, w, _b=backend: (
+                None if _b == "numpy" else __import__("analysis.kernels_numba").kernels_numba
+            ),
+        )
         got = overlapping_allan_variance(mm, 100.0, angle_out=angle)
         np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
         np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
@@ -73,14 +78,19 @@ def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
     assert long_spikes.spikes == spikes.spikes and len(spikes.spikes) == 3
     assert (long_spikes.scale, long_spikes.scale_linear) == (spikes.scale, spikes.scale_linear)
     np.testing.assert_array_equal(replace_flagged(mm, long_spikes.flagged), repaired)
-    assert [t.freq_hz for t in find_tones(mm, 100.0)] == pytest.approx([t.freq_hz for t in tones], rel=1e-12)
+    assert [t.freq_hz for t in find_tones(mm, 100.0)] == pytest.approx(
+        [t.freq_hz for t in tones], rel=1e-12
+    )
     assert bias_stability(mm, 100.0, 10.0) == stability
 
 
 def test_exact_block_medians_of_quantized_and_continuous_values(small_blocks: None) -> None:
     rng = np.random.default_rng(3)
-    for x in (rng.standard_normal(20_001), np.round(rng.standard_normal(20_000) * 3) / 7,
-              np.zeros(9000)):
+    for x in (
+        rng.standard_normal(20_001),
+        np.round(rng.standard_normal(20_000) * 3) / 7,
+        np.zeros(9000),
+    ):
         assert blocks.median(lambda a, b, v=x: v[a:b], len(x)) == np.median(x)
 
 
@@ -110,10 +120,24 @@ def test_walking_a_memmap_hands_its_pages_back(tmp_path: Path) -> None:
 
 
 def _bench_memory(minutes: float) -> int:
-    run = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_memory.py"),
-                          "--hours", str(minutes / 60), "--rate-hz", "2000", "--axes", "1",
-                          "--long-samples", str(1 << 16)],
-                         capture_output=True, text=True, timeout=300, cwd=ROOT)
+    run = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "bench_memory.py"),
+            "--hours",
+            str(minutes / 60),
+            "--rate-hz",
+            "2000",
+            "--axes",
+            "1",
+            "--long-samples",
+            str(1 << 16),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
     assert run.returncode == 0, run.stderr[-2000:]
     lines = run.stdout.strip().splitlines()
     assert len(lines) == 1, run.stdout

@@ -4,17 +4,22 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 from pypdf import PdfReader
 
 from station.cli import main
+from station.errors import UsageError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
 from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
+from station.model.sheet_header import load_sheet_header
 from station.output.report import FORMATS, write_report
+from station.output.report.common import header_fields
 from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
 from station.storage.runs import read_record
 from tests.test_grading import make_record, profile_text, write_profile
@@ -37,7 +42,9 @@ unit = "deg/h^1.5"
 def graded(tmp_path_factory) -> RunGrade:
     """A run of two units (x and y axes each), the second with gaps and a resync in its log."""
     d = tmp_path_factory.mktemp("reports")
-    profile = load_profile(write_profile(d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES)))
+    profile = load_profile(
+        write_profile(d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES))
+    )
     units = []
     for i, serial in enumerate(("SN-1001", "SN-1002")):
         record = read_record(make_record(d / f"u{i}.csv", n=9_000, seed=20 + i, n_axes=2))
@@ -94,7 +101,9 @@ def test_html_is_self_contained_with_the_figures(graded: RunGrade, tmp_path: Pat
     parser = _FigureTable()
     parser.feed(path.read_text(encoding="utf-8"))
     assert [s["data-grade"] for s in parser.sections] == [u.grade for u in graded.units]
-    assert len(parser.images) == 4 and all(src.startswith("data:image/png;base64,") for src in parser.images)
+    assert len(parser.images) == 4 and all(
+        src.startswith("data:image/png;base64,") for src in parser.images
+    )
     assert len(parser.rows) == 2 * 2 * 3  # units x axes x figures
     first = graded.units[0].axis("x")
     row = next(r for r in parser.rows if r["data-axis"] == "x" and r["data-figure"] == "arw")
@@ -125,10 +134,23 @@ def test_json_follows_the_schema(graded: RunGrade, tmp_path: Path) -> None:
             assert a["figures"]["arw"]["verdict"] in ("pass", "fail", "indeterminate")
             assert len(a["allan"]["tau_s"]) == len(a["allan"]["adev_deg_h"]) > 10
             assert "N_deg_rt_h" in a["fit"]
-    assert doc["units"][1]["events"] == {"has_log": True, "counts": {"gap": 2, "resync": 1}, "gaps": 2,
-                                         "missing_samples": 43, "stop_reason": "", "interrupted": False}
+    assert doc["units"][1]["events"] == {
+        "has_log": True,
+        "counts": {"gap": 2, "resync": 1},
+        "gaps": 2,
+        "missing_samples": 43,
+        "stop_reason": "",
+        "interrupted": False,
+    }
     doc_text = (Path(__file__).resolve().parents[1] / "docs" / "report-json-schema.md").read_text()
-    for key in ("schema_version", "ci_low", "deciding_grade", "could_reach", "adev_deg_h", "missing_samples"):
+    for key in (
+        "schema_version",
+        "ci_low",
+        "deciding_grade",
+        "could_reach",
+        "adev_deg_h",
+        "missing_samples",
+    ):
         assert f"`{key}`" in doc_text, key  # every key the document has is documented
 
 
@@ -147,7 +169,17 @@ def test_report_command_writes_every_format(tmp_path: Path, capsys) -> None:
     record = make_record(tmp_path / "bench.csv", n=6_000, seed=4)
     profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
     out = tmp_path / "out"
-    args = ["report", str(record), "--profile", str(profile), "--out", str(out), "--no-store", "--serial", "S9"]
+    args = [
+        "report",
+        str(record),
+        "--profile",
+        str(profile),
+        "--out",
+        str(out),
+        "--no-store",
+        "--serial",
+        "S9",
+    ]
     for fmt in ("pdf", "json"):  # html and csv: written the same way, checked above
         args += ["--format", fmt]
     assert main(args) == 0
@@ -167,16 +199,44 @@ def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
     models = Path(__file__).resolve().parents[1] / "profiles" / "models" / "CRG20.toml"
     urls = [f"sim+serial://CRG20?model={models}&protocol=stim300&rate=10&warp=100&seed={seed}{extra}"
             for seed, extra in ((1, "&drop=0.002"), (2, ""))]
-    cmd = [sys.executable, "-m", "station.commands.record", "--duration", "5m", "--out", str(tmp_path / "runs"),
-           "--lot", "LOT-H5", "--operator", "recorder-test", "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "station.commands.record",
+        "--duration",
+        "5m",
+        "--out",
+        str(tmp_path / "runs"),
+        "--lot",
+        "LOT-H5",
+        "--operator",
+        "recorder-test",
+        "--quiet",
+    ]
     for url in urls:
         cmd += ["--unit", url]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     run_file = next((tmp_path / "runs").glob("*.h5"))
     out = tmp_path / "out"
-    assert main(["report", str(run_file), "--profile", "CRG20", "--format", "pdf", "--format", "json",
-                 "--out", str(out), "--no-store"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(run_file),
+                "--profile",
+                "CRG20",
+                "--format",
+                "pdf",
+                "--format",
+                "json",
+                "--out",
+                str(out),
+                "--no-store",
+            ]
+        )
+        == 0
+    )
     doc = json.loads(next(out.glob("*.json")).read_text())
     assert [u["header"]["Lot"] for u in doc["units"]] == ["LOT-H5", "LOT-H5"]
     assert all(u["serial_number"] and u["events"]["has_log"] for u in doc["units"])
@@ -186,3 +246,50 @@ def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
     for page, unit in zip(reader.pages, doc["units"], strict=True):
         text = page.extract_text()
         assert unit["serial_number"] in text and "recorder-test" in text and "events: " in text
+
+
+def test_sheet_header_company_logo_station_approval_and_conventions(
+    graded: RunGrade, tmp_path: Path, monkeypatch
+) -> None:
+    import matplotlib.image
+
+    monkeypatch.delenv("STATION_NAME", raising=False)
+    matplotlib.image.imsave(tmp_path / "logo.png", np.tile(np.linspace(0, 1, 40), (12, 1)))
+    (tmp_path / "sheet.toml").write_text(
+        'company = "Gyro Works Ltd."\nstation = "EOL bench 3"\n'
+        'logo = "logo.png"\nconditions = "static, granite table"\n'
+        'approval = ["Tested by", "Approved by"]\n'
+    )
+    sheet = load_sheet_header(tmp_path / "sheet.toml")
+    headed = replace(graded, sheet=sheet, units=graded.units[:1])
+    fields = dict(header_fields(headed, headed.units[0]))
+    assert fields["Company"] == "Gyro Works Ltd." and fields["Station"] == "EOL bench 3"
+    assert fields["Test date (UTC)"] == "2026-11-20 08:00:00"  # to the second
+    assert fields["Software version"].endswith("(recorded with 0.1.0)")
+    assert (
+        fields["Temperature"].startswith("not recorded")
+        and fields["Conditions"] == "static, granite table"
+    )
+    text = PdfReader(write_report(headed, "pdf", tmp_path)).pages[0].extract_text()
+    for expected in (
+        "Gyro Works Ltd.",
+        "EOL bench 3",
+        "Tested by (name, date, signature):",
+        "Approved by",
+        "0.664 x",
+    ):
+        assert expected in text, expected
+    # without a header: the host name says what it is, a CSV's unknown recording software is not "-"
+    bare = replace(
+        graded, run=replace(graded.run, metadata=replace(graded.run.metadata, software_version=""))
+    )
+    fields = dict(header_fields(bare, bare.units[0]))
+    assert (
+        fields["Station"] == "bench-3 (host name)"
+        and "recorded with" not in fields["Software version"]
+    )
+    monkeypatch.setenv("STATION_NAME", "line 2")
+    assert dict(header_fields(bare, bare.units[0]))["Station"] == "line 2"
+    (tmp_path / "bad.toml").write_text('aproval = ["Tested by"]\n')
+    with pytest.raises(UsageError, match="unknown key 'aproval'"):
+        load_sheet_header(tmp_path / "bad.toml")

@@ -20,6 +20,7 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
+from station.errors import Problem
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -29,18 +30,15 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.profiles import anchored_model
 from station.model.runs import RunMetadata
+from station.services.record import RecordRequest, recorder_arguments, simulated_unit_url
 from station.storage.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
-from station.tui.launcher import (
-    RunRequest,
-    probe_message,
-    recorder_arguments,
-    recorder_message,
-)
 from station.tui.live import RunPoller, decimate
-from station.tui.setup_screen import SetupScreen, anchored_model, duration_text, sim_url
+from station.tui.messages import for_the_form
+from station.tui.setup_screen import SetupScreen, duration_text
 from station.tui.spec_screen import SpecSheetScreen
 from station.tui.widgets import interval_text
 
@@ -112,26 +110,25 @@ def cell_texts(table: DataTable) -> list[list[str]]:
 # -- helpers without the app ----------------------------------------------------------------
 
 def test_recorder_arguments_and_messages() -> None:
-    req = RunRequest(("sim+serial://A?seed=1", "sim+can://B"), "2h", Path("runs"), "VG951",
-                     "ann", "L1")
-    args = recorder_arguments(req, Path("runs/r.h5"))
-    assert args[:4] == ["--out", "runs/r.h5", "--duration", "2h"]
+    req = RecordRequest(("sim+serial://A?seed=1", "sim+can://B"), "2h", Path("runs/r.h5"),
+                        "VG951", "ann", "L1")
+    args = recorder_arguments(req)
+    assert args[:2] == ["--out", "runs/r.h5"] and args[args.index("--duration") + 1] == "2h"
     assert args.count("--unit") == 2 and args[args.index("--profile") + 1] == "VG951"
-    assert args[args.index("--lot") + 1] == "L1"
-    log = ("station record: error: the run was not started:\n"
-           "  unit1 (sim+serial://X): bad device URL: no model 'X'\n"
-           "  not enough space: choose another --out, or shorten --duration\n")
-    assert recorder_message(log) == ("unit1 (sim+serial://X): bad device URL: no model 'X'\n"
-                                     "not enough space: choose another runs folder, or "
-                                     "shorten duration")
-    assert probe_message(recorder_message(log), "sim+serial://X").startswith(
-        "bad device URL: no model 'X'\n")
+    assert args[args.index("--lot") + 1] == "L1" and "--bench" not in args
+    problem = Problem("not enough space: choose another --out, or shorten --duration")
+    assert for_the_form(str(problem)) == ("not enough space: choose another runs folder, or "
+                                          "shorten duration")
+    assert str(Problem("bad device URL", "unit1", "sim+serial://X")) == (
+        "unit1 (sim+serial://X): bad device URL")
 
 
 def test_sim_url_and_duration_text(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    url = sim_url("sim+serial://VG951?model=profiles/models/VG951.toml&rate=10", seed=3, warp=60)
+    url = simulated_unit_url("sim+serial://VG951?model=profiles/models/VG951.toml&rate=10",
+                             seed=3, warp=60)
     assert url == "sim+serial://VG951?model=profiles/models/VG951.toml&rate=10&seed=3&warp=60"
-    assert sim_url("serial:///dev/ttyUSB0", seed=1).startswith("sim+serial://VG951?")
+    assert simulated_unit_url("serial:///dev/ttyUSB0", seed=1, warp=60).startswith(
+        "sim+serial://VG951?")
     url = "sim+serial://VG951?model=profiles/models/VG951.toml&rate=10"
     monkeypatch.chdir(tmp_path)  # a folder without profiles/
     anchored = anchored_model(url)
@@ -150,7 +147,9 @@ def test_poller_reads_a_growing_file_incrementally(tmp_path: Path) -> None:
     assert [u.samples for u in first.units] == [36000, 36000]
     while not (snap := poller.poll()).caught_up:
         pass
-    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(1, abs=1e-3)
+    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(
+        1, abs=1e-3
+    )
     assert snap.units[1].gaps == 1 and snap.units[1].missing == 5
     assert snap.units[0].temperature_c == 31.5 and snap.units[0].model == "VG951"
     tau, adev = snap.adev[0].x, snap.adev[0].y
@@ -183,7 +182,9 @@ async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
         assert "N ARW (fit) [deg/sqrt(h)]" in labels and "|bias| [deg/h]" in labels
         assert {r[3] for r in rows} <= {"pass", "fail", "indeterminate", "info"}
         text = screen_text(app)
-        assert "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        assert (
+            "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        )
         assert "N ARW (fit) [deg/sqrt(h)]" in text and "PDF (p)" in text
         assert all(r[4] in text for r in rows)  # the CI column fits in 80 columns
         sheet.query_one("#profile", Select).value = "CRG20"  # re-grade with another profile
@@ -242,14 +243,44 @@ async def _setup_checks(tmp_path: Path) -> None:
         await pilot.press("f6")  # a simulated unit that answers
         await until(pilot, lambda: all(setup.checks.values()), 60, "the unit checks")
         bad, good = (setup.checks[u] for u in setup.units)
-        assert not bad.ok and "bad device URL" in bad.message
-        assert good.ok and good.model == "VG951" and good.serial_number == "SIM-2"
+        assert not bad.ok and bad.message.startswith("bad device URL")  # without unit1 (URL)
+        assert good.ok and good.description is not None
+        assert good.description.model == "VG951" and good.description.serial_number == "SIM-2"
         assert "does not answer" in notifications(app)
         rows = cell_texts(setup.query_one("#units", DataTable))
-        assert rows[1][2] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
+        assert rows[1][3] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
         await pilot.press("f5")
         assert "did not answer" in notifications(app)
         assert not list((tmp_path / "runs").glob("*.h5"))  # nothing was started
+
+
+def test_setup_screen_says_what_f6_adds_and_ctrl_d_keeps_focus_off_profiles(tmp_path: Path) -> None:
+    asyncio.run(_setup_keys(tmp_path))
+
+
+async def _setup_keys(tmp_path: Path) -> None:
+    app = StationApp(settings(tmp_path))
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
+        setup = app.screen
+        assert isinstance(setup, SetupScreen)
+        setup.check_units = False
+        await pilot.press("f6", "f6")
+        told = notifications(app)
+        assert "no profile chosen" in told and "x60 (1h in 1min) of wall time" in told
+        table = setup.query_one("#units", DataTable)
+        rows = cell_texts(table)
+        assert all("warp=60" in row[1] and row[2] == "x60 (1h in 1min)" for row in rows)
+        setup.query_one("#duration", Input).value = "2h"
+        await pilot.pause()
+        assert cell_texts(table)[0][2] == "x60 (2h in 2min)"
+        table.focus()
+        await pilot.press("ctrl+d")
+        assert len(setup.units) == 1 and app.focused is table
+        await pilot.press("ctrl+d")
+        url = setup.query_one("#url", Input)
+        assert not setup.units and app.focused is url
+        await pilot.press(*"sim")  # goes into the URL field, not the profile list
+        assert url.value == "sim" and setup.profile is None
 
 
 class _Buggy(StationApp):
@@ -284,8 +315,9 @@ def test_a_run_the_recorder_refuses_is_a_notification_with_the_fix(tmp_path: Pat
             app.screen.query_one("#url", Input).value = "sim+serial://NOPE?rate=10"
             await pilot.click("#url")
             await pilot.press("enter", "f5")
-            await until(pilot, lambda: "did not start" in notifications(app), 60,
-                        "the recorder's refusal")
+            await until(
+                pilot, lambda: "did not start" in notifications(app), 60, "the recorder's refusal"
+            )
             text = notifications(app)
             assert "bad device URL" in text and "station devices" in text
             assert isinstance(app.screen, SetupScreen)  # still there, to fix the URL

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+from pymodbus.client import ModbusBaseSyncClient, ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
@@ -40,7 +40,7 @@ class ModbusTransport:
         self.port = port
         self.baudrate = baudrate
         self.timeout_s = timeout_s
-        self._client: ModbusTcpClient | ModbusSerialClient | None = None
+        self._client: ModbusBaseSyncClient | None = None
 
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:
@@ -51,7 +51,7 @@ class ModbusTransport:
     def open(self) -> None:
         self.close()
         if self.kind == "tcp":
-            client: ModbusTcpClient | ModbusSerialClient = ModbusTcpClient(
+            client: ModbusBaseSyncClient = ModbusTcpClient(
                 self.target, port=self.port, timeout=self.timeout_s, retries=0)
         else:
             client = ModbusSerialClient(self.target, baudrate=self.baudrate,

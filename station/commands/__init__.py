@@ -17,10 +17,15 @@ COMMAND_HELP: dict[str, str] = {
     "devices": "list supported device protocols and their simulations; serve a simulated gyro",
     "grade": "grade a run against a product profile",
     "report": "write spec-sheet reports (PDF, HTML, JSON, CSV) of a run",
+    "fleet": "grade, analyze or report many runs on a Dask cluster",
     "results": "browse the results database: list, CSV, yield, trends",
     "record": "record gyros into an HDF5 run file",
     "watch": "follow a run file while it is being recorded",
     "recover": "close a run file left open by a killed recorder",
     "reconcile": "model versus measurement: name the missing effects",
+    "export": (
+        "noise parameters in Kalibr, OpenVINS, MATLAB, gnss-ins-sim, allan_variance_ros "
+        "or JSON form"
+    ),
     "tui": "terminal user interface: run, watch and grade gyros",
 }

@@ -17,6 +17,7 @@ from station.commands.arguments import (
     print_notes,
     record_source,
 )
+from station.commands.terminal import plural
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
     GMWM_METHOD,
@@ -31,16 +32,23 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command."""
-    p = sub.add_parser("analyze", help=COMMAND_HELP["analyze"],
-                       description=__doc__)
+    p = sub.add_parser(
+        "analyze",
+        help=COMMAND_HELP["analyze"],
+        description=__doc__,
+    )
     add_record_arguments(p)
     p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
                    help="Allan variance the fit and figures use (default overlapping; clusters "
                         "with --deviation adev)")
-    p.add_argument("--deviation", choices=DEVIATION_KINDS, default=None,
-                   help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
-                        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
-                        "Allan deviation. The fit and figures stay on the Allan variance")
+    p.add_argument(
+        "--deviation",
+        choices=DEVIATION_KINDS,
+        default=None,
+        help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
+        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
+        "Allan deviation. The fit and figures stay on the Allan variance",
+    )
     p.add_argument("--taus", choices=TAU_GRIDS, default="log",
                    help="tau grid: log-spaced to the longest tau with two clusters (default), "
                         "octaves, or every m")
@@ -63,6 +71,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "with the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
+    p.add_argument("--csv", type=Path, default=None, metavar="OUT.csv",
+                   help="write the curve: per axis and tau the deviation, its interval and the "
+                        "fitted model, in deg/h (no profile or report needed)")
     add_bench_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
@@ -79,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
                                     deviation=args.deviation, taus=args.taus, method=args.method,
                                     terms=args.terms, select=args.select, gmwm_model=args.model,
                                     robust=args.robust, outliers=args.outliers, bench=args.bench,
-                                    png=args.png), progress)
+                                    png=args.png, csv=args.csv), progress)
     print_notes("analyze", result.notes)
     if args.json:
         json.dump(result.as_json(), sys.stdout)
@@ -87,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
-              f"{len(result.axes)} axis/axes")
+              f"{plural(len(result.axes), 'axis')}")
         if selection.start_s > 0 or selection.stop_s is not None:
             print(f"analyzed {selection.start_s:g} s .. "
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
@@ -95,4 +106,6 @@ def run(args: argparse.Namespace) -> int:
         print(format_analysis(list(result.axes)))
         if result.png is not None:
             print(f"figure: {result.png}")
+        if args.csv is not None:
+            print(f"curve: {args.csv}")
     return 0

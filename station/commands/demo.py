@@ -36,10 +36,14 @@ def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) ->
     """A simulated three-axis static record of the demo gyro (deg/s), without devices."""
     n = int(duration_s * sample_rate_hz)
     rng = np.random.default_rng(seed)
-    rate = (DEMO_BIAS_DEG_H / 3600.0
-            + white_angle_noise(q_urad_to_deg(DEMO_TRUE["Q"]), n, sample_rate_hz, rng, n_axes=3)
-            + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(DEMO_TRUE["N"]), n, sample_rate_hz, rng, n_axes=3)
-            + flicker_rate_noise(rate_deg_h_to_deg_s(DEMO_TRUE["B"]), n, sample_rate_hz, rng, n_axes=3))
+    rate = (
+        DEMO_BIAS_DEG_H / 3600.0
+        + white_angle_noise(q_urad_to_deg(DEMO_TRUE["Q"]), n, sample_rate_hz, rng, n_axes=3)
+        + white_rate_noise(
+            arw_deg_rt_h_to_deg_rt_s(DEMO_TRUE["N"]), n, sample_rate_hz, rng, n_axes=3
+        )
+        + flicker_rate_noise(rate_deg_h_to_deg_s(DEMO_TRUE["B"]), n, sample_rate_hz, rng, n_axes=3)
+    )
     return RateRecord(rate, sample_rate_hz, ("gyro_x", "gyro_y", "gyro_z"), "simulated demo gyro")
 
 
@@ -67,10 +71,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description=__doc__)
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")
-    p.add_argument("--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)")
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--out", type=Path, default=Path("station-demo"),
-                   help="folder for the run file and the plot (default ./station-demo)")
+    p.add_argument(
+        "--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)"
+    )
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=1,
+        help="seed of the simulated gyros (default 1: the same demo every time)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("station-demo"),
+        help="folder for the run file and the plot (default ./station-demo)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -80,14 +95,18 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
     from station.recording.recorder import Recorder, RunConfig
 
     urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
-    recorder = Recorder(RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
-                        [ProgressLine(sys.stderr, plain_interval_s=5.0)])
+    recorder = Recorder(
+        RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
+        [ProgressLine(sys.stderr, plain_interval_s=5.0)],
+    )
     recorder.prepare()
     stop = recorder.run()
     for t in stop.totals:
-        print(f"{t.unit_id}: {t.samples_recorded} samples recorded, "
-              f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
-              f"simulator sent {t.samples_sent}")
+        print(
+            f"{t.unit_id}: {t.samples_recorded} samples recorded, "
+            f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
+            f"simulator sent {t.samples_sent}"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -98,8 +117,11 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "demo-run.h5"
     path.unlink(missing_ok=True)
-    print(f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
-          f"{args.rate:g} Hz over two Xbus serial links into {path} ...", file=sys.stderr)
+    print(
+        f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
+        f"{args.rate:g} Hz over two Xbus serial links into {path} ...",
+        file=sys.stderr,
+    )
     record_demo_run(args, path)
     plotted: list[AxisAnalysis] = []
     for unit in ("unit1", "unit2"):
@@ -111,15 +133,24 @@ def run(args: argparse.Namespace) -> int:
         plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
         if unit == "unit1":
             csv_path = write_csv_record(
-                args.out / "demo-record.csv.gz", record.rate_deg_s, record.sample_rate_hz,
-                axis_names=record.axis_names, comment=f"station demo, {record.source}, deg/s",
-                temperature_c=record.temperature_c)
-    print(f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
-          f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h")
+                args.out / "demo-record.csv.gz",
+                record.rate_deg_s,
+                record.sample_rate_hz,
+                axis_names=record.axis_names,
+                comment=f"station demo, {record.source}, deg/s",
+                temperature_c=record.temperature_c,
+            )
+    print(
+        f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
+        f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h"
+    )
     from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
 
-    png_path = plot_allan(plotted, args.out / "demo-allan.png",
-                          title="station demo: two simulated VG951 gyros, axis x")
+    png_path = plot_allan(
+        plotted,
+        args.out / "demo-allan.png",
+        title="station demo: two simulated VG951 gyros, axis x",
+    )
     print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and {png_path}")
     print(f"done in {time.monotonic() - t0:.1f} s")
     return 0

@@ -11,10 +11,9 @@ import sys
 import threading
 from dataclasses import asdict
 from types import FrameType
-from urllib.parse import parse_qsl, urlsplit
 
-from devices.opened import SimulatedDevice
-from devices.sim.params import parse_sim_params
+from devices.opened import OpenedDevice, SimulatedDevice
+from devices.url_query import is_simulated
 from devices.urls import SUPPORTED, open_device
 from station.commands import COMMAND_HELP
 from station.errors import UsageError
@@ -24,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``devices`` sub-command (and its ``serve`` action)."""
     p = sub.add_parser("devices", help=COMMAND_HELP["devices"], description=__doc__)
     p.add_argument("--json", action="store_true",
-                   help='print [{"protocol", "transport", "sim_url"}, ...] as JSON')
+                   help='print [{"protocol", "transport", "hardware_url", "sim_url"}, ...] as JSON')
     p.set_defaults(handler=run)
     actions = p.add_subparsers(dest="action", metavar="ACTION")
     serve = actions.add_parser(
@@ -50,16 +49,18 @@ def run(args: argparse.Namespace) -> int:
                           for p in SUPPORTED], indent=2))
         return 0
     width = max(len(p.protocol) for p in SUPPORTED)
+    pad = " " * (width + 15)
     for p in SUPPORTED:
         print(f"{p.protocol:<{width}}  {p.transport:<11}  {p.description}")
-        print(f"{'':<{width}}  {'':<11}  {p.sim_url}")
+        print(f"{pad}hardware:  {p.hardware_url}")
+        print(f"{pad}simulated: {p.sim_url}")
+    print("\nNames in capitals (PROFILE.toml, FILE.eds) and the port or address are yours to fill "
+          "in; docs/devices.md lists every key.")
     return 0
 
 
-def _unreachable_reason(url: str) -> str:
-    parts = urlsplit(url)
-    params = parse_sim_params(parts.netloc, dict(parse_qsl(parts.query)))
-    if params.warp != 1.0:
+def _unreachable_reason(opened: OpenedDevice) -> str:
+    if opened.time_warp != 1.0:
         return ("a served simulation runs in real time (the station that records it keeps "
                 "wall time): remove warp= or set warp=1")
     return ("this simulation lives inside this process (python-can's virtual bus): add "
@@ -69,7 +70,7 @@ def _unreachable_reason(url: str) -> str:
 def run_serve(args: argparse.Namespace) -> int:
     """Serve the simulated device until stopped; returns 0 (2 for a URL that cannot be
     served)."""
-    if not urlsplit(args.url).scheme.lower().startswith("sim+"):
+    if not is_simulated(args.url):
         raise UsageError(f"serve takes a simulated device URL (sim+...), not {args.url!r}")
     stop = threading.Event()
 
@@ -80,7 +81,7 @@ def run_serve(args: argparse.Namespace) -> int:
     opened = open_device(args.url)
     try:
         if not isinstance(opened, SimulatedDevice) or opened.hardware_url is None:
-            raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(args.url)}")
+            raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(opened)}")
         # the process that runs the simulated device: a child (CAN and CANopen on
         # udp_multicast) or this one
         pid = getattr(opened.simulator, "pid", None) or os.getpid()

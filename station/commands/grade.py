@@ -1,8 +1,8 @@
 """``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
 
-Prints a table per unit (or, with ``--json``, the document of
-:meth:`station.evaluation.grading.RunGrade.as_json`) and stores each graded unit in the results
-database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
+Prints a table per unit (or, with ``--json``, one JSON document: the run, and per unit
+its figures with intervals, limits and verdicts; docs/json.md) and stores each graded unit in
+the results database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
 ``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
 """
 
@@ -26,19 +26,39 @@ if TYPE_CHECKING:
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments shared by the commands that grade a run (grade, report)."""
     p.add_argument("run", help="run file: a recorder HDF5 run or a CSV record (one unit)")
-    p.add_argument("--profile", default=None, metavar="P",
-                   help="product profile: a name in profiles/ or a TOML file (default: the run's)")
-    p.add_argument("--rate", type=float, default=None, metavar="HZ",
-                   help="sample rate of a CSV record without a time column, Hz")
-    p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
-                   help="rate unit of a CSV record (default deg/s)")
-    p.add_argument("--unit", action="append", default=[], metavar="ID",
-                   help="grade only this unit (id or serial number); repeatable")
+    p.add_argument(
+        "--profile",
+        default=None,
+        metavar="P",
+        help="product profile: a name in profiles/ or a TOML file (default: the run's)",
+    )
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="sample rate of a CSV record without a time column, Hz",
+    )
+    p.add_argument(
+        "--units",
+        choices=sorted(UNIT_TO_DEG_S),
+        default="deg/s",
+        help="rate unit of a CSV record (default deg/s)",
+    )
+    p.add_argument(
+        "--unit",
+        action="append",
+        default=[],
+        metavar="ID",
+        help="grade only this unit (id or serial number); repeatable",
+    )
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
     add_database_argument(p)
-    p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
+    p.add_argument(
+        "--no-store", action="store_true", help="do not store the grading in the database"
+    )
     add_bench_argument(p)
 
 
@@ -46,10 +66,22 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
     """The :class:`GradeRequest` the shared grading arguments name."""
     from station.services.grade import GradeRequest, RunSource
 
-    run = RunSource(args.run, rate_hz=args.rate, units=args.units, serial=args.serial,
-                    lot=args.lot, operator=args.operator)
-    return GradeRequest(run, profile=args.profile, units=tuple(args.unit), bench=args.bench,
-                        db=args.db, store=not args.no_store)
+    run = RunSource(
+        args.run,
+        rate_hz=args.rate,
+        units=args.units,
+        serial=args.serial,
+        lot=args.lot,
+        operator=args.operator,
+    )
+    return GradeRequest(
+        run,
+        profile=args.profile,
+        units=tuple(args.unit),
+        bench=args.bench,
+        db=args.db,
+        store=not args.no_store,
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -85,13 +117,18 @@ def _num(v: float | None) -> str:
 def format_grade(graded: RunGrade) -> str:
     """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict."""
     p = graded.profile
-    lines = [f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
-             f"grades {' > '.join(p.grades)} > {p.reject}; arw and bias instability from the {p.figure_source}"]
+    lines = [
+        f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
+        f"grades {' > '.join(p.grades)} > {p.reject}; arw and bias instability from the "
+        f"{p.figure_source}"
+    ]
     for u in graded.units:
         lines.append("")
         flag = "  REVIEW" if u.review else ""
-        lines.append(f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
-                     f"{u.unit.serial_number or '-'}  GRADE {u.grade}{flag}")
+        lines.append(
+            f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
+            f"{u.unit.serial_number or '-'}  GRADE {u.grade}{flag}"
+        )
         for note in u.notes:
             lines.append(f"  note: {note}")
         for line in analysis_lines(u):
@@ -99,12 +136,19 @@ def format_grade(graded: RunGrade) -> str:
         for a in u.axes:
             reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
             review = " (review)" if a.review else ""
-            lines.append(f"  axis {a.axis}: {a.grade}{reach}{review}; limits of grade {a.deciding_grade}")
-            lines.append(f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict")
+            lines.append(
+                f"  axis {a.axis}: {a.grade}{reach}{review}; limits of grade {a.deciding_grade}"
+            )
+            lines.append(
+                f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict"
+            )
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else "(info)"
                 label = f"{f.spec.label} [{f.spec.unit}]"
                 interval = f"[{_num(f.ci_low)}, {_num(f.ci_high)}]"
-                lines.append(f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  {verdict}")
+                lines.append(
+                    f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  "
+                    f"{verdict}"
+                )
     return "\n".join(lines)

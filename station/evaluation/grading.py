@@ -53,6 +53,7 @@ from station.model.profiles import (
 )
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
+from station.model.sheet_header import SheetHeader
 from station.model.version import software_version
 
 #: Batches of the batch-means interval of the bias.
@@ -103,9 +104,18 @@ class FigureResult:
         """
         limit = self.spec.limits.get(grade) if grade else None
         verdict = self.verdicts.get(grade, "pass") if grade else None
-        return {"label": self.spec.label, "unit": self.spec.unit, "value": self.value,
-                "ci_low": self.ci_low, "ci_high": self.ci_high, "limit": limit, "verdict": verdict,
-                "limits": dict(self.spec.limits), "verdicts": dict(self.verdicts), "note": self.note}
+        return {
+            "label": self.spec.label,
+            "unit": self.spec.unit,
+            "value": self.value,
+            "ci_low": self.ci_low,
+            "ci_high": self.ci_high,
+            "limit": limit,
+            "verdict": verdict,
+            "limits": dict(self.spec.limits),
+            "verdicts": dict(self.verdicts),
+            "note": self.note,
+        }
 
 
 @dataclass(frozen=True)
@@ -163,7 +173,8 @@ class UnitGrade:
 
     @property
     def review(self) -> tuple[str, ...]:
-        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does not."""
+        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does
+        not."""
         return tuple(f"{a.axis}: {note}" for a in self.axes for note in a.review)
 
     def axis(self, name: str) -> AxisGrade:
@@ -176,9 +187,16 @@ class UnitGrade:
     def as_json(self) -> dict[str, object]:
         """JSON object of the unit."""
         u = self.unit
-        return {"unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
-                "grade": self.grade, "review": list(self.review), "warmup_discarded_s": self.warmup_discarded_s,
-                "notes": list(self.notes), "axes": {a.axis: a.as_json() for a in self.axes}}
+        return {
+            "unit_id": u.unit_id,
+            "model": u.model,
+            "serial_number": u.serial_number,
+            "grade": self.grade,
+            "review": list(self.review),
+            "warmup_discarded_s": self.warmup_discarded_s,
+            "notes": list(self.notes),
+            "axes": {a.axis: a.as_json() for a in self.axes},
+        }
 
 
 @dataclass(frozen=True)
@@ -193,6 +211,8 @@ class RunGrade:
     extra: dict[str, str] = field(default_factory=dict)
     #: The bench whose Earth rate the biases are reported without (None: none known).
     bench: Bench | None = None
+    #: The test house's part of the spec sheet's header (company, station, approval...).
+    sheet: SheetHeader | None = None
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
@@ -217,7 +237,9 @@ class RunGrade:
 # --- decision ------------------------------------------------------------------------------
 
 
-def decide(value: float | None, low: float | None, high: float | None, limit: float, rule: str) -> Verdict:
+def decide(
+    value: float | None, low: float | None, high: float | None, limit: float, rule: str
+) -> Verdict:
     """Verdict of one figure against an upper ``limit`` under a decision rule.
 
     ``simple``: pass when the value is within the limit, else fail (the interval is
@@ -332,13 +354,19 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
     if average_s is not None:
         bs = bias_stability(x, analysis.sample_rate_hz, average_s)
         if bs.value_deg_h is None:
-            return Interval(None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3")
+            return Interval(
+                None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3"
+            )
         low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
         return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
     if name == "bias":
         b = bias_interval(x[np.isfinite(x)], confidence)
         removed = analysis.figures.earth_rate_removed_deg_h
-        earth = "Earth rate not removed" if removed is None else f"Earth rate {removed:+.4g} deg/h removed"
+        earth = (
+            "Earth rate not removed"
+            if removed is None
+            else f"Earth rate {removed:+.4g} deg/h removed"
+        )
         return replace(b, note="; ".join(t for t in (b.note, earth) if t))
     if name in ("arw", "bias_instability") and source == "fit":
         return _fit_interval(analysis.fit, _FIT_TERM[f"{name}_fit"], confidence)
@@ -355,7 +383,9 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile) -> Figu
         return None if v is None or not math.isfinite(v) else v / factor
 
     value, low, high = conv(interval.value), conv(interval.low), conv(interval.high)
-    verdicts = {g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()}
+    verdicts = {
+        g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()
+    }
     return FigureResult(spec, value, low, high, verdicts, interval.note)
 
 
@@ -391,7 +421,8 @@ def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> d
 
 
 def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
-    """Why an axis needs review: read-off and fit of a graded figure disagree (at the profile's level).
+    """Why an axis needs review: read-off and fit of a graded figure disagree (at the profile's
+    level).
 
     Only the pairs the profile limits are compared (``arw`` or ``arw_fit``,
     ``bias_instability`` or ``bias_instability_fit``): a disagreement on an informational
@@ -403,7 +434,9 @@ def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
         return ()
     arw = arw_readoff(analysis.allan, analysis.fit, zones=analysis.zones)
     bi = bias_instability_readoff(analysis.allan, zones=analysis.zones)
-    return review_notes(analysis.allan, analysis.fit, arw, bi, confidence=profile.confidence, which=which)
+    return review_notes(
+        analysis.allan, analysis.fit, arw, bi, confidence=profile.confidence, which=which
+    )
 
 
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
@@ -424,11 +457,19 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     except RecordFormatError:
         kept = None
     if kept is None or kept.n_samples < MIN_SAMPLES:
-        raise GradingError(f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
-                           f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up")
+        raise GradingError(
+            f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
+            f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up"
+        )
     columns = match_axes(profile.axes, record.axis_names)
-    trimmed = RateRecord(kept.rate_deg_s[:, list(columns.values())], fs, tuple(columns), record.source,
-                         kept.temperature_c, kept.sample_index)
+    trimmed = RateRecord(
+        kept.rate_deg_s[:, list(columns.values())],
+        fs,
+        tuple(columns),
+        record.source,
+        kept.temperature_c,
+        kept.sample_index,
+    )
     notes = []
     if unit.model and unit.model != profile.model:
         notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
@@ -436,17 +477,26 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         notes.append(f"record {record.duration_s:.0f} s is shorter than the profile's test "
                      f"({profile.duration_s:.0f} s)")
     if trimmed.missing_samples:
-        notes.append(f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
-                     "difference or average straddles a gap")
+        notes.append(
+            f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
+            "difference or average straddles a gap"
+        )
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
     for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
-        figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence,
-                                                           source=profile.figure_source), profile)
-                        for spec in profile.figures)
+        figures = tuple(
+            grade_figure(
+                spec,
+                figure_interval(
+                    spec.name, x, analysis, profile.confidence, source=profile.figure_source
+                ),
+                profile,
+            )
+            for spec in profile.figures
+        )
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
                               axis_review(analysis, profile)))

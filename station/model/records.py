@@ -88,7 +88,8 @@ class RateRecord:
         if isinstance(axis, str):
             if axis not in self.axis_names:
                 raise RecordFormatError(
-                    f"no axis {axis!r} in {self.source or 'the record'}; axes: {', '.join(self.axis_names)}"
+                    f"no axis {axis!r} in {self.source or 'the record'}; axes: "
+                    f"{', '.join(self.axis_names)}"
                 )
             index = self.axis_names.index(axis)
         else:
@@ -128,6 +129,8 @@ def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None
     index = np.asarray(sample_index, dtype=np.int64)
     if len(index) and np.any(np.diff(index) < 1):
         row = int(np.argmax(np.diff(index) < 1)) + 1
-        raise RecordFormatError(f"sample {row} is not later than the one before it on the time grid")
+        raise RecordFormatError(
+            f"sample {row} is not later than the one before it on the time grid"
+        )
     index = index - index[0] if len(index) else index
     return None if not len(index) or index[-1] == len(index) - 1 else index

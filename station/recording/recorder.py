@@ -27,7 +27,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from devices.protocols import DeviceDescription
-from station.errors import RecorderError, RunConfigurationError, UsageError
+from devices.url_query import is_simulated
+from station.errors import Problem, RecorderError, RunConfigurationError, UsageError
 from station.model.documents import (
     Dispatcher,
     RunStart,
@@ -106,16 +107,16 @@ def run_file_path(out: Path, uid: str) -> Path:
     return out / f"run-{stamp}-{uid[:8]}.h5"
 
 
-def _check_against_profile(unit: str, d: DeviceDescription, profile: Profile) -> list[str]:
+def _check_against_profile(d: DeviceDescription, profile: Profile) -> list[str]:
     problems = []
     if profile.sample_rate_hz is not None and not math.isclose(
             d.sample_rate_hz, profile.sample_rate_hz, rel_tol=1e-6):
-        problems.append(f"{unit}: the device reports {d.sample_rate_hz:g} Hz, profile "
+        problems.append(f"the device reports {d.sample_rate_hz:g} Hz, profile "
                         f"{profile.name} expects {profile.sample_rate_hz:g} Hz: configure the "
                         f"device's output rate (URL key rate=) or choose the right profile")
     missing = [a for a in profile.axes if a not in d.axes]
     if missing:
-        problems.append(f"{unit}: the device has {d.n_axes} axes ({', '.join(d.axes)}), "
+        problems.append(f"the device has {d.n_axes} axes ({', '.join(d.axes)}), "
                         f"profile {profile.name} needs {', '.join(profile.axes)}: connect "
                         f"the right device or choose the right profile")
     return problems
@@ -168,7 +169,7 @@ class Recorder:
                    for w in self.workers)
         return int((8 << 20) + 10 * rate)
 
-    def _open_units(self) -> list[str]:
+    def _open_units(self) -> list[Problem]:
         cfg = self.config
         profile = cfg.profile
         settings = ReadSettings(cfg.duration_s, cfg.read_timeout_s, cfg.backoff_initial_s,
@@ -177,27 +178,26 @@ class Recorder:
         self.workers = [UnitProcess(f"unit{i + 1}", url, settings, limit)
                         for i, url in enumerate(cfg.urls)]
         deadline = time.monotonic() + self.open_timeout_s
-        problems: list[str] = []
+        found: list[Problem] = []
         for w in self.workers:
             w.wait_opened(max(1.0, deadline - time.monotonic()))
-            name = f"{w.unit_id} ({w.url})"
-            if profile is None and not w.url.lower().startswith("sim+"):
-                problems.append(f"{name}: real hardware (and a replayed capture of it) needs "
-                                f"--profile PROFILE (it gives the model, sample rate and "
-                                f"axes to check)")
+            problems: list[str] = []
+            if profile is None and not is_simulated(w.url):
+                problems.append("real hardware (and a replayed capture of it) needs --profile "
+                                "PROFILE (it gives the model, sample rate and axes to check)")
             if w.opened is None:
                 problems.append(
-                    f"{name}: bad device URL: {w.problem}; see `station devices --json` for "
-                    f"the URL of each protocol" if w.problem_stage == "url" else
-                    f"{name}: device not reachable: {w.problem}; check that it is "
-                    f"powered and connected, the port or address in the URL, and that no "
-                    f"other program holds the port")
-                continue
-            if profile is not None:
-                problems += _check_against_profile(name, w.opened.description, profile)
-        return problems
+                    f"bad device URL: {w.problem}; see `station devices --json` for the URL "
+                    f"of each protocol" if w.problem_stage == "url" else
+                    f"device not reachable: {w.problem}; check that it is powered and "
+                    f"connected, the port or address in the URL, and that no other program "
+                    f"holds the port")
+            elif profile is not None:
+                problems += _check_against_profile(w.opened.description, profile)
+            found += [Problem(text, w.unit_id, w.url) for text in problems]
+        return found
 
-    def _check_disk(self) -> list[str]:
+    def _check_disk(self) -> list[Problem | str]:
         out_dir = self.path.parent
         try:
             out_dir.mkdir(parents=True, exist_ok=True)
@@ -224,12 +224,12 @@ class Recorder:
             not match the profile, not enough disk space, a unit that sends nothing.
         """
         try:
-            problems = self._open_units()
+            problems: list[Problem | str] = [*self._open_units()]
             if not problems:
                 problems = self._check_disk()
             if not problems:
                 self._start_units()
-                problems = self._await_first_samples()
+                problems = [*self._await_first_samples()]
         except BaseException:
             self._abort()
             raise
@@ -237,11 +237,32 @@ class Recorder:
             self._abort()
             raise RunConfigurationError(problems)
 
+    def check_units(self) -> tuple[DeviceDescription, ...]:
+        """Open every unit, check it against the profile, wait for its first sample, and
+        release it: what :meth:`prepare` checks of the units, with nothing written (no
+        file, no folder). Returns each unit's description.
+
+        Raises
+        ------
+        RunConfigurationError
+            Every problem found with a unit.
+        """
+        try:
+            problems = self._open_units()
+            if not problems:
+                self._start_units()
+                problems = self._await_first_samples()
+        finally:
+            self._abort()
+        if problems:
+            raise RunConfigurationError(problems)
+        return tuple(w.opened.description for w in self.workers if w.opened is not None)
+
     def _start_units(self) -> None:
         for w in self.workers:
             w.start(utc_now())
 
-    def _await_first_samples(self) -> list[str]:
+    def _await_first_samples(self) -> list[Problem]:
         deadline = time.monotonic() + self.config.answer_timeout_s
         waiting = list(self.workers)
         while waiting and time.monotonic() < deadline:
@@ -250,9 +271,9 @@ class Recorder:
                 if w.conn in ready:
                     w.receive()
             waiting = [w for w in waiting if not w.answered.is_set() and not w.done]
-        return [f"{w.unit_id} ({w.url}): no sample within {self.config.answer_timeout_s:g} s: "
-                f"check the protocol and rate in the URL, and that the device is streaming"
-                + (f" ({w.error})" if w.error else "")
+        return [Problem(f"no sample within {self.config.answer_timeout_s:g} s: check the "
+                        f"protocol and rate in the URL, and that the device is streaming"
+                        + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
                 for w in self.workers if not w.answered.is_set()]
 
     def _abort(self) -> None:

@@ -21,7 +21,7 @@ import json
 import resource
 import shutil
 import time
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -341,10 +341,11 @@ def unit_record(unit: UnitData, source: str) -> RateRecord:
                       unit.axes, source, unit.temperature_c, index)
 
 
-def read_run(path: str | Path) -> RunInfo:
+def read_run(path: str | Path, *, only: Collection[str] | None = None) -> RunInfo:
     """Read a run file into a :class:`RunInfo` (the interface grading, reports, TUI use).
 
     A run whose file was never closed (recorder killed) reads as ``interrupted``.
+    ``only`` names the unit ids to read (None: every unit); the others are left out.
 
     Raises
     ------
@@ -355,6 +356,8 @@ def read_run(path: str | Path) -> RunInfo:
         state = run_state(f)
         units = []
         for uid in unit_ids(f):
+            if only is not None and uid not in only:
+                continue
             u = read_unit(f, uid)
             units.append(UnitRun(
                 unit_id=uid, model=u.attrs["model"], serial_number=u.attrs["serial_number"],

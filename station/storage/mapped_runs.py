@@ -42,8 +42,11 @@ def read_long_unit(path: str | Path, unit: str | None = None) -> RateRecord | No
         g = f["units"][uid]
         for name in ("committed", "rate", *(["temperature"] if "temperature" in g else [])):
             g[name].refresh()
-        n = min(int(g["committed"][0]), g["rate"].shape[0],
-                *([g["temperature"].shape[0]] if "temperature" in g else []))
+        n = min(
+            int(g["committed"][0]),
+            g["rate"].shape[0],
+            *([g["temperature"].shape[0]] if "temperature" in g else []),
+        )
         if not blocks.is_long(n):
             return None
         events = committed_events(f, uid)
@@ -63,5 +66,6 @@ def read_long_unit(path: str | Path, unit: str | None = None) -> RateRecord | No
                 b = min(a + CHUNK_ROWS, n)
                 temperature[a:b] = g["temperature"][a:b]
                 blocks.release(temperature)
-        return RateRecord(rate.T, float(g.attrs["sample_rate_hz"]), axes, f"{path}#{uid}",
-                          temperature, None)
+        return RateRecord(
+            rate.T, float(g.attrs["sample_rate_hz"]), axes, f"{path}#{uid}", temperature, None
+        )

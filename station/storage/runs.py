@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from pathlib import Path
 
 from station.errors import RecordFormatError
@@ -52,15 +53,22 @@ def read_record(
     raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")
 
 
-def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s") -> RunInfo:
+def open_run(
+    path: str | Path,
+    *,
+    sample_rate_hz: float | None = None,
+    units: str = "deg/s",
+    only: Collection[str] | None = None,
+) -> RunInfo:
     """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
 
     ``sample_rate_hz`` and ``units`` apply to CSV records only (see
-    :func:`station.storage.csv_records.read_csv_record`).
+    :func:`station.storage.csv_records.read_csv_record`); ``only`` names the units of a
+    run file to read (None: all).
     """
     path = Path(path)
     if is_run_file(path):
-        return read_run(path)
+        return read_run(path, only=only)
     record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
     unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
     return RunInfo(path=str(path), units=(unit,))

@@ -39,8 +39,9 @@ def scratch_array(shape: tuple[int, ...], dtype: type | np.dtype = np.float64) -
             os.posix_fallocate(fd, 0, size)
         except OSError as exc:
             raise ScratchSpaceError(
-                f"no room for {size / 1e6:.0f} MB of scratch space in {directory} ({exc.strerror}); "
-                f"free some or point TMPDIR at a disk with room") from None
+                f"no room for {size / 1e6:.0f} MB of scratch space in {directory} "
+                f"({exc.strerror}); free some or point TMPDIR at a disk with room"
+            ) from None
         return np.memmap(path, dtype=dtype, mode="r+", shape=shape)
     finally:
         os.close(fd)

@@ -15,7 +15,11 @@ from station.model.kinds import Verdict, verdict_of_grade
 from station.tui.live import Series
 
 #: Verdict -> style of its cell (pass green, fail red, indeterminate yellow).
-VERDICT_STYLES: dict[Verdict, str] = {"pass": "bold green", "fail": "bold red", "indeterminate": "bold yellow"}
+VERDICT_STYLES: dict[Verdict, str] = {
+    "pass": "bold green",
+    "fail": "bold red",
+    "indeterminate": "bold yellow",
+}
 #: plotext markers of the series kinds.
 _MARKERS = {"line": "braille", "points": "dot", "dashed": "·"}
 _DRAW_ORDER = {"dashed": 0, "line": 1, "points": 2}

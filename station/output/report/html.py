@@ -14,7 +14,13 @@ from html import escape
 from pathlib import Path
 
 from station.evaluation.grading import RunGrade, UnitGrade
-from station.output.report.common import VERDICT_COLORS, fmt, fmt_interval, unit_sheet
+from station.output.report.common import (
+    LIMIT_LINE_NOTE,
+    VERDICT_COLORS,
+    fmt,
+    fmt_interval,
+    unit_sheet,
+)
 from station.output.report.panels import allan_png, davar_png
 
 CSS = """
@@ -29,6 +35,11 @@ table { border-collapse: collapse; margin: 0.5em 0; }
 td, th { border: 1px solid #bbb; padding: 0.15em 0.5em; text-align: left; }
 th { background: #eee; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
 img { max-width: 100%; }
+.company img { height: 3em; vertical-align: middle; }
+.company { font-size: 13pt; font-weight: bold; }
+table.approval td { height: 3em; min-width: 14em; color: #888; font-size: 8pt;
+                    vertical-align: bottom; }
+p.convention { font-size: 9pt; color: #444; }
 """ + "".join(f"tr.{v} td.verdict {{ background: {c}; }}\n" for v, c in VERDICT_COLORS.items() if v)
 
 
@@ -41,16 +52,27 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     """The HTML ``<section>`` of one unit."""
     sheet = unit_sheet(graded, unit)
     grade_class = "reject" if sheet.rejected else re.sub(r"\W+", "-", sheet.grade)
-    parts = [f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
-             f'data-grade="{escape(sheet.grade)}">',
-             f"<h1>{escape(sheet.title)} "
-             f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
-             f"</span></h1>", '<table class="header">']
+    head = graded.sheet
+    parts = [
+        f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
+        f'data-grade="{escape(sheet.grade)}">'
+    ]
+    if head is not None and (head.logo is not None or head.company):
+        logo = _img(head.logo.read_bytes(), "logo") if head.logo is not None else ""
+        parts.append(f'<div class="company">{logo} {escape(head.company)}</div>')
+    parts += [
+        f"<h1>{escape(sheet.title)} "
+        f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
+        f"</span></h1>",
+        '<table class="header">',
+    ]
     parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in sheet.header]
     parts.append("</table><h2>Figures</h2>")
-    parts.append('<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
-                 "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
-                 "<th>note</th></tr>")
+    parts.append(
+        '<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
+        "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
+        "<th>note</th></tr>"
+    )
     for r in sheet.rows:
         verdict = r.verdict or "info"
         parts.append(
@@ -60,22 +82,42 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             f'<td class="num">{fmt(r.value)}</td>'
             f'<td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
             f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
-            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
+            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>'
+        )
     parts.append("</table><p>")
-    parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
-              + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
-              for a in sheet.axes]
+    parts += [
+        f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
+        + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "")
+        + "<br>"
+        for a in sheet.axes
+    ]
     parts.append("</p><h2>Allan deviation</h2>")
-    parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms and limits"))
+    parts.append(
+        _img(allan_png(unit), "Allan deviation with confidence band, fitted terms and limits")
+    )
+    parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
     parts.append("<h2>Dynamic Allan deviation</h2>")
     parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
     parts.append('<h2>Events</h2><ul class="events">')
     parts += [f"<li>{escape(line)}</li>" for line in sheet.events.lines() + list(sheet.notes)]
     parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
     parts += [f"<li>{escape(line)}</li>" for line in sheet.analysis]
-    parts += [f"<li>{escape(a.axis)}: {escape(n)}</li>" for a in unit.axes
-              for n in a.analysis.figures.notes if n.startswith("spikes:")]
-    parts.append("</ul></section>")
+    parts += [
+        f"<li>{escape(a.axis)}: {escape(n)}</li>"
+        for a in unit.axes
+        for n in a.analysis.figures.notes
+        if n.startswith("spikes:")
+    ]
+    parts.append("</ul>")
+    if head is not None and head.approval:
+        parts.append(
+            '<table class="approval"><tr>'
+            + "".join(f"<th>{escape(label)}</th>" for label in head.approval)
+            + "</tr><tr>"
+            + "<td>name, date, signature</td>" * len(head.approval)
+            + "</tr></table>"
+        )
+    parts.append("</section>")
     return "\n".join(parts)
 
 
@@ -84,6 +126,9 @@ def write_html(graded: RunGrade, path: str | Path) -> Path:
     path = Path(path)
     body = "\n".join(unit_section(graded, u) for u in graded.units)
     title = escape(f"Spec sheets {graded.profile.ref}: {Path(graded.run.path).name}")
-    path.write_text(f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
-                    f"<style>{CSS}</style></head>\n<body>\n{body}\n</body></html>\n", encoding="utf-8")
+    path.write_text(
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
+        f"<style>{CSS}</style></head>\n<body>\n{body}\n</body></html>\n",
+        encoding="utf-8",
+    )
     return path

@@ -41,7 +41,9 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         c = colors[i % len(colors)]
         al, fit = a.analysis.allan, a.analysis.fit
         tau = al.tau_s
-        ax.fill_between(tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0)
+        ax.fill_between(
+            tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0
+        )
         ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured"
                   + (f" ({'spikes removed' if a.analysis.outliers.removed else 'spikes kept'})"
                      if a.analysis.allan_alternative is not None else ""))
@@ -61,7 +63,9 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         lows.append(float(np.min(al.adev_ci_low)) * S_PER_H)
         # the band of a two-cluster tau reaches far up (30x at 95 %): drawn to the edge,
         # it must not squeeze the rest of the curve
-        highs.append(min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H)
+        highs.append(
+            min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H
+        )
     if axes:
         _draw_limits(ax, axes[0], fontsize)
         ax.set_ylim(min(lows) / 4, max(highs))
@@ -69,21 +73,34 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
     ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=fontsize - 1, loc="upper right", ncol=2 if len(axes) > 1 else 1)
+    # lower left: the curves fall from the upper left, and the long-tau end on the right is
+    # where the bias instability and random walk are read
+    ax.legend(
+        fontsize=fontsize - 1, loc="lower left", ncol=2 if len(axes) > 1 else 1, framealpha=0.85
+    )
 
 
 def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
-    """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum limit."""
+    """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum
+    limit."""
     for line in limit_lines(axis):
         label = f"{line.label} limit ({line.grade})"
+        if line.shape == "level" and line.figure != "adev_min":
+            label = f"0.664 x {line.label} limit ({line.grade})"
         if line.shape == "slope":
             ax.loglog(line.tau_s, line.adev_deg_h, "--", color="0.3", lw=0.9, label=label)
         else:
             ax.axhline(float(line.adev_deg_h[0]), ls="-.", color="0.3", lw=0.9, label=label)
 
 
-def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 8,
-               settings: AnalysisSettings | None = None) -> bool:
+def draw_davar(
+    ax: Axes,
+    unit: UnitGrade,
+    axis_index: int,
+    *,
+    fontsize: float = 8,
+    settings: AnalysisSettings | None = None,
+) -> bool:
     """Heat map of log10 dynamic Allan deviation (deg/h) of one axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
@@ -104,8 +121,9 @@ def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 
     mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
     if grid.warmup_s:
         ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
-    ax.set_title(f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s",
-                 fontsize=fontsize)
+    ax.set_title(
+        f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s", fontsize=fontsize
+    )
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
     ax.set_ylabel("tau [s]", fontsize=fontsize)
     ax.tick_params(labelsize=fontsize - 1)
@@ -118,7 +136,16 @@ def placeholder(ax: Axes, text: str, *, fontsize: float = 8) -> None:
     """A clearly labelled empty panel."""
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True, fontsize=fontsize, transform=ax.transAxes)
+    ax.text(
+        0.5,
+        0.5,
+        text,
+        ha="center",
+        va="center",
+        wrap=True,
+        fontsize=fontsize,
+        transform=ax.transAxes,
+    )
 
 
 def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
@@ -133,7 +160,9 @@ def allan_png(unit: UnitGrade) -> bytes:
     """The Allan panel of a unit as a PNG."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     draw_allan(ax, unit.axes, fontsize=9)
-    ax.set_title("Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10)
+    ax.set_title(
+        "Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10
+    )
     return figure_png(fig)
 
 
