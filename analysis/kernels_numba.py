@@ -119,6 +119,19 @@ def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
     return total
 
 
+@numba.njit(parallel=True, cache=True)
+def span_sum_parallel(th: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
+    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1``, its pieces of :data:`_BLOCK` terms
+    spread over cores: one block of a long record for one m (three streams through
+    ``th``, so a memory-mapped angle can be handed back block by block)."""
+    n_parts = (hi - lo + _BLOCK - 1) // _BLOCK
+    parts = np.zeros(n_parts)
+    for p in numba.prange(n_parts):
+        start = lo + p * _BLOCK
+        parts[p] = _span_sum(th, m, start, min(start + _BLOCK, hi))
+    return float(parts.sum())
+
+
 @numba.njit(cache=True)
 def oadev_one(th: NDArray[np.float64], m: int) -> float:
     """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""

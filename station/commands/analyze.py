@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
+from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
     add_record_arguments,
@@ -33,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command."""
     p = sub.add_parser(
         "analyze",
-        help="Allan deviation, noise-term fit and spec figures of a record",
+        help=COMMAND_HELP["analyze"],
         description=__doc__,
     )
     add_record_arguments(p)

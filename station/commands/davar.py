@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from analysis.units import S_PER_H
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_record_arguments, print_notes, record_source
 
 if TYPE_CHECKING:
@@ -27,7 +28,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``davar`` sub-command."""
-    p = sub.add_parser("davar", help="dynamic Allan deviation, warm-up time and stationarity",
+    p = sub.add_parser("davar", help=COMMAND_HELP["davar"],
                        description=__doc__)
     add_record_arguments(p)
     p.add_argument("--window-s", type=float, required=True, metavar="W",

@@ -20,6 +20,7 @@ import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
+from station.commands import COMMAND_HELP
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
 from station.storage.csv_records import write_csv_record
@@ -66,7 +67,7 @@ def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``demo`` sub-command."""
-    p = sub.add_parser("demo", help="record two simulated gyros, analyze them, print spec figures",
+    p = sub.add_parser("demo", help=COMMAND_HELP["demo"],
                        description=__doc__)
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")

@@ -15,13 +15,13 @@ from types import FrameType
 from devices.opened import OpenedDevice, SimulatedDevice
 from devices.url_query import is_simulated
 from devices.urls import SUPPORTED, open_device
+from station.commands import COMMAND_HELP
 from station.errors import UsageError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``devices`` sub-command (and its ``serve`` action)."""
-    p = sub.add_parser("devices", help="list supported device protocols and their simulations; "
-                       "serve a simulated gyro", description=__doc__)
+    p = sub.add_parser("devices", help=COMMAND_HELP["devices"], description=__doc__)
     p.add_argument("--json", action="store_true",
                    help='print [{"protocol", "transport", "hardware_url", "sim_url"}, ...] as JSON')
     p.set_defaults(handler=run)

@@ -14,6 +14,7 @@ import json
 import sys
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
     add_record_arguments,
@@ -28,8 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``export`` sub-command."""
     p = sub.add_parser(
         "export",
-        help="noise parameters in Kalibr, OpenVINS, MATLAB, gnss-ins-sim, "
-        "allan_variance_ros or JSON form",
+        help=COMMAND_HELP["export"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         allow_abbrev=False,

@@ -13,6 +13,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report.common import analysis_lines
 from station.storage.csv_records import UNIT_TO_DEG_S
@@ -85,7 +86,7 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``grade`` sub-command."""
-    p = sub.add_parser("grade", help="grade a run against a product profile", description=__doc__)
+    p = sub.add_parser("grade", help=COMMAND_HELP["grade"], description=__doc__)
     add_grading_arguments(p)
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.set_defaults(handler=run)

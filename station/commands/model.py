@@ -20,6 +20,7 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from devices.model_files import load_noise_model
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
 
 
@@ -27,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``model`` sub-command and its actions."""
     p = sub.add_parser(
         "model",
-        help="noise models: theoretical Allan curve, show, FOG from indicators",
+        help=COMMAND_HELP["model"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

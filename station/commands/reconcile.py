@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_slice_arguments, print_notes
 from station.storage.csv_records import UNIT_TO_DEG_S
 
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reconcile`` sub-command."""
-    p = sub.add_parser("reconcile", help="model versus measurement: name the missing effects",
+    p = sub.add_parser("reconcile", help=COMMAND_HELP["reconcile"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument(
         "measured", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"

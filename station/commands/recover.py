@@ -17,13 +17,14 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.storage.hdf5 import REASON_RECOVERED
 from station.storage.hdf5_recover import recover_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``recover`` sub-command."""
-    p = sub.add_parser("recover", help="close a run file left open by a killed recorder",
+    p = sub.add_parser("recover", help=COMMAND_HELP["recover"],
                        description=__doc__)
     p.add_argument("file", type=Path, help="the run's .h5 file")
     p.add_argument("--force", action="store_true",

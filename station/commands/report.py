@@ -14,6 +14,7 @@ import os
 import sys
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import print_warnings
 from station.commands.grade import add_grading_arguments, grade_request
 from station.model.sheet_header import HEADER_ENV
@@ -22,7 +23,7 @@ from station.output.report import FORMATS
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` sub-command."""
-    p = sub.add_parser("report", help="write spec-sheet reports (PDF, HTML, JSON, CSV) of a run",
+    p = sub.add_parser("report", help=COMMAND_HELP["report"],
                        description=__doc__)
     add_grading_arguments(p)
     p.add_argument("--format", dest="formats", action="append", choices=FORMATS, default=None,

@@ -25,6 +25,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_database_argument
 from station.errors import UsageError
 from station.model.kinds import Verdict
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``results`` sub-command."""
-    p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
+    p = sub.add_parser("results", help=COMMAND_HELP["results"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_database_argument(p)
     p.add_argument("--model", default=None, help="only this gyro model (as graded, e.g. CRG20)")

@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
 from station.commands.terminal import ProgressLine, plural
 
@@ -30,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` sub-command."""
     p = sub.add_parser(
         "simulate",
-        help="write a simulated gyro run (model file or ARW + bias stability)",
+        help=COMMAND_HELP["simulate"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
