@@ -11,6 +11,7 @@ ones and what they were. Memory stays bounded however long the run: an overnight
 from __future__ import annotations
 
 import math
+import threading
 from collections import deque
 from dataclasses import dataclass, field, replace
 
@@ -174,8 +175,9 @@ class SimCore:
     -----
     Sampling stops while any *hold* is on: :meth:`pause` / :meth:`resume` are the
     operator's (the recorder holds a unit until it listens), :meth:`enter_configuration`
-    / :meth:`enter_measurement` the device's own (an Xbus GoToConfig). Each releases only
-    its own hold.
+    / :meth:`enter_measurement` the device's own (an Xbus GoToConfig), :meth:`power_off`
+    / :meth:`power_on` its supply's (a unit wired to a simulated fixture). Each releases
+    only its own hold.
     """
 
     def __init__(self, signal: SignalSource, sample_rate_hz: float, clock: WarpClock,
@@ -189,6 +191,7 @@ class SimCore:
         self._rng = np.random.default_rng(self.faults.seed)
         self._origin_s = clock()
         self._holds: set[str] = set()
+        self._hold_lock = threading.Lock()  # the operator, the device and its supply hold
         self._paused_at: float | None = None
         self._last_index: int | None = None
 
@@ -209,15 +212,17 @@ class SimCore:
         self.sample_rate_hz = sample_rate_hz
 
     def _hold(self, reason: str) -> None:
-        if not self._holds:
-            self._paused_at = self.clock()
-        self._holds.add(reason)
+        with self._hold_lock:
+            if not self._holds:
+                self._paused_at = self.clock()
+            self._holds.add(reason)
 
     def _release(self, reason: str) -> None:
-        self._holds.discard(reason)
-        if not self._holds and self._paused_at is not None:
-            self._origin_s += self.clock() - self._paused_at
-            self._paused_at = None
+        with self._hold_lock:
+            self._holds.discard(reason)
+            if not self._holds and self._paused_at is not None:
+                self._origin_s += self.clock() - self._paused_at
+                self._paused_at = None
 
     @property
     def held(self) -> bool:
@@ -240,6 +245,15 @@ class SimCore:
     def enter_measurement(self) -> None:
         """Leave configuration mode (Xbus GoToMeasurement); the operator's hold stays."""
         self._release("configuration")
+
+    def power_off(self) -> None:
+        """The supply's hold: the unit is unpowered, or still booting after power came on
+        (:mod:`devices.sim.powered`); no samples until :meth:`power_on`."""
+        self._hold("power")
+
+    def power_on(self) -> None:
+        """Release the supply's hold: the unit has booted and samples from now on."""
+        self._release("power")
 
     def clear_faults(self) -> None:
         """Turn the faults off (drops, corruption, junk, disconnects, stalls; the clock
