@@ -21,13 +21,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from analysis import kernels
-from analysis.confidence import (  # noqa: F401  (re-exported: part of this module's API)
-    ONE_SIGMA,
-    allan_edf_grid,
-    chi2_interval,
-    estimator_terms,
-    local_noise_alpha,
-    overlapping_edf,
+from analysis.confidence import (  # re-exported: part of this module's API
+    ONE_SIGMA as ONE_SIGMA,
+    allan_edf_grid as allan_edf_grid,
+    chi2_interval as chi2_interval,
+    estimator_terms as estimator_terms,
+    local_noise_alpha as local_noise_alpha,
+    overlapping_edf as overlapping_edf,
 )
 from analysis.errors import (
     InvalidSampleRateError,

@@ -162,7 +162,7 @@ def _chi2_grid(y: NDArray[np.float64], w: NDArray[np.float64], base: NDArray[np.
     """C1 for every ``log theta^2`` in ``logs`` (rows) and shape curve in ``g`` (n_eta, n_tau)."""
     total = base[None, None, :] + np.exp(logs)[None, :, None] * g[:, None, :]
     resid = y[None, None, :] - np.log(np.maximum(total, np.finfo(float).tiny))
-    return (w * resid**2).sum(axis=-1)
+    return np.asarray((w * resid**2).sum(axis=-1), dtype=np.float64)
 
 
 def fit_candidate(name: str, model: NoiseModel, curve: MeasuredCurve, comparison: Comparison, *,

@@ -102,14 +102,15 @@ def _phase_acv(alpha: int, j: NDArray[np.float64]) -> NDArray[np.float64]:
     terms every estimator's difference filter cancels (a constant, and ``j^2`` for alpha <= -1)."""
     a = np.abs(j)
     if alpha == 2:
-        return (a == 0).astype(float)
+        return np.asarray(a == 0, dtype=np.float64)
     if alpha == 1:
         # D(j) = g(j+1) - 2 g(j) + g(j-1), g(t) = t^2 ln|t|, written so that it keeps its
         # precision at large |j| (2 ln|j| plus two terms of about |j| that nearly cancel)
         with np.errstate(divide="ignore", invalid="ignore"):
             big = np.maximum(a, 2.0)
             far = 2 * np.log(big) + (big + 1) ** 2 * np.log1p(1 / big) + (big - 1) ** 2 * np.log1p(-1 / big)
-        return -0.5 * np.select([a == 0, a == 1], [0.0, 4 * np.log(2.0)], default=far)
+        return np.asarray(-0.5 * np.select([a == 0, a == 1], [0.0, 4 * np.log(2.0)], default=far),
+                          dtype=np.float64)
     if alpha == 0:
         return -0.5 * a
     if alpha == -1:
@@ -161,7 +162,8 @@ def difference_autocovariance(
     k = np.asarray(lags, dtype=float)
     q, w = _filter_taps(order, modified)
     fn = _phase_acv_double_sum if modified else _phase_acv
-    return np.sum(w[:, None] * fn(alpha, k[None, :] + (q * m)[:, None]), axis=0)
+    return np.asarray(np.sum(w[:, None] * fn(alpha, k[None, :] + (q * m)[:, None]), axis=0),
+                      dtype=np.float64)
 
 
 def second_difference_autocovariance(alpha: int, m: int, lags: ArrayLike) -> NDArray[np.float64]:

@@ -264,13 +264,13 @@ def fit_temperature_profile(temperature_c: NDArray[np.float64], sample_rate_hz: 
     block = max(1, len(temperature_c) // 2000)
     y = block_means(temperature_c, block)
     dt = block / sample_rate_hz
-    t = (np.arange(len(y)) + 0.5) * dt
+    t = np.asarray((np.arange(len(y)) + 0.5) * dt, dtype=np.float64)
     length = len(temperature_c) / sample_rate_hz
     out = {"reference_c": float(np.mean(temperature_c)), "start_c": float(y[0]), "final_c": float(y[-1]),
            "warmup_s": length / 4.0}
 
     def warm(tt: NDArray[np.float64], final: float, delta: float, log_w: float) -> NDArray[np.float64]:
-        return final + delta * np.exp(-tt / math.exp(log_w))
+        return np.asarray(final + delta * np.exp(-tt / math.exp(log_w)), dtype=np.float64)
 
     try:
         popt, _ = optimize.curve_fit(warm, t, y, p0=[float(y[-1]), float(y[0] - y[-1]), math.log(length / 4)],

@@ -33,7 +33,8 @@ def as_tau(tau_s: ArrayLike) -> NDArray[np.float64]:
     return tau
 
 
-def gauss_markov_avar(tau_s: ArrayLike, sigma: float, correlation_s: float) -> NDArray[np.float64]:
+def gauss_markov_avar(tau_s: ArrayLike, sigma: float,
+                      correlation_s: float | NDArray[np.float64]) -> NDArray[np.float64]:
     """Allan variance of a first-order Gauss-Markov (exponentially correlated) rate.
 
     ``avar = 2 s^2 T / tau * [1 - T / (2 tau) (3 - 4 exp(-tau/T) + exp(-2 tau/T))]``
@@ -49,8 +50,8 @@ def gauss_markov_avar(tau_s: ArrayLike, sigma: float, correlation_s: float) -> N
         Averaging times in s.
     sigma : float
         Stationary standard deviation in rate units (e.g. deg/s).
-    correlation_s : float
-        Correlation time ``T`` in s.
+    correlation_s : float or ndarray
+        Correlation time ``T`` in s (an array broadcasts against ``tau_s``).
 
     Returns
     -------
@@ -125,7 +126,7 @@ def deterministic_avar(
     half = np.pi * tau / period_s
     sinc = np.sin(half) / half
     d_c = 2.0 * cycle_amplitude * sinc * np.sin(half) * np.exp(1j * (2.0 * half + np.deg2rad(phase_deg)))
-    steady = np.abs(d_c) ** 2 / 4.0
+    steady = np.asarray(np.abs(d_c) ** 2 / 4.0, dtype=np.float64)
     if duration_s is None:
         return steady
     span = np.maximum(float(duration_s) - 2.0 * tau, 0.0)

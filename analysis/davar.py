@@ -36,6 +36,7 @@ from analysis.allan import (
     ONE_SIGMA,
     AllanDeviationMixin,
     InputKind,
+    Missing,
     TauGrid,
     as_samples,
     check_sample_rate,
@@ -192,7 +193,12 @@ def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n
     # The noise type per tau comes from the mean curve over the windows: one window's
     # curve is too noisy at long tau for a local slope (a slope of -2 read off noise would
     # give the white-angle edf, ~Nw/2, and intervals far too narrow).
-    alpha = local_noise_alpha(m, avar.mean(axis=0))
+    if np.isnan(avar).any():  # windows across gaps; an axis may have none left (all NaN)
+        counts = np.sum(~np.isnan(avar), axis=0)
+        mean_curve = np.nansum(avar, axis=0) / np.maximum(counts, 1)
+    else:
+        mean_curve = avar.mean(axis=0)
+    alpha = local_noise_alpha(m, np.nan_to_num(mean_curve, nan=1.0))
     edf_tau = overlapping_edf(plan.window, m[:, None], alpha)
     low_f, high_f = chi2_interval(np.ones_like(edf_tau), edf_tau, confidence)
     edf = np.broadcast_to(edf_tau, avar.shape)  # read-only view: the same for every window
@@ -201,7 +207,7 @@ def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n
         avar, edf, low, high = avar[..., 0], edf[..., 0], low[..., 0], high[..., 0]
         alpha = alpha[:, 0]
     return DavarResult(
-        t_s=(starts + plan.window / 2.0) / plan.fs, tau_s=tau, m=m, avar=avar, edf=edf,
+        t_s=np.asarray((starts + plan.window / 2.0) / plan.fs, dtype=np.float64), tau_s=tau, m=m, avar=avar, edf=edf,
         ci_low=low, ci_high=high, noise_alpha=alpha, n_terms=n_terms.astype(np.int64),
         confidence=confidence, window_samples=plan.window, step_samples=plan.step, sample_rate_hz=plan.fs,
         n_samples=n_samples,
@@ -264,7 +270,7 @@ def davar_recursive(
 
     def delta_sq(k: NDArray[np.int64]) -> NDArray[np.float64]:
         d = theta[k + 2 * plan.m] - 2.0 * theta[k + plan.m] + theta[k]
-        return d * d
+        return np.asarray(d * d, dtype=np.float64)
 
     acc = np.zeros((len(plan.m), theta.shape[1]))
     comp = np.zeros_like(acc)
@@ -303,6 +309,15 @@ def davar_recursive(
 # ---------------------------------------------------------------------- fast, streaming
 
 
+def _samples(samples: ArrayLike, missing: Missing) -> NDArray[np.float64]:
+    """Samples as (N, k) float64: NaN allowed as missing with ``missing="gap"``, inf never."""
+    if missing != "gap":
+        return as_samples(samples)
+    arr = np.asarray(samples, dtype=np.float64)
+    as_samples(np.where(np.isnan(arr), 0.0, arr))  # refuses inf, and a shape that is not (N, k)
+    return arr[:, None] if arr.ndim == 1 else arr
+
+
 def _iter_array(arr: NDArray[np.float64], chunk: int) -> Iterator[NDArray[np.float64]]:
     for a in range(0, arr.shape[0], chunk):
         yield arr[a : a + chunk]
@@ -319,6 +334,7 @@ def dynamic_allan_variance(
     confidence: float = ONE_SIGMA,
     block_samples: int | None = None,
     backend: Backend = "auto",
+    missing: Missing = "raise",
 ) -> DavarResult:
     """Dynamic Allan variance of a record in memory (Zhang 2015, eq. 6), the fast way.
 
@@ -347,6 +363,12 @@ def dynamic_allan_variance(
         Samples processed at once (memory bound); default ``max(3 Nw, 2^20)``.
     backend : {"auto", "numpy", "numba"}
         Kernel for the window sums.
+    missing : {"raise", "gap"}
+        ``"gap"`` reads NaN samples as missing ones on the record's time grid (a gap of a
+        recorded run): a window that holds a missing sample of an axis gets NaN there (no
+        Allan value of a window is computed across a gap), every other window is exact,
+        and window times stay true time. The default refuses NaN
+        (:class:`NonFiniteSamplesError`).
 
     Returns
     -------
@@ -366,10 +388,11 @@ def dynamic_allan_variance(
     Zhang et al., Acta Optica Sinica 35(4), 2015, eq. 6, 15-20; L. Galleani and P. Tavella,
     "The dynamic Allan variance", IEEE Trans. UFFC 56(3), 2009.
     """
-    arr = as_samples(samples)
+    arr = _samples(samples, missing)
     result = dynamic_allan_variance_stream(
         _iter_array(arr, 1 << 20), sample_rate_hz, window_s=window_s, step_s=step_s, taus=taus,
         input_kind=input_kind, confidence=confidence, block_samples=block_samples, backend=backend,
+        missing=missing,
     )
     return result.axis(0) if np.ndim(samples) == 1 else result
 
@@ -387,6 +410,7 @@ def dynamic_allan_variance_slices(
     chunk_samples: int = 1 << 18,
     block_samples: int | None = None,
     backend: Backend = "auto",
+    missing: Missing = "raise",
 ) -> DavarResult:
     """DAVAR of a long record read piece by piece with ``read_slice(start, stop)``.
 
@@ -403,7 +427,7 @@ def dynamic_allan_variance_slices(
         Samples per axis in the record.
     chunk_samples : int
         Samples asked of ``read_slice`` per call.
-    sample_rate_hz, window_s, step_s, taus, input_kind, confidence, block_samples, backend
+    sample_rate_hz, window_s, step_s, taus, input_kind, confidence, block_samples, backend, missing
         As for :func:`dynamic_allan_variance`.
 
     Returns
@@ -417,6 +441,7 @@ def dynamic_allan_variance_slices(
     return dynamic_allan_variance_stream(
         chunks, sample_rate_hz, window_s=window_s, step_s=step_s, taus=taus,
         input_kind=input_kind, confidence=confidence, block_samples=block_samples, backend=backend,
+        missing=missing,
     )
 
 
@@ -431,6 +456,7 @@ def dynamic_allan_variance_stream(
     confidence: float = ONE_SIGMA,
     block_samples: int | None = None,
     backend: Backend = "auto",
+    missing: Missing = "raise",
 ) -> DavarResult:
     """DAVAR of a record that arrives as consecutive chunks of samples (any sizes).
 
@@ -444,13 +470,15 @@ def dynamic_allan_variance_stream(
     ----------
     chunks : iterable of array_like
         Consecutive pieces of the record, each (n_i,) or (n_i, k) with the same k.
-    sample_rate_hz, window_s, step_s, taus, input_kind, confidence, block_samples, backend
+    sample_rate_hz, window_s, step_s, taus, input_kind, confidence, block_samples, backend, missing
         As for :func:`dynamic_allan_variance`.
 
     Returns
     -------
     DavarResult
     """
+    if missing not in ("raise", "gap"):
+        raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
     plan = _plan(sample_rate_hz, window_s, step_s, taus)
     block = max(3 * plan.window, 1 << 20) if block_samples is None else int(block_samples)
     if block < plan.window:
@@ -477,11 +505,24 @@ def dynamic_allan_variance_stream(
             seg = buf[starts[0] - pending_start : starts[-1] - pending_start + plan.window]
             theta = np.empty((seg.shape[0] + 1, seg.shape[1]))
             theta[0] = 0.0
-            np.cumsum((seg - seg.mean(axis=0)) * scale, axis=0, out=theta[1:])
+            lost = np.isnan(seg) if missing == "gap" else None
+            if lost is not None and lost.any():
+                # a missing sample adds nothing to the angle: a window without one sees the
+                # same second differences as a record without gaps (the angle after a gap is
+                # only offset by a constant, which cancels)
+                centred = np.where(lost, 0.0, seg - np.nanmean(seg, axis=0))
+            else:
+                centred, lost = seg - seg.mean(axis=0), None
+            np.cumsum(centred * scale, axis=0, out=theta[1:])
             sums = np.empty((len(starts), len(plan.m), seg.shape[1]))
             for c in range(seg.shape[1]):
                 sums[:, :, c] = kernels.window_sums(theta[:, c], plan.m, local, plan.window,
                                                     backend=backend)
+            if lost is not None:
+                held = np.zeros((lost.shape[0] + 1, lost.shape[1]), dtype=np.int64)
+                np.cumsum(lost, axis=0, out=held[1:])
+                broken = held[local + plan.window] - held[local] > 0  # (windows, axes)
+                sums[np.broadcast_to(broken[:, None, :], sums.shape)] = np.nan
             out_sums.append(sums)
             out_starts.append(starts)
             next_start = int(starts[-1]) + plan.step
@@ -491,7 +532,7 @@ def dynamic_allan_variance_stream(
         pending_start = next_start if pending else consumed
 
     for chunk in chunks:
-        arr = as_samples(chunk)
+        arr = _samples(chunk, missing)
         if n_axes is None:
             n_axes = arr.shape[1]
         elif arr.shape[1] != n_axes:

@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from analysis.allan import (
     AllanResult,
+    Estimator,
     InputKind,
     TauGrid,
     allan_variance,
@@ -212,23 +213,28 @@ def deviation_m(
         even number, at least 10, of sample periods).
     """
     top = max_m(kind, n_samples)
+    m: NDArray[np.int64]
     if isinstance(taus, str):
+        grid: NDArray[np.float64] | NDArray[np.int64]
         if taus == "log" and kind == "theo1":
             # each Theo1 tau costs O(m log^2 m) at long tau: ten per decade, not twenty
             decades = np.log10(max(top, THEO1_MIN_M) / THEO1_MIN_M)
-            m = np.geomspace(THEO1_MIN_M, max(top, THEO1_MIN_M), int(THEO1_POINTS_PER_DECADE * decades) + 1)
+            grid = np.geomspace(THEO1_MIN_M, max(top, THEO1_MIN_M),
+                                int(THEO1_POINTS_PER_DECADE * decades) + 1)
         elif taus == "log":
-            m = analysis_log_m(n_samples, max_m=top)
+            grid = analysis_log_m(n_samples, max_m=top)
         elif taus == "octave":
-            m = octave_m(n_samples, min_clusters=1)
+            grid = octave_m(n_samples, min_clusters=1)
         elif taus == "all":
-            m = np.arange(1, top + 1, dtype=np.int64)
+            grid = np.arange(1, top + 1, dtype=np.int64)
         else:
             raise ValueError("tau grid must be 'log', 'octave', 'all' or an array of taus in s")
-        m = m[m <= top]
+        grid = grid[grid <= top]
         if kind == "theo1":
-            m = np.unique(2 * np.rint(m / 2.0).astype(np.int64))
+            m = np.unique(2 * np.rint(grid / 2.0).astype(np.int64))
             m = m[(m >= THEO1_MIN_M) & (m <= top)]
+        else:
+            m = np.asarray(grid, dtype=np.int64)
         if m.size == 0:
             raise TooFewSamplesError(f"{n_samples} samples are too few for the {taus!r} grid of {kind}; "
                                      f"record longer")
@@ -259,14 +265,14 @@ def _modified_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
     d2 = theta[2 * m:] - 2.0 * theta[m:-m] + theta[: len(theta) - 2 * m]
     running = np.concatenate([np.zeros((1, theta.shape[1])), np.cumsum(d2, axis=0)])
     box = running[m:] - running[:-m]
-    return np.einsum("ij,ij->j", box, box)
+    return np.asarray(np.einsum("ij,ij->j", box, box), dtype=np.float64)
 
 
 def _hadamard_sums(theta: NDArray[np.float64], m: int, stride: int) -> NDArray[np.float64]:
     n = len(theta) - 3 * m
     d3 = theta[3 * m: 3 * m + n: stride] - 3.0 * theta[2 * m: 2 * m + n: stride] \
         + 3.0 * theta[m: m + n: stride] - theta[:n:stride]
-    return np.einsum("ij,ij->j", d3, d3)
+    return np.asarray(np.einsum("ij,ij->j", d3, d3), dtype=np.float64)
 
 
 def _total_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
@@ -277,7 +283,7 @@ def _total_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
     centre = np.arange(p - 2) + (p - 2) + 1  # interior points 1..P-2, in extended indices
     lo, mid, hi = extended[centre - m], extended[centre], extended[centre + m]
     d2 = hi - 2.0 * mid + lo
-    return np.einsum("ij,ij->j", d2, d2)
+    return np.asarray(np.einsum("ij,ij->j", d2, d2), dtype=np.float64)
 
 
 # ---------------------------------------------------------------------------------- edf
@@ -455,7 +461,7 @@ def deviation(
     and T. K. Peppler, Proc. 2003 IEEE FCS / EFTF (Theo1 edf).
     """
     if kind in ("oadev", "adev"):
-        estimator = "overlapping" if kind == "oadev" else "clusters"
+        estimator: Estimator = "overlapping" if kind == "oadev" else "clusters"
         if isinstance(taus, str) and taus == "log":  # to two clusters, like every grid here
             fs = check_sample_rate(sample_rate_hz)
             n = int(np.shape(samples)[0]) if np.ndim(samples) else 0

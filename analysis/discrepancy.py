@@ -86,7 +86,8 @@ def block_means(x: ArrayLike, block: int) -> NDArray[np.float64]:
     if block <= 1:
         return arr
     n = (arr.shape[0] // block) * block
-    return arr[:n].reshape(n // block, block, *arr.shape[1:]).mean(axis=1)
+    return np.asarray(arr[:n].reshape(n // block, block, *arr.shape[1:]).mean(axis=1),
+                      dtype=np.float64)
 
 
 def reconcile_grid(n_samples: int, *, points_per_octave: int = 4, min_clusters: int = 4) -> NDArray[np.int64]:
@@ -116,7 +117,7 @@ def allan_on_grid(rate: ArrayLike, sample_rate_hz: float, m: NDArray[np.int64]) 
     n = theta.shape[0] - 1
     sums = overlapping_sums(theta, m)
     tau = m / fs
-    return sums / (2.0 * tau[:, None] ** 2 * (n + 1 - 2 * m)[:, None])
+    return np.asarray(sums / (2.0 * tau[:, None] ** 2 * (n + 1 - 2 * m)[:, None]), dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -242,7 +243,7 @@ def gap_statistic(z: ArrayLike, share: ArrayLike) -> NDArray[np.float64] | float
     zz = np.asarray(z, dtype=np.float64)
     s = np.asarray(share, dtype=np.float64)
     if zz.ndim == 2:
-        return (s[:, None] * zz**2).sum(axis=0) / s.sum()
+        return np.asarray((s[:, None] * zz**2).sum(axis=0) / s.sum(), dtype=np.float64)
     return float((s * zz**2).sum() / s.sum())
 
 
@@ -313,7 +314,7 @@ class MonteCarloBand:
 def regression_slopes(y: NDArray[np.float64], x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Least-squares slope of each column of ``y`` (n, k) on ``x`` (n,), with an intercept."""
     xc = x - x.mean()
-    return (xc @ (y - y.mean(axis=0))) / float(xc @ xc)
+    return np.asarray((xc @ (y - y.mean(axis=0))) / float(xc @ xc), dtype=np.float64)
 
 
 def _simulated_runs(model: NoiseModel, n: int, fs: float, k: int, seed: int,

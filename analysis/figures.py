@@ -11,6 +11,7 @@ silently believed.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -233,7 +234,8 @@ def review_notes(result: AllanResult, fit: NoiseCoefficients, arw: ReadOff, bias
     flicker floor is what sigma_min / 0.664 claims to measure. ``which`` names the pairs.
     """
     notes = []
-    pairs = {"arw": (arw, "N", "ARW", "deg/sqrt(h)", lambda: _arw_cause(result, fit, arw)),
+    pairs: dict[str, tuple[ReadOff, str, str, str, Callable[[], str]]] = {
+             "arw": (arw, "N", "ARW", "deg/sqrt(h)", lambda: _arw_cause(result, fit, arw)),
              "bias_instability": (bias_instability, "B", "bias instability", "deg/h",
                                   lambda: _bias_instability_cause(fit, bias_instability))}
     for key in which:

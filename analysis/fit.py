@@ -64,7 +64,7 @@ __all__ = [
 ]
 
 FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
-FIT_METHODS: tuple[str, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
+FIT_METHODS: tuple[FitMethod, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
 OLS40_MAX_ERROR = 0.40
 #: Relative error floor of the five-term model assumed by ``logwls``'s weights (2 % of avar).
 DEFAULT_MODEL_ERROR = 0.02

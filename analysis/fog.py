@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -191,7 +192,7 @@ def measure_bias_stability(
     rate = np.asarray(rate_deg_s, dtype=np.float64)
     m, j = _average_counts(rate.shape[0], fs, average_s)
     means = rate[: m * j].reshape(j, m, *rate.shape[1:]).mean(axis=1)
-    return units.S_PER_H * means.std(axis=0, ddof=1)
+    return np.asarray(units.S_PER_H * means.std(axis=0, ddof=1), dtype=np.float64)
 
 
 def measure_arw(
@@ -235,8 +236,8 @@ def measure_arw(
             coef, *_ = np.linalg.lstsq(design * w[:, None], avar[:, axis] * w, rcond=None)
             curve = design @ coef
         out[axis] = math.sqrt(max(coef[0], 0.0))
-    n_h = units.arw_deg_rt_s_to_deg_rt_h(out)
-    return n_h if rate.ndim == 2 else n_h[0]
+    n_h = out * math.sqrt(units.S_PER_H)  # deg/sqrt(s) -> deg/sqrt(h), per axis
+    return n_h if rate.ndim == 2 else cast(NDArray[np.float64], n_h[0])  # shape ()
 
 
 @dataclass(frozen=True)

@@ -315,7 +315,7 @@ def gap_allan_variance(
         sums = kernels.overlapping_stretch_sums(g.theta, m, g.starts, g.stops)
 
         def lengths_of(i: int) -> NDArray[np.int64]:
-            return per_stretch[i]
+            return np.asarray(per_stretch[i], dtype=np.int64)
 
         def stride_of(mm: int) -> int:
             return 1

@@ -307,15 +307,16 @@ class _Problem:
         x = np.array(base, dtype=float)
         for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
             if code in ALLAN_TERM:
-                beta = fit.beta["QNBKR".index(ALLAN_TERM[code])]
-                x[iv] = max(float(beta), 0.0) / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
+                beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
+                beta = beta if np.isfinite(beta) and beta > 0.0 else 0.0  # NaN: a term the fit left out
+                x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 
     def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
         """Least squares from the ``count`` starts of lowest objective; the best solution."""
         ready = []
         for x0 in starts:
-            x0 = np.clip(x0, self.lower, self.upper)
+            x0 = np.clip(np.nan_to_num(x0, nan=0.0), self.lower, self.upper)
             x0[self.var_idx] = np.maximum(x0[self.var_idx], 1e-9)
             ready.append((self.objective(x0), x0))
         ready.sort(key=lambda item: item[0])

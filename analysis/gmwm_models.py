@@ -61,6 +61,8 @@ from analysis.curves import gauss_markov_avar
 from analysis.errors import FitError
 from analysis.units import DEG_PER_URAD, S_PER_H
 
+FloatArray = NDArray[np.float64]
+
 RT_H = math.sqrt(S_PER_H)
 
 
@@ -104,30 +106,30 @@ class TermKind:
 class WhiteNoise(TermKind):
     code, title, scale_key, scale_factor = "wn", "white noise (ARW)", "deg_rt_h", RT_H
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return 0.5 / tau_s
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         return np.abs(lag_s)
 
 
 class QuantizationNoise(TermKind):
     code, title, scale_key, scale_factor = "qn", "quantization noise", "urad", 1.0 / DEG_PER_URAD
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return 1.5 / tau_s**2
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         return np.where(np.abs(lag_s) > 1e-9 * dt, 2.0, 0.0)
 
 
 class RandomWalk(TermKind):
     code, title, scale_key, scale_factor = "rw", "rate random walk", "deg_h_rt_h", S_PER_H * RT_H
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return tau_s / 6.0
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         return -np.abs(lag_s) ** 3 / 6.0
 
 
@@ -135,20 +137,20 @@ class Drift(TermKind):
     code, title, scale_key, scale_factor = "dr", "drift (rate ramp)", "deg_h2", S_PER_H**2
     stochastic = False
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return tau_s**2 / 4.0
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         return np.zeros_like(lag_s)
 
 
 class Flicker(TermKind):
     code, title, scale_key, scale_factor = "bi", "bias instability (flicker)", "deg_h", S_PER_H
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return np.full_like(tau_s, math.log(2.0) / math.pi)
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         a = np.abs(lag_s)
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(a > 0, -(a**2) * np.log(a) / math.pi, 0.0)
@@ -158,15 +160,15 @@ class GaussMarkovTerm(TermKind):
     code, title, scale_key, scale_factor = "gm", "Gauss-Markov", "sigma_deg_h", S_PER_H
     has_shape = True
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         return 0.5 * gauss_markov_avar(tau_s, 1.0, np.exp(shape))
 
-    def unit_structure(self, lag_s, shape, dt):
-        t = np.exp(shape)
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
+        t = math.exp(shape)
         x = np.abs(lag_s) / t
         small = x < 1e-3
         xs = np.where(small, x, 0.0)
-        body = np.where(small, xs**2 / 2 - xs**3 / 6 + xs**4 / 24, x + np.expm1(-x))
+        body: FloatArray = np.where(small, xs**2 / 2 - xs**3 / 6 + xs**4 / 24, x + np.expm1(-x))
         return 2.0 * t * t * body
 
     def shape_key(self) -> str:
@@ -178,18 +180,18 @@ class Ar1Term(TermKind):
     has_shape = True
 
     @staticmethod
-    def _phi(shape, dt):
+    def _phi(shape: float | FloatArray, dt: float) -> tuple[FloatArray, FloatArray]:
         h = dt / np.exp(shape)
         return np.exp(-h), -np.expm1(-h)  # phi, 1 - phi
 
-    def unit_wv(self, tau_s, shape, dt):
+    def unit_wv(self, tau_s: FloatArray, shape: float | FloatArray, dt: float) -> FloatArray:
         phi, q = self._phi(shape, dt)
         m = tau_s / dt
         pm = phi**m
         num = m * q * (1.0 + phi) - phi * (3.0 - 4.0 * pm + pm * pm)
         return num / (2.0 * m * m * q * q)
 
-    def unit_structure(self, lag_s, shape, dt):
+    def unit_structure(self, lag_s: FloatArray, shape: float, dt: float) -> FloatArray:
         phi, q = self._phi(shape, dt)
         k = np.rint(np.abs(lag_s) / dt)
         return dt * dt * (k * (1.0 + phi) / q - 2.0 * phi * (1.0 - phi**k) / (q * q))
@@ -286,7 +288,8 @@ class GmwmModel:
 
     def wv(self, params: ArrayLike, tau_s: ArrayLike, dt: float) -> NDArray[np.float64]:
         """Model WV ((deg/s)^2) at ``tau_s`` for internal ``params``: the sum of the terms'."""
-        return self.term_wv(params, tau_s, dt).sum(axis=0)
+        total: NDArray[np.float64] = self.term_wv(params, tau_s, dt).sum(axis=0)
+        return total
 
     def structure(self, params: ArrayLike, lag_s: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         """Angle structure function (deg^2) of the model's stochastic terms at ``lag_s``."""

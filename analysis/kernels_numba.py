@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 #: Terms per partial sum of a long reduction (bounds its rounding error).
 _BLOCK = 1 << 12
 
 
 @numba.njit(parallel=True, cache=True)
-def oadev_sums(theta_t, m_values, out):
+def oadev_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64], out: NDArray[np.float64]) -> None:
     """``out[i, c] = oadev_one(theta_t[c], m_values[i])``, the (m, axis) pairs spread over cores."""
     n_axes = theta_t.shape[0]
     for job in numba.prange(m_values.shape[0] * n_axes):
@@ -24,7 +25,8 @@ def oadev_sums(theta_t, m_values, out):
 
 
 @numba.njit(parallel=True, cache=True)
-def oadev_stretch_sums(theta_t, m_values, starts, stops, out):
+def oadev_stretch_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], stops: NDArray[np.int64],
+                       out: NDArray[np.float64]) -> None:
     """``out[i, c]``: sum of ``Delta_m(k)^2`` over the k whose ``2m`` samples lie in one stretch.
 
     Stretch j holds samples ``starts[j] .. stops[j] - 1`` of the concatenated record, so
@@ -44,7 +46,8 @@ def oadev_stretch_sums(theta_t, m_values, starts, stops, out):
 
 
 @numba.njit(parallel=True, cache=True)
-def window_sums(theta, m_values, starts, window, out):
+def window_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], window: int,
+                out: NDArray[np.float64]) -> None:
     """``out[i, j]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
 
     ``out`` is (n_m, n_windows), so each m writes one contiguous row. The scheme of the
@@ -86,7 +89,7 @@ def window_sums(theta, m_values, starts, window, out):
 
 
 @numba.njit(fastmath={"reassoc", "contract"})
-def _span_sum(theta, m, lo, hi):
+def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
     """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1`` (vectorized, in blocks)."""
     total = 0.0
     for start in range(lo, hi, _BLOCK):
@@ -101,13 +104,14 @@ def _span_sum(theta, m, lo, hi):
 
 
 @numba.njit(cache=True)
-def oadev_one(th, m):
+def oadev_one(th: NDArray[np.float64], m: int) -> float:
     """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""
     return _span_sum(th, m, 0, th.shape[0] - 2 * m)
 
 
 @numba.njit(parallel=True, cache=True)
-def window_sums_segments(theta, m_values, starts, window, out):
+def window_sums_segments(theta: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], window: int,
+                         out: NDArray[np.float64]) -> None:
     """As :func:`window_sums`, for steps that are not much shorter than the window.
 
     The window starts and ends cut the terms into segments; each segment is summed once

@@ -313,7 +313,7 @@ class TemperatureBias(NoiseTerm):
         half = omega * dt_s / 2.0
         cycle = (self.cycle_amplitude_c * np.sin(half) / half
                  * np.sin(omega * (t0 + dt_s / 2.0) + phase))
-        return self.final_c + warm + cycle
+        return np.asarray(self.final_c + warm + cycle, dtype=np.float64)
 
     def avar(self, tau_s: ArrayLike, *, duration_s: float | None = None) -> NDArray[np.float64]:
         """Allan variance of the temperature bias in (deg/s)^2 over a record of ``duration_s``.

@@ -55,7 +55,8 @@ def white_rate_noise(
     Sample standard deviation ``N * sqrt(fs)`` (deg/s); Allan variance ``N^2 / tau``.
     """
     fs = check_sample_rate(sample_rate_hz)
-    return n_deg_rt_s * np.sqrt(fs) * rng.standard_normal(_shape(n_samples, n_axes))
+    return np.asarray(n_deg_rt_s * np.sqrt(fs) * rng.standard_normal(_shape(n_samples, n_axes)),
+                      dtype=np.float64)
 
 
 def kasdin_coefficients(alpha: float, length: int) -> NDArray[np.float64]:
@@ -90,8 +91,8 @@ def flicker_rate_noise(
     white = b_deg_s * rng.standard_normal(shape)
     h = kasdin_coefficients(1.0, n_samples)
     if white.ndim == 1:
-        return signal.fftconvolve(white, h)[:n_samples]
-    return signal.fftconvolve(white, h[:, None], axes=0)[:n_samples]
+        return np.asarray(signal.fftconvolve(white, h)[:n_samples], dtype=np.float64)
+    return np.asarray(signal.fftconvolve(white, h[:, None], axes=0)[:n_samples], dtype=np.float64)
 
 
 def random_walk_rate_noise(

@@ -143,8 +143,8 @@ def b1_expected(n: int, mu: float) -> float:
     ``n ln n / (2 (n - 1) ln 2)`` at ``mu = 0`` (Barnes 1969; NIST SP 1065, section 5.6).
     """
     if mu == 0:
-        return n * np.log(n) / (2.0 * (n - 1) * np.log(2.0))
-    return n * (1.0 - n**mu) / (2.0 * (n - 1) * (1.0 - 2.0**mu))
+        return float(n * np.log(n) / (2.0 * (n - 1) * np.log(2.0)))
+    return float(n * (1.0 - n**mu) / (2.0 * (n - 1) * (1.0 - 2.0**mu)))
 
 
 #: Allan-variance slope mu of each noise exponent the B1 ratio can separate.
@@ -175,7 +175,7 @@ def _rn_expected_flicker_angle(m: int) -> float:
     Table 10: MVAR and AVAR of flicker PM, ``f_h tau = m / 2``)."""
     mvar = 3.0 * np.log(256.0 / 27.0) / (8.0 * np.pi**2)
     avar = (1.038 + 3.0 * np.log(np.pi * m)) / (4.0 * np.pi**2)
-    return mvar / avar
+    return float(mvar / avar)
 
 
 def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:

@@ -264,7 +264,7 @@ def detect_spikes(
     stops = np.flatnonzero(flags & ~np.concatenate((flags[1:], [False]))) + 1
     med = neighbour_residuals(x, np.flatnonzero(flags), half_window)
     spikes, done = [], 0
-    for a, b in zip(starts, stops, strict=True):
+    for a, b in zip(starts.tolist(), stops.tolist(), strict=True):
         run = med[done:done + b - a]
         done += b - a
         j = int(np.argmax(np.abs(run)))

@@ -142,7 +142,8 @@ def local_adev_slope(tau_s: NDArray[np.float64], adev: NDArray[np.float64]) -> N
         return np.full(len(logt), np.nan)
     lo = np.maximum(logt - math.log(2), logt[0])
     hi = np.minimum(logt + math.log(2), logt[-1])
-    return (np.interp(hi, logt, loga) - np.interp(lo, logt, loga)) / np.where(hi > lo, hi - lo, 1.0)
+    rise = np.interp(hi, logt, loga) - np.interp(lo, logt, loga)
+    return np.asarray(rise / np.where(hi > lo, hi - lo, 1.0), dtype=np.float64)
 
 
 def white_share(result: AllanResult, fit: NoiseCoefficients | None) -> NDArray[np.float64] | None:

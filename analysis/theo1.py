@@ -64,7 +64,7 @@ def _autocorrelation(x: NDArray[np.float64], max_lag: int) -> NDArray[np.float64
     """``sum_j x_j x_{j+L}`` for ``L = 0 .. max_lag`` (zero past the end), by FFT."""
     size = sp_fft.next_fast_len(len(x) + max_lag + 1, real=True)
     spec = sp_fft.rfft(x, size)
-    out = sp_fft.irfft(spec * np.conj(spec), size)[: max_lag + 1]
+    out = np.asarray(sp_fft.irfft(spec * np.conj(spec), size)[: max_lag + 1], dtype=np.float64)
     if len(out) < max_lag + 1:
         out = np.concatenate([out, np.zeros(max_lag + 1 - len(out))])
     out[len(x):] = 0.0
@@ -146,7 +146,7 @@ def _leaf_sums(x: NDArray[np.float64], table: NDArray[np.float64], c: int, tasks
         a, b, n = part[:, 0], part[:, 1], part[:, 2]
         xa, xb = _gather(x, a, _LEAF), _gather(x, b, _LEAF)
         seg = _kernel(table, c, (b - a)[:, None] + offsets[None, :])
-        for k, t in enumerate(offsets):
+        for k, t in enumerate(offsets.tolist()):
             first, stop = max(0, -t), min(_LEAF, _LEAF - t)
             inside = (2 * i[first:stop] + t)[None, :] < n[:, None]  # i + j < n
             prod = xa[:, first:stop] * xb[:, first + t : stop + t]

@@ -109,7 +109,8 @@ class Tone:
         e = np.asarray(self.bin_power)[None, :]
         m = tau[:, None] * sample_rate_hz
         dirichlet = (m * np.sin(np.pi * f / sample_rate_hz)) ** 2
-        return (2.0 * e * np.sin(np.pi * f * tau[:, None]) ** 4 / dirichlet).sum(axis=1)
+        return np.asarray((2.0 * e * np.sin(np.pi * f * tau[:, None]) ** 4 / dirichlet).sum(axis=1),
+                          dtype=np.float64)
 
     def as_dict(self) -> dict[str, object]:
         """JSON form: ``freq_hz``, ``amplitude_deg_s``, ``band_hz``, ``peak_ratio``, ``p_value``."""
@@ -162,9 +163,10 @@ def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
         total = p * k if total is None else total + p * k
         counts += k
         freq = f
-    if total is None or counts < MIN_SEGMENTS // 2:
+    if total is None or freq is None or counts < MIN_SEGMENTS // 2:
         return None
-    return freq, total / counts, welch_edf(counts)
+    return (np.asarray(freq, dtype=np.float64), np.asarray(total / counts, dtype=np.float64),
+            welch_edf(counts))
 
 
 def running_background(power: NDArray[np.float64], nu: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
@@ -244,8 +246,8 @@ def find_tones(
     significant = (p_bin * n_tested < alpha) & (ratio >= MIN_PEAK_RATIO)
     df = float(freq[1] - freq[0])
     bands = _merged([_grow(power, background, lo, hi, nu) for lo, hi in _runs(significant, gap=2)])
-    tones = [_tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df, nu) for lo, hi in bands]
-    tones = [t for t in tones if t is not None]
+    found = (_tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df, nu) for lo, hi in bands)
+    tones = [t for t in found if t is not None]
     return tuple(sorted(tones, key=lambda t: -t.amplitude_deg_s)[:max_tones])
 
 

@@ -46,12 +46,12 @@ def rate_deg_s_to_deg_h(b: float) -> float:
 
 def rrw_deg_h_1_5_to_deg_s_1_5(k: float) -> float:
     """Rate random walk: deg/h^1.5 -> deg/s^1.5."""
-    return k / S_PER_H**1.5
+    return float(k / S_PER_H**1.5)
 
 
 def rrw_deg_s_1_5_to_deg_h_1_5(k: float) -> float:
     """Rate random walk: deg/s^1.5 -> deg/h^1.5."""
-    return k * S_PER_H**1.5
+    return float(k * S_PER_H**1.5)
 
 
 def ramp_deg_h2_to_deg_s2(r: float) -> float:

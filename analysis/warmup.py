@@ -76,7 +76,8 @@ def _band_factors(spans: NDArray[np.int64], m: NDArray[np.int64], alpha: NDArray
 
     def interp(table: NDArray[np.float64]) -> NDArray[np.float64]:
         logs = np.log(table)
-        return np.exp(np.stack([np.interp(x, xg, logs[:, i]) for i in range(len(m))], axis=1))
+        stacked = np.stack([np.interp(x, xg, logs[:, i]) for i in range(len(m))], axis=1)
+        return np.asarray(np.exp(stacked), dtype=np.float64)
 
     return interp(low), interp(high)
 

@@ -47,7 +47,7 @@ from analysis.gmwm_selection import gmwm_analysis
 from analysis.models import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandomWalk
 from analysis.simulate import simulate
 from analysis.wavelet import haar_wavelet_variance
-from station.reproduce import PAPER_GYROS, SAMPLE_RATE_HZ, simulate_paper_gyro
+from station.evaluation.reproduce import PAPER_GYROS, SAMPLE_RATE_HZ, simulate_paper_gyro
 
 GM_RATE_HZ, GM_HOURS = 100.0, 6.0
 METHODS = ("gmwm", "wls", "logwls")

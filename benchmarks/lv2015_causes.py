@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from station.reproduce import PAPER_GYROS, Lv2015Setup, reproduce_lv2015
+from station.evaluation.reproduce import PAPER_GYROS, Lv2015Setup, reproduce_lv2015
 
 VARIANTS: dict[str, Lv2015Setup] = {
     "ours: Kasdin flicker B, cluster AVAR, every m to N/2, 4 h": Lv2015Setup(),

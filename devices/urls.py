@@ -25,8 +25,7 @@ from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
 from devices.codecs.base import StreamCodec
 from devices.codecs.can_frame import PER_AXIS_LAYOUT, SHARED_LAYOUT, CanFrameLayout
-from devices.codecs.kvh1750 import HEADER as KVH_HEADER
-from devices.codecs.kvh1750 import Kvh1750Codec
+from devices.codecs.kvh1750 import HEADER as KVH_HEADER, Kvh1750Codec
 from devices.codecs.modbus_map import GYRO_FLOAT32_MAP, GYRO_INT32_MAP, ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec

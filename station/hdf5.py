@@ -31,11 +31,11 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.documents import Descriptor
 from station.errors import RecordFormatError
 from station.hdf5_open import chunks_within, cut_short, open_h5, reading
-from station.record_files import RateRecord
-from station.runs import RunEvent, RunInfo, UnitRun
+from station.model.documents import Descriptor
+from station.model.records import RateRecord
+from station.model.runs import RunEvent, RunInfo, UnitRun
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1

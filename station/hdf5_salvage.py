@@ -18,7 +18,6 @@ import h5py
 import numpy as np
 
 from devices.protocols import DeviceDescription
-from station.documents import Descriptor, RunStart, data_keys
 from station.errors import RecordFormatError
 from station.hdf5 import (
     EVENT_DTYPE,
@@ -30,6 +29,7 @@ from station.hdf5 import (
 )
 from station.hdf5_open import chunks_within, swmr_reader
 from station.hdf5_writer import write_layout
+from station.model.documents import Descriptor, RunStart, data_keys
 
 REASON_SALVAGED = "interrupted: salvaged from a damaged run file (recovered)"
 
@@ -194,7 +194,7 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
                 g[k][:] = rows
             events = np.zeros(len(u.events), EVENT_DTYPE)
             for name in u.events.dtype.names or ():
-                if name in EVENT_DTYPE.names:
+                if name in (EVENT_DTYPE.names or ()):
                     events[name] = u.events[name]
             if "missing_low" not in (u.events.dtype.names or ()):
                 events["missing_low"] = events["missing_high"] = events["missing_samples"]

@@ -23,16 +23,6 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.documents import (
-    Descriptor,
-    Document,
-    EventBatch,
-    LogEntry,
-    RunStart,
-    RunStop,
-    UnitTally,
-    utc_now,
-)
 from station.errors import DiskSpaceError, RecorderError
 from station.hdf5 import (
     EVENT_DTYPE,
@@ -44,6 +34,16 @@ from station.hdf5 import (
     chunk_rows,
     fixed_text,
     writable_bytes,
+)
+from station.model.documents import (
+    Descriptor,
+    Document,
+    EventBatch,
+    LogEntry,
+    RunStart,
+    RunStop,
+    UnitTally,
+    utc_now,
 )
 
 _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",

@@ -16,7 +16,7 @@ from typing import TextIO
 
 import numpy as np
 
-from station.documents import Descriptor, Document, EventBatch, RunStart, RunStop, UnitTally
+from station.model.documents import Descriptor, Document, EventBatch, RunStart, RunStop, UnitTally
 
 DEG_S_TO_DEG_H = 3600.0
 

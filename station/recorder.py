@@ -29,14 +29,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from devices.protocols import DeviceDescription
-from station.documents import (
-    Dispatcher,
-    RunStart,
-    RunStop,
-    Subscriber,
-    UnitTotals,
-    utc_now,
-)
 from station.errors import RecorderError, RunConfigurationError, UsageError
 from station.hdf5 import (
     REASON_DURATION,
@@ -45,11 +37,19 @@ from station.hdf5 import (
     writable_bytes,
 )
 from station.hdf5_writer import RunFileWriter
+from station.model.documents import (
+    Dispatcher,
+    RunStart,
+    RunStop,
+    Subscriber,
+    UnitTotals,
+    utc_now,
+)
 from station.unit_process import UnitProcess
 from station.unit_worker import ReadSettings
 
 if TYPE_CHECKING:
-    from station.profiles import Profile
+    from station.model.profiles import Profile
 
 _DURATION_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)\s*(ms|min|d|h|m|s)?", re.IGNORECASE)
 _UNIT_S = {"d": 86400.0, "h": 3600.0, "min": 60.0, "m": 60.0, "s": 1.0, "ms": 1e-3, None: 1.0}
@@ -103,7 +103,7 @@ class RunConfig:
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
     bench_json : str
-        The bench (latitude, axis directions; :mod:`station.bench`) as JSON, kept in the
+        The bench (latitude, axis directions; :mod:`station.model.bench`) as JSON, kept in the
         run file ("" when none was given).
     """
 
@@ -330,7 +330,8 @@ class Recorder:
         t0, cpu0 = time.monotonic(), time.process_time()
         self.writer = RunFileWriter(self.path, flush_interval_s=cfg.flush_interval_s,
                                     reserve_bytes=self._reserve())
-        for s in (self.writer, *self._extra):
+        subscribers: list[Subscriber] = [self.writer, *self._extra]
+        for s in subscribers:
             self.dispatcher.subscribe(s)
         p = cfg.profile
         self.dispatcher.emit(RunStart(
@@ -363,9 +364,9 @@ class Recorder:
         self._dispatch_pending()
         self.engine_cpu_s = time.process_time() - cpu0
         self.wall_s = time.monotonic() - t0
-        ended = [w for w in self.workers if w.end is not None]
+        ended = [w.end for w in self.workers if w.end is not None]
         self.stop_reason = self._stop_reason or (
-            REASON_END_OF_REPLAY if ended and all(w.end.source_ended for w in ended)
+            REASON_END_OF_REPLAY if ended and all(e.source_ended for e in ended)
             and len(ended) == len(self.workers) else REASON_DURATION)
         stop = RunStop(utc_now(), self.stop_reason, tuple(self._totals(w) for w in self.workers))
         self.dispatcher.emit(stop)

@@ -39,7 +39,7 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from devices.protocols import DeviceDescription
-from station.documents import Descriptor, EventBatch, UnitTally, data_keys
+from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
 #: Modules the fork server imports once, so that each unit starts without importing them.
 PRELOAD = ["station.unit_worker"]

@@ -3,7 +3,7 @@
 A :class:`UnitWorker` runs in the unit's own process (:mod:`station.unit_process`): it
 reads the device on the unit's own time base (a simulation's warped clock,
 ``time.monotonic`` for hardware), reconnects with exponential backoff after a
-disconnect, turns every adapter batch into an :class:`~station.documents.EventBatch`
+disconnect, turns every adapter batch into an :class:`~station.model.documents.EventBatch`
 and hands it to ``send``. It stops at the run's duration, when asked, or when a replayed
 capture ends.
 
@@ -20,6 +20,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from devices.errors import DeviceError, DeviceTimeoutError
 from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch
 from devices.replay import EndOfReplayError
 from devices.urls import OpenedDevice
-from station.documents import EventBatch, LogEntry, UnitTally, utc_now
+from station.model.documents import EventBatch, LogEntry, UnitTally, utc_now
 
 #: Stop reasons a unit reports in its ``end`` log entry.
 END_DURATION = "duration"
@@ -244,20 +245,28 @@ class UnitWorker:
             core.stop_after(end)  # its time line goes on: no silence a counter cannot see
             # (its last sample is recognized by its counter as sent: the unwrapped count
             # may differ from the simulator's by the wraps a gap could not pin down)
-            if self._read_until(lambda n=end: self.last_counter % modulus == (n - 1) % modulus
-                                and time.monotonic() - self._last_sample_at > 0.2,
-                                quiet_s=2.0, limit_s=20.0):
+            if self._read_until(partial(self._read_through, end, modulus), quiet_s=2.0,
+                                limit_s=20.0):
                 break
             # Its last frames were lost (a full port on a starved host): let it run on,
             # so that a later sample shows the gap.
             core.stop_after(None)
             more = self.last_counter
-            self._read_until(lambda n=more: self.last_counter > n, quiet_s=2.0, limit_s=10.0)
+            self._read_until(partial(self._read_past, more), quiet_s=2.0, limit_s=10.0)
         else:
             self._emit(None, [LogEntry("error", self.elapsed_s(), detail=(
                 f"the simulator's last {core.ledger.generated - 1 - self.last_counter} "
                 f"samples never arrived")[:120])])
         core.pause()
+
+    def _read_through(self, end: int, modulus: int) -> bool:
+        """Whether the sample before index ``end`` arrived and the line went quiet after."""
+        return (self.last_counter % modulus == (end - 1) % modulus
+                and time.monotonic() - self._last_sample_at > 0.2)
+
+    def _read_past(self, counter: int) -> bool:
+        """Whether a sample after ``counter`` arrived."""
+        return self.last_counter > counter
 
     def _drain(self) -> None:
         empty = 0

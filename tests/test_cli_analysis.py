@@ -13,8 +13,8 @@ import pytest
 from analysis.noise import flicker_rate_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from station.cli import main
-from station.record_files import write_csv_record
-from station.reproduce import reproduce_lv2015
+from station.evaluation.reproduce import reproduce_lv2015
+from station.storage.csv_records import write_csv_record
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 

@@ -23,7 +23,8 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.documents import (
+from station.hdf5_writer import RunFileWriter
+from station.model.documents import (
     Descriptor,
     EventBatch,
     LogEntry,
@@ -32,7 +33,6 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5_writer import RunFileWriter
 from tests.damage_helpers import damaged_copies, sweep_here
 
 RATE_HZ = 500.0

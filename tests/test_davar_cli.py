@@ -13,7 +13,7 @@ from matplotlib import image
 
 from analysis.davar import dynamic_allan_variance
 from station.cli import main
-from station.record_files import write_csv_record
+from station.storage.csv_records import write_csv_record
 
 FS = 10.0
 N = 30_000  # 3000 s

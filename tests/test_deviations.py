@@ -162,7 +162,7 @@ def test_white_rate_intervals_hold_the_truth_at_the_nominal_rate(kind: str) -> N
 
 @pytest.fixture(scope="module")
 def small_record(tmp_path_factory):
-    from station.record_files import write_csv_record
+    from station.storage.csv_records import write_csv_record
 
     rate = 0.01 + white_rate_noise(0.02, 6000, 20.0, np.random.default_rng(5), n_axes=2)
     return write_csv_record(tmp_path_factory.mktemp("dev") / "run.csv", rate, 20.0, axis_names=["x", "y"])
@@ -211,7 +211,7 @@ def test_analyze_deviation_table_and_bad_name(small_record, capsys) -> None:
 
 def test_analyze_refuses_a_deviation_that_cannot_skip_gaps(tmp_path, capsys) -> None:
     from station.cli import main
-    from station.record_files import write_csv_record
+    from station.storage.csv_records import write_csv_record
 
     rate = white_rate_noise(0.02, 4000, 10.0, np.random.default_rng(2))
     index = np.concatenate([np.arange(2000), np.arange(2500, 4500)])  # a 50 s outage

@@ -22,9 +22,9 @@ from analysis.earth import (
 from analysis.units import S_PER_H
 from devices.errors import DeviceConfigurationError
 from devices.sim.params import parse_sim_params, sim_core
-from station.bench import Bench, load_bench
 from station.cli import main
 from station.errors import BenchError
+from station.model.bench import Bench, load_bench
 
 LATITUDE = 45.0
 #: Omega_E sin(45 deg), deg/h.

@@ -162,7 +162,7 @@ def test_eight_hours_with_outages_give_the_unbroken_curve_where_concatenation_do
 
 def test_analyze_reads_the_gaps_of_a_csv_time_column(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
     from station.cli import main
-    from station.record_files import write_csv_record
+    from station.storage.csv_records import write_csv_record
 
     n = 8 * 3600
     keep = np.ones(n, dtype=bool)

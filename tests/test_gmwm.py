@@ -25,7 +25,7 @@ from analysis.models import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandom
 from analysis.simulate import simulate
 from analysis.wavelet import haar_wavelet_variance
 from station.cli import main
-from station.record_files import write_csv_record
+from station.storage.csv_records import write_csv_record
 
 FS = 10.0
 TRUTH = {"wn_deg_rt_h": 1.0, "gm_sigma_deg_h": 20.0, "gm_tau_s": 30.0, "rw_deg_h_rt_h": 20.0}
@@ -164,7 +164,7 @@ def test_analyze_gmwm_table_and_bad_options(gm_record: Path, capsys):
 @pytest.mark.skipif(not (REAL_DATA / "mtig_cont_imu1_gyro_x_100hz.csv.gz").exists(),
                     reason="real records not available (../shared/real-data)")
 def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
-    from station.record_files import read_record
+    from station.storage.runs import read_record
 
     record = read_record(REAL_DATA / "mtig_cont_imu1_gyro_x_100hz.csv.gz", sample_rate_hz=100.0, units="rad/s")
     sel = gmwm_analysis(record.rate_deg_s[:, 0], 100.0)

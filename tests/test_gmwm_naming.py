@@ -26,8 +26,8 @@ from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
 from analysis.noise import flicker_rate_noise
 from analysis.reconcile import ReconcileOptions, reconcile
 from station.cli import main
-from station.reconcile_report import format_reconcile
-from station.record_files import write_csv_record
+from station.output.reconcile_report import format_reconcile
+from station.storage.csv_records import write_csv_record
 
 FS, N = 10.0, 36_000
 SIGMA_W = 0.5 * 60.0 * math.sqrt(FS) / 3600.0  # white noise per sample, deg/s

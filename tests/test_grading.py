@@ -13,7 +13,7 @@ from analysis.noise import flicker_rate_noise, random_walk_rate_noise, white_rat
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s, rrw_deg_h_1_5_to_deg_s_1_5
 from station.cli import main
 from station.errors import ProfileError
-from station.grading import (
+from station.evaluation.grading import (
     FigureResult,
     GradingError,
     assign_grade,
@@ -22,9 +22,9 @@ from station.grading import (
     match_axes,
     regrade,
 )
-from station.profiles import FigureSpec, load_profile, parse_profile
-from station.record_files import write_csv_record
-from station.runs import open_run
+from station.model.profiles import FigureSpec, load_profile, parse_profile
+from station.storage.csv_records import write_csv_record
+from station.storage.runs import open_run
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 ADIS_RECORD = REAL_DATA / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
@@ -289,7 +289,7 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
     """A run recorded with a line's own profile file is graded with that file; edited
     since, the grade says so; gone, the profile of that name in profiles/ is used and the
     difference said too."""
-    from station.profiles import PROFILE_DIR
+    from station.model.profiles import PROFILE_DIR
     from station.recorder import Recorder, RunConfig
 
     own = tmp_path / "line7" / "VG951.toml"
@@ -353,7 +353,7 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_re
     assert main(["results", "--db", str(db), "--review"]) == 0
     out = capsys.readouterr().out
     assert "REVIEW" in out and "1 gradings" in out and "not a flicker floor" in out
-    from station.results import ResultsDatabase
+    from station.output.results import ResultsDatabase
     with ResultsDatabase(db) as store:
         (row,) = store.gradings(review=True)
         assert row.needs_review and "bias instability" in row.review

@@ -16,7 +16,10 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.documents import (
+from station.hdf5 import read_run, read_run_record
+from station.hdf5_recover import lookup3
+from station.hdf5_writer import RunFileWriter
+from station.model.documents import (
     Descriptor,
     EventBatch,
     LogEntry,
@@ -25,10 +28,7 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5 import read_run, read_run_record
-from station.hdf5_recover import lookup3
-from station.hdf5_writer import RunFileWriter
-from station.record_files import read_record
+from station.storage.runs import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
     start_recorder,

@@ -27,13 +27,15 @@ from analysis.outliers import (
 )
 from analysis.simulate import simulate
 from analysis.units import S_PER_H
-from station.analyze import analyze_record
 from station.cli import main
-from station.grading import grade_run
-from station.profiles import load_profile
-from station.record_files import RateRecord, read_record, write_csv_record
-from station.report import write_report
-from station.runs import RunInfo, UnitRun
+from station.evaluation.analyze import analyze_record
+from station.evaluation.grading import grade_run
+from station.model.profiles import load_profile
+from station.model.records import RateRecord
+from station.model.runs import RunInfo, UnitRun
+from station.output.report import write_report
+from station.storage.csv_records import write_csv_record
+from station.storage.runs import read_record
 from tests.test_grading import profile_text, write_profile
 
 FS_HZ = 100.0

@@ -12,10 +12,16 @@ import pytest
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.errors import ProfileError, StationError
-from station.grading import grade_run
-from station.profiles import PROFILE_DIR, available_profiles, key_lines, load_profile, parse_profile
-from station.record_files import RateRecord
-from station.runs import RunInfo, UnitRun
+from station.evaluation.grading import grade_run
+from station.model.profiles import (
+    PROFILE_DIR,
+    available_profiles,
+    key_lines,
+    load_profile,
+    parse_profile,
+)
+from station.model.records import RateRecord
+from station.model.runs import RunInfo, UnitRun
 from tests.test_grading import profile_text
 
 SHIPPED = ("SRS2000", "VG951", "CRG20", "ADIS16405")

@@ -25,8 +25,8 @@ from analysis.units import (
     rrw_deg_h_1_5_to_deg_s_1_5,
 )
 from analysis.zones import fit_outside_zones
-from station.analyze import analyze_record
-from station.record_files import read_csv_record
+from station.evaluation.analyze import analyze_record
+from station.storage.csv_records import read_csv_record
 
 ADIS_RECORD = Path(__file__).resolve().parents[2] / "shared" / "real-data" / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
 

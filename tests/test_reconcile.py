@@ -46,7 +46,7 @@ from analysis.models import (
 )
 from analysis.reconcile import ReconcileResult, reconcile
 from analysis.simulate import simulate
-from station.record_files import read_csv_record
+from station.storage.csv_records import read_csv_record
 
 FS_HZ = 10.0
 DURATION_S = 3600.0

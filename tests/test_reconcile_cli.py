@@ -11,7 +11,7 @@ from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel, Sinuso
 from analysis.simulate import simulate
 from devices.model_files import save_noise_model
 from station import cli
-from station.record_files import write_csv_record
+from station.storage.csv_records import write_csv_record
 
 FS_HZ = 10.0
 BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base")

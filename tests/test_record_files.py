@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from station.errors import RecordFormatError
-from station.record_files import read_csv_record, read_record, write_csv_record
+from station.storage.csv_records import read_csv_record, write_csv_record
+from station.storage.runs import read_record
 
 
 def test_round_trip_gzip_with_time_column(tmp_path) -> None:

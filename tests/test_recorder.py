@@ -12,7 +12,7 @@ import pytest
 
 from station.cli import main
 from station.hdf5 import read_run
-from station.profiles import PROFILE_DIR
+from station.model.profiles import PROFILE_DIR
 from station.recorder import parse_duration
 from tests.test_recorder_helpers import (
     assert_summary_books,
@@ -162,7 +162,7 @@ def test_progress_line_shows_counts_and_allan_deviation_at_1_s_and_100_s() -> No
     import numpy as np
 
     from devices.protocols import DeviceDescription
-    from station.documents import Descriptor, EventBatch, LogEntry, RunStart, data_keys
+    from station.model.documents import Descriptor, EventBatch, LogEntry, RunStart, data_keys
     from station.progress import ProgressLine
 
     rate_hz, n = 50.0, 50 * 400

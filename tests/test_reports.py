@@ -11,12 +11,12 @@ import pytest
 from pypdf import PdfReader
 
 from station.cli import main
-from station.grading import RunGrade, grade_run
-from station.profiles import load_profile
-from station.record_files import read_record
-from station.report import FORMATS, write_report
-from station.report.json_report import SCHEMA, SCHEMA_VERSION
-from station.runs import RunEvent, RunInfo, UnitRun
+from station.evaluation.grading import RunGrade, grade_run
+from station.model.profiles import load_profile
+from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.output.report import FORMATS, write_report
+from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
+from station.storage.runs import read_record
 from tests.test_grading import make_record, profile_text, write_profile
 
 FIGURES = """

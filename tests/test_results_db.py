@@ -17,10 +17,10 @@ import pytest
 
 from station.cli import main
 from station.errors import ResultsDatabaseError
-from station.grading import RunGrade, grade_run
-from station.profiles import load_profile
-from station.results import MIGRATIONS, SCHEMA_VERSION, ResultsDatabase, export_csv
-from station.runs import open_run
+from station.evaluation.grading import RunGrade, grade_run
+from station.model.profiles import load_profile
+from station.output.results import MIGRATIONS, SCHEMA_VERSION, ResultsDatabase, export_csv
+from station.storage.runs import open_run
 from tests.test_grading import make_record, profile_text, write_profile
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -153,7 +153,7 @@ def test_report_files_are_recorded(setup, tmp_path: Path, capsys) -> None:
 WRITER = """
 import os, pickle, sys, time
 from dataclasses import replace
-from station.results import ResultsDatabase
+from station.output.results import ResultsDatabase
 graded = pickle.load(open(sys.argv[1], "rb"))
 graded = replace(graded, run=replace(graded.run, lot=sys.argv[5]))
 with ResultsDatabase(sys.argv[2]) as db:

@@ -14,9 +14,10 @@ from analysis.fog import fog_from_indicators
 from analysis.simulate import GyroSimulator
 from devices.model_files import load_noise_model
 from station import cli
-from station.commands import simulate as simulate_command
+from station.commands.arguments import duration_type
 from station.hdf5 import read_run, read_run_record
-from station.record_files import read_csv_record
+from station.services import simulate as simulate_service
+from station.storage.csv_records import read_csv_record
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -41,7 +42,7 @@ def test_long_runs_are_written_in_chunks_identical_to_one_piece(tmp_path, capsys
     args = ["simulate", "--model", "mems-typical", "--duration", "500s", "--rate", "20", "--seed", "4"]
     whole, pieces = tmp_path / "whole.csv", tmp_path / "pieces.csv.gz"
     assert _run(capsys, *args, "--out", str(whole))[0] == 0
-    monkeypatch.setattr(simulate_command, "CHUNK_SAMPLES", 3001)
+    monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
     rc, _, err = _run(capsys, *args, "--out", str(pieces))
     assert rc == 0
     assert "100.0 % (10000 of 10000 samples)" in err and "\r" in err
@@ -65,7 +66,7 @@ def test_simulate_from_two_indicators(tmp_path, capsys):
 
 def test_simulate_writes_a_run_file_in_the_recorders_layout(tmp_path, capsys, monkeypatch):
     out = tmp_path / "run.h5"
-    monkeypatch.setattr(simulate_command, "CHUNK_SAMPLES", 700)
+    monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 700)
     rc, _, err = _run(capsys, "simulate", "--model", "mems-typical", "--duration", "200s", "--rate", "10",
                       "--seed", "8", "--axes", "3", "--out", str(out))
     assert rc == 0, err
@@ -102,13 +103,13 @@ def test_simulate_errors_are_reported_not_raised(tmp_path, capsys, monkeypatch, 
 @pytest.mark.parametrize(("text", "seconds"), [("90", 90.0), ("90s", 90.0), ("2.5min", 150.0),
                                                ("4h", 14400.0), ("1d", 86400.0), ("1e3s", 1000.0)])
 def test_durations(text, seconds):
-    assert simulate_command.parse_duration(text) == seconds
+    assert duration_type(text) == seconds
 
 
 @pytest.mark.parametrize("text", ["", "h", "-1h", "0", "4 hours", "4x"])
 def test_bad_durations(text):
     with pytest.raises(argparse.ArgumentTypeError):
-        simulate_command.parse_duration(text)
+        duration_type(text)
 
 
 def test_model_curve_json_is_the_theoretical_allan_deviation(capsys):

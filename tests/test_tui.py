@@ -20,7 +20,8 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.documents import (
+from station.hdf5_writer import RunFileWriter
+from station.model.documents import (
     Descriptor,
     EventBatch,
     LogEntry,
@@ -29,7 +30,6 @@ from station.documents import (
     data_keys,
     utc_now,
 )
-from station.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
 from station.tui.launcher import (
@@ -100,7 +100,8 @@ def screen_text(app: StationApp) -> str:
 
 
 def notifications(app: StationApp) -> str:
-    return "\n".join(n.message for n in app._notifications)
+    """The notifications the operator sees now: the title and message of each toast shown."""
+    return "\n".join(toast.render().plain for toast in app.screen.query("Toast"))
 
 
 def cell_texts(table: DataTable) -> list[list[str]]:
@@ -166,7 +167,7 @@ def test_spec_sheet_of_a_stored_run_and_its_export(stored_run: Path, tmp_path: P
 
 async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
     app = StationApp(settings(tmp_path, stored_run.parent, check_units=False))
-    async with app.run_test(size=SIZE) as pilot:
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
         await pilot.press("f4")  # Runs: the folder's run files
         runs = app.screen
         assert isinstance(runs, RunsScreen)
@@ -223,7 +224,7 @@ def test_setup_screen_checks_each_unit_and_refuses_a_bad_one(tmp_path: Path) -> 
 
 async def _setup_checks(tmp_path: Path) -> None:
     app = StationApp(settings(tmp_path))
-    async with app.run_test(size=SIZE) as pilot:
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
         setup = app.screen
         assert isinstance(setup, SetupScreen)
         text = screen_text(app)
@@ -264,7 +265,7 @@ def test_an_unexpected_error_goes_to_a_log_not_the_screen(tmp_path: Path) -> Non
     app = _Buggy(settings(tmp_path))
 
     async def press_the_bug() -> None:
-        async with app.run_test(size=SIZE) as pilot:
+        async with app.run_test(size=SIZE, notifications=True) as pilot:
             await pilot.press("f9")
             await pilot.pause(0.1)
 
@@ -278,7 +279,7 @@ def test_an_unexpected_error_goes_to_a_log_not_the_screen(tmp_path: Path) -> Non
 def test_a_run_the_recorder_refuses_is_a_notification_with_the_fix(tmp_path: Path) -> None:
     async def start_a_bad_unit() -> None:
         app = StationApp(settings(tmp_path, check_units=False))
-        async with app.run_test(size=SIZE) as pilot:
+        async with app.run_test(size=SIZE, notifications=True) as pilot:
             app.screen.query_one("#url", Input).value = "sim+serial://NOPE?rate=10"
             await pilot.click("#url")
             await pilot.press("enter", "f5")

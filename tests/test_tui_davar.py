@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from matplotlib import colormaps
 
+from station.evaluation.davar_map import DavarGrid, davar_grid_of, davar_plan
+from station.evaluation.settings import DAVAR_WINDOWS
 from station.tui.app import StationApp
 from station.tui.heatmap import (
     CONSTANT_LEVEL,
@@ -19,7 +21,6 @@ from station.tui.heatmap import (
     tau_ticks,
     time_ticks,
 )
-from station.tui.spec_data import DAVAR_WINDOWS, DavarGrid, davar_grid_of, davar_plan
 from station.tui.spec_screen import SpecSheetScreen
 from tests.test_tui import SIZE, screen_text, settings, until, write_run
 

@@ -50,7 +50,7 @@ def test_start_reattach_progress_stop_spec_sheet_export(tmp_path: Path,
 
 async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess]) -> Path:
     app = StationApp(settings)
-    async with app.run_test(size=SIZE) as pilot:
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
         setup = app.screen
         assert isinstance(setup, SetupScreen)
         for url in URLS:
@@ -72,13 +72,13 @@ async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess])
         assert isinstance(live, LiveScreen)
         await until(pilot, lambda: live.snapshot is not None and live.snapshot.units
                     and all(u.samples for u in live.snapshot.units), 30, "samples")
-        assert "Run started" in "\n".join(n.title for n in app._notifications)
+        assert "Run started" in notifications(app)
         return live.path
 
 
 async def _reattach_stop_and_grade(settings: TuiSettings, path: Path) -> None:
     app = StationApp(TuiSettings(**{**settings.__dict__, "attach": True}))
-    async with app.run_test(size=SIZE) as pilot:
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
         await until(pilot, lambda: isinstance(app.screen, LiveScreen), 30, "the reattach")
         live = app.screen
         assert isinstance(live, LiveScreen) and live.path == path and live.process is None

@@ -5,104 +5,27 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
-from analysis.gmwm_models import GmwmModel
-from station.analyze import (
+from station.commands.arguments import (
+    add_bench_argument,
+    add_record_arguments,
+    print_notes,
+    record_source,
+)
+from station.evaluation.analyze import (
     DEFAULT_METHOD,
     GMWM_METHOD,
     OUTLIER_POLICIES,
-    analyze_record,
     format_analysis,
 )
-from station.bench import Bench, bench_from_json, load_bench
-from station.errors import ProfileError, UsageError
-from station.record_files import UNIT_TO_DEG_S, RateRecord, read_record
+from station.evaluation.settings import TAU_GRIDS
 
-
-def add_record_arguments(parser: argparse.ArgumentParser) -> None:
-    """The arguments every command that reads a rate record shares."""
-    parser.add_argument("file", help="rate record: CSV or CSV.gz (header row; optional time "
-                                     "column), or a run file (.h5) from station record")
-    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
-                        help="sample rate in Hz (required when the file has no time column)")
-    parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
-                        help="unit of the rate columns (default deg/s)")
-    parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
-    parser.add_argument("--unit", default=None,
-                        help="run files: the unit (unit1, unit2, ... or its serial number; "
-                             "default the first)")
-    parser.add_argument("--start-s", type=float, default=0.0, metavar="S",
-                        help="analyze from S seconds after the record start (default 0)")
-    parser.add_argument("--stop-s", type=float, default=None, metavar="S",
-                        help="analyze up to S seconds after the record start (default: end)")
-    parser.add_argument("--profile", default=None,
-                        help="product profile whose warm-up (warmup_s) is discarded; run "
-                             "files default to the profile they were recorded with")
-    parser.add_argument("--warmup-s", type=float, default=None, metavar="S",
-                        help="warm-up to discard from the start, s (overrides the profile)")
-
-
-@dataclass(frozen=True)
-class RecordSelection:
-    """Which part of a record was analyzed (times in s from the record start)."""
-
-    unit: str | None
-    axis: str | None
-    start_s: float
-    stop_s: float | None
-    warmup_s: float
-    warmup_from: str
-
-
-def _warmup(args: argparse.Namespace) -> tuple[float, str]:
-    """(warm-up to discard in s, where that figure comes from)."""
-    from station.profiles import load_profile  # profiles: only when a warm-up is needed
-
-    if args.warmup_s is not None:
-        return args.warmup_s, "--warmup-s"
-    ref = args.profile
-    if ref is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
-        from station.hdf5 import run_attributes
-
-        ref = run_attributes(args.file).get("profile") or None
-        if ref is not None:
-            try:
-                return load_profile(ref).warmup_s, f"profile {ref} (recorded in the run)"
-            except ProfileError as exc:
-                print(f"note: the run's profile {ref!r} cannot be loaded ({exc}); no warm-up "
-                      f"discarded", file=sys.stderr)
-                return 0.0, "none"
-    if ref is None:
-        return 0.0, "none"
-    return load_profile(ref).warmup_s, f"profile {ref}"
-
-
-def load_record(args: argparse.Namespace) -> tuple[RateRecord, RecordSelection]:
-    """The record the shared arguments select: file, unit, axis, time slice, warm-up cut.
-
-    The analyzed span starts at ``max(--start-s, warm-up)`` and ends at ``--stop-s``.
-
-    Raises
-    ------
-    UsageError
-        A negative or empty time slice.
-    """
-    record = read_record(args.file, sample_rate_hz=args.rate, units=args.units, unit=args.unit)
-    if args.axis is not None:
-        record = record.select(args.axis)
-    warmup_s, source = _warmup(args)
-    if args.start_s < 0 or warmup_s < 0 or (args.stop_s is not None and
-                                            args.stop_s <= max(args.start_s, warmup_s)):
-        raise UsageError(f"time slice {args.start_s}..{args.stop_s} s with {warmup_s} s of "
-                         f"warm-up is empty or negative")
-    start_s = max(args.start_s, warmup_s)
-    if start_s > 0 or args.stop_s is not None:
-        record = record.slice_time(start_s, args.stop_s)
-    return record, RecordSelection(args.unit, args.axis, start_s, args.stop_s, warmup_s, source)
+if TYPE_CHECKING:
+    from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -117,24 +40,26 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
                         "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
                         "Allan deviation. The fit and figures stay on the Allan variance")
-    p.add_argument("--taus", choices=("log", "octave", "all"), default="log",
+    p.add_argument("--taus", choices=TAU_GRIDS, default="log",
                    help="tau grid: log-spaced to the longest tau with two clusters (default), "
                         "octaves, or every m")
     p.add_argument("--method", choices=(*FIT_METHODS, GMWM_METHOD), default=DEFAULT_METHOD,
-                   help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized method of "
-                        f"wavelet moments beside the {DEFAULT_METHOD} Allan fit")
-    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR (logwls "
-                                                    "keeps those the data resolve)")
+                   help=f"fit method (default {DEFAULT_METHOD}); gmwm adds the generalized "
+                        f"method of wavelet moments beside the {DEFAULT_METHOD} Allan fit")
+    p.add_argument("--terms", default="QNBKR", help="noise terms to fit, a subset of QNBKR "
+                                                    "(logwls keeps those the data resolve)")
     p.add_argument("--no-select", dest="select", action="store_false", default=None,
                    help="logwls: fit every term of --terms, resolved or not")
     p.add_argument("--model", default="auto", metavar="MODEL",
-                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, rw, dr "
-                        "(e.g. 'wn+gm+rw', 'wn+qn+gm+gm+rw'), or auto (default): ranked by the WIC")
+                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, "
+                        "rw, dr (e.g. 'wn+gm+rw', 'wn+qn+gm+gm+rw'), or auto (default): ranked "
+                        "by the WIC")
     p.add_argument("--robust", action="store_true",
-                   help="--method gmwm: robust (Huber-type) wavelet variance, for records with outliers")
+                   help="--method gmwm: robust (Huber-type) wavelet variance, for records with "
+                        "outliers")
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance with "
-                        "the GMWM and the Allan fit's curves")
+                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance "
+                        "with the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     add_bench_argument(p)
@@ -142,57 +67,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def add_bench_argument(p: argparse.ArgumentParser) -> None:
-    """``--bench FILE``: latitude and axis directions, so the bias has the Earth rate removed."""
-    p.add_argument("--bench", default=None, metavar="FILE",
-                   help="bench file (latitude, axis directions; docs/bench.md): the bias is "
-                        "reported with the Earth rate removed (run files: default the run's bench)")
-
-
-def bench_for(bench_file: str | None, bench_json: str = "") -> Bench | None:
-    """The bench of ``--bench FILE``, else the one a run file recorded, else None."""
-    return load_bench(bench_file) if bench_file is not None else bench_from_json(bench_json)
-
-
 def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
-    if args.method != GMWM_METHOD and (args.model != "auto" or args.robust):
-        raise UsageError("--model and --robust go with --method gmwm")
-    if args.method == GMWM_METHOD and args.model.strip().lower() != "auto":
-        GmwmModel.parse(args.model)  # a bad model string fails before the record is read
-    record, selection = load_record(args)
-    recorded = ""
-    if args.bench is None and Path(args.file).suffix.lower() in (".h5", ".hdf5"):
-        from station.hdf5 import run_attributes
+    from station.services.analyze import AnalyzeRequest, analyze
 
-        recorded = run_attributes(args.file).get("bench", "")
-    if args.method == GMWM_METHOD:
-        print(f"GMWM ({args.model}) of {len(record.axis_names)} axis/axes of {record.n_samples} samples ...",
-              file=sys.stderr, flush=True)
-    estimator = args.estimator or ("clusters" if args.deviation == "adev" else "overlapping")
-    axes = analyze_record(record, estimator=estimator, taus=args.taus, method=args.method,
-                          terms=args.terms, outliers=args.outliers,
-                          bench=bench_for(args.bench, recorded), deviation_kind=args.deviation,
-                          select=args.select, gmwm_model=args.model, robust=args.robust)
-    if args.png is not None:
-        from station.plots import (  # matplotlib: only when a plot is asked for
-            plot_allan,
-            plot_wavelet,
-        )
+    def progress(step: Progress) -> None:
+        print(f"{step.text} ...", file=sys.stderr, flush=True)
 
-        (plot_wavelet if args.method == GMWM_METHOD else plot_allan)(axes, args.png, title=str(args.file))
+    result = analyze(AnalyzeRequest(record_source(args), estimator=args.estimator,
+                                    deviation=args.deviation, taus=args.taus, method=args.method,
+                                    terms=args.terms, select=args.select, gmwm_model=args.model,
+                                    robust=args.robust, outliers=args.outliers, bench=args.bench,
+                                    png=args.png), progress)
+    print_notes("analyze", result.notes)
     if args.json:
-        json.dump({"file": str(args.file), "axes": [a.as_json() for a in axes],
-                   "selection": asdict(selection)}, sys.stdout)
+        json.dump(result.as_json(), sys.stdout)
         sys.stdout.write("\n")
     else:
+        record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
-              f"{len(axes)} axis/axes")
+              f"{len(result.axes)} axis/axes")
         if selection.start_s > 0 or selection.stop_s is not None:
             print(f"analyzed {selection.start_s:g} s .. "
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
                   f"(warm-up {selection.warmup_s:g} s from {selection.warmup_from})")
-        print(format_analysis(axes))
-        if args.png is not None:
-            print(f"figure: {args.png}")
+        print(format_analysis(list(result.axes)))
+        if result.png is not None:
+            print(f"figure: {result.png}")
     return 0

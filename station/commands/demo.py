@@ -20,8 +20,9 @@ import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
-from station.analyze import AxisAnalysis, analyze_record, format_analysis
-from station.record_files import RateRecord, write_csv_record
+from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
+from station.model.records import RateRecord
+from station.storage.csv_records import write_csv_record
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
 DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}
@@ -43,7 +44,7 @@ def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) ->
 
 def demo_model() -> str:
     """The noise model the simulated units draw from: the VG951 model file, else the preset."""
-    from station.profiles import PROFILE_DIR
+    from station.model.profiles import PROFILE_DIR
 
     path = PROFILE_DIR / "models" / "VG951.toml"
     return str(path) if path.is_file() else "VG951"
@@ -114,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
                 temperature_c=record.temperature_c)
     print(f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
           f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h")
-    from station.plots import plot_allan  # matplotlib: imported only when a plot is made
+    from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
 
     png_path = plot_allan(plotted, args.out / "demo-allan.png",
                           title="station demo: two simulated VG951 gyros, axis x")

@@ -1,7 +1,7 @@
 """``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
 
 Prints a table per unit (or, with ``--json``, the document of
-:meth:`station.grading.RunGrade.as_json`) and stores each graded unit in the results
+:meth:`station.evaluation.grading.RunGrade.as_json`) and stores each graded unit in the results
 database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
 ``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
 """
@@ -11,17 +11,15 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from dataclasses import replace
-from pathlib import Path
+from typing import TYPE_CHECKING
 
-from station.commands.analyze import add_bench_argument, bench_for
-from station.errors import UsageError
-from station.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
-from station.profiles import load_profile
-from station.record_files import UNIT_TO_DEG_S
-from station.report.common import analysis_lines
-from station.results import ResultsDatabase, default_database_path
-from station.runs import RunInfo, open_run
+from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
+from station.output.report.common import analysis_lines
+from station.storage.csv_records import UNIT_TO_DEG_S
+
+if TYPE_CHECKING:
+    from station.evaluation.grading import RunGrade
+    from station.services.grade import GradeRequest
 
 
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:
@@ -38,40 +36,19 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
     add_bench_argument(p)
 
 
-def load_run(args: argparse.Namespace) -> RunInfo:
-    """The run the arguments name, with --serial/--lot/--operator applied."""
-    run = open_run(args.run, sample_rate_hz=args.rate, units=args.units)
-    if args.serial is not None:
-        if len(run.units) != 1:
-            raise UsageError(f"--serial applies to a run of one unit; {args.run} has {len(run.units)}")
-        run = replace(run, units=(replace(run.units[0], serial_number=args.serial),))
-    changes = {k: v for k, v in (("lot", args.lot), ("operator", args.operator)) if v is not None}
-    return replace(run, **changes) if changes else run
+def grade_request(args: argparse.Namespace) -> GradeRequest:
+    """The :class:`GradeRequest` the shared grading arguments name."""
+    from station.services.grade import GradeRequest, RunSource
 
-
-def grade_from_args(args: argparse.Namespace) -> RunGrade:
-    """Open the run, load the profile (given or the run's) and grade it."""
-    run = load_run(args)
-    ref = args.profile or run_profile_ref(run)
-    if not ref:
-        raise UsageError(f"{args.run} names no profile; pass --profile NAME")
-    profile = load_profile(ref)
-    if not args.profile:
-        note = profile_changed_note(run, profile)
-        if note:
-            print(f"station {args.command}: warning: {note}", file=sys.stderr)
-    return grade_run(run, profile, units=tuple(args.unit), bench=bench_for(args.bench))
-
-
-def database_path(args: argparse.Namespace) -> Path:
-    """The results database the arguments name."""
-    return args.db or default_database_path()
+    run = RunSource(args.run, rate_hz=args.rate, units=args.units, serial=args.serial,
+                    lot=args.lot, operator=args.operator)
+    return GradeRequest(run, profile=args.profile, units=tuple(args.unit), bench=args.bench,
+                        db=args.db, store=not args.no_store)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -83,17 +60,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Grade, store, print."""
-    graded = grade_from_args(args)
+    """Grade, print, store."""
+    from station.services.grade import grade, store_grading
+
+    request = grade_request(args)
+    result = grade(request)
+    print_warnings("grade", result.warnings)
     if args.json:
-        json.dump(graded.as_json(), sys.stdout, indent=1, allow_nan=False)
+        json.dump(result.graded.as_json(), sys.stdout, indent=1, allow_nan=False)
         sys.stdout.write("\n")
     else:
-        print(format_grade(graded))
+        print(format_grade(result.graded))
     sys.stdout.flush()  # the grades are shown even when the database cannot take them
-    if not args.no_store:
-        with ResultsDatabase(database_path(args)) as db:
-            db.store(graded)
+    if request.store:
+        store_grading(result.graded, request.database)
     return 0
 
 

@@ -16,14 +16,8 @@ import argparse
 import json
 from pathlib import Path
 
-import numpy as np
-
-from analysis.allan import resolve_m
-from analysis.fog import fog_from_indicators
-from analysis.simulate import n_samples_of
-from devices.model_files import load_noise_model, save_noise_model
-from station.commands.simulate import parse_duration
-from station.errors import UsageError
+from devices.model_files import load_noise_model
+from station.commands.arguments import duration_type
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="log, octave, all, or comma-separated taus in s (default log)")
     curve.add_argument("--rate", type=float, default=10.0, metavar="HZ",
                        help="sample rate of the record the grid is for (default 10)")
-    curve.add_argument("--duration", type=parse_duration, default=4 * 3600.0, metavar="DURATION",
+    curve.add_argument("--duration", type=duration_type, default=4 * 3600.0, metavar="DURATION",
                        help="record length the grid (and transient terms) are for (default 4h)")
     curve.add_argument("--json", action="store_true", help="print JSON instead of a table")
     curve.set_defaults(handler=run)
@@ -61,54 +55,32 @@ def register(sub: argparse._SubParsersAction) -> None:
     fog.set_defaults(handler=run)
 
 
-def curve_taus(grid: str, sample_rate_hz: float, duration_s: float) -> np.ndarray:
-    """Averaging times (s) of a named grid for a record, or of a comma-separated list.
-
-    Raises
-    ------
-    UsageError
-        If the list holds something that is not a number.
-    """
-    if grid in ("log", "octave", "all"):
-        n = n_samples_of(duration_s, sample_rate_hz)
-        return resolve_m(grid, n, sample_rate_hz) / sample_rate_hz
-    try:
-        taus = np.array([float(x) for x in grid.split(",") if x.strip()])
-    except ValueError as exc:
-        raise UsageError(f"--taus must be log, octave, all or numbers like 0.1,1,10; got {grid!r}") from exc
-    if taus.size == 0:
-        raise UsageError("--taus names no averaging time")
-    return taus
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the chosen ``model`` action."""
+    from station.services.noise_models import (
+        CurveRequest,
+        FogRequest,
+        fog_model,
+        model_curve,
+    )
+
     if args.action == "fog":
-        params = fog_from_indicators(args.arw, args.bias_stability, average_s=args.average_s,
-                                     correlation_s=args.correlation_s)
-        model = params.noise_model(args.name)
-        comment = (f"white noise + first-order Markov FOG (docs/fog-model.md): Markov sigma "
-                   f"{params.markov_sigma_deg_h:.6g} deg/h, T {params.correlation_s:g} s")
-        if args.out:
-            save_noise_model(model, args.out, comment=comment)
-        else:
-            print(f"# {comment}\n{model.to_toml()}", end="")
+        fog = fog_model(FogRequest(args.arw, args.bias_stability, args.average_s,
+                                   args.correlation_s, args.name, args.out))
+        if not args.out:
+            print(f"# {fog.comment}\n{fog.model.to_toml()}", end="")
         return 0
-    model = load_noise_model(args.model)
     if args.action == "show":
-        print(model.to_toml(), end="")
+        print(load_noise_model(args.model).to_toml(), end="")
         return 0
-    taus = curve_taus(args.taus, args.rate, args.duration)
-    adev = model.adev(taus, duration_s=args.duration)
-    terms = {name: np.sqrt(avar) for name, avar in model.term_avars(taus, duration_s=args.duration).items()}
+    curve = model_curve(CurveRequest(args.model, args.taus, args.rate, args.duration))
     if args.json:
-        print(json.dumps({"tau_s": taus.tolist(), "adev": adev.tolist(),
-                          "terms": {k: v.tolist() for k, v in terms.items()}}))
+        print(json.dumps(curve.as_json()))
         return 0
-    names = list(terms)
-    print(f"# theoretical Allan deviation of {model.name or args.model} in deg/s")
+    names = list(curve.terms)
+    print(f"# theoretical Allan deviation of {curve.model.name or args.model} in deg/s")
     print("  ".join(f"{h:>12}" for h in ["tau_s", "adev", *names]))
-    for i, tau in enumerate(taus):
-        row = [tau, adev[i], *(terms[n][i] for n in names)]
+    for i, tau in enumerate(curve.tau_s):
+        row = [tau, curve.adev[i], *(curve.terms[n][i] for n in names)]
         print("  ".join(f"{v:12.5g}" for v in row))
     return 0

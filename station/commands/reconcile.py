@@ -16,14 +16,13 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from analysis.discrepancy import ComparisonCache
-from analysis.reconcile import ReconcileOptions, ReconcileResult, reconcile
-from devices.model_files import load_noise_model
-from station.errors import UsageError
-from station.reconcile_report import format_reconcile, plot_reconcile
-from station.record_files import UNIT_TO_DEG_S, RateRecord
-from station.runs import open_run
+from analysis.reconcile import ReconcileOptions
+from station.storage.csv_records import UNIT_TO_DEG_S
+
+if TYPE_CHECKING:
+    from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -51,46 +50,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def _axes(args: argparse.Namespace) -> list[tuple[str, RateRecord]]:
-    run_info = open_run(args.measured, sample_rate_hz=args.rate, units=args.units)
-    several_units = len(run_info.units) > 1
-    out = []
-    for unit in run_info.units:
-        record = unit.record
-        names = [args.axis] if args.axis is not None else list(record.axis_names)
-        if args.axis is not None and args.axis not in record.axis_names:
-            if several_units:
-                continue
-            record.select(args.axis)  # raises with the list of axes
-        for name in names:
-            out.append((f"{unit.unit_id}/{name}" if several_units else name, record.select(name)))
-    if not out:
-        raise UsageError(f"no axis {args.axis!r} in {args.measured}")
-    return out
-
-
 def run(args: argparse.Namespace) -> int:
     """Reconcile each axis with the model; print the report or the JSON; draw the figure."""
-    if args.runs < 4:
-        raise UsageError(f"--runs must be at least 4, got {args.runs}")
-    model = load_noise_model(args.model)
-    options = ReconcileOptions(runs=args.runs, seed=args.seed, alpha=args.alpha, max_samples=args.max_samples)
-    cache = ComparisonCache()
-    results: list[tuple[str, ReconcileResult]] = []
-    for label, record in _axes(args):
-        print(f"reconcile: {label} ({record.n_samples} samples) ...", file=sys.stderr, flush=True)
-        res = reconcile(record.rate_deg_s[:, 0], record.sample_rate_hz, model,
-                        temperature_c=record.temperature_c, options=options, cache=cache)
-        results.append((label, res))
-    if args.png is not None:
-        plot_reconcile(results, args.png)
+    from station.output.reconcile_report import format_reconcile
+    from station.services.reconcile import ReconcileRequest, reconcile_run
+
+    def progress(step: Progress) -> None:
+        print(f"reconcile: {step.text} ...", file=sys.stderr, flush=True)
+
+    answer = reconcile_run(ReconcileRequest(
+        args.measured, args.model, rate_hz=args.rate, units=args.units, axis=args.axis,
+        runs=args.runs, seed=args.seed, alpha=args.alpha, max_samples=args.max_samples,
+        png=args.png), progress)
     if args.json:
-        axes = [{"axis": label, **res.as_json()} for label, res in results]
-        json.dump({"file": str(args.measured), **axes[0], "axes": axes}, sys.stdout)
+        json.dump(answer.as_json(), sys.stdout)
         sys.stdout.write("\n")
     else:
         print(f"{args.measured} against {args.model}")
-        print("\n\n".join(format_reconcile(res, label=label) for label, res in results))
-        if args.png is not None:
-            print(f"figure: {args.png}")
+        print("\n\n".join(format_reconcile(res, label=label) for label, res in answer.results))
+        if answer.png is not None:
+            print(f"figure: {answer.png}")
     return 0

@@ -30,8 +30,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
 
-from station.documents import RunStop
 from station.errors import UsageError
+from station.model.documents import RunStop
 from station.progress import ProgressLine
 from station.recorder import Recorder, RunConfig, parse_duration
 from station.unit_process import cpu_cores
@@ -87,7 +87,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
     """The run configuration the arguments name (the profile is loaded here)."""
     profile = None
     if args.profile is not None:
-        from station.profiles import load_profile
+        from station.model.profiles import load_profile
 
         profile = load_profile(args.profile)
     urls = list(args.unit)
@@ -104,7 +104,7 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
     reserve = None if args.reserve_mb is None else int(args.reserve_mb * 1e6)
     bench_json = ""
     if args.bench is not None:
-        from station.bench import load_bench
+        from station.model.bench import load_bench
 
         bench = load_bench(args.bench)
         urls, bench_json = [bench.sim_url(u) for u in urls], bench.as_json()

@@ -11,9 +11,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from station.commands.grade import add_grading_arguments, database_path, grade_from_args
-from station.report import FORMATS, write_report
-from station.results import ResultsDatabase
+from station.commands.arguments import print_warnings
+from station.commands.grade import add_grading_arguments, grade_request
+from station.output.report import FORMATS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,18 +30,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Grade, write each report, record the files, print their paths."""
-    graded = grade_from_args(args)
-    paths = [(fmt, write_report(graded, fmt, args.out)) for fmt in (args.formats or ["pdf"])]
-    if not args.no_store:
-        with ResultsDatabase(database_path(args)) as db:
-            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
-                   for u in graded.units]
-            if any(i is None for i in ids):
-                ids = db.store(graded)
-            for grading_id in ids:
-                for fmt, path in paths:
-                    assert grading_id is not None
-                    db.add_report(grading_id, fmt, path)
-    for _, path in paths:
+    from station.services.report import ReportRequest, report
+
+    result = report(ReportRequest(grade_request(args), tuple(args.formats or ["pdf"]), args.out))
+    print_warnings("report", result.warnings)
+    for _, path in result.files:
         print(path)
     return 0

@@ -6,8 +6,10 @@ import argparse
 import json
 import sys
 import time
+from typing import TYPE_CHECKING
 
-from station.reproduce import format_reproduction, reproduce_lv2015
+if TYPE_CHECKING:
+    from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,15 +26,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the study with a progress line on stderr, print the table."""
+    from station.evaluation.reproduce import format_reproduction
+    from station.services.reproduce import ReproduceRequest, reproduce
+
     start = time.monotonic()
 
-    def progress(done: int, total: int) -> None:
-        if sys.stderr.isatty() or done == total:
+    def progress(step: Progress) -> None:
+        if sys.stderr.isatty() or step.done == step.total:
             elapsed = time.monotonic() - start
-            print(f"\r{done}/{total} runs, {elapsed:.1f} s", end="" if done < total else "\n",
+            print(f"\r{step.text}, {elapsed:.1f} s", end="" if step.done < step.total else "\n",
                   file=sys.stderr, flush=True)
 
-    table = reproduce_lv2015(args.runs, args.seed, workers=args.workers, progress=progress)
+    table = reproduce(ReproduceRequest(args.paper, args.runs, args.seed, args.workers), progress)
     if args.json:
         json.dump(table, sys.stdout)
         sys.stdout.write("\n")

@@ -11,31 +11,27 @@
 from __future__ import annotations
 
 import argparse
-from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Literal, get_args
 
-from station.results import (
-    GradingRow,
-    LotYield,
-    ResultsDatabase,
-    TrendPoint,
-    default_database_path,
-    export_csv,
-)
+from station.commands.arguments import add_database_argument
+from station.model.kinds import Verdict
+
+if TYPE_CHECKING:
+    from station.output.results import GradingRow, LotYield, TrendPoint
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``results`` sub-command."""
     p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--model", default=None)
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
     p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
-    p.add_argument("--verdict", choices=("pass", "fail", "indeterminate"), default=None)
+    p.add_argument("--verdict", choices=get_args(Verdict), default=None)
     p.add_argument("--review", action="store_true",
                    help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
@@ -51,25 +47,28 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Open the database and print what was asked."""
-    db_path = args.db or default_database_path()
-    if not db_path.exists():
-        print(f"no results database at {db_path} yet (station grade stores into it)")
-        return 0
-    with ResultsDatabase(db_path) as db:
-        if args.show_yield:
-            print(format_yield(db.yield_by_lot(model=args.model)))
-            return 0
-        if args.trend:
-            points = db.trend(args.trend, model=args.model, axis=args.axis, lot=args.lot)
-            print(format_trend(args.trend, points))
-            if args.png is not None:
-                print(f"trend plot: {plot_trend(args.trend, points, args.png)}")
-            return 0
-        rows = db.gradings(model=args.model, lot=args.lot, since=args.since, until=args.until,
-                           verdict=args.verdict, serial=args.serial, latest=args.latest, review=args.review)
-    print(format_gradings(rows))
-    if args.csv is not None:
-        print(f"{len(rows)} gradings written to {export_csv(rows, args.csv)}")
+    from station.services.results import ResultsRequest, query_results
+
+    show: Literal["gradings", "yield", "trend"] = (
+        "yield" if args.show_yield else "trend" if args.trend else "gradings")
+    answer = query_results(ResultsRequest(
+        args.db, show, model=args.model, lot=args.lot, serial=args.serial, since=args.since,
+        until=args.until, verdict=args.verdict, review=args.review, latest=args.latest,
+        figure=args.trend, axis=args.axis, csv=args.csv))
+    if not answer.exists:
+        print(f"no results database at {answer.database} yet (station grade stores into it)")
+    elif show == "yield":
+        print(format_yield(list(answer.yields)))
+    elif show == "trend":
+        print(format_trend(args.trend, list(answer.trend)))
+        if args.png is not None:
+            from station.output.plots import plot_trend  # matplotlib: only for a plot
+
+            print(f"trend plot: {plot_trend(args.trend, list(answer.trend), args.png)}")
+    else:
+        print(format_gradings(list(answer.gradings)))
+        if answer.csv is not None:
+            print(f"{len(answer.gradings)} gradings written to {answer.csv}")
     return 0
 
 
@@ -108,46 +107,3 @@ def format_trend(figure: str, points: list[TrendPoint]) -> str:
              _num(p.limit), p.verdict or "info"] for p in points]
     header = ["test date (UTC)", "serial", "axis", f"{figure} [{unit}]", "interval", "limit", "verdict"]
     return _table(header, body) + f"\n{len(points)} points"
-
-
-def _date(text: str) -> datetime | None:
-    try:
-        return datetime.fromisoformat(text.replace("Z", "+00:00"))
-    except ValueError:
-        return None
-
-
-def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
-    """PNG of a figure over test dates: value with its interval, limit, verdict as colour."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from station.report.common import VERDICT_COLORS
-
-    dates = [_date(p.test_date) for p in points]
-    xs: list = dates if all(dates) else list(range(len(points)))
-    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
-    for x, p in zip(xs, points, strict=True):
-        if p.value is None:
-            continue
-        low = p.value - (p.ci_low if p.ci_low is not None else p.value)
-        high = (p.ci_high if p.ci_high is not None else p.value) - p.value
-        edge = {"pass": "#2e7d32", "fail": "#c62828", "indeterminate": "#b8860b"}.get(p.verdict or "", "0.3")
-        ax.errorbar([x], [p.value], yerr=[[low], [high]], fmt="o", ms=5, color=edge,
-                    mfc=VERDICT_COLORS.get(p.verdict, "white"), capsize=2)
-    limits = [(x, p.limit) for x, p in zip(xs, points, strict=True) if p.limit is not None]
-    if limits:
-        ax.step([x for x, _ in limits], [v for _, v in limits], "--", color="0.3", where="post", label="limit")
-        ax.legend()
-    unit = points[0].unit if points else ""
-    ax.set_ylabel(f"{figure} [{unit}]")
-    ax.set_xlabel("test date (UTC)" if xs is dates else "grading")
-    ax.set_title(f"{figure}: value and confidence interval per unit and axis ({len(points)} points)")
-    ax.grid(True, alpha=0.3)
-    fig.autofmt_xdate()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path

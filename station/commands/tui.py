@@ -11,6 +11,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.commands.arguments import add_database_argument
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``tui`` sub-command."""
@@ -20,9 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of the run files (default ./runs)")
     p.add_argument("--reports", type=Path, default=Path("reports"), metavar="DIR",
                    help="folder for exported reports (default ./reports)")
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or "
-                        "~/.local/share/gyro-station)")
+    add_database_argument(p)
     p.add_argument("--no-check", action="store_true",
                    help="do not check that each unit answers when it is added")
     p.add_argument("--poll", type=float, default=1.0, metavar="S",
@@ -32,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the TUI until the operator quits."""
-    from station.results import default_database_path
+    from station.output.results import default_database_path
     from station.tui.app import StationApp, TuiSettings
 
     settings = TuiSettings(runs_dir=args.runs, reports_dir=args.reports,

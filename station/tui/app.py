@@ -10,9 +10,12 @@ each screen's state flows down from reactive attributes that its workers set.
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import IO, cast
 
+from rich.console import Console
 from textual import on, work
 from textual.app import App, ComposeResult
 from textual.binding import Binding
@@ -99,6 +102,35 @@ def crash_log_path(runs_dir: Path) -> Path:
     return folder / "station-tui-crash.log"
 
 
+class CrashLog(io.TextIOBase):
+    """A text file opened on the first write: the app's error console writes an unexpected
+    error's traceback here instead of over the operator's terminal.
+
+    ``written`` says whether anything was written, ``failed`` whether the file could not
+    be (the disk, permissions).
+    """
+
+    def __init__(self, path: Path) -> None:
+        super().__init__()
+        self.path = path
+        self.written = False
+        self.failed = False
+
+    def writable(self) -> bool:
+        """A log is written to."""
+        return True
+
+    def write(self, text: str) -> int:
+        """Append ``text`` to the log (an OSError is remembered, not raised)."""
+        self.written = True
+        try:
+            with self.path.open("a", encoding="utf-8") as f:
+                f.write(text)
+        except OSError:
+            self.failed = True
+        return len(text)
+
+
 @dataclass
 class _Recorders:
     """Recorders this TUI started (they outlive it; kept to reap them and for tests)."""
@@ -123,28 +155,23 @@ class StationApp(App[None]):
         super().__init__()
         self.settings = settings or TuiSettings()
         self.recorders = _Recorders()
-        #: Set when the app ended on an unexpected error (what to tell the operator).
-        self.crash_message = ""
+        #: An unexpected error (a bug) ends the app with its traceback in this log, not on
+        #: the screen: Textual prints it on the app's error console. The recorder is
+        #: another process: a run in progress goes on.
+        self.crash_log = CrashLog(crash_log_path(self.settings.runs_dir))
+        self.error_console = Console(file=cast(IO[str], self.crash_log), markup=False, highlight=False,
+                                     color_system=None, width=120)
 
-    def _fatal_error(self) -> None:
-        """An unexpected error (a bug): the traceback goes to a log file, not the screen.
-
-        Overrides Textual's handler, which prints the traceback with its locals. The
-        recorder is another process: a run in progress goes on.
-        """
-        import traceback
-
-        log = crash_log_path(self.settings.runs_dir)
-        try:
-            with log.open("a", encoding="utf-8") as f:
-                f.write(traceback.format_exc())
-            where = f"the details are in {log}"
-        except OSError:
-            where = "no log could be written"
-        self.crash_message = (f"station tui stopped on an unexpected error (a bug: please "
-                              f"report it; {where}). A run in progress goes on recording: "
-                              f"reopen `station tui` to reattach.")
-        self._close_messages_no_wait()
+    @property
+    def crash_message(self) -> str:
+        """What to tell the operator when the app ended on an unexpected error ("" if not)."""
+        if not self.crash_log.written:
+            return ""
+        where = ("no log could be written" if self.crash_log.failed
+                 else f"the details are in {self.crash_log.path}")
+        return (f"station tui stopped on an unexpected error (a bug: please report it; "
+                f"{where}). A run in progress goes on recording: reopen `station tui` to "
+                f"reattach.")
 
     def compose(self) -> ComposeResult:
         """Nothing on the default screen: the set-up screen is pushed at once."""
@@ -166,9 +193,9 @@ class StationApp(App[None]):
                                   severity="warning")
             return
         if active:
-            self.call_from_thread(self._attach, active)
+            self.call_from_thread(self._reattach, active)
 
-    def _attach(self, active: list[Path]) -> None:
+    def _reattach(self, active: list[Path]) -> None:
         self.push_screen(LiveScreen(active[0], poll_s=self.settings.poll_s))
         more = f" ({len(active) - 1} more: F4)" if len(active) > 1 else ""
         self.notify(f"Reattached to the run in progress {active[0].name}{more}. Quitting the "
@@ -182,7 +209,7 @@ class StationApp(App[None]):
 
     def action_results(self) -> None:
         """The results database browser."""
-        from station.results import default_database_path
+        from station.output.results import default_database_path
 
         self.push_screen(ResultsScreen(self.settings.db_path or default_database_path()))
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,10 +15,11 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Static
 
+from station.model.kinds import VERDICTS, Verdict
 from station.tui.messages import explain
 
 if TYPE_CHECKING:
-    from station.results import GradingRow, LotYield
+    from station.output.results import GradingRow, LotYield
 from station.tui.widgets import VERDICT_STYLES, model_name
 
 
@@ -137,7 +138,7 @@ class RunsScreen(Screen[None]):
         self.post_message(RunChosen(path, recording=recording))
 
 
-_VERDICTS = [("pass", "pass"), ("fail", "fail"), ("indeterminate", "indeterminate")]
+_VERDICTS = [(v, v) for v in VERDICTS]
 
 
 class ResultsScreen(Screen[None]):
@@ -178,16 +179,16 @@ class ResultsScreen(Screen[None]):
         verdict = self.query_one("#verdict", Select).value
         self._query(self.query_one("#model", Input).value.strip() or None,
                     self.query_one("#lot", Input).value.strip() or None,
-                    verdict if isinstance(verdict, str) else None)
+                    verdict if verdict in VERDICTS else None)
 
     @work(thread=True, exclusive=True, exit_on_error=False)
-    def _query(self, model: str | None, lot: str | None, verdict: str | None) -> None:
-        from station.results import ResultsDatabase
+    def _query(self, model: str | None, lot: str | None, verdict: Verdict | None) -> None:
+        from station.services.results import ResultsRequest, query_results
 
         try:
-            with ResultsDatabase(self.db_path) as db:
-                rows = db.gradings(model=model, lot=lot, verdict=verdict)
-                yields = db.yield_by_lot(model=model)
+            request = ResultsRequest(self.db_path, model=model, lot=lot, verdict=verdict)
+            rows = list(query_results(request).gradings)
+            yields = list(query_results(replace(request, show="yield")).yields)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, "reading the results database"),
                                       severity="error", timeout=15)

@@ -26,7 +26,7 @@ from textual.events import Resize
 from textual.reactive import reactive
 from textual.widget import Widget
 
-from station.tui.spec_data import DavarGrid
+from station.evaluation.davar_map import DavarGrid
 from station.tui.widgets import number
 
 if TYPE_CHECKING:
@@ -337,8 +337,8 @@ def heat_map_text(grid: DavarGrid | None, width: int, height: int, *,
     if warmup_col is not None:
         axis[warmup_col] = "▲"
     out.append(f"\n{_TAU_UNIT:>{margin}}└", style="dim")
-    for char, run in groupby(axis):
-        out.append(char * len(list(run)), "bold" if char == "▲" else "dim")
+    for char, same in groupby(axis):
+        out.append(char * len(list(same)), "bold" if char == "▲" else "dim")
     out.append(f"\n{_TIME_UNIT:>{margin}} {''.join(labels)}", style="dim")
     out.append("\n")
     bar = _colour_bar(cells, width)

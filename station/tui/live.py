@@ -159,7 +159,7 @@ class RunPoller:
         if st is None:
             attrs = {k: (text_value(v) if isinstance(v, bytes | str | np.bytes_) else v)
                      for k, v in g.attrs.items()}
-            rate = float(attrs["sample_rate_hz"])  # type: ignore[arg-type]
+            rate = float(attrs["sample_rate_hz"])
             block = max(1, round(rate * BLOCK_S))
             st = _UnitState(averager=BlockAverager(block), tau0_s=block / rate, attrs=attrs)
             self._units[uid] = st
@@ -202,8 +202,8 @@ class RunPoller:
                                       / (c.last_time_s - st.last_time_s))
                 st.last_samples, st.last_time_s = c.samples_recorded, c.last_time_s
                 rows.append(self._status(uid, st, c))
-                means = np.asarray(st.averager.means if st.averager else [])
-                t = (np.arange(len(means)) + 0.5) * st.tau0_s
+                means = np.asarray(st.averager.means if st.averager else [], dtype=np.float64)
+                t = np.asarray((np.arange(len(means)) + 0.5) * st.tau0_s, dtype=np.float64)
                 rates.append(Series(uid, *decimate(t, means * DEG_S_TO_DEG_H)))
                 adevs.append(Series(uid, *live_adev(means, st.tau0_s)))
         if state["state"] == "stopped":

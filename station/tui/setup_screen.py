@@ -28,7 +28,7 @@ def anchored_model(url: str) -> str:
     """``url`` with a relative ``model=`` file that does not exist from here made absolute
     against the project folder (profiles name ``profiles/models/X.toml`` from there), so
     that the TUI works from any folder."""
-    from station.profiles import PROFILE_DIR
+    from station.model.profiles import PROFILE_DIR
 
     parts = urlsplit(url)
     query = dict(parse_qsl(parts.query, keep_blank_values=True))
@@ -105,7 +105,7 @@ class SetupScreen(Screen[None]):
         self.profile: ProfileChoice | None = None
 
     def compose(self) -> ComposeResult:
-        from station.profiles import available_profiles
+        from station.model.profiles import available_profiles
 
         yield Header()
         with Horizontal(classes="row"):
@@ -151,7 +151,7 @@ class SetupScreen(Screen[None]):
 
     @work(thread=True, exclusive=True, group="profile", exit_on_error=False)
     def _load_profile(self, name: str) -> None:
-        from station.profiles import load_profile
+        from station.model.profiles import load_profile
 
         try:
             p = load_profile(name)

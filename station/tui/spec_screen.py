@@ -23,7 +23,8 @@ from textual.widgets import (
 )
 from textual.worker import get_current_worker
 
-from station.grading import RunGrade, UnitGrade
+from station.evaluation.grading import RunGrade, UnitGrade
+from station.output.report import FORMATS, ReportFormat
 from station.tui.heatmap import DavarHeatMap
 from station.tui.messages import explain
 from station.tui.widgets import (
@@ -85,7 +86,7 @@ class SpecSheetScreen(Screen[None]):
         self._davar_key: tuple[UnitGrade, int] | None = None  # what the DAVAR tab is of
 
     def compose(self) -> ComposeResult:
-        from station.profiles import available_profiles
+        from station.model.profiles import available_profiles
 
         yield Header()
         with Horizontal(classes="row"):
@@ -117,47 +118,36 @@ class SpecSheetScreen(Screen[None]):
     # -- grading (worker) --------------------------------------------------------------
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, profile_ref: str | None) -> None:
-        from station.grading import grade_run, profile_changed_note
-        from station.profiles import load_profile
-        from station.runs import open_run
-        from station.tui.spec_data import guess_profile
+        from station.services.grade import (
+            GradeRequest,
+            NoProfileError,
+            RunSource,
+            grade,
+            store_grading,
+        )
 
+        request = GradeRequest(RunSource(self.path), profile=profile_ref,
+                               profile_from_model=True, db=self.db_path)
         try:
-            run = open_run(self.path)
-            ref = profile_ref or guess_profile(run)
-            if ref is None:
-                self.app.call_from_thread(
-                    self.notify, f"{self.path.name} names no profile and none matches its "
-                                 f"units' model: choose one in the profile list.",
-                    severity="warning", timeout=15)
-                self.app.call_from_thread(self._show_status, "choose a profile")
-                return
-            profile = load_profile(ref)
-            note = profile_changed_note(run, profile) if profile_ref is None else None
-            if note:
-                self.app.call_from_thread(self.notify, note, title="Profile changed",
-                                          severity="warning", timeout=20)
-            graded = grade_run(run, profile)
-            self._store(graded)
+            result = grade(request)
+            if self.db_path is not None:
+                store_grading(result.graded, self.db_path, again=False)
+        except NoProfileError:
+            self.app.call_from_thread(
+                self.notify, f"{self.path.name} names no profile and none matches its "
+                             f"units' model: choose one in the profile list.",
+                severity="warning", timeout=15)
+            self.app.call_from_thread(self._show_status, "choose a profile")
+            return
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, f"grading {self.path.name}"),
                                       severity="error", timeout=20)
             self.app.call_from_thread(self._show_status, "not graded")
             return
-        self.app.call_from_thread(setattr, self, "graded", graded)
-
-    def _store(self, graded: RunGrade) -> list[int]:
-        """Record the grading in the results database (once per run, unit and profile)."""
-        if self.db_path is None:
-            return []
-        from station.results import ResultsDatabase
-
-        with ResultsDatabase(self.db_path) as db:
-            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
-                   for u in graded.units]
-            if any(i is None for i in ids):
-                return db.store(graded)
-            return [i for i in ids if i is not None]
+        for note in result.warnings:
+            self.app.call_from_thread(self.notify, note, title="Profile changed",
+                                      severity="warning", timeout=20)
+        self.app.call_from_thread(setattr, self, "graded", result.graded)
 
     def _show_status(self, text: str) -> None:
         self.query_one("#grade", Static).update(text)
@@ -211,7 +201,7 @@ class SpecSheetScreen(Screen[None]):
 
     def show(self) -> None:
         """Fill the header line, figures table, plots and run tab for the unit and axis."""
-        from station.report.common import event_summary, figure_rows, header_fields
+        from station.output.report.common import event_summary, figure_rows, header_fields
         from station.tui.spec_data import allan_series
 
         graded = self.graded
@@ -258,12 +248,14 @@ class SpecSheetScreen(Screen[None]):
 
     @work(thread=True, exclusive=True, group="davar", exit_on_error=False)
     def _davar(self, unit: UnitGrade, axis_index: int) -> None:
+        from station.evaluation.davar_map import davar_grid
+        from station.evaluation.settings import settings_of
         from station.tui.heatmap import viridis
-        from station.tui.spec_data import davar_grid
 
         heat_map = self.query_one("#davar-map", DavarHeatMap)
         try:
-            grid = davar_grid(unit, axis_index)
+            profile = self.graded.profile if self.graded is not None else None
+            grid = davar_grid(unit, axis_index, settings=settings_of(profile))
             viridis()  # matplotlib loads here, not on the UI thread when the map is drawn
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, "computing the DAVAR"),
@@ -276,9 +268,11 @@ class SpecSheetScreen(Screen[None]):
     # -- exports -----------------------------------------------------------------------
     @on(Button.Pressed, "#exports Button")
     def _export_button(self, event: Button.Pressed) -> None:
-        self.action_export(str(event.button.id).removeprefix("export-"))
+        fmt = str(event.button.id).removeprefix("export-")
+        if fmt in FORMATS:
+            self.action_export(fmt)
 
-    def action_export(self, fmt: str) -> None:
+    def action_export(self, fmt: ReportFormat) -> None:
         """Write the report in ``fmt`` (pdf, html, json) to the reports folder."""
         if self.graded is None:
             self.notify("The run is not graded yet: wait for the grade, or choose a profile.",
@@ -288,17 +282,11 @@ class SpecSheetScreen(Screen[None]):
         self._export(self.graded, fmt)
 
     @work(thread=True, group="export", exit_on_error=False)
-    def _export(self, graded: RunGrade, fmt: str) -> None:
-        from station.report import write_report
-        from station.results import ResultsDatabase
+    def _export(self, graded: RunGrade, fmt: ReportFormat) -> None:
+        from station.services.report import write_reports
 
         try:
-            path = write_report(graded, fmt, self.reports_dir)
-            if self.db_path is not None:
-                ids = self._store(graded)
-                with ResultsDatabase(self.db_path) as db:
-                    for grading_id in ids:
-                        db.add_report(grading_id, fmt, path)
+            ((_, path),) = write_reports(graded, (fmt,), self.reports_dir, self.db_path)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, f"writing the {fmt} report"),
                                       severity="error", timeout=20)

@@ -12,8 +12,7 @@ from __future__ import annotations
 import struct
 
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 from devices.codecs.crc import crc8_sae_j1850, crc32_mpeg2
 from devices.codecs.kvh1750 import Kvh1750Codec, Kvh1750Frame

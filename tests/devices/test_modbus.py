@@ -14,8 +14,7 @@ import struct
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from devices.codecs.base import Reading
 from devices.codecs.modbus_map import (

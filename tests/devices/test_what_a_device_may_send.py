@@ -17,8 +17,7 @@ import socket
 import warnings
 
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from devices.batching import BatchBuilder
 from devices.codecs.base import Reading

@@ -1,7 +1,7 @@
 """End-of-line grading: every figure of a profile with its confidence interval, and the grade.
 
 For each unit and axis of a run, :func:`grade_run` discards the profile's warm-up, runs the
-Allan analysis (:func:`station.analyze.analyze_record`) and computes every figure the
+Allan analysis (:func:`station.evaluation.analyze.analyze_record`) and computes every figure the
 profile names with a two-sided interval at the profile's confidence level:
 
 ``bias``
@@ -21,7 +21,7 @@ An axis gets the best grade whose every limit it passes; the unit gets its worst
 An axis whose read-off and fit of a graded figure disagree by more than their combined
 intervals keeps its grade and is flagged for review with the reason
 (:func:`axis_review`): neither figure is silently believed.
-Grading reads only a :class:`~station.runs.RunInfo`, so a stored run is re-graded with any
+Grading reads only a :class:`~station.model.runs.RunInfo`, so a stored run is re-graded with any
 profile without the device.
 """
 
@@ -31,9 +31,7 @@ import math
 import re
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
-from importlib import metadata
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from scipy import stats
@@ -43,16 +41,21 @@ from analysis.figures import bias_stability, review_notes
 from analysis.fit import NoiseCoefficients
 from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
 from analysis.units import S_PER_H
-from station.analyze import AxisAnalysis, analyze_record
-from station.bench import Bench, bench_from_json
 from station.errors import RecordFormatError, StationError
-from station.profiles import DEFAULT_FIGURE_SOURCE, FigureSpec, Profile, bias_stability_average_s
-from station.record_files import RateRecord
-from station.runs import RunInfo, UnitRun
+from station.evaluation.analyze import AxisAnalysis, analyze_record
+from station.model.bench import Bench, bench_from_json
+from station.model.kinds import Verdict
+from station.model.profiles import (
+    DEFAULT_FIGURE_SOURCE,
+    FigureSpec,
+    Profile,
+    bias_stability_average_s,
+)
+from station.model.records import RateRecord
+from station.model.runs import RunInfo, UnitRun
+from station.model.version import software_version
 
-Verdict = Literal["pass", "fail", "indeterminate"]
-VERDICTS: tuple[str, ...] = ("pass", "fail", "indeterminate")
-INDETERMINATE = "indeterminate"
+INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
@@ -86,7 +89,7 @@ class FigureResult:
     value: float | None
     ci_low: float | None
     ci_high: float | None
-    verdicts: dict[str, str]
+    verdicts: dict[str, Verdict]
     note: str = ""
 
     @property
@@ -210,14 +213,6 @@ class RunGrade:
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
-
-
-def software_version() -> str:
-    """Version of the installed station package (``"unknown"`` when not installed)."""
-    try:
-        return metadata.version("gyro-station")
-    except metadata.PackageNotFoundError:
-        return "unknown"
 
 
 # --- decision ------------------------------------------------------------------------------
@@ -416,7 +411,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
     ``bench`` gives the latitude and axis directions whose Earth rate the bias is reported
-    without (:mod:`station.bench`).
+    without (:mod:`station.model.bench`).
 
     Raises
     ------
@@ -447,7 +442,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
-    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):  # type: ignore[arg-type]
+    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
         figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence,

@@ -22,7 +22,6 @@ import math
 import warnings
 import zlib
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO
 
@@ -30,124 +29,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
+from station.model.records import RateRecord, regular_or_none
 
 #: Factor from each accepted input unit to deg/s.
 UNIT_TO_DEG_S = {"deg/s": 1.0, "rad/s": 180.0 / math.pi, "deg/h": 1.0 / 3600.0}
 TIME_COLUMNS = ("time", "time_s", "t")
-
-
-@dataclass(frozen=True)
-class RateRecord:
-    """A static gyro record in memory.
-
-    Attributes
-    ----------
-    rate_deg_s : ndarray, shape (N, k)
-        Rate per axis in deg/s.
-    sample_rate_hz : float
-        Sample rate in Hz.
-    axis_names : tuple of str
-        One name per column of ``rate_deg_s``.
-    source : str
-        Where the record came from (a path), for reports.
-    temperature_c : ndarray or None
-        Temperature in degC per sample, when the record has one.
-    sample_index : ndarray of int or None
-        Where each sample sits on the record's time grid (sample ``i`` was taken
-        ``sample_index[i] / sample_rate_hz`` s after the first, so ``sample_index[0]``
-        is 0): samples missing in gaps are skipped indices. None for a record without
-        gaps (the indices are then ``0 .. N - 1``).
-    """
-
-    rate_deg_s: NDArray[np.float64]
-    sample_rate_hz: float
-    axis_names: tuple[str, ...]
-    source: str = ""
-    temperature_c: NDArray[np.float64] | None = field(default=None)
-    sample_index: NDArray[np.int64] | None = field(default=None)
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples per axis (those present; missing ones are not counted)."""
-        return int(self.rate_deg_s.shape[0])
-
-    @property
-    def span_samples(self) -> int:
-        """Length of the record on its time grid, missing samples included."""
-        return self.n_samples if self.sample_index is None else int(self.sample_index[-1]) + 1
-
-    @property
-    def duration_s(self) -> float:
-        """Length of the record in seconds of true time (gaps included)."""
-        return self.span_samples / self.sample_rate_hz
-
-    @property
-    def missing_samples(self) -> int:
-        """Samples missing in gaps inside the record."""
-        return self.span_samples - self.n_samples
-
-    def present_mask(self) -> NDArray[np.bool_]:
-        """True at each grid index that holds a sample (length :attr:`span_samples`)."""
-        mask = np.zeros(self.span_samples, dtype=bool)
-        mask[slice(None) if self.sample_index is None else self.sample_index] = True
-        return mask
-
-    def gridded(self, column: int) -> NDArray[np.float64]:
-        """One axis' rate (deg/s) on the time grid, NaN where a sample is missing."""
-        if self.sample_index is None:
-            return self.rate_deg_s[:, column]
-        out = np.full(self.span_samples, np.nan)
-        out[self.sample_index] = self.rate_deg_s[:, column]
-        return out
-
-    def select(self, axis: str | int) -> RateRecord:
-        """A record with only one axis, chosen by name or index."""
-        if isinstance(axis, str):
-            if axis not in self.axis_names:
-                raise RecordFormatError(
-                    f"no axis {axis!r} in {self.source or 'the record'}; axes: {', '.join(self.axis_names)}"
-                )
-            index = self.axis_names.index(axis)
-        else:
-            index = axis
-        return RateRecord(self.rate_deg_s[:, index : index + 1], self.sample_rate_hz,
-                          (self.axis_names[index],), self.source, self.temperature_c,
-                          self.sample_index)
-
-    def slice_time(self, start_s: float = 0.0, stop_s: float | None = None) -> RateRecord:
-        """The part of the record between ``start_s`` and ``stop_s`` (seconds of true time
-        from its start, gaps included); the slice starts at its first sample present."""
-        i0 = max(0, int(round(start_s * self.sample_rate_hz)))
-        i1 = self.span_samples if stop_s is None else int(round(stop_s * self.sample_rate_hz))
-        if self.sample_index is None:
-            k0, k1 = min(i0, self.n_samples), min(max(i1, i0), self.n_samples)
-        else:
-            k0, k1 = (int(k) for k in np.searchsorted(self.sample_index, [i0, max(i1, i0)]))
-        if k1 - k0 < 2:
-            raise RecordFormatError(
-                f"time slice {start_s}..{stop_s} s leaves fewer than 2 samples of a "
-                f"{self.duration_s:.1f} s record"
-            )
-        temp = None if self.temperature_c is None else self.temperature_c[k0:k1]
-        index = None if self.sample_index is None else regular_or_none(self.sample_index[k0:k1])
-        return RateRecord(self.rate_deg_s[k0:k1], self.sample_rate_hz, self.axis_names,
-                          self.source, temp, index)
-
-
-def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None:
-    """Grid indices made to start at 0, or None when they have no gap (a contiguous record).
-
-    Raises
-    ------
-    RecordFormatError
-        Indices that do not increase (two samples at one time, or out of order).
-    """
-    index = np.asarray(sample_index, dtype=np.int64)
-    if len(index) and np.any(np.diff(index) < 1):
-        row = int(np.argmax(np.diff(index) < 1)) + 1
-        raise RecordFormatError(f"sample {row} is not later than the one before it on the time grid")
-    index = index - index[0] if len(index) else index
-    return None if not len(index) or index[-1] == len(index) - 1 else index
 
 
 def _open_text(path: Path) -> IO[str]:
@@ -324,40 +210,3 @@ def write_csv_record(
         fh.write(",".join(header) + "\n")
         np.savetxt(fh, table, delimiter=",", fmt="%.17g")
     return path
-
-
-def read_record(
-    path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s",
-    unit: str | None = None,
-) -> RateRecord:
-    """Read a rate record from any supported file type: CSV (plain or gzip'd) or a run file.
-
-    Parameters
-    ----------
-    path : str or Path
-        ``.csv``, ``.csv.gz``, ``.txt``, or a recorder run file (``.h5``/``.hdf5``).
-    sample_rate_hz, units
-        For CSV records only (see :func:`read_csv_record`); a run file carries both.
-    unit : str, optional
-        For run files: the unit id (``unit2``) or serial number; default the first unit.
-
-    Raises
-    ------
-    RecordFormatError
-        Unknown file type, unreadable file, or no such unit.
-    """
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(2, "No such file", str(path))
-    if path.is_dir():
-        raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
-    if path.suffix.lower() in (".h5", ".hdf5"):
-        from station.hdf5 import read_run_record  # the recorder's layout (imports this module)
-
-        return read_run_record(path, unit)
-    if unit is not None:
-        raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
-    suffixes = "".join(path.suffixes[-2:]).lower()
-    if suffixes.endswith(".csv") or suffixes.endswith(".csv.gz") or path.suffix.lower() == ".txt":
-        return read_csv_record(path, sample_rate_hz=sample_rate_hz, units=units)
-    raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -11,10 +13,19 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from analysis.davar import DavarResult  # noqa: E402
 from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
 from analysis.units import S_PER_H  # noqa: E402
-from station.analyze import AxisAnalysis  # noqa: E402
+from analysis.warmup import WarmupVerdict  # noqa: E402
+from station.evaluation.analyze import AxisAnalysis  # noqa: E402
+from station.model.records import RateRecord  # noqa: E402
+from station.output.report.common import VERDICT_COLORS  # noqa: E402
+from station.output.results import TrendPoint  # noqa: E402
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.collections import QuadMesh
 
 TERM_LABELS = {"Q": "quantization", "N": "angle random walk", "B": "bias instability",
                "K": "rate random walk", "R": "rate ramp"}
@@ -85,9 +96,91 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     return path
 
 
+def _edges(centres: np.ndarray, *, log: bool) -> np.ndarray:
+    """Cell edges around sorted centres (geometric midpoints when ``log``)."""
+    c = np.log(centres) if log else np.asarray(centres, dtype=float)
+    if len(c) == 1:
+        edges = np.array([c[0] - 0.5, c[0] + 0.5])
+    else:
+        mid = (c[1:] + c[:-1]) / 2
+        edges = np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
+    return np.exp(edges) if log else edges
+
+
+def heat_map(ax: Axes, t: np.ndarray, tau_s: np.ndarray, values: np.ndarray) -> QuadMesh:
+    """A DAVAR heat map: ``values`` (shape (len(t), len(tau_s))) over time ``t`` (x, in the
+    caller's unit) and tau (y, s, log scale), viridis; an image in a PDF, not thousands of
+    paths."""
+    mesh = ax.pcolormesh(_edges(t, log=False), _edges(tau_s, log=True), values.T,
+                         shading="flat", cmap="viridis", rasterized=True)
+    ax.set_yscale("log")
+    return mesh
+
+
+def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict],
+               record: RateRecord) -> Path:
+    """PNG heat map per axis: time on x, log tau on y, log10 ADEV (deg/s) as colour."""
+    n_axes = len(record.axis_names)
+    fig, axs = plt.subplots(n_axes, 1, figsize=(9, 2.8 * n_axes + 0.6), squeeze=False,
+                            sharex=True, constrained_layout=True)
+    for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
+        ax = axs[i, 0]
+        log_adev = np.log10(np.maximum(result.axis(i).adev, np.finfo(float).tiny))
+        mesh = heat_map(ax, result.t_s, result.tau_s, log_adev)
+        ax.set_ylabel("tau (s)")
+        ax.set_title(f"{Path(record.source).name or 'record'}: {name}, window {result.window_s:g} s")
+        if verdict.warmup_end_s:
+            ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
+                       label=f"warm-up end {verdict.warmup_end_s:g} s")
+            ax.legend(loc="upper right", fontsize=8)
+        fig.colorbar(mesh, ax=ax, label="log10 ADEV (deg/s)")
+    axs[-1, 0].set_xlabel("window centre time since start (s)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _date(text: str) -> datetime | None:
+    try:
+        return datetime.fromisoformat(text.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+
+
+def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
+    """PNG of a figure over test dates: value with its interval, limit, verdict as colour."""
+    dates = [_date(p.test_date) for p in points]
+    xs: list = dates if all(dates) else list(range(len(points)))
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    for x, p in zip(xs, points, strict=True):
+        if p.value is None:
+            continue
+        low = p.value - (p.ci_low if p.ci_low is not None else p.value)
+        high = (p.ci_high if p.ci_high is not None else p.value) - p.value
+        edge = {"pass": "#2e7d32", "fail": "#c62828", "indeterminate": "#b8860b"}.get(p.verdict or "", "0.3")
+        ax.errorbar([x], [p.value], yerr=[[low], [high]], fmt="o", ms=5, color=edge,
+                    mfc=VERDICT_COLORS.get(p.verdict, "white"), capsize=2)
+    limits = [(x, p.limit) for x, p in zip(xs, points, strict=True) if p.limit is not None]
+    if limits:
+        ax.step([x for x, _ in limits], [v for _, v in limits], "--", color="0.3", where="post", label="limit")
+        ax.legend()
+    unit = points[0].unit if points else ""
+    ax.set_ylabel(f"{figure} [{unit}]")
+    ax.set_xlabel("test date (UTC)" if xs is dates else "grading")
+    ax.set_title(f"{figure}: value and confidence interval per unit and axis ({len(points)} points)")
+    ax.grid(True, alpha=0.3)
+    fig.autofmt_xdate()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "") -> Path:
-    """Haar wavelet variance ((deg/h)^2) of each axis with its interval, the GMWM model (solid,
-    its terms dotted) and the Allan fit's curve as a wavelet variance (dashed, AVAR / 2)."""
+    """Haar wavelet variance ((deg/h)^2) of each axis with its interval, the GMWM model
+    (solid, its terms dotted) and the Allan fit's curve as a wavelet variance (dashed,
+    AVAR / 2)."""
     path = Path(path)
     n = len(axes)
     fig, panels = plt.subplots(n, 1, figsize=(8, 4.6 * n), dpi=110, squeeze=False)
@@ -103,7 +196,8 @@ def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str =
         dense = np.geomspace(tau[0], tau[-1], 200)
         ax.loglog(dense, fit.model_wv_at(dense) * k2, "-", color="tab:blue", lw=1.8,
                   label=f"GMWM {fit.model.name} (J = {fit.objective:.3g}, {fit.dof} dof)")
-        for label, curve in zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True):
+        terms = zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True)
+        for label, curve in terms:
             if np.any(curve > 0):
                 ax.loglog(dense, curve * k2, ":", color="tab:blue", lw=1)
                 j = int(np.argmax(curve))

@@ -1,16 +1,15 @@
 """A recorded run as the analysis, grading and report code see it: units, records, metadata.
 
-:func:`open_run` reads any run file the station knows (a recorder HDF5 file, or a plain
-CSV record, which becomes a run of one unit with no metadata) into a :class:`RunInfo`.
-Grading, reports and the TUI use only this, never the file layout.
+:func:`station.storage.runs.open_run` reads any run file the station knows (a recorder
+HDF5 file, or a plain CSV record, which becomes a run of one unit with no metadata) into a
+:class:`RunInfo`. Grading, reports and the TUI use only this, never the file layout.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 
-from station.record_files import RateRecord, read_record
+from station.model.records import RateRecord
 
 
 @dataclass(frozen=True)
@@ -76,7 +75,7 @@ class RunInfo:
     stop_utc: str = ""
     stop_reason: str = ""
     interrupted: bool = False
-    #: The test bench (latitude, axis directions) as JSON (:mod:`station.bench`); "" if none.
+    #: The test bench (latitude, axis directions) as JSON (:mod:`station.model.bench`); "" if none.
     bench: str = ""
 
     def unit(self, unit_id: str) -> UnitRun:
@@ -86,19 +85,3 @@ class RunInfo:
                 return u
         ids = ", ".join(u.unit_id for u in self.units)
         raise KeyError(f"no unit {unit_id!r} in {self.path}; units: {ids}")
-
-
-def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s") -> RunInfo:
-    """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
-
-    ``sample_rate_hz`` and ``units`` apply to CSV records only (see
-    :func:`station.record_files.read_csv_record`).
-    """
-    path = Path(path)
-    if path.suffix.lower() in (".h5", ".hdf5"):
-        from station.hdf5 import read_run  # the recorder's layout
-
-        return read_run(path)
-    record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
-    unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
-    return RunInfo(path=str(path), units=(unit,))

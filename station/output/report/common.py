@@ -1,7 +1,7 @@
 """What every spec-sheet format shows, computed once: header, figure rows, event summary.
 
-The format writers (:mod:`~station.report.pdf`, :mod:`~station.report.html`,
-:mod:`~station.report.json_report`, :mod:`~station.report.csv_report`) lay these out; none of
+The format writers (:mod:`~station.output.report.pdf`, :mod:`~station.output.report.html`,
+:mod:`~station.output.report.json_report`, :mod:`~station.output.report.csv_report`) lay these out; none of
 them computes a figure.
 """
 
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from analysis.units import S_PER_H
-from station.grading import AxisGrade, RunGrade, UnitGrade
-from station.runs import UnitRun
+from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.runs import UnitRun
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
 VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
@@ -168,3 +168,46 @@ def report_stem(graded: RunGrade) -> str:
     """File stem of a run's report: ``<run file stem>_<profile name>``, filesystem-safe."""
     stem = Path(graded.run.path).name.split(".")[0]
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{stem}_{graded.profile.name}")
+
+
+@dataclass(frozen=True)
+class AxisLine:
+    """One axis' grade under the figures table (``could_reach``: the better grade it was
+    indeterminate at, "" if none)."""
+
+    axis: str
+    grade: str
+    could_reach: str
+
+
+@dataclass(frozen=True)
+class UnitSheet:
+    """Everything one unit's spec sheet shows, for each format to lay out (PDF, HTML)."""
+
+    unit_id: str
+    model: str
+    serial: str
+    grade: str
+    rejected: bool
+    header: list[tuple[str, str]]
+    rows: list[FigureRow]
+    axes: list[AxisLine]
+    events: EventSummary
+    analysis: list[str]
+    notes: tuple[str, ...]
+
+    @property
+    def title(self) -> str:
+        """``Gyro spec sheet: <model> s/n <serial>``."""
+        return f"Gyro spec sheet: {self.model} s/n {self.serial}"
+
+
+def unit_sheet(graded: RunGrade, unit: UnitGrade) -> UnitSheet:
+    """What the spec sheet of ``unit`` shows (the serial number falls back to the unit id)."""
+    u = unit.unit
+    return UnitSheet(
+        u.unit_id, u.model or graded.profile.model, u.serial_number or u.unit_id, unit.grade,
+        unit.grade == graded.profile.reject, header_fields(graded, unit),
+        [r for axis in unit.axes for r in figure_rows(axis)],
+        [AxisLine(a.axis, a.grade, a.could_reach or "") for a in unit.axes],
+        event_summary(u, graded), analysis_lines(unit), unit.notes)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from scipy import signal
@@ -239,7 +239,8 @@ def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2, progres
                 entry[term] = _stats(gyro.true[term], arr[:, 0, i], arr[:, 1, i])
             pub = gyro.published.get(m)
             entry["paper"] = None if pub is None else {
-                t: None if pub[t] is None else dict(zip(("mean", "error_percent", "std"), pub[t], strict=True))
+                t: None if (cell := pub[t]) is None
+                else dict(zip(("mean", "error_percent", "std"), cell, strict=True))
                 for t in TERMS
             }
             methods.append(entry)
@@ -248,7 +249,7 @@ def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2, progres
             "duration_s": setup.duration_s, "terms": TERMS, "setup": asdict(setup), "gyros": table}
 
 
-def format_reproduction(table: dict[str, object]) -> str:
+def format_reproduction(table: dict[str, Any]) -> str:
     """The paper's table layout, ours beside the published values, as plain text."""
     units = {"Q": "Q [urad]", "N": "N [deg/sqrt(h)]", "B": "B [deg/h]"}
     setup = table.get("setup", {})
@@ -260,7 +261,7 @@ def format_reproduction(table: dict[str, object]) -> str:
              "std: over the runs; [se: the fit's own standard error averaged over the runs, and the "
              "share of runs whose estimate +- se holds the true value, 68 % when honest]"]
 
-    for gyro in table["gyros"]:  # type: ignore[union-attr]
+    for gyro in table["gyros"]:
         lines.append("")
         true = gyro["true"]
         lines.append(f"{gyro['name']} (paper {gyro['table']}): true " +

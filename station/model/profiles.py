@@ -37,25 +37,25 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
-from analysis.fit import FIT_METHODS
+from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
 from station.errors import ProfileError
 
 DecisionRule = Literal["strict", "guard-banded", "simple"]
-DECISION_RULES: tuple[str, ...] = ("strict", "guard-banded", "simple")
+DECISION_RULES: tuple[DecisionRule, ...] = get_args(DecisionRule)
 DEFAULT_CONFIDENCE = 0.95
-DEFAULT_FIT_METHOD = "logwls"
+DEFAULT_FIT_METHOD: FitMethod = "logwls"
 FigureSource = Literal["read-off", "fit"]
-FIGURE_SOURCES: tuple[str, ...] = ("read-off", "fit")
+FIGURE_SOURCES: tuple[FigureSource, ...] = get_args(FigureSource)
 #: Where ``arw`` and ``bias_instability`` come from unless a profile says otherwise: the
 #: IEEE 952 read-offs data sheets quote (the fit is graded with ``arw_fit`` etc.).
-DEFAULT_FIGURE_SOURCE = "read-off"
+DEFAULT_FIGURE_SOURCE: FigureSource = "read-off"
 #: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
 DUAL_FIGURES = ("arw", "bias_instability")
 #: Where profile names are looked up: ``<repo>/profiles``.
-PROFILE_DIR = Path(__file__).resolve().parents[1] / "profiles"
+PROFILE_DIR = Path(__file__).resolve().parents[2] / "profiles"
 
 _RAD_IN_DEG = 180.0 / math.pi
 #: Units accepted per dimension: size of one such unit in the dimension's canonical unit
@@ -84,7 +84,7 @@ class FigureKind:
         return next(iter(UNITS[self.dimension]))
 
 
-#: The figures grading can compute (see :mod:`station.grading` for how and their intervals).
+#: The figures grading can compute (see :mod:`station.evaluation.grading` for how and their intervals).
 FIGURE_KINDS: dict[str, FigureKind] = {
     "bias": FigureKind("rate", "|bias|"),
     "arw": FigureKind("arw", "ARW"),
@@ -177,7 +177,7 @@ class Profile:
     grades : tuple of str
         Grade names, best first; an axis that makes none gets ``reject``.
     rule : str
-        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see :mod:`station.grading`).
+        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see :mod:`station.evaluation.grading`).
     confidence : float
         Two-sided confidence level of every figure's interval (0 < c < 1).
     fit_method : str
@@ -205,8 +205,8 @@ class Profile:
     confidence: float
     figures: tuple[FigureSpec, ...]
     settings: dict[str, Any] = field(default_factory=dict)
-    fit_method: str = DEFAULT_FIT_METHOD
-    figure_source: FigureSource = DEFAULT_FIGURE_SOURCE  # type: ignore[assignment]
+    fit_method: FitMethod = DEFAULT_FIT_METHOD
+    figure_source: FigureSource = DEFAULT_FIGURE_SOURCE
     reject: str = "reject"
     description: str = ""
     source: str = ""
@@ -397,11 +397,11 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         transport=dict(transport),
         settings=dict(settings),
         grades=grades,
-        rule=rule,  # type: ignore[arg-type]
+        rule=rule,
         confidence=confidence,
         figures=_parse_figures(c, data, grades, source),
         fit_method=fit_method,
-        figure_source=source,  # type: ignore[arg-type]
+        figure_source=source,
         reject=reject,
         description=str(data.get("description", "")),
         source=str(data.get("source", "")),

@@ -10,17 +10,22 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import cast
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.colors import ListedColormap  # noqa: E402
 
 from analysis.confidence import ONE_SIGMA, chi2_interval  # noqa: E402
 from analysis.discrepancy import Comparison  # noqa: E402
 from analysis.reconcile import Effect, ReconcileResult, term_avar  # noqa: E402
 from analysis.units import S_PER_H  # noqa: E402
+
+#: Colours of the effects' curves.
+DARK2 = cast(ListedColormap, matplotlib.colormaps["Dark2"])
 
 
 def _fmt(value: float) -> str:
@@ -115,9 +120,10 @@ def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | P
                             alpha=0.15, lw=0)
             ax.loglog(tau, np.sqrt(comp.model_avar) * k, "-", color=color, lw=1.6,
                       label=f"{name}, G = {comp.gap:.3g} (95 % simulated band)")
-        for (name, avar, style), color in zip(_effect_curves(res), plt.cm.Dark2.colors, strict=False):
+        for i, (name, avar, style) in enumerate(_effect_curves(res)[:DARK2.N]):
             if np.any(avar > 0):
-                ax.loglog(tau, np.sqrt(np.maximum(avar, 1e-300)) * k, style, color=color, lw=1.4, label=name)
+                ax.loglog(tau, np.sqrt(np.maximum(avar, 1e-300)) * k, style, color=DARK2(i), lw=1.4,
+                          label=name)
         floor = float(np.min(np.sqrt(low))) * k / 5
         ceiling = float(np.max(np.sqrt(np.maximum(high, res.before.band.high)))) * k * 2
         ax.set_ylim(floor, ceiling)

@@ -1,6 +1,6 @@
 """The spec sheet as JSON for a factory MES; the schema is docs/report-json-schema.md.
 
-The document is :meth:`station.grading.RunGrade.as_json` (schema ``gyro-station/spec-sheet``)
+The document is :meth:`station.evaluation.grading.RunGrade.as_json` (schema ``gyro-station/spec-sheet``)
 with, per unit, the header, the event summary, and per axis the Allan curve and the fit.
 """
 
@@ -10,8 +10,8 @@ import json
 from pathlib import Path
 
 from analysis.units import S_PER_H
-from station.grading import RunGrade
-from station.report.common import event_summary, header_fields
+from station.evaluation.grading import RunGrade
+from station.output.report.common import event_summary, header_fields
 
 SCHEMA = "gyro-station/spec-sheet"
 SCHEMA_VERSION = 1

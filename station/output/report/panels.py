@@ -3,14 +3,14 @@
 * :func:`draw_allan`: Allan deviation (deg/h) per axis with its confidence band, the fitted
   noise terms as their slope lines, and the profile's ARW and bias-instability limits;
 * :func:`draw_davar`: the dynamic Allan deviation heat map of one axis
-  (:func:`analysis.davar.dynamic_allan_variance`), warm-up discarded marked;
+  (:func:`station.evaluation.davar_map.davar_grid`, the grid the TUI draws too), warm-up
+  discarded marked;
 * :func:`unit_png`: both for one unit as PNG bytes (HTML embeds them).
 """
 
 from __future__ import annotations
 
 import io
-import math
 from collections.abc import Sequence
 
 import matplotlib
@@ -24,11 +24,13 @@ from matplotlib.figure import Figure  # noqa: E402
 from analysis.errors import AnalysisError  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
 from analysis.units import S_PER_H  # noqa: E402
-from station.grading import AxisGrade, UnitGrade  # noqa: E402
+from station.evaluation.davar_map import davar_grid  # noqa: E402
+from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
+from station.evaluation.limits import limit_lines  # noqa: E402
+from station.evaluation.settings import AnalysisSettings  # noqa: E402
+from station.output.plots import heat_map  # noqa: E402
 
 TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
-#: Number of DAVAR windows across a record (window = duration / this, step = window / 4).
-DAVAR_WINDOWS = 8
 
 
 def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> None:
@@ -72,67 +74,44 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
 
 def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
     """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum limit."""
-    tau = axis.analysis.allan.tau_s
-    for f in axis.figures:
-        limit = f.spec.limits.get(axis.deciding_grade)
-        if limit is None:
-            continue
-        canonical = limit * f.spec.unit_factor
-        if f.name in ("arw", "arw_fit"):  # deg/sqrt(h) -> deg/h at tau: N / sqrt(tau) * 60
-            ax.loglog(tau, canonical * math.sqrt(S_PER_H) / np.sqrt(tau), "--", color="0.3", lw=0.9,
-                      label=f"{f.spec.label} limit ({axis.deciding_grade})")
-        elif f.name in ("bias_instability", "bias_instability_fit", "adev_min"):
-            level = canonical * (0.664 if f.name != "adev_min" else 1.0)
-            ax.axhline(level, ls="-.", color="0.3", lw=0.9,
-                       label=f"{f.spec.label} limit ({axis.deciding_grade})")
+    for line in limit_lines(axis):
+        label = f"{line.label} limit ({line.grade})"
+        if line.shape == "slope":
+            ax.loglog(line.tau_s, line.adev_deg_h, "--", color="0.3", lw=0.9, label=label)
+        else:
+            ax.axhline(float(line.adev_deg_h[0]), ls="-.", color="0.3", lw=0.9, label=label)
 
 
-def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 8) -> bool:
+def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 8,
+               settings: AnalysisSettings | None = None) -> bool:
     """Heat map of log10 dynamic Allan deviation (deg/h) of one axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
     marked. Returns False (and writes why into the panel) when the record is too short.
     """
-    from analysis.davar import dynamic_allan_variance
-
-    record = unit.unit.record
     axis = unit.axes[axis_index]
-    column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
-    window_s = record.duration_s / DAVAR_WINDOWS
     try:
-        result = dynamic_allan_variance(record.rate_deg_s[:, column], record.sample_rate_hz,
-                                        window_s=window_s, step_s=window_s / 4)
+        grid = davar_grid(unit, axis_index, settings=settings)
     except AnalysisError as exc:
         placeholder(ax, f"DAVAR not available: {exc}", fontsize=fontsize)
         return False
-    hours = record.duration_s > 3 * 3600
+    if grid is None:
+        placeholder(ax, "DAVAR not available: the record is too short", fontsize=fontsize)
+        return False
+    hours = unit.unit.record.duration_s > 3 * 3600
     scale, unit_name = (3600.0, "h") if hours else (60.0, "min")
-    t_edges = _edges(result.t_s / scale, log=False)
-    tau_edges = _edges(result.tau_s, log=True)
-    log_adev = np.log10(np.maximum(result.adev * S_PER_H, np.finfo(float).tiny))
-    mesh = ax.pcolormesh(t_edges, tau_edges, log_adev.T, shading="flat", cmap="viridis",
-                         rasterized=True)  # an image in the PDF, not thousands of paths
-    ax.set_yscale("log")
-    if unit.warmup_discarded_s:
-        ax.axvline(unit.warmup_discarded_s / scale, color="w", ls="--", lw=1)
-    ax.set_title(f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {window_s:.0f} s", fontsize=fontsize)
+    log_adev = np.log10(np.maximum(grid.adev_deg_h, np.finfo(float).tiny))
+    mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
+    if grid.warmup_s:
+        ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
+    ax.set_title(f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s",
+                 fontsize=fontsize)
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
     ax.set_ylabel("tau [s]", fontsize=fontsize)
     ax.tick_params(labelsize=fontsize - 1)
     bar = ax.figure.colorbar(mesh, ax=ax, pad=0.02)
     bar.ax.tick_params(labelsize=fontsize - 1)
     return True
-
-
-def _edges(centres: np.ndarray, *, log: bool) -> np.ndarray:
-    """Cell edges around sorted centres (geometric midpoints when ``log``)."""
-    c = np.log(centres) if log else np.asarray(centres, dtype=float)
-    if len(c) == 1:
-        edges = np.array([c[0] - 0.5, c[0] + 0.5])
-    else:
-        mid = (c[1:] + c[:-1]) / 2
-        edges = np.concatenate([[2 * c[0] - mid[0]], mid, [2 * c[-1] - mid[-1]]])
-    return np.exp(edges) if log else edges
 
 
 def placeholder(ax: Axes, text: str, *, fontsize: float = 8) -> None:

@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, get_args
 
 if TYPE_CHECKING:
-    from station.grading import RunGrade
+    from station.evaluation.grading import RunGrade
 
-FORMATS: tuple[str, ...] = ("pdf", "html", "json", "csv")
+ReportFormat = Literal["pdf", "html", "json", "csv"]
+FORMATS: tuple[ReportFormat, ...] = get_args(ReportFormat)
 
 
 def writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
@@ -26,19 +27,19 @@ def writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
         For an unknown format.
     """
     if fmt == "pdf":
-        from station.report.pdf import write_pdf
+        from station.output.report.pdf import write_pdf
 
         return write_pdf
     if fmt == "html":
-        from station.report.html import write_html
+        from station.output.report.html import write_html
 
         return write_html
     if fmt == "json":
-        from station.report.json_report import write_json
+        from station.output.report.json_report import write_json
 
         return write_json
     if fmt == "csv":
-        from station.report.csv_report import write_csv
+        from station.output.report.csv_report import write_csv
 
         return write_csv
     raise ValueError(f"unknown report format {fmt!r}; use one of {', '.join(FORMATS)}")
@@ -52,7 +53,7 @@ def write_report(graded: RunGrade, fmt: str, out_dir: str | Path) -> Path:
     ValueError
         For an unknown format.
     """
-    from station.report.common import report_stem
+    from station.output.report.common import report_stem
 
     write = writer(fmt)
     out = Path(out_dir)

@@ -16,8 +16,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from station.grading import RunGrade
-from station.report.common import figure_rows
+from station.evaluation.grading import RunGrade
+from station.output.report.common import figure_rows
 
 FIXED = ["run", "unit_id", "model", "serial_number", "lot", "test_date", "profile", "rule", "confidence",
          "unit_grade", "axis", "axis_grade", "deciding_grade"]

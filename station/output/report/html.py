@@ -13,17 +13,9 @@ import re
 from html import escape
 from pathlib import Path
 
-from station.grading import RunGrade, UnitGrade
-from station.report.common import (
-    VERDICT_COLORS,
-    analysis_lines,
-    event_summary,
-    figure_rows,
-    fmt,
-    fmt_interval,
-    header_fields,
-)
-from station.report.panels import allan_png, davar_png
+from station.evaluation.grading import RunGrade, UnitGrade
+from station.output.report.common import VERDICT_COLORS, fmt, fmt_interval, unit_sheet
+from station.output.report.panels import allan_png, davar_png
 
 CSS = """
 body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
@@ -47,41 +39,42 @@ def _img(png: bytes, alt: str) -> str:
 
 def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     """The HTML ``<section>`` of one unit."""
-    u = unit.unit
-    grade_class = "reject" if unit.grade == graded.profile.reject else re.sub(r"\W+", "-", unit.grade)
-    parts = [f'<section class="unit" id="unit-{escape(u.unit_id)}" data-grade="{escape(unit.grade)}">',
-             f"<h1>Gyro spec sheet: {escape(u.model or graded.profile.model)} s/n "
-             f"{escape(u.serial_number or u.unit_id)} "
-             f'<span class="grade {escape(grade_class)}">GRADE {escape(unit.grade.upper())}</span></h1>',
-             '<table class="header">']
-    parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in header_fields(graded, unit)]
+    sheet = unit_sheet(graded, unit)
+    grade_class = "reject" if sheet.rejected else re.sub(r"\W+", "-", sheet.grade)
+    parts = [f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
+             f'data-grade="{escape(sheet.grade)}">',
+             f"<h1>{escape(sheet.title)} "
+             f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
+             f"</span></h1>", '<table class="header">']
+    parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in sheet.header]
     parts.append("</table><h2>Figures</h2>")
     parts.append('<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
-                 "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th><th>note</th></tr>")
-    for axis in unit.axes:
-        for r in figure_rows(axis):
-            verdict = r.verdict or "info"
-            parts.append(
-                f'<tr class="{verdict}" data-axis="{escape(r.axis)}" data-figure="{escape(r.name)}" '
-                f'data-value="{"" if r.value is None else repr(r.value)}" data-verdict="{verdict}">'
-                f"<td>{escape(r.axis)}</td><td>{escape(r.label)}</td><td>{escape(r.unit)}</td>"
-                f'<td class="num">{fmt(r.value)}</td><td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
-                f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
-                f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
+                 "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
+                 "<th>note</th></tr>")
+    for r in sheet.rows:
+        verdict = r.verdict or "info"
+        parts.append(
+            f'<tr class="{verdict}" data-axis="{escape(r.axis)}" data-figure="{escape(r.name)}" '
+            f'data-value="{"" if r.value is None else repr(r.value)}" data-verdict="{verdict}">'
+            f"<td>{escape(r.axis)}</td><td>{escape(r.label)}</td><td>{escape(r.unit)}</td>"
+            f'<td class="num">{fmt(r.value)}</td>'
+            f'<td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
+            f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
+            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
     parts.append("</table><p>")
     parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
               + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
-              for a in unit.axes]
+              for a in sheet.axes]
     parts.append("</p><h2>Allan deviation</h2>")
     parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms and limits"))
     parts.append("<h2>Dynamic Allan deviation</h2>")
     parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
     parts.append('<h2>Events</h2><ul class="events">')
-    parts += [f"<li>{escape(line)}</li>" for line in event_summary(u, graded).lines() + list(unit.notes)]
+    parts += [f"<li>{escape(line)}</li>" for line in sheet.events.lines() + list(sheet.notes)]
     parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
-    parts += [f"<li>{escape(line)}</li>" for line in analysis_lines(unit)]
-    parts += [f"<li>{escape(a.axis)}: {escape(n)}</li>" for a in unit.axes for n in a.analysis.figures.notes
-              if n.startswith("spikes:")]
+    parts += [f"<li>{escape(line)}</li>" for line in sheet.analysis]
+    parts += [f"<li>{escape(a.axis)}: {escape(n)}</li>" for a in unit.axes
+              for n in a.analysis.figures.notes if n.startswith("spikes:")]
     parts.append("</ul></section>")
     return "\n".join(parts)
 

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 from station.errors import ResultsDatabaseError
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
-    from station.grading import RunGrade, UnitGrade
+    from station.evaluation.grading import RunGrade, UnitGrade
 
 #: Environment variable naming the database file.
 DB_ENV = "STATION_RESULTS_DB"
@@ -92,6 +92,12 @@ MIGRATIONS: tuple[str, ...] = (
 SCHEMA_VERSION = len(MIGRATIONS)
 
 
+def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]]:
+    """SQL ``column = ?`` clauses and their parameters, for the filters whose value is given."""
+    given = [(column, value) for column, value in filters if value is not None]
+    return [f"{column} = ?" for column, _ in given], [value for _, value in given]
+
+
 def default_database_path() -> Path:
     """``$STATION_RESULTS_DB``, else ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
     if os.environ.get(DB_ENV):
@@ -106,7 +112,7 @@ def _now() -> str:
 
 def verdict_of(grade: str, reject: str) -> str:
     """pass / fail / indeterminate of a unit grade."""
-    if grade == "indeterminate":  # station.grading.INDETERMINATE
+    if grade == "indeterminate":  # station.evaluation.grading.INDETERMINATE
         return grade
     return "fail" if grade == reject else "pass"
 
@@ -311,12 +317,8 @@ class ResultsDatabase:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
         only the gradings flagged for review."""
-        clauses, params = [], []
-        for column, value in (("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
-                              ("u.serial_number", serial)):
-            if value is not None:
-                clauses.append(f"{column} = ?")
-                params.append(value)
+        clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
+                                    ("u.serial_number", serial))
         if since:
             clauses.append("g.test_date >= ?")
             params.append(since)
@@ -366,11 +368,8 @@ class ResultsDatabase:
     def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
               lot: str | None = None) -> list[TrendPoint]:
         """A figure over test dates, one point per grading and axis, oldest first."""
-        clauses, params = ["f.name = ?"], [figure]
-        for column, value in (("u.model", model), ("f.axis", axis), ("g.lot", lot)):
-            if value is not None:
-                clauses.append(f"{column} = ?")
-                params.append(value)
+        clauses, params = _equal_to(("f.name", figure), ("u.model", model), ("f.axis", axis),
+                                    ("g.lot", lot))
         rows = self._con.execute(
             "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, f.verdict,"
             " f.limit_value"

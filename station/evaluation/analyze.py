@@ -28,13 +28,15 @@ from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replac
 from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
 from analysis.zones import TauZone, fit_outside_zones
-from station.bench import Bench, earth_rate_note
 from station.errors import UsageError
-from station.record_files import RateRecord
+from station.model.bench import Bench, earth_rate_note
+from station.model.records import RateRecord
 
 DEFAULT_METHOD: FitMethod = "logwls"
 #: ``--method gmwm``: the GMWM beside the default Allan fit (whose read-offs and terms stay).
-GMWM_METHOD = "gmwm"
+GMWM_METHOD: Literal["gmwm"] = "gmwm"
+#: What ``method`` may name: an Allan fit method, or the GMWM beside the default one.
+AnalysisMethod = FitMethod | Literal["gmwm"]
 #: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`
 #: says they are few (default), always keep them, or remove whatever is flagged.
 OutlierPolicy = Literal["auto", "keep", "remove"]
@@ -219,7 +221,7 @@ def analyze_record(
     *,
     estimator: Estimator = "overlapping",
     taus: str | np.ndarray = "log",
-    method: FitMethod | str = DEFAULT_METHOD,
+    method: AnalysisMethod = DEFAULT_METHOD,
     terms: str = "QNBKR",
     outliers: OutlierPolicy = "auto",
     bench: Bench | None = None,
@@ -256,7 +258,7 @@ def analyze_record(
     """
     fs = record.sample_rate_hz
     use_gmwm = method == GMWM_METHOD
-    allan_method: FitMethod = DEFAULT_METHOD if use_gmwm else method  # type: ignore[assignment]
+    allan_method: FitMethod = DEFAULT_METHOD if method == GMWM_METHOD else method
     gapped = record.sample_index is not None
     asked = taus
     if isinstance(taus, str) and taus == "log" and not gapped:
@@ -289,8 +291,10 @@ def analyze_record(
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
-        fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms, select=select)
-        analysed = grid_rate if earth[i] is None else grid_rate - earth[i] / S_PER_H
+        fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,
+                                       select=select)
+        earth_deg_h = earth[i]
+        analysed = grid_rate if earth_deg_h is None else grid_rate - earth_deg_h / S_PER_H
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:
@@ -303,7 +307,8 @@ def analyze_record(
         curve = None
         if deviation_kind is not None and deviation_kind != own:
             curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
-        gm = gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped) if use_gmwm else None
+        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped)
+              if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
                                 analysed, alternative, label, tones, zones, curve, gm))
     return out
@@ -379,17 +384,21 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
 
 
 def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int) -> list[str]:
-    """The GMWM lines of the table: model, each parameter +- its standard error, fit test, runner-up."""
+    """The GMWM lines of the table: model, each parameter +- its standard error, fit test,
+    runner-up."""
     fits = [a.gmwm for a in axes]
     keys = list(dict.fromkeys(k for g in fits if g is not None for k in g.best.values))
-    rows: list[tuple[str, list[str]]] = [("GMWM model", [g.best.model.name if g else "-" for g in fits])]
+    rows: list[tuple[str, list[str]]] = [
+        ("GMWM model", [g.best.model.name if g else "-" for g in fits])]
     for key in keys:
-        rows.append((f"GMWM {key}", [_fmt(g.best.values[key], g.best.stderr[key]) if g and key in g.best.values
-                                     else "-" for g in fits]))
-    rows.append(("GMWM fit J / dof (p)", [f"{g.best.objective:.3g} / {g.best.dof} ({g.best.p_value:.2g})" if g
-                                         else "-" for g in fits]))
-    rows.append(("GMWM runner-up (+WIC)", [f"{g.runner_up.model} (+{g.runner_up.criterion - g.ranking[0].criterion:.3g})"
-                                           if g and g.runner_up else "-" for g in fits]))
+        rows.append((f"GMWM {key}", [_fmt(g.best.values[key], g.best.stderr[key])
+                                     if g and key in g.best.values else "-" for g in fits]))
+    rows.append(("GMWM fit J / dof (p)",
+                 [f"{g.best.objective:.3g} / {g.best.dof} ({g.best.p_value:.2g})" if g else "-"
+                  for g in fits]))
+    rows.append(("GMWM runner-up (+WIC)",
+                 [f"{g.runner_up.model} (+{g.runner_up.criterion - g.ranking[0].criterion:.3g})"
+                  if g and g.runner_up else "-" for g in fits]))
     width = max(width, *(len(label) for label, _ in rows))
     return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
 

@@ -1,0 +1,87 @@
+"""Arguments several commands share, and how a command shows a workflow's notes."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from station.errors import UsageError
+from station.model.durations import parse_duration
+from station.storage.csv_records import UNIT_TO_DEG_S
+
+if TYPE_CHECKING:
+    from station.services.records import RecordSource
+
+
+def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    """The arguments every command that reads a rate record shares."""
+    parser.add_argument("file", help="rate record: CSV or CSV.gz (header row; optional time "
+                                     "column), or a run file (.h5) from station record")
+    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
+                        help="sample rate in Hz (required when the file has no time column)")
+    parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
+                        help="unit of the rate columns (default deg/s)")
+    parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
+    parser.add_argument("--unit", default=None,
+                        help="run files: the unit (unit1, unit2, ... or its serial number; "
+                             "default the first)")
+    parser.add_argument("--start-s", type=float, default=0.0, metavar="S",
+                        help="analyze from S seconds after the record start (default 0)")
+    parser.add_argument("--stop-s", type=float, default=None, metavar="S",
+                        help="analyze up to S seconds after the record start (default: end)")
+    parser.add_argument("--profile", default=None,
+                        help="product profile whose warm-up (warmup_s) is discarded; run "
+                             "files default to the profile they were recorded with")
+    parser.add_argument("--warmup-s", type=float, default=None, metavar="S",
+                        help="warm-up to discard from the start, s (overrides the profile)")
+
+
+def record_source(args: argparse.Namespace) -> RecordSource:
+    """The :class:`RecordSource` the shared record arguments name."""
+    from station.services.records import RecordSource
+
+    return RecordSource(args.file, rate_hz=args.rate, units=args.units, axis=args.axis,
+                        unit=args.unit, start_s=args.start_s, stop_s=args.stop_s,
+                        profile=args.profile, warmup_s=args.warmup_s)
+
+
+def print_notes(command: str, notes: tuple[str, ...]) -> None:
+    """A workflow's notes for the operator, on stderr (``station COMMAND: note: ...``)."""
+    for note in notes:
+        print(f"station {command}: note: {note}", file=sys.stderr)
+
+
+def add_bench_argument(p: argparse.ArgumentParser) -> None:
+    """``--bench FILE``: latitude and axis directions, so the bias has the Earth rate removed."""
+    p.add_argument("--bench", default=None, metavar="FILE",
+                   help="bench file (latitude, axis directions; docs/bench.md): the bias is "
+                        "reported with the Earth rate removed (run files: default the run's bench)")
+
+
+def add_database_argument(p: argparse.ArgumentParser) -> None:
+    """``--db FILE``: the results database."""
+    p.add_argument("--db", type=Path, default=None, metavar="FILE",
+                   help="results database (default: $STATION_RESULTS_DB or "
+                        "~/.local/share/gyro-station)")
+
+
+def duration_type(text: str) -> float:
+    """A duration in s for argparse (:func:`station.model.durations.parse_duration`).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is not a positive duration.
+    """
+    try:
+        return parse_duration(text)
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def print_warnings(command: str, warnings: tuple[str, ...]) -> None:
+    """A workflow's warnings, on stderr (``station COMMAND: warning: ...``)."""
+    for text in warnings:
+        print(f"station {command}: warning: {text}", file=sys.stderr)

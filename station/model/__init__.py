@@ -1,0 +1,1 @@
+"""Plain data of the station: rate records, runs, run documents, profiles, benches."""

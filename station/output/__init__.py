@@ -1,0 +1,1 @@
+"""What the station hands out: spec sheets, plots, reconcile reports, the results database."""

@@ -1,0 +1,1 @@
+"""Recording runs: the recorder engine, its units' readers, the live progress line."""

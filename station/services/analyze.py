@@ -1,0 +1,132 @@
+"""``analyze``: Allan deviation, five-term fit and spec figures of every axis of a record."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from analysis.allan import Estimator
+from analysis.deviations import DeviationKind
+from analysis.gmwm_models import GmwmModel
+from station.errors import UsageError
+from station.evaluation.analyze import (
+    DEFAULT_METHOD,
+    GMWM_METHOD,
+    AnalysisMethod,
+    AxisAnalysis,
+    OutlierPolicy,
+    analyze_record,
+)
+from station.evaluation.settings import TauGrid
+from station.model.records import RateRecord
+from station.services.progress import Progress, ProgressSink, ignore_progress
+from station.services.records import RecordSelection, RecordSource, bench_of, load_record
+
+
+@dataclass(frozen=True)
+class AnalyzeRequest:
+    """What to analyse and how.
+
+    Attributes
+    ----------
+    source : RecordSource
+        The record and the part of it.
+    estimator : {"overlapping", "clusters"} or None
+        Allan variance of the fit and figures (None: overlapping, or clusters when the
+        deviation shown is ``adev``).
+    deviation : str or None
+        The deviation shown and listed (:data:`analysis.deviations.DEVIATION_KINDS`;
+        None: the estimator's Allan deviation).
+    taus : {"log", "octave", "all"}
+        Tau grid.
+    method : str
+        Fit method (:data:`analysis.fit.FIT_METHODS`), or ``"gmwm"``: the GMWM beside the
+        default Allan fit.
+    terms : str
+        Noise terms to fit, a subset of ``QNBKR``.
+    select : bool or None
+        logwls: keep only the terms the data resolve (None: the fit's default, on).
+    gmwm_model : str
+        ``method="gmwm"``: the model (terms joined by ``+``) or ``"auto"`` (WIC ranking).
+    robust : bool
+        ``method="gmwm"``: the robust wavelet variance.
+    outliers : {"auto", "keep", "remove"}
+        What to do with isolated spikes.
+    bench : str, Path or None
+        Bench file whose Earth rate the bias is reported without (run files: default the
+        run's bench).
+    png : Path or None
+        Where to draw the Allan deviation (with ``method="gmwm"``: the wavelet variance).
+    """
+
+    source: RecordSource
+    estimator: Estimator | None = None
+    deviation: DeviationKind | None = None
+    taus: TauGrid = "log"
+    method: AnalysisMethod = DEFAULT_METHOD
+    terms: str = "QNBKR"
+    select: bool | None = None
+    gmwm_model: str = "auto"
+    robust: bool = False
+    outliers: OutlierPolicy = "auto"
+    bench: str | Path | None = None
+    png: Path | None = None
+
+
+@dataclass(frozen=True)
+class AnalyzeResult:
+    """Every axis' analysis, the record it came from and the part of it analysed."""
+
+    file: str
+    record: RateRecord
+    selection: RecordSelection
+    axes: tuple[AxisAnalysis, ...]
+    notes: tuple[str, ...] = ()
+    png: Path | None = None
+
+    def as_json(self) -> dict[str, object]:
+        """The ``station analyze --json`` object: ``{"file", "axes", "selection"}``."""
+        return {"file": self.file, "axes": [a.as_json() for a in self.axes],
+                "selection": asdict(self.selection)}
+
+
+def analyze(request: AnalyzeRequest,
+            progress: ProgressSink = ignore_progress) -> AnalyzeResult:
+    """Read the selected record and analyse every axis (:func:`analyze_record`); draw the
+    figure when ``request.png`` names one. ``progress`` hears of the GMWM's start (the
+    long step).
+
+    Raises
+    ------
+    UsageError
+        GMWM options without ``method="gmwm"``, or a GMWM model that does not parse.
+    StationError, AnalysisError
+        An unreadable record, a bad selection or profile, a record too short.
+    """
+    gmwm = request.method == GMWM_METHOD
+    if not gmwm and (request.gmwm_model != "auto" or request.robust):
+        raise UsageError("--model and --robust go with --method gmwm")
+    if gmwm and request.gmwm_model.strip().lower() != "auto":
+        GmwmModel.parse(request.gmwm_model)  # a bad model string fails before the record is read
+    loaded = load_record(request.source)
+    record = loaded.record
+    if gmwm:
+        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {len(record.axis_names)} "
+                                     f"axis/axes of {record.n_samples} samples"))
+    estimator = request.estimator or ("clusters" if request.deviation == "adev" else "overlapping")
+    bench = bench_of(request.bench, request.source.file)
+    axes = analyze_record(record, estimator=estimator, taus=request.taus,
+                          method=request.method, terms=request.terms,
+                          outliers=request.outliers, bench=bench,
+                          deviation_kind=request.deviation, select=request.select,
+                          gmwm_model=request.gmwm_model, robust=request.robust)
+    if request.png is not None:
+        from station.output.plots import (  # matplotlib: only when a plot is asked for
+            plot_allan,
+            plot_wavelet,
+        )
+
+        plot = plot_wavelet if gmwm else plot_allan
+        plot(axes, request.png, title=str(request.source.file))
+    return AnalyzeResult(str(request.source.file), record, loaded.selection, tuple(axes),
+                         loaded.notes, request.png)

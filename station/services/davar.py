@@ -1,0 +1,77 @@
+"""``davar``: dynamic Allan deviation of a record, its warm-up time and stationarity verdict."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from analysis.davar import DavarResult, dynamic_allan_variance
+from analysis.warmup import WarmupVerdict, detect_warmup
+from station.errors import UsageError
+from station.model.records import RateRecord
+from station.services.records import RecordSource, load_record
+
+
+@dataclass(frozen=True)
+class DavarRequest:
+    """The record, and the DAVAR's windows (s).
+
+    The DAVAR finds the warm-up itself: unless ``source.warmup_s`` says otherwise, nothing
+    is discarded (a profile's warm-up is not applied).
+    """
+
+    source: RecordSource
+    window_s: float
+    step_s: float | None = None
+    png: Path | None = None
+
+
+@dataclass(frozen=True)
+class DavarAnswer:
+    """The DAVAR of every axis, each axis' warm-up verdict, the heat map written (if asked)."""
+
+    record: RateRecord
+    result: DavarResult
+    verdicts: tuple[WarmupVerdict, ...]
+    png: Path | None = None
+    notes: tuple[str, ...] = field(default=())
+
+    def as_json(self) -> dict[str, object]:
+        """``{"axes": [{"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}]}``:
+        window centres (s), taus (s), ADEV per window and tau (deg/s), the verdict."""
+        axes = []
+        for i, (name, verdict) in enumerate(zip(self.record.axis_names, self.verdicts,
+                                                strict=True)):
+            one = self.result.axis(i)
+            axes.append({"name": name, "t_s": one.t_s.tolist(), "tau_s": one.tau_s.tolist(),
+                         "adev": one.adev.tolist(), "warmup_end_s": verdict.warmup_end_s,
+                         "stationary": bool(verdict.stationary)})
+        return {"axes": axes}
+
+
+def davar(request: DavarRequest) -> DavarAnswer:
+    """Read the record, compute its DAVAR and each axis' warm-up verdict, draw the heat map.
+
+    Raises
+    ------
+    UsageError
+        A window longer than the record.
+    """
+    source = request.source
+    loaded = load_record(source if source.warmup_s is not None else replace(source, warmup_s=0.0))
+    record = loaded.record
+    if request.window_s * record.sample_rate_hz > record.n_samples:
+        raise UsageError(f"--window-s {request.window_s:g} is longer than the record "
+                         f"({record.duration_s:g} s)")
+    notes = loaded.notes
+    if record.missing_samples:
+        notes += (f"{record.missing_samples} samples are missing in gaps; the DAVAR joins the "
+                  f"stretches between them (window times are sample counts)",)
+    result = dynamic_allan_variance(record.rate_deg_s, record.sample_rate_hz,
+                                    window_s=request.window_s, step_s=request.step_s)
+    verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
+    if request.png is not None:
+        from station.output.plots import plot_davar  # matplotlib: only for a heat map
+
+        plot_davar(request.png, result, verdicts, record)
+    return DavarAnswer(record, result, verdicts, request.png, notes)

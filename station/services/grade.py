@@ -1,0 +1,160 @@
+"""``grade``: every figure of a profile with its interval and the grade, per unit of a run;
+storing the grading in the results database."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from station.errors import UsageError
+from station.evaluation.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
+from station.model.profiles import available_profiles, load_profile
+from station.model.runs import RunInfo
+from station.output.results import ResultsDatabase, default_database_path
+from station.services.records import bench_of
+from station.storage.runs import open_run
+
+
+class NoProfileError(UsageError):
+    """The run names no profile and none was given (or matched its units' model)."""
+
+
+@dataclass(frozen=True)
+class RunSource:
+    """A run file, and the metadata to set on it before it is graded.
+
+    Attributes
+    ----------
+    path : str or Path
+        A recorder run file (``.h5``) or a CSV record (a run of one unit).
+    rate_hz, units
+        Sample rate (Hz) and rate unit of a CSV record (see :class:`RecordSource`).
+    serial, lot, operator : str or None
+        Serial number of a CSV record's unit; lot and operator of the run (override the
+        run's). None: as recorded.
+    """
+
+    path: str | Path
+    rate_hz: float | None = None
+    units: str = "deg/s"
+    serial: str | None = None
+    lot: str | None = None
+    operator: str | None = None
+
+
+@dataclass(frozen=True)
+class GradeRequest:
+    """What to grade, and with which profile.
+
+    Attributes
+    ----------
+    run : RunSource
+        The run.
+    profile : str or None
+        Profile name or TOML path (None: the run's).
+    units : tuple of str
+        Grade only these units (ids or serial numbers); empty: every unit.
+    bench : str, Path or None
+        Bench file (None: the run's).
+    profile_from_model : bool
+        When the run names no profile and none is given, take the first profile whose
+        model is a unit's model (the TUI's spec sheet) instead of refusing.
+    db : Path or None
+        Results database (None: :func:`default_database_path`).
+    store : bool
+        Whether the grading is stored (:func:`store_grading`).
+    """
+
+    run: RunSource
+    profile: str | None = None
+    units: tuple[str, ...] = ()
+    bench: str | Path | None = None
+    profile_from_model: bool = False
+    db: Path | None = None
+    store: bool = True
+
+    @property
+    def database(self) -> Path:
+        """The results database the request names."""
+        return self.db or default_database_path()
+
+
+@dataclass(frozen=True)
+class GradeResult:
+    """The graded run, and what the operator should know about how it was graded."""
+
+    graded: RunGrade
+    warnings: tuple[str, ...] = ()
+
+
+def open_run_source(source: RunSource) -> RunInfo:
+    """The run ``source`` names, with its serial number, lot and operator applied.
+
+    Raises
+    ------
+    UsageError
+        A serial number for a run of several units.
+    """
+    run = open_run(source.path, sample_rate_hz=source.rate_hz, units=source.units)
+    if source.serial is not None:
+        if len(run.units) != 1:
+            raise UsageError(f"--serial applies to a run of one unit; {source.path} has "
+                             f"{len(run.units)}")
+        run = replace(run, units=(replace(run.units[0], serial_number=source.serial),))
+    changes = {k: v for k, v in (("lot", source.lot), ("operator", source.operator))
+               if v is not None}
+    return replace(run, **changes) if changes else run  # type: ignore[arg-type]
+
+
+def guess_profile(run: RunInfo) -> str | None:
+    """The run's profile, else the first profile whose model is a unit's model."""
+    if run.profile:
+        return run_profile_ref(run)
+    models = {u.model for u in run.units}
+    for name in available_profiles():
+        try:
+            if load_profile(name).model in models:
+                return name
+        except (OSError, ValueError):
+            continue
+    return None
+
+
+def grade(request: GradeRequest) -> GradeResult:
+    """Open the run, load the profile (given, or the run's) and grade it; nothing is stored.
+
+    Raises
+    ------
+    NoProfileError
+        The run names no profile and none was given (or matched).
+    StationError, AnalysisError
+        An unreadable run or profile, a run too short to grade.
+    """
+    run = open_run_source(request.run)
+    ref = request.profile or (guess_profile(run) if request.profile_from_model
+                              else run_profile_ref(run))
+    if not ref:
+        raise NoProfileError(f"{request.run.path} names no profile; pass --profile NAME")
+    profile = load_profile(ref)
+    warnings: tuple[str, ...] = ()
+    if not request.profile:
+        note = profile_changed_note(run, profile)
+        warnings = (note,) if note else ()
+    graded = grade_run(run, profile, units=request.units,
+                       bench=bench_of(request.bench) if request.bench is not None else None)
+    return GradeResult(graded, warnings)
+
+
+def store_grading(graded: RunGrade, db_path: Path, *, again: bool = True) -> list[int]:
+    """Store the grading of every unit in the results database; returns the grading ids.
+
+    ``again=False`` stores it only once per run, unit and profile file: the ids of a
+    grading stored before are returned instead (a report or a spec sheet opened twice).
+    """
+    with ResultsDatabase(db_path) as db:
+        if not again:
+            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
+                   for u in graded.units]
+            if all(i is not None for i in ids):
+                return [i for i in ids if i is not None]
+        return db.store(graded)

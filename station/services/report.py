@@ -1,0 +1,55 @@
+"""``report``: spec sheets (PDF, HTML, JSON, CSV) of a graded run, recorded in the results database."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from station.evaluation.grading import RunGrade
+from station.output.report import ReportFormat, write_report
+from station.output.results import ResultsDatabase
+from station.services.grade import GradeRequest, grade, store_grading
+
+
+@dataclass(frozen=True)
+class ReportRequest:
+    """Which run to grade and which reports to write where.
+
+    ``grade.store`` (default True) also records the grading (once per run, unit and
+    profile) and each report file in ``grade.database``.
+    """
+
+    grade: GradeRequest
+    formats: tuple[ReportFormat, ...] = ("pdf",)
+    out_dir: Path = Path(".")
+
+
+@dataclass(frozen=True)
+class ReportResult:
+    """The graded run, the files written (format, path) and the grading's warnings."""
+
+    graded: RunGrade
+    files: tuple[tuple[ReportFormat, Path], ...]
+    warnings: tuple[str, ...] = ()
+
+
+def write_reports(graded: RunGrade, formats: tuple[ReportFormat, ...], out_dir: Path,
+                  db_path: Path | None) -> tuple[tuple[ReportFormat, Path], ...]:
+    """Write each report of ``graded`` into ``out_dir``; with ``db_path``, record the files
+    against the unit gradings (storing the grading first when it is not there yet)."""
+    files = tuple((fmt, write_report(graded, fmt, out_dir)) for fmt in formats)
+    if db_path is not None:
+        ids = store_grading(graded, db_path, again=False)
+        with ResultsDatabase(db_path) as db:
+            for grading_id in ids:
+                for fmt, path in files:
+                    db.add_report(grading_id, fmt, path)
+    return files
+
+
+def report(request: ReportRequest) -> ReportResult:
+    """Grade the run as :func:`station.services.grade.grade` does and write its reports."""
+    graded = grade(request.grade)
+    db = request.grade.database if request.grade.store else None
+    files = write_reports(graded.graded, request.formats, request.out_dir, db)
+    return ReportResult(graded.graded, files, graded.warnings)
