@@ -224,7 +224,7 @@ def warmup_curve(rate_deg_s: ArrayLike, sample_rate_hz: float, *, first_s: float
     centres = first_s + (starts + window / 2.0) / fs
     bias = means * S_PER_H
     off = np.abs(bias - reference)
-    outside = np.flatnonzero(~(off <= band))  # NaN counts as outside: not known settled
+    outside = np.flatnonzero(off > band)  # a NaN average (a gap) is neither in nor out
     if outside.size == 0:
         settled: float | None = float(first_s)
     elif outside[-1] == len(bias) - 1:

@@ -15,6 +15,7 @@ the wrong condition.
 
 from __future__ import annotations
 
+import time
 from urllib.parse import unquote, urlsplit
 
 from devices.codecs.fixture_map import ChamberMap, RelayMap
@@ -59,11 +60,14 @@ class ModbusPowerSwitch:
     def close(self) -> None:
         self.transport.close()
 
-    def set_power(self, on: bool) -> None:
+    def set_power(self, on: bool) -> float:
+        before = time.time()
         self.transport.write_coil(self.coil, on, self.device_id)
+        switched = (before + time.time()) / 2.0  # the module acted inside the exchange
         if self.is_powered() != on:
             raise DeviceProtocolError(f"{self.describe()}: switched {'on' if on else 'off'} "
                                       f"but reads back {'off' if on else 'on'}")
+        return switched
 
     def is_powered(self) -> bool:
         return self.transport.read_coils(self.coil, 1, self.device_id)[0]

@@ -240,8 +240,10 @@ class PowerSwitch(Protocol):
     def close(self) -> None:
         """Release the transport; safe to call twice (the output keeps its state)."""
 
-    def set_power(self, on: bool) -> None:
-        """Switch the output on or off and confirm it took the new state.
+    def set_power(self, on: bool) -> float:
+        """Switch the output on or off and confirm it took the new state; returns when it
+        switched, as well as the station can tell (s since the epoch: the middle of the
+        command's exchange), the instant a turn-on time counts from.
 
         Raises
         ------

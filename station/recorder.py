@@ -21,7 +21,7 @@ import re
 import socket
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from multiprocessing.connection import wait
@@ -162,12 +162,18 @@ class Recorder:
         What to record.
     subscribers : sequence of callables
         Document subscribers besides the file writer (progress line, TUI bridge, ...).
+    on_listening : callable, optional
+        Called once every unit reads its device, before the first samples are awaited:
+        a test sequence switches the units' supplies on here, so that the recording
+        holds their turn-on (the run then waits ``answer_timeout_s`` for their first
+        samples).
     """
 
     #: Longest a unit's process may take to start and open its device, wall s.
     open_timeout_s = 120.0
 
-    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = ()) -> None:
+    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = (), *,
+                 on_listening: Callable[[], None] | None = None) -> None:
         if not config.urls:
             raise UsageError("no unit to record: give --unit DEVICE_URL (or a profile with "
                              "a transport url)")
@@ -178,6 +184,7 @@ class Recorder:
         self.writer: RunFileWriter | None = None
         self.dispatcher = Dispatcher()
         self._extra = list(subscribers)
+        self._on_listening = on_listening
         self._stop_reason: str | None = None
         self.stop_reason = ""
         self.engine_cpu_s = 0.0
@@ -261,6 +268,8 @@ class Recorder:
                 problems = self._check_disk()
             if not problems:
                 self._start_units()
+                if self._on_listening is not None:
+                    self._on_listening()
                 problems = self._await_first_samples()
         except BaseException:
             self._abort()

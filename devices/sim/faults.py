@@ -217,11 +217,12 @@ class SimCore:
                 self._paused_at = self.clock()
             self._holds.add(reason)
 
-    def _release(self, reason: str) -> None:
+    def _release(self, reason: str, at_s: float | None = None) -> None:
         with self._hold_lock:
             self._holds.discard(reason)
             if not self._holds and self._paused_at is not None:
-                self._origin_s += self.clock() - self._paused_at
+                released = self.clock() if at_s is None else min(at_s, self.clock())
+                self._origin_s += max(0.0, released - self._paused_at)
                 self._paused_at = None
 
     @property
@@ -251,9 +252,11 @@ class SimCore:
         (:mod:`devices.sim.powered`); no samples until :meth:`power_on`."""
         self._hold("power")
 
-    def power_on(self) -> None:
-        """Release the supply's hold: the unit has booted and samples from now on."""
-        self._release("power")
+    def power_on(self, at_s: float | None = None) -> None:
+        """Release the supply's hold: the unit booted at clock time ``at_s`` (default now;
+        a thread that tells it late does not delay its samples, which fall due from
+        ``at_s`` on) and samples from then on."""
+        self._release("power", at_s)
 
     def clear_faults(self) -> None:
         """Turn the faults off (drops, corruption, junk, disconnects, stalls; the clock

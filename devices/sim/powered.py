@@ -21,6 +21,7 @@ uncertainty, times the warp).
 
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass
 
@@ -37,6 +38,8 @@ from devices.transports.modbus import ModbusTransport
 
 #: Wall seconds between two reads of the wiring.
 POLL_WALL_S = 0.02
+#: Reads of the wiring when a unit opens (the quickest one sets the clock offset).
+FIRST_READS = 8
 #: Longest the die temperature is extrapolated from the last read, s (fixture time).
 MAX_EXTRAPOLATION_S = 30.0
 
@@ -61,7 +64,8 @@ def parse_fixture(text: str) -> tuple[str, int, int]:
 
 @dataclass(frozen=True)
 class _Sync:
-    """The latest read of the wiring: offset fixture - unit clock (s), and the outlet."""
+    """The latest read of the wiring: offset fixture - unit clock (s), the fixture's time
+    at the read, and the outlet."""
 
     offset_s: float
     fixture_s: float
@@ -94,6 +98,8 @@ class PoweredUnit:
         self._sync: _Sync | None = None
         self._turn_on: TurnOn | None = None
         self._draws: dict[int, TurnOn] = {}
+        self._best_rtt_s = math.inf
+        self._offset_s = 0.0
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -118,7 +124,8 @@ class PoweredUnit:
         self._clock = clock
         try:
             self._link.open()
-            sync = self._read()
+            for _ in range(FIRST_READS):  # the quickest of several exchanges sets the offset
+                sync = self._read()
         except DeviceError as exc:
             raise DeviceConfigurationError(
                 f"simulated fixture {self._link.target}:{self._link.port} not reachable "
@@ -126,12 +133,19 @@ class PoweredUnit:
         return sync.outlet.on_count
 
     def _read(self) -> _Sync:
+        """Read the wiring. The fixture stamps its time somewhere inside the exchange; the
+        two clocks run at the same rate, so the offset is taken from the quickest exchange
+        seen (its midpoint), as NTP does: a slow answer (a loaded host) does not shift it."""
         assert self._clock is not None
         start, count = SIM_WIRING.span(self.output)
+        sent = self._clock()
         registers = self._link.read_registers(start, count, SIM_WIRING_DEVICE_ID, "input")
-        unit_now = self._clock()
+        received = self._clock()
         fixture_now, outlet = SIM_WIRING.decode(registers, self.output)
-        sync = _Sync(fixture_now - unit_now, fixture_now, outlet)
+        if received - sent < self._best_rtt_s:
+            self._best_rtt_s = received - sent
+            self._offset_s = fixture_now - (sent + received) / 2.0
+        sync = _Sync(self._offset_s, fixture_now, outlet)
         with self._lock:
             self._sync = sync
         return sync
@@ -169,7 +183,7 @@ class PoweredUnit:
             return remaining / self._clock.warp
         with self._lock:
             self._turn_on = drawn
-        self._core.power_on()
+        self._core.power_on(at_s=boot - sync.offset_s)  # booted then, however late we are
         return None
 
     def _run(self) -> None:

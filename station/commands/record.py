@@ -29,7 +29,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from types import FrameType
+from typing import Protocol
 
+from station.commands import record_sequence
+from station.commands.record_sequence import add_sequence_arguments
 from station.errors import UsageError
 from station.model.documents import RunStop
 from station.progress import ProgressLine
@@ -80,6 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json-summary", action="store_true",
                    help="print one JSON object per unit at the end (and nothing else on stdout)")
     p.add_argument("--quiet", action="store_true", help="no progress line")
+    add_sequence_arguments(p)
     p.set_defaults(handler=run)
 
 
@@ -114,8 +118,14 @@ def config_from_args(args: argparse.Namespace) -> RunConfig:
                      bench_json=bench_json)
 
 
+class Stoppable(Protocol):
+    """What Ctrl-C stops cleanly: a recorder, a sequence."""
+
+    def request_stop(self, reason: str) -> None: ...
+
+
 @contextmanager
-def stop_on_signals(recorder: Recorder) -> Iterator[None]:
+def stop_on_signals(recorder: Stoppable) -> Iterator[None]:
     """Turn Ctrl-C and SIGTERM into a clean stop of ``recorder`` while inside."""
     reasons = {signal.SIGINT: "interrupted (Ctrl-C)", signal.SIGTERM: "terminated (SIGTERM)"}
 
@@ -161,6 +171,10 @@ def cpu_lines(recorder: Recorder, stop: RunStop) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """Prepare (refusing a bad configuration), record, print the summary."""
+    if args.sequence is not None:
+        return record_sequence.run(args)
+    if args.power or args.chamber:
+        raise UsageError("--power and --chamber belong to --sequence NAME")
     config = config_from_args(args)
     subscribers = [] if args.quiet else [ProgressLine(sys.stderr)]
     recorder = Recorder(config, subscribers)

@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from scipy import stats
@@ -54,6 +56,9 @@ from station.model.profiles import (
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.version import software_version
+
+if TYPE_CHECKING:
+    from station.evaluation.sequence_grading import UnitSequence
 
 INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
@@ -161,6 +166,10 @@ class UnitGrade:
     axes: tuple[AxisGrade, ...]
     warmup_discarded_s: float
     notes: tuple[str, ...] = ()
+    #: The unit's test-sequence figures, when the run is a sequence
+    #: (:mod:`station.evaluation.sequence_grading`); ``grade`` is then the worse of the
+    #: axes' grade and the sequence's.
+    sequence: UnitSequence | None = None
 
     @property
     def review(self) -> tuple[str, ...]:
@@ -177,9 +186,14 @@ class UnitGrade:
     def as_json(self) -> dict[str, object]:
         """JSON object of the unit."""
         u = self.unit
-        return {"unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
-                "grade": self.grade, "review": list(self.review), "warmup_discarded_s": self.warmup_discarded_s,
-                "notes": list(self.notes), "axes": {a.axis: a.as_json() for a in self.axes}}
+        out: dict[str, object] = {
+            "unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
+            "grade": self.grade, "review": list(self.review),
+            "warmup_discarded_s": self.warmup_discarded_s, "notes": list(self.notes),
+            "axes": {a.axis: a.as_json() for a in self.axes}}
+        if self.sequence is not None:
+            out["sequence_figures"] = self.sequence.as_json()
+        return out
 
 
 @dataclass(frozen=True)
@@ -198,7 +212,7 @@ class RunGrade:
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
         p, r = self.profile, self.run
-        return {
+        doc: dict[str, object] = {
             "schema": "gyro-station/grade",
             "schema_version": 1,
             "graded_utc": self.graded_utc,
@@ -213,6 +227,10 @@ class RunGrade:
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
+        if "sequence" in self.extra:  # a test sequence: its name, file, segment graded
+            doc["sequence"] = {k.removeprefix("sequence_") if k != "sequence" else "name": v
+                               for k, v in self.extra.items() if k.startswith("sequence")}
+        return doc
 
 
 # --- decision ------------------------------------------------------------------------------
@@ -240,7 +258,14 @@ def decide(value: float | None, low: float | None, high: float | None, limit: fl
     return INDETERMINATE
 
 
-def assign_grade(figures: tuple[FigureResult, ...], grades: tuple[str, ...], reject: str
+class Verdicted(Protocol):
+    """A graded figure: its verdict at each grade that limits it."""
+
+    @property
+    def verdicts(self) -> dict[str, str]: ...
+
+
+def assign_grade(figures: Sequence[Verdicted], grades: tuple[str, ...], reject: str
                  ) -> tuple[str, str, str | None]:
     """(grade, deciding grade, could_reach) of an axis from its figures' verdicts.
 
