@@ -138,7 +138,8 @@ class WarmupCurve:
     warmup_time_s : float or None
         Time (s since power-on) after which every sliding average stays inside the band,
         interpolated between the last average outside it and the next; the time of the
-        first sample when none is outside; None when the last averages are outside (the
+        first sample when none is outside; None when the last averages are outside, or
+        the trend after ``reference_after_s`` still drifts by over half the band (the
         bias had not settled by the end of the record).
     average_noise_deg_h : float or None
         Standard deviation of the non-overlapping averages after ``reference_after_s``,
@@ -178,7 +179,8 @@ def warmup_curve(rate_deg_s: ArrayLike, sample_rate_hz: float, *, first_s: float
 
     The trend is the mean over a window of ``average_s`` slid by a quarter window; the
     settled bias is the mean after ``reference_after_s`` (default: the second half of the
-    record). The warm-up time is when the trend enters the band ``+- band_deg_h`` for good.
+    record). The warm-up time is when the trend enters the band ``+- band_deg_h`` for good;
+    a trend that still drifts by over half the band across that stretch has not settled.
     Choose ``average_s`` so that the averages' noise (the Allan deviation at that tau)
     is well inside the band, else noise alone keeps the trend leaving it.
 
@@ -225,8 +227,17 @@ def warmup_curve(rate_deg_s: ArrayLike, sample_rate_hz: float, *, first_s: float
     bias = means * S_PER_H
     off = np.abs(bias - reference)
     outside = np.flatnonzero(off > band)  # a NaN average (a gap) is neither in nor out
-    if outside.size == 0:
-        settled: float | None = float(first_s)
+    finite = np.flatnonzero(np.isfinite(off))
+    tail = finite[centres[finite] >= after]
+    drift = 0.0
+    if tail.size >= 3:
+        slope = np.polyfit(centres[tail], bias[tail], 1)[0]
+        drift = abs(slope) * float(centres[tail[-1]] - centres[tail[0]])
+    if finite.size == 0 or drift > band / 2.0:
+        settled: float | None = None
+    elif outside.size == 0:
+        # in the band from the first average on; missing data before it leave only that
+        settled = float(first_s) if finite[0] == 0 else float(centres[finite[0]])
     elif outside[-1] == len(bias) - 1:
         settled = None
     else:
@@ -240,28 +251,39 @@ def warmup_curve(rate_deg_s: ArrayLike, sample_rate_hz: float, *, first_s: float
 def _refined_crossing(t: NDArray[np.float64], off: NDArray[np.float64], last_out: int,
                       band: float, average_s: float) -> float:
     """Where ``off`` (the trend's distance from the settled bias) falls through ``band``
-    for good, between the averages ``last_out`` (outside) and ``last_out + 1`` (inside).
+    for good, near the averages ``last_out`` (outside) and ``last_out + 1`` (inside).
 
     The last average outside the band is the latest of many noisy chances, so it comes
-    late; a quadratic fitted to ``off`` over the stretch around it (a quarter of the time
-    since the first average, at least three averaging lengths, each side) crosses the
-    band where the noise-free trend does, to the noise of the many averages it spans.
-    The coarse crossing (interpolated between the two averages) is kept when the fit does
-    not cross downwards inside that stretch.
+    late. A warm-up decays about exponentially, so ``log(off)`` is about a straight line
+    through the crossing: fitted to the averages of the last descent through the band
+    whose distance lies between half the band and three times it, it crosses the band
+    where the noise-free trend does, to the noise of the averages it spans. An average of
+    ``w`` seconds of ``exp(-t / tau)`` is ``sinh(x) / x`` (``x = w / 2 tau``) times its
+    value at its centre, which moves the crossing ``tau ln(sinh(x) / x)`` late: taken
+    off, with ``tau`` from the fitted slope. The coarse crossing (interpolated between the
+    two averages) is kept when fewer than four averages qualify or the fit does not
+    descend.
     """
     i = last_out
     coarse = float(t[i + 1])
-    if np.isfinite(off[i]) and off[i] > off[i + 1]:
+    if np.isfinite(off[i + 1]) and off[i] > off[i + 1]:
         coarse = float(t[i] + (off[i] - band) / (off[i] - off[i + 1]) * (t[i + 1] - t[i]))
-    half = max(3.0 * average_s, 0.25 * (coarse - float(t[0])))
-    near = (np.abs(t - coarse) <= half) & np.isfinite(off)
-    if near.sum() < 8:
+    # the last descent: from the last average above three bands, to the first below half
+    above = np.flatnonzero(off[:i + 1] > 3.0 * band)
+    lo = int(above[-1]) if above.size else 0
+    below = np.flatnonzero(off[i + 1:] < 0.5 * band)
+    hi = i + 1 + (int(below[0]) if below.size else len(off) - i - 2)
+    sel = np.arange(lo, hi + 1)
+    sel = sel[np.isfinite(off[sel]) & (off[sel] >= 0.5 * band) & (off[sel] <= 3.0 * band)]
+    if sel.size < 4:
         return coarse
-    poly = np.polynomial.Polynomial.fit(t[near], off[near], 2)
-    roots = [float(r.real) for r in (poly - band).roots()
-             if abs(r.imag) < 1e-9 and abs(r.real - coarse) <= half
-             and poly.deriv()(r.real) < 0]
-    return min(roots, key=lambda r: abs(r - coarse)) if roots else coarse
+    slope, intercept = np.polyfit(t[sel], np.log(off[sel]), 1)
+    if not slope < 0:
+        return coarse
+    tau = -1.0 / slope
+    x = average_s / (2.0 * tau)
+    smear = tau * math.log(math.sinh(x) / x) if 1e-6 < x < 50 else 0.0
+    return float((math.log(band) - intercept) / slope) - smear
 
 
 @dataclass(frozen=True)

@@ -132,6 +132,9 @@ class OpenedDevice:
         finally:
             if self.simulator is not None:
                 self.simulator.stop()
+                close = getattr(self.simulator.core, "close", None)
+                if close is not None:  # a core in this process: what runs beside it
+                    close()
 
     def __enter__(self) -> OpenedDevice:
         return self

@@ -269,6 +269,7 @@ class Recorder:
             if not problems:
                 self._start_units()
                 if self._on_listening is not None:
+                    self._await_units(lambda w: w.started.is_set(), self.open_timeout_s)
                     self._on_listening()
                 problems = self._await_first_samples()
         except BaseException:
@@ -282,15 +283,20 @@ class Recorder:
         for w in self.workers:
             w.start(utc_now())
 
-    def _await_first_samples(self) -> list[str]:
-        deadline = time.monotonic() + self.config.answer_timeout_s
+    def _await_units(self, ready: Callable[[UnitProcess], bool], timeout_s: float) -> None:
+        """Take the units' messages until ``ready`` holds for each (or it ended), at most
+        ``timeout_s`` wall s."""
+        deadline = time.monotonic() + timeout_s
         waiting = list(self.workers)
         while waiting and time.monotonic() < deadline:
-            ready = wait([w.conn for w in waiting], timeout=0.05)
+            readable = wait([w.conn for w in waiting], timeout=0.05)
             for w in waiting:
-                if w.conn in ready:
+                if w.conn in readable:
                     w.receive()
-            waiting = [w for w in waiting if not w.answered.is_set() and not w.done]
+            waiting = [w for w in waiting if not ready(w) and not w.done]
+
+    def _await_first_samples(self) -> list[str]:
+        self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
         return [f"{w.unit_id} ({w.url}): no sample within {self.config.answer_timeout_s:g} s: "
                 f"check the protocol and rate in the URL, and that the device is streaming"
                 + (f" ({w.error})" if w.error else "")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -192,6 +193,7 @@ class SimCore:
         self._origin_s = clock()
         self._holds: set[str] = set()
         self._hold_lock = threading.Lock()  # the operator, the device and its supply hold
+        self._closers: list[Callable[[], None]] = []
         self._paused_at: float | None = None
         self._last_index: int | None = None
 
@@ -246,6 +248,16 @@ class SimCore:
     def enter_measurement(self) -> None:
         """Leave configuration mode (Xbus GoToMeasurement); the operator's hold stays."""
         self._release("configuration")
+
+    def on_close(self, closer: Callable[[], None]) -> None:
+        """Have :meth:`close` call ``closer`` (a thread that follows the unit's supply)."""
+        self._closers.append(closer)
+
+    def close(self) -> None:
+        """Stop what the simulation runs beside its device (once the device stopped)."""
+        closers, self._closers = self._closers, []
+        for closer in closers:
+            closer()
 
     def power_off(self) -> None:
         """The supply's hold: the unit is unpowered, or still booting after power came on

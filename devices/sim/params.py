@@ -181,4 +181,5 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
     core = SimCore(powered, params.rate, clock, params.faults, history=params.history)
     powered.bind(core)
     unit.attach(core)
+    core.on_close(unit.stop)
     return core, clock

@@ -62,6 +62,12 @@ def parse_fixture(text: str) -> tuple[str, int, int]:
                                        f"powering this unit)") from None
 
 
+def turn_on_draw(model: PowerCycleModel, seed: int, on_count: int, n_axes: int) -> TurnOn:
+    """What a simulated unit of seed ``seed`` draws at its fixture's switch-on number
+    ``on_count`` (a simulation's truth, for a test or a demo to compare with)."""
+    return model.draw(np.random.default_rng([seed, on_count, 0x70_0E]), n_axes)
+
+
 @dataclass(frozen=True)
 class _Sync:
     """The latest read of the wiring: offset fixture - unit clock (s), the fixture's time
@@ -108,8 +114,7 @@ class PoweredUnit:
     def draw(self, on_count: int) -> TurnOn:
         """What switch-on number ``on_count`` drew (the same in every process)."""
         if on_count not in self._draws:
-            rng = np.random.default_rng([self.seed, on_count, 0x70_0E])
-            self._draws[on_count] = self.model.draw(rng, self.n_axes)
+            self._draws[on_count] = turn_on_draw(self.model, self.seed, on_count, self.n_axes)
         return self._draws[on_count]
 
     def first_read(self, clock: WarpClock) -> int:

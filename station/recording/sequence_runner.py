@@ -29,7 +29,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 from devices.errors import DeviceError
 from devices.protocols import PowerSwitch, TemperatureChamber
@@ -48,6 +48,9 @@ from station.storage.sequence_files import write_sequence
 PROGRESS_SHARE = 0.05
 #: Wall seconds the sequence waits at most between checks of a stop request.
 TICK_WALL_S = 0.05
+#: Attempts at each exchange with a supply switch or the chamber.
+DEVICE_ATTEMPTS = 3
+T = TypeVar("T")
 
 
 class SequenceError(StationError, RuntimeError):
@@ -201,10 +204,34 @@ class SequenceRunner:
             raise _Stopped(self._stop_reason)
 
     # -- the devices -----------------------------------------------------------------
+    def _retried(self, action: Callable[[], T], device: PowerSwitch | TemperatureChamber,
+                 step: Step | None) -> T:
+        """``action()``, tried again (the link reopened) after a lost or refused exchange:
+        a relay module or a controller that misses one answer does not end a night's test.
+
+        Raises
+        ------
+        DeviceError
+            The last of :data:`DEVICE_ATTEMPTS` attempts failed.
+        """
+        for attempt in range(1, DEVICE_ATTEMPTS + 1):
+            try:
+                return action()
+            except DeviceError as exc:
+                if attempt == DEVICE_ATTEMPTS:
+                    raise
+                self._log("error", step, detail=f"{device.describe()}: {exc}; trying again")
+                time.sleep(0.1 * attempt)
+                try:
+                    device.open()
+                except DeviceError:
+                    pass
+        raise AssertionError("unreachable")
+
     def _switch(self, on: bool, step: Step | None) -> None:
         for unit, switch in zip(self.run.unit_ids, self.power, strict=True):
-            try:
-                wall = switch.set_power(on)  # the instant a turn-on time counts from
+            try:  # the instant a turn-on time counts from
+                wall = self._retried(lambda s=switch: s.set_power(on), switch, step)
             except DeviceError as exc:
                 raise SequenceError(f"{unit}: its supply ({switch.describe()}) did not switch "
                                     f"{'on' if on else 'off'}: {exc}") from exc
@@ -212,10 +239,11 @@ class SequenceRunner:
                       detail=switch.describe())
 
     def _chamber_temperature(self) -> float:
-        assert self.chamber is not None
+        chamber = self.chamber
+        assert chamber is not None
         with self._lock:
             try:
-                return self.chamber.temperature_c()
+                return self._retried(chamber.temperature_c, chamber, None)
             except DeviceError as exc:
                 raise SequenceError(f"the chamber ({self.chamber.describe()}) does not answer: "
                                     f"{exc}") from exc
@@ -340,9 +368,10 @@ class SequenceRunner:
         if self.chamber is None:
             raise SequenceError(f"{step.label}: no chamber; give --chamber URL")
         assert step.temperature_c is not None
+        chamber, target = self.chamber, step.temperature_c
         with self._lock:
             try:
-                self.chamber.set_temperature(step.temperature_c)
+                self._retried(lambda: chamber.set_temperature(target), chamber, step)
             except DeviceError as exc:
                 raise SequenceError(f"{step.label}: the chamber ({self.chamber.describe()}) "
                                     f"refused the set point: {exc}") from exc
