@@ -290,16 +290,16 @@ def hysteresis(points: Sequence[TemperaturePoint], *, tolerance_c: float = 0.5,
     best: Hysteresis | None = None
     n = 0
     for u in ups:
-        near = [d for d in downs if abs(d.temperature_c - u.temperature_c) <= tolerance_c]
+        near = [q for q in downs if abs(q.temperature_c - u.temperature_c) <= tolerance_c]
         if not near:
             continue
-        d = min(near, key=lambda q: abs(q.temperature_c - u.temperature_c))
+        down = min(near, key=lambda q: abs(q.temperature_c - u.temperature_c))
         n += 1
-        diff = abs(u.bias_deg_h - d.bias_deg_h
-                   - slope_deg_h_per_c * (u.temperature_c - d.temperature_c))
+        diff = abs(u.bias_deg_h - down.bias_deg_h
+                   - slope_deg_h_per_c * (u.temperature_c - down.temperature_c))
         if best is None or diff > best.value_deg_h:
-            best = Hysteresis(diff, math.hypot(u.stderr_deg_h, d.stderr_deg_h),
-                              (u.temperature_c + d.temperature_c) / 2, 0)
+            best = Hysteresis(diff, math.hypot(u.stderr_deg_h, down.stderr_deg_h),
+                              (u.temperature_c + down.temperature_c) / 2, 0)
     if best is None:
         return None
     return Hysteresis(best.value_deg_h, best.stderr_deg_h, best.temperature_c, n)

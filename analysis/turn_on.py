@@ -223,8 +223,8 @@ def warmup_curve(rate_deg_s: ArrayLike, sample_rate_hz: float, *, first_s: float
     after = first_s + (t_end - first_s) / 2 if reference_after_s is None else reference_after_s
     reference = cycle_bias(x, fs, first_s=first_s, after_s=after).mean_deg_h
     starts, means = sliding_means(x, window, max(1, window // 4))
-    centres = first_s + (starts + window / 2.0) / fs
-    bias = means * S_PER_H
+    centres = np.asarray(first_s + (starts + window / 2.0) / fs, dtype=np.float64)
+    bias = np.asarray(means * S_PER_H, dtype=np.float64)
     off = np.abs(bias - reference)
     outside = np.flatnonzero(off > band)  # a NaN average (a gap) is neither in nor out
     finite = np.flatnonzero(np.isfinite(off))

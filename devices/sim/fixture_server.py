@@ -232,7 +232,7 @@ class SimulatedFixture:
         try:
             await self._stop.wait()
         finally:
-            await server.shutdown()
+            await server.shutdown()  # type: ignore[no-untyped-call]
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -262,7 +262,7 @@ class Verdicted(Protocol):
     """A graded figure: its verdict at each grade that limits it."""
 
     @property
-    def verdicts(self) -> dict[str, str]: ...
+    def verdicts(self) -> Mapping[str, str]: ...
 
 
 def assign_grade(figures: Sequence[Verdicted], grades: tuple[str, ...], reject: str

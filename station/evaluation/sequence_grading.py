@@ -393,7 +393,8 @@ def _graded(spec: SequenceFigureSpec, fig: Figure, profile: Profile) -> Sequence
     value, low, high = conv(value), conv(low), conv(high)
     if value is None:
         note = "not measured by this sequence"
-    verdicts = {g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()}
+    verdicts: dict[str, str] = {g: decide(value, low, high, limit, profile.rule)
+                                for g, limit in spec.limits.items()}
     return SequenceFigureResult(spec, value, low, high, verdicts, note)
 
 

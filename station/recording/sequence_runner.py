@@ -28,6 +28,7 @@ import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Protocol, TypeVar
 
@@ -231,7 +232,7 @@ class SequenceRunner:
     def _switch(self, on: bool, step: Step | None) -> None:
         for unit, switch in zip(self.run.unit_ids, self.power, strict=True):
             try:  # the instant a turn-on time counts from
-                wall = self._retried(lambda s=switch: s.set_power(on), switch, step)
+                wall = self._retried(partial(switch.set_power, on), switch, step)
             except DeviceError as exc:
                 raise SequenceError(f"{unit}: its supply ({switch.describe()}) did not switch "
                                     f"{'on' if on else 'off'}: {exc}") from exc
@@ -245,7 +246,7 @@ class SequenceRunner:
             try:
                 return self._retried(chamber.temperature_c, chamber, None)
             except DeviceError as exc:
-                raise SequenceError(f"the chamber ({self.chamber.describe()}) does not answer: "
+                raise SequenceError(f"the chamber ({chamber.describe()}) does not answer: "
                                     f"{exc}") from exc
 
     def _log_chamber(self, step: Step | None, *, force: bool = False,
