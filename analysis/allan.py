@@ -183,7 +183,9 @@ def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
     finite = np.isfinite(arr)
     if not finite.all():
         rows, cols = np.nonzero(~finite)
-        where = ", ".join(f"sample {r} axis {c} ({arr[r, c]})" for r, c in zip(rows[:5], cols[:5], strict=True))
+        where = ", ".join(
+            f"sample {r} axis {c} ({arr[r, c]})" for r, c in zip(rows[:5], cols[:5], strict=True)
+        )
         more = f" and {len(rows) - 5} more" if len(rows) > 5 else ""
         raise NonFiniteSamplesError(
             f"{len(rows)} non-finite sample(s): {where}{more}; remove or interpolate them first"
@@ -353,7 +355,9 @@ def resolve_m(
 # --------------------------------------------------------------------------------- kernels
 
 
-def overlapping_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
+def overlapping_sums(
+    theta: NDArray[np.float64], m_values: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Sum of squared second differences ``theta[n+2m] - 2 theta[n+m] + theta[n]`` per m.
 
     ``theta`` is (N + 1) x k; the sum runs over the ``N + 1 - 2m`` available ``n``.

@@ -86,7 +86,8 @@ def _mixed_difference(mi: ArrayLike, mj: ArrayLike, u: NDArray[np.float64]) -> N
 
 
 def _nine_lags(mi: ArrayLike, mj: ArrayLike) -> NDArray[np.float64]:
-    """The lags ``a m_i - b m_j`` (a, b in 0..2) where the terms of ``c_ij`` change form: (..., 9)."""
+    """The lags ``a m_i - b m_j`` (a, b in 0..2) where the terms of ``c_ij`` change form: (...,
+    9)."""
     return np.stack([a * np.asarray(mi, dtype=float) - b * np.asarray(mj, dtype=float)
                      for a in range(3) for b in range(3)], axis=-1)
 
@@ -108,7 +109,8 @@ def _spikes(lags: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
 
 
 def _span_overlap(u: NDArray[np.float64], ti: ArrayLike, tj: ArrayLike) -> NDArray[np.float64]:
-    """Length of ``[0, ti) & [-u, tj - u)``: how much of the record holds both positions at lag u."""
+    """Length of ``[0, ti) & [-u, tj - u)``: how much of the record holds both positions at lag
+    u."""
     return np.maximum(0.0, np.minimum(ti, np.subtract(tj, u)) - np.maximum(0.0, -u))
 
 
@@ -149,7 +151,9 @@ def _exact_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
         return _near_lags(mi, mj, si, sj, li, lj)
     lcm = si * sj // g
     tail = FLICKER_TAIL_M * max(mi, mj)
-    u = g * np.arange(math.ceil((-2 * mj - tail) / g), math.floor((2 * mi + tail) / g) + 1, dtype=float)
+    u = g * np.arange(
+        math.ceil((-2 * mj - tail) / g), math.floor((2 * mi + tail) / g) + 1, dtype=float
+    )
     return u, _span_overlap(u, li * si, lj * sj) / lcm
 
 
@@ -187,8 +191,13 @@ def _near_lags(mi: int, mj: int, si: int, sj: int, li: int, lj: int
     steps = width * 2.0 ** np.arange(6)
     edges_hi = np.unique(np.clip(np.concatenate([[2.0 * mi], 2.0 * mi + steps, [2.0 * mi + tail]]),
                                  2.0 * mi, 2.0 * mi + tail))
-    edges_lo = np.unique(np.clip(np.concatenate([[-2.0 * mj], -2.0 * mj - steps, [-2.0 * mj - tail]]),
-                                 -2.0 * mj - tail, -2.0 * mj))
+    edges_lo = np.unique(
+        np.clip(
+            np.concatenate([[-2.0 * mj], -2.0 * mj - steps, [-2.0 * mj - tail]]),
+            -2.0 * mj - tail,
+            -2.0 * mj,
+        )
+    )
     nodes, weights = [support_u], [support_w]
     for edges in (edges_hi, edges_lo):
         half = (edges[1:] - edges[:-1]) / 2.0
@@ -255,7 +264,9 @@ def _quadrature_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[
     half = (edges[:, 1:] - edges[:, :-1]) / 2.0
     mid = (edges[:, 1:] + edges[:, :-1]) / 2.0
     u = (mid[:, :, None] + half[:, :, None] * _GL_X).reshape(len(mi_f), -1)
-    weight = (half[:, :, None] * _GL_W).reshape(len(mi_f), -1) * _span_overlap(u, ti, tj) / (lcm * g)
+    weight = (
+        (half[:, :, None] * _GL_W).reshape(len(mi_f), -1) * _span_overlap(u, ti, tj) / (lcm * g)
+    )
     lags = _nine_lags(mi_f[:, 0], mj_f[:, 0])
     spike_weight = _span_overlap(lags, ti, tj) / lcm
     return _sums(_mixed_difference(mi_f, mj_f, u), weight, lags, spike_weight, mi_f, mj_f)
@@ -324,7 +335,9 @@ class CovarianceBasis:
         lin = np.einsum("ijt,t->ij", self.g1, q)
         return (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
 
-    def relative_covariance(self, beta: ArrayLike, *, random_ramp: bool = False) -> NDArray[np.float64]:
+    def relative_covariance(
+        self, beta: ArrayLike, *, random_ramp: bool = False
+    ) -> NDArray[np.float64]:
         """``Cov(A_i, A_j) / (E A_i E A_j)``: the covariance of the log values to first order."""
         mean = self.mean(beta)
         return self.covariance(beta, random_ramp=random_ramp) / np.outer(mean, mean)
@@ -357,7 +370,9 @@ def covariance_basis(
     """
     m = np.asarray(m, dtype=np.int64)
     if m.size == 0 or m.min() < 1 or m.max() > n_samples // 2:
-        raise ValueError(f"averaging factors must lie in 1..{n_samples // 2} for {n_samples} samples")
+        raise ValueError(
+            f"averaging factors must lie in 1..{n_samples // 2} for {n_samples} samples"
+        )
     n_terms = (n_samples + 1 - 2 * m) if overlapping else (n_samples // m - 1)
     stride = np.ones_like(m) if overlapping else m
     n = len(m)
@@ -367,7 +382,11 @@ def covariance_basis(
     si, sj, li, lj = stride[i], stride[j], n_terms[i], n_terms[j]
     lattice = (FLICKER_TAIL_M + 2) * 2 * np.maximum(m[i], m[j]) / np.gcd(si, sj)
     clusters = (si > 1) | (sj > 1)
-    exact = (lattice <= EXACT_LAGS) | (clusters & (li * lj <= EXACT_PAIRS)) | _few_periods(si, sj, li, lj)
+    exact = (
+        (lattice <= EXACT_LAGS)
+        | (clusters & (li * lj <= EXACT_PAIRS))
+        | _few_periods(si, sj, li, lj)
+    )
     for picks, method, size in ((np.flatnonzero(exact), _exact_pairs, EXACT_CHUNK),
                                 (np.flatnonzero(~exact), _quadrature_pairs, QUADRATURE_CHUNK)):
         for chunk in np.array_split(picks, max(1, len(picks) // size)):
@@ -376,5 +395,6 @@ def covariance_basis(
                     m[i[chunk]], m[j[chunk]], si[chunk], sj[chunk], li[chunk], lj[chunk])
     # c_ji(u) = c_ij(-u): the lower triangle holds the same sums
     g2[j, i], g1[j, i] = g2[i, j], g1[i, j]
-    return CovarianceBasis(m / float(sample_rate_hz), m, n_terms.astype(np.int64), float(sample_rate_hz),
-                           g2, g1)
+    return CovarianceBasis(
+        m / float(sample_rate_hz), m, n_terms.astype(np.int64), float(sample_rate_hz), g2, g1
+    )

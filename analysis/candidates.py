@@ -174,7 +174,9 @@ def fit_candidate(name: str, model: NoiseModel, curve: MeasuredCurve, comparison
     steps for bias steps); the rest of the model's curve is the comparison's.
     """
     present = model.get(name)
-    term_now = present.avar(curve.tau_s, duration_s=curve.duration_s) if present is not None else 0.0
+    term_now = (
+        present.avar(curve.tau_s, duration_s=curve.duration_s) if present is not None else 0.0
+    )
     base = np.maximum(comparison.model_avar - term_now, 0.0)
     shape = _Shape(name, curve, present, realized)
     prec = curve.precision
@@ -259,7 +261,8 @@ def change_of(fit: CandidateFit, model: NoiseModel, curve: MeasuredCurve) -> str
 
 def tau_range(before: NDArray[np.float64], after: NDArray[np.float64], tau_s: NDArray[np.float64],
               *, share: float = 0.2) -> tuple[float, float]:
-    """Taus where the change of the model's Allan variance is at least ``share`` of the larger curve."""
+    """Taus where the change of the model's Allan variance is at least ``share`` of the larger
+    curve."""
     changed = np.abs(after - before) >= share * np.maximum(after, before)
     if not changed.any():
         i = int(np.argmax(np.abs(after - before)))

@@ -108,7 +108,11 @@ def _phase_acv(alpha: int, j: NDArray[np.float64]) -> NDArray[np.float64]:
         # precision at large |j| (2 ln|j| plus two terms of about |j| that nearly cancel)
         with np.errstate(divide="ignore", invalid="ignore"):
             big = np.maximum(a, 2.0)
-            far = 2 * np.log(big) + (big + 1) ** 2 * np.log1p(1 / big) + (big - 1) ** 2 * np.log1p(-1 / big)
+            far = (
+                2 * np.log(big)
+                + (big + 1) ** 2 * np.log1p(1 / big)
+                + (big - 1) ** 2 * np.log1p(-1 / big)
+            )
         return np.asarray(-0.5 * np.select([a == 0, a == 1], [0.0, 4 * np.log(2.0)], default=far),
                           dtype=np.float64)
     if alpha == 0:
@@ -118,7 +122,9 @@ def _phase_acv(alpha: int, j: NDArray[np.float64]) -> NDArray[np.float64]:
             return np.where(a > 0, 0.5 * a**2 * np.log(a), 0.0)
     if alpha == -2:
         return 0.5 * a**3
-    raise ValueError(f"no structure function for rate-noise exponent alpha={alpha}; use one of {NOISE_ALPHAS}")
+    raise ValueError(
+        f"no structure function for rate-noise exponent alpha={alpha}; use one of {NOISE_ALPHAS}"
+    )
 
 
 def _phase_acv_double_sum(alpha: int, j: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -138,7 +144,9 @@ def _phase_acv_double_sum(alpha: int, j: NDArray[np.float64]) -> NDArray[np.floa
             return np.where(a > 0, a**4 * np.log(a) / 24.0, 0.0)
     if alpha == -2:
         return a**5 / 40.0 - a**3 / 24.0 + a / 60.0
-    raise ValueError(f"no structure function for rate-noise exponent alpha={alpha}; use one of {NOISE_ALPHAS}")
+    raise ValueError(
+        f"no structure function for rate-noise exponent alpha={alpha}; use one of {NOISE_ALPHAS}"
+    )
 
 
 def _filter_taps(order: int, modified: bool) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
@@ -181,7 +189,9 @@ def _lag_samples(count: int, m: int, reach: int) -> NDArray[np.int64]:
     side = np.unique(np.rint(np.geomspace(LAG_WINDOW, max(LAG_WINDOW, m), 2 * LAG_WINDOW)))
     near = np.concatenate([-side, np.arange(-LAG_WINDOW, LAG_WINDOW + 1), side]).astype(np.int64)
     centres = np.arange(reach + 1) * m
-    lags = np.concatenate([(centres[:, None] + near[None, :]).ravel(), np.arange(0, count, step), [count]])
+    lags = np.concatenate(
+        [(centres[:, None] + near[None, :]).ravel(), np.arange(0, count, step), [count]]
+    )
     return np.unique(lags[(lags >= 1) & (lags <= count)])
 
 
@@ -240,7 +250,12 @@ def allan_edf(n_terms: int, m: int, alpha: int, *, stride: int = 1) -> float:
 
 
 def estimator_terms(
-    n_samples: int, m: ArrayLike, *, order: int = 2, modified: bool = False, overlapping: bool = True
+    n_samples: int,
+    m: ArrayLike,
+    *,
+    order: int = 2,
+    modified: bool = False,
+    overlapping: bool = True,
 ) -> NDArray[np.int64]:
     """Number of squared terms an estimator sums over ``N`` samples (``N + 1`` angles) at each m.
 
@@ -284,9 +299,19 @@ def difference_edf_grid(
         if len(picks) < len(m):
             lo = np.clip(np.searchsorted(picks, rows, side="right") - 1, 0, len(picks) - 1)
             rows = np.unique(picks[np.concatenate([lo, np.minimum(lo + 1, len(picks) - 1)])])
-        exact = np.array([difference_edf(int(n_terms[i]), int(m[i]), int(a), order=order, modified=modified,
-                                         stride=1 if overlapping else int(m[i]))
-                          for i in rows])
+        exact = np.array(
+            [
+                difference_edf(
+                    int(n_terms[i]),
+                    int(m[i]),
+                    int(a),
+                    order=order,
+                    modified=modified,
+                    stride=1 if overlapping else int(m[i]),
+                )
+                for i in rows
+            ]
+        )
         if len(rows) == 1:
             full = np.full(len(m), exact[0])
         else:

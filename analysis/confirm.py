@@ -114,14 +114,18 @@ def periodogram_peak(rate: NDArray[np.float64], sample_rate_hz: float, period_s:
     p = float(-np.expm1(m * np.log1p(-math.exp(-ratio)))) if ratio < 700 else 0.0
     f_start = freq[i_peak]
 
-    def sine(tt: NDArray[np.float64], a: float, b: float, f: float, c: float, s: float) -> NDArray[np.float64]:
+    def sine(
+        tt: NDArray[np.float64], a: float, b: float, f: float, c: float, s: float
+    ) -> NDArray[np.float64]:
         return a * np.sin(2 * np.pi * f * tt) + b * np.cos(2 * np.pi * f * tt) + c + s * tt
 
     a0 = 2.0 * math.sqrt(power[i_peak]) / n
     try:
         popt, pcov = optimize.curve_fit(sine, t, y, p0=[a0, 0.0, f_start, float(y.mean()), 0.0])
     except (RuntimeError, optimize.OptimizeWarning):
-        return Evidence(False, f"periodogram peak ratio {ratio:.1f}, p = {p:.2g}; sine fit failed", {}, {})
+        return Evidence(
+            False, f"periodogram peak ratio {ratio:.1f}, p = {p:.2g}; sine fit failed", {}, {}
+        )
     a, b, f = popt[0], popt[1], abs(popt[2])
     sinc = math.sin(math.pi * f * dt) / (math.pi * f * dt)
     amp = math.hypot(a, b) / sinc
@@ -144,8 +148,9 @@ def periodogram_peak(rate: NDArray[np.float64], sample_rate_hz: float, period_s:
     return Evidence(p < alpha, text, values, stderr)
 
 
-def _wandering_line(rate: NDArray[np.float64], sample_rate_hz: float, f0: float, coherent_deg_s: float
-                    ) -> Tone | None:
+def _wandering_line(
+    rate: NDArray[np.float64], sample_rate_hz: float, f0: float, coherent_deg_s: float
+) -> Tone | None:
     """The Welch line in ``[f0/1.5, 1.5 f0]`` when it carries more than ``AMPLITUDE_AGREEMENT``
     times the coherent sinusoid's amplitude (a line whose frequency wanders), else None."""
     near = [t for t in find_tones(rate, sample_rate_hz) if f0 / 1.5 <= t.freq_hz <= 1.5 * f0]
@@ -171,7 +176,8 @@ class StepEvidence(Evidence):
 
 
 def _locate(rate: NDArray[np.float64], lo: int, hi: int) -> tuple[int, float]:
-    """Sample index in ``[lo, hi)`` that best splits the mean (largest two-sample t), and the jump."""
+    """Sample index in ``[lo, hi)`` that best splits the mean (largest two-sample t), and the
+    jump."""
     x = rate[lo:hi]
     n = len(x)
     k = np.arange(1, n)
@@ -183,7 +189,9 @@ def _locate(rate: NDArray[np.float64], lo: int, hi: int) -> tuple[int, float]:
     return lo + best + 1, float(after[best] - before[best])
 
 
-def detect_steps(rate: NDArray[np.float64], sample_rate_hz: float, *, alpha: float = ALPHA_CONFIRM) -> StepEvidence:
+def detect_steps(
+    rate: NDArray[np.float64], sample_rate_hz: float, *, alpha: float = ALPHA_CONFIRM
+) -> StepEvidence:
     """Change points of the bias (S2): where they are, their count per hour and their rms size.
 
     Each jump of the block-mean differences is then located to the sample by the largest
@@ -213,7 +221,9 @@ def detect_steps(rate: NDArray[np.float64], sample_rate_hz: float, *, alpha: flo
         if picks and (best is None or len(picks) > len(best[1])):
             best = (b, sorted(picks), len(y))
     if best is None:
-        return StepEvidence(False, f"change-point test: no block-mean jump beyond {t_bound:.1f} sigma", {}, {})
+        return StepEvidence(
+            False, f"change-point test: no block-mean jump beyond {t_bound:.1f} sigma", {}, {}
+        )
     b, picks, n_blocks = best
     located = [_locate(rate, j * b, (j + 3) * b) for j in picks]
     times = tuple(i / sample_rate_hz for i, _ in located)
@@ -224,17 +234,32 @@ def detect_steps(rate: NDArray[np.float64], sample_rate_hz: float, *, alpha: flo
     values = {"rate_per_h": count / duration_h, "size_deg_h": units.rate_deg_s_to_deg_h(rms)}
     stderr = {"rate_per_h": math.sqrt(count) / duration_h,
               "size_deg_h": units.rate_deg_s_to_deg_h(rms) / math.sqrt(2.0 * count)}
-    where = ", ".join(f"{units.rate_deg_s_to_deg_h(sz):+.3g} deg/h at {t:.0f} s" for t, sz in zip(times, sizes, strict=True))
-    return StepEvidence(True, f"change-point test: {count} step(s) beyond {t_bound:.1f} sigma "
-                        f"({n_blocks} blocks of {b / sample_rate_hz:.3g} s): {where}", values, stderr,
-                        times_s=times, sizes_deg_s=tuple(float(x) for x in sizes))
+    where = ", ".join(
+        f"{units.rate_deg_s_to_deg_h(sz):+.3g} deg/h at {t:.0f} s"
+        for t, sz in zip(times, sizes, strict=True)
+    )
+    return StepEvidence(
+        True,
+        f"change-point test: {count} step(s) beyond {t_bound:.1f} sigma "
+        f"({n_blocks} blocks of {b / sample_rate_hz:.3g} s): {where}",
+        values,
+        stderr,
+        times_s=times,
+        sizes_deg_s=tuple(float(x) for x in sizes),
+    )
 
 
-def slope_test(slope: float, null_slopes: NDArray[np.float64], label: str) -> tuple[bool, float, str]:
+def slope_test(
+    slope: float, null_slopes: NDArray[np.float64], label: str
+) -> tuple[bool, float, str]:
     """Whether a regression slope clears ``Z_CONFIRM`` null standard deviations (S3, S4)."""
     mu, sd = float(np.mean(null_slopes)), float(np.std(null_slopes, ddof=1))
     z = (slope - mu) / sd if sd > 0 else math.inf
-    return abs(z) >= Z_CONFIRM, sd, f"{label}: slope {z:+.1f} null standard deviations from the model's runs"
+    return (
+        abs(z) >= Z_CONFIRM,
+        sd,
+        f"{label}: slope {z:+.1f} null standard deviations from the model's runs",
+    )
 
 
 def temperature_regression(rate: NDArray[np.float64], temperature_c: NDArray[np.float64],
@@ -245,7 +270,9 @@ def temperature_regression(rate: NDArray[np.float64], temperature_c: NDArray[np.
     return Evidence(ok, text, {"coefficient_deg_s_per_c": slope}, {"coefficient_deg_s_per_c": sd})
 
 
-def trend_test(rate: NDArray[np.float64], sample_rate_hz: float, null_slopes: NDArray[np.float64]) -> Evidence:
+def trend_test(
+    rate: NDArray[np.float64], sample_rate_hz: float, null_slopes: NDArray[np.float64]
+) -> Evidence:
     """Slope of the rate on time (deg/h^2) against the model's null (S4)."""
     t = np.arange(len(rate)) / sample_rate_hz
     slope = float(regression_slopes(rate[:, None], t)[0])
@@ -254,7 +281,9 @@ def trend_test(rate: NDArray[np.float64], sample_rate_hz: float, null_slopes: ND
                     {"R_deg_h2": units.ramp_deg_s2_to_deg_h2(sd)})
 
 
-def fit_temperature_profile(temperature_c: NDArray[np.float64], sample_rate_hz: float) -> dict[str, float]:
+def fit_temperature_profile(
+    temperature_c: NDArray[np.float64], sample_rate_hz: float
+) -> dict[str, float]:
     """Keys of a :class:`analysis.models.TemperatureBias` profile fitted to a temperature channel.
 
     ``T(t) = final + (start - final) exp(-t / W) + C sin(2 pi t / P + phi)``: the warm-up by
@@ -266,16 +295,25 @@ def fit_temperature_profile(temperature_c: NDArray[np.float64], sample_rate_hz: 
     dt = block / sample_rate_hz
     t = np.asarray((np.arange(len(y)) + 0.5) * dt, dtype=np.float64)
     length = len(temperature_c) / sample_rate_hz
-    out = {"reference_c": float(np.mean(temperature_c)), "start_c": float(y[0]), "final_c": float(y[-1]),
-           "warmup_s": length / 4.0}
+    out = {
+        "reference_c": float(np.mean(temperature_c)),
+        "start_c": float(y[0]),
+        "final_c": float(y[-1]),
+        "warmup_s": length / 4.0,
+    }
 
-    def warm(tt: NDArray[np.float64], final: float, delta: float, log_w: float) -> NDArray[np.float64]:
+    def warm(
+        tt: NDArray[np.float64], final: float, delta: float, log_w: float
+    ) -> NDArray[np.float64]:
         return np.asarray(final + delta * np.exp(-tt / math.exp(log_w)), dtype=np.float64)
 
     try:
-        popt, _ = optimize.curve_fit(warm, t, y, p0=[float(y[-1]), float(y[0] - y[-1]), math.log(length / 4)],
-                                     maxfev=2000)
-        out.update(final_c=float(popt[0]), start_c=float(popt[0] + popt[1]), warmup_s=math.exp(popt[2]))
+        popt, _ = optimize.curve_fit(
+            warm, t, y, p0=[float(y[-1]), float(y[0] - y[-1]), math.log(length / 4)], maxfev=2000
+        )
+        out.update(
+            final_c=float(popt[0]), start_c=float(popt[0] + popt[1]), warmup_s=math.exp(popt[2])
+        )
         resid = y - warm(t, *popt)
     except RuntimeError:
         resid = y - y.mean()
@@ -283,11 +321,16 @@ def fit_temperature_profile(temperature_c: NDArray[np.float64], sample_rate_hz: 
     k = int(np.argmax(spec[1:])) + 1 if len(spec) > 2 else 0
     if k:
         f = k / (len(y) * dt)
-        design = np.column_stack([np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t), np.ones_like(t)])
+        design = np.column_stack(
+            [np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t), np.ones_like(t)]
+        )
         coef, *_ = np.linalg.lstsq(design, resid, rcond=None)
         if np.var(resid - design @ coef) < 0.5 * np.var(resid):
-            out.update(cycle_amplitude_c=float(math.hypot(coef[0], coef[1])), cycle_period_s=1.0 / f,
-                       cycle_phase_deg=math.degrees(math.atan2(coef[1], coef[0])))
+            out.update(
+                cycle_amplitude_c=float(math.hypot(coef[0], coef[1])),
+                cycle_period_s=1.0 / f,
+                cycle_phase_deg=math.degrees(math.atan2(coef[1], coef[0])),
+            )
     return out
 
 
@@ -317,7 +360,9 @@ def _deterministic_part(model: NoiseModel, curve: MeasuredCurve,
         if isinstance(term, TemperatureBias) and curve.temperature_c is not None:
             out += term.coefficient_deg_s_per_c * (curve.temperature_c - curve.temperature_c.mean())
         elif isinstance(term, DETERMINISTIC):
-            out += simulate(NoiseModel(terms=(term,)), curve.duration_s, curve.sample_rate_hz).rate_deg_s[:, 0]
+            out += simulate(
+                NoiseModel(terms=(term,)), curve.duration_s, curve.sample_rate_hz
+            ).rate_deg_s[:, 0]
     return out
 
 
@@ -341,15 +386,26 @@ class RoundEvidence:
             return None
         return self.steps.series(self.curve.n_samples, self.curve.sample_rate_hz)
 
-    def confirm(self, fit: CandidateFit, change: str) -> tuple[NoiseTerm | None, Evidence | None, str]:
+    def confirm(
+        self, fit: CandidateFit, change: str
+    ) -> tuple[NoiseTerm | None, Evidence | None, str]:
         """(term to add, evidence, reason it is refused); term None when refused."""
         curve, band = self.curve, self.comparison.band
         if change == "decreased":
             return fit.term, None, ""
         name = fit.name
-        if name == "gauss_markov" and fit.values.get("tau_s", 0.0) >= GM_TAU_LIMIT * curve.duration_s:
-            return None, None, (f"correlation time {fit.values['tau_s']:.4g} s at the record's length: "
-                                "indistinguishable from a rate random walk")
+        if (
+            name == "gauss_markov"
+            and fit.values.get("tau_s", 0.0) >= GM_TAU_LIMIT * curve.duration_s
+        ):
+            return (
+                None,
+                None,
+                (
+                    f"correlation time {fit.values['tau_s']:.4g} s at the record's length: "
+                    "indistinguishable from a rate random walk"
+                ),
+            )
         if name == "bias_steps":
             return BiasSteps(**self.steps.values), self.steps, ""
         if name == "sinusoid":
@@ -364,22 +420,36 @@ class RoundEvidence:
         if name == "temperature_bias":
             if curve.temperature_c is None or band.temperature_slopes is None:
                 return None, None, "the record has no temperature channel"
-            ev = temperature_regression(curve.rate_deg_s, curve.temperature_c, band.temperature_slopes)
+            ev = temperature_regression(
+                curve.rate_deg_s, curve.temperature_c, band.temperature_slopes
+            )
             if not ev.confirmed:
                 return None, ev, f"no correlation with temperature ({ev.statistic})"
             profile = fit_temperature_profile(curve.temperature_c, curve.sample_rate_hz)
             return TemperatureBias(**ev.values, **profile), ev, ""
         if name == "rate_ramp":
             if curve.temperature_c is not None and band.temperature_slopes is not None:
-                temp = temperature_regression(curve.rate_deg_s, curve.temperature_c, band.temperature_slopes)
+                temp = temperature_regression(
+                    curve.rate_deg_s, curve.temperature_c, band.temperature_slopes
+                )
                 if temp.confirmed:
-                    return None, temp, "the trend follows the temperature: temperature_bias, not a ramp"
+                    return (
+                        None,
+                        temp,
+                        "the trend follows the temperature: temperature_bias, not a ramp",
+                    )
             ev = trend_test(curve.rate_deg_s, curve.sample_rate_hz, band.trend_slopes)
             if not ev.confirmed:
                 return None, ev, f"no trend ({ev.statistic})"
             ratio = abs(ev.values["R_deg_h2"]) / fit.values["R_deg_h2"]
             if not 1.0 / RAMP_AGREEMENT <= ratio <= RAMP_AGREEMENT:
-                return None, ev, (f"the trend's ramp is {ratio:.2g} x the curve's: the curve rises for "
-                                  "another reason (a random walk)")
+                return (
+                    None,
+                    ev,
+                    (
+                        f"the trend's ramp is {ratio:.2g} x the curve's: the curve rises for "
+                        "another reason (a random walk)"
+                    ),
+                )
             return RateRamp(**ev.values), ev, ""
         return fit.term, None, ""

@@ -125,7 +125,13 @@ def deterministic_avar(
     tau = as_tau(tau_s)
     half = np.pi * tau / period_s
     sinc = np.sin(half) / half
-    d_c = 2.0 * cycle_amplitude * sinc * np.sin(half) * np.exp(1j * (2.0 * half + np.deg2rad(phase_deg)))
+    d_c = (
+        2.0
+        * cycle_amplitude
+        * sinc
+        * np.sin(half)
+        * np.exp(1j * (2.0 * half + np.deg2rad(phase_deg)))
+    )
     steady = np.asarray(np.abs(d_c) ** 2 / 4.0, dtype=np.float64)
     if duration_s is None:
         return steady

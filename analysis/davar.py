@@ -185,7 +185,8 @@ def _window_starts(n_samples: int, plan: _Plan) -> NDArray[np.int64]:
 
 def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n_samples: int,
             *, confidence: float, squeeze: bool) -> DavarResult:
-    """Scale window sums (n_windows, n_tau, k) to Allan variances (in place) and attach intervals."""
+    """Scale window sums (n_windows, n_tau, k) to Allan variances (in place) and attach
+    intervals."""
     m = plan.m
     n_terms = plan.window + 1 - 2 * m
     tau = m / plan.fs
@@ -207,9 +208,19 @@ def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n
         avar, edf, low, high = avar[..., 0], edf[..., 0], low[..., 0], high[..., 0]
         alpha = alpha[:, 0]
     return DavarResult(
-        t_s=np.asarray((starts + plan.window / 2.0) / plan.fs, dtype=np.float64), tau_s=tau, m=m, avar=avar, edf=edf,
-        ci_low=low, ci_high=high, noise_alpha=alpha, n_terms=n_terms.astype(np.int64),
-        confidence=confidence, window_samples=plan.window, step_samples=plan.step, sample_rate_hz=plan.fs,
+        t_s=np.asarray((starts + plan.window / 2.0) / plan.fs, dtype=np.float64),
+        tau_s=tau,
+        m=m,
+        avar=avar,
+        edf=edf,
+        ci_low=low,
+        ci_high=high,
+        noise_alpha=alpha,
+        n_terms=n_terms.astype(np.int64),
+        confidence=confidence,
+        window_samples=plan.window,
+        step_samples=plan.step,
+        sample_rate_hz=plan.fs,
         n_samples=n_samples,
     )
 
@@ -482,7 +493,9 @@ def dynamic_allan_variance_stream(
     plan = _plan(sample_rate_hz, window_s, step_s, taus)
     block = max(3 * plan.window, 1 << 20) if block_samples is None else int(block_samples)
     if block < plan.window:
-        raise InvalidWindowError(f"block_samples {block} must hold a window ({plan.window} samples)")
+        raise InvalidWindowError(
+            f"block_samples {block} must hold a window ({plan.window} samples)"
+        )
     if input_kind not in ("rate", "angle_increment"):
         raise ValueError(f"input_kind must be 'rate' or 'angle_increment', got {input_kind!r}")
     scale = 1.0 / plan.fs if input_kind == "rate" else 1.0

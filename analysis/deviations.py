@@ -7,7 +7,8 @@ variance is in (rate unit)^2, e.g. (deg/s)^2, except the time variance, in (angl
 With ``tau = m / fs`` (NIST SP 1065 numbering):
 
 * ``mdev``, modified Allan (eq. 14): the second difference of angles averaged over m,
-  ``sum_j (sum_{i=j}^{j+m-1} theta_{i+2m} - 2 theta_{i+m} + theta_i)^2 / (2 m^2 tau^2 (N + 2 - 3m))``;
+  ``sum_j (sum_{i=j}^{j+m-1} theta_{i+2m} - 2 theta_{i+m} + theta_i)^2 / (2 m^2 tau^2 (N + 2 -
+  3m))``;
 * ``tdev``, time (eq. 15): ``tau^2 / 3`` times the modified Allan variance, an angle;
 * ``hdev``, ``ohdev``, Hadamard and overlapping Hadamard (eq. 18, 20): the third
   difference ``theta_{n+3m} - 3 theta_{n+2m} + 3 theta_{n+m} - theta_n``, squared over
@@ -71,7 +72,16 @@ from analysis.theo1 import theo1_sums
 
 DeviationKind = Literal["oadev", "adev", "mdev", "hdev", "ohdev", "tdev", "totdev", "theo1"]
 #: Every deviation :func:`deviation` computes, the overlapping Allan deviation first.
-DEVIATION_KINDS: tuple[DeviationKind, ...] = ("oadev", "adev", "mdev", "hdev", "ohdev", "tdev", "totdev", "theo1")
+DEVIATION_KINDS: tuple[DeviationKind, ...] = (
+    "oadev",
+    "adev",
+    "mdev",
+    "hdev",
+    "ohdev",
+    "tdev",
+    "totdev",
+    "theo1",
+)
 #: What each deviation is called in a table or a plot.
 DEVIATION_LABELS: dict[str, str] = {
     "oadev": "overlapping Allan deviation", "adev": "Allan deviation (clusters)",
@@ -176,10 +186,19 @@ def from_allan(result: AllanResult) -> DeviationResult:
     """An Allan result (:mod:`analysis.allan`) as a :class:`DeviationResult`."""
     return DeviationResult(
         kind="oadev" if result.estimator == "overlapping" else "adev",
-        tau_s=result.tau_s, m=result.m, variance=result.avar, n_terms=result.n_terms, edf=result.edf,
-        ci_low=result.ci_low, ci_high=result.ci_high, noise_alpha=result.noise_alpha,
-        confidence=result.confidence, sample_rate_hz=result.sample_rate_hz, n_samples=result.n_samples,
-        unit="rate", interval="edf computed from the structure function (Greenhall and Riley 2003)",
+        tau_s=result.tau_s,
+        m=result.m,
+        variance=result.avar,
+        n_terms=result.n_terms,
+        edf=result.edf,
+        ci_low=result.ci_low,
+        ci_high=result.ci_high,
+        noise_alpha=result.noise_alpha,
+        confidence=result.confidence,
+        sample_rate_hz=result.sample_rate_hz,
+        n_samples=result.n_samples,
+        unit="rate",
+        interval="edf computed from the structure function (Greenhall and Riley 2003)",
     )
 
 
@@ -236,8 +255,9 @@ def deviation_m(
         else:
             m = np.asarray(grid, dtype=np.int64)
         if m.size == 0:
-            raise TooFewSamplesError(f"{n_samples} samples are too few for the {taus!r} grid of {kind}; "
-                                     f"record longer")
+            raise TooFewSamplesError(
+                f"{n_samples} samples are too few for the {taus!r} grid of {kind}; record longer"
+            )
         return m
     if kind == "theo1":
         m = m_from_tau(np.asarray(taus, dtype=float) / THEO1_TAU_FACTOR, sample_rate_hz)
@@ -289,7 +309,9 @@ def _total_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
 # ---------------------------------------------------------------------------------- edf
 
 
-def total_edf(n_samples: int, m: NDArray[np.int64], alpha: NDArray[np.int64]) -> NDArray[np.float64]:
+def total_edf(
+    n_samples: int, m: NDArray[np.int64], alpha: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Total variance edf: NIST SP 1065 Table 7, ``b N/m - c``, for rate noise (alpha 0, -1, -2);
     the overlapping Allan variance's computed edf for angle noise (alpha 2, 1), where the
     table gives none, and at m = 1 (the same estimator there). ``alpha`` is (n_tau, k);
@@ -320,10 +342,15 @@ def theo1_edf(n_points: int, m: NDArray[np.int64], alpha: NDArray[np.int64]) -> 
     with np.errstate(divide="ignore", invalid="ignore"):
         table = {
             2: 0.86 * (n + 1) * (n - 4 * r / 3) / (n - r) * r / (r + 1.14),
-            1: (4.798 * n**2 - 6.374 * n * r + 12.387 * r) / (np.sqrt(r + 36.6) * (n - r)) * r / (r + 0.3),
+            1: (4.798 * n**2 - 6.374 * n * r + 12.387 * r)
+            / (np.sqrt(r + 36.6) * (n - r))
+            * r
+            / (r + 0.3),
             0: ((4.1 * n + 0.8) / r - (3.1 * n + 6.5) / n) * r**1.5 / (r**1.5 + 5.2),
             -1: (2 * n**2 - 1.3 * n * r - 3.5 * r) / (n * r) * r**3 / (r**3 + 2.3),
-            -2: (4.4 * n - 2) / (2.9 * r) * ((4.4 * n - 1) ** 2 - 8.6 * r * (4.4 * n - 1) + 11.4 * r**2)
+            -2: (4.4 * n - 2)
+            / (2.9 * r)
+            * ((4.4 * n - 1) ** 2 - 8.6 * r * (4.4 * n - 1) + 11.4 * r**2)
             / (4.4 * n - 3) ** 2,
         }
     out = np.ones(np.shape(alpha))
@@ -349,9 +376,16 @@ _SPECS: dict[str, _Spec] = {
     "tdev": _Spec(2, True, True, _COMPUTED),
     "hdev": _Spec(3, False, False, _COMPUTED),
     "ohdev": _Spec(3, False, True, _COMPUTED),
-    "totdev": _Spec(2, False, True, "edf of NIST SP 1065 Table 7 (white, flicker rate, rate random walk); "
-                                    "the overlapping Allan edf for angle noise (approximate)"),
-    "theo1": _Spec(2, False, True, "edf of NIST SP 1065's Theo1 formulas (fitted to simulations: approximate)"),
+    "totdev": _Spec(
+        2,
+        False,
+        True,
+        "edf of NIST SP 1065 Table 7 (white, flicker rate, rate random walk); "
+        "the overlapping Allan edf for angle noise (approximate)",
+    ),
+    "theo1": _Spec(
+        2, False, True, "edf of NIST SP 1065's Theo1 formulas (fitted to simulations: approximate)"
+    ),
 }
 
 
@@ -377,15 +411,19 @@ def _compute(kind: str, samples: ArrayLike, sample_rate_hz: float, *, taus: TauG
         alpha = identify_noise(theta, np.unique(m_id)).alpha[np.searchsorted(np.unique(m_id), m_id)]
         edf = theo1_edf(n + 1, m, alpha)
         if worst > 1e-4:
-            notes.append(f"Theo1 sums carry a relative rounding error of up to {worst:.1g} (the angle "
-                         f"wanders far against its short-tau differences)")
+            notes.append(
+                f"Theo1 sums carry a relative rounding error of up to {worst:.1g} (the angle "
+                f"wanders far against its short-tau differences)"
+            )
     else:
         if kind in ("mdev", "tdev"):
             sums = np.stack([_modified_sums(theta, int(mi)) for mi in m])
         elif kind == "totdev":
             sums = np.stack([_total_sums(theta, int(mi)) for mi in m])
         else:
-            sums = np.stack([_hadamard_sums(theta, int(mi), 1 if spec.overlapping else int(mi)) for mi in m])
+            sums = np.stack(
+                [_hadamard_sums(theta, int(mi), 1 if spec.overlapping else int(mi)) for mi in m]
+            )
         if kind == "totdev":
             n_terms = np.full(len(m), n - 1, dtype=np.int64)
         else:
@@ -408,11 +446,29 @@ def _compute(kind: str, samples: ArrayLike, sample_rate_hz: float, *, taus: TauG
     low, high = chi2_interval(variance, edf, confidence)
     squeeze = np.ndim(samples) == 1
     if squeeze:
-        variance, edf, low, high, alpha = variance[:, 0], edf[:, 0], low[:, 0], high[:, 0], alpha[:, 0]
+        variance, edf, low, high, alpha = (
+            variance[:, 0],
+            edf[:, 0],
+            low[:, 0],
+            high[:, 0],
+            alpha[:, 0],
+        )
     return DeviationResult(
-        kind=kind, tau_s=tau, m=m, variance=variance, n_terms=n_terms, edf=edf, ci_low=low, ci_high=high,
-        noise_alpha=alpha, confidence=confidence, sample_rate_hz=fs, n_samples=n,
-        unit="angle" if kind == "tdev" else "rate", interval=spec.interval, notes=tuple(notes),
+        kind=kind,
+        tau_s=tau,
+        m=m,
+        variance=variance,
+        n_terms=n_terms,
+        edf=edf,
+        ci_low=low,
+        ci_high=high,
+        noise_alpha=alpha,
+        confidence=confidence,
+        sample_rate_hz=fs,
+        n_samples=n,
+        unit="angle" if kind == "tdev" else "rate",
+        interval=spec.interval,
+        notes=tuple(notes),
     )
 
 
@@ -467,9 +523,13 @@ def deviation(
             n = int(np.shape(samples)[0]) if np.ndim(samples) else 0
             taus = analysis_log_m(n) / fs
             if not len(taus):
-                raise TooFewSamplesError(f"{n} samples are too few for the 'log' grid of {kind}; record longer")
+                raise TooFewSamplesError(
+                    f"{n} samples are too few for the 'log' grid of {kind}; record longer"
+                )
         return from_allan(allan_variance(samples, sample_rate_hz, estimator=estimator, taus=taus,
                                          input_kind=input_kind, confidence=confidence))
     if kind not in _SPECS:
         raise ValueError(f"unknown deviation {kind!r}; use one of {DEVIATION_KINDS}")
-    return _compute(kind, samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence)
+    return _compute(
+        kind, samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence
+    )

@@ -90,8 +90,11 @@ def block_means(x: ArrayLike, block: int) -> NDArray[np.float64]:
                       dtype=np.float64)
 
 
-def reconcile_grid(n_samples: int, *, points_per_octave: int = 4, min_clusters: int = 4) -> NDArray[np.int64]:
-    """Averaging factors of the comparison: ``points_per_octave`` per octave, ``m <= N / min_clusters``.
+def reconcile_grid(
+    n_samples: int, *, points_per_octave: int = 4, min_clusters: int = 4
+) -> NDArray[np.int64]:
+    """Averaging factors of the comparison: ``points_per_octave`` per octave, ``m <= N /
+    min_clusters``.
 
     Raises
     ------
@@ -107,7 +110,9 @@ def reconcile_grid(n_samples: int, *, points_per_octave: int = 4, min_clusters: 
     return m
 
 
-def allan_on_grid(rate: ArrayLike, sample_rate_hz: float, m: NDArray[np.int64]) -> NDArray[np.float64]:
+def allan_on_grid(
+    rate: ArrayLike, sample_rate_hz: float, m: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Overlapping Allan variance (Zhang 2015 eq. 5) of each column at factors ``m``, (n_tau, k).
 
     Only the sums: no edf, no interval (see :func:`analysis.allan.overlapping_allan_variance`).
@@ -213,12 +218,16 @@ def measure_curve(
     if temperature_c is not None:
         temp = np.asarray(temperature_c, dtype=np.float64).reshape(-1)
         if temp.shape[0] != rate.shape[0]:
-            raise ReconcileError(f"temperature has {temp.shape[0]} samples, the rate {rate.shape[0]}")
+            raise ReconcileError(
+                f"temperature has {temp.shape[0]} samples, the rate {rate.shape[0]}"
+            )
     d = max(1, math.ceil(rate.shape[0] / max_samples))
     rate = block_means(rate, d)
     temp = None if temp is None else block_means(temp, d)
     fs_d = fs / d
-    m = reconcile_grid(rate.shape[0], points_per_octave=points_per_octave, min_clusters=min_clusters)
+    m = reconcile_grid(
+        rate.shape[0], points_per_octave=points_per_octave, min_clusters=min_clusters
+    )
     avar = allan_on_grid(rate, fs_d, m)[:, 0]
     tau = m / fs_d
     precision = log_precision(avar, m, rate.shape[0], tau, floor=floor)
@@ -228,7 +237,9 @@ def measure_curve(
 # -------------------------------------------------------------------------- statistic
 
 
-def standardized_log_ratio(avar: ArrayLike, model_avar: ArrayLike, precision: LogPrecision) -> NDArray[np.float64]:
+def standardized_log_ratio(
+    avar: ArrayLike, model_avar: ArrayLike, precision: LogPrecision
+) -> NDArray[np.float64]:
     """z of eq. G1 for each tau (and each column of ``avar`` when 2-D)."""
     a = np.asarray(avar, dtype=np.float64)
     model = np.maximum(np.asarray(model_avar, dtype=np.float64), np.finfo(float).tiny)
@@ -332,9 +343,12 @@ def _simulated_runs(model: NoiseModel, n: int, fs: float, k: int, seed: int,
         return simulate(model, n / fs, fs, n_axes=k, seed=seed).rate_deg_s
     total = np.zeros((n, k))
     for term in model.terms:
-        total += cache.get(("term-runs", term, n, fs, k, seed),
-                           lambda term=term: simulate(NoiseModel(terms=(term,)), n / fs, fs, n_axes=k,
-                                                      seed=seed).rate_deg_s)
+        total += cache.get(
+            ("term-runs", term, n, fs, k, seed),
+            lambda term=term: (
+                simulate(NoiseModel(terms=(term,)), n / fs, fs, n_axes=k, seed=seed).rate_deg_s
+            ),
+        )
     return total
 
 
@@ -353,7 +367,9 @@ def monte_carlo_band(model: NoiseModel, curve: MeasuredCurve, *, runs: int = 20,
         raise ReconcileError(f"the Monte Carlo band needs at least 4 runs, got {runs}")
     n, fs = curve.n_samples, curve.sample_rate_hz
     per_batch = max(1, min(runs, BATCH_SAMPLES // n))
-    seeds = np.random.SeedSequence(seed).generate_state(math.ceil(runs / per_batch), dtype=np.uint64)
+    seeds = np.random.SeedSequence(seed).generate_state(
+        math.ceil(runs / per_batch), dtype=np.uint64
+    )
     t = np.arange(n) / fs
     avars, trends, temps = [], [], []
     done = 0
@@ -381,7 +397,8 @@ def monte_carlo_band(model: NoiseModel, curve: MeasuredCurve, *, runs: int = 20,
 
 def ranges_outside(tau_s: NDArray[np.float64], avar: NDArray[np.float64], low: NDArray[np.float64],
                    high: NDArray[np.float64]) -> tuple[tuple[float, float, str], ...]:
-    """Contiguous tau ranges where ``avar`` leaves ``[low, high]``: (lo_s, hi_s, "above"|"below")."""
+    """Contiguous tau ranges where ``avar`` leaves ``[low, high]``: (lo_s, hi_s,
+    "above"|"below")."""
     side = np.where(avar > high, 1, np.where(avar < low, -1, 0))
     out = []
     i = 0
@@ -478,17 +495,35 @@ def compare(
         known_rate = np.sum(list(realized.values()), axis=0)
         model_avar = model_avar + allan_on_grid(known_rate, curve.sample_rate_hz, curve.m)[:, 0]
     if not np.all(model_avar > 0):
-        raise ReconcileError("the model has no Allan variance at some taus; give it a noise term (e.g. [arw])")
+        raise ReconcileError(
+            "the model has no Allan variance at some taus; give it a noise term (e.g. [arw])"
+        )
     temp_key = None if curve.temperature_c is None else hash(curve.temperature_c.tobytes())
     known_key = None if known_rate is None else hash(known_rate.tobytes())
-    key = (random_part, curve.n_samples, curve.sample_rate_hz, curve.m.tobytes(), runs, seed, temp_key, known_key)
-    band = cache.get(key, lambda: monte_carlo_band(random_part, curve, runs=runs, seed=seed, known=known_rate,
-                                                        cache=cache))
+    key = (
+        random_part,
+        curve.n_samples,
+        curve.sample_rate_hz,
+        curve.m.tobytes(),
+        runs,
+        seed,
+        temp_key,
+        known_key,
+    )
+    band = cache.get(
+        key,
+        lambda: monte_carlo_band(
+            random_part, curve, runs=runs, seed=seed, known=known_rate, cache=cache
+        ),
+    )
     precision = curve.precision
     z = standardized_log_ratio(curve.avar, model_avar, precision)
     gap = float(gap_statistic(z, precision.share))
-    null = GapNull(np.asarray(gap_statistic(standardized_log_ratio(band.avar, model_avar, precision),
-                                            precision.share)))
+    null = GapNull(
+        np.asarray(
+            gap_statistic(standardized_log_ratio(band.avar, model_avar, precision), precision.share)
+        )
+    )
     return Comparison(model=model, model_avar=model_avar, z=z, gap=gap,
                       p_value=null.p_value(gap), band=band, gap_null=null,
                       outside=ranges_outside(curve.tau_s, curve.avar, band.low, band.high))

@@ -79,8 +79,9 @@ def axis_direction(spec: str | Sequence[float]) -> NDArray[np.float64]:
         raise OrientationError(f"axis direction {spec!r} is not a name or 3 numbers") from exc
     norm = float(np.linalg.norm(v)) if v.shape == (3,) and np.isfinite(v).all() else 0.0
     if norm < 1e-9:
-        raise OrientationError(f"axis direction {spec!r} must be 3 finite numbers [east, north, up], "
-                               f"not all zero")
+        raise OrientationError(
+            f"axis direction {spec!r} must be 3 finite numbers [east, north, up], not all zero"
+        )
     return v / norm
 
 
@@ -96,9 +97,15 @@ def rotation_rows(matrix: Sequence[Sequence[float]]) -> tuple[NDArray[np.float64
         r = np.asarray(matrix, dtype=float)
     except (TypeError, ValueError) as exc:
         raise OrientationError("rotation must be 3 rows of 3 numbers") from exc
-    if r.shape != (3, 3) or not np.isfinite(r).all() or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
-        raise OrientationError("rotation must be an orthonormal 3 x 3 matrix whose rows are the body "
-                               "axes x, y, z in [east, north, up]")
+    if (
+        r.shape != (3, 3)
+        or not np.isfinite(r).all()
+        or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
+    ):
+        raise OrientationError(
+            "rotation must be an orthonormal 3 x 3 matrix whose rows are the body "
+            "axes x, y, z in [east, north, up]"
+        )
     return tuple(r)
 
 
@@ -169,7 +176,9 @@ def parse_orientation(text: str) -> dict[str, Direction]:
             try:
                 value = [float(v) for v in direction.split("/")]
             except ValueError as exc:
-                raise OrientationError(f"orientation {item!r}: a vector is east/north/up numbers") from exc
+                raise OrientationError(
+                    f"orientation {item!r}: a vector is east/north/up numbers"
+                ) from exc
         axis_direction(value)
         out[axis.strip()] = value
     return out

@@ -92,7 +92,9 @@ def _rate_column(rate_deg_s: ArrayLike) -> tuple[NDArray[np.float64], bool]:
     if not missing.any():
         return as_samples(x)[:, 0], False
     if x.ndim != 1 or np.isinf(x).any() or missing.all():
-        raise ValueError("a rate record with gaps must be 1-D with NaN only where samples are missing")
+        raise ValueError(
+            "a rate record with gaps must be 1-D with NaN only where samples are missing"
+        )
     return x, True
 
 
@@ -127,7 +129,13 @@ class SpecFigures:
     def as_dict(self) -> dict[str, object]:
         """JSON form (tuples become lists)."""
         out = asdict(self)
-        for key in ("arw_tau_range_s", "notes", "arw_ci_deg_rt_h", "bias_instability_ci_deg_h", "review"):
+        for key in (
+            "arw_tau_range_s",
+            "notes",
+            "arw_ci_deg_rt_h",
+            "bias_instability_ci_deg_h",
+            "review",
+        ):
             value = getattr(self, key)
             out[key] = None if value is None else list(value)
         return out
@@ -158,7 +166,11 @@ def _disagree(read: ReadOff, value: float | None, stderr: float | None, confiden
 
 
 def _fit_text(value: float, stderr: float | None, unit: str) -> str:
-    return f"{value:.3g} +- {stderr:.2g} {unit}" if stderr is not None else f"{value:.3g} {unit} (no standard error)"
+    return (
+        f"{value:.3g} +- {stderr:.2g} {unit}"
+        if stderr is not None
+        else f"{value:.3g} {unit} (no standard error)"
+    )
 
 
 def _region(result: AllanResult, read: ReadOff) -> NDArray[np.bool_]:
@@ -188,11 +200,17 @@ def _arw_cause(result: AllanResult, fit: NoiseCoefficients, read: ReadOff) -> st
     if read.note:
         return read.note
     if np.all(model > 0):
-        misfit = math.exp(float(np.mean(np.log(np.asarray(result.avar)[region] / model))) / 2.0) - 1.0
+        misfit = (
+            math.exp(float(np.mean(np.log(np.asarray(result.avar)[region] / model))) / 2.0) - 1.0
+        )
         if abs(misfit) > CAUSE_THRESHOLD:
-            return (f"the fitted model lies {abs(misfit):.0%} {'below' if misfit > 0 else 'above'} the measured "
-                    f"curve at tau {read.tau_low_s:.3g}-{read.tau_high_s:.3g} s, where the read-off is taken: "
-                    "the five terms do not follow the curve there")
+            return (
+                f"the fitted model lies {abs(misfit):.0%} {'below' if misfit > 0 else 'above'} the "
+                "measured "
+                f"curve at tau {read.tau_low_s:.3g}-{read.tau_high_s:.3g} s, where the read-off is "
+                "taken: "
+                "the five terms do not follow the curve there"
+            )
     return "the difference is beyond both figures' statistical intervals; check the Allan plot"
 
 
@@ -206,22 +224,48 @@ def _bias_instability_cause(fit: NoiseCoefficients, read: ReadOff) -> str:
         shares = {t: float(fit.term_avar(t, tau)[0]) / model for t in "QNKR"}
         flicker = float(fit.term_avar("B", tau)[0]) / model
         if abs(misfit) > MISFIT_THRESHOLD:
-            causes.append(f"the fitted model lies {abs(misfit):.0%} {'above' if misfit > 0 else 'below'} the "
-                          f"smoothed curve at tau {tau[0]:.3g} s: the five terms do not follow the curve around "
-                          "its minimum (station reconcile names what they miss)")
+            causes.append(
+                f"the fitted model lies {abs(misfit):.0%} {'above' if misfit > 0 else 'below'} the "
+                f"smoothed curve at tau {tau[0]:.3g} s: the five terms do not follow the curve "
+                "around "
+                "its minimum (station reconcile names what they miss)"
+            )
         elif flicker < 1.0 - CAUSE_THRESHOLD:
-            names = {"Q": "quantization", "N": "white rate noise", "K": "rate random walk", "R": "rate ramp"}
-            listed = [names[t] for t, v in sorted(shares.items(), key=lambda kv: -kv[1]) if v > CAUSE_THRESHOLD]
-            others = " and ".join([", ".join(listed[:-1]), listed[-1]] if len(listed) > 1 else listed)
-            causes.append(f"the Allan minimum at tau {tau[0]:.3g} s is not a flicker floor: the fitted {others} "
-                          f"{'hold' if len(listed) > 1 else 'holds'} {1.0 - flicker:.0%} of it, and "
-                          "sigma_min / 0.664 assumes flicker noise alone")
-    return "; ".join(causes) or "the smoothed minimum and the fitted flicker floor differ beyond both intervals"
+            names = {
+                "Q": "quantization",
+                "N": "white rate noise",
+                "K": "rate random walk",
+                "R": "rate ramp",
+            }
+            listed = [
+                names[t]
+                for t, v in sorted(shares.items(), key=lambda kv: -kv[1])
+                if v > CAUSE_THRESHOLD
+            ]
+            others = " and ".join(
+                [", ".join(listed[:-1]), listed[-1]] if len(listed) > 1 else listed
+            )
+            causes.append(
+                f"the Allan minimum at tau {tau[0]:.3g} s is not a flicker floor: the fitted "
+                f"{others} "
+                f"{'hold' if len(listed) > 1 else 'holds'} {1.0 - flicker:.0%} of it, and "
+                "sigma_min / 0.664 assumes flicker noise alone"
+            )
+    return (
+        "; ".join(causes)
+        or "the smoothed minimum and the fitted flicker floor differ beyond both intervals"
+    )
 
 
-def review_notes(result: AllanResult, fit: NoiseCoefficients, arw: ReadOff, bias_instability: ReadOff, *,
-                 confidence: float = REVIEW_CONFIDENCE, which: tuple[str, ...] = ("arw", "bias_instability"),
-                 ) -> tuple[str, ...]:
+def review_notes(
+    result: AllanResult,
+    fit: NoiseCoefficients,
+    arw: ReadOff,
+    bias_instability: ReadOff,
+    *,
+    confidence: float = REVIEW_CONFIDENCE,
+    which: tuple[str, ...] = ("arw", "bias_instability"),
+) -> tuple[str, ...]:
     """Why read-off and fit of ARW and bias instability disagree, one line each (empty: they agree).
 
     They disagree when ``|log(read-off / fit)|`` exceeds ``z sqrt(s_r^2 + s_f^2)``: ``z``
@@ -248,10 +292,16 @@ def review_notes(result: AllanResult, fit: NoiseCoefficients, arw: ReadOff, bias
             continue
         assert read.value is not None and value is not None
         low, high = read.interval(confidence)
-        as_read = f" ({value * factor:.3g} read off the fitted curve the same way)" if factor > 1.001 else ""
-        notes.append(f"{label}: read-off {read.value:.3g} [{low:.3g}, {high:.3g}] and fit "
-                     f"{_fit_text(value, stderr, unit)}{as_read} {apart[0]}, more than their combined "
-                     f"{confidence:.0%} intervals allow ({apart[1]}): {cause()}")
+        as_read = (
+            f" ({value * factor:.3g} read off the fitted curve the same way)"
+            if factor > 1.001
+            else ""
+        )
+        notes.append(
+            f"{label}: read-off {read.value:.3g} [{low:.3g}, {high:.3g}] and fit "
+            f"{_fit_text(value, stderr, unit)}{as_read} {apart[0]}, more than their combined "
+            f"{confidence:.0%} intervals allow ({apart[1]}): {cause()}"
+        )
     return tuple(notes)
 
 
@@ -279,10 +329,14 @@ def spec_figures(
     bs100 = bias_stability(x, sample_rate_hz, 100.0)
     arw = arw_readoff(result, fit, zones=zones)
     bi = bias_instability_readoff(result, zones=zones)
-    notes = tuple(f"fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s: {z.reason}"
-                  for z in zones)
+    notes = tuple(
+        f"fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s: {z.reason}"
+        for z in zones
+    )
     notes += tuple(
-        f"{name}: {r.note}" for name, r in (("ARW read-off", arw), ("bias instability read-off", bi)) if r.note
+        f"{name}: {r.note}"
+        for name, r in (("ARW read-off", arw), ("bias instability read-off", bi))
+        if r.note
     )
     if bs100.value_deg_h is None:
         notes += (f"bias stability 100 s: only {bs100.n_averages} averages, needs 3",)

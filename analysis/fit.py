@@ -162,7 +162,9 @@ def _check_terms(terms: str) -> str:
     return terms
 
 
-def _checked(result: AllanResult, terms: str, model_error: float) -> tuple[str, NDArray[np.float64]]:
+def _checked(
+    result: AllanResult, terms: str, model_error: float
+) -> tuple[str, NDArray[np.float64]]:
     terms = _check_terms(terms)
     avar = np.asarray(result.avar, dtype=float)
     if avar.ndim != 1:
@@ -240,8 +242,9 @@ def fit_noise_terms(
     return _fit_linear(method, result, keep, terms, reference)
 
 
-def fit_every_method(result: AllanResult, *, terms: str = TERMS, model_error: float = DEFAULT_MODEL_ERROR
-                     ) -> dict[str, NoiseCoefficients]:
+def fit_every_method(
+    result: AllanResult, *, terms: str = TERMS, model_error: float = DEFAULT_MODEL_ERROR
+) -> dict[str, NoiseCoefficients]:
     """:func:`fit_noise_terms` with each method at its default, the logwls model shared.
 
     The standard errors of the paper's methods take the covariance of the Allan values
@@ -284,15 +287,19 @@ def _fit_logwls(result: AllanResult, keep: NDArray[np.bool_], candidates: str, m
         dropped = "".join(t for t in candidates if t not in chosen)
         if dropped:
             notes.append(
-                f"terms {chosen} kept of {candidates}: {', '.join(dropped)} not resolved by the data "
+                f"terms {chosen} kept of {candidates}: {', '.join(dropped)} not resolved by the "
+                "data "
                 f"(information criterion on the log Allan values with their covariance, "
                 f"{selection.n_points} values, penalty {selection.penalty:.2f} per term); "
-                f"each reported as 0 with its 1-sigma upper bound as standard error")
+                f"each reported as 0 with its 1-sigma upper bound as standard error"
+            )
     beta, nfev = fit_log(data, chosen)
     lin, misfit = _log_linearization(result, data, beta)
     notes.append("standard errors: sandwich of the fit's response with the covariance of the Allan "
                  "values under the fitted model")
-    fit = _finish("logwls", result, keep, candidates, beta, lin, beta, misfit, notes, iterations=nfev)
+    fit = _finish(
+        "logwls", result, keep, candidates, beta, lin, beta, misfit, notes, iterations=nfev
+    )
     return fit, (beta, keep, misfit)
 
 
@@ -377,9 +384,11 @@ def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidate
             worst = int(np.argmax(noted))
             size = (f"{misfit[worst]:.1%}" if misfit[worst] < 0.3 else
                     f"a factor {math.exp(misfit[worst]):.2g} in Allan variance")
-            notes.append(f"the curve departs from the five-term model beyond sampling, by up to {size} "
-                         f"(near tau {result.tau_s[keep][worst]:.3g} s); that misfit is carried in the "
-                         f"standard errors")
+            notes.append(
+                f"the curve departs from the five-term model beyond sampling, by up to {size} "
+                f"(near tau {result.tau_s[keep][worst]:.3g} s); that misfit is carried in the "
+                f"standard errors"
+            )
         if len(free):
             c = lin.covariance(free, cov, misfit)
             for k, col in enumerate(free):
@@ -411,5 +420,15 @@ def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidate
             negative += term
     full = np.where(np.isfinite(beta), beta, np.nan)
     kept = "".join(t for t in candidates if np.isfinite(beta[TERMS.index(t)]))
-    return NoiseCoefficients(method, kept, values, stderr, full, negative, int(keep.sum()), iterations,
-                             candidates, tuple(notes))
+    return NoiseCoefficients(
+        method,
+        kept,
+        values,
+        stderr,
+        full,
+        negative,
+        int(keep.sum()),
+        iterations,
+        candidates,
+        tuple(notes),
+    )

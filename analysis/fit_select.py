@@ -88,7 +88,9 @@ def _reduced(data: LogData) -> LogData:
     keep = np.zeros_like(data.keep)
     keep[np.flatnonzero(data.keep)[rows]] = True
     weights = data.weights[rows] / log_tau_share(data.tau_s)[rows] * log_tau_share(data.tau_s[rows])
-    return LogData(keep, data.tau_s[rows], data.avar[rows], data.target[rows], weights, data.design[rows])
+    return LogData(
+        keep, data.tau_s[rows], data.avar[rows], data.target[rows], weights, data.design[rows]
+    )
 
 
 def select_terms(result: AllanResult, data: LogData, candidates: str, *,
@@ -115,8 +117,11 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
     cov = value_covariance(result, full, keep=data.keep, random_ramp=True)
     free = np.flatnonzero(np.nan_to_num(full) > 0)
     lin = LinearizedFit(data.jacobian(full), data.weights, log=True)
-    misfit = (lin.local_misfit(free, data.residual(full), cov, log_tau_share(data.tau_s)) if len(free)
-              else np.zeros(len(data.tau_s)))
+    misfit = (
+        lin.local_misfit(free, data.residual(full), cov, log_tau_share(data.tau_s))
+        if len(free)
+        else np.zeros(len(data.tau_s))
+    )
     rows = thin_by_octave(data.tau_s)
     picks = np.zeros((len(rows), len(data.tau_s)))
     picks[np.arange(len(rows)), rows] = 1.0
@@ -127,28 +132,44 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
     for size in range(1, len(candidates) + 1):
         for subset in itertools.combinations(candidates, size):
             terms = "".join(subset)
-            beta = full if terms == candidates else fit_log(data, terms, start=full, tolerance=1e-9)[0]
+            beta = (
+                full if terms == candidates else fit_log(data, terms, start=full, tolerance=1e-9)[0]
+            )
             fits[terms] = beta
             criteria[terms] = _deviance(result, data, beta, picks, rows, misfit) + penalty * size
     best = min(criteria, key=lambda t: (criteria[t], len(t)))
     return Selection(best, criteria, float(penalty), len(rows), misfit)
 
 
-def _deviance(result: AllanResult, data: LogData, beta: NDArray[np.float64], picks: NDArray[np.float64],
-              rows: NDArray[np.int64], misfit: NDArray[np.float64]) -> float:
+def _deviance(
+    result: AllanResult,
+    data: LogData,
+    beta: NDArray[np.float64],
+    picks: NDArray[np.float64],
+    rows: NDArray[np.int64],
+    misfit: NDArray[np.float64],
+) -> float:
     """``-2 log L`` (up to a constant) of the thinned log values under the model ``beta``.
 
     Gaussian in the log values, with the covariance the model itself implies: a model
     that claims precise values (a deterministic ramp) must also meet them.
     """
-    c = value_covariance(result, beta, keep=data.keep, random_ramp=True).sandwich(picks, log=True, misfit=misfit)
+    c = value_covariance(result, beta, keep=data.keep, random_ramp=True).sandwich(
+        picks, log=True, misfit=misfit
+    )
     c[np.diag_indices_from(c)] *= 1.0 + 1e-9
     chol = linalg.cholesky(c, lower=True)
     # the likelihood at its best: generalized least squares under that covariance
     # L^-1 by LAPACK's triangular inverse (solve_triangular with an identity is 100x slower)
     whiten = np.tril(lapack.dtrtri(chol, lower=1)[0])
-    thin = LogData(data.keep, data.tau_s[rows], data.avar[rows], data.target[rows], data.weights[rows],
-                   data.design[rows])
+    thin = LogData(
+        data.keep,
+        data.tau_s[rows],
+        data.avar[rows],
+        data.target[rows],
+        data.weights[rows],
+        data.design[rows],
+    )
     terms = "".join(t for t, b in zip(TERMS, beta, strict=True) if np.isfinite(b))
     beta, _ = fit_log(thin, terms, start=beta, tolerance=1e-9, whiten=whiten)
     z = whiten @ thin.residual(beta)

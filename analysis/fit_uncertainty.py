@@ -58,7 +58,9 @@ MISFIT_OCTAVES = 1.0
 
 
 @functools.lru_cache(maxsize=4)
-def _basis(m: tuple[int, ...], n_samples: int, sample_rate_hz: float, overlapping: bool) -> CovarianceBasis:
+def _basis(
+    m: tuple[int, ...], n_samples: int, sample_rate_hz: float, overlapping: bool
+) -> CovarianceBasis:
     # one grid serves every axis of a record and every run of a Monte Carlo
     return covariance_basis(np.array(m), n_samples, sample_rate_hz, overlapping=overlapping)
 
@@ -132,7 +134,10 @@ class ValueCovariance:
         if k == 1:
             out[:, 0] = rows.sum(axis=1)
             return out
-        for a, share in ((self.left, 1.0 - self.frac), (np.minimum(self.left + 1, k - 1), self.frac)):
+        for a, share in (
+            (self.left, 1.0 - self.frac),
+            (np.minimum(self.left + 1, k - 1), self.frac),
+        ):
             for r in range(rows.shape[0]):
                 out[r] += np.bincount(a, weights=rows[r] * share, minlength=k)
         return out
@@ -150,8 +155,9 @@ class ValueCovariance:
         right = np.minimum(self.left + 1, k - 1)
         return on_anchors[..., self.left] * (1.0 - self.frac) + on_anchors[..., right] * self.frac
 
-    def sandwich(self, rows: NDArray[np.float64], *, log: bool, misfit: NDArray[np.float64] | None = None
-                 ) -> NDArray[np.float64]:
+    def sandwich(
+        self, rows: NDArray[np.float64], *, log: bool, misfit: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
         """``L C L^T`` for ``L = rows`` (p, n) acting on relative deviations of the values.
 
         ``log`` scales the sampling part for the log of each value (low-edf correction);
@@ -165,7 +171,12 @@ class ValueCovariance:
         f = self.log_factor() if log else 1.0
         out = self.project(rows_a * f) @ self.relative @ self.project(rows_b * f).T
         if misfit is not None and np.any(misfit > 0):
-            out = out + self.project(rows_a * misfit) @ self.misfit_kernel @ self.project(rows_b * misfit).T
+            out = (
+                out
+                + self.project(rows_a * misfit)
+                @ self.misfit_kernel
+                @ self.project(rows_b * misfit).T
+            )
         return out
 
     def diagonal(self, *, log: bool) -> NDArray[np.float64]:
@@ -173,8 +184,13 @@ class ValueCovariance:
         return self.relative_variance * (self.log_factor() ** 2 if log else 1.0)
 
 
-def value_covariance(result: AllanResult, beta: NDArray[np.float64], keep: NDArray[np.bool_] | None = None,
-                     *, random_ramp: bool = False) -> ValueCovariance:
+def value_covariance(
+    result: AllanResult,
+    beta: NDArray[np.float64],
+    keep: NDArray[np.bool_] | None = None,
+    *,
+    random_ramp: bool = False,
+) -> ValueCovariance:
     """Covariance of the Allan values of ``result`` (rows ``keep``) under the model ``beta``.
 
     Parameters
@@ -194,8 +210,12 @@ def value_covariance(result: AllanResult, beta: NDArray[np.float64], keep: NDArr
         m = m[keep]
     anchors, left, frac = _anchors(m, None if result.estimator == "overlapping"
                                    else int(result.n_samples) // m)
-    basis = _basis(tuple(int(v) for v in anchors), int(result.n_samples), float(result.sample_rate_hz),
-                   result.estimator == "overlapping")
+    basis = _basis(
+        tuple(int(v) for v in anchors),
+        int(result.n_samples),
+        float(result.sample_rate_hz),
+        result.estimator == "overlapping",
+    )
     relative = basis.relative_covariance(beta, random_ramp=random_ramp)
     # a model of deterministic terms only claims exact values; keep it a (tiny) variance
     relative[np.diag_indices_from(relative)] += RELATIVE_VARIANCE_FLOOR

@@ -135,7 +135,9 @@ def fog_from_indicators(
             raise ModelError(f"{label} must be a finite positive number, got {value}")
     t_corr = float(average_s if correlation_s is None else correlation_s)
     if not (math.isfinite(t_corr) and t_corr > 0):
-        raise ModelError(f"correlation time must be a finite positive number of s, got {correlation_s}")
+        raise ModelError(
+            f"correlation time must be a finite positive number of s, got {correlation_s}"
+        )
     n = units.arw_deg_rt_h_to_deg_rt_s(arw_deg_rt_h)
     s = units.rate_deg_h_to_deg_s(bias_stability_deg_h)
     white_share = n**2 / average_s

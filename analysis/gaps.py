@@ -107,7 +107,9 @@ def _shared_mask(arr: NDArray[np.float64]) -> NDArray[np.bool_]:
     finite = np.isfinite(arr)
     if np.isinf(arr).any():
         r, c = np.argwhere(np.isinf(arr))[0]
-        raise NonFiniteSamplesError(f"sample {r} axis {c} is infinite; only NaN marks a missing sample")
+        raise NonFiniteSamplesError(
+            f"sample {r} axis {c} is infinite; only NaN marks a missing sample"
+        )
     valid = finite[:, 0]
     if not (finite == valid[:, None]).all():
         raise ValueError("the axes are missing different samples; analyze them one at a time")
@@ -172,7 +174,9 @@ def _prepare(samples: ArrayLike, fs: float, input_kind: str) -> _Gapped:
     valid = _shared_mask(arr)
     present = arr[valid]
     if present.shape[0] < 2:
-        raise TooFewSamplesError(f"{present.shape[0]} present samples are too few for an Allan variance")
+        raise TooFewSamplesError(
+            f"{present.shape[0]} present samples are too few for an Allan variance"
+        )
     increments = present - present.mean(axis=0)
     if input_kind == "rate":
         increments = increments / fs
@@ -311,7 +315,12 @@ def gap_allan_variance(
     if estimator == "overlapping":
         n_terms, n_clusters, per_stretch = _overlapping(g, m)
         keep = _keep_usable(m, n_terms, explicit, g)
-        m, n_terms, n_clusters, per_stretch = m[keep], n_terms[keep], n_clusters[keep], per_stretch[keep]
+        m, n_terms, n_clusters, per_stretch = (
+            m[keep],
+            n_terms[keep],
+            n_clusters[keep],
+            per_stretch[keep],
+        )
         sums = kernels.overlapping_stretch_sums(g.theta, m, g.starts, g.stops)
 
         def lengths_of(i: int) -> NDArray[np.int64]:
@@ -341,6 +350,18 @@ def gap_allan_variance(
     low, high = chi2_interval(avar, edf, confidence)
     if np.ndim(samples) == 1:
         avar, edf, low, high, alpha = avar[:, 0], edf[:, 0], low[:, 0], high[:, 0], alpha[:, 0]
-    return AllanResult(tau_s=m / fs, m=m, avar=avar, n_clusters=n_clusters, n_terms=n_terms,
-                       edf=edf, ci_low=low, ci_high=high, confidence=confidence,
-                       estimator=estimator, sample_rate_hz=fs, n_samples=n_present, noise_alpha=alpha)
+    return AllanResult(
+        tau_s=m / fs,
+        m=m,
+        avar=avar,
+        n_clusters=n_clusters,
+        n_terms=n_terms,
+        edf=edf,
+        ci_low=low,
+        ci_high=high,
+        confidence=confidence,
+        estimator=estimator,
+        sample_rate_hz=fs,
+        n_samples=n_present,
+        noise_alpha=alpha,
+    )

@@ -149,12 +149,21 @@ class GmwmFit:
         def clean(d: dict[str, float]) -> dict[str, float | None]:
             return {k: (v if math.isfinite(v) else None) for k, v in d.items()}
 
-        return {"model": self.model.name, "params": clean(self.values), "stderr": clean(self.stderr),
-                "ci_low": clean(self.ci_low), "ci_high": clean(self.ci_high),
-                "confidence": self.confidence, "objective": self.objective, "dof": self.dof,
-                "p_value": self.p_value if math.isfinite(self.p_value) else None,
-                "weights": self.weights, "wv_tau_s": self.tau_s.tolist(), "wv": self.wv.tolist(),
-                "model_wv": self.model_wv.tolist()}
+        return {
+            "model": self.model.name,
+            "params": clean(self.values),
+            "stderr": clean(self.stderr),
+            "ci_low": clean(self.ci_low),
+            "ci_high": clean(self.ci_high),
+            "confidence": self.confidence,
+            "objective": self.objective,
+            "dof": self.dof,
+            "p_value": self.p_value if math.isfinite(self.p_value) else None,
+            "weights": self.weights,
+            "wv_tau_s": self.tau_s.tolist(),
+            "wv": self.wv.tolist(),
+            "model_wv": self.model_wv.tolist(),
+        }
 
 
 # ------------------------------------------------------------------------------ the solver
@@ -204,7 +213,9 @@ class _Problem:
             try:
                 if np.linalg.cond(corr) < MAX_CONDITION:
                     chol = linalg.cholesky(corr, lower=True)
-                    self.whiten = linalg.solve_triangular(chol, np.eye(len(d)), lower=True) / d[None, :]
+                    self.whiten = (
+                        linalg.solve_triangular(chol, np.eye(len(d)), lower=True) / d[None, :]
+                    )
                     return "efficient"
             except (linalg.LinAlgError, ValueError):
                 pass
@@ -260,8 +271,11 @@ class _Problem:
         per_octave = GRID_PER_OCTAVE.get(n_shaped, 1)
         n_points = max(int((self.t_hi - self.t_lo) / math.log(2.0) * per_octave) + 1, n_shaped)
         grid = np.linspace(self.t_lo, self.t_hi - math.log(2.0), n_points)
-        shaped = [(c, kind, ish) for c, (kind, (_, ish)) in enumerate(zip(self.model.kinds, self.slices, strict=True))
-                  if ish is not None]
+        shaped = [
+            (c, kind, ish)
+            for c, (kind, (_, ish)) in enumerate(zip(self.model.kinds, self.slices, strict=True))
+            if ish is not None
+        ]
         base = self._columns(np.full(n_shaped, grid[0]))
         tables = {}
         for _c, kind, _ in shaped:
@@ -269,7 +283,9 @@ class _Problem:
                 unit = kind.unit_wv(self.tau[None, :], grid[:, None], self.dt)
                 tables[kind.code] = (self.whiten @ unit.T).T
         groups = {code: [c for c, kind, _ in shaped if kind.code == code] for code in tables}
-        per_group = [list(itertools.combinations(range(n_points), len(cols))) for cols in groups.values()]
+        per_group = [
+            list(itertools.combinations(range(n_points), len(cols))) for cols in groups.values()
+        ]
         scored = []
         for combo in itertools.product(*per_group):
             a = base.copy()
@@ -295,11 +311,21 @@ class _Problem:
         if not letters:
             return None
         wv = self.wv
-        allan = AllanResult(tau_s=wv.tau_s, m=wv.m, avar=2.0 * wv.wv, n_clusters=wv.n_samples // wv.m,
-                            n_terms=wv.n_coefficients, edf=wv.edf, ci_low=2.0 * wv.ci_low,
-                            ci_high=2.0 * wv.ci_high, confidence=wv.confidence, estimator="overlapping",
-                            sample_rate_hz=wv.sample_rate_hz, n_samples=wv.n_samples,
-                            noise_alpha=local_noise_alpha(wv.m, 2.0 * wv.wv, wv.n_samples))
+        allan = AllanResult(
+            tau_s=wv.tau_s,
+            m=wv.m,
+            avar=2.0 * wv.wv,
+            n_clusters=wv.n_samples // wv.m,
+            n_terms=wv.n_coefficients,
+            edf=wv.edf,
+            ci_low=2.0 * wv.ci_low,
+            ci_high=2.0 * wv.ci_high,
+            confidence=wv.confidence,
+            estimator="overlapping",
+            sample_rate_hz=wv.sample_rate_hz,
+            n_samples=wv.n_samples,
+            noise_alpha=local_noise_alpha(wv.m, 2.0 * wv.wv, wv.n_samples),
+        )
         try:
             fit = fit_noise_terms(allan, method="logwls", terms=letters)
         except FitError:
@@ -308,7 +334,9 @@ class _Problem:
         for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
             if code in ALLAN_TERM:
                 beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
-                beta = beta if np.isfinite(beta) and beta > 0.0 else 0.0  # NaN: a term the fit left out
+                beta = (
+                    beta if np.isfinite(beta) and beta > 0.0 else 0.0
+                )  # NaN: a term the fit left out
                 x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
         return x
 
@@ -322,9 +350,18 @@ class _Problem:
         ready.sort(key=lambda item: item[0])
         best, best_obj = ready[0][1], ready[0][0]
         for _, x0 in ready[:count]:
-            sol = optimize.least_squares(self.residual, x0, jac=self.jacobian, bounds=(self.lower, self.upper),
-                                         method="trf", x_scale="jac", xtol=1e-9, ftol=1e-9, gtol=1e-9,
-                                         max_nfev=200)
+            sol = optimize.least_squares(
+                self.residual,
+                x0,
+                jac=self.jacobian,
+                bounds=(self.lower, self.upper),
+                method="trf",
+                x_scale="jac",
+                xtol=1e-9,
+                ftol=1e-9,
+                gtol=1e-9,
+                max_nfev=200,
+            )
             obj = float(sol.fun @ sol.fun)
             if obj < best_obj:
                 best, best_obj = sol.x, obj
@@ -355,7 +392,9 @@ class _Problem:
                 free[iv] = False
                 if ish is not None:
                     free[ish] = False
-            if ish is not None and (x[ish] <= self.lower[ish] + 1e-6 or x[ish] >= self.upper[ish] - 1e-6):
+            if ish is not None and (
+                x[ish] <= self.lower[ish] + 1e-6 or x[ish] >= self.upper[ish] - 1e-6
+            ):
                 free[ish] = False
         return free
 
@@ -392,14 +431,33 @@ def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence:
     for key, value in values.items():
         se = stderr[key]
         if value > 0 and math.isfinite(se) and se < 20.0 * value and not key.endswith("_phi"):
-            low[key], high[key] = value * math.exp(-z * se / value), value * math.exp(z * se / value)
+            low[key], high[key] = (
+                value * math.exp(-z * se / value),
+                value * math.exp(z * se / value),
+            )
         else:
             low[key], high[key] = max(value - z * se, 0.0), value + z * se
-    return GmwmFit(model=model, params=params, cov=cov, values=values, stderr=stderr, ci_low=low,
-                   ci_high=high, objective=obj, dof=dof, p_value=p_value, weights=weights,
-                   tau_s=problem.tau, wv=problem.nu, model_wv=model.wv(params, problem.tau, dt),
-                   sample_rate_hz=problem.wv.sample_rate_hz, n_samples=problem.wv.n_samples,
-                   free=tuple(bool(f) for f in free), confidence=confidence, model_error=model_error)
+    return GmwmFit(
+        model=model,
+        params=params,
+        cov=cov,
+        values=values,
+        stderr=stderr,
+        ci_low=low,
+        ci_high=high,
+        objective=obj,
+        dof=dof,
+        p_value=p_value,
+        weights=weights,
+        tau_s=problem.tau,
+        wv=problem.nu,
+        model_wv=model.wv(params, problem.tau, dt),
+        sample_rate_hz=problem.wv.sample_rate_hz,
+        n_samples=problem.wv.n_samples,
+        free=tuple(bool(f) for f in free),
+        confidence=confidence,
+        model_error=model_error,
+    )
 
 
 def _as_model(model: GmwmModel | str) -> GmwmModel:
@@ -410,8 +468,10 @@ def _check(model: GmwmModel, wv: WaveletVariance) -> None:
     if np.ndim(wv.wv) != 1:
         raise FitError("fit one axis at a time: pass wv.axis(i)")
     if len(wv.tau_s) < model.n_params + 1:
-        raise TooFewSamplesError(f"{len(wv.tau_s)} wavelet scales are too few for the {model.n_params} "
-                                 f"parameters of {model.name}; record longer or fit a smaller model")
+        raise TooFewSamplesError(
+            f"{len(wv.tau_s)} wavelet scales are too few for the {model.n_params} "
+            f"parameters of {model.name}; record longer or fit a smaller model"
+        )
 
 
 def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficient", steps: int = 2,
@@ -421,7 +481,8 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
     Parameters
     ----------
     wv : WaveletVariance
-        Empirical wavelet variance of one axis (deg/s)^2 (:func:`analysis.wavelet.haar_wavelet_variance`).
+        Empirical wavelet variance of one axis (deg/s)^2
+        (:func:`analysis.wavelet.haar_wavelet_variance`).
     model : GmwmModel or str
         E.g. ``"wn+gm+rw"`` (:mod:`analysis.gmwm_models`).
     weights : {"efficient", "diagonal"}
@@ -462,7 +523,12 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer
         x = problem.solve(previous=x, fresh=step == steps - 1)
     dof = len(wv.tau_s) - int(problem.free(x).sum())
-    if model_error > 0 and steps > 0 and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
+    if (
+        model_error > 0
+        and steps > 0
+        and dof > 0
+        and stats.chi2.sf(problem.objective(x), dof) < REJECT_P
+    ):
         # the record resolves the scales better than the model holds: cap their weight
         floor = model_error
         for _ in range(max(steps, 1)):

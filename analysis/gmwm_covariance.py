@@ -140,9 +140,15 @@ def _rules(m: tuple[int, ...], n_samples: int, tail: int) -> tuple[NDArray[np.fl
     return k, weight, pair_i, pair_j
 
 
-def wv_covariance(model: GmwmModel, params: NDArray[np.float64], m: NDArray[np.int64], n_samples: int,
-                  sample_rate_hz: float) -> NDArray[np.float64]:
-    """Covariance matrix ((deg/s)^4) of the empirical Haar WV at half-widths ``m`` under the model (V1).
+def wv_covariance(
+    model: GmwmModel,
+    params: NDArray[np.float64],
+    m: NDArray[np.int64],
+    n_samples: int,
+    sample_rate_hz: float,
+) -> NDArray[np.float64]:
+    """Covariance matrix ((deg/s)^4) of the empirical Haar WV at half-widths ``m`` under the model
+    (V1).
 
     Parameters
     ----------

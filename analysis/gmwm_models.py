@@ -2,17 +2,19 @@
 
 A model is a sum of independent terms, written ``"wn+qn+gm+gm+rw"``:
 
-==========  ==========================================  ==========================  =====================
-term        process (rate, deg/s)                        Haar WV nu^2(tau)           keys (units in names)
-==========  ==========================================  ==========================  =====================
-``wn``      white rate noise, ARW N                      ``N^2 / (2 tau)``           ``wn_deg_rt_h``
-``qn``      quantization: white angle noise of std Q     ``3 Q^2 / (2 tau^2)``       ``qn_urad``
-``rw``      rate random walk K                           ``K^2 tau / 6``             ``rw_deg_h_rt_h``
-``dr``      drift: rate ramp R t                         ``R^2 tau^2 / 4``           ``dr_deg_h2``
-``bi``      flicker rate noise (bias instability B)      ``B^2 ln 2 / pi``           ``bi_deg_h``
-``gm``      first-order Gauss-Markov, std s, time T      ``avar_GM(tau) / 2`` (G1)   ``gm_sigma_deg_h``, ``gm_tau_s``
-``ar1``     discrete AR(1), std s, coefficient phi       closed form (A1)            ``ar1_sigma_deg_h``, ``ar1_phi``
-==========  ==========================================  ==========================  =====================
+=======  ========================================  =========================  ===================
+term     process (rate, deg/s)                     Haar WV nu^2(tau)          keys (units in names)
+=======  ========================================  =========================  ===================
+``wn``   white rate noise, ARW N                   ``N^2 / (2 tau)``          ``wn_deg_rt_h``
+``qn``   quantization: white angle noise of std Q  ``3 Q^2 / (2 tau^2)``      ``qn_urad``
+``rw``   rate random walk K                        ``K^2 tau / 6``            ``rw_deg_h_rt_h``
+``dr``   drift: rate ramp R t                      ``R^2 tau^2 / 4``          ``dr_deg_h2``
+``bi``   flicker rate noise (bias instability B)   ``B^2 ln 2 / pi``          ``bi_deg_h``
+``gm``   first-order Gauss-Markov, std s, time T   ``avar_GM(tau) / 2`` (G1)  ``gm_sigma_deg_h``,
+                                                                              ``gm_tau_s``
+``ar1``  discrete AR(1), std s, coefficient phi    closed form (A1)           ``ar1_sigma_deg_h``,
+                                                                              ``ar1_phi``
+=======  ========================================  =========================  ===================
 
 Every value is half the term's Allan variance (the Haar relation, :mod:`analysis.wavelet`
 eq. W3; IEEE Std 952-1997 Annex C and Lv 2015 eq. 3 for the IEEE terms). The samples
@@ -87,11 +89,15 @@ class TermKind:
 
     def unit_wv(self, tau_s: NDArray[np.float64], shape: float | NDArray[np.float64],
                 dt: float) -> NDArray[np.float64]:
-        """WV ((deg/s)^2) of the term with ``v = 1`` at ``tau_s`` (broadcasts ``shape`` against it)."""
+        """WV ((deg/s)^2) of the term with ``v = 1`` at ``tau_s`` (broadcasts ``shape`` against
+        it)."""
         raise NotImplementedError
 
-    def unit_structure(self, lag_s: NDArray[np.float64], shape: float, dt: float) -> NDArray[np.float64]:
-        """Angle structure function (deg^2) with ``v = 1`` at lags ``lag_s`` (s, multiples of dt)."""
+    def unit_structure(
+        self, lag_s: NDArray[np.float64], shape: float, dt: float
+    ) -> NDArray[np.float64]:
+        """Angle structure function (deg^2) with ``v = 1`` at lags ``lag_s`` (s, multiples of
+        dt)."""
         raise NotImplementedError
 
     def shape_key(self) -> str:
@@ -203,8 +209,10 @@ class Ar1Term(TermKind):
         return float(self._phi(shape, dt)[0])
 
 
-KINDS: dict[str, TermKind] = {k.code: k() for k in (WhiteNoise, QuantizationNoise, Ar1Term, GaussMarkovTerm,
-                                                   Flicker, RandomWalk, Drift)}
+KINDS: dict[str, TermKind] = {
+    k.code: k()
+    for k in (WhiteNoise, QuantizationNoise, Ar1Term, GaussMarkovTerm, Flicker, RandomWalk, Drift)
+}
 #: Terms that may appear more than once in a model.
 REPEATABLE = frozenset({"gm", "ar1"})
 
@@ -242,14 +250,19 @@ class GmwmModel:
                 digits = len(raw) - len(raw.lstrip("0123456789"))
                 count, code = int(raw[:digits]), raw[digits:]
             if code not in KINDS or count < 1:
-                raise GmwmModelError(f"unknown GMWM term {raw!r} in {text!r}; use {', '.join(KINDS)} joined by '+'")
+                raise GmwmModelError(
+                    f"unknown GMWM term {raw!r} in {text!r}; use {', '.join(KINDS)} joined by '+'"
+                )
             codes += [code] * count
         if not codes:
             raise GmwmModelError(f"empty GMWM model {text!r}; e.g. 'wn+gm+rw'")
         for code in set(codes):
             if codes.count(code) > 1 and code not in REPEATABLE:
-                raise GmwmModelError(f"term {code!r} appears twice in {text!r}; only {', '.join(sorted(REPEATABLE))} "
-                                     f"may repeat")
+                raise GmwmModelError(
+                    f"term {code!r} appears twice in {text!r}; only "
+                    f"{', '.join(sorted(REPEATABLE))} "
+                    f"may repeat"
+                )
         order = list(KINDS)
         return cls(tuple(sorted(codes, key=order.index)))
 
@@ -291,7 +304,9 @@ class GmwmModel:
         total: NDArray[np.float64] = self.term_wv(params, tau_s, dt).sum(axis=0)
         return total
 
-    def structure(self, params: ArrayLike, lag_s: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
+    def structure(
+        self, params: ArrayLike, lag_s: NDArray[np.float64], dt: float
+    ) -> NDArray[np.float64]:
         """Angle structure function (deg^2) of the model's stochastic terms at ``lag_s``."""
         p = np.asarray(params, dtype=float)
         total = np.zeros_like(lag_s, dtype=float)
@@ -307,9 +322,13 @@ class GmwmModel:
         return [math.exp(p[ish]) for _, ish in self.slices() if ish is not None]
 
     def term_labels(self, params: ArrayLike | None = None) -> list[str]:
-        """Label of each term in model order (``"wn"``, ``"gm1"``, ``"gm2"``, ...; see :meth:`keys`)."""
+        """Label of each term in model order (``"wn"``, ``"gm1"``, ``"gm2"``, ...; see
+        :meth:`keys`)."""
         scale_keys = [key for key, _, role in self.keys(params) if role == "scale"]
-        return [key[: -len(kind.scale_key) - 1] for key, kind in zip(scale_keys, self.kinds, strict=True)]
+        return [
+            key[: -len(kind.scale_key) - 1]
+            for key, kind in zip(scale_keys, self.kinds, strict=True)
+        ]
 
     def keys(self, params: ArrayLike | None = None) -> list[tuple[str, int, str]]:
         """(JSON key, internal index, "scale" or "shape") of every data-sheet parameter.
@@ -322,7 +341,9 @@ class GmwmModel:
         order = list(range(len(self.codes)))
         if params is not None:
             p = np.asarray(params, dtype=float)
-            order.sort(key=lambda i: (self.codes[i], p[slices[i][1]] if slices[i][1] is not None else 0.0))
+            order.sort(
+                key=lambda i: (self.codes[i], p[slices[i][1]] if slices[i][1] is not None else 0.0)
+            )
         else:
             order.sort(key=lambda i: self.codes[i])
         seen: dict[str, int] = {}
@@ -348,7 +369,9 @@ class GmwmModel:
         """
         p = np.asarray(params, dtype=float)
         kinds = {iv: k for k, (iv, _) in zip(self.kinds, self.slices(), strict=True)}
-        shaped = {ish: k for k, (_, ish) in zip(self.kinds, self.slices(), strict=True) if ish is not None}
+        shaped = {
+            ish: k for k, (_, ish) in zip(self.kinds, self.slices(), strict=True) if ish is not None
+        }
         values, errors = {}, {}
         for key, idx, role in self.keys(p):
             var = float(cov[idx, idx]) if cov is not None else math.nan
@@ -357,7 +380,9 @@ class GmwmModel:
                 k = kinds[idx]
                 v = max(float(p[idx]), 0.0)
                 values[key] = math.sqrt(v) * k.scale_factor
-                errors[key] = (se / (2.0 * math.sqrt(v)) if v > 0 else math.sqrt(se)) * k.scale_factor
+                errors[key] = (
+                    se / (2.0 * math.sqrt(v)) if v > 0 else math.sqrt(se)
+                ) * k.scale_factor
             else:
                 k = shaped[idx]
                 x = k.shape_value(float(p[idx]), dt)

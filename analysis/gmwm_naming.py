@@ -95,7 +95,8 @@ def base_codes(model: NoiseModel) -> list[str]:
 
 def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
           candidates: Sequence[tuple[str, str]], *, held: bool = True) -> GmwmJudgement | None:
-    """Score ``(name, mode)`` candidates (mode ``"add"`` or ``"refit"``) by N1 (or N2 when ``held``).
+    """Score ``(name, mode)`` candidates (mode ``"add"`` or ``"refit"``) by N1 (or N2 when
+    ``held``).
 
     Parameters
     ----------
@@ -130,7 +131,9 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
     if len(models) < 2:
         return None
     union_codes = sorted(set(base) | {GMWM_CODE[n] for n in models})
-    union = GmwmModel.parse("+".join(union_codes + (["gm"] if "gm" in base and "gauss_markov" in models else [])))
+    union = GmwmModel.parse(
+        "+".join(union_codes + (["gm"] if "gm" in base and "gauss_markov" in models else []))
+    )
     base_name = GmwmModel.parse("+".join(base)).name
     try:
         wv = haar_wavelet_variance(rate_deg_s, sample_rate_hz, ci="eta3")
@@ -161,7 +164,9 @@ def _held_scores(wv: WaveletVariance, model: NoiseModel, codes: dict[str, str],
     def held_wv(terms: NoiseModel) -> NDArray[np.float64]:
         out = np.zeros(len(wv.tau_s))
         for term in terms.terms:
-            if term.name in GMWM_CODE and term.name != "rate_ramp":  # stochastic, still in the record
+            if (
+                term.name in GMWM_CODE and term.name != "rate_ramp"
+            ):  # stochastic, still in the record
                 out += term.avar(wv.tau_s, duration_s=duration) / 2.0
         return out
 
@@ -190,7 +195,12 @@ class Alternative:
 
     def as_json(self) -> dict[str, object]:
         """``{"name", "score", "criterion", "change"}``."""
-        return {"name": self.name, "score": self.score, "criterion": self.criterion, "change": self.change}
+        return {
+            "name": self.name,
+            "score": self.score,
+            "criterion": self.criterion,
+            "change": self.change,
+        }
 
 
 def new_or_more(group: Sequence[T], name_of: Callable[[T], str], added: Callable[[T], bool],

@@ -68,17 +68,34 @@ class GmwmSelection:
         stderr, ...) plus ``ranking: [{"model", "criterion", ...}]``, the empirical WV's
         interval and the model whose weights ranked the candidates."""
         w = self.wavelet
-        return {**self.best.as_json(),
-                "ranking": [{"model": r.model, "criterion": r.criterion, "objective": r.objective,
-                             "n_free": r.n_free, "effective": r.effective} for r in self.ranking],
-                "criterion": "WIC", "selection_weights_from": self.reference,
-                "wv_ci_low": np.asarray(w.ci_low).tolist(), "wv_ci_high": np.asarray(w.ci_high).tolist(),
-                "wv_ci": w.ci, "robust": w.robust}
+        return {
+            **self.best.as_json(),
+            "ranking": [
+                {
+                    "model": r.model,
+                    "criterion": r.criterion,
+                    "objective": r.objective,
+                    "n_free": r.n_free,
+                    "effective": r.effective,
+                }
+                for r in self.ranking
+            ],
+            "criterion": "WIC",
+            "selection_weights_from": self.reference,
+            "wv_ci_low": np.asarray(w.ci_low).tolist(),
+            "wv_ci_high": np.asarray(w.ci_high).tolist(),
+            "wv_ci": w.ci,
+            "robust": w.robust,
+        }
 
 
 def effective_model(fit: GmwmFit) -> str:
     """The model the fit amounts to: its terms whose variance is not held at zero."""
-    kept = [code for code, (iv, _) in zip(fit.model.codes, fit.model.slices(), strict=True) if fit.free[iv]]
+    kept = [
+        code
+        for code, (iv, _) in zip(fit.model.codes, fit.model.slices(), strict=True)
+        if fit.free[iv]
+    ]
     return "+".join(kept) or fit.model.name
 
 
@@ -115,10 +132,16 @@ def select_model(wv: WaveletVariance, candidates: Sequence[str] | None = None, *
     GmwmModelError
         A bad candidate string, or no candidate small enough for the record.
     """
-    names = list(dict.fromkeys(GmwmModel.parse(c).name for c in (candidates or auto_candidates(len(wv.tau_s)))))
+    names = list(
+        dict.fromkeys(
+            GmwmModel.parse(c).name for c in (candidates or auto_candidates(len(wv.tau_s)))
+        )
+    )
     usable = [n for n in names if GmwmModel.parse(n).n_params < len(wv.tau_s)]
     if not usable:
-        raise GmwmModelError(f"no candidate model has fewer parameters than the {len(wv.tau_s)} scales")
+        raise GmwmModelError(
+            f"no candidate model has fewer parameters than the {len(wv.tau_s)} scales"
+        )
     reference = max(usable, key=lambda n: GmwmModel.parse(n).n_params)
     ref_fit = gmwm(wv, reference, steps=steps, confidence=confidence)
     v_ref = weight_covariance(ref_fit.model, ref_fit.params, wv, ref_fit.model_error)
@@ -127,16 +150,34 @@ def select_model(wv: WaveletVariance, candidates: Sequence[str] | None = None, *
     for name in usable:
         fit = gmwm_with_covariance(wv, name, v_ref, confidence=confidence)
         fits[name] = fit
-        ranking.append(RankedModel(name, fit.objective + 2.0 * fit.n_free, fit.objective, fit.n_free,
-                                   effective_model(fit)))
+        ranking.append(
+            RankedModel(
+                name,
+                fit.objective + 2.0 * fit.n_free,
+                fit.objective,
+                fit.n_free,
+                effective_model(fit),
+            )
+        )
     ranking.sort(key=lambda r: (round(r.criterion, 6), GmwmModel.parse(r.model).n_params))
     best_name = ranking[0].model
-    best = ref_fit if best_name == reference else gmwm(wv, best_name, steps=steps, confidence=confidence)
+    best = (
+        ref_fit
+        if best_name == reference
+        else gmwm(wv, best_name, steps=steps, confidence=confidence)
+    )
     return GmwmSelection(best=best, ranking=tuple(ranking), reference=reference, wavelet=wv)
 
 
-def gmwm_analysis(rate: ArrayLike, sample_rate_hz: float, *, model: str = "auto", robust: bool = False,
-                  confidence: float = ONE_SIGMA, gaps: bool = False) -> GmwmSelection:
+def gmwm_analysis(
+    rate: ArrayLike,
+    sample_rate_hz: float,
+    *,
+    model: str = "auto",
+    robust: bool = False,
+    confidence: float = ONE_SIGMA,
+    gaps: bool = False,
+) -> GmwmSelection:
     """Haar wavelet variance of one axis and its GMWM fit: a given model, or ``"auto"`` selection.
 
     With a given model the ranking holds that model alone, with its WIC (J + 2 free
@@ -161,12 +202,19 @@ def gmwm_analysis(rate: ArrayLike, sample_rate_hz: float, *, model: str = "auto"
     ------
     GmwmModelError, FitError, TooFewSamplesError, NonFiniteSamplesError
     """
-    wv = haar_wavelet_variance(rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps)
+    wv = haar_wavelet_variance(
+        rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps
+    )
     if np.ndim(wv.wv) != 1:
         raise GmwmModelError("gmwm_analysis takes one axis; pass a 1-D rate")
     if model.strip().lower() == "auto":
         return select_model(wv, confidence=confidence)
     fit = gmwm(wv, model, confidence=confidence)
-    ranked = RankedModel(fit.model.name, fit.objective + 2.0 * fit.n_free, fit.objective, fit.n_free,
-                         effective_model(fit))
+    ranked = RankedModel(
+        fit.model.name,
+        fit.objective + 2.0 * fit.n_free,
+        fit.objective,
+        fit.n_free,
+        effective_model(fit),
+    )
     return GmwmSelection(best=fit, ranking=(ranked,), reference=fit.model.name, wavelet=wv)

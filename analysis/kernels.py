@@ -80,7 +80,9 @@ def _pick(backend: Backend) -> ModuleType | None:
     return kernels
 
 
-def _check_m(m_values: NDArray[np.int64], n_points: int, window: int | None = None) -> NDArray[np.int64]:
+def _check_m(
+    m_values: NDArray[np.int64], n_points: int, window: int | None = None
+) -> NDArray[np.int64]:
     m = np.ascontiguousarray(m_values, dtype=np.int64)
     limit = (n_points - 1) // 2 if window is None else window // 2
     if m.size and (m.min() < 1 or m.max() > limit):
@@ -91,7 +93,9 @@ def _check_m(m_values: NDArray[np.int64], n_points: int, window: int | None = No
 # ------------------------------------------------------------------- overlapping Allan sums
 
 
-def overlapping_sums_reference(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDArray[np.float64]:
+def overlapping_sums_reference(
+    theta: NDArray[np.float64], m_values: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Overlapping Allan sums written as plainly as possible (the test oracle).
 
     Parameters
@@ -115,7 +119,9 @@ def overlapping_sums_reference(theta: NDArray[np.float64], m_values: NDArray[np.
     return out
 
 
-def _overlapping_sums_numpy(theta_t: NDArray[np.float64], m_arr: NDArray[np.int64]) -> NDArray[np.float64]:
+def _overlapping_sums_numpy(
+    theta_t: NDArray[np.float64], m_arr: NDArray[np.int64]
+) -> NDArray[np.float64]:
     """Cache-blocked numpy kernel on an axis-major (k, N + 1) angle array."""
     n_axes, n_points = theta_t.shape
     out = np.zeros((len(m_arr), n_axes))
@@ -229,8 +235,15 @@ def overlapping_stretch_sums(
     m_arr = _check_m(m_values, theta.shape[0])
     starts = np.ascontiguousarray(starts, dtype=np.int64)
     stops = np.ascontiguousarray(stops, dtype=np.int64)
-    if starts.size == 0 or starts[0] != 0 or stops[-1] != theta.shape[0] - 1 or np.any(starts[1:] != stops[:-1]):
-        raise ValueError("stretches must cover the samples in order, each starting where the last stopped")
+    if (
+        starts.size == 0
+        or starts[0] != 0
+        or stops[-1] != theta.shape[0] - 1
+        or np.any(starts[1:] != stops[:-1])
+    ):
+        raise ValueError(
+            "stretches must cover the samples in order, each starting where the last stopped"
+        )
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
     kernels = _pick(backend)
     if kernels is None or m_arr.size == 0:
@@ -245,7 +258,8 @@ def overlapping_stretch_sums(
 
 
 def second_difference_squares(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
-    """``Delta_m(k)^2`` for every ``k = 0 .. len(theta) - 1 - 2m`` of a 1-D angle (Zhang 2015, eq. 15)."""
+    """``Delta_m(k)^2`` for every ``k = 0 .. len(theta) - 1 - 2m`` of a 1-D angle (Zhang 2015, eq.
+    15)."""
     n = theta.shape[0] - 2 * m
     d = theta[2 * m :] - theta[m : m + n]
     d -= theta[m : m + n]

@@ -15,7 +15,9 @@ _BLOCK = 1 << 12
 
 
 @numba.njit(parallel=True, cache=True)
-def oadev_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64], out: NDArray[np.float64]) -> None:
+def oadev_sums(
+    theta_t: NDArray[np.float64], m_values: NDArray[np.int64], out: NDArray[np.float64]
+) -> None:
     """``out[i, c] = oadev_one(theta_t[c], m_values[i])``, the (m, axis) pairs spread over cores."""
     n_axes = theta_t.shape[0]
     for job in numba.prange(m_values.shape[0] * n_axes):
@@ -25,8 +27,13 @@ def oadev_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64], out: N
 
 
 @numba.njit(parallel=True, cache=True)
-def oadev_stretch_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], stops: NDArray[np.int64],
-                       out: NDArray[np.float64]) -> None:
+def oadev_stretch_sums(
+    theta_t: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    stops: NDArray[np.int64],
+    out: NDArray[np.float64],
+) -> None:
     """``out[i, c]``: sum of ``Delta_m(k)^2`` over the k whose ``2m`` samples lie in one stretch.
 
     Stretch j holds samples ``starts[j] .. stops[j] - 1`` of the concatenated record, so
@@ -46,8 +53,13 @@ def oadev_stretch_sums(theta_t: NDArray[np.float64], m_values: NDArray[np.int64]
 
 
 @numba.njit(parallel=True, cache=True)
-def window_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], window: int,
-                out: NDArray[np.float64]) -> None:
+def window_sums(
+    theta: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    window: int,
+    out: NDArray[np.float64],
+) -> None:
     """``out[i, j]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
 
     ``out`` is (n_m, n_windows), so each m writes one contiguous row. The scheme of the
@@ -94,7 +106,11 @@ def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
     total = 0.0
     for start in range(lo, hi, _BLOCK):
         stop = min(start + _BLOCK, hi)
-        a, b, c = theta[start + 2 * m : stop + 2 * m], theta[start + m : stop + m], theta[start:stop]
+        a, b, c = (
+            theta[start + 2 * m : stop + 2 * m],
+            theta[start + m : stop + m],
+            theta[start:stop],
+        )
         part = 0.0
         for n in range(stop - start):
             d = a[n] - 2.0 * b[n] + c[n]
@@ -110,8 +126,13 @@ def oadev_one(th: NDArray[np.float64], m: int) -> float:
 
 
 @numba.njit(parallel=True, cache=True)
-def window_sums_segments(theta: NDArray[np.float64], m_values: NDArray[np.int64], starts: NDArray[np.int64], window: int,
-                         out: NDArray[np.float64]) -> None:
+def window_sums_segments(
+    theta: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    window: int,
+    out: NDArray[np.float64],
+) -> None:
     """As :func:`window_sums`, for steps that are not much shorter than the window.
 
     The window starts and ends cut the terms into segments; each segment is summed once

@@ -97,7 +97,8 @@ class NoiseTerm:
         unknown = sorted(set(table) - known)
         if unknown:
             raise ModelError(
-                f"[{cls.name}] unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+                f"[{cls.name}] unknown key(s) {', '.join(unknown)}; known: "
+                f"{', '.join(sorted(known))}"
             )
         try:
             return cls(**dict(table))
@@ -251,8 +252,13 @@ class Sinusoid(NoiseTerm):
         """
         if duration_s is None:
             return sinusoid_avar(tau_s, self.amplitude_deg_s, self.period_s)
-        return deterministic_avar(tau_s, duration_s=duration_s, cycle_amplitude=self.amplitude_deg_s,
-                                  period_s=self.period_s, phase_deg=self.phase_deg)
+        return deterministic_avar(
+            tau_s,
+            duration_s=duration_s,
+            cycle_amplitude=self.amplitude_deg_s,
+            period_s=self.period_s,
+            phase_deg=self.phase_deg,
+        )
 
 
 @dataclass(frozen=True)
@@ -414,7 +420,9 @@ class NoiseModel:
         names = [t.name for t in terms]
         duplicates = sorted({n for n in names if names.count(n) > 1})
         if duplicates:
-            raise ModelError(f"a model holds one term of each kind; repeated: {', '.join(duplicates)}")
+            raise ModelError(
+                f"a model holds one term of each kind; repeated: {', '.join(duplicates)}"
+            )
         ordered = tuple(sorted(terms, key=lambda t: TERM_NAMES.index(t.name)))
         object.__setattr__(self, "terms", ordered)
 

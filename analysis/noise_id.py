@@ -196,7 +196,9 @@ def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:
     return (2 if rn < boundary else 1), "rn"
 
 
-def identify_noise(angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2) -> NoiseIdentification:
+def identify_noise(
+    angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2
+) -> NoiseIdentification:
     """Dominant noise exponent at each averaging factor, for one axis or several.
 
     Parameters

@@ -151,10 +151,15 @@ class SpikeDetection:
             return (f"few and isolated (at most {MAX_REMOVED_SHARE:.1%} of the samples, runs of "
                     f"at most {MAX_SPIKE_SAMPLES})")
         if self.count > MAX_REMOVED_SHARE * self.n_samples:
-            return (f"{self.share:.2%} of the samples are beyond the threshold (more than "
-                    f"{MAX_REMOVED_SHARE:.1%}): the record's own heavy-tailed noise, not isolated spikes")
-        return (f"runs of up to {self.longest_run} samples (more than {MAX_SPIKE_SAMPLES}): bursts, "
-                f"not isolated spikes")
+            return (
+                f"{self.share:.2%} of the samples are beyond the threshold (more than "
+                f"{MAX_REMOVED_SHARE:.1%}): the record's own heavy-tailed noise, not isolated "
+                "spikes"
+            )
+        return (
+            f"runs of up to {self.longest_run} samples (more than {MAX_SPIKE_SAMPLES}): bursts, "
+            f"not isolated spikes"
+        )
 
 
 def min_samples(half_window: int = HALF_WINDOW) -> int:
@@ -196,8 +201,13 @@ def neighbour_residuals(x: NDArray[np.float64], positions: NDArray[np.int64] | N
     return x[at] - np.median(neighbours, axis=1)
 
 
-def _grow(seeds: NDArray[np.int64], x: NDArray[np.float64], signs: NDArray[np.float64], limit: float,
-          half_window: int) -> NDArray[np.bool_]:
+def _grow(
+    seeds: NDArray[np.int64],
+    x: NDArray[np.float64],
+    signs: NDArray[np.float64],
+    limit: float,
+    half_window: int,
+) -> NDArray[np.bool_]:
     """Flags: the seeds, extended to adjacent samples whose median residual exceeds ``limit``
     with the seed's sign (the inside of a burst)."""
     flags = np.zeros(len(x), dtype=bool)
@@ -243,7 +253,9 @@ def detect_spikes(
     if not np.isfinite(x).all():
         raise ValueError("samples must be finite (leave missing samples out)")
     if len(x) < min_samples(half_window):
-        raise ValueError(f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})")
+        raise ValueError(
+            f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})"
+        )
     lin = np.empty_like(x)
     lin[1:-1] = x[1:-1] - 0.5 * (x[:-2] + x[2:])
     lin[0], lin[-1] = x[0] - x[1], x[-1] - x[-2]
@@ -258,8 +270,12 @@ def detect_spikes(
     else:
         candidates = np.flatnonzero(np.abs(lin) > threshold * scale)
         med_at = neighbour_residuals(x, candidates, half_window)
-        seed = (np.abs(med_at) > threshold * scale_med) & (np.sign(med_at) == np.sign(lin[candidates]))
-        flags = _grow(candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med, half_window)
+        seed = (np.abs(med_at) > threshold * scale_med) & (
+            np.sign(med_at) == np.sign(lin[candidates])
+        )
+        flags = _grow(
+            candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med, half_window
+        )
     starts = np.flatnonzero(flags & ~np.concatenate(([False], flags[:-1])))
     stops = np.flatnonzero(flags & ~np.concatenate((flags[1:], [False]))) + 1
     med = neighbour_residuals(x, np.flatnonzero(flags), half_window)

@@ -120,14 +120,18 @@ def correlated_log_variance(coef: NDArray[np.float64], result: AllanResult) -> f
     tau = result.tau_s
     sd = np.sqrt(2.0 / np.asarray(result.edf, dtype=float))
     alpha = local_noise_alpha(result.m, np.asarray(result.avar), result.n_samples)
-    gamma = np.array([CORRELATION_EXPONENT.get(int(a), min(CORRELATION_EXPONENT.values())) for a in alpha])
+    gamma = np.array(
+        [CORRELATION_EXPONENT.get(int(a), min(CORRELATION_EXPONENT.values())) for a in alpha]
+    )
     used = coef != 0
     logt = np.log2(tau[used])
     bins = np.floor((logt - logt.min()) * CORRELATION_BINS_PER_OCTAVE).astype(np.int64)
     _, inverse = np.unique(bins, return_inverse=True)
     size = int(inverse.max()) + 1
     amount = np.bincount(inverse, weights=(coef * sd)[used], minlength=size)
-    centre = np.bincount(inverse, weights=logt, minlength=size) / np.bincount(inverse, minlength=size)
+    centre = np.bincount(inverse, weights=logt, minlength=size) / np.bincount(
+        inverse, minlength=size
+    )
     g = np.full(size, np.inf)
     np.minimum.at(g, inverse, gamma[used])
     distance = np.abs(centre[:, None] - centre[None, :])  # octaves apart
@@ -154,7 +158,9 @@ def white_share(result: AllanResult, fit: NoiseCoefficients | None) -> NDArray[n
     if fit is None or not fit.values.get("N"):
         return None
     model = fit.model_avar(result.tau_s)
-    return np.where(model > 0, fit.term_avar("N", result.tau_s) / np.where(model > 0, model, 1.0), 0.0)
+    return np.where(
+        model > 0, fit.term_avar("N", result.tau_s) / np.where(model > 0, model, 1.0), 0.0
+    )
 
 
 def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
@@ -198,7 +204,9 @@ def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
         region[i] = True
         what = (f"white rate at most {share[i]:.0%} of the fitted curve" if share is not None
                 else f"nearest slope {slope[i]:.2f}")
-        notes.append(f"no -1/2 region where white rate dominates; read at tau {tau[i]:.3g} s ({what})")
+        notes.append(
+            f"no -1/2 region where white rate dominates; read at tau {tau[i]:.3g} s ({what})"
+        )
     else:
         octaves = log_tau_share(tau)
         start, stop = max(zip(*valid_stretches(region), strict=True),
@@ -232,7 +240,9 @@ def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES
     precision = log_tau_share(result.tau_s) * edf / 2.0
     if len(x) > MAX_CANDIDATES:
         logt = np.log2(result.tau_s)
-        member = np.unique(np.floor((logt - logt[0]) * CORRELATION_BINS_PER_OCTAVE), return_inverse=True)[1]
+        member = np.unique(
+            np.floor((logt - logt[0]) * CORRELATION_BINS_PER_OCTAVE), return_inverse=True
+        )[1]
         pooled = np.bincount(member, weights=precision)
         bx = np.bincount(member, weights=precision * x) / pooled
         by = np.bincount(member, weights=precision * y) / pooled
@@ -249,7 +259,9 @@ def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES
         gram = design.T @ (design * w[:, None])
         kernel = np.linalg.pinv(gram)[0] @ (design * w[:, None]).T  # equivalent kernel on the bins
         smooth[k] = float(kernel @ by)
-        var[k] = correlated_log_variance(kernel[member] * share, result) if with_variance else math.nan
+        var[k] = (
+            correlated_log_variance(kernel[member] * share, result) if with_variance else math.nan
+        )
     return smooth, var
 
 
@@ -265,7 +277,9 @@ def bias_instability_readoff(result: AllanResult, *, zones: Sequence[TauZone] = 
     if not allowed.any():
         allowed = np.ones(len(tau), dtype=bool)
     candidates = np.flatnonzero(allowed)
-    if len(candidates) > MAX_CANDIDATES:  # an every-m grid: a log-spaced subset, then its neighbours
+    if (
+        len(candidates) > MAX_CANDIDATES
+    ):  # an every-m grid: a log-spaced subset, then its neighbours
         picks = np.unique(np.geomspace(1, len(candidates), MAX_CANDIDATES).astype(int) - 1)
         smooth, _ = smoothed_log_avar(result, at=candidates[picks], with_variance=False)
         best = int(picks[int(np.argmin(smooth))])

@@ -167,13 +167,25 @@ class Effect:
     def as_json(self) -> dict[str, object]:
         """JSON form: name, params, tau_range_s, the rest of the evidence, its naming score and
         the ``alternatives`` (``[{"name", "score", ...}]``) that fit about as well."""
-        return {"name": self.name, "change": self.change, "params": dict(self.params),
-                "stderr": dict(self.stderr), "tau_range_s": list(self.tau_range_s),
-                "delta_bic": self.delta_bic, "gap_before": self.gap_before,
-                "gap_after": self.gap_after, "evidence": self.evidence,
-                **({"steps": [{"time_s": t, "size_deg_h": z} for t, z in self.events]} if self.events else {}),
-                "score": self.score, "score_criterion": self.criterion,
-                "alternatives": [a.as_json() for a in self.alternatives]}
+        return {
+            "name": self.name,
+            "change": self.change,
+            "params": dict(self.params),
+            "stderr": dict(self.stderr),
+            "tau_range_s": list(self.tau_range_s),
+            "delta_bic": self.delta_bic,
+            "gap_before": self.gap_before,
+            "gap_after": self.gap_after,
+            "evidence": self.evidence,
+            **(
+                {"steps": [{"time_s": t, "size_deg_h": z} for t, z in self.events]}
+                if self.events
+                else {}
+            ),
+            "score": self.score,
+            "score_criterion": self.criterion,
+            "alternatives": [a.as_json() for a in self.alternatives],
+        }
 
 
 @dataclass(frozen=True)
@@ -243,17 +255,23 @@ class ReconcileResult:
     def as_json(self) -> dict[str, object]:
         """The JSON of the ``station reconcile --json`` interface (plus diagnostics)."""
         return {
-            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "gap_before": self.gap_before,
+            "gap_after": self.gap_after,
             "effects": [e.as_json() for e in self.effects],
             "model_after": self.model_after.to_tables(),
             "excess_terms": [e.as_json() for e in self.excess],
-            "p_before": self.before.p_value, "p_after": self.after.p_value,
+            "p_before": self.before.p_value,
+            "p_after": self.after.p_value,
             "outside_band_before": [list(r) for r in self.before.outside],
             "outside_band_after": [list(r) for r in self.after.outside],
-            "sample_rate_hz": self.curve.sample_rate_hz, "decimation": self.curve.decimation,
-            "n_samples": self.curve.n_samples, "mc_runs": self.options.runs,
+            "sample_rate_hz": self.curve.sample_rate_hz,
+            "decimation": self.curve.decimation,
+            "n_samples": self.curve.n_samples,
+            "mc_runs": self.options.runs,
             "gap_threshold": self.before.gap_null.quantile(1.0 - self.options.alpha),
-            "alternatives": [{"effect": e.name, **a.as_json()} for e in self.effects for a in e.alternatives],
+            "alternatives": [
+                {"effect": e.name, **a.as_json()} for e in self.effects for a in e.alternatives
+            ],
         }
 
 
@@ -266,18 +284,33 @@ def _apply(model: NoiseModel, term: NoiseTerm, old: NoiseTerm | None) -> NoiseMo
     return model.with_term(term)
 
 
-def _effect(fit: CandidateFit, term: NoiseTerm, change: str, ev: Evidence | None, before: Comparison,
-            after: Comparison, curve: MeasuredCurve) -> Effect:
+def _effect(
+    fit: CandidateFit,
+    term: NoiseTerm,
+    change: str,
+    ev: Evidence | None,
+    before: Comparison,
+    after: Comparison,
+    curve: MeasuredCurve,
+) -> Effect:
     stderr = {k: v for k, v in fit.stderr.items() if math.isfinite(v)}
     if ev is not None:
         stderr.update(ev.stderr)
     return Effect(
-        name=fit.name, change=change, params=term.to_table(), stderr=stderr,
+        name=fit.name,
+        change=change,
+        params=term.to_table(),
+        stderr=stderr,
         tau_range_s=tau_range(before.model_avar, after.model_avar, curve.tau_s),
-        delta_bic=fit.delta_bic, gap_before=before.gap, gap_after=after.gap,
+        delta_bic=fit.delta_bic,
+        gap_before=before.gap,
+        gap_after=after.gap,
         evidence="" if ev is None else ev.statistic,
-        events=tuple((t, rate_deg_s_to_deg_h(z)) for t, z in zip(ev.times_s, ev.sizes_deg_s, strict=True))
-        if isinstance(ev, StepEvidence) else (),
+        events=tuple(
+            (t, rate_deg_s_to_deg_h(z)) for t, z in zip(ev.times_s, ev.sizes_deg_s, strict=True)
+        )
+        if isinstance(ev, StepEvidence)
+        else (),
     )
 
 
@@ -294,8 +327,13 @@ TIME_SERIES_TESTED = frozenset({"sinusoid", "bias_steps", "temperature_bias"})
 CONFIRMED_SHARE = 0.5
 
 
-def _ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve, opt: ReconcileOptions,
-            steps: NDArray[np.float64] | None) -> tuple[list[tuple[CandidateFit, str, tuple]], GmwmJudgement | None]:
+def _ranked(
+    evidence: RoundEvidence,
+    current: Comparison,
+    curve: MeasuredCurve,
+    opt: ReconcileOptions,
+    steps: NDArray[np.float64] | None,
+) -> tuple[list[tuple[CandidateFit, str, tuple]], GmwmJudgement | None]:
     """Candidates above the threshold with their confirmation, in the order they are tried,
     and the GMWM's judgement of the close ones (None when it judged none).
 
@@ -317,7 +355,9 @@ def _ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve, 
         change = change_of(fit, current.model, curve)
         verdict = evidence.confirm(fit, change)
         close = fit.delta_bic >= best - INDISTINCT_BIC
-        confirmed = fit.name in TIME_SERIES_TESTED and verdict[0] is not None and change != "decreased"
+        confirmed = (
+            fit.name in TIME_SERIES_TESTED and verdict[0] is not None and change != "decreased"
+        )
         strong = fit.delta_bic >= CONFIRMED_SHARE * best
         rank = (0, 0) if confirmed and strong else ((1, fit.n_params) if close else (2, 0))
         rows.append((rank, -fit.delta_bic, fit, change, verdict))
@@ -348,8 +388,12 @@ def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, tup
               if fit.name != named.name and verdict[0] is not None and change != "decreased"]
     if judgement is not None and named.name in judgement.scores:
         own = judgement.scores[named.name]
-        alts = tuple(Alternative(fit.name, judgement.scores[fit.name], "gmwm", change) for fit, change in viable
-                     if fit.name in judgement.scores and abs(judgement.scores[fit.name] - own) < ALTERNATIVE_SCORE)
+        alts = tuple(
+            Alternative(fit.name, judgement.scores[fit.name], "gmwm", change)
+            for fit, change in viable
+            if fit.name in judgement.scores
+            and abs(judgement.scores[fit.name] - own) < ALTERNATIVE_SCORE
+        )
         return own, "gmwm", alts
     alts = tuple(Alternative(fit.name, fit.delta_bic, "allan", change) for fit, change in viable
                  if abs(fit.delta_bic - named.delta_bic) < INDISTINCT_BIC)
@@ -360,13 +404,16 @@ def reconcile_curve(
     curve: MeasuredCurve, model: NoiseModel, *, options: ReconcileOptions | None = None,
     cache: ComparisonCache | None = None,
 ) -> ReconcileResult:
-    """Run the compare / name / add-and-re-check loop on a measured curve (see the module docstring)."""
+    """Run the compare / name / add-and-re-check loop on a measured curve (see the module
+    docstring)."""
     opt = options or ReconcileOptions()
     cache = cache if cache is not None else ComparisonCache()
 
     known: dict[str, NDArray[np.float64]] = {}
 
-    def comparison_of(m: NoiseModel, extra: dict[str, NDArray[np.float64]] | None = None) -> Comparison:
+    def comparison_of(
+        m: NoiseModel, extra: dict[str, NDArray[np.float64]] | None = None
+    ) -> Comparison:
         realized = {k: v for k, v in {**known, **(extra or {})}.items() if k in m}
         return compare(curve, m, runs=opt.runs, seed=opt.seed, cache=cache, known=realized)
 
@@ -385,7 +432,9 @@ def reconcile_curve(
             if term is None:
                 attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic, f"refused: {refusal}"))
                 continue
-            extra = {"bias_steps": steps} if fit.name == "bias_steps" and steps is not None else None
+            extra = (
+                {"bias_steps": steps} if fit.name == "bias_steps" and steps is not None else None
+            )
             trial = comparison_of(_apply(current.model, term, current.model.get(fit.name)), extra)
             needed = min(current.gap - opt.shrink_sigmas * current.gap_null.std,
                          (1.0 - opt.min_shrink) * current.gap)
@@ -422,8 +471,9 @@ def reconcile_curve(
                            excess=excess, rounds=tuple(rounds), options=opt)
 
 
-def _drop_superseded(changes: list[Effect], current: Comparison, comparison_of, opt: ReconcileOptions
-                     ) -> tuple[Effect, Comparison] | None:
+def _drop_superseded(
+    changes: list[Effect], current: Comparison, comparison_of, opt: ReconcileOptions
+) -> tuple[Effect, Comparison] | None:
     """The re-check after an addition: an earlier added effect the model no longer needs.
 
     Each term added before the latest one is taken out in turn; it is dropped (the first
@@ -509,12 +559,21 @@ def reconcile(
 
 
 def term_avar(result: ReconcileResult, name: str) -> NDArray[np.float64]:
-    """Allan variance (deg/s)^2 on the grid of the reconciled model's term ``name`` (zeros if absent)."""
+    """Allan variance (deg/s)^2 on the grid of the reconciled model's term ``name`` (zeros if
+    absent)."""
     term = result.model_after.get(name)
     if term is None:
         return np.zeros(result.curve.tau_s.shape)
     return term.avar(result.curve.tau_s, duration_s=result.curve.duration_s)
 
 
-__all__ = ["Attempt", "Effect", "ReconcileOptions", "ReconcileResult", "ReconcileRound", "reconcile",
-           "reconcile_curve", "term_avar"]
+__all__ = [
+    "Attempt",
+    "Effect",
+    "ReconcileOptions",
+    "ReconcileResult",
+    "ReconcileRound",
+    "reconcile",
+    "reconcile_curve",
+    "term_avar",
+]

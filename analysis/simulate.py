@@ -202,7 +202,9 @@ class _Steps(_TermStream):
         times = self.last_time[axis] + np.cumsum(gaps)
         self.last_time[axis] = times[-1]
         self.times[axis] = np.concatenate([self.times[axis], times])
-        self.sizes[axis] = np.concatenate([self.sizes[axis], self.size * rng.standard_normal(self.BATCH)])
+        self.sizes[axis] = np.concatenate(
+            [self.sizes[axis], self.size * rng.standard_normal(self.BATCH)]
+        )
 
     def read(self, start: int, n: int) -> NDArray[np.float64]:
         increments = np.zeros((n + 1, self.n_axes))

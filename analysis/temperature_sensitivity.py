@@ -239,9 +239,10 @@ def fit_temperature_sensitivity(points: Sequence[TemperaturePoint], *, order: in
         cov = cov * max(1.0, chi2_red)
     se = np.sqrt(np.diag(cov))
     half = np.array([t_half_width(float(s), dof, confidence) for s in se])
-    return TemperatureFit(order, ref, tuple(float(c) for c in coef), tuple(float(s) for s in se),
-                          tuple(float(c) for c in coef - half), tuple(float(c) for c in coef + half),
-                          dof, chi2_red, len(points), confidence)
+    return TemperatureFit(order, ref, tuple(float(c) for c in coef),
+                          tuple(float(s) for s in se), tuple(float(c) for c in coef - half),
+                          tuple(float(c) for c in coef + half), dof, chi2_red, len(points),
+                          confidence)
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,11 @@
-"""The double sum behind Theo1, computed directly or by correlations (fast, exact in exact arithmetic).
+"""The double sum behind Theo1, computed directly or by correlations (fast, exact in exact
+arithmetic).
 
 Theo1 at an even averaging factor m over ``P`` angle (phase) points ``x`` is (NIST SP 1065,
 eq. 30, 0-based, ``c = m/2``, ``u = i + c``)
 
-    T(m) = sum_{u=c}^{P-1-c} sum_{delta=0}^{c-1} w_delta (x_{u-c} + x_{u+c} - x_{u-delta} - x_{u+delta})^2
+    T(m) = sum_{u=c}^{P-1-c} sum_{delta=0}^{c-1} w_delta (x_{u-c} + x_{u+c} - x_{u-delta} -
+    x_{u+delta})^2
 
 with ``w_delta = 1 / (c - delta)``; Theo1 is ``T / (0.75 (P - m) (m tau0)^2)``. Summed as
 written it costs ``(P - m) m / 2`` terms per tau, about ``N^2 / 8`` near ``m = N/2``: hours
@@ -134,8 +136,11 @@ def _triangle_sum(x: NDArray[np.float64], c: int, roots: NDArray[np.int64]) -> f
     return total
 
 
-def _leaf_sums(x: NDArray[np.float64], table: NDArray[np.float64], c: int, tasks: NDArray[np.int64]) -> float:
-    """Small triangles summed densely, one diagonal ``t = j - i`` of their (Toeplitz) kernel at a time."""
+def _leaf_sums(
+    x: NDArray[np.float64], table: NDArray[np.float64], c: int, tasks: NDArray[np.int64]
+) -> float:
+    """Small triangles summed densely, one diagonal ``t = j - i`` of their (Toeplitz) kernel at a
+    time."""
     if not len(tasks):
         return 0.0
     total = 0.0
@@ -168,7 +173,9 @@ def _corners(x: NDArray[np.float64], c: int) -> float:
     return 0.5 * (full + diagonal)
 
 
-def theo1_sum_fast(x: NDArray[np.float64], m: int, full_acf: NDArray[np.float64]) -> tuple[float, float]:
+def theo1_sum_fast(
+    x: NDArray[np.float64], m: int, full_acf: NDArray[np.float64]
+) -> tuple[float, float]:
     """``T(m)`` from correlation sums, and the size of its largest cancelling term.
 
     ``full_acf`` is :func:`_autocorrelation` of ``x`` to a lag of at least m.
@@ -185,7 +192,15 @@ def theo1_sum_fast(x: NDArray[np.float64], m: int, full_acf: NDArray[np.float64]
     back = full_acf[: m + 1] - head_acf  # sum_{j=m-L}^{P-1-L} x_j x_{j+L}
     cross = float(w @ (front[c - delta] + front[c + delta] + back[c + delta] + back[c - delta]))
     squares = np.concatenate([[0.0], np.cumsum(x * x)])
-    inner_sq = float(w @ (squares[c - delta + n] - squares[c - delta] + squares[c + delta + n] - squares[c + delta]))
+    inner_sq = float(
+        w
+        @ (
+            squares[c - delta + n]
+            - squares[c - delta]
+            + squares[c + delta + n]
+            - squares[c + delta]
+        )
+    )
     strip = float(w @ full_acf[2 * delta])
     pairs = strip - _corners(x, c)
     # every piece is at most 4 W sum(x^2) in size (Cauchy-Schwarz), the FFT sums' rounding too
@@ -218,7 +233,9 @@ def theo1_sums(
     if method not in ("auto", "direct", "fast"):
         raise ValueError(f"method must be 'auto', 'direct' or 'fast', got {method!r}")
     terms = (p - m_values) * (m_values // 2)
-    direct = terms <= DIRECT_TERMS if method == "auto" else np.full(len(m_values), method == "direct")
+    direct = (
+        terms <= DIRECT_TERMS if method == "auto" else np.full(len(m_values), method == "direct")
+    )
     out = np.empty(len(m_values))
     bound = np.full(len(m_values), 1e-15)
     if (~direct).any():

@@ -103,7 +103,8 @@ class Tone:
     amplitude_stderr_deg_s: float = 0.0
 
     def avar(self, tau_s: ArrayLike, sample_rate_hz: float) -> NDArray[np.float64]:
-        """Allan variance ((deg/s)^2) the line adds at ``tau_s`` in a record sampled at ``sample_rate_hz``."""
+        """Allan variance ((deg/s)^2) the line adds at ``tau_s`` in a record sampled at
+        ``sample_rate_hz``."""
         tau = np.atleast_1d(np.asarray(tau_s, dtype=float))
         f = np.asarray(self.bin_freq_hz)[None, :]
         e = np.asarray(self.bin_power)[None, :]
@@ -114,18 +115,27 @@ class Tone:
 
     def as_dict(self) -> dict[str, object]:
         """JSON form: ``freq_hz``, ``amplitude_deg_s``, ``band_hz``, ``peak_ratio``, ``p_value``."""
-        return {"freq_hz": self.freq_hz, "amplitude_deg_s": self.amplitude_deg_s,
-                "band_hz": list(self.band_hz), "peak_ratio": self.peak_ratio, "p_value": self.p_value}
+        return {
+            "freq_hz": self.freq_hz,
+            "amplitude_deg_s": self.amplitude_deg_s,
+            "band_hz": list(self.band_hz),
+            "peak_ratio": self.peak_ratio,
+            "p_value": self.p_value,
+        }
 
     def describe(self) -> str:
         """One line for a report: frequency, amplitude, band and strength."""
-        return (f"tone at {self.freq_hz:.4g} Hz ({self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz), "
-                f"amplitude {self.amplitude_deg_s:.3g} deg/s, {self.peak_ratio:.1f} x the background")
+        return (
+            f"tone at {self.freq_hz:.4g} Hz ({self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz), "
+            f"amplitude {self.amplitude_deg_s:.3g} deg/s, {self.peak_ratio:.1f} x the background"
+        )
 
 
 def welch_segment(n_samples: int) -> int | None:
     """Welch segment length (a power of 2) for a record of ``n_samples``; None if too short."""
-    longest = 2 * n_samples // (MIN_SEGMENTS + 1)  # K half-overlapping segments span (K + 1) / 2 lengths
+    longest = (
+        2 * n_samples // (MIN_SEGMENTS + 1)
+    )  # K half-overlapping segments span (K + 1) / 2 lengths
     if longest < MIN_SEGMENT:
         return None
     return int(min(MAX_SEGMENT, 2 ** int(math.floor(math.log2(longest)))))
@@ -169,7 +179,9 @@ def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
             welch_edf(counts))
 
 
-def running_background(power: NDArray[np.float64], nu: float) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def running_background(
+    power: NDArray[np.float64], nu: float
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Background level of every bin and its window's half-width in bins (0: not tested).
 
     The median is taken at bins spaced by an eighth of their half-window (every bin where
@@ -196,7 +208,11 @@ def running_background(power: NDArray[np.float64], nu: float) -> tuple[NDArray[n
 
 
 def find_tones(
-    rate_deg_s: ArrayLike, sample_rate_hz: float, *, alpha: float = ALPHA, max_tones: int = MAX_TONES
+    rate_deg_s: ArrayLike,
+    sample_rate_hz: float,
+    *,
+    alpha: float = ALPHA,
+    max_tones: int = MAX_TONES,
 ) -> tuple[Tone, ...]:
     """Narrow-band lines of a 1-D rate record (deg/s), strongest first.
 
@@ -246,7 +262,9 @@ def find_tones(
     significant = (p_bin * n_tested < alpha) & (ratio >= MIN_PEAK_RATIO)
     df = float(freq[1] - freq[0])
     bands = _merged([_grow(power, background, lo, hi, nu) for lo, hi in _runs(significant, gap=2)])
-    found = (_tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df, nu) for lo, hi in bands)
+    found = (
+        _tone(freq, power, background, ratio, p_bin, n_tested, lo, hi, df, nu) for lo, hi in bands
+    )
     tones = [t for t in found if t is not None]
     return tuple(sorted(tones, key=lambda t: -t.amplitude_deg_s)[:max_tones])
 
@@ -264,12 +282,17 @@ def _runs(mask: NDArray[np.bool_], *, gap: int) -> list[tuple[int, int]]:
 
 def _grow(power: NDArray[np.float64], background: NDArray[np.float64], lo: int, hi: int,
           nu: float) -> tuple[int, int]:
-    """Bins ``lo..hi`` grown to where the excess ends (one standard deviation) plus the Hann main lobe."""
+    """Bins ``lo..hi`` grown to where the excess ends (one standard deviation) plus the Hann main
+    lobe."""
     above = 1.0 + math.sqrt(2.0 / nu)
     n = len(power)
     while lo > 0 and np.isfinite(background[lo - 1]) and power[lo - 1] > above * background[lo - 1]:
         lo -= 1
-    while hi < n - 1 and np.isfinite(background[hi + 1]) and power[hi + 1] > above * background[hi + 1]:
+    while (
+        hi < n - 1
+        and np.isfinite(background[hi + 1])
+        and power[hi + 1] > above * background[hi + 1]
+    ):
         hi += 1
     return max(lo - 2, 0), min(hi + 2, n - 1)  # the Hann main lobe is 4 bins wide
 
@@ -313,7 +336,9 @@ def _tone(freq: NDArray[np.float64], power: NDArray[np.float64], background: NDA
     )
 
 
-def tones_avar(tones: tuple[Tone, ...], tau_s: ArrayLike, sample_rate_hz: float) -> NDArray[np.float64]:
+def tones_avar(
+    tones: tuple[Tone, ...], tau_s: ArrayLike, sample_rate_hz: float
+) -> NDArray[np.float64]:
     """Allan variance ((deg/s)^2) that all ``tones`` add at ``tau_s``."""
     tau = np.atleast_1d(np.asarray(tau_s, dtype=float))
     total = np.zeros(tau.shape)

@@ -1,4 +1,5 @@
-"""What a DAVAR tells a test engineer: when the gyro has warmed up, and whether the run is stationary.
+"""What a DAVAR tells a test engineer: when the gyro has warmed up, and whether the run is
+stationary.
 
 The warm-up ends at the start of the first window whose Allan curve stays inside the
 confidence band of the later ones: window ``j`` is *settled* when, at every tau, its
@@ -58,8 +59,14 @@ class WarmupVerdict:
     confidence: float
 
 
-def _band_factors(spans: NDArray[np.int64], m: NDArray[np.int64], alpha: NDArray[np.int64],
-                  confidence: float, *, points: int = 4) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _band_factors(
+    spans: NDArray[np.int64],
+    m: NDArray[np.int64],
+    alpha: NDArray[np.int64],
+    confidence: float,
+    *,
+    points: int = 4,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Chi-square interval factors (low, high), each (n_spans, n_tau), of overlapping Allan
     variances over records of ``spans`` samples.
 
@@ -82,7 +89,9 @@ def _band_factors(spans: NDArray[np.int64], m: NDArray[np.int64], alpha: NDArray
     return interp(low), interp(high)
 
 
-def detect_warmup(result: DavarResult, *, axis: int = 0, confidence: float = 0.9999) -> WarmupVerdict:
+def detect_warmup(
+    result: DavarResult, *, axis: int = 0, confidence: float = 0.9999
+) -> WarmupVerdict:
     """Warm-up end and stationarity verdict of one axis of a DAVAR.
 
     Parameters
@@ -108,14 +117,27 @@ def detect_warmup(result: DavarResult, *, axis: int = 0, confidence: float = 0.9
     # Judge about ten windows per window length: finer steps add no information.
     stride = max(1, one.window_samples // 10 // one.step_samples)
     judged = np.unique(np.r_[np.arange(0, len(starts), stride), len(starts) - 1])
+    # Windows across a recorded gap (NaN, see DAVAR's missing="gap") are neither judged
+    # nor pooled.
+    whole = np.isfinite(one.avar).all(axis=1)
+    judged = judged[whole[judged]]
+    if judged.size == 0:
+        return WarmupVerdict(warmup_end_s=None, stationary=False, window_start_s=np.zeros(0),
+                             settled=np.zeros(0, dtype=bool), excess=np.zeros(0),
+                             confidence=confidence)
     avar, m = one.avar[judged], one.m
     win_low, win_high = chi2_interval(avar, one.edf[judged], confidence)
-    # Pooled curve of the windows after each judged one: a reverse running mean.
-    later_sum = np.cumsum(one.avar[::-1], axis=0)[::-1]
-    n_later = len(starts) - 1 - judged
-    band = np.where(n_later[:, None] > 0,
-                    later_sum[np.minimum(judged + 1, len(starts) - 1)] / np.maximum(n_later, 1)[:, None],
-                    avar)
+    # Pooled curve of the (whole) windows after each judged one: a reverse running mean.
+    later_sum = np.cumsum(np.where(whole[:, None], one.avar, 0.0)[::-1], axis=0)[::-1]
+    later_count = np.cumsum(whole[::-1])[::-1]
+    n_later = np.where(
+        judged + 1 < len(starts), later_count[np.minimum(judged + 1, len(starts) - 1)], 0
+    )
+    band = np.where(
+        n_later[:, None] > 0,
+        later_sum[np.minimum(judged + 1, len(starts) - 1)] / np.maximum(n_later, 1)[:, None],
+        avar,
+    )
     spans = np.where(n_later > 0, one.n_samples - starts[np.minimum(judged + 1, len(starts) - 1)],
                      one.window_samples)
     low_f, high_f = _band_factors(spans, m, one.noise_alpha, confidence)

@@ -140,14 +140,19 @@ class WaveletVariance:
             if index != 0:
                 raise IndexError(f"a single-axis result has no axis {index}")
             return self
-        cols = {k: getattr(self, k)[:, index] for k in ("wv", "variance", "edf", "ci_low", "ci_high")}
+        cols = {
+            k: getattr(self, k)[:, index] for k in ("wv", "variance", "edf", "ci_low", "ci_high")
+        }
         return WaveletVariance(tau_s=self.tau_s, m=self.m, n_coefficients=self.n_coefficients,
                                confidence=self.confidence, ci=self.ci, robust=self.robust,
                                sample_rate_hz=self.sample_rate_hz, n_samples=self.n_samples, **cols)
 
 
-def dyadic_m(n_samples: int, *, min_blocks: int = MIN_BLOCKS, max_level: int | None = None) -> NDArray[np.int64]:
-    """Half-window lengths ``m = 2^(j-1)`` with ``m <= n_samples / min_blocks`` (and ``j <= max_level``)."""
+def dyadic_m(
+    n_samples: int, *, min_blocks: int = MIN_BLOCKS, max_level: int | None = None
+) -> NDArray[np.int64]:
+    """Half-window lengths ``m = 2^(j-1)`` with ``m <= n_samples / min_blocks`` (and ``j <=
+    max_level``)."""
     m_max = n_samples // min_blocks
     if m_max < 1:
         return np.zeros(0, dtype=np.int64)
@@ -157,8 +162,11 @@ def dyadic_m(n_samples: int, *, min_blocks: int = MIN_BLOCKS, max_level: int | N
     return 2 ** np.arange(max(levels, 0), dtype=np.int64)
 
 
-def haar_coefficients(theta: NDArray[np.float64], m: int, sample_rate_hz: float) -> NDArray[np.float64]:
-    """Boundary-free Haar MODWT coefficients (eq. W1) of one level from the angle ``theta`` (N+1, k)."""
+def haar_coefficients(
+    theta: NDArray[np.float64], m: int, sample_rate_hz: float
+) -> NDArray[np.float64]:
+    """Boundary-free Haar MODWT coefficients (eq. W1) of one level from the angle ``theta`` (N+1,
+    k)."""
     w = theta[m:-m] * 2.0
     w -= theta[: -2 * m]
     w -= theta[2 * m:]
@@ -184,14 +192,20 @@ def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
     if thin > 1:
         max_lag -= max_lag % 2
     if n - max_lag <= LAG_PRODUCTS:
-        c = np.array([np.einsum("ij,ij->j", x[: n - i], x[i:]) / (n - i) for i in range(max_lag + 1)])
+        c = np.array(
+            [np.einsum("ij,ij->j", x[: n - i], x[i:]) / (n - i) for i in range(max_lag + 1)]
+        )
     else:
         n_blocks = LAG_PRODUCTS // LAG_BLOCK
         starts = np.linspace(0, n - LAG_BLOCK - max_lag, n_blocks).astype(np.int64)
         rows = x[starts[:, None] + np.arange(LAG_BLOCK + max_lag)[None, :]]
         head = rows[:, :LAG_BLOCK]
-        c = np.array([np.einsum("bij,bij->j", head, rows[:, i:i + LAG_BLOCK]) / (n_blocks * LAG_BLOCK)
-                      for i in range(max_lag + 1)])
+        c = np.array(
+            [
+                np.einsum("bij,bij->j", head, rows[:, i : i + LAG_BLOCK]) / (n_blocks * LAG_BLOCK)
+                for i in range(max_lag + 1)
+            ]
+        )
     c2 = c * c
     if thin == 1 or max_lag < 2:
         return (c2[0] + 2.0 * c2[1:].sum(axis=0)) * thin
@@ -202,7 +216,9 @@ def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
 
 def huber_delta(c: float) -> float:
     """``E[min(Z^2, c^2)]`` for a standard normal Z (consistency constant of proposal 2)."""
-    return float((2 * stats.norm.cdf(c) - 1) - 2 * c * stats.norm.pdf(c) + 2 * c**2 * stats.norm.sf(c))
+    return float(
+        (2 * stats.norm.cdf(c) - 1) - 2 * c * stats.norm.pdf(c) + 2 * c**2 * stats.norm.sf(c)
+    )
 
 
 def huber_efficiency(c: float) -> float:
@@ -333,7 +349,9 @@ def haar_wavelet_variance(
     a_sum = np.empty((len(m_values), k))
     n_coef = (n - 2 * m_values + 1).astype(np.int64)
     # missing samples in the window [t, t + 2m) of each coefficient, per column
-    holes = None if missing is None else np.concatenate([np.zeros((1, k)), np.cumsum(missing, axis=0)])
+    holes = (
+        None if missing is None else np.concatenate([np.zeros((1, k)), np.cumsum(missing, axis=0)])
+    )
     for i, m in enumerate(m_values):
         w = haar_coefficients(theta, int(m), fs)
         share = np.ones(k)
@@ -344,7 +362,10 @@ def haar_wavelet_variance(
             n_coef[i] = int(count.min())
             share = count / w.shape[0]
         if robust:
-            wv[i] = [robust_scale2(w[:, col] if holes is None else w[~bad[:, col], col], c) for col in range(k)]
+            wv[i] = [
+                robust_scale2(w[:, col] if holes is None else w[~bad[:, col], col], c)
+                for col in range(k)
+            ]
         else:
             wv[i] = np.einsum("ij,ij->j", w, w) / (w.shape[0] * share)
         if ci != "eta3":

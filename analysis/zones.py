@@ -1,4 +1,5 @@
-"""Tau zones where the five-term model does not describe the Allan curve: tones and an output filter.
+"""Tau zones where the five-term model does not describe the Allan curve: tones and an output
+filter.
 
 The five IEEE terms (Lv 2015 eq. 3) describe a gyro's noise, not everything a real record
 holds. Two things are common on MEMS parts and are recognised here, so that neither the
@@ -70,7 +71,9 @@ def outside_zones(tau_s: NDArray[np.float64], zones: Sequence[TauZone]) -> NDArr
     return keep
 
 
-def tone_zone(result: AllanResult, tones: Sequence[Tone], *, share: float = TONE_SHARE) -> TauZone | None:
+def tone_zone(
+    result: AllanResult, tones: Sequence[Tone], *, share: float = TONE_SHARE
+) -> TauZone | None:
     """The taus where the tones' Allan variance exceeds ``share`` of the measured (None if none)."""
     if not tones:
         return None
@@ -80,8 +83,13 @@ def tone_zone(result: AllanResult, tones: Sequence[Tone], *, share: float = TONE
         return None
     lo, hi = float(result.tau_s[over[0]]), float(result.tau_s[over[-1]])
     freqs = ", ".join(f"{t.freq_hz:.3g} Hz" for t in tones)
-    return TauZone(lo, hi, "tone", f"tone at {freqs} makes more than {share:.0%} of the Allan variance "
-                   f"at tau {lo:.3g}-{hi:.3g} s")
+    return TauZone(
+        lo,
+        hi,
+        "tone",
+        f"tone at {freqs} makes more than {share:.0%} of the Allan variance "
+        f"at tau {lo:.3g}-{hi:.3g} s",
+    )
 
 
 def filter_zone(result: AllanResult, fit: NoiseCoefficients, *, skip: Sequence[TauZone] = (),
@@ -111,13 +119,23 @@ def filter_zone(result: AllanResult, fit: NoiseCoefficients, *, skip: Sequence[T
         return None
     lo, hi = float(tau[run[0]]), float(tau[run[-1]])
     depth = 1.0 - math.sqrt(float(avar[run[0]] / model[run[0]]))
-    return TauZone(lo, hi, "output filter", f"the curve lies below white noise at tau {lo:.3g}-{hi:.3g} s "
-                   f"({depth:.0%} below the fitted model at {lo:.3g} s): an output filter")
+    return TauZone(
+        lo,
+        hi,
+        "output filter",
+        f"the curve lies below white noise at tau {lo:.3g}-{hi:.3g} s "
+        f"({depth:.0%} below the fitted model at {lo:.3g} s): an output filter",
+    )
 
 
-def fit_outside_zones(result: AllanResult, tones: Sequence[Tone] = (), *, method: FitMethod = "logwls",
-                      terms: str = TERMS, select: bool | None = None
-                      ) -> tuple[NoiseCoefficients, tuple[TauZone, ...]]:
+def fit_outside_zones(
+    result: AllanResult,
+    tones: Sequence[Tone] = (),
+    *,
+    method: FitMethod = "logwls",
+    terms: str = TERMS,
+    select: bool | None = None,
+) -> tuple[NoiseCoefficients, tuple[TauZone, ...]]:
     """The five-term fit without the tone and output-filter zones, and the zones.
 
     The tone zone comes from the tones found in the time series; the filter zone from
@@ -131,7 +149,9 @@ def fit_outside_zones(result: AllanResult, tones: Sequence[Tone] = (), *, method
 
     def fit() -> NoiseCoefficients:
         ranges = tuple((z.tau_low_s, z.tau_high_s) for z in zones)
-        return fit_noise_terms(result, method=method, terms=terms, exclude_tau_s=ranges, select=select)
+        return fit_noise_terms(
+            result, method=method, terms=terms, exclude_tau_s=ranges, select=select
+        )
 
     coefficients = fit()
     others = list(zones)

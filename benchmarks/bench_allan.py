@@ -39,11 +39,16 @@ from analysis.davar import davar_plain, davar_recursive, dynamic_allan_variance
 
 #: Zhang 2015, table 3: MATLAB times (s) of DAVAR, fast DAVAR, improved fast DAVAR on a
 #: Core 2 Duo at 3 GHz (other hardware: compare ratios between methods, not seconds).
-SEED_TABLE3 = {1_000: (5.34, 0.73, 0.43), 10_000: (217.12, 2.36, 0.85), 100_000: (8970.28, 76.27, 8.27)}
+SEED_TABLE3 = {
+    1_000: (5.34, 0.73, 0.43),
+    10_000: (217.12, 2.36, 0.85),
+    100_000: (8970.28, 76.27, 8.27),
+}
 
 
 def median_time(fn: Callable[[], object], *, runs: int, budget_s: float) -> tuple[float, int]:
-    """Median wall time of ``fn`` over up to ``runs`` runs (at least one; fewer past ``budget_s``)."""
+    """Median wall time of ``fn`` over up to ``runs`` runs (at least one; fewer past
+    ``budget_s``)."""
     times: list[float] = []
     start = time.perf_counter()
     while len(times) < runs:
@@ -114,8 +119,11 @@ def oadev_case(n: int, runs: int, budget_s: float, rng: np.random.Generator, *,
         lambda: allantools.oadev(rate, rate=fs, data_type="freq", taus=taus),
         runs=runs, budget_s=budget_s)
     mem_ours = peak_mb(lambda: overlapping_adev(rate, fs, m))
-    mem_peer = (f"{peak_mb(lambda: allantools.oadev(rate, rate=fs, data_type='freq', taus=taus)):.0f}MB"
-                if peer_memory else "(not measured with --quick)")
+    mem_peer = (
+        f"{peak_mb(lambda: allantools.oadev(rate, rate=fs, data_type='freq', taus=taus)):.0f}MB"
+        if peer_memory
+        else "(not measured with --quick)"
+    )
     backend = "numba" if kernels.have_compiled() else "numpy"
     print(f"oadev N={n:.0e} taus={len(m)}: ours={ours:.3f}s (n={n_ours}; kernel {backend} "
           f"{kern:.3f}s, numpy fallback kernel {kern_np:.3f}s) allantools={peer:.3f}s (n={n_peer}) "
@@ -178,7 +186,8 @@ def davar_case(n: int, runs: int, budget_s: float, rng: np.random.Generator, *,
     recursive, rec_mark = linear_time(lambda k: davar_recursive(rate[:k], fs, **kw), n,
                                       min(n, window + 10 * step), slow_limit_s)
     plain, plain_mark = linear_time(
-        lambda k: davar_plain(rate[: window + (k - 1) * step], fs, **kw), n_windows, 1, slow_limit_s)
+        lambda k: davar_plain(rate[: window + (k - 1) * step], fs, **kw), n_windows, 1, slow_limit_s
+    )
     seed = SEED_TABLE3.get(n)
     seed_text = (f" | seed MATLAB: plain={seed[0]}s fast={seed[1]}s improved={seed[2]}s "
                  f"(plain/improved={seed[0] / seed[2]:.0f})" if seed else "")
@@ -195,7 +204,9 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(2015)
     runs, budget = (3, 5.0) if args.quick else (7, 60.0)
     slow_limit = 3.0 if args.quick else 60.0
-    backend = "numba " + __import__("numba").__version__ if kernels.have_compiled() else "numpy only"
+    backend = (
+        "numba " + __import__("numba").__version__ if kernels.have_compiled() else "numpy only"
+    )
     print(f"# bench_allan {'--quick' if args.quick else '(full)'}: numpy {np.__version__}, "
           f"allantools {allantools.__version__}, kernels: {backend}, {os.cpu_count()} cores, "
           f"load average {os.getloadavg()[0]:.1f} (other work on the machine skews every time)",

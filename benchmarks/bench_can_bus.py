@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
 
 
 def _self_cpu_s() -> float:
@@ -58,9 +58,12 @@ def main() -> None:
     for bus, r in runs.items():
         n = max(r["recorded"], 1)
         accounted = "yes" if r["recorded"] + r["missing"] == r["sent"] else "NO"
-        print(f"{bus:<14} {r['recorded']:>9.0f} {r['missing']:>8.0f} {r['sent']:>8.0f} "
-              f"{accounted:>9} {(r['cpu_s'] / n) / (base['cpu_s'] / max(base['recorded'], 1)):>15.2f}x "
-              f"{(r['wall_s'] / n) / (base['wall_s'] / max(base['recorded'], 1)):>11.2f}x")
+        print(
+            f"{bus:<14} {r['recorded']:>9.0f} {r['missing']:>8.0f} {r['sent']:>8.0f} "
+            f"{accounted:>9} "
+            f"{(r['cpu_s'] / n) / (base['cpu_s'] / max(base['recorded'], 1)):>15.2f}x "
+            f"{(r['wall_s'] / n) / (base['wall_s'] / max(base['recorded'], 1)):>11.2f}x"
+        )
     print("(ratios to the virtual bus; recorder-process CPU excludes the node's own process)")
 
 

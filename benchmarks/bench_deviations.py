@@ -39,8 +39,11 @@ def cost(n: int) -> None:
         r = deviation(y, 100.0, kind=kind)
         dt = time.perf_counter() - t0
         base = base or dt
-        print(f"  {kind:6s} {len(r.m):4d} taus up to m = {r.m[-1]:>8d}: {dt:7.1f} s  ratio to oadev {dt / base:5.1f}"
-              + (f"  ({'; '.join(r.notes)})" if r.notes else ""))
+        print(
+            f"  {kind:6s} {len(r.m):4d} taus up to m = {r.m[-1]:>8d}: {dt:7.1f} s  ratio to oadev "
+            f"{dt / base:5.1f}"
+            + (f"  ({'; '.join(r.notes)})" if r.notes else "")
+        )
 
 
 def _truth(kind: str, m: np.ndarray, tau_s: np.ndarray, s: float, fs: float) -> np.ndarray:
@@ -51,7 +54,9 @@ def _truth(kind: str, m: np.ndarray, tau_s: np.ndarray, s: float, fs: float) -> 
         return s**2 / fs / tau_s
     out = []
     for mi in m:
-        tri = np.minimum(np.arange(2 * mi - 1) + 1, 2 * mi - 1 - np.arange(2 * mi - 1)).astype(float)
+        tri = np.minimum(np.arange(2 * mi - 1) + 1, 2 * mi - 1 - np.arange(2 * mi - 1)).astype(
+            float
+        )
         g = np.zeros(3 * mi - 1)
         g[mi:] += tri
         g[: 2 * mi - 1] -= tri
@@ -72,7 +77,10 @@ def coverage(seeds: int) -> None:
             truth = _truth(kind, m, r.tau_s, s, fs)
             hits.append((r.ci_low <= truth) & (truth <= r.ci_high))
         per_tau = np.mean(hits, axis=0)
-        print(f"  {kind:6s} overall {np.mean(hits):.3f}  per tau min {per_tau.min():.2f} max {per_tau.max():.2f}")
+        print(
+            f"  {kind:6s} overall {np.mean(hits):.3f}  per tau min {per_tau.min():.2f} max "
+            f"{per_tau.max():.2f}"
+        )
 
 
 def _flicker_phase(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -98,9 +106,15 @@ def flicker_angle(seeds: int) -> None:
     ours = difference_edf_grid(n, m, np.ones((len(m), 1), dtype=np.int64))[:, 0]
     simple = np.exp(np.sqrt(np.log(n / (2 * m)) * np.log((2 * m + 1) * n / 4)))
     print(f"flicker angle noise: {n} samples, {seeds} seeds; edf")
-    print(f"  {'m':>6} {'total (MC)':>11} {'oAllan (MC)':>12} {'ours':>8} {'SP1065 simple':>14}  simple/total(MC)")
+    print(
+        f"  {'m':>6} {'total (MC)':>11} {'oAllan (MC)':>12} {'ours':>8} {'SP1065 simple':>14}  "
+        "simple/total(MC)"
+    )
     for i, mi in enumerate(m):
-        print(f"  {mi:6d} {emp_t[i]:11.0f} {emp_o[i]:12.0f} {ours[i]:8.0f} {simple[i]:14.0f}  {simple[i] / emp_t[i]:.2f}")
+        print(
+            f"  {mi:6d} {emp_t[i]:11.0f} {emp_o[i]:12.0f} {ours[i]:8.0f} {simple[i]:14.0f}  "
+            f"{simple[i] / emp_t[i]:.2f}"
+        )
 
 
 def main() -> None:

@@ -1,4 +1,5 @@
-"""GMWM against the Allan-curve fits, on models with a Gauss-Markov term and on the WLS paper's gyros.
+"""GMWM against the Allan-curve fits, on models with a Gauss-Markov term and on the WLS paper's
+gyros.
 
 For each case, ``--runs`` simulated records; each is fitted in the *true model form* by
 
@@ -65,13 +66,28 @@ class Case:
 
 
 def gm_case(sigma_deg_h: float) -> Case:
-    return Case(f"wn 0.1 + GM {sigma_deg_h:g} deg/h, 100 s + RRW 0.5", "wn+gm+rw",
-                {"wn_deg_rt_h": 0.1, "gm_sigma_deg_h": sigma_deg_h, "gm_tau_s": 100.0, "rw_deg_h_rt_h": 0.5}, "gm")
+    return Case(
+        f"wn 0.1 + GM {sigma_deg_h:g} deg/h, 100 s + RRW 0.5",
+        "wn+gm+rw",
+        {
+            "wn_deg_rt_h": 0.1,
+            "gm_sigma_deg_h": sigma_deg_h,
+            "gm_tau_s": 100.0,
+            "rw_deg_h_rt_h": 0.5,
+        },
+        "gm",
+    )
 
 
 CASES = [gm_case(0.5), gm_case(2.0)] + [
-    Case(f"{g.name} (Lv 2015 {g.table})", "wn+qn+bi", {QNB_KEYS[t]: v for t, v in g.true.items()}, str(i))
-    for i, g in enumerate(PAPER_GYROS)]
+    Case(
+        f"{g.name} (Lv 2015 {g.table})",
+        "wn+qn+bi",
+        {QNB_KEYS[t]: v for t, v in g.true.items()},
+        str(i),
+    )
+    for i, g in enumerate(PAPER_GYROS)
+]
 
 
 def record_of(case: Case, seed: int) -> tuple[np.ndarray, float]:
@@ -80,7 +96,9 @@ def record_of(case: Case, seed: int) -> tuple[np.ndarray, float]:
         model = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=t["wn_deg_rt_h"]),
                                   GaussMarkov(sigma_deg_h=t["gm_sigma_deg_h"], tau_s=t["gm_tau_s"]),
                                   RateRandomWalk(K_deg_h_1_5=t["rw_deg_h_rt_h"])))
-        return simulate(model, GM_HOURS * 3600.0, GM_RATE_HZ, seed=seed).rate_deg_s[:, 0], GM_RATE_HZ
+        return simulate(model, GM_HOURS * 3600.0, GM_RATE_HZ, seed=seed).rate_deg_s[
+            :, 0
+        ], GM_RATE_HZ
     gyro = PAPER_GYROS[int(case.kind)]
     return simulate_paper_gyro(gyro.true, np.random.default_rng(seed)), SAMPLE_RATE_HZ
 
@@ -116,7 +134,8 @@ class AllanModelFit:
         self._cache: tuple[tuple[float, ...], np.ndarray] | None = None
 
     def columns(self, x: np.ndarray) -> np.ndarray:
-        """Allan variance of each term with unit variance at the shapes in ``x``, (n_tau, n_terms)."""
+        """Allan variance of each term with unit variance at the shapes in ``x``, (n_tau,
+        n_terms)."""
         key = tuple(float(x[i]) for i in self.shape_idx)
         if self._cache is None or self._cache[0] != key:
             cols = [2.0 * kind.unit_wv(self.tau, float(x[ish]) if ish is not None else 0.0, self.dt)
@@ -171,8 +190,15 @@ class AllanModelFit:
         lower = np.full(len(x0), -np.inf)
         upper = np.full(len(x0), np.inf)
         lower[self.shape_idx], upper[self.shape_idx] = t_lo, t_hi
-        sol = optimize.least_squares(self.residual, x0, jac=self.jacobian, bounds=(lower, upper), method="trf",
-                                     x_scale="jac", max_nfev=100)
+        sol = optimize.least_squares(
+            self.residual,
+            x0,
+            jac=self.jacobian,
+            bounds=(lower, upper),
+            method="trf",
+            x_scale="jac",
+            max_nfev=100,
+        )
         best = np.array(sol.x)
         best[self.var_idx] = np.exp(sol.x[self.var_idx])
         values, _ = self.model.physical(best, None, self.dt)
@@ -192,13 +218,16 @@ def one_run(task: tuple[int, int]) -> tuple[int, dict[str, dict[str, float]], di
     out = {"gmwm": fit.values}
     allan = cluster_allan_variance(rate, fs, taus="all")
     if case.kind == "gm":
-        # wls as the paper runs it (cluster, every m); logwls as station analyze does (overlapping, log grid)
+        # wls as the paper runs it (cluster, every m); logwls as station analyze does (overlapping,
+        # log grid)
         out["wls"] = AllanModelFit(allan, model, "wls").fit()
         out["logwls"] = AllanModelFit(overlapping_allan_variance(rate, fs), model, "logwls").fit()
     else:
         for method in ("wls", "logwls"):
             f = fit_noise_terms(allan, method=method, terms="QNB")
-            out[method] = {QNB_KEYS[t]: (math.nan if f.values[t] is None else f.values[t]) for t in "QNB"}
+            out[method] = {
+                QNB_KEYS[t]: (math.nan if f.values[t] is None else f.values[t]) for t in "QNB"
+            }
     return index, out, fit.stderr
 
 
@@ -210,17 +239,30 @@ def run_cases(runs: int, seed: int, workers: int) -> None:
         for index, values, stderr in pool.map(one_run, tasks):
             results[index].append((values, stderr))
     took = time.perf_counter() - start
-    print(f"GMWM against the Allan fits: {runs} runs per case, seed {seed}, {took:.0f} s with {workers} workers\n")
-    print(f"{'case':<38}{'parameter':<17}{'true':>9}  {'relative RMS error: gmwm':>24}{'wls':>9}{'logwls':>9}"
-          f"{'gmwm/best':>10}{'+-1se cover':>12}")
+    print(
+        f"GMWM against the Allan fits: {runs} runs per case, seed {seed}, {took:.0f} s with "
+        f"{workers} workers\n"
+    )
+    print(
+        f"{'case':<38}{'parameter':<17}{'true':>9}  "
+        f"{'relative RMS error: gmwm':>24}{'wls':>9}{'logwls':>9}"
+        f"{'gmwm/best':>10}{'+-1se cover':>12}"
+    )
     for i, case in enumerate(CASES):
         rows = results[i]
         for key, true in case.truth.items():
-            err = {m: math.sqrt(np.nanmean([(v[m][key] / true - 1.0) ** 2 for v, _ in rows])) for m in METHODS}
+            err = {
+                m: math.sqrt(np.nanmean([(v[m][key] / true - 1.0) ** 2 for v, _ in rows]))
+                for m in METHODS
+            }
             cover = np.mean([abs(v["gmwm"][key] - true) <= se[key] for v, se in rows])
             best_allan = min(err["wls"], err["logwls"])
-            print(f"{case.name:<38}{key:<17}{true:>9.4g}  {100 * err['gmwm']:>23.1f}%{100 * err['wls']:>8.1f}%"
-                  f"{100 * err['logwls']:>8.1f}%{err['gmwm'] / best_allan:>10.2f}{100 * cover:>11.0f}%")
+            print(
+                f"{case.name:<38}{key:<17}{true:>9.4g}  "
+                f"{100 * err['gmwm']:>23.1f}%{100 * err['wls']:>8.1f}%"
+                f"{100 * err['logwls']:>8.1f}%{err['gmwm'] / best_allan:>10.2f}"
+                f"{100 * cover:>11.0f}%"
+            )
         print()
 
 
@@ -240,12 +282,17 @@ def timing(seed: int) -> None:
             sel = gmwm_analysis(rate, fs, model=spec)
             cpu.append(time.process_time() - c0)
             wall.append(time.perf_counter() - w0)
-        print(f"  model {spec:<9} -> {sel.best.model.name:<10} CPU {np.median(cpu):.2f} s, wall {np.median(wall):.2f} s "
-              f"(median of 3; {len(sel.ranking)} candidate(s))")
+        print(
+            f"  model {spec:<9} -> {sel.best.model.name:<10} CPU {np.median(cpu):.2f} s, wall "
+            f"{np.median(wall):.2f} s "
+            f"(median of 3; {len(sel.ranking)} candidate(s))"
+        )
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--runs", type=int, default=20, help="runs per case (default 20)")
     parser.add_argument("--seed", type=int, default=1, help="base seed (default 1)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")

@@ -76,16 +76,22 @@ def arw_under_quantization(seeds: int) -> None:
         covered += low <= n_true <= high
         ours.append(arw.value / n_true)
         before.append(first_slope_stretch(r) / n_true)
-    print(f"ARW, quantization Q = {q_urad:.0f} urad crossing N = {n_true} deg/sqrt(h) at 1 s, 1 h at 100 Hz, "
-          f"{seeds} seeds: read-off/truth ours mean {np.mean(ours):.4f} (range {min(ours):.3f}-{max(ours):.3f}), "
-          f"before {np.mean(before):.4f} (range {min(before):.3f}-{max(before):.3f}); "
-          f"95 % interval holds the truth in {covered}/{seeds}")
+    print(
+        f"ARW, quantization Q = {q_urad:.0f} urad crossing N = {n_true} deg/sqrt(h) at 1 s, 1 h at "
+        "100 Hz, "
+        f"{seeds} seeds: read-off/truth ours mean {np.mean(ours):.4f} (range "
+        f"{min(ours):.3f}-{max(ours):.3f}), "
+        f"before {np.mean(before):.4f} (range {min(before):.3f}-{max(before):.3f}); "
+        f"95 % interval holds the truth in {covered}/{seeds}"
+    )
 
 
 def arw_coverage(seeds: int) -> None:
     hits = 0
     for seed in range(seeds):
-        x = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.05), 40_000, 10.0, np.random.default_rng(seed))
+        x = white_rate_noise(
+            arw_deg_rt_h_to_deg_rt_s(0.05), 40_000, 10.0, np.random.default_rng(seed)
+        )
         r = overlapping_allan_variance(x, 10.0)
         fit, zones = fit_outside_zones(r)
         low, high = arw_readoff(r, fit, zones=zones).interval()
@@ -98,12 +104,22 @@ def bias_instability_minimum(seeds: int, k_deg_h_1_5: float) -> None:
     fs, n = 10.0, 200_000
     m = np.unique(np.rint(np.geomspace(1, n // 2, 120)).astype(int))
     tau = np.geomspace(1, n / fs, 4000)
-    nb, b, k = arw_deg_rt_h_to_deg_rt_s(0.05), rate_deg_h_to_deg_s(0.5), rrw_deg_h_1_5_to_deg_s_1_5(k_deg_h_1_5)
-    truth = math.sqrt(float(np.min(nb**2 / tau + (0.664 * b) ** 2 + k**2 * tau / 3))) / 0.664 * 3600.0
+    nb, b, k = (
+        arw_deg_rt_h_to_deg_rt_s(0.05),
+        rate_deg_h_to_deg_s(0.5),
+        rrw_deg_h_1_5_to_deg_s_1_5(k_deg_h_1_5),
+    )
+    truth = (
+        math.sqrt(float(np.min(nb**2 / tau + (0.664 * b) ** 2 + k**2 * tau / 3))) / 0.664 * 3600.0
+    )
     raw, ours, one, ninety_five = [], [], 0, 0
     for seed in range(seeds):
         rng = np.random.default_rng(seed)
-        x = white_rate_noise(nb, n, fs, rng) + flicker_rate_noise(b, n, fs, rng) + random_walk_rate_noise(k, n, fs, rng)
+        x = (
+            white_rate_noise(nb, n, fs, rng)
+            + flicker_rate_noise(b, n, fs, rng)
+            + random_walk_rate_noise(k, n, fs, rng)
+        )
         r = overlapping_allan_variance(x, fs, taus=m / fs)
         bi = bias_instability_readoff(r)
         raw.append(math.sqrt(float(r.avar.min())) / 0.664 * 3600.0 / truth)
@@ -112,18 +128,27 @@ def bias_instability_minimum(seeds: int, k_deg_h_1_5: float) -> None:
         one += low <= truth <= high
         low, high = bi.interval(0.95)
         ninety_five += low <= truth <= high
-    print(f"bias instability, N 0.05 deg/sqrt(h) + B 0.5 deg/h + K {k_deg_h_1_5} deg/h^1.5, 5.6 h at 10 Hz, "
-          f"taus to 2 clusters, {seeds} seeds: read-off/true minimum raw {np.mean(raw):.3f} (sd {np.std(raw):.3f}), "
-          f"ours {np.mean(ours):.3f} (sd {np.std(ours):.3f}); ours' interval holds it {one / seeds:.2f} "
-          f"(+-1 sigma), {ninety_five / seeds:.2f} (95 %)")
+    print(
+        f"bias instability, N 0.05 deg/sqrt(h) + B 0.5 deg/h + K {k_deg_h_1_5} deg/h^1.5, 5.6 h at "
+        "10 Hz, "
+        f"taus to 2 clusters, {seeds} seeds: read-off/true minimum raw {np.mean(raw):.3f} (sd "
+        f"{np.std(raw):.3f}), "
+        f"ours {np.mean(ours):.3f} (sd {np.std(ours):.3f}); ours' interval holds it "
+        f"{one / seeds:.2f} "
+        f"(+-1 sigma), {ninety_five / seeds:.2f} (95 %)"
+    )
 
 
 def coloured(seed: int, kind: str, n: int, fs: float) -> np.ndarray:
     rng = np.random.default_rng(seed)
     x = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(2.0), n, fs, rng)
-    extra = {"quantization": lambda: white_angle_noise(q_urad_to_deg(50.0), n, fs, rng),
-             "flicker": lambda: flicker_rate_noise(rate_deg_h_to_deg_s(30.0), n, fs, rng),
-             "random walk": lambda: random_walk_rate_noise(rrw_deg_h_1_5_to_deg_s_1_5(300.0), n, fs, rng)}
+    extra = {
+        "quantization": lambda: white_angle_noise(q_urad_to_deg(50.0), n, fs, rng),
+        "flicker": lambda: flicker_rate_noise(rate_deg_h_to_deg_s(30.0), n, fs, rng),
+        "random walk": lambda: random_walk_rate_noise(
+            rrw_deg_h_1_5_to_deg_s_1_5(300.0), n, fs, rng
+        ),
+    }
     if kind in extra:
         x = x + extra[kind]()
     if kind == "LSB rounding":
@@ -142,10 +167,15 @@ def tones(seeds: int) -> None:
         for seed in range(seeds // 4):
             rng = np.random.default_rng(1000 + seed)
             f = rng.uniform(1.0, 45.0)
-            x = coloured(seed, "flicker", n, fs) + amplitude * np.sin(2 * np.pi * f * t + rng.uniform(0, 6.3))
+            x = coloured(seed, "flicker", n, fs) + amplitude * np.sin(
+                2 * np.pi * f * t + rng.uniform(0, 6.3)
+            )
             found += any(abs(tone.freq_hz - f) < 0.1 for tone in find_tones(x, fs))
-        print(f"tones, a sinusoid of {amplitude} deg/s (white noise 0.33 deg/s per sample) at 1-45 Hz: "
-              f"found in {found}/{seeds // 4}")
+        print(
+            f"tones, a sinusoid of {amplitude} deg/s (white noise 0.33 deg/s per sample) at 1-45 "
+            "Hz: "
+            f"found in {found}/{seeds // 4}"
+        )
 
 
 def main() -> None:

@@ -30,7 +30,8 @@ from tests.test_reconcile import (
 
 
 def _main_error(name: str, effect, result, seed: int, duration_s: float) -> float:
-    """Relative error of the main parameter (bias steps: worst located step against its hidden one)."""
+    """Relative error of the main parameter (bias steps: worst located step against its hidden
+    one)."""
     found = result.effects[0]
     if name != "bias_steps":
         key = HIDDEN[name].key
@@ -84,8 +85,12 @@ def bench_controls(controls: int, duration_s: float) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seeds", type=int, default=20, help="seeds per hidden effect (default 20)")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--seeds", type=int, default=20, help="seeds per hidden effect (default 20)"
+    )
     parser.add_argument("--controls", type=int, default=100, help="negative controls (default 100)")
     parser.add_argument("--hours", type=float, default=2.0, help="record length in h (default 2)")
     args = parser.parse_args()

@@ -1,4 +1,5 @@
-"""How often reconcile names a hidden effect, on records from a generator independent of the station's.
+"""How often reconcile names a hidden effect, on records from a generator independent of the
+station's.
 
 The station's simulator (:mod:`analysis.simulate`) makes every sample the exact mean of a
 continuous process, and reconcile's Monte Carlo band comes from the same simulator. Here
@@ -44,7 +45,10 @@ _CACHE = ComparisonCache()
 
 def base_model(b_deg_h: float = B_DEG_H) -> NoiseModel:
     """The model reconcile is given: ARW 0.5 deg/sqrt(h) and bias instability ``b_deg_h``."""
-    return NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=ARW_DEG_RT_H), BiasInstability(B_deg_h=b_deg_h)), name="base")
+    return NoiseModel(
+        terms=(AngleRandomWalk(N_deg_rt_h=ARW_DEG_RT_H), BiasInstability(B_deg_h=b_deg_h)),
+        name="base",
+    )
 
 
 def base_rate(rng: np.random.Generator, b_deg_h: float = B_DEG_H) -> np.ndarray:
@@ -93,20 +97,30 @@ def hidden(effect: str, rng: np.random.Generator, ranges: str = "narrow") -> np.
     return np.zeros(N_SAMPLES)
 
 
-def one(task: tuple[str, int, str, float, bool]) -> tuple[str, int, list[str], list[tuple[str, str, float]]]:
+def one(
+    task: tuple[str, int, str, float, bool],
+) -> tuple[str, int, list[str], list[tuple[str, str, float]]]:
     effect, seed, ranges, b_deg_h, use_gmwm = task
     rng = np.random.default_rng(seed)
     rate = base_rate(rng, b_deg_h) + hidden(effect, rng, ranges)
-    res = reconcile(rate, FS_HZ, base_model(b_deg_h), cache=_CACHE, options=ReconcileOptions(gmwm=use_gmwm))
+    res = reconcile(
+        rate, FS_HZ, base_model(b_deg_h), cache=_CACHE, options=ReconcileOptions(gmwm=use_gmwm)
+    )
     named = [e.name for e in res.effects] + [f"{e.name}(excess)" for e in res.excess]
     alternatives = [(e.name, a.name, a.score) for e in res.effects for a in e.alternatives]
     return effect, seed, named, alternatives
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--sets", type=int, nargs="+", default=[3000, 4000], help="first seed of each set")
-    parser.add_argument("--seeds", type=int, default=12, help="seeds per set and effect (default 12)")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--sets", type=int, nargs="+", default=[3000, 4000], help="first seed of each set"
+    )
+    parser.add_argument(
+        "--seeds", type=int, default=12, help="seeds per set and effect (default 12)"
+    )
     parser.add_argument("--effects", nargs="+", default=list(EFFECTS), choices=EFFECTS)
     parser.add_argument("--ranges", choices=sorted(RANGES), default="wide",
                         help="effect parameter ranges (default wide; narrow: those of the tests)")
@@ -120,10 +134,13 @@ def main() -> None:
              for effect in args.effects for i in range(args.seeds)]
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         results = list(pool.map(one, tasks))
-    print(f"reconcile naming ({'Allan curve alone' if args.no_gmwm else 'with the GMWM'}) on an independent "
-          f"generator ({args.ranges} ranges, base B {args.bi:g} deg/h): "
-          f"{args.seeds} seeds per set, "
-          f"{time.perf_counter() - start:.0f} s")
+    print(
+        f"reconcile naming ({'Allan curve alone' if args.no_gmwm else 'with the GMWM'}) on an "
+        "independent "
+        f"generator ({args.ranges} ranges, base B {args.bi:g} deg/h): "
+        f"{args.seeds} seeds per set, "
+        f"{time.perf_counter() - start:.0f} s"
+    )
     for base in args.sets:
         for effect in args.effects:
             rows = [r for r in results if r[0] == effect and base <= r[1] < base + args.seeds]
@@ -133,10 +150,16 @@ def main() -> None:
             else:
                 hits = sum(1 for r in rows if r[2] == [effect])
                 what = f"named exactly {effect}"
-            others = Counter("+".join(r[2]) or "nothing" for r in rows if (r[2] != [effect] if effect != "none" else r[2]))
+            others = Counter(
+                "+".join(r[2]) or "nothing"
+                for r in rows
+                if (r[2] != [effect] if effect != "none" else r[2])
+            )
             alts = Counter(f"{n}~{a}" for r in rows for n, a, _ in r[3])
-            print(f"seeds {base}-{base + args.seeds - 1} {effect:<17} {hits:>2}/{len(rows)} {what}; "
-                  f"otherwise {dict(others) or '-'}; alternatives reported {dict(alts) or '-'}")
+            print(
+                f"seeds {base}-{base + args.seeds - 1} {effect:<17} {hits:>2}/{len(rows)} {what}; "
+                f"otherwise {dict(others) or '-'}; alternatives reported {dict(alts) or '-'}"
+            )
 
 
 if __name__ == "__main__":

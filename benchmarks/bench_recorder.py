@@ -23,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
 
 KINDS = ("serial/stim300", "serial/kvh1750", "serial/xbus", "can/shared")
 
@@ -57,9 +57,11 @@ def main() -> None:
         size = recorder.path.stat().st_size
     load1 = os.getloadavg()
     wall = recorder.wall_s
-    print(f"{len(units)} units x {args.rate:g} Hz x 3 axes, warp x{args.warp:g}, {args.seconds:g} s "
-          f"({os.cpu_count()} cores; load average {load0[0]:.1f} before, {load1[0]:.1f} after); "
-          f"prepare {t_prepare:.1f} s, run {wall:.1f} s wall; stop: {stop.reason}")
+    print(
+        f"{len(units)} units x {args.rate:g} Hz x 3 axes, warp x{args.warp:g}, {args.seconds:g} s "
+        f"({os.cpu_count()} cores; load average {load0[0]:.1f} before, {load1[0]:.1f} after); "
+        f"prepare {t_prepare:.1f} s, run {wall:.1f} s wall; stop: {stop.reason}"
+    )
     print(f"{'unit':8s}{'kind':16s}{'recorded':>9s}{'missing [low, high]':>24s}{'sent':>8s}"
           f"{'nominal':>9s}{'books':>7s}{'CPU s':>7s}{'core':>6s}{'reader s':>9s}")
     nominal = int(args.seconds * args.rate)

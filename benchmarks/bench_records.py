@@ -69,7 +69,9 @@ def bench_gaps(n: int, runs: int) -> None:
     gapped = _median_time(lambda: allan_variance(y, FS_HZ, missing="gap"), runs)
     phase = np.concatenate([[0.0], np.cumsum(np.nan_to_num(y)) / FS_HZ])
     phase[1:][np.isnan(y)] = np.nan
-    peer = _median_time(lambda: allantools.gradev(phase, rate=FS_HZ, data_type="phase", taus=taus), 1)
+    peer = _median_time(
+        lambda: allantools.gradev(phase, rate=FS_HZ, data_type="phase", taus=taus), 1
+    )
     print(f"gaps N={n:.0e} taus={len(taus)} missing={np.isnan(y).mean():.1%}: plain={plain:.3f}s "
           f"gapped={gapped:.3f}s gapped/plain={gapped / plain:.2f} allantools.gradev={peer:.3f}s "
           f"gradev/gapped={peer / gapped:.1f}")
@@ -84,7 +86,9 @@ def _record(kind: str, n: int, seed: int) -> np.ndarray:
 
 def bench_false_alarms(n: int, records: int) -> None:
     for kind in (*MODELS, "lsb"):
-        alarms = sum(detect_spikes(_record(kind, n, 1000 + seed)).count > 0 for seed in range(records))
+        alarms = sum(
+            detect_spikes(_record(kind, n, 1000 + seed)).count > 0 for seed in range(records)
+        )
         rate = alarms / records
         print(f"false alarms {kind:>12}: {alarms} of {records} records of {n} samples "
               f"(observed/design={rate / FALSE_ALARM:.2f}, design {FALSE_ALARM:.0%})")
@@ -100,9 +104,13 @@ def bench_detection(n: int, records: int) -> None:
                 x = rng.standard_normal(n)
                 k = int(rng.integers(100, n - 100))
                 x[k:k + length] += rng.choice([-1, 1]) * size
-                found += any(sp.index == k and sp.n_samples == length for sp in detect_spikes(x).spikes)
+                found += any(
+                    sp.index == k and sp.n_samples == length for sp in detect_spikes(x).spikes
+                )
             cells.append(f"{size}:{found / records:.2f}")
-        print(f"detection of {length}-sample spikes, N={n}, size in sigma:found  " + "  ".join(cells))
+        print(
+            f"detection of {length}-sample spikes, N={n}, size in sigma:found  " + "  ".join(cells)
+        )
 
 
 def main() -> None:

@@ -37,9 +37,9 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from station.hdf5 import read_run
-from station.hdf5_recover import recover_run
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import read_run
+from station.storage.hdf5_recover import recover_run
 from tests.damage_helpers import damaged_copies, sweep
 from tests.test_damaged_runs import _write_run
 from tests.test_recorder_books import UNITS, _at_warp

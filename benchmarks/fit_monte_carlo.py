@@ -101,7 +101,9 @@ def resolved_terms(true: dict[str, float], n: int, fs: float, grid: str) -> str:
     return out
 
 
-def one_seed(task: tuple[str, int, str]) -> tuple[str, dict[str, float | None], dict[str, float | None], str]:
+def one_seed(
+    task: tuple[str, int, str],
+) -> tuple[str, dict[str, float | None], dict[str, float | None], str]:
     name, seed, grid = task
     true, hours, fs = CASES[name]
     n = int(round(hours * 3600 * fs))
@@ -127,9 +129,11 @@ def summarize(name: str, rows: list, resolved: str) -> list[str]:
             err = 100.0 * (np.nanmean(v) / true[t] - 1.0)
             cover = 100.0 * np.mean(np.abs(v - true[t]) <= e)
             flag = "resolved" if t in resolved else "not resolved at 3 sigma"
-            lines.append(f"  {t}: true {true[t]:.4g}  mean error {err:+6.1f} %  spread {np.nanstd(v):.3g}  "
-                         f"mean se {np.nanmean(e):.3g}  1-sigma coverage {cover:3.0f} %  "
-                         f"reported 0 in {100 * np.mean(v == 0):3.0f} %  ({flag})")
+            lines.append(
+                f"  {t}: true {true[t]:.4g}  mean error {err:+6.1f} %  spread {np.nanstd(v):.3g}  "
+                f"mean se {np.nanmean(e):.3g}  1-sigma coverage {cover:3.0f} %  "
+                f"reported 0 in {100 * np.mean(v == 0):3.0f} %  ({flag})"
+            )
         else:
             invented = 100.0 * np.mean(v > 0)
             if invented:
@@ -142,7 +146,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", type=int, default=40)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--grid", choices=("log", "long"), default="log")
-    p.add_argument("--cases", default=None, help="comma-separated case numbers (1-based); default all")
+    p.add_argument(
+        "--cases", default=None, help="comma-separated case numbers (1-based); default all"
+    )
     args = p.parse_args(argv)
     names = list(CASES)
     if args.cases:

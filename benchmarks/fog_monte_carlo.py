@@ -35,8 +35,10 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=100)
     parser.add_argument("--seed", type=int, default=2014)
     args = parser.parse_args()
-    header = (f"{'condition':32} {'ARW req':>9} {'ARW mean':>9} {'(sd)':>9} {'BS req':>8} {'BS mean':>8} "
-              f"{'(sd)':>8} {'BS theory':>9} {'(sd)':>8} {'mean err':>8} {'sd ratio':>8} {'s':>5}")
+    header = (
+        f"{'condition':32} {'ARW req':>9} {'ARW mean':>9} {'(sd)':>9} {'BS req':>8} {'BS mean':>8} "
+        f"{'(sd)':>8} {'BS theory':>9} {'(sd)':>8} {'mean err':>8} {'sd ratio':>8} {'s':>5}"
+    )
     print(header)
     for label, arw, bs, avg, corr, fs, duration in CONDITIONS:
         t0 = time.perf_counter()

@@ -30,9 +30,15 @@ from station.evaluation.reproduce import PAPER_GYROS, Lv2015Setup, reproduce_lv2
 VARIANTS: dict[str, Lv2015Setup] = {
     "ours: Kasdin flicker B, cluster AVAR, every m to N/2, 4 h": Lv2015Setup(),
     "B as the station's Gauss-Markov bank (flat plateau)": Lv2015Setup(bias_noise="bank"),
-    "B as one Gauss-Markov process, T = 10 s": Lv2015Setup(bias_noise="markov", markov_correlation_s=10.0),
-    "B as one Gauss-Markov process, T = 100 s": Lv2015Setup(bias_noise="markov", markov_correlation_s=100.0),
-    "B as one Gauss-Markov process, T = 1000 s": Lv2015Setup(bias_noise="markov", markov_correlation_s=1000.0),
+    "B as one Gauss-Markov process, T = 10 s": Lv2015Setup(
+        bias_noise="markov", markov_correlation_s=10.0
+    ),
+    "B as one Gauss-Markov process, T = 100 s": Lv2015Setup(
+        bias_noise="markov", markov_correlation_s=100.0
+    ),
+    "B as one Gauss-Markov process, T = 1000 s": Lv2015Setup(
+        bias_noise="markov", markov_correlation_s=1000.0
+    ),
     "every m up to N/9 only": Lv2015Setup(max_clusters_m=9),
     "overlapping AVAR (every m to N/2)": Lv2015Setup(estimator="overlapping"),
     "1 h records instead of 4 h": Lv2015Setup(duration_s=3600.0),
@@ -82,32 +88,47 @@ def main(argv: list[str] | None = None) -> int:
     if args.variants:
         names = [names[int(i) - 1] for i in args.variants.split(",")]
     if args.studies == 0:
-        print(f"# lv2015_causes: {args.runs} runs per gyro, seed {args.seed}; per method the geometric "
-              f"mean over 3 gyros x 3 terms of paper/ours (spread; |mean error|)")
+        print(
+            f"# lv2015_causes: {args.runs} runs per gyro, seed {args.seed}; per method the "
+            "geometric "
+            f"mean over 3 gyros x 3 terms of paper/ours (spread; |mean error|)"
+        )
         for name in names:
-            table = reproduce_lv2015(args.runs, args.seed, workers=args.workers, setup=VARIANTS[name])
+            table = reproduce_lv2015(
+                args.runs, args.seed, workers=args.workers, setup=VARIANTS[name]
+            )
             r = ratios(table)
             cells = "  ".join(f"{m} {r[m][0]:5.1f}x; {r[m][1]:5.1f}x" for m in r)
             print(f"{name:<58} {cells}  | {crg20_b(table)}")
     else:
-        print(f"# lv2015_causes: CRG20 only, {args.studies} independent studies of {args.runs} runs")
+        print(
+            f"# lv2015_causes: CRG20 only, {args.studies} independent studies of {args.runs} runs"
+        )
         errors: dict[str, list[float]] = {"ols": [], "ols40": [], "wls": [], "logwls": []}
         for study in range(args.studies):
-            table = reproduce_lv2015(args.runs, args.seed + 1000 * (study + 1), workers=args.workers,
-                                     gyros=("CRG20",))
+            table = reproduce_lv2015(
+                args.runs, args.seed + 1000 * (study + 1), workers=args.workers, gyros=("CRG20",)
+            )
             gyro = table["gyros"][0]
             for m in gyro["methods"]:
                 if m["method"] in errors:
                     errors[m["method"]].append(m["B"]["error_percent"])
-            print(f"study {study + 1}: " + ", ".join(f"{k} {v[-1]:.1f} %" for k, v in errors.items()))
+            print(
+                f"study {study + 1}: " + ", ".join(f"{k} {v[-1]:.1f} %" for k, v in errors.items())
+            )
         paper = {m: PAPER_GYROS[2].published[m]["B"][1] for m in ("ols", "ols40", "wls")}
         for method, values in errors.items():
             v = np.array(values)
-            print(f"{method:<7} mean error of B over studies: median {np.median(v):.1f} %, "
-                  f"range {v.min():.1f}-{v.max():.1f} %" + (f" (paper {paper[method]} %)" if method in paper else ""))
+            print(
+                f"{method:<7} mean error of B over studies: median {np.median(v):.1f} %, "
+                f"range {v.min():.1f}-{v.max():.1f} %"
+                + (f" (paper {paper[method]} %)" if method in paper else "")
+            )
         ratio = np.array(errors["ols"]) / np.maximum(np.array(errors["wls"]), 1e-9)
-        print(f"OLS/WLS ratio of mean errors: median {np.median(ratio):.1f}, range {ratio.min():.1f}-"
-              f"{ratio.max():.1f} (paper 451)")
+        print(
+            f"OLS/WLS ratio of mean errors: median {np.median(ratio):.1f}, range {ratio.min():.1f}-"
+            f"{ratio.max():.1f} (paper 451)"
+        )
     print(f"# {time.monotonic() - start:.0f} s")
     return 0
 

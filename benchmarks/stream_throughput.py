@@ -39,9 +39,14 @@ def main() -> None:
     tracemalloc.stop()
     per_s = n_total * args.axes / elapsed
     day = 86400 * args.rate * args.axes / per_s
-    print(f"model {model.name}: {n_total} samples x {args.axes} axes at {args.rate:g} Hz in {elapsed:.1f} s "
-          f"({per_s / 1e6:.2f} M sample-axes/s); peak traced memory {peak / 1e6:.1f} MB with chunks of "
-          f"{args.chunk}; a 24 h run at this rate would take {day / 60:.1f} min (checksum {checksum:.3g})")
+    print(
+        f"model {model.name}: {n_total} samples x {args.axes} axes at {args.rate:g} Hz in "
+        f"{elapsed:.1f} s "
+        f"({per_s / 1e6:.2f} M sample-axes/s); peak traced memory {peak / 1e6:.1f} MB with chunks "
+        "of "
+        f"{args.chunk}; a 24 h run at this rate would take {day / 60:.1f} min (checksum "
+        f"{checksum:.3g})"
+    )
 
 
 if __name__ == "__main__":

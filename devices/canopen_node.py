@@ -211,7 +211,9 @@ class CanopenRateSource:
             return
         z, counter, temp = values
         since, self._tpdo1_since = self._tpdo1_since, []
-        advance = 1 if self._last_counter is None else (counter - self._last_counter) % COUNTER_MODULUS
+        advance = (
+            1 if self._last_counter is None else (counter - self._last_counter) % COUNTER_MODULUS
+        )
         self._last_counter = counter
         if not since or len(since) != advance:
             return  # ambiguous or incomplete sample: dropped, counted as a gap

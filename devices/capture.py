@@ -4,7 +4,8 @@ A capture is recorded once on the bench (:class:`RecordingByteTransport`,
 :class:`RecordingCanTransport` wrap the real transport) and replayed in CI by
 :mod:`devices.replay`. The file is JSON Lines: a header, then one step per line::
 
-    {"capture": 1, "kind": "serial", "settings": {"port": "/dev/ttyUSB0", ...}, "started_unix_s": ...}
+    {"capture": 1, "kind": "serial", "settings": {"port": "/dev/ttyUSB0", ...}, "started_unix_s":
+    ...}
     {"t": 0.0, "dir": "open"}
     {"t": 0.0123, "dir": "read", "hex": "94a1..."}         bytes the device sent (one read)
     {"t": 0.0125, "dir": "write", "hex": "faff3000d1"}     bytes the host sent

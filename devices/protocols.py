@@ -257,7 +257,8 @@ class PowerSwitch(Protocol):
         """Whether the output is on now."""
 
     def describe(self) -> str:
-        """Where the switch is, for the run's records (``modbus+tcp 10.0.0.5:502 unit 1 coil 3``)."""
+        """Where the switch is, for the run's records
+        (``modbus+tcp 10.0.0.5:502 unit 1 coil 3``)."""
 
 
 @runtime_checkable
@@ -291,3 +292,30 @@ class TemperatureChamber(Protocol):
 
     def describe(self) -> str:
         """Where the chamber is, for the run's records."""
+class Simulated(Protocol):
+    """A unit whose device is simulated (a ``sim+`` URL), as the recorder may use it: held
+    until the recorder listens, ended on a sample index, and counted by the simulator
+    itself. Real hardware offers none of this; the recorder asks ``isinstance(unit,
+    Simulated)`` (an optional capability, as bluesky's ``Pausable``)."""
+
+    def pause(self) -> None:
+        """Hold sampling (nothing is generated, its time line stands)."""
+
+    def resume(self) -> None:
+        """Release the hold: sampling starts (again) now."""
+
+    def clear_faults(self) -> None:
+        """Turn the injected faults off (a clean end of a run)."""
+
+    def finish_after(self, n_samples: int | None) -> None:
+        """Generate no sample beyond the first ``n_samples`` (None: go on); its time line
+        goes on, so that a counter sees no silence it cannot explain."""
+
+    def samples_sent(self) -> int:
+        """Samples the simulated device has generated so far (its own count).
+
+        Raises
+        ------
+        DeviceError
+            The simulator is gone (its process ended).
+        """

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 
 from devices.can_raw import CanRateSource
@@ -31,6 +31,7 @@ from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.errors import DeviceConfigurationError
 from devices.modbus import ModbusRateSource
+from devices.opened import OpenedDevice, SimulatedDevice, Simulator
 from devices.protocols import RateSource
 from devices.replay import (
     ReplayByteTransport,
@@ -42,7 +43,6 @@ from devices.replay import (
 from devices.sim.can_device import CanBroadcastDevice, broadcast_latency_s
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
-from devices.sim.faults import Ledger
 from devices.sim.modbus_server import ModbusGyroServer
 from devices.sim.params import (
     BENCH_KEYS,
@@ -67,81 +67,6 @@ from devices.url_query import (
     check_keys,
     parse_query,
 )
-
-
-class SimControl(Protocol):
-    """What the station uses of a simulated device's core, in this process
-    (:class:`SimCore`) or in another (:class:`RemoteSimCore`)."""
-
-    clock: WarpClock
-
-    @property
-    def ledger(self) -> Ledger:
-        """Samples generated, delivered and lost."""
-
-    @property
-    def sample_rate_hz(self) -> float:
-        """Nominal sample rate, Hz."""
-
-    def pause(self) -> None:
-        """Hold sampling."""
-
-    def resume(self) -> None:
-        """Release the hold."""
-
-    def clear_faults(self) -> None:
-        """Turn the injected faults off (a clean end of a run)."""
-
-    def stop_after(self, n_samples: int | None) -> None:
-        """Generate no sample beyond the first ``n_samples`` (the end of a run)."""
-
-
-class Simulator(Protocol):
-    """A running simulated device."""
-
-    core: SimControl
-
-    def stop(self) -> None:
-        """Stop it and release its transport."""
-
-
-@dataclass
-class OpenedDevice:
-    """The adapter a URL names and, for ``sim+`` URLs, the simulator behind it."""
-
-    source: RateSource
-    url: str
-    simulator: Simulator | None = None
-    #: For a simulation another process can reach (a pty, a TCP port, a
-    #: ``udp_multicast`` bus) and that runs in real time: the hardware URL by which a
-    #: second station opens it as a real device. None otherwise.
-    hardware_url: str | None = None
-    #: The unit's own time base when it is not the station's monotonic clock nor a
-    #: simulator's: a replay's recorded seconds. None otherwise.
-    clock: Callable[[], float] | None = None
-
-    @property
-    def ledger(self) -> Ledger | None:
-        """The simulator's ledger (samples generated, lost), None for real hardware."""
-        return None if self.simulator is None else self.simulator.core.ledger
-
-    def close(self) -> None:
-        """Close the adapter, then stop the simulator."""
-        try:
-            self.source.close()
-        finally:
-            if self.simulator is not None:
-                self.simulator.stop()
-                close = getattr(self.simulator.core, "close", None)
-                if close is not None:  # a core in this process: what runs beside it
-                    close()
-
-    def __enter__(self) -> OpenedDevice:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
 
 #: URL keys that say how to run a simulation or record a session, not how to talk to the
 #: device: a hardware URL of a served simulation and a capture's replay URL drop them.
@@ -215,28 +140,31 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
                                    f"known: {', '.join(SERIAL_PROTOCOLS)}")
 
 
-def _open_serial(path: str, query: dict[str, str], simulate: bool, host: str) -> OpenedDevice:
+def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     protocol = query.get("protocol", "stim300")
-    if simulate:
-        params = parse_sim_params(query.get("model", host), query)
-        codec, header, _ = _stream_codec(protocol, query, params.rate)
-        core, clock = sim_core(params, codec.n_axes)
-        device = PtySerialDevice(codec, core, header=header).start()
-        source = StreamRateSource(_captured(SerialTransport(device.port), "serial", query,
-                                            params.rate, params.warp), codec, model=_unit_model(host, params),
-                                  serial_number=f"SIM-{params.seed or 0}",
-                                  sample_rate_hz=params.rate, clock=clock,
-                                  clock_scale=params.warp,
-                                  max_latency_s=device.max_latency_s)
-        return OpenedDevice(source, "", device,
-                            _hardware_url(params, "serial", device.port, query))
+    params = parse_sim_params(query.get("model", host), query)
+    codec, header, _ = _stream_codec(protocol, query, params.rate)
+    core, clock = sim_core(params, codec.n_axes)
+    device = PtySerialDevice(codec, core, header=header).start()
+    transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
+                          params.warp)
+    source = StreamRateSource(transport, codec, model=_unit_model(host, params),
+                              serial_number=f"SIM-{params.seed or 0}",
+                              sample_rate_hz=params.rate, clock=clock,
+                              clock_scale=params.warp, max_latency_s=device.max_latency_s)
+    return SimulatedDevice(source, hardware_url=_hardware_url(params, "serial", device.port,
+                                                              query), simulator=device)
+
+
+def _open_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+    protocol = query.get("protocol", "stim300")
     rate = query_number("rate", query.get("rate", "2000"), float)
     codec, _, model = _stream_codec(protocol, query, rate)
-    transport = _captured(SerialTransport(path, query_number("baud", query.get("baud", "921600"),
-                                                             int)), "serial", query, rate, 1.0)
+    baud = query_number("baud", query.get("baud", "921600"), int)
+    transport = _captured(SerialTransport(path, baud), "serial", query, rate, 1.0)
     source = StreamRateSource(transport, codec, model=query.get("model", model),
                               serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
-    return OpenedDevice(source, "")
+    return OpenedDevice(source)
 
 
 # -- raw CAN -------------------------------------------------------------------------
@@ -339,115 +267,124 @@ def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
             if key in query}
 
 
-def _open_can(path: str, query: dict[str, str], simulate: bool, host: str) -> OpenedDevice:
+def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     layout = can_layout(query.get("layout", "shared"))
-    if simulate:
-        params = parse_sim_params(query.get("model", host), query)
-        simulator: Simulator
-        multicast = _sim_bus(query) == "udp_multicast"
-        if multicast:
-            simulator, clock, bus = _node_in_a_process(_start_can_broadcast, params, layout,
-                                                       describe="CAN gyro",
-                                                       loopback=_loopback_only(query))
-            transport = bus.transport()
-            reach = _hardware_url(params, "can", bus.group, query, interface="udp_multicast",
-                                  port=str(bus.port))
-        else:
-            reach = None
-            core, clock = sim_core(params, len(layout.axes))
-            channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
-            simulator = CanBroadcastDevice(
-                CanTransport("virtual", channel, preserve_timestamps=True), layout, core,
-                max_lag_wall_s=1.0, stamped=True).start()
-            transport = CanTransport("virtual", channel)
-        # In this process the node stamps each frame when it fell due; across processes
-        # the kernel stamps it when it arrives, up to the node's latency later.
-        latency = (broadcast_latency_s(layout, params.rate, params.warp) if multicast
-                   else 0.005 * params.warp)
-        source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
-                               layout, model=_unit_model(host, params),
-                               serial_number=f"SIM-{params.seed or 0}",
-                               sample_rate_hz=params.rate, clock=clock,
-                               clock_scale=params.warp, max_latency_s=latency)
-        return OpenedDevice(source, "", simulator, reach)
+    params = parse_sim_params(query.get("model", host), query)
+    simulator: Simulator
+    multicast = _sim_bus(query) == "udp_multicast"
+    if multicast:
+        simulator, clock, bus = _node_in_a_process(_start_can_broadcast, params, layout,
+                                                   describe="CAN gyro",
+                                                   loopback=_loopback_only(query))
+        transport = bus.transport()
+        reach = _hardware_url(params, "can", bus.group, query, interface="udp_multicast",
+                              port=str(bus.port))
+    else:
+        reach = None
+        core, clock = sim_core(params, len(layout.axes))
+        channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
+        simulator = CanBroadcastDevice(
+            CanTransport("virtual", channel, preserve_timestamps=True), layout, core,
+            max_lag_wall_s=1.0, stamped=True).start()
+        transport = CanTransport("virtual", channel)
+    # In this process the node stamps each frame when it fell due; across processes
+    # the kernel stamps it when it arrives, up to the node's latency later.
+    latency = (broadcast_latency_s(layout, params.rate, params.warp) if multicast
+               else 0.005 * params.warp)
+    source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
+                           layout, model=_unit_model(host, params),
+                           serial_number=f"SIM-{params.seed or 0}",
+                           sample_rate_hz=params.rate, clock=clock,
+                           clock_scale=params.warp, max_latency_s=latency)
+    return SimulatedDevice(source, hardware_url=reach, simulator=simulator)
+
+
+def _open_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+    layout = can_layout(query.get("layout", "shared"))
     rate = query_number("rate", query.get("rate", "1000"), float)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
                              loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
     source = CanRateSource(_captured(transport, "can", query, rate, 1.0), layout,
                            model=query.get("model", "CAN gyro"),
                            serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)
-    return OpenedDevice(source, "")
+    return OpenedDevice(source)
 
 
 # -- CANopen ------------------------------------------------------------------------
 
-def _open_canopen(path: str, query: dict[str, str], simulate: bool, host: str
-                  ) -> OpenedDevice:
+def _canopen_node(path: str, query: dict[str, str]) -> tuple[int, bool]:
+    """(node id, whether TPDOs go on SYNC) of a CANopen URL."""
     _no_capture(query, "CANopen (the canopen library drives the bus itself)")
     node_id = query_number("node", path.strip("/") or query.get("node", "5"), int)
-    sync = query.get("tpdo", "event") == "sync"
-    if simulate:
-        params = parse_sim_params(query.get("model", host), query)
-        simulator: Simulator
-        if _sim_bus(query) == "udp_multicast":
-            simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
-                                                       describe=f"CANopen node {node_id}",
-                                                       loopback=_loopback_only(query))
-            transport = bus.transport()
-            reach = _hardware_url(params, "canopen", f"{bus.group}/{node_id}", query,
-                                  interface="udp_multicast", port=str(bus.port))
-        else:
-            reach = None
-            core, clock = sim_core(params, 3)
-            channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
-            simulator = CanopenGyroNode(CanTransport("virtual", channel), core,
-                                        node_id=node_id, serial_number=params.seed or 1).start()
-            transport = CanTransport("virtual", channel)
-        source = CanopenRateSource(transport, node_id, GYRO_EDS,
-                                   sample_rate_hz=params.rate, model=_unit_model(host, params), clock=clock,
-                                   clock_scale=params.warp, sync=sync)
-        return OpenedDevice(source, "", simulator, reach)
+    return node_id, query.get("tpdo", "event") == "sync"
+
+
+def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+    node_id, sync = _canopen_node(path, query)
+    params = parse_sim_params(query.get("model", host), query)
+    simulator: Simulator
+    if _sim_bus(query) == "udp_multicast":
+        simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
+                                                   describe=f"CANopen node {node_id}",
+                                                   loopback=_loopback_only(query))
+        transport = bus.transport()
+        reach = _hardware_url(params, "canopen", f"{bus.group}/{node_id}", query,
+                              interface="udp_multicast", port=str(bus.port))
+    else:
+        reach = None
+        core, clock = sim_core(params, 3)
+        channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
+        simulator = CanopenGyroNode(CanTransport("virtual", channel), core,
+                                    node_id=node_id, serial_number=params.seed or 1).start()
+        transport = CanTransport("virtual", channel)
+    source = CanopenRateSource(transport, node_id, GYRO_EDS, sample_rate_hz=params.rate,
+                               model=_unit_model(host, params), clock=clock,
+                               clock_scale=params.warp, sync=sync)
+    return SimulatedDevice(source, hardware_url=reach, simulator=simulator)
+
+
+def _open_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+    node_id, sync = _canopen_node(path, query)
     transport = CanTransport(query.get("interface", "socketcan"), host,
                              loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
+    rate = query_number("rate", query.get("rate", "100"), float)
     source = CanopenRateSource(transport, node_id, query.get("eds", str(GYRO_EDS)),
-                               sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
-                               model=query.get("model", "CANopen gyro"), sync=sync)
-    return OpenedDevice(source, "")
+                               sample_rate_hz=rate, model=query.get("model", "CANopen gyro"),
+                               sync=sync)
+    return OpenedDevice(source)
 
 
 # -- Modbus --------------------------------------------------------------------------
 
-def _open_modbus_rtu(path: str, query: dict[str, str], simulate: bool, host: str
-                     ) -> OpenedDevice:
-    return _open_modbus(path, query, simulate, host, rtu=True)
-
-
-def _open_modbus_tcp(path: str, query: dict[str, str], simulate: bool, host: str
-                     ) -> OpenedDevice:
-    return _open_modbus(path, query, simulate, host, rtu=False)
-
-
-def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *, rtu: bool
-                 ) -> OpenedDevice:
+def _modbus_setup(query: dict[str, str]) -> tuple[ModbusRegisterMap, float]:
+    """(register map, oversampling factor) of a Modbus URL."""
     _no_capture(query, "Modbus (pymodbus drives the link itself)")
-    regs = register_map(query.get("map", "int32"))
-    oversample = query_number("oversample", query.get("oversample", "2"), float)
-    if simulate:
-        params = parse_sim_params(query.get("model", host), query)
-        core, clock = sim_core(params, len(regs.axes))
-        server = ModbusGyroServer(regs, core, rtu=rtu).start()
-        transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
-                     else ModbusTransport("tcp", "127.0.0.1", port=server.port))
-        source = ModbusRateSource(transport, regs,
-                                  device_id=server.device_id, model=_unit_model(host, params),
-                                  serial_number=f"SIM-{params.seed or 0}",
-                                  sample_rate_hz=params.rate, clock=clock,
-                                  clock_scale=params.warp, oversample=oversample)
-        reach = (_hardware_url(params, "modbus+rtu", server.serial_port, query,
-                               unit=str(server.device_id), baud="115200") if rtu
-                 else _hardware_url(params, "modbus+tcp", f"127.0.0.1:{server.port}/"
-                                    f"{server.device_id}", query))
-        return OpenedDevice(source, "", server, reach)
+    return (register_map(query.get("map", "int32")),
+            query_number("oversample", query.get("oversample", "2"), float))
+
+
+def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool
+                     ) -> OpenedDevice:
+    regs, oversample = _modbus_setup(query)
+    params = parse_sim_params(query.get("model", host), query)
+    core, clock = sim_core(params, len(regs.axes))
+    server = ModbusGyroServer(regs, core, rtu=rtu).start()
+    transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
+                 else ModbusTransport("tcp", "127.0.0.1", port=server.port))
+    source = ModbusRateSource(transport, regs,
+                              device_id=server.device_id, model=_unit_model(host, params),
+                              serial_number=f"SIM-{params.seed or 0}",
+                              sample_rate_hz=params.rate, clock=clock,
+                              clock_scale=params.warp, oversample=oversample)
+    reach = (_hardware_url(params, "modbus+rtu", server.serial_port, query,
+                           unit=str(server.device_id), baud="115200") if rtu
+             else _hardware_url(params, "modbus+tcp", f"127.0.0.1:{server.port}/"
+                                f"{server.device_id}", query))
+    return SimulatedDevice(source, hardware_url=reach, simulator=server)
+
+
+def _open_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool) -> OpenedDevice:
+    regs, oversample = _modbus_setup(query)
     if rtu:  # modbus+rtu:///dev/ttyUSB0?unit=1&baud=19200
         unit = query.get("unit", "1")
         transport = ModbusTransport("rtu", path,
@@ -461,18 +398,14 @@ def _open_modbus(path: str, query: dict[str, str], simulate: bool, host: str, *,
                               serial_number=query.get("serial", "unknown"),
                               sample_rate_hz=query_number("rate", query.get("rate", "100"), float),
                               oversample=oversample)
-    return OpenedDevice(source, "")
+    return OpenedDevice(source)
 
 
 # -- replay of a capture file -------------------------------------------------------
 
-def _open_replay(path: str, query: dict[str, str], simulate: bool, host: str
-                 ) -> OpenedDevice:
+def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     """``replay://FILE``: a capture recorded with ``capture=FILE``, played back through
     the adapter of the protocol it was recorded with, on the recorded time base."""
-    if simulate:
-        raise DeviceConfigurationError("replay://FILE plays a capture file back; there is "
-                                       "no sim+replay")
     file = host + path
     capture = load_capture(file)
     recorded = dict(capture.settings).get("replay_url")
@@ -502,7 +435,8 @@ def _open_replay(path: str, query: dict[str, str], simulate: bool, host: str
         raise DeviceConfigurationError(
             f"{file}: a {capture.kind} capture whose header says it was recorded over "
             f"{parts.scheme!r}: serial and raw CAN captures replay, as they were recorded")
-    return OpenedDevice(source, "", clock=unit_clock)
+    return OpenedDevice(source, clock=unit_clock,
+                        time_base="the replayed capture's clock (s since it started)")
 
 
 @dataclass(frozen=True)
@@ -585,19 +519,35 @@ def open_device(url: str) -> OpenedDevice:
     transport = scheme.removeprefix("sim+")
     query = parse_query(parts.query, url)
     host = unquote(parts.netloc)
-    openers: dict[str, Callable[[str, dict[str, str], bool, str], OpenedDevice]] = {
-        "serial": _open_serial,
-        "can": _open_can,
-        "canopen": _open_canopen,
-        "modbus+tcp": _open_modbus_tcp,
-        "modbus+rtu": _open_modbus_rtu,
-        "replay": _open_replay,
-    }
-    if transport not in openers:
+    if transport not in _OPENERS:
         raise DeviceConfigurationError(
             f"unknown device URL scheme {parts.scheme!r} in {url!r}; known: "
-            + ", ".join(f"{s}, sim+{s}" if s != "replay" else "replay" for s in openers))
+            + ", ".join(f"{s}, sim+{s}" if s in _SIMULATORS else s for s in _OPENERS))
     check_keys(query, _allowed_keys(transport, simulate, query), url)
-    opened = openers[transport](unquote(parts.path), query, simulate, host)
+    if simulate and transport not in _SIMULATORS:
+        raise DeviceConfigurationError("replay://FILE plays a capture file back; there is "
+                                       "no sim+replay")
+    opener = (_SIMULATORS if simulate else _OPENERS)[transport]
+    opened = opener(unquote(parts.path), query, host)
     opened.url = url
     return opened
+
+
+_Opener = Callable[[str, dict[str, str], str], OpenedDevice]
+#: The adapter of each transport's hardware URL (path, query, host).
+_OPENERS: dict[str, _Opener] = {
+    "serial": _open_serial,
+    "can": _open_can,
+    "canopen": _open_canopen,
+    "modbus+tcp": partial(_open_modbus, rtu=False),
+    "modbus+rtu": partial(_open_modbus, rtu=True),
+    "replay": _open_replay,
+}
+#: A simulated device and the adapter talking to it, of each ``sim+`` transport.
+_SIMULATORS: dict[str, _Opener] = {
+    "serial": _simulate_serial,
+    "can": _simulate_can,
+    "canopen": _simulate_canopen,
+    "modbus+tcp": partial(_simulate_modbus, rtu=False),
+    "modbus+rtu": partial(_simulate_modbus, rtu=True),
+}

@@ -17,6 +17,7 @@ from station.commands import (
     davar,
     demo,
     devices,
+    fleet,
     grade,
     model,
     reconcile,
@@ -32,7 +33,24 @@ from station.commands import (
 from station.errors import StationError
 from station.logs import configure_logging
 
-COMMANDS: tuple = (demo, analyze, reproduce, simulate, model, davar, devices, grade, report, results, record, watch, recover, reconcile, tui,)
+COMMANDS: tuple = (
+    demo,
+    analyze,
+    reproduce,
+    simulate,
+    model,
+    davar,
+    devices,
+    grade,
+    report,
+    fleet,
+    results,
+    record,
+    watch,
+    recover,
+    reconcile,
+    tui,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

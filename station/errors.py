@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from dataclasses import dataclass
+
 
 class StationError(Exception):
     """Base class of every error the station raises on purpose; the CLI prints its message."""
@@ -32,7 +35,9 @@ class ProfileError(StationError, ValueError):
         Dotted TOML key at fault (``"figures.arw.limits.navigation"``), "" for the whole file.
     """
 
-    def __init__(self, message: str, *, path: str = "", line: int | None = None, key: str = "") -> None:
+    def __init__(
+        self, message: str, *, path: str = "", line: int | None = None, key: str = ""
+    ) -> None:
         where = path + (f":{line}" if line else "")
         prefix = f"{where}: " if where else ""
         if key:
@@ -56,18 +61,32 @@ class RecorderError(StationError, RuntimeError):
     reason = ""
 
 
+@dataclass(frozen=True)
+class Problem:
+    """One reason a run cannot start, with its fix: a unit's (``unit_id``, ``url``) or the
+    run's settings' (both "")."""
+
+    text: str
+    unit_id: str = ""
+    url: str = ""
+
+    def __str__(self) -> str:
+        return f"{self.unit_id} ({self.url}): {self.text}" if self.unit_id else self.text
+
+
 class RunConfigurationError(RecorderError, ValueError):
     """A run refused before it starts: every problem found, one per line, each with its fix.
 
     Attributes
     ----------
-    problems : tuple of str
-        One message per unit or setting at fault.
+    problems : tuple of Problem
+        One per unit or setting at fault.
     """
 
-    def __init__(self, problems: list[str] | tuple[str, ...]) -> None:
-        self.problems = tuple(problems)
-        super().__init__("the run was not started:\n  " + "\n  ".join(self.problems))
+    def __init__(self, problems: Sequence[Problem | str]) -> None:
+        self.problems = tuple(p if isinstance(p, Problem) else Problem(p) for p in problems)
+        super().__init__("the run was not started:\n  "
+                         + "\n  ".join(str(p) for p in self.problems))
 
 
 class DiskSpaceError(RecorderError, OSError):

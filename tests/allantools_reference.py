@@ -38,12 +38,16 @@ def _download_sdist(version: str, into: Path) -> Path:
     try:
         proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        pytest.fail(f"cannot download the allantools {version} sdist for its Stable32 reference files "
-                    f"({exc}); set GYRO_ALLANTOOLS_SDIST to a local allantools-{version}.tar.gz")
+        pytest.fail(
+            f"cannot download the allantools {version} sdist for its Stable32 reference files "
+            f"({exc}); set GYRO_ALLANTOOLS_SDIST to a local allantools-{version}.tar.gz"
+        )
     found = sorted(into.glob("allantools-*.tar.gz")) + sorted(into.glob("AllanTools-*.tar.gz"))
     if proc.returncode != 0 or not found:
-        pytest.fail(f"`{' '.join(cmd)}` failed (exit {proc.returncode}): {proc.stderr.strip()[-800:]}; "
-                    f"set GYRO_ALLANTOOLS_SDIST to a local allantools-{version}.tar.gz")
+        pytest.fail(
+            f"`{' '.join(cmd)}` failed (exit {proc.returncode}): {proc.stderr.strip()[-800:]}; "
+            f"set GYRO_ALLANTOOLS_SDIST to a local allantools-{version}.tar.gz"
+        )
     return found[0]
 
 
@@ -51,8 +55,13 @@ def _extract(sdist: Path, root: Path) -> None:
     with tarfile.open(sdist) as tar:
         for member in tar.getmembers():
             parts = Path(member.name).parts
-            if (member.isfile() and len(parts) == 4 and parts[1] == "tests" and parts[2] in REFERENCE_FOLDERS
-                    and parts[3].lower().endswith(_DATA_SUFFIXES)):
+            if (
+                member.isfile()
+                and len(parts) == 4
+                and parts[1] == "tests"
+                and parts[2] in REFERENCE_FOLDERS
+                and parts[3].lower().endswith(_DATA_SUFFIXES)
+            ):
                 target = root / parts[2] / parts[3]  # our own path: nothing in the archive picks it
                 target.parent.mkdir(parents=True, exist_ok=True)
                 source = tar.extractfile(member)
@@ -87,7 +96,13 @@ def read_phase(path: Path) -> np.ndarray:
     """Phase values (first column) of a reference data file, '#' lines skipped."""
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt", errors="replace") as f:
-        return np.array([float(line.split()[0]) for line in f if line.strip() and not line.lstrip().startswith("#")])
+        return np.array(
+            [
+                float(line.split()[0])
+                for line in f
+                if line.strip() and not line.lstrip().startswith("#")
+            ]
+        )
 
 
 def read_stable32(path: Path) -> tuple[str, np.ndarray]:

@@ -43,13 +43,13 @@ def damaged_copies(original: Path, folder: Path, *, flips: int, seed: int,
 
 
 def _analyze(path: Path) -> Any:
-    from station.hdf5 import read_run_record
+    from station.storage.hdf5 import read_run_record
 
     return [read_run_record(path, u).rate_deg_s for u in ("unit1", "unit2")]
 
 
 def _grade_and_report(path: Path) -> Any:
-    from station.hdf5 import read_run
+    from station.storage.hdf5 import read_run
 
     run = read_run(path)
     return [(u.record.rate_deg_s, [(e.kind, e.missing_samples) for e in u.events])
@@ -70,7 +70,7 @@ def _tui_live(path: Path) -> Any:
 
 
 def _tui_runs(path: Path) -> Any:
-    from station.tui.launcher import run_file_state
+    from station.services.recorder_process import run_file_state
 
     state = run_file_state(path)
     return (state.state, state.stop_reason)
@@ -78,8 +78,8 @@ def _tui_runs(path: Path) -> Any:
 
 def _recover(path: Path) -> Any:
     """Recover a copy; the result must read, and hold a prefix of each unit's samples."""
-    from station.hdf5 import read_run
-    from station.hdf5_recover import recover_run
+    from station.storage.hdf5 import read_run
+    from station.storage.hdf5_recover import recover_run
 
     work = path.with_name(path.stem + "-recovering.h5")
     shutil.copyfile(path, work)
@@ -148,7 +148,7 @@ def sweep_here(original: Path, damaged: list[Path]) -> list[Outcome]:
     out = []
     for reader, fn in READERS.items():
         if reader == "recover":
-            from station.hdf5 import read_run
+            from station.storage.hdf5 import read_run
 
             reference = {u.unit_id: u.record.rate_deg_s for u in read_run(original).units}
         else:

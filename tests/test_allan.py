@@ -137,7 +137,9 @@ def test_bad_input_is_refused_with_a_useful_message() -> None:
     offset=st.floats(-1e3, 1e3),
     estimator=st.sampled_from(["overlapping", "clusters"]),
 )
-def test_scaling_and_offset_properties(seed: int, scale: float, offset: float, estimator: str) -> None:
+def test_scaling_and_offset_properties(
+    seed: int, scale: float, offset: float, estimator: str
+) -> None:
     y = np.random.default_rng(seed).standard_normal(700)
     base = allan_variance(y, 1.0, estimator=estimator, taus="octave")
     scaled = allan_variance(scale * y, 1.0, estimator=estimator, taus="octave")
@@ -172,7 +174,9 @@ def test_result_units_and_confidence_bounds_are_ordered() -> None:
     assert np.all(r.adev_ci_low < r.adev)
 
 
-@pytest.mark.parametrize("generator", [white_rate_noise, random_walk_rate_noise, flicker_rate_noise])
+@pytest.mark.parametrize(
+    "generator", [white_rate_noise, random_walk_rate_noise, flicker_rate_noise]
+)
 def test_computed_edf_matches_the_spread_of_the_estimates(generator) -> None:
     """edf = 2 E[avar]^2 / Var[avar] measured over 300 seeds agrees with the computed edf."""
     n, seeds = 4096, 300

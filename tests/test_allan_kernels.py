@@ -22,7 +22,10 @@ needs_numba = pytest.mark.skipif(not kernels.have_compiled(), reason="numba is n
 @pytest.fixture(scope="module")
 def theta() -> np.ndarray:
     rng = np.random.default_rng(11)
-    rate = rng.standard_normal((70_001, 2)) + np.cumsum(rng.standard_normal((70_001, 2)), axis=0) * 1e-3
+    rate = (
+        rng.standard_normal((70_001, 2))
+        + np.cumsum(rng.standard_normal((70_001, 2)), axis=0) * 1e-3
+    )
     return cumulative_angle(rate, 50.0)
 
 
@@ -48,7 +51,9 @@ def test_single_axis_and_edge_m() -> None:
     m = np.array([1, 4])  # m = N // 2 leaves N + 1 - 2m = 2 terms
     ref = kernels.overlapping_sums_reference(theta, m)
     for backend in ("numpy", "auto"):
-        np.testing.assert_allclose(kernels.overlapping_sums(theta, m, backend=backend), ref, rtol=1e-13)
+        np.testing.assert_allclose(
+            kernels.overlapping_sums(theta, m, backend=backend), ref, rtol=1e-13
+        )
     d = theta[8] - 2 * theta[4] + theta[0], theta[9] - 2 * theta[5] + theta[1]
     assert ref[1, 0] == pytest.approx(d[0][0] ** 2 + d[1][0] ** 2, rel=1e-14)
 
@@ -76,8 +81,15 @@ def test_window_sums_backends_match_direct_sums() -> None:
     theta = cumulative_angle(np.random.default_rng(8).standard_normal(5000), 1.0)[:, 0]
     window, m = 700, np.array([1, 2, 9, 77, 300, 350])
     for starts in (np.arange(0, 4301, 1), np.arange(0, 4301, 37), np.arange(0, 4301, 900)):
-        direct = np.array([[kernels.second_difference_squares(theta[s : s + window + 1], int(k)).sum()
-                            for k in m] for s in starts])
+        direct = np.array(
+            [
+                [
+                    kernels.second_difference_squares(theta[s : s + window + 1], int(k)).sum()
+                    for k in m
+                ]
+                for s in starts
+            ]
+        )
         for backend in ("numpy", "auto"):
             got = kernels.window_sums(theta, m, starts, window, backend=backend)
             np.testing.assert_allclose(got, direct, rtol=1e-12)
@@ -91,7 +103,9 @@ def test_window_sums_reject_windows_outside_theta() -> None:
         kernels.window_sums(theta, np.array([26]), np.array([0]), 50)
 
 
-def test_auto_falls_back_to_numpy_without_numba(theta: np.ndarray, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_auto_falls_back_to_numpy_without_numba(
+    theta: np.ndarray, monkeypatch: pytest.MonkeyPatch
+) -> None:
     monkeypatch.setattr(kernels, "_compiled", lambda: None)
     assert not kernels.have_compiled()
     ref = kernels.overlapping_sums_reference(theta, M_VALUES)

@@ -20,8 +20,9 @@ REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
 
 def run_station(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "station.cli", *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +31,9 @@ def record_csv(tmp_path_factory) -> Path:
     rng = np.random.default_rng(7)
     rate = (0.001 + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.05), n, fs, rng, n_axes=2)
             + flicker_rate_noise(rate_deg_h_to_deg_s(0.4), n, fs, rng, n_axes=2))
-    return write_csv_record(tmp_path_factory.mktemp("rec") / "run.csv", rate, fs, axis_names=["x", "y"])
+    return write_csv_record(
+        tmp_path_factory.mktemp("rec") / "run.csv", rate, fs, axis_names=["x", "y"]
+    )
 
 
 def test_analyze_json_interface(record_csv: Path) -> None:
@@ -39,7 +42,15 @@ def test_analyze_json_interface(record_csv: Path) -> None:
     out = json.loads(proc.stdout)
     assert [a["name"] for a in out["axes"]] == ["x", "y"]
     axis = out["axes"][0]
-    for key in ("sample_rate_hz", "n_samples", "tau_s", "adev", "adev_ci_low", "adev_ci_high", "n_clusters"):
+    for key in (
+        "sample_rate_hz",
+        "n_samples",
+        "tau_s",
+        "adev",
+        "adev_ci_low",
+        "adev_ci_high",
+        "n_clusters",
+    ):
         assert key in axis
     assert axis["sample_rate_hz"] == pytest.approx(20.0) and axis["n_samples"] == 72_000
     assert len(axis["tau_s"]) == len(axis["adev"]) == len(axis["n_clusters"])
@@ -55,20 +66,44 @@ def test_analyze_json_interface(record_csv: Path) -> None:
     for key in ("bias_stability_10s_deg_h", "bias_stability_100s_deg_h", "arw_deg_rt_h",
                 "bias_instability_deg_h"):
         assert figures[key] is not None and figures[key] > 0
-    for value, key in (("arw_deg_rt_h", "arw_ci_deg_rt_h"), ("bias_instability_deg_h", "bias_instability_ci_deg_h")):
+    for value, key in (
+        ("arw_deg_rt_h", "arw_ci_deg_rt_h"),
+        ("bias_instability_deg_h", "bias_instability_ci_deg_h"),
+    ):
         low, high = figures[key]
         assert low < figures[value] < high
     assert figures["review"] == [] and axis["tones"] == [] and axis["excluded_taus"] == []
 
 
 def test_analyze_options_and_table(record_csv: Path, capsys) -> None:
-    assert main(["analyze", str(record_csv), "--estimator", "clusters", "--taus", "all", "--method", "ols40",
-                 "--terms", "NB", "--axis", "y", "--json"]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(record_csv),
+                "--estimator",
+                "clusters",
+                "--taus",
+                "all",
+                "--method",
+                "ols40",
+                "--terms",
+                "NB",
+                "--axis",
+                "y",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert len(out["axes"]) == 1 and out["axes"][0]["fit"]["method"] == "ols40"
     assert out["axes"][0]["fit"]["Q_urad"] is None  # not fitted: null
     assert len(out["axes"][0]["tau_s"]) == 72_000 // 2
-    assert main(["analyze", str(record_csv), "--terms", "NBK", "--no-select", "--axis", "x", "--json"]) == 0
+    assert (
+        main(["analyze", str(record_csv), "--terms", "NBK", "--no-select", "--axis", "x", "--json"])
+        == 0
+    )
     assert json.loads(capsys.readouterr().out)["axes"][0]["fit"]["terms"] == "NBK"
     assert main(["analyze", str(record_csv)]) == 0
     table = capsys.readouterr().out
@@ -101,7 +136,9 @@ def test_reproduce_small_run_keeps_the_papers_ordering_and_json_shape() -> None:
 
 
 def test_reproduce_cli_json(tmp_path: Path) -> None:
-    proc = run_station("reproduce", "lv2015", "--runs", "2", "--seed", "5", "--workers", "2", "--json")
+    proc = run_station(
+        "reproduce", "lv2015", "--runs", "2", "--seed", "5", "--workers", "2", "--json"
+    )
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
     assert out["runs"] == 2 and out["seed"] == 5 and len(out["gyros"]) == 3
@@ -115,7 +152,9 @@ def test_demo_runs_and_writes_its_files(tmp_path: Path) -> None:
     assert main(["analyze", str(tmp_path / "demo-record.csv.gz"), "--json"]) == 0
 
 
-@pytest.mark.skipif(not REAL_DATA.exists(), reason="../shared/real-data is not beside this checkout")
+@pytest.mark.skipif(
+    not REAL_DATA.exists(), reason="../shared/real-data is not beside this checkout"
+)
 def test_real_adis16405_record_is_analyzed(capsys) -> None:
     path = REAL_DATA / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
     assert main(["analyze", str(path), "--rate", "100", "--axis", "gyro_z", "--json"]) == 0

@@ -5,7 +5,8 @@ cannot.
 Two run files of two units are written by the recorder's writer: one closed, one still
 held by its writer when it is copied (as a killed recorder leaves it: readers open it in
 SWMR mode). Each is cut short (to 3 kB, 50 %, 99.9 % of its length) and has single bits
-flipped at random places (``python benchmarks/bench_reliability.py`` runs many more). Every reader (analyze, grade and report, watch,
+flipped at random places (``python benchmarks/bench_reliability.py`` runs many more). Every reader
+(analyze, grade and report, watch,
 the TUI's live view and run list, recover) runs on every copy, timed, under a watchdog
 that ends the test run if one hangs: HDF5's SWMR reader used to retry every bad
 metadata block for hours, and read past the end of a truncated file as zeros.
@@ -23,7 +24,6 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -33,6 +33,8 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.runs import RunMetadata
+from station.storage.hdf5_writer import RunFileWriter
 from tests.damage_helpers import damaged_copies, sweep_here
 
 RATE_HZ = 500.0
@@ -40,7 +42,11 @@ RATE_HZ = 500.0
 
 def _write_run(path: Path, *, close: bool) -> RunFileWriter:
     writer = RunFileWriter(path, flush_interval_s=0.5)
-    writer(RunStart("uid", utc_now(), ("unit1", "unit2"), 10.0, str(path), profile="VG951"))
+    writer(
+        RunStart(
+            "uid", utc_now(), ("unit1", "unit2"), 10.0, str(path), RunMetadata(profile="VG951")
+        )
+    )
     for uid in ("unit1", "unit2"):
         d = DeviceDescription("TEST", uid, "stim300", "serial", ("x", "y", "z"), RATE_HZ, True,
                               256, False, True)
@@ -86,7 +92,9 @@ def outcomes(tmp_path_factory: pytest.TempPathFactory) -> list:
 def test_every_reader_answers_a_damaged_file_within_seconds(outcomes) -> None:
     slow = [o for o in outcomes if o.seconds > 5.0]
     assert not slow, slow
-    print(f"{len(outcomes)} reads of damaged files, slowest {max(o.seconds for o in outcomes):.2f} s")
+    print(
+        f"{len(outcomes)} reads of damaged files, slowest {max(o.seconds for o in outcomes):.2f} s"
+    )
 
 
 def test_every_reader_gives_the_same_data_or_one_clear_line(outcomes) -> None:

@@ -44,7 +44,9 @@ def references(random_record: np.ndarray) -> tuple[DavarResult, DavarResult]:
     return davar_plain(part, 10.0, **STEP_ONE), davar_recursive(part, 10.0, **STEP_ONE)
 
 
-def test_recursive_agrees_with_plain_at_every_step(references: tuple[DavarResult, DavarResult]) -> None:
+def test_recursive_agrees_with_plain_at_every_step(
+    references: tuple[DavarResult, DavarResult],
+) -> None:
     plain, recursive = references
     assert plain.avar.shape == (1101, len(plain.tau_s), 2)
     assert max_rel(recursive.avar, plain.avar) < 1e-9
@@ -91,14 +93,18 @@ def test_precision_trap_at_short_windows_of_a_long_record() -> None:
     assert max_rel(np.abs(naive) + 1e-300, exact) > 1e-9
 
 
-def test_window_equals_the_overlapping_allan_variance_of_its_samples(random_record: np.ndarray) -> None:
+def test_window_equals_the_overlapping_allan_variance_of_its_samples(
+    random_record: np.ndarray,
+) -> None:
     fs = 10.0
     result = dynamic_allan_variance(random_record, fs, window_s=100.0, step_s=25.0)
     assert isinstance(result, DavarResult)
     assert result.window_samples == 1000 and result.step_samples == 250
     np.testing.assert_allclose(result.t_s, (np.arange(13) * 250 + 500) / fs)
     j = 5
-    alone = overlapping_allan_variance(random_record[j * 250 : j * 250 + 1000], fs, taus=result.tau_s)
+    alone = overlapping_allan_variance(
+        random_record[j * 250 : j * 250 + 1000], fs, taus=result.tau_s
+    )
     np.testing.assert_allclose(result.avar[j], alone.avar, rtol=1e-11)
     np.testing.assert_array_equal(result.n_terms, alone.n_terms)
     # default grid: Zhang 2015 eq. 20 over one window, at least 9 clusters
@@ -156,8 +162,13 @@ def test_stream_of_irregular_chunks_matches_in_memory(random_record: np.ndarray)
 
 
 def test_step_longer_than_window_skips_samples(random_record: np.ndarray) -> None:
-    result = dynamic_allan_variance_stream((random_record[a : a + 128] for a in range(0, 4000, 128)),
-                                           10.0, window_s=20.0, step_s=70.0, block_samples=300)
+    result = dynamic_allan_variance_stream(
+        (random_record[a : a + 128] for a in range(0, 4000, 128)),
+        10.0,
+        window_s=20.0,
+        step_s=70.0,
+        block_samples=300,
+    )
     np.testing.assert_allclose(result.window_start_s, [0.0, 70.0, 140.0, 210.0, 280.0, 350.0])
     alone = overlapping_allan_variance(random_record[2100:2300], 10.0, taus=result.tau_s)
     np.testing.assert_allclose(result.avar[3], alone.avar, rtol=1e-11)

@@ -58,7 +58,9 @@ def test_json_interface(record_csv: Path, rate: np.ndarray) -> None:
     assert y["stationary"] is True and y["warmup_end_s"] == 0.0
 
 
-def test_summary_and_heat_map(record_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+def test_summary_and_heat_map(
+    record_csv: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     png = tmp_path / "maps" / "davar.png"
     assert main(["davar", str(record_csv), "--window-s", "100", "--step-s", "20",
                  "--png", str(png)]) == 0
@@ -73,7 +75,9 @@ def test_summary_and_heat_map(record_csv: Path, tmp_path: Path, capsys: pytest.C
     assert pixels[..., :3].std() > 0.1  # a coloured map, not a blank canvas
 
 
-def test_units_and_axis_selection(record_csv: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+def test_units_and_axis_selection(
+    record_csv: Path, rate: np.ndarray, capsys: pytest.CaptureFixture
+) -> None:
     assert main(["davar", str(record_csv), "--window-s", "300", "--axis", "y",
                  "--units", "deg/h", "--json"]) == 0
     (axis,) = json.loads(capsys.readouterr().out)["axes"]
@@ -90,3 +94,24 @@ def test_errors_are_one_line_messages(record_csv: Path, capsys: pytest.CaptureFi
     assert "no such file" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["davar", str(record_csv)])  # --window-s is required
+
+
+def test_a_record_with_gaps_leaves_out_the_windows_that_hold_one(
+        tmp_path: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+    """A CSV whose time column jumps over 100 s: the windows across the gap are null in the
+    JSON, the others equal the DAVAR of the unbroken record at their true times, and the
+    summary says how many windows were left out."""
+    index = np.r_[0:12_000, 13_000:N]  # 1000 samples (100 s) lost
+    path = write_csv_record(tmp_path / "gap.csv", rate[index], FS, axis_names=["x", "y"],
+                            sample_index=index)
+    assert main(["davar", str(path), "--window-s", "300", "--json"]) == 0
+    axis = json.loads(capsys.readouterr().out)["axes"][1]
+    ref = dynamic_allan_variance(rate[:, 1], FS, window_s=300.0)
+    np.testing.assert_allclose(axis["t_s"], ref.t_s)
+    broken = [any(v is None for v in row) for row in axis["adev"]]
+    starts = np.asarray(axis["t_s"]) * FS - 1500
+    assert broken == list((starts < 13_000) & (starts + 3000 > 12_000))
+    whole = [row for row, b in zip(axis["adev"], broken, strict=True) if not b]
+    np.testing.assert_allclose(whole, ref.adev[~np.asarray(broken)], rtol=1e-9)
+    assert main(["davar", str(path), "--window-s", "300"]) == 0
+    assert "windows that hold one are left out" in capsys.readouterr().err

@@ -29,7 +29,9 @@ def _compare_with_allantools(kind: str, y: np.ndarray, fs: float) -> int:
     ref_tau, ref_dev, _, _ = ALLANTOOLS[kind](y, rate=fs, data_type="freq", taus=m_ours / fs)
     m_ref = np.rint(np.asarray(ref_tau) * fs).astype(int)  # allantools reports Theo1 at m / fs
     common = np.isin(m_ours, m_ref)
-    np.testing.assert_allclose(ours.deviation[common], np.asarray(ref_dev)[np.isin(m_ref, m_ours)], rtol=1e-9)
+    np.testing.assert_allclose(
+        ours.deviation[common], np.asarray(ref_dev)[np.isin(m_ref, m_ours)], rtol=1e-9
+    )
     return int(common.sum())
 
 
@@ -49,7 +51,9 @@ def test_theo1_equals_allantools_on_random_data() -> None:
 def test_theo1_correlation_sums_equal_the_direct_sums(noise: str) -> None:
     rng = np.random.default_rng(11)
     w = rng.standard_normal(3001)
-    x = {"white angle": w, "white rate": np.cumsum(w), "rate random walk": np.cumsum(np.cumsum(w))}[noise]
+    x = {"white angle": w, "white rate": np.cumsum(w), "rate random walk": np.cumsum(np.cumsum(w))}[
+        noise
+    ]
     m = np.array([60, 400, 1500, 3000])
     direct, _ = theo1_sums(x, m, method="direct")
     fast, bound = theo1_sums(x, m, method="fast")
@@ -62,11 +66,22 @@ def test_theo1_correlation_sums_equal_the_direct_sums(noise: str) -> None:
 # allantools' tests/phasedat: Stable32 1.53 (every tau) and 1.60 (octave taus, with
 # intervals); Theo1 with alpha = 0 (no bias correction).
 PHASEDAT_FILES = [
-    "phase_dat_adev.txt", "phase_dat_oadev.txt", "phase_dat_mdev.txt", "phase_dat_tdev.txt",
-    "phase_dat_hdev.txt", "phase_dat_ohdev.txt", "phase_dat_totdev.txt", "phase_dat_theo1_alpha0.txt",
-    "phase_dat_theo1_alpha0_decade.txt", "phase_dat_adev_octave.txt", "phase_dat_oadev_octave.txt",
-    "phase_dat_mdev_octave.txt", "phase_dat_tdev_octave.txt", "phase_dat_hdev_octave.txt",
-    "phase_dat_ohdev_octave.txt", "phase_dat_totdev_octave.txt",
+    "phase_dat_adev.txt",
+    "phase_dat_oadev.txt",
+    "phase_dat_mdev.txt",
+    "phase_dat_tdev.txt",
+    "phase_dat_hdev.txt",
+    "phase_dat_ohdev.txt",
+    "phase_dat_totdev.txt",
+    "phase_dat_theo1_alpha0.txt",
+    "phase_dat_theo1_alpha0_decade.txt",
+    "phase_dat_adev_octave.txt",
+    "phase_dat_oadev_octave.txt",
+    "phase_dat_mdev_octave.txt",
+    "phase_dat_tdev_octave.txt",
+    "phase_dat_hdev_octave.txt",
+    "phase_dat_ohdev_octave.txt",
+    "phase_dat_totdev_octave.txt",
 ]
 
 
@@ -130,7 +145,9 @@ def test_bad_input_is_refused() -> None:
 # -------------------------------------------------------------- intervals on white rate noise
 
 
-def _white_rate_truth(kind: str, m: np.ndarray, tau_s: np.ndarray, s: float, fs: float) -> np.ndarray:
+def _white_rate_truth(
+    kind: str, m: np.ndarray, tau_s: np.ndarray, s: float, fs: float
+) -> np.ndarray:
     """Expected variance of each estimator for white rate noise of std s (deg/s) at fs."""
     if kind != "mdev":  # Allan = Hadamard = total = Theo1 (at its own tau) for white rate noise
         return s**2 / fs / tau_s
@@ -165,7 +182,9 @@ def small_record(tmp_path_factory):
     from station.storage.csv_records import write_csv_record
 
     rate = 0.01 + white_rate_noise(0.02, 6000, 20.0, np.random.default_rng(5), n_axes=2)
-    return write_csv_record(tmp_path_factory.mktemp("dev") / "run.csv", rate, 20.0, axis_names=["x", "y"])
+    return write_csv_record(
+        tmp_path_factory.mktemp("dev") / "run.csv", rate, 20.0, axis_names=["x", "y"]
+    )
 
 
 def _analyze_json(capsys, *args: str) -> dict:
@@ -187,14 +206,23 @@ def test_analyze_deviation_option(small_record, capsys) -> None:
         doc = _analyze_json(capsys, str(small_record), "--deviation", kind, "--taus", "octave")
         axis = doc["axes"][1]
         expected = deviation(rate[:, 1], 20.0, kind=kind, taus="octave")
-        assert axis["deviation"] == kind and axis["deviation_unit"] == ("deg" if kind == "tdev" else "deg/s")
+        assert axis["deviation"] == kind and axis["deviation_unit"] == (
+            "deg" if kind == "tdev" else "deg/s"
+        )
         np.testing.assert_allclose(axis["tau_s"], expected.tau_s)
         np.testing.assert_allclose(axis["adev"], expected.deviation, rtol=1e-9)
         np.testing.assert_allclose(axis["adev_ci_high"], expected.deviation_ci_high, rtol=1e-9)
-        assert len(axis["n_clusters"]) == len(axis["edf"]) == len(axis["noise_alpha"]) == len(axis["tau_s"])
+        assert (
+            len(axis["n_clusters"])
+            == len(axis["edf"])
+            == len(axis["noise_alpha"])
+            == len(axis["tau_s"])
+        )
         assert axis["fit"] == octave["fit"] and axis["figures"] == octave["figures"]
         assert axis["fit_from"] == "overlapping Allan variance"
-    clusters = _analyze_json(capsys, str(small_record), "--deviation", "adev", "--taus", "octave")["axes"][0]
+    clusters = _analyze_json(capsys, str(small_record), "--deviation", "adev", "--taus", "octave")[
+        "axes"
+    ][0]
     assert clusters["estimator"] == "clusters" and clusters["deviation"] == "adev"
 
 
@@ -203,7 +231,10 @@ def test_analyze_deviation_table_and_bad_name(small_record, capsys) -> None:
 
     assert main(["analyze", str(small_record), "--deviation", "mdev", "--taus", "octave"]) == 0
     out = capsys.readouterr().out
-    assert "modified Allan deviation [deg/h]" in out and "fit and figures above are on the Allan variance" in out
+    assert (
+        "modified Allan deviation [deg/h]" in out
+        and "fit and figures above are on the Allan variance" in out
+    )
     with pytest.raises(SystemExit) as exc:
         main(["analyze", str(small_record), "--deviation", "mtie"])
     assert exc.value.code == 2

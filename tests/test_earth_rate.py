@@ -64,10 +64,14 @@ limits = { nav = 0.1 }
 def test_the_projection_on_each_direction() -> None:
     assert EARTH_RATE_DEG_H == pytest.approx(15.041, abs=5e-4)  # 7.2921159e-5 rad/s
     assert earth_rate_on_axis_deg_h(LATITUDE, "up") == pytest.approx(UP_AT_45, rel=1e-12)
-    assert earth_rate_on_axis_deg_h(30.0, "north") == pytest.approx(EARTH_RATE_DEG_H * math.cos(math.pi / 6))
+    assert earth_rate_on_axis_deg_h(30.0, "north") == pytest.approx(
+        EARTH_RATE_DEG_H * math.cos(math.pi / 6)
+    )
     assert earth_rate_on_axis_deg_h(30.0, "UP") == pytest.approx(EARTH_RATE_DEG_H / 2)
     for a, b in (("up", "down"), ("north", "south"), ("east", "west")):
-        assert earth_rate_on_axis_deg_h(52.0, a) == pytest.approx(-earth_rate_on_axis_deg_h(52.0, b))
+        assert earth_rate_on_axis_deg_h(52.0, a) == pytest.approx(
+            -earth_rate_on_axis_deg_h(52.0, b)
+        )
     assert earth_rate_on_axis_deg_h(52.0, "east") == 0.0
     assert earth_rate_on_axis_deg_h(-45.0, "up") == pytest.approx(-UP_AT_45)  # southern hemisphere
     # a vector is normalised: 45 deg between north and up at 45 deg N points along the axis
@@ -101,12 +105,14 @@ def test_bench_files_and_their_errors(tmp_path: Path) -> None:
     rotated.write_text("latitude_deg = 45.0\nrotation = [[1, 0, 0], [0, 0, 1], [0, -1, 0]]\n")
     assert load_bench(rotated).earth_rate_deg_h(["x", "y", "z"]) == pytest.approx(
         [0.0, UP_AT_45, -UP_AT_45])
-    for text, match in (("latitude_deg = 95\n[axes]\nx = 'up'\n", "latitude"),
-                        ("latitude_deg = 45\n", "neither"),
-                        ("latitude_deg = 45\nsite = 'B'\n[axes]\nx = 'up'\n", "unknown key"),
-                        ("latitude_deg = 45\n[axes]\nx = 'skywards'\n", "skywards"),
-                        ("latitude_deg = 45\nrotation = [[1, 0, 0], [0, 1, 0], [0, 1, 0]]\n", "orthonormal"),
-                        ("latitude_deg = \n", "cannot read")):
+    for text, match in (
+        ("latitude_deg = 95\n[axes]\nx = 'up'\n", "latitude"),
+        ("latitude_deg = 45\n", "neither"),
+        ("latitude_deg = 45\nsite = 'B'\n[axes]\nx = 'up'\n", "unknown key"),
+        ("latitude_deg = 45\n[axes]\nx = 'skywards'\n", "skywards"),
+        ("latitude_deg = 45\nrotation = [[1, 0, 0], [0, 1, 0], [0, 1, 0]]\n", "orthonormal"),
+        ("latitude_deg = \n", "cannot read"),
+    ):
         path.write_text(text)
         with pytest.raises(BenchError, match=match):
             load_bench(path)
@@ -121,13 +127,16 @@ def test_a_simulated_unit_on_a_bench_measures_the_earth_rate(tmp_path: Path) -> 
     query = {"rate": "10", "seed": "4", "latitude": "45", "orientation": "x:up,y:north,z:east"}
     core, _ = sim_core(parse_sim_params(str(model), query), 3)
     rate = core.signal.read(36_000).rate_deg_s * S_PER_H  # 1 h at 10 Hz
-    np.testing.assert_allclose(rate.mean(axis=0), [0.05 + UP_AT_45, 0.05 + UP_AT_45, 0.05], atol=0.05)
+    np.testing.assert_allclose(
+        rate.mean(axis=0), [0.05 + UP_AT_45, 0.05 + UP_AT_45, 0.05], atol=0.05
+    )
     with pytest.raises(DeviceConfigurationError, match="both"):
         parse_sim_params(str(model), {"latitude": "45"})
 
 
-def test_a_navigation_grade_unit_comes_back_with_its_bias(tmp_path: Path,
-                                                          capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_navigation_grade_unit_comes_back_with_its_bias(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     """Recorded as a user would: a bench file, a simulated KVH DSP-1750 class unit (bias
     0.05 deg/h, x axis up at 45 deg N), 1 h at 10 Hz; analyze and grade read the bench
     from the run file."""
@@ -137,8 +146,23 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(tmp_path: Path,
     profile.write_text(NAV_PROFILE)
     run = tmp_path / "run.h5"
     url = f"sim+serial://DSP-1750?protocol=kvh1750&model={model}&rate=10&warp=1000&seed=5"
-    assert main(["record", "--bench", str(bench), "--unit", url, "--duration", "1h", "--out", str(run),
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                "--bench",
+                str(bench),
+                "--unit",
+                url,
+                "--duration",
+                "1h",
+                "--out",
+                str(run),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["analyze", str(run), "--json"]) == 0
     axes = {a["name"]: a for a in json.loads(capsys.readouterr().out)["axes"]}
@@ -151,15 +175,23 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(tmp_path: Path,
     nowhere = tmp_path / "nowhere.toml"
     nowhere.write_text('[axes]\nx = "up"\n')
     assert main(["analyze", str(run), "--bench", str(nowhere), "--json"]) == 0
-    (x_raw,) = [a["figures"] for a in json.loads(capsys.readouterr().out)["axes"] if a["name"] == "x"]
+    (x_raw,) = [
+        a["figures"] for a in json.loads(capsys.readouterr().out)["axes"] if a["name"] == "x"
+    ]
     assert x_raw["earth_rate_removed_deg_h"] is None
     assert x_raw["bias_deg_h"] == pytest.approx(0.05 + UP_AT_45, abs=0.05)
     assert any("not removed" in n for n in x_raw["notes"])
     # grading: the unit passes its 0.1 deg/h bias limit only with the Earth rate removed
     assert main(["grade", str(run), "--profile", str(profile), "--json", "--no-store"]) == 0
     graded = json.loads(capsys.readouterr().out)["units"][0]["axes"]["x"]
-    assert graded["grade"] == "nav" and "Earth rate +10.64 deg/h removed" in graded["figures"]["bias"]["note"]
+    assert (
+        graded["grade"] == "nav"
+        and "Earth rate +10.64 deg/h removed" in graded["figures"]["bias"]["note"]
+    )
     assert main(["grade", str(run), "--profile", str(profile), "--bench", str(nowhere), "--json",
                  "--no-store"]) == 0
     graded = json.loads(capsys.readouterr().out)["units"][0]["axes"]["x"]
-    assert graded["figures"]["bias"]["verdict"] == "fail" and graded["earth_rate_removed_deg_h"] is None
+    assert (
+        graded["figures"]["bias"]["verdict"] == "fail"
+        and graded["earth_rate_removed_deg_h"] is None
+    )

@@ -14,7 +14,9 @@ from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 
 def test_bias_stability_of_white_noise_follows_the_averaging_time() -> None:
     fs, n_deg_rt_h = 100.0, 0.5
-    y = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(n_deg_rt_h), 200_000, fs, np.random.default_rng(1))
+    y = white_rate_noise(
+        arw_deg_rt_h_to_deg_rt_s(n_deg_rt_h), 200_000, fs, np.random.default_rng(1)
+    )
     for avg in (10.0, 100.0):
         bs = bias_stability(y, fs, avg)
         expected = n_deg_rt_h / 60.0 / np.sqrt(avg) * 3600.0  # deg/h: std of an avg-second mean

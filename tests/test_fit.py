@@ -16,8 +16,9 @@ TRUE = {"Q": 0.5, "N": 0.01, "B": 0.2, "K": 0.05, "R": 0.3}
 
 def noise_free_result(coefficients: dict[str, float], n_samples: int = 400_000, fs: float = 10.0):
     """An AllanResult whose values are exactly eq. 3 of the given coefficients."""
-    template = overlapping_allan_variance(np.random.default_rng(0).standard_normal(n_samples // 100), fs,
-                                          taus="log")
+    template = overlapping_allan_variance(
+        np.random.default_rng(0).standard_normal(n_samples // 100), fs, taus="log"
+    )
     m = log_m(n_samples)
     tau = m / fs
     avar = theoretical_avar(coefficients, tau)
@@ -75,7 +76,9 @@ def test_bad_fit_requests_raise_fit_error() -> None:
     with pytest.raises(FitError, match="subset"):
         fit_noise_terms(result, terms="XYZ")
     with pytest.raises(FitError, match="one axis"):
-        two_axes = overlapping_allan_variance(np.random.default_rng(1).standard_normal((500, 2)), 1.0)
+        two_axes = overlapping_allan_variance(
+            np.random.default_rng(1).standard_normal((500, 2)), 1.0
+        )
         fit_noise_terms(two_axes)
     short = cluster_allan_variance(np.random.default_rng(1).standard_normal(40), 1.0, taus="octave")
     with pytest.raises(FitError, match="usable"):

@@ -1,4 +1,5 @@
-"""Covariance of Allan values across taus, and the standard errors and term selection built on it."""
+"""Covariance of Allan values across taus, and the standard errors and term selection built on
+it."""
 
 from __future__ import annotations
 
@@ -57,7 +58,9 @@ def test_covariance_of_allan_values_matches_a_monte_carlo(overlapping: bool) -> 
 
 
 @pytest.mark.parametrize(("alpha", "beta"), [(0, [0, 1.0, 0, 0, 0]), (-2, [0, 0, 0, 1.0, 0])])
-def test_one_noise_types_variance_gives_the_edf_of_the_confidence_module(alpha: int, beta: list) -> None:
+def test_one_noise_types_variance_gives_the_edf_of_the_confidence_module(
+    alpha: int, beta: list
+) -> None:
     n, m = 100_000, np.array([1, 10, 1000, 20_000, 40_000])
     basis = covariance_basis(m, n, 1.0, overlapping=True)
     rel = np.diag(basis.relative_covariance(np.array(beta, dtype=float)))
@@ -87,8 +90,9 @@ def test_paper_methods_standard_errors_follow_the_spread_on_the_every_m_grid() -
 
 def test_dropped_terms_are_zero_with_a_bound_and_said_in_the_notes() -> None:
     rng = np.random.default_rng(3)
-    fit = fit_noise_terms(overlapping_allan_variance(white_rate_noise(0.01, 40_000, 10.0, rng), 10.0),
-                          method="logwls")
+    fit = fit_noise_terms(
+        overlapping_allan_variance(white_rate_noise(0.01, 40_000, 10.0, rng), 10.0), method="logwls"
+    )
     assert fit.terms == "N"
     assert fit.values["N"] == pytest.approx(0.01 * 60.0, rel=0.02)
     for term in "QBKR":

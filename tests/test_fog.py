@@ -79,9 +79,12 @@ def test_bias_stability_statistics_equal_the_explicit_quadratic_form():
     mean_s2 = np.trace(p @ cov)
     var_s2 = 2 * np.trace(p @ cov @ p @ cov)
     assert stats.n_averages == j
-    assert stats.mean_deg_h / 3600 == pytest.approx(math.sqrt(mean_s2) * (1 - var_s2 / (8 * mean_s2**2)),
-                                                    rel=1e-8)
-    assert stats.std_deg_h / 3600 == pytest.approx(math.sqrt(var_s2) / (2 * math.sqrt(mean_s2)), rel=1e-8)
+    assert stats.mean_deg_h / 3600 == pytest.approx(
+        math.sqrt(mean_s2) * (1 - var_s2 / (8 * mean_s2**2)), rel=1e-8
+    )
+    assert stats.std_deg_h / 3600 == pytest.approx(
+        math.sqrt(var_s2) / (2 * math.sqrt(mean_s2)), rel=1e-8
+    )
 
 
 def test_measurements_refuse_records_too_short():

@@ -31,7 +31,8 @@ def _brute_overlapping(y: np.ndarray, m: int, fs: float) -> tuple[float, int]:
 
 
 def _brute_clusters(y: np.ndarray, m: int) -> tuple[float, int, int]:
-    """Cluster means on the time grid; a cluster missing a sample is dropped with its differences."""
+    """Cluster means on the time grid; a cluster missing a sample is dropped with its
+    differences."""
     means = np.array([np.nan if np.isnan(c).any() else c.mean()
                       for c in (y[k * m:(k + 1) * m] for k in range(len(y) // m))])
     d = np.diff(means)
@@ -133,7 +134,9 @@ OUTAGES_S = ((3600, 7200), (1440, 1460), (9000, 9060), (10440, 10445), (27360, 2
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_eight_hours_with_outages_give_the_unbroken_curve_where_concatenation_does_not(seed: int) -> None:
+def test_eight_hours_with_outages_give_the_unbroken_curve_where_concatenation_does_not(
+    seed: int,
+) -> None:
     """White rate noise, a rate ramp and a sinusoid, 8 h at 1 Hz; 1 h and four short outages.
 
     The unbroken record's Allan deviation lies inside the gapped record's 1-sigma interval
@@ -160,7 +163,9 @@ def test_eight_hours_with_outages_give_the_unbroken_curve_where_concatenation_do
     assert np.max(naive.adev / unbroken.adev[:k]) > 1.2
 
 
-def test_analyze_reads_the_gaps_of_a_csv_time_column(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_analyze_reads_the_gaps_of_a_csv_time_column(
+    tmp_path, capsys: pytest.CaptureFixture[str]
+) -> None:
     from station.cli import main
     from station.storage.csv_records import write_csv_record
 
@@ -171,11 +176,17 @@ def test_analyze_reads_the_gaps_of_a_csv_time_column(tmp_path, capsys: pytest.Ca
     rng = np.random.default_rng(9)
     rate = 0.01 * rng.standard_normal(n) + 5e-6 * np.arange(n)
     index = np.flatnonzero(keep)
-    path = write_csv_record(tmp_path / "outages.csv", rate[keep], 1.0, axis_names=["x"], sample_index=index)
+    path = write_csv_record(
+        tmp_path / "outages.csv", rate[keep], 1.0, axis_names=["x"], sample_index=index
+    )
     assert main(["analyze", str(path), "--json"]) == 0
     axis = json.loads(capsys.readouterr().out)["axes"][0]
     missing = sum(b - a for a, b in OUTAGES_S)
-    assert axis["gaps"] == {"count": 5, "missing_s": pytest.approx(missing), "share": pytest.approx(missing / n)}
+    assert axis["gaps"] == {
+        "count": 5,
+        "missing_s": pytest.approx(missing),
+        "share": pytest.approx(missing / n),
+    }
     assert axis["tau_s"][-1] == pytest.approx(3200.0)
     expected = allan_variance(np.where(keep, rate, np.nan), 1.0, missing="gap")
     np.testing.assert_allclose(axis["adev"], expected.adev, rtol=1e-9)

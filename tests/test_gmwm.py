@@ -29,8 +29,13 @@ from station.storage.csv_records import write_csv_record
 
 FS = 10.0
 TRUTH = {"wn_deg_rt_h": 1.0, "gm_sigma_deg_h": 20.0, "gm_tau_s": 30.0, "rw_deg_h_rt_h": 20.0}
-TRUE_MODEL = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=20.0, tau_s=30.0),
-                               RateRandomWalk(K_deg_h_1_5=20.0)))
+TRUE_MODEL = NoiseModel(
+    terms=(
+        AngleRandomWalk(N_deg_rt_h=1.0),
+        GaussMarkov(sigma_deg_h=20.0, tau_s=30.0),
+        RateRandomWalk(K_deg_h_1_5=20.0),
+    )
+)
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
 
@@ -72,8 +77,13 @@ def test_gmwm_recovers_a_gauss_markov_under_white_noise_and_a_random_walk():
 
 
 def test_fit_statistic_follows_its_chi_square_when_the_model_holds():
-    model = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=30.0, tau_s=5.0)))
-    stats = [gmwm(haar_wavelet_variance(rate_of(model, seed, 16_384), FS), "wn+gm") for seed in range(10, 22)]
+    model = NoiseModel(
+        terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=30.0, tau_s=5.0))
+    )
+    stats = [
+        gmwm(haar_wavelet_variance(rate_of(model, seed, 16_384), FS), "wn+gm")
+        for seed in range(10, 22)
+    ]
     j = np.array([f.objective for f in stats])
     dof = stats[0].dof
     # mean of 12 chi-square(dof) values: dof +- sqrt(2 dof / 12) ~ 1.2 for dof = 9
@@ -93,11 +103,22 @@ def test_diagonal_weights_and_short_records():
 def test_model_strings_and_parameter_keys():
     model = GmwmModel.parse("RW + 2gm + wn")
     assert model.name == "wn+gm+gm+rw" and model.n_params == 6
-    p = model.internal({"wn_deg_rt_h": 1.0, "gm1_sigma_deg_h": 1.0, "gm1_tau_s": 100.0, "gm2_sigma_deg_h": 2.0,
-                        "gm2_tau_s": 3.0, "rw_deg_h_rt_h": 4.0}, 0.1)
+    p = model.internal(
+        {
+            "wn_deg_rt_h": 1.0,
+            "gm1_sigma_deg_h": 1.0,
+            "gm1_tau_s": 100.0,
+            "gm2_sigma_deg_h": 2.0,
+            "gm2_tau_s": 3.0,
+            "rw_deg_h_rt_h": 4.0,
+        },
+        0.1,
+    )
     values, _ = model.physical(p, np.zeros((6, 6)), 0.1)
     # repeated terms are numbered by increasing correlation time
-    assert values["gm1_tau_s"] == pytest.approx(3.0) and values["gm2_sigma_deg_h"] == pytest.approx(1.0)
+    assert values["gm1_tau_s"] == pytest.approx(3.0) and values["gm2_sigma_deg_h"] == pytest.approx(
+        1.0
+    )
     assert model.term_labels(p) == ["wn", "gm2", "gm1", "rw"]
     assert GmwmModel.parse("wn+gm").keys()[1][0] == "gm_sigma_deg_h"
     for bad, match in (("wn+foo", "unknown"), ("wn+wn", "twice"), ("+", "empty")):
@@ -110,7 +131,9 @@ def test_selection_ranks_every_candidate_and_finds_the_hidden_terms():
     sel = select_model(white, ["wn", "wn+gm", "wn+rw", "wn+bi"])
     assert sel.ranking[0].effective == "wn" and sel.best.model.name == "wn"
     assert sorted(r.model for r in sel.ranking) == ["wn", "wn+bi", "wn+gm", "wn+rw"]
-    assert np.all(np.diff([r.criterion for r in sel.ranking]) > -1e-6)  # ties go to the smaller model
+    assert np.all(
+        np.diff([r.criterion for r in sel.ranking]) > -1e-6
+    )  # ties go to the smaller model
     auto = gmwm_analysis(rate_of(TRUE_MODEL, 7, 72_000), FS)
     assert "gm" in auto.best.model.codes and auto.ranking[0].model == auto.best.model.name
     assert len(auto.ranking) >= 20 and auto.runner_up is not None
@@ -120,43 +143,82 @@ def test_selection_ranks_every_candidate_and_finds_the_hidden_terms():
 @pytest.fixture(scope="module")
 def gm_record(tmp_path_factory) -> Path:
     rate = rate_of(TRUE_MODEL, 9, 36_000, axes=2)
-    return write_csv_record(tmp_path_factory.mktemp("gmwm") / "gm.csv", rate, FS, axis_names=["x", "y"])
+    return write_csv_record(
+        tmp_path_factory.mktemp("gmwm") / "gm.csv", rate, FS, axis_names=["x", "y"]
+    )
 
 
 def run_station(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "station.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "station.cli", *args], capture_output=True, text=True, timeout=300
+    )
 
 
 def test_analyze_gmwm_json_interface(gm_record: Path, tmp_path: Path, capsys):
     png = tmp_path / "wv.png"
-    proc = run_station("analyze", str(gm_record), "--method", "gmwm", "--model", "auto", "--axis", "y", "--json",
-                       "--png", str(png))
+    proc = run_station(
+        "analyze",
+        str(gm_record),
+        "--method",
+        "gmwm",
+        "--model",
+        "auto",
+        "--axis",
+        "y",
+        "--json",
+        "--png",
+        str(png),
+    )
     assert proc.returncode == 0, proc.stderr
     out = json.loads(proc.stdout)
     assert [a["name"] for a in out["axes"]] == ["y"]
     for axis in out["axes"]:
         assert axis["fit"]["method"] == "logwls"  # the Allan fit and read-offs stay beside it
         g = axis["gmwm"]
-        assert set(g["params"]) == set(g["stderr"]) and g["model"] == GmwmModel.parse(g["model"]).name
+        assert (
+            set(g["params"]) == set(g["stderr"]) and g["model"] == GmwmModel.parse(g["model"]).name
+        )
         units = ("_deg_rt_h", "_deg_h", "_s", "_deg_h_rt_h", "_urad", "_deg_h2", "_phi")
         assert all(k.endswith(units) for k in g["params"])
-        assert g["ranking"][0]["model"] == g["model"] and all({"model", "criterion"} <= set(r) for r in g["ranking"])
+        assert g["ranking"][0]["model"] == g["model"] and all(
+            {"model", "criterion"} <= set(r) for r in g["ranking"]
+        )
         assert len(g["wv_tau_s"]) == len(g["wv"]) == len(g["model_wv"]) >= 10
         assert g["wv_tau_s"][0] == pytest.approx(0.1)
     assert png.stat().st_size > 10_000
-    assert main(["analyze", str(gm_record), "--method", "gmwm", "--model", "wn+gm", "--axis", "x", "--json"]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(gm_record),
+                "--method",
+                "gmwm",
+                "--model",
+                "wn+gm",
+                "--axis",
+                "x",
+                "--json",
+            ]
+        )
+        == 0
+    )
     g = json.loads(capsys.readouterr().out)["axes"][0]["gmwm"]
     assert g["model"] == "wn+gm" and [r["model"] for r in g["ranking"]] == ["wn+gm"]
     assert set(g["params"]) == {"wn_deg_rt_h", "gm_sigma_deg_h", "gm_tau_s"}
 
 
 def test_analyze_gmwm_table_and_bad_options(gm_record: Path, capsys):
-    assert main(["analyze", str(gm_record), "--method", "gmwm", "--model", "wn+gm+rw", "--axis", "y"]) == 0
+    assert (
+        main(["analyze", str(gm_record), "--method", "gmwm", "--model", "wn+gm+rw", "--axis", "y"])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "GMWM gm_tau_s" in out and "ARW read-off" in out and "J / dof" in out
     assert main(["analyze", str(gm_record), "--method", "gmwm", "--model", "wn+pink"]) == 2
     err = capsys.readouterr().err
-    assert "unknown GMWM term" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert (
+        "unknown GMWM term" in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+    )
     assert main(["analyze", str(gm_record), "--model", "wn+gm"]) == 2
     assert "--method gmwm" in capsys.readouterr().err
 
@@ -166,7 +228,9 @@ def test_analyze_gmwm_table_and_bad_options(gm_record: Path, capsys):
 def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
     from station.storage.runs import read_record
 
-    record = read_record(REAL_DATA / "mtig_cont_imu1_gyro_x_100hz.csv.gz", sample_rate_hz=100.0, units="rad/s")
+    record = read_record(
+        REAL_DATA / "mtig_cont_imu1_gyro_x_100hz.csv.gz", sample_rate_hz=100.0, units="rad/s"
+    )
     sel = gmwm_analysis(record.rate_deg_s[:, 0], 100.0)
     taus = [v for k, v in sel.best.values.items() if k.endswith("_tau_s") and v > 0.5]
     # the Allan curve's shoulder at 3-40 s (README): a Gauss-Markov of a few seconds
@@ -186,4 +250,6 @@ def test_a_model_the_record_rejects_gets_floored_weights_and_follows_the_data():
     # with the floor the wrong model still runs through the data, above it at some scales only
     above = np.mean(floored.model_wv > wv.wv)
     assert 0.2 < above < 0.8, floored.model_wv / wv.wv
-    assert np.median(np.abs(np.log(floored.model_wv / wv.wv))) < np.median(np.abs(np.log(exact.model_wv / wv.wv)))
+    assert np.median(np.abs(np.log(floored.model_wv / wv.wv))) < np.median(
+        np.abs(np.log(exact.model_wv / wv.wv))
+    )

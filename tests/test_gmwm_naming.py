@@ -31,7 +31,9 @@ from station.storage.csv_records import write_csv_record
 
 FS, N = 10.0, 36_000
 SIGMA_W = 0.5 * 60.0 * math.sqrt(FS) / 3600.0  # white noise per sample, deg/s
-BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base")
+BASE = NoiseModel(
+    terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base"
+)
 
 
 def faint_gauss_markov(seed: int, sigma: float = 0.1, tau_s: float = 20.0) -> np.ndarray:
@@ -39,7 +41,9 @@ def faint_gauss_markov(seed: int, sigma: float = 0.1, tau_s: float = 20.0) -> np
     x = SIGMA_W * rng.standard_normal(N) + flicker_rate_noise(2.0 / 3600.0, N, FS, rng)
     phi = math.exp(-1.0 / (FS * tau_s))
     e = sigma * SIGMA_W * math.sqrt(1 - phi**2) * rng.standard_normal(N)
-    gm, _ = signal.lfilter([1.0], [1.0, -phi], e, zi=[phi * sigma * SIGMA_W * rng.standard_normal()])
+    gm, _ = signal.lfilter(
+        [1.0], [1.0, -phi], e, zi=[phi * sigma * SIGMA_W * rng.standard_normal()]
+    )
     return x + gm
 
 
@@ -54,22 +58,36 @@ def test_new_process_or_more_of_one_goes_by_the_gmwm_score():
     scores = {"bias_instability": 0.0, "gauss_markov": 2.5, "rate_random_walk": 9.0}
     j = GmwmJudgement(scores, {k: k for k in scores}, "wn+bi")
     # the first added term (the curve's choice among added ones) against the best refit
-    assert new_or_more(group, str, added, j) == ["gauss_markov", "bias_instability", "rate_random_walk"]
+    assert new_or_more(group, str, added, j) == [
+        "gauss_markov",
+        "bias_instability",
+        "rate_random_walk",
+    ]
     j = GmwmJudgement({**scores, "gauss_markov": -1.0}, {k: k for k in scores}, "wn+bi")
     assert new_or_more(group, str, added, j) == group
-    assert new_or_more(["gauss_markov", "rate_random_walk"], str, added, j) == ["gauss_markov", "rate_random_walk"]
+    assert new_or_more(["gauss_markov", "rate_random_walk"], str, added, j) == [
+        "gauss_markov",
+        "rate_random_walk",
+    ]
 
 
 def test_gmwm_scores_a_hidden_gauss_markov_above_more_bias_instability():
     rate = faint_gauss_markov(2)
     candidates = [("bias_instability", "refit"), ("gauss_markov", "add")]
     j = judge(rate, FS, BASE, candidates)  # N2: the rest of the model held
-    assert j is not None and j.base == "wn+bi" and j.models == {"bias_instability": "bi", "gauss_markov": "gm"}
+    assert (
+        j is not None
+        and j.base == "wn+bi"
+        and j.models == {"bias_instability": "bi", "gauss_markov": "gm"}
+    )
     assert j.scores["gauss_markov"] > j.scores["bias_instability"] > 0.0
     free = judge(rate, FS, BASE, candidates, held=False)  # N1: every term free
     assert free is not None and free.models["gauss_markov"] == "wn+gm+bi"
     assert free.scores["bias_instability"] == 0.0 and free.scores["gauss_markov"] > 0.0
-    assert judge(faint_gauss_markov(2), FS, BASE, [("sinusoid", "add"), ("gauss_markov", "add")]) is None
+    assert (
+        judge(faint_gauss_markov(2), FS, BASE, [("sinusoid", "add"), ("gauss_markov", "add")])
+        is None
+    )
 
 
 def test_reconcile_names_the_faint_gauss_markov_and_reports_the_rival(cache):
@@ -77,27 +95,52 @@ def test_reconcile_names_the_faint_gauss_markov_and_reports_the_rival(cache):
     alone = reconcile(rate, FS, BASE, cache=cache, options=ReconcileOptions(gmwm=False))
     judged = reconcile(rate, FS, BASE, cache=cache)
     assert [e.name for e in alone.effects] == ["bias_instability"]
-    assert alone.effects[0].criterion == "allan" and [a.name for a in alone.effects[0].alternatives] == ["gauss_markov"]
+    assert alone.effects[0].criterion == "allan" and [
+        a.name for a in alone.effects[0].alternatives
+    ] == ["gauss_markov"]
     assert [e.name for e in judged.effects] == ["gauss_markov"]
     named = judged.effects[0]
-    assert named.criterion == "gmwm" and named.score > 0 and named.params["tau_s"] == pytest.approx(20.0, rel=0.6)
+    assert (
+        named.criterion == "gmwm"
+        and named.score > 0
+        and named.params["tau_s"] == pytest.approx(20.0, rel=0.6)
+    )
     rival = named.alternatives[0]
     assert (rival.name, rival.change, rival.criterion) == ("bias_instability", "increased", "gmwm")
     assert abs(named.score - rival.score) < 6.0
     doc = judged.as_json()
-    assert doc["alternatives"] == [{"effect": "gauss_markov", "name": "bias_instability", "score": rival.score,
-                                    "criterion": "gmwm", "change": "increased"}]
+    assert doc["alternatives"] == [
+        {
+            "effect": "gauss_markov",
+            "name": "bias_instability",
+            "score": rival.score,
+            "criterion": "gmwm",
+            "change": "increased",
+        }
+    ]
     assert doc["effects"][0]["alternatives"][0]["name"] == "bias_instability"
     assert "about as good (GMWM score" in format_reconcile(judged)
 
 
 def test_reconcile_json_keeps_its_keys_and_adds_alternatives(tmp_path: Path, capsys):
-    csv = write_csv_record(tmp_path / "faint.csv", faint_gauss_markov(2)[:, None], FS, axis_names=["x"])
+    csv = write_csv_record(
+        tmp_path / "faint.csv", faint_gauss_markov(2)[:, None], FS, axis_names=["x"]
+    )
     model = tmp_path / "base.toml"
     model.write_text(BASE.to_toml())
     assert main(["reconcile", str(csv), "--model", str(model), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    for key in ("gap_before", "gap_after", "effects", "model_after", "excess_terms", "axes", "alternatives"):
+    for key in (
+        "gap_before",
+        "gap_after",
+        "effects",
+        "model_after",
+        "excess_terms",
+        "axes",
+        "alternatives",
+    ):
         assert key in out
     assert [e["name"] for e in out["effects"]] == ["gauss_markov"]
-    assert {"name", "score"} <= set(out["alternatives"][0]) and out["alternatives"][0]["name"] == "bias_instability"
+    assert {"name", "score"} <= set(out["alternatives"][0]) and out["alternatives"][0][
+        "name"
+    ] == "bias_instability"

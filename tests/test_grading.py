@@ -37,12 +37,17 @@ def make_rate(n: int, seed: int, *, n_axes: int = 1, arw_deg_rt_h: float = ARW_D
               bi_deg_h: float = BI_DEG_H, bias_deg_s: float = 0.001) -> np.ndarray:
     """White rate (ARW) plus flicker rate (bias instability) plus a constant bias, deg/s."""
     rng = np.random.default_rng(seed)
-    rate = (bias_deg_s + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(arw_deg_rt_h), n, FS_HZ, rng, n_axes=n_axes)
-            + flicker_rate_noise(rate_deg_h_to_deg_s(bi_deg_h), n, FS_HZ, rng, n_axes=n_axes))
+    rate = (
+        bias_deg_s
+        + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(arw_deg_rt_h), n, FS_HZ, rng, n_axes=n_axes)
+        + flicker_rate_noise(rate_deg_h_to_deg_s(bi_deg_h), n, FS_HZ, rng, n_axes=n_axes)
+    )
     return rate if n_axes > 1 else rate.reshape(-1, 1)
 
 
-def make_record(path: Path, *, n: int = 24_000, seed: int = 3, n_axes: int = 1, **kw: float) -> Path:
+def make_record(
+    path: Path, *, n: int = 24_000, seed: int = 3, n_axes: int = 1, **kw: float
+) -> Path:
     """A short simulated CSV record (40 min at 10 Hz by default) with axes x[, y, z]."""
     return write_csv_record(path, make_rate(n, seed, n_axes=n_axes, **kw), FS_HZ,
                             axis_names=["x", "y", "z"][:n_axes])
@@ -135,7 +140,10 @@ def _result(name: str, limits: dict[str, float], verdicts: dict[str, str]) -> Fi
     ({"A": "fail"}, {"A": "pass", "B": "indeterminate"}, ("indeterminate", "B", None)),
 ])
 def test_assign_grade(verdicts_a, verdicts_b, expected) -> None:
-    figures = (_result("arw", {"A": 1.0}, verdicts_a), _result("bias", {"A": 1.0, "B": 2.0}, verdicts_b))
+    figures = (
+        _result("arw", {"A": 1.0}, verdicts_a),
+        _result("bias", {"A": 1.0, "B": 2.0}, verdicts_b),
+    )
     assert assign_grade(figures, ("A", "B"), "reject") == expected
 
 
@@ -172,15 +180,19 @@ def test_grade_and_verdicts(graded) -> None:
 
 
 def test_rule_decides_a_straddled_limit(graded, record: Path, tmp_path: Path) -> None:
-    """A limit inside the interval: guard-banded says indeterminate, strict fail, simple by value."""
+    """A limit inside the interval: guard-banded says indeterminate, strict fail, simple by
+    value."""
     arw = next(f for f in graded.units[0].axis("x").figures if f.name == "arw")
     limit = (arw.value + arw.ci_high) / 2  # above the value, below the upper bound
     figures = f'\n[figures.arw]\nunit = "deg/sqrt(h)"\nlimits = {{ A = {limit!r} }}\n'
     expected = {"guard-banded": ("indeterminate", "indeterminate"), "strict": ("fail", "reject"),
                 "simple": ("pass", "A")}
     for rule, (verdict, grade) in expected.items():
-        profile = load_profile(write_profile(tmp_path, profile_text(rule=rule, grades='["A"]', figures=figures),
-                                             name=rule))
+        profile = load_profile(
+            write_profile(
+                tmp_path, profile_text(rule=rule, grades='["A"]', figures=figures), name=rule
+            )
+        )
         unit = regrade(graded, profile).units[0]
         assert unit.axis("x").figures[0].verdicts == {"A": verdict}, rule
         assert unit.grade == grade, rule
@@ -198,8 +210,10 @@ def test_units_convert(graded, tmp_path: Path) -> None:
 
 
 def test_regrade_stored_run_with_new_profile(graded, tmp_path: Path) -> None:
-    tight = profile_text(name="TIGHT", figures='\n[figures.arw]\nunit = "deg/sqrt(h)"\nlimits = { A = 0.01, '
-                                              'B = 0.02 }\n')
+    tight = profile_text(
+        name="TIGHT",
+        figures='\n[figures.arw]\nunit = "deg/sqrt(h)"\nlimits = { A = 0.01, B = 0.02 }\n',
+    )
     again = regrade(graded, load_profile(write_profile(tmp_path, tight)))
     assert again.units[0].grade == "reject"
     assert again.extra["regraded_from"] == "TEST@7"
@@ -211,8 +225,12 @@ def test_warmup_is_discarded(tmp_path: Path) -> None:
     rate[:1200] += 0.5  # a warm-up transient of 0.5 deg/s for 120 s
     path = write_csv_record(tmp_path / "warm.csv", rate, FS_HZ, axis_names=["x"])
     run = open_run(path)
-    with_warmup = grade_run(run, load_profile(write_profile(tmp_path, profile_text(warmup_s=120.0))))
-    without = grade_run(run, load_profile(write_profile(tmp_path, profile_text(warmup_s=0.0), name="w0")))
+    with_warmup = grade_run(
+        run, load_profile(write_profile(tmp_path, profile_text(warmup_s=120.0)))
+    )
+    without = grade_run(
+        run, load_profile(write_profile(tmp_path, profile_text(warmup_s=0.0), name="w0"))
+    )
     bias_w = next(f for f in with_warmup.units[0].axes[0].figures if f.name == "bias").value
     bias_0 = next(f for f in without.units[0].axes[0].figures if f.name == "bias").value
     assert bias_w < 10 < bias_0  # deg/h: 0.5 deg/s for a tenth of the record is 180 deg/h
@@ -238,7 +256,12 @@ def test_grade_json_interface(record: Path, tmp_path: Path, capsys) -> None:
                  "--serial", "SN-1"]) == 0
     doc = json.loads(capsys.readouterr().out)
     unit = doc["units"][0]
-    assert unit["serial_number"] == "SN-1" and unit["grade"] in ("A", "B", "indeterminate", "reject")
+    assert unit["serial_number"] == "SN-1" and unit["grade"] in (
+        "A",
+        "B",
+        "indeterminate",
+        "reject",
+    )
     figures = unit["axes"]["x"]["figures"]
     assert set(figures) == {"arw", "bias_instability"}
     for name, fig in figures.items():
@@ -270,13 +293,17 @@ def test_real_adis16405_record_against_mems_profile(tmp_path: Path) -> None:
     tau = 1 s, which fails the data sheet's 2.0 and passes the industrial 3.0.
     """
     text = load_profile("ADIS16405").path
-    z_only = Path(text).read_text(encoding="utf-8").replace('axes = ["x", "y", "z"]', 'axes = ["z"]')
+    z_only = (
+        Path(text).read_text(encoding="utf-8").replace('axes = ["x", "y", "z"]', 'axes = ["z"]')
+    )
     profile = parse_profile(z_only, path="ADIS16405-z")
     graded = grade_run(open_run(ADIS_RECORD, sample_rate_hz=100.0), profile)
     axis = graded.units[0].axis("z")
     arw = next(f for f in axis.figures if f.name == "arw")
     allan = axis.analysis.allan
-    line_at_1s = float(np.interp(0.0, np.log(allan.tau_s), np.log(allan.adev * np.sqrt(allan.tau_s))))
+    line_at_1s = float(
+        np.interp(0.0, np.log(allan.tau_s), np.log(allan.adev * np.sqrt(allan.tau_s)))
+    )
     assert arw.value == pytest.approx(np.exp(line_at_1s) * 60.0, rel=0.1)
     assert arw.ci_low < arw.value < arw.ci_high < 3.0
     assert arw.verdicts == {"datasheet": "fail", "industrial": "pass"}
@@ -290,7 +317,7 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
     since, the grade says so; gone, the profile of that name in profiles/ is used and the
     difference said too."""
     from station.model.profiles import PROFILE_DIR
-    from station.recorder import Recorder, RunConfig
+    from station.recording.recorder import Recorder, RunConfig
 
     own = tmp_path / "line7" / "VG951.toml"
     own.parent.mkdir()
@@ -300,7 +327,8 @@ def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, c
                                   tmp_path / "run.h5", profile=load_profile(own)))
     recorder.run()
     run = open_run(recorder.path)
-    assert run.profile_path == str(own.resolve()) and run.profile_version == "1-line7"
+    assert run.metadata.profile_path == str(own.resolve())
+    assert run.metadata.profile_version == "1-line7"
 
     def grade() -> tuple[dict, str]:
         assert main(["grade", str(recorder.path), "--no-store", "--json"]) == 0
@@ -328,19 +356,26 @@ def walking_record(tmp_path_factory) -> Path:
     rate = (white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.02), n, FS_HZ, rng)
             + flicker_rate_noise(rate_deg_h_to_deg_s(0.5), n, FS_HZ, rng)
             + random_walk_rate_noise(rrw_deg_h_1_5_to_deg_s_1_5(2.0), n, FS_HZ, rng))
-    return write_csv_record(tmp_path_factory.mktemp("walk") / "walk.csv", rate.reshape(-1, 1), FS_HZ,
-                            axis_names=["x"])
+    return write_csv_record(
+        tmp_path_factory.mktemp("walk") / "walk.csv", rate.reshape(-1, 1), FS_HZ, axis_names=["x"]
+    )
 
 
-BI_GRADED = '\n[figures.bias_instability]\nunit = "deg/h"\nlimits = { A = 5.0 }\n[figures.arw]\nunit = "deg/sqrt(h)"\n'
+BI_GRADED = ('\n[figures.bias_instability]\nunit = "deg/h"\nlimits = { A = 5.0 }\n'
+             '[figures.arw]\nunit = "deg/sqrt(h)"\n')
 
 
-def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_record: Path, tmp_path: Path,
-                                                                       capsys) -> None:
-    """Flagged in the table, the JSON and the results database, with the reason; the grade stands."""
+def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(
+    walking_record: Path, tmp_path: Path, capsys
+) -> None:
+    """Flagged in the table, the JSON and the results database, with the reason; the grade
+    stands."""
     profile = write_profile(tmp_path, profile_text(figures=BI_GRADED))
     db = tmp_path / "results.sqlite"
-    assert main(["grade", str(walking_record), "--profile", str(profile), "--db", str(db), "--json"]) == 0
+    assert (
+        main(["grade", str(walking_record), "--profile", str(profile), "--db", str(db), "--json"])
+        == 0
+    )
     doc = json.loads(capsys.readouterr().out)
     unit = doc["units"][0]
     assert unit["grade"] == "A"  # both figures are far inside the limit: flagged, not rejected
@@ -349,7 +384,11 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_re
     assert unit["axes"]["x"]["review"] == [unit["review"][0].removeprefix("x: ")]
     assert main(["grade", str(walking_record), "--profile", str(profile), "--no-store"]) == 0
     out = capsys.readouterr().out
-    assert "GRADE A  REVIEW" in out and "axis x: A (review)" in out and "REVIEW x: bias instability" in out
+    assert (
+        "GRADE A  REVIEW" in out
+        and "axis x: A (review)" in out
+        and "REVIEW x: bias instability" in out
+    )
     assert main(["results", "--db", str(db), "--review"]) == 0
     out = capsys.readouterr().out
     assert "REVIEW" in out and "1 gradings" in out and "not a flicker floor" in out
@@ -357,8 +396,22 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_re
     with ResultsDatabase(db) as store:
         (row,) = store.gradings(review=True)
         assert row.needs_review and "bias instability" in row.review
-    assert main(["report", str(walking_record), "--profile", str(profile), "--format", "csv", "--out",
-                 str(tmp_path), "--no-store"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(walking_record),
+                "--profile",
+                str(profile),
+                "--format",
+                "csv",
+                "--out",
+                str(tmp_path),
+                "--no-store",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     with next(tmp_path.glob("*.csv")).open(encoding="utf-8") as fh:
         (row,) = list(csv.DictReader(fh))
@@ -368,14 +421,22 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(walking_re
 def test_an_informational_figure_does_not_flag_review(walking_record: Path, tmp_path: Path) -> None:
     """The same unit graded on ARW only: the bias-instability disagreement cannot change a
     verdict, so no review (station analyze still lists it)."""
-    figures = '\n[figures.arw]\nunit = "deg/sqrt(h)"\nlimits = { A = 0.06 }\n[figures.bias_instability]\nunit = "deg/h"\n'
-    graded = grade_run(open_run(walking_record), load_profile(write_profile(tmp_path, profile_text(figures=figures))))
+    figures = ('\n[figures.arw]\nunit = "deg/sqrt(h)"\nlimits = { A = 0.06 }\n'
+               '[figures.bias_instability]\nunit = "deg/h"\n')
+    graded = grade_run(
+        open_run(walking_record),
+        load_profile(write_profile(tmp_path, profile_text(figures=figures))),
+    )
     unit = graded.units[0]
     assert unit.review == () and unit.axis("x").analysis.figures.review
 
 
-def test_a_profile_may_grade_the_fit_instead_of_the_read_off(walking_record: Path, tmp_path: Path) -> None:
-    text = profile_text(figures=BI_GRADED).replace('grades = ["A", "B"]', 'grades = ["A", "B"]\nfigure_source = "fit"')
+def test_a_profile_may_grade_the_fit_instead_of_the_read_off(
+    walking_record: Path, tmp_path: Path
+) -> None:
+    text = profile_text(figures=BI_GRADED).replace(
+        'grades = ["A", "B"]', 'grades = ["A", "B"]\nfigure_source = "fit"'
+    )
     graded = grade_run(open_run(walking_record), load_profile(write_profile(tmp_path, text)))
     axis = graded.units[0].axis("x")
     bi = next(f for f in axis.figures if f.name == "bias_instability")

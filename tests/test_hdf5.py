@@ -16,9 +16,6 @@ import pytest
 
 from devices.protocols import DeviceDescription
 from station.cli import main
-from station.hdf5 import read_run, read_run_record
-from station.hdf5_recover import lookup3
-from station.hdf5_writer import RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -28,6 +25,10 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.runs import RunMetadata
+from station.storage.hdf5 import read_run, read_run_record
+from station.storage.hdf5_recover import lookup3
+from station.storage.hdf5_writer import RunFileWriter
 from station.storage.runs import read_record
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
@@ -60,9 +61,9 @@ def written(tmp_path: Path) -> Path:
     """A two-unit run written from documents, read live by a SWMR reader between flushes."""
     path = tmp_path / "run.h5"
     writer = RunFileWriter(path, flush_interval_s=0.5)
-    writer(RunStart("uid1", utc_now(), ("unit1", "unit2"), 10.0, str(path), profile="P",
-                    profile_version="3", operator="ann", lot="L1", station_host="bench",
-                    software_version="0.1.0"))
+    writer(RunStart("uid1", utc_now(), ("unit1", "unit2"), 10.0, str(path),
+                    RunMetadata(profile="P", profile_version="3", operator="ann", lot="L1",
+                                station_host="bench", software_version="0.1.0")))
     for uid, serial in (("unit1", "A1"), ("unit2", "B2")):
         d = _description(serial, temperature=True)
         writer(Descriptor(uid, f"sim+serial://{serial}", d, data_keys(d), utc_now(),
@@ -105,7 +106,7 @@ def test_every_dataset_has_units_and_the_run_its_metadata(written: Path) -> None
 
 def test_reader_returns_the_run_with_its_gap_counts(written: Path) -> None:
     run = read_run(written)
-    assert not run.interrupted and run.stop_reason == "duration" and run.operator == "ann"
+    assert not run.interrupted and run.stop_reason == "duration" and run.metadata.operator == "ann"
     u1, u2 = run.units
     assert (u1.serial_number, u1.record.n_samples, u2.record.n_samples) == ("A1", 400, 200)
     assert u1.n_gaps == 1 and u1.missing_samples == 12

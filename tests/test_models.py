@@ -27,11 +27,22 @@ from analysis.models import (
 from devices.model_files import load_noise_model, preset_names, save_noise_model
 
 ALL_TERMS = (
-    Quantization(Q_urad=0.5), AngleRandomWalk(N_deg_rt_h=0.01), BiasInstability(B_deg_h=0.1),
-    RateRandomWalk(K_deg_h_1_5=0.2), RateRamp(R_deg_h2=-0.3), GaussMarkov(sigma_deg_h=0.4, tau_s=50.0),
-    Sinusoid(amplitude_deg_h=0.5, period_s=300.0, phase_deg=30.0), Bias(value_deg_h=-3.0),
-    TemperatureBias(coefficient_deg_s_per_c=1e-4, start_c=20.0, final_c=30.0, warmup_s=500.0,
-                    cycle_amplitude_c=2.0, cycle_period_s=3600.0),
+    Quantization(Q_urad=0.5),
+    AngleRandomWalk(N_deg_rt_h=0.01),
+    BiasInstability(B_deg_h=0.1),
+    RateRandomWalk(K_deg_h_1_5=0.2),
+    RateRamp(R_deg_h2=-0.3),
+    GaussMarkov(sigma_deg_h=0.4, tau_s=50.0),
+    Sinusoid(amplitude_deg_h=0.5, period_s=300.0, phase_deg=30.0),
+    Bias(value_deg_h=-3.0),
+    TemperatureBias(
+        coefficient_deg_s_per_c=1e-4,
+        start_c=20.0,
+        final_c=30.0,
+        warmup_s=500.0,
+        cycle_amplitude_c=2.0,
+        cycle_period_s=3600.0,
+    ),
     BiasSteps(rate_per_h=2.0, size_deg_h=0.7),
 )
 FULL = NoiseModel(terms=ALL_TERMS, name="full \"test\" model", source="tests, unicode: µrad")
@@ -130,9 +141,13 @@ def test_five_term_sum_is_lv2015_eq3_in_data_sheet_units():
 def test_gauss_markov_closed_form_has_its_limits_and_no_seam_at_the_series_switch():
     sigma, t = 2.0, 10.0
     small = np.array([1e-6, 1e-4]) * t
-    np.testing.assert_allclose(gauss_markov_avar(small, sigma, t), 2 * sigma**2 * small / (3 * t), rtol=1e-3)
+    np.testing.assert_allclose(
+        gauss_markov_avar(small, sigma, t), 2 * sigma**2 * small / (3 * t), rtol=1e-3
+    )
     large = np.array([1e4, 1e6]) * t
-    np.testing.assert_allclose(gauss_markov_avar(large, sigma, t), 2 * sigma**2 * t / large, rtol=1e-3)
+    np.testing.assert_allclose(
+        gauss_markov_avar(large, sigma, t), 2 * sigma**2 * t / large, rtol=1e-3
+    )
     around = np.array([0.01 * (1 - 1e-9), 0.01 * (1 + 1e-9)]) * t
     a, b = gauss_markov_avar(around, sigma, t)
     assert abs(a / b - 1) < 1e-8
@@ -192,8 +207,11 @@ def test_model_curve_is_the_sum_of_its_terms_and_taus_are_checked():
 
 def test_presets_hold_the_papers_tables():
     assert {"SRS2000", "VG951", "CRG20", "zhang2015-fog", "mems-typical"} <= set(preset_names())
-    table = {"SRS2000": (6.870e-03, 8.587e-05, 6.773e-03), "VG951": (7.555e-02, 7.636e-03, 1.246e-01),
-             "CRG20": (1.868e01, 1.492, 2.079e01)}
+    table = {
+        "SRS2000": (6.870e-03, 8.587e-05, 6.773e-03),
+        "VG951": (7.555e-02, 7.636e-03, 1.246e-01),
+        "CRG20": (1.868e01, 1.492, 2.079e01),
+    }
     for name, (q, n, b) in table.items():
         model = load_noise_model(name.lower())
         assert model.term_names == ("quantization", "arw", "bias_instability")
@@ -201,7 +219,13 @@ def test_presets_hold_the_papers_tables():
                 model.get("bias_instability").B_deg_h) == (q, n, b)
         assert "table" in model.source
     zhang = load_noise_model("zhang2015-fog")
-    assert zhang.term_names[:5] == ("quantization", "arw", "bias_instability", "rate_random_walk", "rate_ramp")
+    assert zhang.term_names[:5] == (
+        "quantization",
+        "arw",
+        "bias_instability",
+        "rate_random_walk",
+        "rate_ramp",
+    )
     assert zhang.get("quantization").q_deg == pytest.approx(4.0794263e-6, rel=1e-8)
     assert zhang.get("rate_ramp").R_deg_h2 == 0.0080067654
 

@@ -39,7 +39,12 @@ from station.storage.runs import read_record
 from tests.test_grading import profile_text, write_profile
 
 FS_HZ = 100.0
-MTIG = Path(__file__).resolve().parents[2] / "shared" / "real-data" / "mtig_cont_imu1_gyro_x_100hz.csv.gz"
+MTIG = (
+    Path(__file__).resolve().parents[2]
+    / "shared"
+    / "real-data"
+    / "mtig_cont_imu1_gyro_x_100hz.csv.gz"
+)
 
 
 def _clean(n: int, seed: int) -> np.ndarray:
@@ -159,13 +164,17 @@ def test_every_report_says_what_was_done_with_the_spikes(tmp_path: Path) -> None
     assert "spikes: x 5 removed" in text and "x spikes kept" in text  # note and second curve
 
 
-def test_analyze_json_and_table_report_spikes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_analyze_json_and_table_report_spikes(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     y, _ = _with_spikes(_clean(20_000, 5), 5, count=3)
     path = write_csv_record(tmp_path / "s.csv", y, FS_HZ, axis_names=["x"])
     assert main(["analyze", str(path), "--json"]) == 0
     axis = json.loads(capsys.readouterr().out)["axes"][0]
     assert axis["outliers"]["count"] == 3 and axis["outliers"]["removed"] is True
-    assert [s["time_s"] for s in axis["outliers"]["spikes"]] == sorted(s["time_s"] for s in axis["outliers"]["spikes"])
+    assert [s["time_s"] for s in axis["outliers"]["spikes"]] == sorted(
+        s["time_s"] for s in axis["outliers"]["spikes"]
+    )
     assert axis["gaps"] == {"count": 0, "missing_s": 0.0, "share": 0.0}
     assert axis["figures"]["earth_rate_removed_deg_h"] is None
     assert main(["analyze", str(path), "--outliers", "keep"]) == 0

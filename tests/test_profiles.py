@@ -1,4 +1,5 @@
-"""Product profiles: the shipped ones, name resolution, and errors that point at file, line and key."""
+"""Product profiles: the shipped ones, name resolution, and errors that point at file, line and
+key."""
 
 from __future__ import annotations
 
@@ -46,12 +47,15 @@ def test_shipped_profiles_load(name: str) -> None:
 
 @pytest.mark.parametrize("name", sorted(LV2015))
 def test_lv2015_profiles_follow_their_table(name: str) -> None:
-    """The best grade admits a gyro with the table's fitted figures, within a factor 2, and says which
+    """The best grade admits a gyro with the table's fitted figures, within a factor 2, and says
+    which
     table."""
     table, arw, bi = LV2015[name]
     p = load_profile(name)
     text = Path(p.path).read_text(encoding="utf-8")
-    assert re.search(rf"^#.*{table}", text, re.MULTILINE | re.IGNORECASE), "source table named in a comment"
+    assert re.search(rf"^#.*{table}", text, re.MULTILINE | re.IGNORECASE), (
+        "source table named in a comment"
+    )
     best = p.grades[0]
     assert arw < p.figure("arw_fit").limits[best] < 2 * arw
     assert bi < p.figure("bias_instability_fit").limits[best] < 2 * bi
@@ -79,7 +83,9 @@ def test_mems_profile_matches_the_data_sheet() -> None:
     p = load_profile("ADIS16405")
     assert p.axes == ("x", "y", "z")
     assert p.figure("arw").limits["datasheet"] == 2.0 and p.figure("arw").unit == "deg/sqrt(h)"
-    assert p.figure("adev_min").limits["datasheet"] == 0.007 and p.figure("adev_min").unit == "deg/s"
+    assert (
+        p.figure("adev_min").limits["datasheet"] == 0.007 and p.figure("adev_min").unit == "deg/s"
+    )
 
 
 def test_profile_is_frozen_and_lists_available() -> None:
@@ -95,7 +101,9 @@ def test_unknown_name_lists_available() -> None:
 
 
 def test_key_lines_follow_tables_and_dotted_keys() -> None:
-    lines = key_lines('a = 1\n[t]\nb = 2\n\n[figures.arw]\nunit = "x"\nlimits = { A = 1 }\nc.d = 3\n')
+    lines = key_lines(
+        'a = 1\n[t]\nb = 2\n\n[figures.arw]\nunit = "x"\nlimits = { A = 1 }\nc.d = 3\n'
+    )
     assert lines[("a",)] == 1 and lines[("t", "b")] == 3
     assert lines[("figures", "arw")] == 5 and lines[("figures", "arw", "limits")] == 7
     assert lines[("figures", "arw", "c", "d")] == 8
@@ -108,19 +116,39 @@ def _line_of(text: str, needle: str) -> int:
     return next(i for i, line in enumerate(text.splitlines(), start=1) if needle in line)
 
 
-@pytest.mark.parametrize(("old", "new", "key", "message"), [
-    ("limits = { A = 0.06, B = 0.2 }", "limits = { A = -0.06, B = 0.2 }", "figures.arw.limits.A", "> 0"),
-    ("limits = { A = 0.06, B = 0.2 }", "limits = { A = 0.06, C = 0.2 }", "figures.arw.limits.C", "unknown key"),
-    ('unit = "deg/sqrt(h)"', 'unit = "deg/h"', "figures.arw.unit", "not a unit of"),
-    ("duration_s = 2400.0", "duraton_s = 2400.0", "test.duraton_s", "unknown key"),
-    ('rule = "guard-banded"', 'rule = "lenient"', "grading.rule", "strict, guard-banded, simple"),
-    ("confidence = 0.95", "confidence = 95", "grading.confidence", "[0.5, 1)"),
-    ("[figures.bias]", "[figures.bias_drift]", "figures.bias_drift", "unknown figure"),
-    ("warmup_s = 60.0", "warmup_s = 9000.0", "test.warmup_s", "not shorter"),
-    ('axes = ["x"]', "axes = []", "test.axes", "non-empty array"),
-    ('model = "TG-1"', "model = 5", "model", "non-empty string"),
-])
-def test_errors_name_file_line_and_key(tmp_path: Path, old: str, new: str, key: str, message: str) -> None:
+@pytest.mark.parametrize(
+    ("old", "new", "key", "message"),
+    [
+        (
+            "limits = { A = 0.06, B = 0.2 }",
+            "limits = { A = -0.06, B = 0.2 }",
+            "figures.arw.limits.A",
+            "> 0",
+        ),
+        (
+            "limits = { A = 0.06, B = 0.2 }",
+            "limits = { A = 0.06, C = 0.2 }",
+            "figures.arw.limits.C",
+            "unknown key",
+        ),
+        ('unit = "deg/sqrt(h)"', 'unit = "deg/h"', "figures.arw.unit", "not a unit of"),
+        ("duration_s = 2400.0", "duraton_s = 2400.0", "test.duraton_s", "unknown key"),
+        (
+            'rule = "guard-banded"',
+            'rule = "lenient"',
+            "grading.rule",
+            "strict, guard-banded, simple",
+        ),
+        ("confidence = 0.95", "confidence = 95", "grading.confidence", "[0.5, 1)"),
+        ("[figures.bias]", "[figures.bias_drift]", "figures.bias_drift", "unknown figure"),
+        ("warmup_s = 60.0", "warmup_s = 9000.0", "test.warmup_s", "not shorter"),
+        ('axes = ["x"]', "axes = []", "test.axes", "non-empty array"),
+        ('model = "TG-1"', "model = 5", "model", "non-empty string"),
+    ],
+)
+def test_errors_name_file_line_and_key(
+    tmp_path: Path, old: str, new: str, key: str, message: str
+) -> None:
     assert old in BASE
     text = BASE.replace(old, new, 1)
     path = tmp_path / "broken.toml"

@@ -28,7 +28,12 @@ from analysis.zones import fit_outside_zones
 from station.evaluation.analyze import analyze_record
 from station.storage.csv_records import read_csv_record
 
-ADIS_RECORD = Path(__file__).resolve().parents[2] / "shared" / "real-data" / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
+ADIS_RECORD = (
+    Path(__file__).resolve().parents[2]
+    / "shared"
+    / "real-data"
+    / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
+)
 
 
 def test_strong_quantization_is_not_read_as_white_noise() -> None:
@@ -60,7 +65,9 @@ def test_arw_interval_covers_the_truth_at_its_level() -> None:
     edf counts the correlation of neighbouring taus (without it: 50 % coverage)."""
     hits = 0
     for seed in range(40):
-        x = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.05), 40_000, 10.0, np.random.default_rng(seed))
+        x = white_rate_noise(
+            arw_deg_rt_h_to_deg_rt_s(0.05), 40_000, 10.0, np.random.default_rng(seed)
+        )
         r = overlapping_allan_variance(x, 10.0)
         arw = arw_readoff(r, fit_noise_terms(r, method="logwls"))
         low, high = arw.interval()
@@ -74,7 +81,11 @@ def test_the_minimum_is_read_off_a_smoothed_curve_not_the_lowest_point() -> None
     fs, n = 10.0, 200_000
     m = np.unique(np.rint(np.geomspace(1, n // 2, 120)).astype(int))
     tau = np.geomspace(1, n / fs, 4000)
-    n_b, b, k = arw_deg_rt_h_to_deg_rt_s(0.05), rate_deg_h_to_deg_s(0.5), rrw_deg_h_1_5_to_deg_s_1_5(2.0)
+    n_b, b, k = (
+        arw_deg_rt_h_to_deg_rt_s(0.05),
+        rate_deg_h_to_deg_s(0.5),
+        rrw_deg_h_1_5_to_deg_s_1_5(2.0),
+    )
     truth = np.sqrt(np.min(n_b**2 / tau + (0.664 * b) ** 2 + k**2 * tau / 3)) / 0.664 * 3600.0
     raw, smoothed, covered = [], [], 0
     for seed in range(12):
@@ -112,7 +123,11 @@ def test_adis16405_read_offs_sit_on_the_half_slope_line_at_one_second(adis) -> N
     15 % of the fit; the z axis' 20 Hz tone no longer lifts it (it read 3.10 deg/sqrt(h))."""
     for name, a in adis.items():
         f = a.figures
-        line = float(np.exp(np.interp(0.0, np.log(a.allan.tau_s), np.log(a.allan.adev * np.sqrt(a.allan.tau_s)))))
+        line = float(
+            np.exp(
+                np.interp(0.0, np.log(a.allan.tau_s), np.log(a.allan.adev * np.sqrt(a.allan.tau_s)))
+            )
+        )
         assert f.arw_deg_rt_h == pytest.approx(line * 60.0, rel=0.1), name
         assert f.arw_deg_rt_h == pytest.approx(f.arw_fit_deg_rt_h, rel=0.15), name
         low, high = f.arw_ci_deg_rt_h
@@ -139,4 +154,6 @@ def test_adis16405_tone_and_output_filter_are_recognised(adis) -> None:
         assert zone.tau_low_s == pytest.approx(0.01) and zone.tau_high_s < 0.1
         assert a.figures.arw_tau_range_s[0] > zone.tau_high_s
     # the z axis' bias instability read-off is not a flicker floor, and review says so
-    assert any(r.startswith("bias instability") and "not a flicker floor" in r for r in z.figures.review)
+    assert any(
+        r.startswith("bias instability") and "not a flicker floor" in r for r in z.figures.review
+    )

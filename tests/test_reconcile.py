@@ -50,7 +50,9 @@ from station.storage.csv_records import read_csv_record
 
 FS_HZ = 10.0
 DURATION_S = 3600.0
-BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base")
+BASE = NoiseModel(
+    terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base"
+)
 #: White-noise standard deviation per sample, deg/h.
 SIGMA_W_DEG_H = 0.5 * 60.0 * math.sqrt(FS_HZ)
 HIDDEN_VARIANCE_RATIO = 0.1
@@ -61,7 +63,9 @@ def cache() -> ComparisonCache:
     return ComparisonCache()
 
 
-def run_of(model: NoiseModel, seed: int, duration_s: float = DURATION_S) -> tuple[np.ndarray, np.ndarray | None]:
+def run_of(
+    model: NoiseModel, seed: int, duration_s: float = DURATION_S
+) -> tuple[np.ndarray, np.ndarray | None]:
     chunk = simulate(model, duration_s, FS_HZ, seed=seed)
     return chunk.rate_deg_s[:, 0], chunk.temperature_c
 
@@ -72,7 +76,9 @@ def hidden_variance_ratio(effect: NoiseTerm, seed: int, duration_s: float = DURA
     return float(np.var(alone * 3600.0) / SIGMA_W_DEG_H**2)
 
 
-def realized_steps(effect: BiasSteps, seed: int, duration_s: float = DURATION_S) -> tuple[np.ndarray, np.ndarray]:
+def realized_steps(
+    effect: BiasSteps, seed: int, duration_s: float = DURATION_S
+) -> tuple[np.ndarray, np.ndarray]:
     """Times (s) and sizes (deg/h) of the steps hidden in this seed's run."""
     alone, _ = run_of(NoiseModel(terms=(effect,)), seed, duration_s)
     d = np.diff(alone * 3600.0)
@@ -159,7 +165,13 @@ def test_a_hidden_effect_is_named_recovered_and_shrinks_the_gap(name, cache):
             assert found.events
             for t, s in found.events:
                 i = int(np.argmin(np.abs(times - t)))
-                assert abs(times[i] - t) < 60.0 and abs(s / sizes[i] - 1.0) < spec.rel_tol, (seed, t, s, times, sizes)
+                assert abs(times[i] - t) < 60.0 and abs(s / sizes[i] - 1.0) < spec.rel_tol, (
+                    seed,
+                    t,
+                    s,
+                    times,
+                    sizes,
+                )
         else:
             want = getattr(effect, spec.key)
             got = found.params[spec.key]
@@ -173,7 +185,10 @@ def test_two_hidden_effects_are_both_named(cache):
         rng = np.random.default_rng(seed)
         sinusoid, walk = _sinusoid(rng), _rate_random_walk(rng)
         res = reconcile_run(BASE.with_term(sinusoid).with_term(walk), seed, cache)
-        assert sorted(e.name for e in res.effects) == ["rate_random_walk", "sinusoid"], (seed, res.rounds)
+        assert sorted(e.name for e in res.effects) == ["rate_random_walk", "sinusoid"], (
+            seed,
+            res.rounds,
+        )
         assert res.gap_before >= 5.0 * res.gap_after
         period = next(e for e in res.effects if e.name == "sinusoid").params["period_s"]
         assert period == pytest.approx(sinusoid.period_s, rel=0.02)
@@ -207,7 +222,10 @@ def test_a_term_the_data_do_not_have_at_all_is_reported(cache):
     extra = BASE.with_term(GaussMarkov(sigma_deg_h=0.3 * SIGMA_W_DEG_H, tau_s=50.0))
     res = reconcile_run(BASE, 603, cache, start=extra)
     assert [e.name for e in res.excess] == ["gauss_markov"], res.rounds
-    assert "gauss_markov" not in res.model_after or res.model_after.get("gauss_markov").sigma_deg_h < 0.1 * SIGMA_W_DEG_H
+    assert (
+        "gauss_markov" not in res.model_after
+        or res.model_after.get("gauss_markov").sigma_deg_h < 0.1 * SIGMA_W_DEG_H
+    )
 
 
 # ------------------------------------------------------------------------------ pieces
@@ -264,7 +282,9 @@ def test_the_adis16405_z_tone_is_named_a_sinusoid_near_nyquist():
     wanders, is named a sinusoid with its period, and the gap shrinks more than 5-fold
     (the whole record: README, "Model versus measurement")."""
     rate = read_csv_record(ADIS_RECORD, sample_rate_hz=100.0).rate_deg_s[:100_000, 2]
-    model = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=2.0), GaussMarkov(sigma_deg_h=25.83, tau_s=100.0)))
+    model = NoiseModel(
+        terms=(AngleRandomWalk(N_deg_rt_h=2.0), GaussMarkov(sigma_deg_h=25.83, tau_s=100.0))
+    )
     result = reconcile(rate, 100.0, model)
     sine = next(e for e in result.effects if e.name == "sinusoid")
     assert 1 / 23.5 < sine.params["period_s"] < 1 / 17.0

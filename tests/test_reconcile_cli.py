@@ -14,7 +14,9 @@ from station import cli
 from station.storage.csv_records import write_csv_record
 
 FS_HZ = 10.0
-BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base")
+BASE = NoiseModel(
+    terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)), name="base"
+)
 #: A sinusoid of 0.28 sigma_w amplitude (variance 0.04 sigma_w^2): invisible in the rate plot.
 HIDDEN = Sinusoid(amplitude_deg_h=0.28 * 0.5 * 60.0 * np.sqrt(FS_HZ), period_s=83.0, phase_deg=30.0)
 
@@ -58,7 +60,9 @@ def test_json_names_the_hidden_sinusoid_with_units_in_the_keys(files, capsys):
 
 def test_model_after_loads_back_as_a_model(files, capsys, tmp_path):
     _, record, model = files
-    rc, out, _ = _run(capsys, "reconcile", str(record), "--model", str(model), "--axis", "gyro_y", "--json")
+    rc, out, _ = _run(
+        capsys, "reconcile", str(record), "--model", str(model), "--axis", "gyro_y", "--json"
+    )
     assert rc == 0
     after = NoiseModel.from_tables(json.loads(out)["model_after"])
     assert "sinusoid" in after and "arw" in after
@@ -76,7 +80,9 @@ def test_text_report_tells_each_step(files, capsys):
 def test_a_model_that_fits_reports_no_effect(files, capsys, tmp_path):
     _, record, _ = files
     full = save_noise_model(BASE.with_term(HIDDEN), tmp_path / "full.toml")
-    rc, out, _ = _run(capsys, "reconcile", str(record), "--model", str(full), "--axis", "gyro_x", "--json")
+    rc, out, _ = _run(
+        capsys, "reconcile", str(record), "--model", str(full), "--axis", "gyro_x", "--json"
+    )
     assert rc == 0
     doc = json.loads(out)
     assert doc["effects"] == [] and doc["excess_terms"] == []

@@ -11,9 +11,9 @@ import h5py
 import pytest
 
 from station.cli import main
-from station.hdf5 import read_run
+from station.model.durations import parse_duration
 from station.model.profiles import PROFILE_DIR
-from station.recorder import parse_duration
+from station.storage.hdf5 import read_run
 from tests.test_recorder_helpers import (
     assert_summary_books,
     start_recorder,
@@ -91,7 +91,7 @@ def test_a_run_that_reached_its_duration_is_complete_and_closed(two_runs) -> Non
         assert f.attrs["stop_reason"].decode() == "duration"
         assert f.attrs["operator"] == "tester" and f.attrs["lot"] == "L7"
     run = read_run(path)
-    assert not run.interrupted and run.operator == "tester"
+    assert not run.interrupted and run.metadata.operator == "tester"
     for unit, obj in zip(run.units, summaries(out), strict=True):
         assert unit.record.n_samples == obj["samples_recorded"]
         # recorded + declared missing samples span the run, in simulated seconds
@@ -163,7 +163,7 @@ def test_progress_line_shows_counts_and_allan_deviation_at_1_s_and_100_s() -> No
 
     from devices.protocols import DeviceDescription
     from station.model.documents import Descriptor, EventBatch, LogEntry, RunStart, data_keys
-    from station.progress import ProgressLine
+    from station.recording.progress import ProgressLine
 
     rate_hz, n = 50.0, 50 * 400
     stream = io.StringIO()

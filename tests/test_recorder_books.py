@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import pytest
 
-from station.hdf5 import gap_bounds, open_run_file, read_unit
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import gap_bounds, open_run_file, read_unit
 from tests.devices.helpers import multicast_unavailable
 from tests.test_recorder_helpers import assert_books
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.hdf5 import open_run_file, read_run, read_unit
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import open_run_file, read_run, read_unit
 from tests.devices.helpers import multicast_unavailable
 
 WARP = 8

@@ -15,7 +15,7 @@ import h5py
 import numpy as np
 
 from devices.sim.signal import SignalSource
-from station.hdf5 import open_run_file, read_unit, run_state
+from station.storage.hdf5 import open_run_file, read_unit, run_state
 
 #: Keys of one ``--json-summary`` object, exactly (issue 6, and the bounds of issue 21).
 SUMMARY_KEYS = {"unit", "samples_recorded", "samples_missing_declared", "samples_missing_low",

@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from station.cli import main
-from station.hdf5 import REASON_RECOVERED, read_run
+from station.storage.hdf5 import REASON_RECOVERED, read_run
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
     data_lost_s,

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from station.hdf5 import REASON_END_OF_REPLAY, open_run_file, read_run, read_unit
 from station.model.profiles import load_profile
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import REASON_END_OF_REPLAY, open_run_file, read_run, read_unit
 
 UNITS = (
     "sim+serial://STIM300?protocol=stim300&rate=100&warp=2&seed=3&drop=0.01"

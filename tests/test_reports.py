@@ -13,7 +13,7 @@ from pypdf import PdfReader
 from station.cli import main
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
-from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
 from station.output.report import FORMATS, write_report
 from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
 from station.storage.runs import read_record
@@ -37,7 +37,9 @@ unit = "deg/h^1.5"
 def graded(tmp_path_factory) -> RunGrade:
     """A run of two units (x and y axes each), the second with gaps and a resync in its log."""
     d = tmp_path_factory.mktemp("reports")
-    profile = load_profile(write_profile(d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES)))
+    profile = load_profile(
+        write_profile(d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES))
+    )
     units = []
     for i, serial in enumerate(("SN-1001", "SN-1002")):
         record = read_record(make_record(d / f"u{i}.csv", n=9_000, seed=20 + i, n_axes=2))
@@ -45,8 +47,9 @@ def graded(tmp_path_factory) -> RunGrade:
             RunEvent(f"u{i}", "gap", 120.5, missing_samples=40), RunEvent(f"u{i}", "resync", 120.6),
             RunEvent(f"u{i}", "gap", 400.0, missing_samples=3))
         units.append(UnitRun(f"u{i}", "TG-1", serial, record, events=events))
-    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), profile="TEST", operator="A. Tester",
-                  lot="LOT-7", station_host="bench-3", software_version="0.1.0",
+    metadata = RunMetadata(profile="TEST", operator="A. Tester", lot="LOT-7",
+                           station_host="bench-3", software_version="0.1.0")
+    run = RunInfo(path=str(d / "run-0042.h5"), units=tuple(units), metadata=metadata,
                   start_utc="2026-11-20T08:00:00Z", stop_utc="2026-11-20T08:15:00Z")
     return grade_run(run, profile)
 
@@ -93,7 +96,9 @@ def test_html_is_self_contained_with_the_figures(graded: RunGrade, tmp_path: Pat
     parser = _FigureTable()
     parser.feed(path.read_text(encoding="utf-8"))
     assert [s["data-grade"] for s in parser.sections] == [u.grade for u in graded.units]
-    assert len(parser.images) == 4 and all(src.startswith("data:image/png;base64,") for src in parser.images)
+    assert len(parser.images) == 4 and all(
+        src.startswith("data:image/png;base64,") for src in parser.images
+    )
     assert len(parser.rows) == 2 * 2 * 3  # units x axes x figures
     first = graded.units[0].axis("x")
     row = next(r for r in parser.rows if r["data-axis"] == "x" and r["data-figure"] == "arw")
@@ -124,10 +129,23 @@ def test_json_follows_the_schema(graded: RunGrade, tmp_path: Path) -> None:
             assert a["figures"]["arw"]["verdict"] in ("pass", "fail", "indeterminate")
             assert len(a["allan"]["tau_s"]) == len(a["allan"]["adev_deg_h"]) > 10
             assert "N_deg_rt_h" in a["fit"]
-    assert doc["units"][1]["events"] == {"has_log": True, "counts": {"gap": 2, "resync": 1}, "gaps": 2,
-                                         "missing_samples": 43, "stop_reason": "", "interrupted": False}
+    assert doc["units"][1]["events"] == {
+        "has_log": True,
+        "counts": {"gap": 2, "resync": 1},
+        "gaps": 2,
+        "missing_samples": 43,
+        "stop_reason": "",
+        "interrupted": False,
+    }
     doc_text = (Path(__file__).resolve().parents[1] / "docs" / "report-json-schema.md").read_text()
-    for key in ("schema_version", "ci_low", "deciding_grade", "could_reach", "adev_deg_h", "missing_samples"):
+    for key in (
+        "schema_version",
+        "ci_low",
+        "deciding_grade",
+        "could_reach",
+        "adev_deg_h",
+        "missing_samples",
+    ):
         assert f"`{key}`" in doc_text, key  # every key the document has is documented
 
 
@@ -146,7 +164,17 @@ def test_report_command_writes_every_format(tmp_path: Path, capsys) -> None:
     record = make_record(tmp_path / "bench.csv", n=6_000, seed=4)
     profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
     out = tmp_path / "out"
-    args = ["report", str(record), "--profile", str(profile), "--out", str(out), "--no-store", "--serial", "S9"]
+    args = [
+        "report",
+        str(record),
+        "--profile",
+        str(profile),
+        "--out",
+        str(out),
+        "--no-store",
+        "--serial",
+        "S9",
+    ]
     for fmt in ("pdf", "json"):  # html and csv: written the same way, checked above
         args += ["--format", fmt]
     assert main(args) == 0
@@ -166,16 +194,44 @@ def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
     models = Path(__file__).resolve().parents[1] / "profiles" / "models" / "CRG20.toml"
     urls = [f"sim+serial://CRG20?model={models}&protocol=stim300&rate=10&warp=100&seed={seed}{extra}"
             for seed, extra in ((1, "&drop=0.002"), (2, ""))]
-    cmd = [sys.executable, "-m", "station.commands.record", "--duration", "5m", "--out", str(tmp_path / "runs"),
-           "--lot", "LOT-H5", "--operator", "recorder-test", "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "station.commands.record",
+        "--duration",
+        "5m",
+        "--out",
+        str(tmp_path / "runs"),
+        "--lot",
+        "LOT-H5",
+        "--operator",
+        "recorder-test",
+        "--quiet",
+    ]
     for url in urls:
         cmd += ["--unit", url]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     run_file = next((tmp_path / "runs").glob("*.h5"))
     out = tmp_path / "out"
-    assert main(["report", str(run_file), "--profile", "CRG20", "--format", "pdf", "--format", "json",
-                 "--out", str(out), "--no-store"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(run_file),
+                "--profile",
+                "CRG20",
+                "--format",
+                "pdf",
+                "--format",
+                "json",
+                "--out",
+                str(out),
+                "--no-store",
+            ]
+        )
+        == 0
+    )
     doc = json.loads(next(out.glob("*.json")).read_text())
     assert [u["header"]["Lot"] for u in doc["units"]] == ["LOT-H5", "LOT-H5"]
     assert all(u["serial_number"] and u["events"]["has_log"] for u in doc["units"])

@@ -1,4 +1,5 @@
-"""The WLS paper's Monte Carlo: the alternative ways of simulating its gyros hold their Allan level."""
+"""The WLS paper's Monte Carlo: the alternative ways of simulating its gyros hold their Allan
+level."""
 
 from __future__ import annotations
 
@@ -17,8 +18,17 @@ def test_each_bias_generator_reaches_the_papers_allan_level(bias_noise: str) -> 
     setup = Lv2015Setup(duration_s=3600.0, bias_noise=bias_noise, markov_correlation_s=10.0)
     level = (0.664 * TRUE["B"] / 3600.0) ** 2
     taus = np.array([1.0, 3.0, 10.0, 19.0, 30.0, 100.0])
-    avar = np.mean([overlapping_allan_variance(simulate_paper_gyro(TRUE, np.random.default_rng(s), setup),
-                                               setup.sample_rate_hz, taus=taus).avar for s in range(4)], axis=0)
+    avar = np.mean(
+        [
+            overlapping_allan_variance(
+                simulate_paper_gyro(TRUE, np.random.default_rng(s), setup),
+                setup.sample_rate_hz,
+                taus=taus,
+            ).avar
+            for s in range(4)
+        ],
+        axis=0,
+    )
     if bias_noise == "markov":
         # one Gauss-Markov process: its Allan variance peaks at 0.664 B near tau = 1.89 T
         assert np.argmax(avar) == 3 and avar[3] == pytest.approx(level, rel=0.1)

@@ -1,4 +1,5 @@
-"""Streaming simulation: seams, seeds, shapes, memory, and each term's Allan variance by Monte Carlo."""
+"""Streaming simulation: seams, seeds, shapes, memory, and each term's Allan variance by Monte
+Carlo."""
 
 from __future__ import annotations
 
@@ -29,14 +30,27 @@ from analysis.simulate import GyroSimulator, SimulatedChunk, simulate
 from devices.model_files import load_noise_model
 
 FS = 10.0
-EVERYTHING = NoiseModel(terms=(
-    Quantization(Q_urad=50.0), AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=20.0),
-    RateRandomWalk(K_deg_h_1_5=30.0), RateRamp(R_deg_h2=100.0), GaussMarkov(sigma_deg_h=10.0, tau_s=5.0),
-    Sinusoid(amplitude_deg_h=10.0, period_s=13.0, phase_deg=10.0), Bias(value_deg_h=36.0),
-    TemperatureBias(coefficient_deg_s_per_c=1e-3, start_c=15.0, final_c=30.0, warmup_s=60.0,
-                    cycle_amplitude_c=1.0, cycle_period_s=100.0),
-    BiasSteps(rate_per_h=360.0, size_deg_h=20.0),
-))
+EVERYTHING = NoiseModel(
+    terms=(
+        Quantization(Q_urad=50.0),
+        AngleRandomWalk(N_deg_rt_h=0.5),
+        BiasInstability(B_deg_h=20.0),
+        RateRandomWalk(K_deg_h_1_5=30.0),
+        RateRamp(R_deg_h2=100.0),
+        GaussMarkov(sigma_deg_h=10.0, tau_s=5.0),
+        Sinusoid(amplitude_deg_h=10.0, period_s=13.0, phase_deg=10.0),
+        Bias(value_deg_h=36.0),
+        TemperatureBias(
+            coefficient_deg_s_per_c=1e-3,
+            start_c=15.0,
+            final_c=30.0,
+            warmup_s=60.0,
+            cycle_amplitude_c=1.0,
+            cycle_period_s=100.0,
+        ),
+        BiasSteps(rate_per_h=360.0, size_deg_h=20.0),
+    )
+)
 
 
 def _read_in_pieces(sim: GyroSimulator, sizes: list[int]) -> SimulatedChunk:
@@ -57,12 +71,18 @@ def test_chunks_join_without_seams_whatever_the_cut():
     np.testing.assert_allclose(pieces.rate_deg_s, one_shot.rate_deg_s, rtol=1e-12, atol=1e-15)
     np.testing.assert_array_equal(pieces.t_s, one_shot.t_s)
     np.testing.assert_allclose(pieces.temperature_c, one_shot.temperature_c, rtol=1e-12)
-    assert np.allclose(simulate(EVERYTHING, 300.0, FS, n_axes=3, seed=11).rate_deg_s, one_shot.rate_deg_s,
-                       rtol=1e-12, atol=1e-15)
+    assert np.allclose(
+        simulate(EVERYTHING, 300.0, FS, n_axes=3, seed=11).rate_deg_s,
+        one_shot.rate_deg_s,
+        rtol=1e-12,
+        atol=1e-15,
+    )
 
 
 def test_a_seed_reproduces_a_run_and_terms_keep_their_draws_when_others_are_added():
-    base = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=5.0, tau_s=3.0)))
+    base = NoiseModel(
+        terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=5.0, tau_s=3.0))
+    )
     a = simulate(base, 100.0, FS, n_axes=2, seed=5).rate_deg_s
     assert np.array_equal(a, simulate(base, 100.0, FS, n_axes=2, seed=5).rate_deg_s)
     assert not np.allclose(a, simulate(base, 100.0, FS, n_axes=2, seed=6).rate_deg_s)
@@ -74,7 +94,9 @@ def test_a_seed_reproduces_a_run_and_terms_keep_their_draws_when_others_are_adde
 
 
 def test_chunk_fields_and_argument_checks():
-    sim = GyroSimulator(NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0),)), 50.0, n_axes=2, seed=1)
+    sim = GyroSimulator(
+        NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0),)), 50.0, n_axes=2, seed=1
+    )
     assert not sim.has_temperature
     first = sim.read(5)
     assert first.rate_deg_s.shape == (5, 2) and first.temperature_c is None
@@ -95,8 +117,15 @@ def test_chunk_fields_and_argument_checks():
 
 
 def test_temperature_channel_drives_the_bias_linearly():
-    term = TemperatureBias(coefficient_deg_s_per_c=2e-3, reference_c=20.0, start_c=10.0, final_c=30.0,
-                           warmup_s=30.0, cycle_amplitude_c=0.5, cycle_period_s=50.0)
+    term = TemperatureBias(
+        coefficient_deg_s_per_c=2e-3,
+        reference_c=20.0,
+        start_c=10.0,
+        final_c=30.0,
+        warmup_s=30.0,
+        cycle_amplitude_c=0.5,
+        cycle_period_s=50.0,
+    )
     run = simulate(NoiseModel(terms=(term,)), 300.0, FS, n_axes=2)
     assert run.temperature_c[0] == pytest.approx(10.0, abs=0.5)
     assert run.temperature_c[-1] == pytest.approx(30.0, abs=0.6)
@@ -185,7 +214,9 @@ def test_each_deterministic_term_matches_its_exact_allan_variance(term):
     run = simulate(model, N_SAMPLES / FS, FS)
     res = overlapping_allan_variance(run.rate_deg_s[:, 0], FS, taus="octave")
     # the estimator sums over sample starts, the closed form integrates: 0.1 % apart
-    np.testing.assert_allclose(res.avar, model.avar(res.tau_s, duration_s=N_SAMPLES / FS), rtol=2e-3)
+    np.testing.assert_allclose(
+        res.avar, model.avar(res.tau_s, duration_s=N_SAMPLES / FS), rtol=2e-3
+    )
 
 
 def test_constant_bias_has_no_allan_variance():
@@ -236,4 +267,6 @@ def test_a_stream_joined_from_chunks_stays_in_the_confidence_band_of_the_preset_
         wrong = model.with_term(AngleRandomWalk(N_deg_rt_h=1.3 * model.get("arw").N_deg_rt_h))
         wrong_theory = wrong.avar(res.tau_s, duration_s=3600.0)
         short = res.tau_s < 1.0
-        assert not np.any((res.ci_low[short] <= wrong_theory[short]) & (wrong_theory[short] <= res.ci_high[short]))
+        assert not np.any(
+            (res.ci_low[short] <= wrong_theory[short]) & (wrong_theory[short] <= res.ci_high[short])
+        )

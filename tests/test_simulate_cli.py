@@ -15,9 +15,9 @@ from analysis.simulate import GyroSimulator
 from devices.model_files import load_noise_model
 from station import cli
 from station.commands.arguments import duration_type
-from station.hdf5 import read_run, read_run_record
 from station.services import simulate as simulate_service
 from station.storage.csv_records import read_csv_record
+from station.storage.hdf5 import read_run, read_run_record
 
 
 def _run(capsys, *argv: str) -> tuple[int, str, str]:
@@ -39,7 +39,17 @@ def test_simulate_a_preset_writes_the_simulators_run(tmp_path, capsys):
 
 
 def test_long_runs_are_written_in_chunks_identical_to_one_piece(tmp_path, capsys, monkeypatch):
-    args = ["simulate", "--model", "mems-typical", "--duration", "500s", "--rate", "20", "--seed", "4"]
+    args = [
+        "simulate",
+        "--model",
+        "mems-typical",
+        "--duration",
+        "500s",
+        "--rate",
+        "20",
+        "--seed",
+        "4",
+    ]
     whole, pieces = tmp_path / "whole.csv", tmp_path / "pieces.csv.gz"
     assert _run(capsys, *args, "--out", str(whole))[0] == 0
     monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
@@ -54,9 +64,26 @@ def test_long_runs_are_written_in_chunks_identical_to_one_piece(tmp_path, capsys
 
 def test_simulate_from_two_indicators(tmp_path, capsys):
     out = tmp_path / "fog.csv"
-    rc, _, err = _run(capsys, "simulate", "--arw", "0.01", "--bias-stability", "0.1", "--average-s", "100",
-                      "--correlation-s", "50", "--duration", "1h", "--rate", "1", "--seed", "3",
-                      "--out", str(out))
+    rc, _, err = _run(
+        capsys,
+        "simulate",
+        "--arw",
+        "0.01",
+        "--bias-stability",
+        "0.1",
+        "--average-s",
+        "100",
+        "--correlation-s",
+        "50",
+        "--duration",
+        "1h",
+        "--rate",
+        "1",
+        "--seed",
+        "3",
+        "--out",
+        str(out),
+    )
     assert rc == 0, err
     record = read_csv_record(out)
     model = fog_from_indicators(0.01, 0.1, average_s=100.0, correlation_s=50.0).noise_model()
@@ -67,8 +94,22 @@ def test_simulate_from_two_indicators(tmp_path, capsys):
 def test_simulate_writes_a_run_file_in_the_recorders_layout(tmp_path, capsys, monkeypatch):
     out = tmp_path / "run.h5"
     monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 700)
-    rc, _, err = _run(capsys, "simulate", "--model", "mems-typical", "--duration", "200s", "--rate", "10",
-                      "--seed", "8", "--axes", "3", "--out", str(out))
+    rc, _, err = _run(
+        capsys,
+        "simulate",
+        "--model",
+        "mems-typical",
+        "--duration",
+        "200s",
+        "--rate",
+        "10",
+        "--seed",
+        "8",
+        "--axes",
+        "3",
+        "--out",
+        str(out),
+    )
     assert rc == 0, err
     record = read_run_record(out)
     want = GyroSimulator(load_noise_model("mems-typical"), 10.0, n_axes=3, seed=8).read(2000)
@@ -77,7 +118,9 @@ def test_simulate_writes_a_run_file_in_the_recorders_layout(tmp_path, capsys, mo
     assert record.axis_names == ("gyro_x", "gyro_y", "gyro_z") and record.sample_rate_hz == 10.0
     info = read_run(out)
     assert not info.interrupted and info.units[0].model == "mems-typical"
-    rc, _, err = _run(capsys, "simulate", "--model", "VG951", "--duration", "10s", "--out", str(out))
+    rc, _, err = _run(
+        capsys, "simulate", "--model", "VG951", "--duration", "10s", "--out", str(out)
+    )
     assert rc == 2 and "never overwritten" in err
 
 
@@ -143,7 +186,9 @@ def test_model_curve_explicit_taus_table_and_file(tmp_path, capsys):
 
 def test_model_fog_writes_a_model_that_loads_back(tmp_path, capsys):
     out = tmp_path / "fog.toml"
-    rc, _, _ = _run(capsys, "model", "fog", "--arw", "0.001", "--bias-stability", "0.007", "--out", str(out))
+    rc, _, _ = _run(
+        capsys, "model", "fog", "--arw", "0.001", "--bias-stability", "0.007", "--out", str(out)
+    )
     assert rc == 0
     assert load_noise_model(out) == fog_from_indicators(0.001, 0.007).noise_model()
     rc, text, _ = _run(capsys, "model", "show", str(out))

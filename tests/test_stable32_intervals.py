@@ -24,9 +24,19 @@ GPS = ("gps", "gps_1pps_phase_data.txt.gz",
        ["stable32_ADEV_decade.txt", "stable32_OADEV_octave.txt", "stable32_MDEV_octave.txt",
         "stable32_TDEV_octave.txt", "stable32_HDEV_octave.txt", "stable32_OHDEV_octave.txt",
         "stable32_TOTDEV_octave.txt"])
-CS = ("Cs5071A", "5071A_phase.txt.gz",
-      ["adev_decade.txt", "oadev_decade.txt", "mdev_decade.txt", "tdev_decade.txt", "hdev_decade.txt",
-       "ohdev_decade.txt", "totdev_decade.txt"])
+CS = (
+    "Cs5071A",
+    "5071A_phase.txt.gz",
+    [
+        "adev_decade.txt",
+        "oadev_decade.txt",
+        "mdev_decade.txt",
+        "tdev_decade.txt",
+        "hdev_decade.txt",
+        "ohdev_decade.txt",
+        "totdev_decade.txt",
+    ],
+)
 CASES = [(folder, data, name) for folder, data, names in (GPS, CS) for name in names]
 #: Every tau of the Cs5071A total deviation lists alpha = 0, where Stable32's automatic
 #: identification of the same record (every other statistic in tests/Cs5071A) gives 2 at
@@ -57,7 +67,9 @@ def _print_rounding(rows) -> np.ndarray:
 
 
 @pytest.mark.parametrize("folder,data,name", [c for c in CASES if (c[0], c[2]) not in FIXED_TYPE])
-def test_noise_type_is_stable32s_where_the_lag1_method_applies(allantools_tests, folder, data, name):
+def test_noise_type_is_stable32s_where_the_lag1_method_applies(
+    allantools_tests, folder, data, name
+):
     """Riley and Greenhall's lag-1 autocorrelation method, as Stable32 runs it, gives
     Stable32's type at every tau with at least 30 decimated points (FIXED_TYPE runs, whose
     types were set by hand, are left out)."""
@@ -69,7 +81,9 @@ def test_noise_type_is_stable32s_where_the_lag1_method_applies(allantools_tests,
 
 
 @pytest.mark.parametrize("folder,data,name", CASES)
-def test_edf_for_stable32s_noise_type_gives_stable32s_interval(allantools_tests, folder, data, name):
+def test_edf_for_stable32s_noise_type_gives_stable32s_interval(
+    allantools_tests, folder, data, name
+):
     """With the noise type Stable32 lists, our edf (computed from the structure function;
     NIST SP 1065 Table 7 for total) gives its interval within 2 % (plus what the printed
     digits leave open: 3 % more on the narrowest interval). Not compared: total
@@ -120,7 +134,9 @@ def test_intervals_are_within_a_factor_of_two_of_stable32s(allantools_tests, fol
     else:
         ratio = _width_ratio(ours.deviation_ci_low, ours.deviation_ci_high, rows)
     skip = np.isin(rows[:, 0].astype(int), sorted(EXCEPTIONS.get((folder, name), set())))
-    assert np.all((ratio[~skip] >= 0.5) & (ratio[~skip] <= 2.0)), dict(zip(rows[:, 0].astype(int), ratio.round(2), strict=True))
+    assert np.all((ratio[~skip] >= 0.5) & (ratio[~skip] <= 2.0)), dict(
+        zip(rows[:, 0].astype(int), ratio.round(2), strict=True)
+    )
     # the exceptions are wider than Stable32's (ours errs on the safe side there)
     assert np.all(ratio[skip] > 1.0), ratio[skip]
 

@@ -26,7 +26,8 @@ N_SAMPLES = 100_000
 
 
 def coloured_noise(seed: int, kind: str) -> np.ndarray:
-    """White rate noise (2 deg/sqrt(h)) plus one coloured noise strong enough to shape the spectrum."""
+    """White rate noise (2 deg/sqrt(h)) plus one coloured noise strong enough to shape the
+    spectrum."""
     rng = np.random.default_rng(seed)
     x = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(2.0), N_SAMPLES, FS_HZ, rng)
     if kind == "quantization":  # white angle noise: the rate spectrum rises as f^2 to Nyquist
@@ -51,7 +52,10 @@ def test_no_tone_in_coloured_noise(kind: str) -> None:
 def test_a_sinusoid_is_found_with_its_frequency_and_amplitude() -> None:
     x = coloured_noise(0, "flicker")
     t = np.arange(N_SAMPLES) / FS_HZ
-    amplitude, freq = 0.05, 7.3  # deg/s: its power is a tenth of the white noise's in the whole band
+    amplitude, freq = (
+        0.05,
+        7.3,
+    )  # deg/s: its power is a tenth of the white noise's in the whole band
     tones = find_tones(x + amplitude * np.sin(2 * np.pi * freq * t + 0.4), FS_HZ)
     assert len(tones) == 1
     tone = tones[0]

@@ -20,7 +20,7 @@ from textual.widgets import DataTable, Input, Select
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
-from station.hdf5_writer import RunFileWriter
+from station.errors import Problem
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -30,16 +30,15 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.profiles import anchored_model
+from station.model.runs import RunMetadata
+from station.services.record import RecordRequest, recorder_arguments, simulated_unit_url
+from station.storage.hdf5_writer import RunFileWriter
 from station.tui.app import StationApp, TuiSettings
 from station.tui.browse_screens import ResultsScreen, RunsScreen
-from station.tui.launcher import (
-    RunRequest,
-    probe_message,
-    recorder_arguments,
-    recorder_message,
-)
 from station.tui.live import RunPoller, decimate
-from station.tui.setup_screen import SetupScreen, anchored_model, duration_text, sim_url
+from station.tui.messages import for_the_form
+from station.tui.setup_screen import SetupScreen, duration_text
 from station.tui.spec_screen import SpecSheetScreen
 from station.tui.widgets import interval_text
 
@@ -51,8 +50,8 @@ def write_run(path: Path, *, duration_s: float = 1800.0, close: bool = True) -> 
     """A two-unit VG951 run file written from run documents (no device, no recorder)."""
     writer = RunFileWriter(path, flush_interval_s=0.5)
     writer(RunStart("uid-tui", "2026-11-20T08:00:00Z", ("unit1", "unit2"), duration_s, str(path),
-                    profile="VG951", profile_version="1", operator="ann", lot="LOT-9",
-                    station_host="bench", software_version="0.1.0"))
+                    RunMetadata(profile="VG951", profile_version="1", operator="ann",
+                                lot="LOT-9", station_host="bench", software_version="0.1.0")))
     for i, uid in enumerate(("unit1", "unit2")):
         d = DeviceDescription(model="VG951", serial_number=f"SN-{i + 1}", protocol="stim300",
                               transport="serial", axes=("x", "y", "z"), sample_rate_hz=RATE_HZ,
@@ -111,26 +110,25 @@ def cell_texts(table: DataTable) -> list[list[str]]:
 # -- helpers without the app ----------------------------------------------------------------
 
 def test_recorder_arguments_and_messages() -> None:
-    req = RunRequest(("sim+serial://A?seed=1", "sim+can://B"), "2h", Path("runs"), "VG951",
-                     "ann", "L1")
-    args = recorder_arguments(req, Path("runs/r.h5"))
-    assert args[:4] == ["--out", "runs/r.h5", "--duration", "2h"]
+    req = RecordRequest(("sim+serial://A?seed=1", "sim+can://B"), "2h", Path("runs/r.h5"),
+                        "VG951", "ann", "L1")
+    args = recorder_arguments(req)
+    assert args[:2] == ["--out", "runs/r.h5"] and args[args.index("--duration") + 1] == "2h"
     assert args.count("--unit") == 2 and args[args.index("--profile") + 1] == "VG951"
-    assert args[args.index("--lot") + 1] == "L1"
-    log = ("station record: error: the run was not started:\n"
-           "  unit1 (sim+serial://X): bad device URL: no model 'X'\n"
-           "  not enough space: choose another --out, or shorten --duration\n")
-    assert recorder_message(log) == ("unit1 (sim+serial://X): bad device URL: no model 'X'\n"
-                                     "not enough space: choose another runs folder, or "
-                                     "shorten duration")
-    assert probe_message(recorder_message(log), "sim+serial://X").startswith(
-        "bad device URL: no model 'X'\n")
+    assert args[args.index("--lot") + 1] == "L1" and "--bench" not in args
+    problem = Problem("not enough space: choose another --out, or shorten --duration")
+    assert for_the_form(str(problem)) == ("not enough space: choose another runs folder, or "
+                                          "shorten duration")
+    assert str(Problem("bad device URL", "unit1", "sim+serial://X")) == (
+        "unit1 (sim+serial://X): bad device URL")
 
 
 def test_sim_url_and_duration_text(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    url = sim_url("sim+serial://VG951?model=profiles/models/VG951.toml&rate=10", seed=3, warp=60)
+    url = simulated_unit_url("sim+serial://VG951?model=profiles/models/VG951.toml&rate=10",
+                             seed=3, warp=60)
     assert url == "sim+serial://VG951?model=profiles/models/VG951.toml&rate=10&seed=3&warp=60"
-    assert sim_url("serial:///dev/ttyUSB0", seed=1).startswith("sim+serial://VG951?")
+    assert simulated_unit_url("serial:///dev/ttyUSB0", seed=1, warp=60).startswith(
+        "sim+serial://VG951?")
     url = "sim+serial://VG951?model=profiles/models/VG951.toml&rate=10"
     monkeypatch.chdir(tmp_path)  # a folder without profiles/
     anchored = anchored_model(url)
@@ -149,7 +147,9 @@ def test_poller_reads_a_growing_file_incrementally(tmp_path: Path) -> None:
     assert [u.samples for u in first.units] == [36000, 36000]
     while not (snap := poller.poll()).caught_up:
         pass
-    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(1, abs=1e-3)
+    assert snap.elapsed_s == pytest.approx(3600, abs=0.2) and snap.fraction == pytest.approx(
+        1, abs=1e-3
+    )
     assert snap.units[1].gaps == 1 and snap.units[1].missing == 5
     assert snap.units[0].temperature_c == 31.5 and snap.units[0].model == "VG951"
     tau, adev = snap.adev[0].x, snap.adev[0].y
@@ -182,7 +182,9 @@ async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
         assert "N ARW (fit) [deg/sqrt(h)]" in labels and "|bias| [deg/h]" in labels
         assert {r[3] for r in rows} <= {"pass", "fail", "indeterminate", "info"}
         text = screen_text(app)
-        assert "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        assert (
+            "Spec sheet: run-stored.h5" in text and "SN-1: " in text and "axis x (1/1, n)" in text
+        )
         assert "N ARW (fit) [deg/sqrt(h)]" in text and "PDF (p)" in text
         assert all(r[4] in text for r in rows)  # the CI column fits in 80 columns
         sheet.query_one("#profile", Select).value = "CRG20"  # re-grade with another profile
@@ -241,8 +243,9 @@ async def _setup_checks(tmp_path: Path) -> None:
         await pilot.press("f6")  # a simulated unit that answers
         await until(pilot, lambda: all(setup.checks.values()), 60, "the unit checks")
         bad, good = (setup.checks[u] for u in setup.units)
-        assert not bad.ok and "bad device URL" in bad.message
-        assert good.ok and good.model == "VG951" and good.serial_number == "SIM-2"
+        assert not bad.ok and bad.message.startswith("bad device URL")  # without unit1 (URL)
+        assert good.ok and good.description is not None
+        assert good.description.model == "VG951" and good.description.serial_number == "SIM-2"
         assert "does not answer" in notifications(app)
         rows = cell_texts(setup.query_one("#units", DataTable))
         assert rows[1][2] == "ok: VG951 SIM-2, 10 Hz, 3 ax"

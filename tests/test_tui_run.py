@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from textual.widgets import DataTable, Input, ProgressBar
 
+from station.services.recorder_process import RecorderProcess, pid_alive
 from station.tui.app import StationApp, TuiSettings
-from station.tui.launcher import RecorderProcess, pid_alive
 from station.tui.live_screen import LiveScreen
 from station.tui.setup_screen import SetupScreen
 from station.tui.spec_screen import SpecSheetScreen

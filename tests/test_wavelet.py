@@ -1,4 +1,5 @@
-"""Haar wavelet variance: the Allan relation, each term's closed form by Monte Carlo, intervals, robustness.
+"""Haar wavelet variance: the Allan relation, each term's closed form by Monte Carlo, intervals,
+robustness.
 
 Monte Carlo records come from :mod:`analysis.simulate` (every sample the mean rate over its
 period, the convention of the closed forms) except the AR(1) term, which is point-sampled
@@ -135,10 +136,16 @@ def test_robust_wavelet_variance_resists_outliers_and_matches_on_clean_data():
     dirty[rng.choice(len(x), 20, replace=False)] += 200.0  # 0.1 % of samples, 200 sigma
     plain = haar_wavelet_variance(dirty, FS)
     hardy = haar_wavelet_variance(dirty, FS, robust=True)
-    plain_error, hardy_error = np.abs(plain.wv / clean.wv - 1)[:6], np.abs(hardy.wv / clean.wv - 1)[:6]
+    plain_error, hardy_error = (
+        np.abs(plain.wv / clean.wv - 1)[:6],
+        np.abs(hardy.wv / clean.wv - 1)[:6],
+    )
     assert np.all(plain_error > 2.0)
     # Huber's bias grows with the share of coefficients an outlier touches (2m per outlier)
-    assert np.all(hardy_error < 0.25) and np.all(hardy_error < 0.05 * plain_error), (hardy_error, plain_error)
+    assert np.all(hardy_error < 0.25) and np.all(hardy_error < 0.05 * plain_error), (
+        hardy_error,
+        plain_error,
+    )
 
 
 def test_bad_inputs_are_refused():
@@ -158,7 +165,10 @@ def test_gaps_leave_out_every_haar_window_that_holds_a_missing_sample():
     # the same coefficients, taken from the two stretches on their own
     parts = [x[:10_000], x[10_500:]]
     for j, m in enumerate(wv.m[:6]):
-        sums = [haar_wavelet_variance(p, FS, max_level=j + 1).wv[j] * (len(p) - 2 * m + 1) for p in parts]
+        sums = [
+            haar_wavelet_variance(p, FS, max_level=j + 1).wv[j] * (len(p) - 2 * m + 1)
+            for p in parts
+        ]
         count = sum(len(p) - 2 * m + 1 for p in parts)
         assert wv.wv[j] == pytest.approx(sum(sums) / count, rel=1e-9)
     assert wv.n_samples == 39_500 and wv.n_coefficients[0] == 39_500 - 2 * 1 + 1 - 1

@@ -73,8 +73,9 @@ class StreamCodec(Protocol[F]):
     def encode(self, frame: F) -> bytes:
         """Bytes of ``frame``: ``decode(encode(f)).frames == (f,)``."""
 
-    def to_reading(self, frame: F) -> Reading:
-        """Physical values of a frame."""
+    def to_reading(self, frame: F) -> Reading | None:
+        """Physical values of a frame (None: a frame that carries no reading, as an
+        acknowledgement or a status message)."""
 
     def from_reading(self, reading: Reading) -> F:
         """The frame a device would send for ``reading`` (quantized to the protocol)."""

@@ -58,7 +58,9 @@ class CanSignal:
     def quantize(self, value: float) -> int:
         """Nearest raw value of ``value`` (physical units), clipped to the width."""
         bits = 8 * self.length
-        lo, hi = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if self.signed else (0, (1 << bits) - 1)
+        lo, hi = (
+            (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if self.signed else (0, (1 << bits) - 1)
+        )
         return max(lo, min(hi, round(value / self.scale)))
 
 

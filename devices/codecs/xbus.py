@@ -193,7 +193,8 @@ class XbusCodec:
             raise FrameError(f"MTData2 message without a usable item: {exc}") from exc
 
     def from_reading(self, reading: Reading) -> XbusMessage:
-        """MTData2 message with PacketCounter, SampleTimeFine, RateOfTurn, Temperature, StatusWord."""
+        """MTData2 message with PacketCounter, SampleTimeFine, RateOfTurn, Temperature,
+        StatusWord."""
         stf = round((reading.device_time_s or 0.0) * SAMPLE_TIME_FINE_HZ) % 2**32
         values = {
             PACKET_COUNTER: (reading.counter % COUNTER_MODULUS,),

@@ -220,7 +220,21 @@ class SimulatorProcess:
         self.start_timeout_s = start_timeout_s
         self._clock = clock
         self._process: subprocess.Popen[bytes] | None = None
-        self.core: RemoteSimCore | None = None
+        self._core: RemoteSimCore | None = None
+
+    @property
+    def core(self) -> RemoteSimCore:
+        """The handle on the child's core.
+
+        Raises
+        ------
+        DeviceDisconnectedError
+            The simulator was not started.
+        """
+        if self._core is None:
+            raise DeviceDisconnectedError(f"{self.describe}: the simulator process was not "
+                                          f"started")
+        return self._core
 
     @property
     def pid(self) -> int | None:
@@ -256,7 +270,7 @@ class SimulatorProcess:
             conn.close()
             self._process.wait(5)
             raise DeviceConfigurationError(f"{self.describe}: {value}")
-        self.core = RemoteSimCore(conn, self._clock, self.describe)
+        self._core = RemoteSimCore(conn, self._clock, self.describe)
         return self
 
     def stop(self) -> None:
@@ -264,8 +278,8 @@ class SimulatorProcess:
         process = self._process
         if process is None:
             return
-        if self.core is not None and process.poll() is None:
-            self.core.close()
+        if self._core is not None and process.poll() is None:
+            self._core.close()
         try:
             process.wait(5)
         except subprocess.TimeoutExpired:

@@ -93,7 +93,9 @@ class SignalSource:
         self.model = model
         self.n_axes = n_axes
         self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed)
-        self._earth = None if earth_rate_deg_s is None else np.asarray(earth_rate_deg_s, dtype=float)
+        self._earth = (
+            None if earth_rate_deg_s is None else np.asarray(earth_rate_deg_s, dtype=float)
+        )
 
     def read(self, n_samples: int) -> SignalChunk:
         """The next ``n_samples`` samples of the signal."""

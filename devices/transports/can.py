@@ -20,8 +20,13 @@ class CanLink(Protocol):
     """What :class:`~devices.can_raw.CanRateSource` uses of a CAN transport (this
     module's :class:`CanTransport`, or a recording or replaying one)."""
 
-    interface: str
-    channel: str
+    @property
+    def interface(self) -> str:
+        """The python-can interface (``socketcan``, ``virtual``, ``udp_multicast``)."""
+
+    @property
+    def channel(self) -> str:
+        """The bus channel (``can0``, a virtual channel's name, a multicast group)."""
 
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:

@@ -30,16 +30,23 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command."""
-    p = sub.add_parser("analyze", help="Allan deviation, noise-term fit and spec figures of a record",
-                       description=__doc__)
+    p = sub.add_parser(
+        "analyze",
+        help="Allan deviation, noise-term fit and spec figures of a record",
+        description=__doc__,
+    )
     add_record_arguments(p)
     p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
                    help="Allan variance the fit and figures use (default overlapping; clusters "
                         "with --deviation adev)")
-    p.add_argument("--deviation", choices=DEVIATION_KINDS, default=None,
-                   help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
-                        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
-                        "Allan deviation. The fit and figures stay on the Allan variance")
+    p.add_argument(
+        "--deviation",
+        choices=DEVIATION_KINDS,
+        default=None,
+        help="deviation shown and listed (JSON tau_s/adev/adev_ci_*): oadev, adev (clusters), "
+        "mdev, hdev, ohdev, tdev (an angle), totdev, theo1; default the estimator's "
+        "Allan deviation. The fit and figures stay on the Allan variance",
+    )
     p.add_argument("--taus", choices=TAU_GRIDS, default="log",
                    help="tau grid: log-spaced to the longest tau with two clusters (default), "
                         "octaves, or every m")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from station.errors import UsageError
@@ -61,10 +60,12 @@ def add_bench_argument(p: argparse.ArgumentParser) -> None:
 
 
 def add_database_argument(p: argparse.ArgumentParser) -> None:
-    """``--db FILE``: the results database."""
-    p.add_argument("--db", type=Path, default=None, metavar="FILE",
-                   help="results database (default: $STATION_RESULTS_DB or "
-                        "~/.local/share/gyro-station)")
+    """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL."""
+    from station.output.results_backends import database_location
+
+    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
+                   help="results database: an SQLite file or a postgresql://USER@HOST/DB URL "
+                        "(default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
 
 
 def duration_type(text: str) -> float:

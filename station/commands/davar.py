@@ -57,7 +57,9 @@ def run(args: argparse.Namespace) -> int:
 
 def _verdict_text(verdict: WarmupVerdict) -> str:
     if verdict.stationary:
-        return "no warm-up; stationary (every window's Allan curve inside the band of the later ones)"
+        return (
+            "no warm-up; stationary (every window's Allan curve inside the band of the later ones)"
+        )
     if verdict.warmup_end_s is None:
         return "NOT settled: the Allan curve still changes within the last window length"
     return (f"warm-up ends at {verdict.warmup_end_s:g} s ({verdict.warmup_end_s / 3600:.2f} h); "
@@ -69,7 +71,8 @@ def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: R
     lines = [
         f"{record.source}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz "
         f"({record.duration_s:g} s)",
-        f"window {result.window_s:g} s ({result.window_samples} samples), step {result.step_s:g} s, "
+        f"window {result.window_s:g} s ({result.window_samples} samples), step {result.step_s:g} "
+        "s, "
         f"{len(result.t_s)} windows; {len(result.tau_s)} taus from {result.tau_s[0]:g} to "
         f"{result.tau_s[-1]:g} s",
     ]

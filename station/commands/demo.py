@@ -36,10 +36,14 @@ def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) ->
     """A simulated three-axis static record of the demo gyro (deg/s), without devices."""
     n = int(duration_s * sample_rate_hz)
     rng = np.random.default_rng(seed)
-    rate = (DEMO_BIAS_DEG_H / 3600.0
-            + white_angle_noise(q_urad_to_deg(DEMO_TRUE["Q"]), n, sample_rate_hz, rng, n_axes=3)
-            + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(DEMO_TRUE["N"]), n, sample_rate_hz, rng, n_axes=3)
-            + flicker_rate_noise(rate_deg_h_to_deg_s(DEMO_TRUE["B"]), n, sample_rate_hz, rng, n_axes=3))
+    rate = (
+        DEMO_BIAS_DEG_H / 3600.0
+        + white_angle_noise(q_urad_to_deg(DEMO_TRUE["Q"]), n, sample_rate_hz, rng, n_axes=3)
+        + white_rate_noise(
+            arw_deg_rt_h_to_deg_rt_s(DEMO_TRUE["N"]), n, sample_rate_hz, rng, n_axes=3
+        )
+        + flicker_rate_noise(rate_deg_h_to_deg_s(DEMO_TRUE["B"]), n, sample_rate_hz, rng, n_axes=3)
+    )
     return RateRecord(rate, sample_rate_hz, ("gyro_x", "gyro_y", "gyro_z"), "simulated demo gyro")
 
 
@@ -67,7 +71,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description=__doc__)
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")
-    p.add_argument("--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)")
+    p.add_argument(
+        "--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)"
+    )
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--out", type=Path, default=Path("station-demo"),
                    help="folder for the run file and the plot (default ./station-demo)")
@@ -77,8 +83,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def record_demo_run(args: argparse.Namespace, path: Path) -> None:
     """Record the two simulated units into ``path`` with the real recorder."""
-    from station.progress import ProgressLine
-    from station.recorder import Recorder, RunConfig
+    from station.recording.progress import ProgressLine
+    from station.recording.recorder import Recorder, RunConfig
 
     urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
     recorder = Recorder(RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
@@ -95,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     """Record, analyze, print, plot."""
     if args.sequence:
         return demo_sequence.run(args)
-    from station.hdf5 import read_run_record
+    from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()
     args.out.mkdir(parents=True, exist_ok=True)

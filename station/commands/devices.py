@@ -11,9 +11,9 @@ import sys
 import threading
 from dataclasses import asdict
 from types import FrameType
-from urllib.parse import parse_qsl, urlsplit
 
-from devices.sim.params import parse_sim_params
+from devices.opened import OpenedDevice, SimulatedDevice
+from devices.url_query import is_simulated
 from devices.urls import SUPPORTED, open_device
 from station.errors import UsageError
 
@@ -55,10 +55,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _unreachable_reason(url: str) -> str:
-    parts = urlsplit(url)
-    params = parse_sim_params(parts.netloc, dict(parse_qsl(parts.query)))
-    if params.warp != 1.0:
+def _unreachable_reason(opened: OpenedDevice) -> str:
+    if opened.time_warp != 1.0:
         return ("a served simulation runs in real time (the station that records it keeps "
                 "wall time): remove warp= or set warp=1")
     return ("this simulation lives inside this process (python-can's virtual bus): add "
@@ -68,7 +66,7 @@ def _unreachable_reason(url: str) -> str:
 def run_serve(args: argparse.Namespace) -> int:
     """Serve the simulated device until stopped; returns 0 (2 for a URL that cannot be
     served)."""
-    if not urlsplit(args.url).scheme.lower().startswith("sim+"):
+    if not is_simulated(args.url):
         raise UsageError(f"serve takes a simulated device URL (sim+...), not {args.url!r}")
     stop = threading.Event()
 
@@ -78,12 +76,11 @@ def run_serve(args: argparse.Namespace) -> int:
     previous = signal.signal(signal.SIGTERM, on_term)
     opened = open_device(args.url)
     try:
-        if opened.hardware_url is None:
-            raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(args.url)}")
-        simulator = opened.simulator
+        if not isinstance(opened, SimulatedDevice) or opened.hardware_url is None:
+            raise UsageError(f"cannot serve {args.url!r}: {_unreachable_reason(opened)}")
         # the process that runs the simulated device: a child (CAN and CANopen on
         # udp_multicast) or this one
-        pid = getattr(simulator, "pid", None) or os.getpid()
+        pid = getattr(opened.simulator, "pid", None) or os.getpid()
         if args.serve_json:
             print(json.dumps({"url": opened.hardware_url, "sim_url": args.url, "pid": pid}),
                   flush=True)
@@ -95,7 +92,7 @@ def run_serve(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             pass
         ledger = opened.ledger
-        counts = {} if ledger is None else {
+        counts = {
             "generated": ledger.generated, "delivered": ledger.delivered,
             "dropped": ledger.dropped, "corrupted": ledger.corrupted,
             "lost_in_outage": ledger.lost_in_outage, "disconnects": ledger.disconnects}

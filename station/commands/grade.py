@@ -38,7 +38,9 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
     add_database_argument(p)
-    p.add_argument("--no-store", action="store_true", help="do not store the grading in the database")
+    p.add_argument(
+        "--no-store", action="store_true", help="do not store the grading in the database"
+    )
     add_bench_argument(p)
 
 
@@ -85,8 +87,11 @@ def _num(v: float | None) -> str:
 def format_grade(graded: RunGrade) -> str:
     """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict."""
     p = graded.profile
-    lines = [f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
-             f"grades {' > '.join(p.grades)} > {p.reject}; arw and bias instability from the {p.figure_source}"]
+    lines = [
+        f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
+        f"grades {' > '.join(p.grades)} > {p.reject}; arw and bias instability from the "
+        f"{p.figure_source}"
+    ]
     for u in graded.units:
         lines.append("")
         flag = "  REVIEW" if u.review else ""
@@ -99,14 +104,21 @@ def format_grade(graded: RunGrade) -> str:
         for a in u.axes:
             reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
             review = " (review)" if a.review else ""
-            lines.append(f"  axis {a.axis}: {a.grade}{reach}{review}; limits of grade {a.deciding_grade}")
-            lines.append(f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict")
+            lines.append(
+                f"  axis {a.axis}: {a.grade}{reach}{review}; limits of grade {a.deciding_grade}"
+            )
+            lines.append(
+                f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict"
+            )
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else "(info)"
                 label = f"{f.spec.label} [{f.spec.unit}]"
                 interval = f"[{_num(f.ci_low)}, {_num(f.ci_high)}]"
-                lines.append(f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  {verdict}")
+                lines.append(
+                    f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  "
+                    f"{verdict}"
+                )
         if u.sequence is not None:
             lines += [f"  {line}" for line in sequence_lines(u.sequence)]
     return "\n".join(lines)

@@ -1,4 +1,5 @@
-"""``station model``: noise models, their theoretical Allan deviation, and FOG models from indicators.
+"""``station model``: noise models, their theoretical Allan deviation, and FOG models from
+indicators.
 
 * ``station model curve MODEL --taus log --json`` prints the model's theoretical Allan
   deviation in deg/s, ``{"tau_s": [...], "adev": [...], "terms": {"<term>": [...]}}``,
@@ -22,8 +23,12 @@ from station.commands.arguments import duration_type
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``model`` sub-command and its actions."""
-    p = sub.add_parser("model", help="noise models: theoretical Allan curve, show, FOG from indicators",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "model",
+        help="noise models: theoretical Allan curve, show, FOG from indicators",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
 
     curve = actions.add_parser("curve", help="theoretical Allan deviation of a model (deg/s)")

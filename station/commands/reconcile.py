@@ -1,4 +1,5 @@
-"""``station reconcile MEASURED --model MODEL.toml``: where do the model and the measurement disagree?
+"""``station reconcile MEASURED --model MODEL.toml``: where do the model and the measurement
+disagree?
 
 Compares the measured Allan curve with the model's (theory and a Monte Carlo band of runs
 of the same length and tau grid), names the missing effects from the simulation library
@@ -29,19 +30,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reconcile`` sub-command."""
     p = sub.add_parser("reconcile", help="model versus measurement: name the missing effects",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("measured", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)")
+    p.add_argument(
+        "measured", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
+    )
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
                    help="sample rate in Hz (required when a CSV has no time column)")
     p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
                    help="unit of a CSV's rate columns (default deg/s)")
-    p.add_argument("--model", required=True, metavar="MODEL.toml", help="noise model TOML file or preset name")
-    p.add_argument("--axis", default=None, help="reconcile only this axis (column name); default every axis")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT.png", help="write the figure here")
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of the text report")
+    p.add_argument(
+        "--model", required=True, metavar="MODEL.toml", help="noise model TOML file or preset name"
+    )
+    p.add_argument(
+        "--axis", default=None, help="reconcile only this axis (column name); default every axis"
+    )
+    p.add_argument(
+        "--png", type=Path, default=None, metavar="OUT.png", help="write the figure here"
+    )
+    p.add_argument(
+        "--json", action="store_true", help="print one JSON object instead of the text report"
+    )
     defaults = ReconcileOptions()
     p.add_argument("--runs", type=int, default=defaults.runs, metavar="N",
                    help=f"Monte Carlo runs per comparison (default {defaults.runs})")
-    p.add_argument("--seed", type=int, default=defaults.seed, help="seed of the Monte Carlo runs (default 0)")
+    p.add_argument(
+        "--seed", type=int, default=defaults.seed, help="seed of the Monte Carlo runs (default 0)"
+    )
     p.add_argument("--alpha", type=float, default=defaults.alpha,
                    help=f"level of the gap test (default {defaults.alpha})")
     p.add_argument("--max-samples", type=int, default=defaults.max_samples, metavar="N",

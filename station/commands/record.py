@@ -21,23 +21,15 @@ exit status 1.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
-import signal
 import sys
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
-from types import FrameType
-from typing import Protocol
 
 from station.commands import record_sequence
 from station.commands.record_sequence import add_sequence_arguments
-from station.errors import UsageError
-from station.model.documents import RunStop
-from station.progress import ProgressLine
-from station.recorder import Recorder, RunConfig, parse_duration
-from station.unit_process import cpu_cores
+from station.recording.progress import ProgressLine
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -82,91 +74,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(default 8 MB + 10 s of data)")
     p.add_argument("--json-summary", action="store_true",
                    help="print one JSON object per unit at the end (and nothing else on stdout)")
+    p.add_argument("--status", type=Path, default=None, metavar="FILE",
+                   help="keep the recorder's state in this JSON file: recording (and the run "
+                        "file), or refused with each unit's problem (how the TUI follows a "
+                        "recorder it started)")
+    p.add_argument("--check", action="store_true",
+                   help="only check the units: open each, check it against the profile, wait "
+                        "for its first sample, release it; write nothing and print the status "
+                        "as JSON (exit status 2 if a unit fails)")
     p.add_argument("--quiet", action="store_true", help="no progress line")
     add_sequence_arguments(p)
     p.set_defaults(handler=run)
-
-
-def config_from_args(args: argparse.Namespace) -> RunConfig:
-    """The run configuration the arguments name (the profile is loaded here)."""
-    profile = None
-    if args.profile is not None:
-        from station.model.profiles import load_profile
-
-        profile = load_profile(args.profile)
-    urls = list(args.unit)
-    if not urls and profile is not None and profile.transport.get("url"):
-        urls = [str(profile.transport["url"])]
-    if args.duration is not None:
-        duration_s = parse_duration(args.duration)
-    elif profile is not None:
-        duration_s = profile.duration_s
-    else:
-        raise UsageError("give --duration (e.g. 12h) or a --profile that has one")
-    if not 0 < args.flush_interval <= 1.0:
-        raise UsageError("--flush-interval must be in (0, 1] s")
-    reserve = None if args.reserve_mb is None else int(args.reserve_mb * 1e6)
-    bench_json = ""
-    if args.bench is not None:
-        from station.model.bench import load_bench
-
-        bench = load_bench(args.bench)
-        urls, bench_json = [bench.sim_url(u) for u in urls], bench.as_json()
-    return RunConfig(tuple(urls), duration_s, args.out, profile=profile,
-                     operator=args.operator, lot=args.lot,
-                     flush_interval_s=args.flush_interval, reserve_bytes=reserve,
-                     bench_json=bench_json)
-
-
-class Stoppable(Protocol):
-    """What Ctrl-C stops cleanly: a recorder, a sequence."""
-
-    def request_stop(self, reason: str) -> None: ...
-
-
-@contextmanager
-def stop_on_signals(recorder: Stoppable) -> Iterator[None]:
-    """Turn Ctrl-C and SIGTERM into a clean stop of ``recorder`` while inside."""
-    reasons = {signal.SIGINT: "interrupted (Ctrl-C)", signal.SIGTERM: "terminated (SIGTERM)"}
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        recorder.request_stop(reasons[signal.Signals(signum)])
-
-    old = {s: signal.signal(s, handler) for s in reasons}
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
-
-
-def json_summary(recorder: Recorder, stop: RunStop) -> list[dict]:
-    """The ``--json-summary`` objects: what the file holds (its committed data) per unit."""
-    assert recorder.writer is not None
-    out = []
-    for t in stop.totals:
-        c = recorder.writer.committed[t.unit_id]
-        out.append({"unit": t.url, "samples_recorded": c.samples,
-                    "samples_missing_declared": c.missing,
-                    "samples_missing_low": c.missing_low,
-                    "samples_missing_high": c.missing_high, "samples_sent": t.samples_sent,
-                    "gaps": c.gaps, "crc_errors": c.crc_errors, "reconnects": c.reconnects,
-                    "file": str(recorder.path)})
-    return out
-
-
-def cpu_lines(recorder: Recorder, stop: RunStop) -> list[str]:
-    """CPU time per unit (its process: reader and simulator) and of the recorder's own
-    process (documents, HDF5), as shares of one core over the run's wall time."""
-    wall = max(recorder.wall_s, 1e-9)
-    lines = [f"CPU over {wall:.1f} s of wall time ({cpu_cores()} cores here):"]
-    for t in stop.totals:
-        sim = max(0.0, t.cpu_s - t.reader_cpu_s)
-        lines.append(f"  {t.unit_id}: {t.cpu_s:.2f} s = {t.cpu_s / wall:.0%} of a core "
-                     f"(reading {t.reader_cpu_s:.2f} s, simulator and the rest {sim:.2f} s)")
-    lines.append(f"  recorder process (documents, HDF5 writer): {recorder.engine_cpu_s:.2f} s = "
-                 f"{recorder.engine_cpu_s / wall:.0%} of a core")
-    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -174,61 +92,65 @@ def run(args: argparse.Namespace) -> int:
     if args.sequence is not None:
         return record_sequence.run(args)
     if args.power or args.chamber:
+        from station.errors import UsageError
+
         raise UsageError("--power and --chamber belong to --sequence NAME")
-    config = config_from_args(args)
+    from station.services.record import RecordRequest, check_units, record, write_status
+
+    request = RecordRequest(tuple(args.unit), args.duration, args.out, args.profile,
+                            args.operator, args.lot, args.bench, args.flush_interval,
+                            args.reserve_mb)
+    if args.check:
+        status = check_units(request)
+        write_status(args.status, status)
+        print(json.dumps(status.as_json()))
+        return 0 if status.state == "checked" else 2
+
+    def started(path: Path, n_units: int) -> None:
+        print(f"recording {n_units} unit(s) to {path}", file=sys.stderr)
+
     subscribers = [] if args.quiet else [ProgressLine(sys.stderr)]
-    recorder = Recorder(config, subscribers)
-    with stop_on_signals(recorder):
-        recorder.prepare()
-        print(f"recording {len(recorder.workers)} unit(s) to {recorder.path}", file=sys.stderr)
-        stop = recorder.run()
-    summary = json_summary(recorder, stop)
+    outcome = record(request, subscribers, status=args.status, on_start=started)
     if args.json_summary:
-        for obj in summary:
-            print(json.dumps(obj))
+        for unit in outcome.units:
+            print(json.dumps(dataclasses.asdict(unit)))
     else:
-        print(f"{recorder.path}: stopped ({stop.reason})")
-        for obj in summary:
-            sent_text = "" if obj["samples_sent"] is None else f", sent {obj['samples_sent']}"
-            bounds = ("" if obj["samples_missing_low"] == obj["samples_missing_high"] else
-                      f" (between {obj['samples_missing_low']} and "
-                      f"{obj['samples_missing_high']}: wrap counts not certain)")
-            print(f"  {obj['unit']}: recorded {obj['samples_recorded']}, declared missing "
-                  f"{obj['samples_missing_declared']}{bounds} in {obj['gaps']} gaps"
-                  f"{sent_text}, CRC errors {obj['crc_errors']}, reconnects "
-                  f"{obj['reconnects']}")
+        print(f"{outcome.path}: stopped ({outcome.stop.reason})")
+        for u in outcome.units:
+            sent_text = "" if u.samples_sent is None else f", sent {u.samples_sent}"
+            bounds = ("" if u.samples_missing_low == u.samples_missing_high else
+                      f" (between {u.samples_missing_low} and {u.samples_missing_high}: wrap "
+                      f"counts not certain)")
+            print(f"  {u.unit}: recorded {u.samples_recorded}, declared missing "
+                  f"{u.samples_missing_declared}{bounds} in {u.gaps} gaps{sent_text}, CRC "
+                  f"errors {u.crc_errors}, reconnects {u.reconnects}")
     if not args.quiet:
-        print("\n".join(cpu_lines(recorder, stop)),
+        print("\n".join(outcome.cpu_lines()),
               file=sys.stderr if args.json_summary else sys.stdout)
-    for w in recorder.workers:
-        if w.error:
-            print(f"station record: {w.unit_id} ended on an error: {w.error}", file=sys.stderr)
-    writer = recorder.writer
-    failed = writer is not None and writer.failed is not None
-    code = 1 if failed or any(w.error for w in recorder.workers) or \
-        stop.reason.startswith(("disk full", "write error")) else 0
-    if not failed and stop.reason.startswith(("disk full", "write error")):
-        print(f"station record: the run stopped early ({stop.reason}); {recorder.path} is "
-              f"closed with every sample received: free some space before the next run",
+    for unit_id, error in outcome.unit_errors:
+        print(f"station record: {unit_id} ended on an error: {error}", file=sys.stderr)
+    failed = bool(outcome.write_failure)
+    if not failed and outcome.stopped_early:
+        print(f"station record: the run stopped early ({outcome.stop.reason}); {outcome.path} "
+              f"is closed with every sample received: free some space before the next run",
               file=sys.stderr)
     if failed:
-        assert writer is not None
-        lost = ", ".join(f"{t.unit_id} {writer.uncommitted(t.unit_id)}" for t in stop.totals)
-        print(f"station record: {writer.failed}. The run stopped; every sample committed "
-              f"before is intact (samples received or declared missing after that, not "
-              f"written: {lost}). Free some space, then run `station recover "
-              f"{recorder.path}`", file=sys.stderr)
-    if writer is not None and writer.close_failed:
+        lost = ", ".join(f"{unit_id} {n}" for unit_id, n in outcome.uncommitted)
+        print(f"station record: {outcome.write_failure}. The run stopped; every sample "
+              f"committed before is intact (samples received or declared missing after "
+              f"that, not written: {lost}). Free some space, then run `station recover "
+              f"{outcome.path}`", file=sys.stderr)
+    if outcome.close_failed:
         # HDF5 could not close the file (a write failed on the full disk) and would try
         # again, and fail, at exit: leave now, as a killed recorder would (everything
         # committed is intact; `station recover` closes the file).
         if not failed:
-            print(f"station record: {stop.reason}; the file could not be closed: run "
-                  f"`station recover {recorder.path}` once there is space", file=sys.stderr)
+            print(f"station record: {outcome.stop.reason}; the file could not be closed: run "
+                  f"`station recover {outcome.path}` once there is space", file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
-        os._exit(code)
-    return code
+        os._exit(outcome.exit_status)
+    return outcome.exit_status
 
 
 if __name__ == "__main__":

@@ -41,9 +41,9 @@ def add_sequence_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Prepare (refusing what the sequence cannot run with), run or resume, summarize."""
-    from station.commands.record import stop_on_signals
-    from station.progress import ProgressLine
+    from station.recording.progress import ProgressLine
     from station.recording.sequence_runner import SequenceError
+    from station.services.record import stop_on_signals
     from station.services.sequence import SequenceRequest, prepare_sequence, sequence_summary
 
     if args.profile is None:

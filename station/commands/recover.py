@@ -14,8 +14,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from station.hdf5 import REASON_RECOVERED
-from station.hdf5_recover import recover_run
+from station.storage.hdf5 import REASON_RECOVERED
+from station.storage.hdf5_recover import recover_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -17,7 +17,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reproduce", help="re-run a published Monte Carlo (lv2015: WLS Allan fit)",
                        description=__doc__)
     p.add_argument("paper", choices=("lv2015",), help="which study to re-run")
-    p.add_argument("--runs", type=int, default=30, help="simulated runs per gyro (default 30, as the paper)")
+    p.add_argument(
+        "--runs", type=int, default=30, help="simulated runs per gyro (default 30, as the paper)"
+    )
     p.add_argument("--seed", type=int, default=1, help="seed of the whole study (default 1)")
     p.add_argument("--workers", type=int, default=2, help="processes to use (default 2)")
     p.add_argument("--json", action="store_true", help="print the table as JSON")

@@ -5,19 +5,33 @@
   flagged for review, with the reasons); ``--csv OUT`` exports them;
 * ``station results --yield [--model M]``: per lot, the units passing (latest grading each);
 * ``station results --trend FIGURE [--axis A] [--png OUT]``: a figure over test dates as a
-  table, and as a PNG (value, confidence interval, limit, coloured by verdict).
+  table, and as a PNG (value, confidence interval, limit, coloured by verdict);
+* ``station results --stats [--model M] [--lot L] [--since DATE] [--html OUT] [--pdf OUT]``:
+  the producer's statistics over the latest grading of each unit: yield per grade, per
+  graded figure mean, std, Cp and Cpk against the acceptance limit, histograms against the
+  limits and control charts (HTML, PDF), and the units flagged for review.
+
+Every listing takes ``--json`` (one JSON document on stdout instead of a table);
+``--stats --json`` prints ``{"units", "yield": {grade: share}, "figures": {name: {"mean",
+"std", "cp", "cpk", "limits", ...}}, "review": [...]}``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
 from station.commands.arguments import add_database_argument
+from station.errors import UsageError
 from station.model.kinds import Verdict
+from station.output.results_backends import redacted
 
 if TYPE_CHECKING:
+    from station.output.production_stats import ProductionStats
     from station.output.results import GradingRow, LotYield, TrendPoint
 
 
@@ -30,18 +44,35 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lot", default=None)
     p.add_argument("--serial", default=None)
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
-    p.add_argument("--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)")
+    p.add_argument(
+        "--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)"
+    )
     p.add_argument("--verdict", choices=get_args(Verdict), default=None)
-    p.add_argument("--review", action="store_true",
-                   help="only gradings flagged for review (read-off and fit of a graded figure disagree)")
+    p.add_argument(
+        "--review",
+        action="store_true",
+        help="only gradings flagged for review (read-off and fit of a graded figure disagree)",
+    )
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
-    p.add_argument("--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV")
+    p.add_argument(
+        "--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV"
+    )
     what = p.add_mutually_exclusive_group()
     what.add_argument("--yield", dest="show_yield", action="store_true", help="yield per lot")
     what.add_argument("--trend", default=None, metavar="FIGURE",
                       help="trend of a figure (a profile figure name such as arw)")
+    what.add_argument("--stats", action="store_true",
+                      help="production statistics: yield per grade, Cp/Cpk, control charts, review")
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot")
+    p.add_argument(
+        "--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot"
+    )
+    p.add_argument("--html", type=Path, default=None, metavar="OUT",
+                   help="with --stats: write the statistics and their plots as one HTML page")
+    p.add_argument("--pdf", type=Path, default=None, metavar="OUT",
+                   help="with --stats: write the statistics and their plots as a PDF")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON document instead of a table")
     p.set_defaults(handler=run)
 
 
@@ -49,14 +80,30 @@ def run(args: argparse.Namespace) -> int:
     """Open the database and print what was asked."""
     from station.services.results import ResultsRequest, query_results
 
+    if (args.html is not None or args.pdf is not None) and not args.stats:
+        raise UsageError("--html and --pdf go with --stats")
+    if args.stats:
+        return run_stats(args)
+
     show: Literal["gradings", "yield", "trend"] = (
         "yield" if args.show_yield else "trend" if args.trend else "gradings")
     answer = query_results(ResultsRequest(
         args.db, show, model=args.model, lot=args.lot, serial=args.serial, since=args.since,
         until=args.until, verdict=args.verdict, review=args.review, latest=args.latest,
         figure=args.trend, axis=args.axis, csv=args.csv))
-    if not answer.exists:
-        print(f"no results database at {answer.database} yet (station grade stores into it)")
+    if args.json:
+        document: dict[str, object] = {"database": redacted(answer.database),
+                                       "exists": answer.exists}
+        if show == "yield":
+            document["yield"] = [{**asdict(y), "yield": y.yield_fraction} for y in answer.yields]
+        elif show == "trend":
+            document |= {"figure": args.trend, "points": [asdict(p) for p in answer.trend]}
+        else:
+            document["gradings"] = [asdict(r) for r in answer.gradings]
+        _print_json(document)
+    elif not answer.exists:
+        print(f"no results database at {redacted(answer.database)} yet "
+              "(station grade stores into it)")
     elif show == "yield":
         print(format_yield(list(answer.yields)))
     elif show == "trend":
@@ -72,8 +119,58 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_json(document: dict[str, object]) -> None:
+    json.dump(document, sys.stdout, indent=1, allow_nan=False)
+    sys.stdout.write("\n")
+
+
+def run_stats(args: argparse.Namespace) -> int:
+    """``--stats``: compute, print (table or JSON), and draw when asked."""
+    from station.services.production import StatsRequest, production_stats
+
+    answer = production_stats(StatsRequest(args.db, model=args.model, lot=args.lot,
+                                           since=args.since, html=args.html, pdf=args.pdf))
+    if answer.stats is None:
+        if args.json:
+            _print_json({"database": redacted(answer.database), "exists": False, "units": 0,
+                         "yield": {}, "figures": {}})
+        else:
+            print(f"no results database at {redacted(answer.database)} yet "
+                  "(station grade stores into it)")
+        return 0
+    if args.json:
+        _print_json(answer.stats.as_json())
+    else:
+        print(format_stats(answer.stats))
+    for path in (answer.html, answer.pdf):
+        if path is not None:
+            print(f"statistics: {path}", file=sys.stderr if args.json else sys.stdout)
+    return 0
+
+
+def format_stats(stats: ProductionStats) -> str:
+    """The statistics as terminal tables: yield per grade, capability per figure, review."""
+    lines = [f"{stats.units} units (latest grading each), profile {stats.profile or '-'}"]
+    if not stats.units:
+        return lines[0]
+    lines.append(_table(["grade", "units", "share"], [
+        [g, str(n), f"{100 * n / stats.units:.1f} %"] for g, n in stats.grades.items()]))
+    body = [[name, f.unit, str(c.n), _num(c.mean), _num(c.std),
+             " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-", _num(c.cp),
+             _num(c.cpk), str(len(f.chart.out_of_control))]
+            for name, f in stats.figures.items() for c in (f.capability,)]
+    header = ["figure", "unit", "n", "mean", "std", "limits", "Cp", "Cpk", "out of control"]
+    lines.append(_table(header, body))
+    lines.append(f"{len(stats.review)} units flagged for review")
+    lines += [f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"
+              for u in stats.review for reason in u.reasons]
+    return "\n".join(lines)
+
+
 def _table(header: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)]
+    widths = [
+        max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(header)
+    ]
     lines = ["  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))]
     lines.append("  ".join("-" * w for w in widths))
     lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
@@ -84,15 +181,36 @@ def format_gradings(rows: list[GradingRow]) -> str:
     """The gradings as a terminal table."""
     body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict,
              "REVIEW" if r.needs_review else "-", r.profile, Path(r.run_path).name] for r in rows]
-    header = ["id", "test date (UTC)", "model", "serial", "lot", "grade", "verdict", "review", "profile", "run"]
+    header = [
+        "id",
+        "test date (UTC)",
+        "model",
+        "serial",
+        "lot",
+        "grade",
+        "verdict",
+        "review",
+        "profile",
+        "run",
+    ]
     reasons = [f"review {r.id}: {line}" for r in rows for line in r.review.splitlines()]
     return "\n".join([_table(header, body) + f"\n{len(rows)} gradings", *reasons])
 
 
 def format_yield(rows: list[LotYield]) -> str:
     """Yield per lot as a terminal table (latest grading of each unit)."""
-    body = [[y.lot or "-", y.model, str(y.total), str(y.passed), str(y.failed), str(y.indeterminate),
-             f"{100 * y.yield_fraction:.1f} %"] for y in rows]
+    body = [
+        [
+            y.lot or "-",
+            y.model,
+            str(y.total),
+            str(y.passed),
+            str(y.failed),
+            str(y.indeterminate),
+            f"{100 * y.yield_fraction:.1f} %",
+        ]
+        for y in rows
+    ]
     return _table(["lot", "model", "units", "pass", "fail", "indeterminate", "yield"], body)
 
 
@@ -103,7 +221,25 @@ def _num(v: float | None) -> str:
 def format_trend(figure: str, points: list[TrendPoint]) -> str:
     """A figure over test dates as a terminal table."""
     unit = points[0].unit if points else ""
-    body = [[p.test_date, p.serial_number, p.axis, _num(p.value), f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
-             _num(p.limit), p.verdict or "info"] for p in points]
-    header = ["test date (UTC)", "serial", "axis", f"{figure} [{unit}]", "interval", "limit", "verdict"]
+    body = [
+        [
+            p.test_date,
+            p.serial_number,
+            p.axis,
+            _num(p.value),
+            f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
+            _num(p.limit),
+            p.verdict or "info",
+        ]
+        for p in points
+    ]
+    header = [
+        "test date (UTC)",
+        "serial",
+        "axis",
+        f"{figure} [{unit}]",
+        "interval",
+        "limit",
+        "verdict",
+    ]
     return _table(header, body) + f"\n{len(points)} points"

@@ -26,8 +26,12 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` sub-command."""
-    p = sub.add_parser("simulate", help="write a simulated gyro run (model file or ARW + bias stability)",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser(
+        "simulate",
+        help="write a simulated gyro run (model file or ARW + bias stability)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     source = p.add_argument_group("what to simulate (a model, or the two indicators)")
     source.add_argument("--model", metavar="MODEL",
                         help="noise model TOML file or preset name (e.g. VG951, zhang2015-fog)")
@@ -41,9 +45,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                         help="correlation time of the Markov process in s (default: --average-s)")
     p.add_argument("--duration", type=duration_type, default=3600.0, metavar="DURATION",
                    help="run length, e.g. 4h, 30min, 600s (default 1h)")
-    p.add_argument("--rate", type=float, default=10.0, metavar="HZ", help="sample rate in Hz (default 10)")
+    p.add_argument(
+        "--rate", type=float, default=10.0, metavar="HZ", help="sample rate in Hz (default 10)"
+    )
     p.add_argument("--axes", type=int, default=1, metavar="N", help="number of axes (default 1)")
-    p.add_argument("--seed", type=int, default=None, help="seed of the run (default: fresh entropy)")
+    p.add_argument(
+        "--seed", type=int, default=None, help="seed of the run (default: fresh entropy)"
+    )
     p.add_argument("--out", type=Path, required=True, metavar="FILE",
                    help="output: .csv, .csv.gz, or .h5 (a run file in the recorder's layout)")
     p.set_defaults(handler=run)

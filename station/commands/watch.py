@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from station.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
+from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -1,1 +1,2 @@
-"""What a record says: its analysis, its grading against a profile, the settings a profile implies."""
+"""What a record says: its analysis, its grading against a profile, the settings a profile
+implies."""

@@ -108,9 +108,12 @@ class OutlierReport:
         largest = max(d.spikes, key=lambda sp: abs(sp.size))
         what = ("removed, each replaced by the line between its neighbours" if self.removed
                 else "kept in the analysis")
-        return (f"{self.count} spike(s) ({d.count} samples beyond {d.threshold_z:.2f} sigma; largest "
-                f"{largest.size * S_PER_H:+.4g} deg/h at {self.times_s[d.spikes.index(largest)]:.6g} s) "
-                f"{what}: {self.rule}")
+        return (
+            f"{self.count} spike(s) ({d.count} samples beyond {d.threshold_z:.2f} sigma; largest "
+            f"{largest.size * S_PER_H:+.4g} deg/h at {self.times_s[d.spikes.index(largest)]:.6g} "
+            "s) "
+            f"{what}: {self.rule}"
+        )
 
 
 @dataclass(frozen=True)
@@ -173,7 +176,9 @@ class AxisAnalysis:
             "noise_alpha": c.noise_alpha.tolist(),
             "interval": c.interval,
             "curve_notes": list(c.notes),
-            "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace("deviation", "variance"),
+            "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace(
+                "deviation", "variance"
+            ),
             "fit": self.fit.as_dict(),
             "figures": self.figures.as_dict(),
             "gaps": self.gaps.as_json(),
@@ -188,13 +193,19 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
             policy: OutlierPolicy) -> tuple[NDArray[np.float64], OutlierReport]:
     """(the present samples to analyse, the report) of one axis under ``policy``."""
     if policy not in OUTLIER_POLICIES:
-        raise ValueError(f"outlier policy must be one of {', '.join(OUTLIER_POLICIES)}, got {policy!r}")
+        raise ValueError(
+            f"outlier policy must be one of {', '.join(OUTLIER_POLICIES)}, got {policy!r}"
+        )
     if len(x) < min_samples():
-        return x, OutlierReport(rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}")
+        return x, OutlierReport(
+            rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}"
+        )
     detection = detect_spikes(x)
     grid = np.arange(len(x)) if positions is None else positions
     times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
-    remove = detection.count > 0 and (policy == "remove" or (policy == "auto" and detection.removable))
+    remove = detection.count > 0 and (
+        policy == "remove" or (policy == "auto" and detection.removable)
+    )
     rule = detection.rule_text()
     if detection.count and policy != "auto":
         rule += f" (--outliers {policy})"
@@ -265,9 +276,11 @@ def analyze_record(
         taus = analysis_log_m(record.n_samples) / fs
     own = "oadev" if estimator == "overlapping" else "adev"
     if deviation_kind not in (None, own, "oadev", "adev") and gapped:
-        raise UsageError(f"the {DEVIATION_LABELS[deviation_kind]} of a record with gaps is not computed "
-                         f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
-                         f"--start-s/--stop-s")
+        raise UsageError(
+            f"the {DEVIATION_LABELS[deviation_kind]} of a record with gaps is not computed "
+            f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
+            f"--start-s/--stop-s"
+        )
     summary = gap_summary(record.present_mask())
     gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
@@ -282,7 +295,9 @@ def analyze_record(
     out = []
     for i, name in enumerate(record.axis_names):
         grid_rate = _on_grid(record, cleaned[i])
-        axis = joint.axis(i) if joint is not None else _allan(grid_rate, fs, gapped, estimator, taus)
+        axis = (
+            joint.axis(i) if joint is not None else _allan(grid_rate, fs, gapped, estimator, taus)
+        )
         alternative, label = None, ""
         if reports[i].count:
             other = record.rate_deg_s[:, i] if reports[i].removed else replace_spikes(
@@ -348,8 +363,15 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
         add("gaps (time missing)", [a.gaps.text() for a in axes])
     add("spikes", [a.outliers.text() for a in axes])
     add("bias [deg/h]", [_fmt(f.bias_deg_h) for f in figs])
-    add("  Earth rate removed [deg/h]", [_fmt(f.earth_rate_removed_deg_h) if f.earth_rate_removed_deg_h
-                                         is not None else "not removed" for f in figs])
+    add(
+        "  Earth rate removed [deg/h]",
+        [
+            _fmt(f.earth_rate_removed_deg_h)
+            if f.earth_rate_removed_deg_h is not None
+            else "not removed"
+            for f in figs
+        ],
+    )
     add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
     add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
     add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
@@ -358,19 +380,34 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
     add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
-    labels = {"Q": "Q quantization [urad]", "N": "N ARW [deg/sqrt(h)]", "B": "B bias instability [deg/h]",
-              "K": "K rate random walk [deg/h^1.5]", "R": "R rate ramp [deg/h^2]"}
+    labels = {
+        "Q": "Q quantization [urad]",
+        "N": "N ARW [deg/sqrt(h)]",
+        "B": "B bias instability [deg/h]",
+        "K": "K rate random walk [deg/h^1.5]",
+        "R": "R rate ramp [deg/h^2]",
+    }
     for term, label in labels.items():
         add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
                              else "negative" for f in fits])
-    add("tones [Hz: deg/s]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
-                              for a in axes])
+    add(
+        "tones [Hz: deg/s]",
+        [
+            ", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+            for a in axes
+        ],
+    )
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(v) for _, vals in rows for v in vals))
     header = " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)
-    lines = [f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
-             f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}", header]
-    lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
+    lines = [
+        f"fit method: {fits[0].method}, estimator: {axes[0].allan.estimator}, "
+        f"{len(axes[0].allan.tau_s)} taus; read-off intervals at {axes[0].allan.confidence:.1%}",
+        header,
+    ]
+    lines += [
+        f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows
+    ]
     if any(a.gmwm is not None for a in axes):
         lines += gmwm_rows(axes, width, col)
     for a in axes:
@@ -410,8 +447,13 @@ def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:
     lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
                  f"({c0.interval}); the fit and figures above are on the Allan variance"]
     logt = np.log10(c0.tau_s)
-    picks = np.unique([int(np.argmin(np.abs(logt - v)))
-                       for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)] + [len(logt) - 1])
+    picks = np.unique(
+        [
+            int(np.argmin(np.abs(logt - v)))
+            for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)
+        ]
+        + [len(logt) - 1]
+    )
     lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
     for j in picks:
         cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "

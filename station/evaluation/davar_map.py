@@ -93,11 +93,13 @@ def davar_grid_of(rate_deg_s: ArrayLike, sample_rate_hz: float, axis: str = "", 
     fs = float(sample_rate_hz)
     try:
         result = dynamic_allan_variance(rate, fs, window_s=window / fs, step_s=step / fs,
-                                        taus=m / fs)
+                                        taus=m / fs,
+                                        missing="gap" if np.isnan(rate).any() else "raise")
     except (TooFewSamplesError, InvalidWindowError):
         return None
     adev = result.adev * S_PER_H
-    if np.all(rate == rate[0]):
+    present = rate[~np.isnan(rate)]
+    if present.size and np.all(present == present[0]):
         adev = np.zeros_like(adev)
     return DavarGrid(axis, result.t_s, result.tau_s, adev, result.window_s)
 
@@ -110,6 +112,6 @@ def davar_grid(unit: UnitGrade, axis_index: int = 0, *,
     record = unit.unit.record
     axis = unit.axes[axis_index]
     column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
-    grid = davar_grid_of(record.rate_deg_s[:, column], record.sample_rate_hz, axis.axis,
+    grid = davar_grid_of(record.gridded(column), record.sample_rate_hz, axis.axis,
                          settings=settings)
     return None if grid is None else replace(grid, warmup_s=unit.warmup_discarded_s)

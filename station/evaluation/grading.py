@@ -46,7 +46,7 @@ from analysis.units import S_PER_H
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.model.bench import Bench, bench_from_json
-from station.model.kinds import Verdict
+from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import (
     DEFAULT_FIGURE_SOURCE,
     FigureSpec,
@@ -60,7 +60,6 @@ from station.model.version import software_version
 if TYPE_CHECKING:
     from station.evaluation.sequence_grading import UnitSequence
 
-INDETERMINATE: Verdict = "indeterminate"
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
@@ -109,9 +108,18 @@ class FigureResult:
         """
         limit = self.spec.limits.get(grade) if grade else None
         verdict = self.verdicts.get(grade, "pass") if grade else None
-        return {"label": self.spec.label, "unit": self.spec.unit, "value": self.value,
-                "ci_low": self.ci_low, "ci_high": self.ci_high, "limit": limit, "verdict": verdict,
-                "limits": dict(self.spec.limits), "verdicts": dict(self.verdicts), "note": self.note}
+        return {
+            "label": self.spec.label,
+            "unit": self.spec.unit,
+            "value": self.value,
+            "ci_low": self.ci_low,
+            "ci_high": self.ci_high,
+            "limit": limit,
+            "verdict": verdict,
+            "limits": dict(self.spec.limits),
+            "verdicts": dict(self.verdicts),
+            "note": self.note,
+        }
 
 
 @dataclass(frozen=True)
@@ -173,7 +181,8 @@ class UnitGrade:
 
     @property
     def review(self) -> tuple[str, ...]:
-        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does not."""
+        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does
+        not."""
         return tuple(f"{a.axis}: {note}" for a in self.axes for note in a.review)
 
     def axis(self, name: str) -> AxisGrade:
@@ -187,10 +196,15 @@ class UnitGrade:
         """JSON object of the unit."""
         u = self.unit
         out: dict[str, object] = {
-            "unit_id": u.unit_id, "model": u.model, "serial_number": u.serial_number,
-            "grade": self.grade, "review": list(self.review),
-            "warmup_discarded_s": self.warmup_discarded_s, "notes": list(self.notes),
-            "axes": {a.axis: a.as_json() for a in self.axes}}
+            "unit_id": u.unit_id,
+            "model": u.model,
+            "serial_number": u.serial_number,
+            "grade": self.grade,
+            "review": list(self.review),
+            "warmup_discarded_s": self.warmup_discarded_s,
+            "notes": list(self.notes),
+            "axes": {a.axis: a.as_json() for a in self.axes},
+        }
         if self.sequence is not None:
             out["sequence_figures"] = self.sequence.as_json()
         return out
@@ -211,7 +225,7 @@ class RunGrade:
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
-        p, r = self.profile, self.run
+        p, r, m = self.profile, self.run, self.run.metadata
         doc: dict[str, object] = {
             "schema": "gyro-station/grade",
             "schema_version": 1,
@@ -222,8 +236,8 @@ class RunGrade:
                         "figure_source": p.figure_source,
                         "grades": list(p.grades), "reject": p.reject},
             "run": {"path": r.path, "start_utc": r.start_utc, "stop_utc": r.stop_utc,
-                    "operator": r.operator, "lot": r.lot, "station": r.station_host,
-                    "software_version": r.software_version, "profile": r.profile,
+                    "operator": m.operator, "lot": m.lot, "station": m.station_host,
+                    "software_version": m.software_version, "profile": m.profile,
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
@@ -236,7 +250,9 @@ class RunGrade:
 # --- decision ------------------------------------------------------------------------------
 
 
-def decide(value: float | None, low: float | None, high: float | None, limit: float, rule: str) -> Verdict:
+def decide(
+    value: float | None, low: float | None, high: float | None, limit: float, rule: str
+) -> Verdict:
     """Verdict of one figure against an upper ``limit`` under a decision rule.
 
     ``simple``: pass when the value is within the limit, else fail (the interval is
@@ -358,13 +374,19 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
     if average_s is not None:
         bs = bias_stability(x, analysis.sample_rate_hz, average_s)
         if bs.value_deg_h is None:
-            return Interval(None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3")
+            return Interval(
+                None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3"
+            )
         low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
         return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
     if name == "bias":
         b = bias_interval(x[np.isfinite(x)], confidence)
         removed = analysis.figures.earth_rate_removed_deg_h
-        earth = "Earth rate not removed" if removed is None else f"Earth rate {removed:+.4g} deg/h removed"
+        earth = (
+            "Earth rate not removed"
+            if removed is None
+            else f"Earth rate {removed:+.4g} deg/h removed"
+        )
         return replace(b, note="; ".join(t for t in (b.note, earth) if t))
     if name in ("arw", "bias_instability") and source == "fit":
         return _fit_interval(analysis.fit, _FIT_TERM[f"{name}_fit"], confidence)
@@ -381,7 +403,9 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile) -> Figu
         return None if v is None or not math.isfinite(v) else v / factor
 
     value, low, high = conv(interval.value), conv(interval.low), conv(interval.high)
-    verdicts = {g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()}
+    verdicts = {
+        g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()
+    }
     return FigureResult(spec, value, low, high, verdicts, interval.note)
 
 
@@ -417,7 +441,8 @@ def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> d
 
 
 def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
-    """Why an axis needs review: read-off and fit of a graded figure disagree (at the profile's level).
+    """Why an axis needs review: read-off and fit of a graded figure disagree (at the profile's
+    level).
 
     Only the pairs the profile limits are compared (``arw`` or ``arw_fit``,
     ``bias_instability`` or ``bias_instability_fit``): a disagreement on an informational
@@ -429,7 +454,9 @@ def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
         return ()
     arw = arw_readoff(analysis.allan, analysis.fit, zones=analysis.zones)
     bi = bias_instability_readoff(analysis.allan, zones=analysis.zones)
-    return review_notes(analysis.allan, analysis.fit, arw, bi, confidence=profile.confidence, which=which)
+    return review_notes(
+        analysis.allan, analysis.fit, arw, bi, confidence=profile.confidence, which=which
+    )
 
 
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
@@ -450,11 +477,19 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     except RecordFormatError:
         kept = None
     if kept is None or kept.n_samples < MIN_SAMPLES:
-        raise GradingError(f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
-                           f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up")
+        raise GradingError(
+            f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
+            f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up"
+        )
     columns = match_axes(profile.axes, record.axis_names)
-    trimmed = RateRecord(kept.rate_deg_s[:, list(columns.values())], fs, tuple(columns), record.source,
-                         kept.temperature_c, kept.sample_index)
+    trimmed = RateRecord(
+        kept.rate_deg_s[:, list(columns.values())],
+        fs,
+        tuple(columns),
+        record.source,
+        kept.temperature_c,
+        kept.sample_index,
+    )
     notes = []
     if unit.model and unit.model != profile.model:
         notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
@@ -462,17 +497,26 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         notes.append(f"record {record.duration_s:.0f} s is shorter than the profile's test "
                      f"({profile.duration_s:.0f} s)")
     if trimmed.missing_samples:
-        notes.append(f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
-                     "difference or average straddles a gap")
+        notes.append(
+            f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
+            "difference or average straddles a gap"
+        )
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
     for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
-        figures = tuple(grade_figure(spec, figure_interval(spec.name, x, analysis, profile.confidence,
-                                                           source=profile.figure_source), profile)
-                        for spec in profile.figures)
+        figures = tuple(
+            grade_figure(
+                spec,
+                figure_interval(
+                    spec.name, x, analysis, profile.confidence, source=profile.figure_source
+                ),
+                profile,
+            )
+            for spec in profile.figures
+        )
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
                               axis_review(analysis, profile)))
@@ -489,7 +533,7 @@ def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),
     on any stored run: nothing here talks to a device.
     """
     chosen = [run.unit(u) for u in units] if units else list(run.units)
-    bench = bench if bench is not None else bench_from_json(run.bench)
+    bench = bench if bench is not None else bench_from_json(run.metadata.bench)
     graded = tuple(grade_unit(u, profile, bench) for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return RunGrade(run, profile, graded, now, software_version(), bench=bench)
@@ -499,9 +543,10 @@ def run_profile_ref(run: RunInfo) -> str:
     """How to load the profile ``run`` was recorded with: the file it was read from if it
     is still there (a line's own profile folder), else its name (``profiles/NAME.toml``);
     "" when the run names none."""
-    if run.profile_path and Path(run.profile_path).is_file():
-        return run.profile_path
-    return run.profile
+    recorded = run.metadata
+    if recorded.profile_path and Path(recorded.profile_path).is_file():
+        return recorded.profile_path
+    return recorded.profile
 
 
 def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
@@ -512,11 +557,12 @@ def profile_changed_note(run: RunInfo, profile: Profile) -> str | None:
     limits, a new grade) grades the old run by today's rules, which a re-grade may
     intend but should say.
     """
-    if not run.profile_sha256 or run.profile_sha256 == profile.sha256:
+    recorded = run.metadata
+    if not recorded.profile_sha256 or recorded.profile_sha256 == profile.sha256:
         return None
     return (f"profile {profile.name} changed since {run.path} was recorded with it "
-            f"(recorded: version {run.profile_version or '?'}, sha256 "
-            f"{run.profile_sha256[:12]}; now: version {profile.version}, sha256 "
+            f"(recorded: version {recorded.profile_version or '?'}, sha256 "
+            f"{recorded.profile_sha256[:12]}; now: version {profile.version}, sha256 "
             f"{profile.sha256[:12]} in {profile.path}): grading with the current file")
 
 

@@ -93,7 +93,8 @@ class PaperGyro:
 
 
 # Published values, Lv 2015 tables 1-6 (true values from tables 1, 3, 5; results from
-# tables 2, 4, 6). Table 2's OLS-40% N standard deviation is printed "7.130 - 05": read as 7.130e-05.
+# tables 2, 4, 6). Table 2's OLS-40% N standard deviation is printed "7.130 - 05": read as
+# 7.130e-05.
 PAPER_GYROS = (
     PaperGyro("SRS2000", "tables 1-2", {"Q": 6.870e-03, "N": 8.587e-05, "B": 6.773e-03}, {
         "ols": {"Q": (8.651e-03, 25.9, 8.971e-03), "N": None, "B": (9.312e-03, 37.5, 1.021e-02)},
@@ -143,7 +144,8 @@ def _bias_instability(b_deg_s: float, setup: Lv2015Setup, rng: np.random.Generat
 
 def simulate_paper_gyro(true: dict[str, float], rng: np.random.Generator,
                         setup: Lv2015Setup | None = None) -> np.ndarray:
-    """One simulated static run (deg/s) with the paper gyro's Q (urad), N (deg/sqrt(h)), B (deg/h)."""
+    """One simulated static run (deg/s) with the paper gyro's Q (urad), N (deg/sqrt(h)), B
+    (deg/h)."""
     setup = setup or Lv2015Setup()
     n, fs = setup.n_samples, setup.sample_rate_hz
     return (white_angle_noise(q_urad_to_deg(true["Q"]), n, fs, rng)
@@ -184,7 +186,9 @@ def _stats(true: float, values: np.ndarray, stderrs: np.ndarray) -> dict[str, fl
         "rms_error_percent": float(np.sqrt(np.mean((v - true) ** 2))) / true * 100.0,
         "mean_stderr": float(np.mean(se[has_se])) if has_se.any() else None,
         # the share of runs whose value +- its own standard error holds the truth (68 % if honest)
-        "coverage": float(np.mean(np.abs(v[has_se] - true) <= se[has_se])) if has_se.any() else None,
+        "coverage": float(np.mean(np.abs(v[has_se] - true) <= se[has_se]))
+        if has_se.any()
+        else None,
     }
 
 
@@ -244,7 +248,9 @@ def reproduce_lv2015(runs: int = 30, seed: int = 1, *, workers: int = 2, progres
                 for t in TERMS
             }
             methods.append(entry)
-        table.append({"name": gyro.name, "table": gyro.table, "true": gyro.true, "methods": methods})
+        table.append(
+            {"name": gyro.name, "table": gyro.table, "true": gyro.true, "methods": methods}
+        )
     return {"runs": runs, "seed": seed, "sample_rate_hz": setup.sample_rate_hz,
             "duration_s": setup.duration_s, "terms": TERMS, "setup": asdict(setup), "gyros": table}
 
@@ -255,11 +261,14 @@ def format_reproduction(table: dict[str, Any]) -> str:
     setup = table.get("setup", {})
     grid = ("every m" if setup.get("max_clusters_m", 2) == 2 else
             f"every m up to N/{setup['max_clusters_m']}")
-    lines = [f"Lv 2015 Monte Carlo: {table['runs']} runs, seed {table['seed']}, "
-             f"{table['duration_s'] / 3600:g} h at {table['sample_rate_hz']:g} Hz, "
-             f"{setup.get('estimator', 'clusters')} AVAR at {grid}, B as {setup.get('bias_noise', 'flicker')} noise",
-             "std: over the runs; [se: the fit's own standard error averaged over the runs, and the "
-             "share of runs whose estimate +- se holds the true value, 68 % when honest]"]
+    lines = [
+        f"Lv 2015 Monte Carlo: {table['runs']} runs, seed {table['seed']}, "
+        f"{table['duration_s'] / 3600:g} h at {table['sample_rate_hz']:g} Hz, "
+        f"{setup.get('estimator', 'clusters')} AVAR at {grid}, B as "
+        f"{setup.get('bias_noise', 'flicker')} noise",
+        "std: over the runs; [se: the fit's own standard error averaged over the runs, and the "
+        "share of runs whose estimate +- se holds the true value, 68 % when honest]",
+    ]
 
     for gyro in table["gyros"]:
         lines.append("")

@@ -31,7 +31,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
-from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from analysis.earth import (
     Direction,
@@ -42,6 +41,7 @@ from analysis.earth import (
     match_axis,
     rotation_rows,
 )
+from devices.url_query import is_simulated, with_keys
 from station.errors import BenchError
 
 _KEYS = {"name", "latitude_deg", "axes", "rotation"}
@@ -78,13 +78,11 @@ class Bench:
     def sim_url(self, url: str) -> str:
         """A ``sim+`` device URL with the bench's ``latitude`` and ``orientation`` keys added
         (keys the URL already has win); other URLs are returned as they are."""
-        if not url.startswith("sim+") or self.latitude_deg is None or not self.axes:
+        if not is_simulated(url) or self.latitude_deg is None or not self.axes:
             return url
-        parts = urlsplit(url)
-        query = dict(parse_qsl(parts.query, keep_blank_values=True))
-        query.setdefault("latitude", f"{self.latitude_deg:.10g}")
-        query.setdefault("orientation", format_orientation(self.axes))
-        return urlunsplit(parts._replace(query=urlencode(query, safe=":,/")))
+        keys = {"latitude": f"{self.latitude_deg:.10g}",
+                "orientation": format_orientation(self.axes)}
+        return with_keys(url, keys, keep_given=True)
 
 
 def _checked(name: str, latitude: Any, axes: dict[str, Any], path: str) -> Bench:

@@ -21,10 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from devices.protocols import DeviceDescription, Gap, SampleBatch
-
-#: Kinds of event-log entries: the adapters' link events, plus the recorder's own.
-LOG_KINDS = ("connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
-             "bad_sample", "gap", "error", "end")
+from station.model.kinds import LogKind, LogMethod
+from station.model.runs import RunMetadata
 
 
 def utc_now() -> str:
@@ -65,7 +63,7 @@ def data_keys(description: DeviceDescription) -> tuple[DataKey, ...]:
 
 @dataclass(frozen=True)
 class RunStart:
-    """The run's metadata, emitted once before anything else.
+    """The run's start, emitted once before anything else.
 
     Attributes
     ----------
@@ -77,14 +75,10 @@ class RunStart:
         The units, in the order given.
     duration_s : float
         Requested duration, s (on each unit's own time base).
-    profile, profile_version, profile_sha256, profile_path : str
-        The product profile ("" when none was given) and the file it was read from.
-    operator, lot, station_host, software_version : str
-        Who, which lot, where, with what.
     file : str
         Path of the run file.
-    bench : str
-        The test bench (latitude, axis directions) as JSON, "" when none was given.
+    metadata : RunMetadata
+        Profile, operator, lot, station, software version, bench.
     """
 
     uid: str
@@ -92,15 +86,7 @@ class RunStart:
     unit_ids: tuple[str, ...]
     duration_s: float
     file: str
-    profile: str = ""
-    profile_version: str = ""
-    profile_sha256: str = ""
-    profile_path: str = ""
-    operator: str = ""
-    lot: str = ""
-    station_host: str = ""
-    software_version: str = ""
-    bench: str = ""
+    metadata: RunMetadata = field(default_factory=RunMetadata)
 
 
 @dataclass(frozen=True)
@@ -126,7 +112,7 @@ class LogEntry:
     Attributes
     ----------
     kind : str
-        One of :data:`LOG_KINDS`.
+        One of :data:`station.model.kinds.LOG_KINDS`.
     time_s : float
         Unit time, s since the unit's start.
     count : int
@@ -144,12 +130,12 @@ class LogEntry:
         count the timing cannot pin down); None: exactly ``missing_samples``.
     """
 
-    kind: str
+    kind: LogKind
     time_s: float
     count: int = 1
     missing_samples: int = 0
     after_counter: int = -1
-    method: str = ""
+    method: LogMethod = ""
     detail: str = ""
     missing_low: int | None = None
     missing_high: int | None = None

@@ -41,6 +41,7 @@ from typing import Any, Literal, get_args
 
 from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
+from devices.url_query import url_keys, with_keys
 from station.errors import ProfileError
 from station.model.sequences import SequenceSpec, parse_sequences
 
@@ -85,7 +86,8 @@ class FigureKind:
         return next(iter(UNITS[self.dimension]))
 
 
-#: The figures grading can compute (see :mod:`station.evaluation.grading` for how and their intervals).
+#: The figures grading can compute (see :mod:`station.evaluation.grading` for how and their
+#: intervals).
 FIGURE_KINDS: dict[str, FigureKind] = {
     "bias": FigureKind("rate", "|bias|"),
     "arw": FigureKind("arw", "ARW"),
@@ -140,7 +142,8 @@ class FigureSpec:
 
     @property
     def label(self) -> str:
-        """Human-readable name of the figure (with ``(read-off)`` or ``(fit)`` where it could be either)."""
+        """Human-readable name of the figure (with ``(read-off)`` or ``(fit)`` where it could be
+        either)."""
         return f"{self.kind.label} ({self.source})" if self.source else self.kind.label
 
     @property
@@ -178,7 +181,8 @@ class Profile:
     grades : tuple of str
         Grade names, best first; an axis that makes none gets ``reject``.
     rule : str
-        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see :mod:`station.evaluation.grading`).
+        Decision rule: ``strict``, ``guard-banded`` or ``simple`` (see
+        :mod:`station.evaluation.grading`).
     confidence : float
         Two-sided confidence level of every figure's interval (0 < c < 1).
     fit_method : str
@@ -301,7 +305,9 @@ class _Checker:
         if allowed:
             for k in value:
                 if k not in allowed:
-                    raise self.fail(key + (k,), f"unknown key; expected one of {', '.join(sorted(allowed))}")
+                    raise self.fail(
+                        key + (k,), f"unknown key; expected one of {', '.join(sorted(allowed))}"
+                    )
         return value
 
     def string(self, table: dict[str, Any], key: tuple[str, ...], *, default: str | None = None,
@@ -315,14 +321,26 @@ class _Checker:
             raise self.fail(key, f"must be a non-empty string, got {value!r}")
         return value
 
-    def number(self, table: dict[str, Any], key: tuple[str, ...], *, default: float | None = None,
-               positive: bool = False, nonnegative: bool = False, optional: bool = False) -> float | None:
+    def number(
+        self,
+        table: dict[str, Any],
+        key: tuple[str, ...],
+        *,
+        default: float | None = None,
+        positive: bool = False,
+        nonnegative: bool = False,
+        optional: bool = False,
+    ) -> float | None:
         value = table.get(key[-1], default)
         if value is None:
             if optional:
                 return None
             raise self.fail(key, "missing (a number)")
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
             raise self.fail(key, f"must be a finite number, got {value!r}")
         if positive and value <= 0:
             raise self.fail(key, f"must be > 0, got {value!r}")
@@ -333,7 +351,11 @@ class _Checker:
     def strings(self, table: dict[str, Any], key: tuple[str, ...], default: list[str] | None = None
                 ) -> tuple[str, ...]:
         value = table.get(key[-1], default)
-        if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
+        if (
+            not isinstance(value, list)
+            or not value
+            or not all(isinstance(v, str) and v for v in value)
+        ):
             raise self.fail(key, f"must be a non-empty array of strings, got {value!r}")
         if len(set(value)) != len(value):
             raise self.fail(key, f"has duplicates: {value!r}")
@@ -368,7 +390,9 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         m = re.search(r"line (\d+)", str(exc))
-        raise ProfileError(f"not valid TOML: {exc}", path=path, line=int(m.group(1)) if m else None) from exc
+        raise ProfileError(
+            f"not valid TOML: {exc}", path=path, line=int(m.group(1)) if m else None
+        ) from exc
     c = _Checker(path, text)
     for k in data:
         if k not in _TOP_KEYS:
@@ -382,7 +406,9 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
     settings = c.table(data, ("settings",), set())
     fit_method = c.string(test, ("test", "fit_method"), default=DEFAULT_FIT_METHOD)
     if fit_method not in FIT_METHODS:
-        raise c.fail(("test", "fit_method"), f"{fit_method!r} is not one of {', '.join(FIT_METHODS)}")
+        raise c.fail(
+            ("test", "fit_method"), f"{fit_method!r} is not one of {', '.join(FIT_METHODS)}"
+        )
     rule = c.string(grading, ("grading", "rule"), default="guard-banded")
     if rule not in DECISION_RULES:
         raise c.fail(("grading", "rule"), f"{rule!r} is not one of {', '.join(DECISION_RULES)}")
@@ -392,16 +418,22 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         raise c.fail(("grading", "confidence"), f"must be in [0.5, 1), got {confidence}")
     source = c.string(grading, ("grading", "figure_source"), default=DEFAULT_FIGURE_SOURCE)
     if source not in FIGURE_SOURCES:
-        raise c.fail(("grading", "figure_source"), f"{source!r} is not one of {', '.join(FIGURE_SOURCES)}")
+        raise c.fail(
+            ("grading", "figure_source"), f"{source!r} is not one of {', '.join(FIGURE_SOURCES)}"
+        )
     grades = c.strings(grading, ("grading", "grades"))
     reject = c.string(grading, ("grading", "reject"), default="reject")
     if reject in grades or reject == "indeterminate":
-        raise c.fail(("grading", "reject"), f"{reject!r} clashes with a grade name or 'indeterminate'")
+        raise c.fail(
+            ("grading", "reject"), f"{reject!r} clashes with a grade name or 'indeterminate'"
+        )
     duration = c.number(test, ("test", "duration_s"), positive=True)
     warmup = c.number(test, ("test", "warmup_s"), default=0.0, nonnegative=True)
     assert duration is not None and warmup is not None
     if warmup >= duration:
-        raise c.fail(("test", "warmup_s"), f"warm-up {warmup} s is not shorter than the test ({duration} s)")
+        raise c.fail(
+            ("test", "warmup_s"), f"warm-up {warmup} s is not shorter than the test ({duration} s)"
+        )
     return Profile(
         name=name,
         version=c.string(data, ("version",), allow_int=True),
@@ -452,7 +484,9 @@ def _parse_figures(c: _Checker, data: dict[str, Any], grades: tuple[str, ...], s
                 value = c.number(limits_table, key + ("limits", grade), positive=True)
                 assert value is not None
                 limits[grade] = value
-        out.append(FigureSpec(name, unit, limits, c.line_of(key), source if name in DUAL_FIGURES else ""))
+        out.append(
+            FigureSpec(name, unit, limits, c.line_of(key), source if name in DUAL_FIGURES else "")
+        )
     if not any(f.graded for f in out):
         raise c.fail(("figures",), "no figure has limits: nothing to grade")
     return tuple(out)
@@ -506,3 +540,14 @@ def load_profile(ref: str | Path, *, search_dir: Path | None = None) -> Profile:
     except (OSError, UnicodeDecodeError) as exc:
         raise ProfileError(f"cannot read: {exc}", path=str(path)) from exc
     return parse_profile(text, path=str(path))
+
+
+def anchored_model(url: str) -> str:
+    """``url`` with a relative ``model=`` file that does not exist from here made absolute
+    against the project folder (profiles name ``profiles/models/X.toml`` from there), so
+    that a profile's simulation works from any folder."""
+    model = url_keys(url).get("model", "")
+    if not model.endswith(".toml") or Path(model).is_absolute() or Path(model).exists():
+        return url
+    anchored = PROFILE_DIR.parent / model
+    return with_keys(url, {"model": str(anchored)}) if anchored.exists() else url

@@ -74,12 +74,22 @@ class RateRecord:
         out[self.sample_index] = self.rate_deg_s[:, column]
         return out
 
+    def on_time_grid(self) -> NDArray[np.float64]:
+        """Every axis' rate (deg/s) on the sample grid, NaN where a sample is missing
+        (shape (:attr:`span_samples`, axes)); the rates themselves when nothing is."""
+        if self.sample_index is None:
+            return self.rate_deg_s
+        out = np.full((self.span_samples, self.rate_deg_s.shape[1]), np.nan)
+        out[self.sample_index] = self.rate_deg_s
+        return out
+
     def select(self, axis: str | int) -> RateRecord:
         """A record with only one axis, chosen by name or index."""
         if isinstance(axis, str):
             if axis not in self.axis_names:
                 raise RecordFormatError(
-                    f"no axis {axis!r} in {self.source or 'the record'}; axes: {', '.join(self.axis_names)}"
+                    f"no axis {axis!r} in {self.source or 'the record'}; axes: "
+                    f"{', '.join(self.axis_names)}"
                 )
             index = self.axis_names.index(axis)
         else:
@@ -119,6 +129,8 @@ def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None
     index = np.asarray(sample_index, dtype=np.int64)
     if len(index) and np.any(np.diff(index) < 1):
         row = int(np.argmax(np.diff(index) < 1)) + 1
-        raise RecordFormatError(f"sample {row} is not later than the one before it on the time grid")
+        raise RecordFormatError(
+            f"sample {row} is not later than the one before it on the time grid"
+        )
     index = index - index[0] if len(index) else index
     return None if not len(index) or index[-1] == len(index) - 1 else index

@@ -7,8 +7,10 @@ HDF5 file, or a plain CSV record, which becomes a run of one unit with no metada
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields
 
+from station.model.kinds import LogKind
 from station.model.records import RateRecord
 
 
@@ -22,7 +24,7 @@ class RunEvent:
     """
 
     unit_id: str
-    kind: str
+    kind: LogKind
     time_s: float
     count: int = 1
     missing_samples: int = 0
@@ -56,14 +58,25 @@ class UnitRun:
 
 
 @dataclass(frozen=True)
-class RunInfo:
-    """A run: its metadata (strings in UTC ISO 8601 for times) and its units."""
+class RunMetadata:
+    """Who recorded a run, where, with what and against which profile: the metadata the
+    recorder's start document carries, the run file keeps as root attributes and the
+    reader gives back (all text, "" where not given).
 
-    path: str
-    units: tuple[UnitRun, ...]
+    Attributes
+    ----------
+    profile, profile_version, profile_sha256, profile_path : str
+        The product profile and the file it was read from ("" if none; runs recorded
+        before the path was kept have none).
+    operator, lot : str
+        Who recorded it, and the production lot.
+    station_host, software_version : str
+        Where, and with what station software.
+    bench : str
+        The test bench (latitude, axis directions) as JSON (:mod:`station.model.bench`).
+    """
+
     profile: str = ""
-    #: Version, SHA-256 and path of the profile file the run was recorded with ("" if
-    #: none; runs recorded before the path was kept have none).
     profile_version: str = ""
     profile_sha256: str = ""
     profile_path: str = ""
@@ -71,12 +84,29 @@ class RunInfo:
     lot: str = ""
     station_host: str = ""
     software_version: str = ""
+    bench: str = ""
+
+    def as_attributes(self) -> dict[str, str]:
+        """The run file's root attributes of this metadata (one per field)."""
+        return asdict(self)
+
+    @classmethod
+    def from_attributes(cls, attributes: Mapping[str, object]) -> RunMetadata:
+        """The metadata a run file's root attributes (as text) hold; missing ones are ""."""
+        return cls(**{f.name: str(attributes.get(f.name, "")) for f in fields(cls)})
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """A run: its units, its metadata, and how it ended (times in UTC ISO 8601)."""
+
+    path: str
+    units: tuple[UnitRun, ...]
+    metadata: RunMetadata = field(default_factory=RunMetadata)
     start_utc: str = ""
     stop_utc: str = ""
     stop_reason: str = ""
     interrupted: bool = False
-    #: The test bench (latitude, axis directions) as JSON (:mod:`station.model.bench`); "" if none.
-    bench: str = ""
 
     def unit(self, unit_id: str) -> UnitRun:
         """The unit with this id (or serial number)."""

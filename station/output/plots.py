@@ -62,9 +62,17 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     for i, a in enumerate(axes):
         c = colors[i % len(colors)]
         cv = a.shown
-        ax.fill_between(cv.tau_s, cv.deviation_ci_low * scale, cv.deviation_ci_high * scale, color=c,
-                        alpha=0.2, linewidth=0)
-        ax.loglog(cv.tau_s, cv.deviation * scale, "o-", ms=2.5, lw=1, color=c, label=f"{a.name} {cv.kind}")
+        ax.fill_between(
+            cv.tau_s,
+            cv.deviation_ci_low * scale,
+            cv.deviation_ci_high * scale,
+            color=c,
+            alpha=0.2,
+            linewidth=0,
+        )
+        ax.loglog(
+            cv.tau_s, cv.deviation * scale, "o-", ms=2.5, lw=1, color=c, label=f"{a.name} {cv.kind}"
+        )
         lows.append(cv.deviation_ci_low * scale)
         values.append(cv.deviation * scale)
         highs.append(cv.deviation_ci_high * scale)
@@ -72,7 +80,15 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
             continue
         tau = a.allan.tau_s
         if not own:
-            ax.loglog(tau, a.allan.adev * 3600, "-", lw=0.8, color=c, alpha=0.6, label=f"{a.name} Allan (fit's)")
+            ax.loglog(
+                tau,
+                a.allan.adev * 3600,
+                "-",
+                lw=0.8,
+                color=c,
+                alpha=0.6,
+                label=f"{a.name} Allan (fit's)",
+            )
         ax.loglog(tau, np.sqrt(a.fit.model_avar(tau)) * 3600, "-", lw=1.5, color=c, alpha=0.8,
                   label=f"{a.name} fit ({a.fit.method})")
         for term in TERMS:
@@ -85,7 +101,9 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     ax.set_xlabel("averaging time tau [s]")
     ax.set_ylabel(f"{label} [{'deg' if angle else 'deg/h'}]")
     ax.grid(True, which="both", alpha=0.3)
-    default = f"{label}, {curve0.confidence:.3g} band" + ("" if angle else ", fitted noise terms (dotted)")
+    default = f"{label}, {curve0.confidence:.3g} band" + (
+        "" if angle else ", fitted noise terms (dotted)"
+    )
     if not own and not angle:
         default += ": the fit is on the Allan deviation"
     ax.set_title(title or default, fontsize=10)
@@ -128,7 +146,9 @@ def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict
         log_adev = np.log10(np.maximum(result.axis(i).adev, np.finfo(float).tiny))
         mesh = heat_map(ax, result.t_s, result.tau_s, log_adev)
         ax.set_ylabel("tau (s)")
-        ax.set_title(f"{Path(record.source).name or 'record'}: {name}, window {result.window_s:g} s")
+        ax.set_title(
+            f"{Path(record.source).name or 'record'}: {name}, window {result.window_s:g} s"
+        )
         if verdict.warmup_end_s:
             ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
                        label=f"warm-up end {verdict.warmup_end_s:g} s")
@@ -158,17 +178,28 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
             continue
         low = p.value - (p.ci_low if p.ci_low is not None else p.value)
         high = (p.ci_high if p.ci_high is not None else p.value) - p.value
-        edge = {"pass": "#2e7d32", "fail": "#c62828", "indeterminate": "#b8860b"}.get(p.verdict or "", "0.3")
+        edge = {"pass": "#2e7d32", "fail": "#c62828", "indeterminate": "#b8860b"}.get(
+            p.verdict or "", "0.3"
+        )
         ax.errorbar([x], [p.value], yerr=[[low], [high]], fmt="o", ms=5, color=edge,
                     mfc=VERDICT_COLORS.get(p.verdict, "white"), capsize=2)
     limits = [(x, p.limit) for x, p in zip(xs, points, strict=True) if p.limit is not None]
     if limits:
-        ax.step([x for x, _ in limits], [v for _, v in limits], "--", color="0.3", where="post", label="limit")
+        ax.step(
+            [x for x, _ in limits],
+            [v for _, v in limits],
+            "--",
+            color="0.3",
+            where="post",
+            label="limit",
+        )
         ax.legend()
     unit = points[0].unit if points else ""
     ax.set_ylabel(f"{figure} [{unit}]")
     ax.set_xlabel("test date (UTC)" if xs is dates else "grading")
-    ax.set_title(f"{figure}: value and confidence interval per unit and axis ({len(points)} points)")
+    ax.set_title(
+        f"{figure}: value and confidence interval per unit and axis ({len(points)} points)"
+    )
     ax.grid(True, alpha=0.3)
     fig.autofmt_xdate()
     path.parent.mkdir(parents=True, exist_ok=True)

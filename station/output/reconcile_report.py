@@ -50,19 +50,24 @@ def _ranges(comparison: Comparison) -> str:
 def _comparison_line(label: str, comparison: Comparison, alpha: float) -> str:
     terms = ", ".join(comparison.model.term_names) or "(no terms)"
     verdict = "disagrees" if comparison.significant(alpha) else "agrees"
-    return (f"{label}: [{terms}]  gap G = {_fmt(comparison.gap)} (p = {comparison.p_value:.2g}, "
-            f"{100 * (1 - alpha):g} % of the model's runs below {_fmt(comparison.gap_null.quantile(1 - alpha))}): "
-            f"{verdict}; {_ranges(comparison)}")
+    return (
+        f"{label}: [{terms}]  gap G = {_fmt(comparison.gap)} (p = {comparison.p_value:.2g}, "
+        f"{100 * (1 - alpha):g} % of the model's runs below "
+        f"{_fmt(comparison.gap_null.quantile(1 - alpha))}): "
+        f"{verdict}; {_ranges(comparison)}"
+    )
 
 
 def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
-    """The text report of one axis: comparison, each round's candidates, effects, the model after."""
+    """The text report of one axis: comparison, each round's candidates, effects, the model
+    after."""
     c, opt = result.curve, result.options
     decimated = f", decimated by {c.decimation}" if c.decimation > 1 else ""
     lines = [
         f"reconcile {label}: {c.n_samples} samples at {c.sample_rate_hz:g} Hz "
         f"({c.duration_s / S_PER_H:.3g} h{decimated}), "
-        f"{len(c.tau_s)} taus {_fmt(c.tau_s[0])}-{_fmt(c.tau_s[-1])} s, {opt.runs} Monte Carlo runs (seed {opt.seed})",
+        f"{len(c.tau_s)} taus {_fmt(c.tau_s[0])}-{_fmt(c.tau_s[-1])} s, {opt.runs} Monte Carlo "
+        f"runs (seed {opt.seed})",
         _comparison_line("model before", result.before, opt.alpha),
     ]
     for i, rnd in enumerate(result.rounds, start=1):
@@ -73,13 +78,18 @@ def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
             lines.append(f"  {a.name:<17} ({a.mode}) Delta BIC {a.delta_bic:8.1f}  {a.outcome}")
     if result.before.significant(opt.alpha) and not result.effects and not result.excess:
         lines.append("no candidate effect shrinks the gap significantly")
-    for title, effects in (("missing effects", result.effects), ("excess terms (the data show less)", result.excess)):
+    for title, effects in (
+        ("missing effects", result.effects),
+        ("excess terms (the data show less)", result.excess),
+    ):
         lines.append(f"{title}: {'none' if not effects else ''}".rstrip())
         for e in effects:
             lines.append(f"  {e.name} ({e.change}): {_params(e)}")
-            lines.append(f"    explains tau {_fmt(e.tau_range_s[0])}-{_fmt(e.tau_range_s[1])} s; gap "
-                         f"{_fmt(e.gap_before)} -> {_fmt(e.gap_after)}; Delta BIC {e.delta_bic:.1f}"
-                         + (f"; {e.evidence}" if e.evidence else ""))
+            lines.append(
+                f"    explains tau {_fmt(e.tau_range_s[0])}-{_fmt(e.tau_range_s[1])} s; gap "
+                f"{_fmt(e.gap_before)} -> {_fmt(e.gap_after)}; Delta BIC {e.delta_bic:.1f}"
+                + (f"; {e.evidence}" if e.evidence else "")
+            )
             if e.alternatives:
                 what = "GMWM score" if e.criterion == "gmwm" else "Delta BIC"
                 others = ", ".join(f"{a.name} ({a.change}, {a.score:.3g})" for a in e.alternatives)
@@ -106,18 +116,29 @@ def _effect_curves(result: ReconcileResult) -> list[tuple[str, np.ndarray, str]]
 def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | Path) -> Path:
     """PNG of each axis: measured curve and band, model before and after with bands, effects."""
     path = Path(path)
-    fig, axes = plt.subplots(len(results), 1, figsize=(8.5, 5.2 * len(results)), dpi=110, squeeze=False)
+    fig, axes = plt.subplots(
+        len(results), 1, figsize=(8.5, 5.2 * len(results)), dpi=110, squeeze=False
+    )
     for ax, (label, res) in zip(axes[:, 0], results, strict=True):
         c = res.curve
         tau, k = c.tau_s, S_PER_H
         low, high = chi2_interval(c.avar, c.precision.edf, ONE_SIGMA)
         ax.fill_between(tau, np.sqrt(low) * k, np.sqrt(high) * k, color="k", alpha=0.15, lw=0)
         ax.loglog(tau, np.sqrt(c.avar) * k, "ko-", ms=2.5, lw=1, label="measured (1-sigma band)")
-        for name, comp, color in (("model before", res.before, "tab:red"), ("model after", res.after, "tab:blue")):
+        for name, comp, color in (
+            ("model before", res.before, "tab:red"),
+            ("model after", res.after, "tab:blue"),
+        ):
             if name == "model after" and comp is res.before:
                 continue
-            ax.fill_between(tau, np.sqrt(comp.band.low) * k, np.sqrt(comp.band.high) * k, color=color,
-                            alpha=0.15, lw=0)
+            ax.fill_between(
+                tau,
+                np.sqrt(comp.band.low) * k,
+                np.sqrt(comp.band.high) * k,
+                color=color,
+                alpha=0.15,
+                lw=0,
+            )
             ax.loglog(tau, np.sqrt(comp.model_avar) * k, "-", color=color, lw=1.6,
                       label=f"{name}, G = {comp.gap:.3g} (95 % simulated band)")
         for i, (name, avar, style) in enumerate(_effect_curves(res)[:DARK2.N]):

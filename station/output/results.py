@@ -1,7 +1,9 @@
 """The results database: every graded unit, its figures, verdicts and report files, in SQLite.
 
-One file holds the station's history (default :func:`default_database_path`, or the path in
-``$STATION_RESULTS_DB``). Tables::
+One SQLite file holds a station's history (default :func:`default_database_path`, or the
+path in ``$STATION_RESULTS_DB``); a ``postgresql://`` URL there or in ``--db`` names a
+PostgreSQL server instead, with the same schema and migrations, that a line of stations
+writes at once (:mod:`station.results_backends`). Tables::
 
     schema_migrations (version, applied_utc)     which migrations ran
     profiles   (name, version, sha256, rule, confidence, grades, text)   one row per profile file
@@ -12,10 +14,13 @@ One file holds the station's history (default :func:`default_database_path`, or 
     figures    (grading, axis, name, unit, value, ci_low, ci_high, limit, verdict)
     reports    (grading, format, path, created_utc)
 
-Robustness: every write is one ``BEGIN IMMEDIATE`` transaction (a station killed mid-write
-leaves the database as it was before that grading); the journal is WAL with a busy timeout,
-so several stations can write the same file at once; migrations are numbered, run in order
-inside a transaction, and recorded in ``schema_migrations`` and ``PRAGMA user_version``.
+Robustness: every write is one transaction (a station killed mid-write leaves the database
+as it was before that grading); SQLite's journal is WAL with a busy timeout, so several
+stations can write the same file at once; rows two stations may add at once (a profile, a
+run, a unit) are inserted with ``ON CONFLICT DO NOTHING``, and a transaction the server
+aborts (deadlock) is tried again. Migrations are numbered, run in order inside a
+transaction that keeps other stations out, and recorded in ``schema_migrations`` (and
+SQLite's ``PRAGMA user_version``).
 """
 
 from __future__ import annotations
@@ -23,22 +28,27 @@ from __future__ import annotations
 import csv
 import json
 import os
-import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from station.errors import ResultsDatabaseError
+from station.model.kinds import Verdict, verdict_of_grade
+from station.output.results_backends import (
+    DB_ENV,
+    WRITE_ATTEMPTS,
+    Backend,
+    DatabaseLocation,
+    database_location,
+    is_database_url,
+    open_backend,
+)
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
     from station.evaluation.grading import RunGrade, UnitGrade
-
-#: Environment variable naming the database file.
-DB_ENV = "STATION_RESULTS_DB"
-BUSY_TIMEOUT_S = 60.0
 
 #: Numbered migrations; index + 1 is the schema version each brings the database to.
 MIGRATIONS: tuple[str, ...] = (
@@ -98,10 +108,31 @@ def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]
     return [f"{column} = ?" for column, _ in given], [value for _, value in given]
 
 
-def default_database_path() -> Path:
-    """``$STATION_RESULTS_DB``, else ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
+def _grading_filter(*, model: str | None = None, lot: str | None = None, since: str | None = None,
+                    until: str | None = None, verdict: str | None = None, serial: str | None = None,
+                    latest: bool = False, review: bool = False) -> tuple[str, list[object]]:
+    """The ``WHERE`` clause (never empty) over gradings ``g`` and units ``u``, and its
+    parameters (see :meth:`ResultsDatabase.gradings`)."""
+    clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
+                                ("u.serial_number", serial))
+    if since:
+        clauses.append("g.test_date >= ?")
+        params.append(since)
+    if until:
+        clauses.append("g.test_date < ?")
+        params.append(until + "\uffff")
+    if latest:
+        clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
+    if review:
+        clauses.append("g.review != ''")
+    return "WHERE " + " AND ".join(clauses or ["1 = 1"]), params
+
+
+def default_database_path() -> DatabaseLocation:
+    """``$STATION_RESULTS_DB`` (a file or a ``postgresql://`` URL), else
+    ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
     if os.environ.get(DB_ENV):
-        return Path(os.environ[DB_ENV])
+        return database_location(os.environ[DB_ENV])
     base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
     return base / "gyro-station" / "results.sqlite"
 
@@ -110,11 +141,6 @@ def _now() -> str:
     return datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
 
 
-def verdict_of(grade: str, reject: str) -> str:
-    """pass / fail / indeterminate of a unit grade."""
-    if grade == "indeterminate":  # station.evaluation.grading.INDETERMINATE
-        return grade
-    return "fail" if grade == reject else "pass"
 
 
 @dataclass(frozen=True)
@@ -128,7 +154,7 @@ class GradingRow:
     serial_number: str
     lot: str
     grade: str
-    verdict: str
+    verdict: Verdict
     profile: str
     run_path: str
     run_unit: str
@@ -168,40 +194,57 @@ class TrendPoint:
     ci_low: float | None
     ci_high: float | None
     unit: str
-    verdict: str | None
+    verdict: Verdict | None
     limit: float | None = None
 
 
+@dataclass(frozen=True)
+class FigureValue:
+    """One graded figure of one unit's axis, in ``unit``, with the limit it was decided at."""
+
+    grading_id: int
+    test_date: str
+    serial_number: str
+    lot: str
+    axis: str
+    name: str
+    unit: str
+    value: float | None
+    limit: float | None
+
+
 class ResultsDatabase:
-    """A results database file, migrated to :data:`SCHEMA_VERSION` on open.
+    """A results database (SQLite file or PostgreSQL URL), migrated to :data:`SCHEMA_VERSION`
+    on open.
 
     Use as a context manager, or call :meth:`close`.
 
     Raises
     ------
     ResultsDatabaseError
-        When the file is not a database or was written by a newer schema.
+        When the file is not a database, the server cannot be reached, or the database was
+        written by a newer schema.
     """
 
-    def __init__(self, path: str | Path) -> None:
-        self.path = Path(path)
+    def __init__(self, location: DatabaseLocation) -> None:
+        self.location = location if is_database_url(location) else Path(location)
+        self._con: Backend = open_backend(self.location)
+        self.name = self._con.name
         try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._con = sqlite3.connect(self.path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
-        except (OSError, sqlite3.Error) as exc:
-            raise ResultsDatabaseError(f"cannot open the results database {self.path}: {exc}") from exc
-        try:
-            self._con.row_factory = sqlite3.Row
-            self._con.execute("PRAGMA journal_mode=WAL")
-            self._con.execute("PRAGMA foreign_keys=ON")
-            self._con.execute("PRAGMA synchronous=NORMAL")
             self._migrate()
-        except sqlite3.DatabaseError as exc:
-            self._con.close()
-            raise ResultsDatabaseError(f"{self.path}: {exc}") from exc
         except ResultsDatabaseError:
             self._con.close()
             raise
+        except Exception as exc:  # sqlite3 or psycopg: a file that is no database, a server error
+            self._con.close()
+            raise ResultsDatabaseError(f"{self.name}: {str(exc).strip().splitlines()[0]}") from exc
+
+    @property
+    def path(self) -> Path:
+        """The SQLite file (a PostgreSQL database has none)."""
+        if isinstance(self.location, Path):
+            return self.location
+        raise ResultsDatabaseError(f"{self.name} is a PostgreSQL database, not a file")
 
     def __enter__(self) -> ResultsDatabase:
         return self
@@ -214,87 +257,144 @@ class ResultsDatabase:
         self._con.close()
 
     @contextmanager
-    def transaction(self) -> Iterator[sqlite3.Connection]:
-        """One write transaction (``BEGIN IMMEDIATE``): committed whole, or not at all."""
-        self._con.execute("BEGIN IMMEDIATE")
-        try:
+    def transaction(self) -> Iterator[Backend]:
+        """One write transaction (SQLite: ``BEGIN IMMEDIATE``): committed whole, or not at all."""
+        with self._con.transaction():
             yield self._con
-        except BaseException:
-            self._con.execute("ROLLBACK")
-            raise
-        self._con.execute("COMMIT")
 
     @property
     def schema_version(self) -> int:
-        """The schema version of the file (``PRAGMA user_version``)."""
-        return int(self._con.execute("PRAGMA user_version").fetchone()[0])
+        """The schema version of the database (0: new)."""
+        return self._con.schema_version()
 
     def _migrate(self) -> None:
         if self.schema_version == SCHEMA_VERSION:
             return
-        with self.transaction() as con:  # re-read inside the lock: another station may have migrated
+        with self._con.migration():  # re-read inside the lock: another station may have migrated
+            con = self._con
             version = self.schema_version
             if version > SCHEMA_VERSION:
-                raise ResultsDatabaseError(f"{self.path}: schema version {version} is newer than this "
-                                           f"station's {SCHEMA_VERSION}; update the station")
-            con.execute("CREATE TABLE IF NOT EXISTS schema_migrations "
+                raise ResultsDatabaseError(
+                    f"{self.name}: schema version {version} is newer than this "
+                    f"station's {SCHEMA_VERSION}; update the station"
+                )
+            con.run_ddl("CREATE TABLE IF NOT EXISTS schema_migrations "
                         "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
             for number in range(version + 1, SCHEMA_VERSION + 1):
-                for statement in MIGRATIONS[number - 1].split(";"):
-                    if statement.strip():
-                        con.execute(statement)
+                con.run_ddl(MIGRATIONS[number - 1])
                 con.execute("INSERT INTO schema_migrations VALUES (?, ?)", (number, _now()))
-                con.execute(f"PRAGMA user_version = {number}")
+                con.set_schema_version(number)
 
     # --- writing ------------------------------------------------------------------------
 
-    def _id(self, con: sqlite3.Connection, table: str, keys: dict[str, object],
+    def _id(self, con: Backend, table: str, keys: dict[str, object],
             extra: dict[str, object] | None = None) -> int:
+        """Id of the row with ``keys``, added (with ``extra``) when there is none; another
+        station adding the same row at the same time is no error (``ON CONFLICT``)."""
         where = " AND ".join(f"{k} = ?" for k in keys)
-        row = con.execute(f"SELECT id FROM {table} WHERE {where}", tuple(keys.values())).fetchone()
-        if row:
-            return int(row[0])
-        cols = {**keys, **(extra or {})}
-        cur = con.execute(f"INSERT INTO {table} ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
-                          tuple(cols.values()))
-        return int(cur.lastrowid or 0)
+        select = f"SELECT id FROM {table} WHERE {where}"
+        row = con.execute(select, tuple(keys.values())).fetchone()
+        if row is None:
+            cols = {**keys, **(extra or {})}
+            row = con.execute(f"INSERT INTO {table} ({', '.join(cols)}) VALUES "
+                              f"({', '.join('?' * len(cols))}) ON CONFLICT DO NOTHING RETURNING id",
+                              tuple(cols.values())).fetchone()
+            if row is None:  # the other station's row, committed while this insert waited
+                row = con.execute(select, tuple(keys.values())).fetchone()
+        return int(row[0])
 
     def store(self, graded: RunGrade) -> list[int]:
-        """Store every unit of a graded run in one transaction; returns the grading ids."""
+        """Store every unit of a graded run in one transaction; returns the grading ids.
+
+        A transaction the server aborted to break a deadlock with another station is tried
+        again (up to ``WRITE_ATTEMPTS`` times).
+        """
+        for attempt in range(1, WRITE_ATTEMPTS + 1):
+            try:
+                return self._store(graded)
+            except self._con.retryable as exc:
+                if attempt == WRITE_ATTEMPTS:
+                    raise ResultsDatabaseError(f"{self.name}: {exc}") from exc
+            except self._con.errors as exc:
+                raise ResultsDatabaseError(f"{self.name}: cannot store the grading: "
+                                           f"{str(exc).strip().splitlines()[0]}") from exc
+        raise AssertionError("unreachable")
+
+    def _store(self, graded: RunGrade) -> list[int]:
         p, r = graded.profile, graded.run
         try:
             text = Path(p.path).read_text(encoding="utf-8") if p.path else None
         except OSError:
             text = None
         with self.transaction() as con:
-            profile_id = self._id(con, "profiles", {"name": p.name, "version": p.version, "sha256": p.sha256},
-                                  {"model": p.model, "path": p.path, "rule": p.rule,
-                                   "confidence": p.confidence, "grades": json.dumps(list(p.grades)),
-                                   "text": text})
-            run_id = self._id(con, "runs", {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
-                              {"stop_utc": r.stop_utc, "operator": r.operator, "lot": r.lot,
-                               "station": r.station_host, "software_version": r.software_version,
-                               "interrupted": int(r.interrupted)})
+            profile_id = self._id(
+                con,
+                "profiles",
+                {"name": p.name, "version": p.version, "sha256": p.sha256},
+                {
+                    "model": p.model,
+                    "path": p.path,
+                    "rule": p.rule,
+                    "confidence": p.confidence,
+                    "grades": json.dumps(list(p.grades)),
+                    "text": text,
+                },
+            )
+            run_id = self._id(
+                con,
+                "runs",
+                {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
+                {
+                    "stop_utc": r.stop_utc,
+                    "operator": r.metadata.operator,
+                    "lot": r.metadata.lot,
+                    "station": r.metadata.station_host,
+                    "software_version": r.metadata.software_version,
+                    "interrupted": int(r.interrupted),
+                },
+            )
             return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
 
-    def _store_unit(self, con: sqlite3.Connection, graded: RunGrade, u: UnitGrade, profile_id: int,
+    def _store_unit(self, con: Backend, graded: RunGrade, u: UnitGrade, profile_id: int,
                     run_id: int) -> int:
         model = u.unit.model or graded.profile.model
         serial = u.unit.serial_number or u.unit.unit_id
         unit_id = self._id(con, "units", {"model": model, "serial_number": serial})
         test_date = graded.run.start_utc or graded.graded_utc
         cur = con.execute(
-            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date, lot, grade,"
-            " verdict, software_version, notes, review) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-            (run_id, unit_id, profile_id, u.unit.unit_id, graded.graded_utc, test_date, graded.run.lot,
-             u.grade, verdict_of(u.grade, graded.profile.reject), graded.software_version,
-             "\n".join(u.notes), "\n".join(u.review)))
-        grading_id = int(cur.lastrowid or 0)
+            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date,"
+            " lot, grade, verdict, software_version, notes, review)"
+            " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
+            (
+                run_id,
+                unit_id,
+                profile_id,
+                u.unit.unit_id,
+                graded.graded_utc,
+                test_date,
+                graded.run.metadata.lot,
+                u.grade,
+                verdict_of_grade(u.grade, graded.profile.reject),
+                graded.software_version,
+                "\n".join(u.notes),
+                "\n".join(u.review),
+            ),
+        )
+        grading_id = int(cur.fetchone()[0])
         for a in u.axes:
-            con.execute("INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
-                        " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                        (grading_id, a.axis, a.grade, a.deciding_grade, a.analysis.n_samples,
-                         a.analysis.sample_rate_hz, "\n".join(a.review)))
+            con.execute(
+                "INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
+                " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (
+                    grading_id,
+                    a.axis,
+                    a.grade,
+                    a.deciding_grade,
+                    a.analysis.n_samples,
+                    a.analysis.sample_rate_hz,
+                    "\n".join(a.review),
+                ),
+            )
             for f in a.figures:
                 limit = f.spec.limits.get(a.deciding_grade)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else None
@@ -306,38 +406,65 @@ class ResultsDatabase:
     def add_report(self, grading_id: int, fmt: str, path: str | Path) -> None:
         """Record a report file written for a grading."""
         with self.transaction() as con:
-            con.execute("INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
-                        (grading_id, fmt, str(Path(path).resolve()), _now()))
+            con.execute(
+                "INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
+                (grading_id, fmt, str(Path(path).resolve()), _now()),
+            )
 
     # --- reading ------------------------------------------------------------------------
 
-    def gradings(self, *, model: str | None = None, lot: str | None = None, since: str | None = None,
-                 until: str | None = None, verdict: str | None = None, serial: str | None = None,
-                 latest: bool = False, review: bool = False) -> list[GradingRow]:
+    def gradings(
+        self,
+        *,
+        model: str | None = None,
+        lot: str | None = None,
+        since: str | None = None,
+        until: str | None = None,
+        verdict: Verdict | None = None,
+        serial: str | None = None,
+        latest: bool = False,
+        review: bool = False,
+    ) -> list[GradingRow]:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
         only the gradings flagged for review."""
-        clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
-                                    ("u.serial_number", serial))
-        if since:
-            clauses.append("g.test_date >= ?")
-            params.append(since)
-        if until:
-            clauses.append("g.test_date < ?")
-            params.append(until + "\uffff")
-        if latest:
-            clauses.append("g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)")
-        if review:
-            clauses.append("g.review != ''")
-        where = ("WHERE " + " AND ".join(clauses)) if clauses else ""
+        where, params = _grading_filter(
+            model=model, lot=lot, since=since, until=until, verdict=verdict, serial=serial,
+            latest=latest, review=review,
+        )
         rows = self._con.execute(
-            "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, g.verdict,"
-            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM gradings g"
+            "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, "
+            "g.verdict,"
+            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM "
+            "gradings g"
             " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
-            f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id", params).fetchall()
+            f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id",
+            params,
+        ).fetchall()
         return [GradingRow(*row) for row in rows]
 
-    def latest_grading(self, run_path: str | Path, run_unit: str, profile_sha256: str) -> int | None:
+    def figure_values(self, *, model: str | None = None, lot: str | None = None,
+                      since: str | None = None) -> list[FigureValue]:
+        """The graded figures (those a grade limits) of each unit's latest grading, filtered
+        as :meth:`gradings` filters, in test order (date, grading, axis, name)."""
+        where, params = _grading_filter(model=model, lot=lot, since=since, latest=True)
+        rows = self._con.execute(
+            "SELECT g.id, g.test_date, u.serial_number, g.lot, f.axis, f.name, f.unit, f.value,"
+            " f.limit_value FROM figures f JOIN gradings g ON g.id = f.grading_id"
+            f" JOIN units u ON u.id = g.unit_id {where} AND f.verdict IS NOT NULL"
+            " ORDER BY g.test_date, g.id, f.axis, f.name", params).fetchall()
+        return [FigureValue(*row) for row in rows]
+
+    def profile_text(self, grading_id: int) -> tuple[str, str | None]:
+        """(``name@version``, TOML text or None) of the profile a grading used."""
+        row = self._con.execute("SELECT p.name || '@' || p.version, p.text FROM gradings g JOIN"
+                                " profiles p ON p.id = g.profile_id WHERE g.id = ?",
+                                (grading_id,)).fetchone()
+        return (str(row[0]), row[1]) if row else ("", None)
+
+    def latest_grading(
+        self, run_path: str | Path, run_unit: str, profile_sha256: str
+    ) -> int | None:
         """Id of the newest grading of one unit of a run with one profile file, if stored."""
         row = self._con.execute(
             "SELECT MAX(g.id) FROM gradings g JOIN runs r ON r.id = g.run_id JOIN profiles p"
@@ -345,12 +472,12 @@ class ResultsDatabase:
             (str(Path(run_path).resolve()), run_unit, profile_sha256)).fetchone()
         return None if row[0] is None else int(row[0])
 
-    def figures(self, grading_id: int) -> list[sqlite3.Row]:
-        """The figure rows of one grading."""
-        return self._con.execute("SELECT * FROM figures WHERE grading_id = ? ORDER BY axis, rowid",
+    def figures(self, grading_id: int) -> list[Any]:
+        """The figure rows of one grading (by column name or position), by axis and name."""
+        return self._con.execute("SELECT * FROM figures WHERE grading_id = ? ORDER BY axis, name",
                                  (grading_id,)).fetchall()
 
-    def reports(self, grading_id: int) -> list[sqlite3.Row]:
+    def reports(self, grading_id: int) -> list[Any]:
         """The report files recorded for one grading."""
         return self._con.execute("SELECT * FROM reports WHERE grading_id = ? ORDER BY id",
                                  (grading_id,)).fetchall()
@@ -358,11 +485,15 @@ class ResultsDatabase:
     def yield_by_lot(self, *, model: str | None = None) -> list[LotYield]:
         """Per lot (and model), the latest grading of each unit counted by verdict."""
         rows = self._con.execute(
-            "SELECT g.lot, u.model, COUNT(*), SUM(g.verdict = 'pass'), SUM(g.verdict = 'fail'),"
-            " SUM(g.verdict = 'indeterminate') FROM gradings g JOIN units u ON u.id = g.unit_id"
+            "SELECT g.lot, u.model, COUNT(*), SUM(CASE WHEN g.verdict = 'pass' THEN 1 ELSE 0 END),"
+            " SUM(CASE WHEN g.verdict = 'fail' THEN 1 ELSE 0 END),"
+            " SUM(CASE WHEN g.verdict = 'indeterminate' THEN 1 ELSE 0 END)"
+            " FROM gradings g JOIN units u ON u.id = g.unit_id"
             " WHERE g.id = (SELECT MAX(id) FROM gradings WHERE unit_id = g.unit_id)"
-            + (" AND u.model = ?" if model else "") + " GROUP BY g.lot, u.model ORDER BY g.lot, u.model",
-            (model,) if model else ()).fetchall()
+            + (" AND u.model = ?" if model else "")
+            + " GROUP BY g.lot, u.model ORDER BY g.lot, u.model",
+            (model,) if model else (),
+        ).fetchall()
         return [LotYield(*row) for row in rows]
 
     def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
@@ -371,15 +502,19 @@ class ResultsDatabase:
         clauses, params = _equal_to(("f.name", figure), ("u.model", model), ("f.axis", axis),
                                     ("g.lot", lot))
         rows = self._con.execute(
-            "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, f.verdict,"
+            "SELECT g.test_date, u.serial_number, f.axis, f.value, f.ci_low, f.ci_high, f.unit, "
+            "f.verdict,"
             " f.limit_value"
-            " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = g.unit_id"
-            f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis", params).fetchall()
+            " FROM figures f JOIN gradings g ON g.id = f.grading_id JOIN units u ON u.id = "
+            "g.unit_id"
+            f" WHERE {' AND '.join(clauses)} ORDER BY g.test_date, g.id, f.axis",
+            params,
+        ).fetchall()
         return [TrendPoint(*row) for row in rows]
 
     def integrity_check(self) -> str:
-        """SQLite's ``PRAGMA integrity_check`` answer ("ok" when sound)."""
-        return str(self._con.execute("PRAGMA integrity_check").fetchone()[0])
+        """"ok" when sound (SQLite: its ``PRAGMA integrity_check`` answer)."""
+        return self._con.integrity_check()
 
 
 def export_csv(rows: Sequence[GradingRow], path: str | Path) -> Path:

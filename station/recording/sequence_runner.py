@@ -2,7 +2,7 @@
 
 :class:`SequenceRunner` runs the steps of a :class:`~station.model.sequences.SequenceSpec`
 for every unit of the fixture. It drives the recorder only through its public entry
-points (:class:`~station.recorder.Recorder`: a run per ``record`` step, each a run file
+points (:class:`~station.recording.recorder.Recorder`: a run per ``record`` step, each a run file
 of its own, a *segment*), switches the supplies (:class:`~devices.protocols.PowerSwitch`)
 and sets the chamber (:class:`~devices.protocols.TemperatureChamber`), and keeps the
 journal of all of it in the sequence file (:mod:`station.storage.sequence_files`),
@@ -15,7 +15,7 @@ else the station's).
 
 Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again: the
 journal says which step was running; a segment left open by a killed recorder is closed
-(:func:`station.hdf5_recover.recover_run`) and kept, marked interrupted; the supplies and
+(:func:`station.storage.hdf5_recover.recover_run`) and kept, marked interrupted; the supplies and
 the chamber are put back as the journal left them; the interrupted step runs for what
 was left of it; the interruption and the resumption are in the journal.
 """
@@ -35,13 +35,13 @@ from typing import Protocol, TypeVar
 from devices.errors import DeviceError
 from devices.protocols import PowerSwitch, TemperatureChamber
 from station.errors import RecorderError, RecordFormatError, StationError
-from station.hdf5 import REASON_DURATION
-from station.hdf5_recover import recover_run
 from station.model.documents import Subscriber, utc_now
 from station.model.profiles import Profile
 from station.model.sequence_runs import JournalEntry, JournalKind, Segment, SequenceRun
 from station.model.sequences import SequenceSpec, Step
-from station.recorder import Recorder, RunConfig
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import REASON_DURATION
+from station.storage.hdf5_recover import recover_run
 from station.storage.runs import open_run
 from station.storage.sequence_files import write_sequence
 

@@ -1,1 +1,2 @@
-"""The station's workflows, one typed request and one function each; the CLI and the TUI call these."""
+"""The station's workflows, one typed request and one function each; the CLI and the TUI call
+these."""

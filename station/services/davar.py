@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+import numpy as np
 
 from analysis.davar import DavarResult, dynamic_allan_variance
 from analysis.warmup import WarmupVerdict, detect_warmup
@@ -38,13 +41,15 @@ class DavarAnswer:
 
     def as_json(self) -> dict[str, object]:
         """``{"axes": [{"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}]}``:
-        window centres (s), taus (s), ADEV per window and tau (deg/s), the verdict."""
+        window centres (s), taus (s), ADEV per window and tau (deg/s; null in a window that
+        holds a recorded gap), the verdict."""
         axes = []
         for i, (name, verdict) in enumerate(zip(self.record.axis_names, self.verdicts,
                                                 strict=True)):
             one = self.result.axis(i)
+            adev = [[None if math.isnan(v) else v for v in row] for row in one.adev.tolist()]
             axes.append({"name": name, "t_s": one.t_s.tolist(), "tau_s": one.tau_s.tolist(),
-                         "adev": one.adev.tolist(), "warmup_end_s": verdict.warmup_end_s,
+                         "adev": adev, "warmup_end_s": verdict.warmup_end_s,
                          "stationary": bool(verdict.stationary)})
         return {"axes": axes}
 
@@ -64,11 +69,14 @@ def davar(request: DavarRequest) -> DavarAnswer:
         raise UsageError(f"--window-s {request.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
     notes = loaded.notes
+    result = dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
+                                    window_s=request.window_s, step_s=request.step_s,
+                                    missing="gap" if record.missing_samples else "raise")
     if record.missing_samples:
-        notes += (f"{record.missing_samples} samples are missing in gaps; the DAVAR joins the "
-                  f"stretches between them (window times are sample counts)",)
-    result = dynamic_allan_variance(record.rate_deg_s, record.sample_rate_hz,
-                                    window_s=request.window_s, step_s=request.step_s)
+        broken = int(np.isnan(result.avar).any(axis=(1, 2)).sum())
+        notes += (f"{record.missing_samples} samples are missing in gaps; the {broken} of "
+                  f"{len(result.t_s)} windows that hold one are left out (blank on the heat "
+                  f"map, null in the JSON)",)
     verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
     if request.png is not None:
         from station.output.plots import plot_davar  # matplotlib: only for a heat map

@@ -11,6 +11,7 @@ from station.evaluation.grading import RunGrade, grade_run, profile_changed_note
 from station.model.profiles import available_profiles, load_profile
 from station.model.runs import RunInfo
 from station.output.results import ResultsDatabase, default_database_path
+from station.output.results_backends import DatabaseLocation
 from station.services.records import bench_of
 from station.storage.runs import open_run
 from station.storage.sequence_files import is_sequence_file
@@ -60,8 +61,8 @@ class GradeRequest:
     profile_from_model : bool
         When the run names no profile and none is given, take the first profile whose
         model is a unit's model (the TUI's spec sheet) instead of refusing.
-    db : Path or None
-        Results database (None: :func:`default_database_path`).
+    db : str, Path or None
+        Results database: an SQLite file or a PostgreSQL URL (None: :func:`default_database_path`).
     store : bool
         Whether the grading is stored (:func:`store_grading`).
     """
@@ -71,11 +72,11 @@ class GradeRequest:
     units: tuple[str, ...] = ()
     bench: str | Path | None = None
     profile_from_model: bool = False
-    db: Path | None = None
+    db: DatabaseLocation | None = None
     store: bool = True
 
     @property
-    def database(self) -> Path:
+    def database(self) -> DatabaseLocation:
         """The results database the request names."""
         return self.db or default_database_path()
 
@@ -104,12 +105,12 @@ def open_run_source(source: RunSource) -> RunInfo:
         run = replace(run, units=(replace(run.units[0], serial_number=source.serial),))
     changes = {k: v for k, v in (("lot", source.lot), ("operator", source.operator))
                if v is not None}
-    return replace(run, **changes) if changes else run  # type: ignore[arg-type]
+    return replace(run, metadata=replace(run.metadata, **changes)) if changes else run
 
 
 def guess_profile(run: RunInfo) -> str | None:
     """The run's profile, else the first profile whose model is a unit's model."""
-    if run.profile:
+    if run.metadata.profile:
         return run_profile_ref(run)
     models = {u.model for u in run.units}
     for name in available_profiles():
@@ -172,7 +173,7 @@ def _grade_sequence(request: GradeRequest) -> GradeResult:
     return GradeResult(graded, tuple(warnings))
 
 
-def store_grading(graded: RunGrade, db_path: Path, *, again: bool = True) -> list[int]:
+def store_grading(graded: RunGrade, db_path: DatabaseLocation, *, again: bool = True) -> list[int]:
     """Store the grading of every unit in the results database; returns the grading ids.
 
     ``again=False`` stores it only once per run, unit and profile file: the ids of a

@@ -103,7 +103,9 @@ def reconcile_run(request: ReconcileRequest,
     axes = _axes(request)
     results: list[tuple[str, ReconcileResult]] = []
     for i, (label, record) in enumerate(axes):
-        progress(Progress("reconcile", f"{label} ({record.n_samples} samples)", i, len(axes)))
+        lost = (f"; {record.missing_samples} samples missing in gaps: reconcile joins the "
+                f"stretches between them" if record.missing_samples else "")
+        progress(Progress("reconcile", f"{label} ({record.n_samples} samples{lost})", i, len(axes)))
         res = reconcile(record.rate_deg_s[:, 0], record.sample_rate_hz, model,
                         temperature_c=record.temperature_c, options=options, cache=cache)
         results.append((label, res))

@@ -1,4 +1,5 @@
-"""``report``: spec sheets (PDF, HTML, JSON, CSV) of a graded run, recorded in the results database."""
+"""``report``: spec sheets (PDF, HTML, JSON, CSV) of a graded run, recorded in the results
+database."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from pathlib import Path
 from station.evaluation.grading import RunGrade
 from station.output.report import ReportFormat, write_report
 from station.output.results import ResultsDatabase
+from station.output.results_backends import DatabaseLocation
 from station.services.grade import GradeRequest, grade, store_grading
 
 
@@ -34,7 +36,7 @@ class ReportResult:
 
 
 def write_reports(graded: RunGrade, formats: tuple[ReportFormat, ...], out_dir: Path,
-                  db_path: Path | None) -> tuple[tuple[ReportFormat, Path], ...]:
+                  db_path: DatabaseLocation | None) -> tuple[tuple[ReportFormat, Path], ...]:
     """Write each report of ``graded`` into ``out_dir``; with ``db_path``, record the files
     against the unit gradings (storing the grading first when it is not there yet)."""
     files = tuple((fmt, write_report(graded, fmt, out_dir)) for fmt in formats)

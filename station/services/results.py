@@ -15,6 +15,7 @@ from station.output.results import (
     default_database_path,
     export_csv,
 )
+from station.output.results_backends import DatabaseLocation, database_exists
 
 
 @dataclass(frozen=True)
@@ -23,7 +24,7 @@ class ResultsRequest:
 
     Attributes
     ----------
-    db : Path or None
+    db : str, Path or None
         The database (None: :func:`default_database_path`).
     show : {"gradings", "yield", "trend"}
         Gradings by filter, yield per lot, or one figure over test dates.
@@ -41,7 +42,7 @@ class ResultsRequest:
         ``gradings``: also export the rows as CSV here.
     """
 
-    db: Path | None = None
+    db: DatabaseLocation | None = None
     show: Literal["gradings", "yield", "trend"] = "gradings"
     model: str | None = None
     lot: str | None = None
@@ -56,8 +57,8 @@ class ResultsRequest:
     csv: Path | None = None
 
     @property
-    def database(self) -> Path:
-        """The database file the request names."""
+    def database(self) -> DatabaseLocation:
+        """The database (file or URL) the request names."""
         return self.db or default_database_path()
 
 
@@ -65,7 +66,7 @@ class ResultsRequest:
 class ResultsAnswer:
     """What the database holds for a request (``exists`` False: there is no database yet)."""
 
-    database: Path
+    database: DatabaseLocation
     exists: bool = True
     gradings: tuple[GradingRow, ...] = ()
     yields: tuple[LotYield, ...] = ()
@@ -79,7 +80,7 @@ def query_results(request: ResultsRequest) -> ResultsAnswer:
     A database that does not exist yet is not created: ``exists`` is False.
     """
     path = request.database
-    if not path.exists():
+    if not database_exists(path):
         return ResultsAnswer(path, exists=False)
     with ResultsDatabase(path) as db:
         if request.show == "yield":

@@ -27,13 +27,13 @@ from devices.fixture import ModbusChamber, ModbusPowerSwitch, open_chamber, open
 from devices.sim.clock import WarpClock
 from devices.sim.fixture_server import SimulatedFixture
 from station.errors import RecordFormatError, UsageError
-from station.hdf5 import open_run_file, unit_counts
 from station.model.bench import load_bench
 from station.model.documents import Subscriber
 from station.model.profiles import Profile, load_profile
 from station.model.sequence_runs import SequenceRun
 from station.model.sequences import SequenceSpec, Step
 from station.recording.sequence_runner import SequenceClock, SequenceConfig, SequenceRunner
+from station.storage.hdf5 import open_run_file, unit_counts
 from station.storage.sequence_files import read_sequence, segment_path
 
 SIM = "sim"

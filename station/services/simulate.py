@@ -22,7 +22,6 @@ from analysis.simulate import GyroSimulator, SimulatedChunk, n_samples_of
 from devices.model_files import load_noise_model
 from devices.protocols import DeviceDescription
 from station.errors import UsageError
-from station.hdf5 import REASON_DURATION, RunFileWriter
 from station.model.documents import (
     Descriptor,
     EventBatch,
@@ -32,8 +31,11 @@ from station.model.documents import (
     data_keys,
     utc_now,
 )
+from station.model.runs import RunMetadata
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.storage.csv_records import write_csv_record
+from station.storage.hdf5 import REASON_DURATION
+from station.storage.hdf5_writer import RunFileWriter
 
 #: Samples per axis generated and written at a time.
 CHUNK_SAMPLES = 1 << 17
@@ -167,7 +169,7 @@ def write_h5_run(path: Path, chunks: Iterator[SimulatedChunk], sim: GyroSimulato
     writer = RunFileWriter(path)
     writer(RunStart(uid=uuid.uuid4().hex, start_utc=start, unit_ids=(unit,),
                     duration_s=n_total / sim.sample_rate_hz, file=str(path),
-                    software_version="station simulate"))
+                    metadata=RunMetadata(software_version="station simulate")))
     writer(Descriptor(unit, f"simulation:{description.model}", description,
                       data_keys(description), start, "simulated time (sample index / sample rate)"))
     for seq, chunk in enumerate(chunks):

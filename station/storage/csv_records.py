@@ -65,7 +65,9 @@ def read_csv_record(
     """
     path = Path(path)
     if units not in UNIT_TO_DEG_S:
-        raise RecordFormatError(f"unknown rate unit {units!r}; use one of {', '.join(UNIT_TO_DEG_S)}")
+        raise RecordFormatError(
+            f"unknown rate unit {units!r}; use one of {', '.join(UNIT_TO_DEG_S)}"
+        )
     try:
         return _read_csv(path, sample_rate_hz, units)
     except (UnicodeDecodeError, EOFError, zlib.error, gzip.BadGzipFile) as exc:
@@ -97,14 +99,20 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecor
                 warnings.simplefilter("ignore", UserWarning)  # "no data": reported below
                 data = np.loadtxt(fh, delimiter=",", comments="#", ndmin=2, dtype=np.float64)
         except ValueError as exc:
-            raise RecordFormatError(f"{path}: cannot parse the values after line {header_line}: {exc}") from exc
+            raise RecordFormatError(
+                f"{path}: cannot parse the values after line {header_line}: {exc}"
+            ) from exc
     if data.shape[0] == 0:
         raise RecordFormatError(f"{path}: header but no data rows")
     if data.shape[1] != len(header):
-        raise RecordFormatError(f"{path}: {data.shape[1]} values per row, header names {len(header)} columns")
+        raise RecordFormatError(
+            f"{path}: {data.shape[1]} values per row, header names {len(header)} columns"
+        )
     lower = [h.lower() for h in header]
     time_index = next((lower.index(c) for c in TIME_COLUMNS if c in lower), None)
-    temp_index = next((i for i, h in enumerate(lower) if h in ("temperature_c", "temp_c", "temperature")), None)
+    temp_index = next(
+        (i for i, h in enumerate(lower) if h in ("temperature_c", "temp_c", "temperature")), None
+    )
     axis_idx = [i for i in range(len(header)) if i not in (time_index, temp_index)]
     if not axis_idx:
         raise RecordFormatError(f"{path}: no rate column besides time/temperature")
@@ -113,10 +121,13 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecor
     bad = ~np.isfinite(rate)
     if bad.any():
         row = int(np.argmax(bad.any(axis=1)))
-        raise RecordFormatError(f"{path}: non-finite rate in data row {row + 1}; clean the file first")
+        raise RecordFormatError(
+            f"{path}: non-finite rate in data row {row + 1}; clean the file first"
+        )
     temp = None if temp_index is None else data[:, temp_index].copy()
-    return RateRecord(np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp,
-                      index)
+    return RateRecord(
+        np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp, index
+    )
 
 
 def _is_number(text: str) -> bool:
@@ -149,7 +160,9 @@ def _time_grid(path: Path, data: NDArray[np.float64], time_index: int | None, gi
     t = data[:, time_index]
     if len(t) < 2:
         if given is None:
-            raise RecordFormatError(f"{path}: one row is not enough to know the sample rate; give --rate HZ")
+            raise RecordFormatError(
+                f"{path}: one row is not enough to know the sample rate; give --rate HZ"
+            )
         return float(given), None
     dt = np.diff(t)
     period = float(np.median(dt)) if given is None else 1.0 / float(given)

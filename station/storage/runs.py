@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from pathlib import Path
 
 from station.errors import RecordFormatError
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.storage.csv_records import read_csv_record
+from station.storage.hdf5 import read_run, read_run_record, run_attributes
 
 
 def is_run_file(path: str | Path) -> bool:
@@ -41,8 +43,6 @@ def read_record(
     if path.is_dir():
         raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
     if is_run_file(path):
-        from station.hdf5 import read_run_record  # the recorder's layout
-
         return read_run_record(path, unit)
     if unit is not None:
         raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
@@ -52,17 +52,22 @@ def read_record(
     raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")
 
 
-def open_run(path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s") -> RunInfo:
+def open_run(
+    path: str | Path,
+    *,
+    sample_rate_hz: float | None = None,
+    units: str = "deg/s",
+    only: Collection[str] | None = None,
+) -> RunInfo:
     """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
 
     ``sample_rate_hz`` and ``units`` apply to CSV records only (see
-    :func:`station.storage.csv_records.read_csv_record`).
+    :func:`station.storage.csv_records.read_csv_record`); ``only`` names the units of a
+    run file to read (None: all).
     """
     path = Path(path)
     if is_run_file(path):
-        from station.hdf5 import read_run  # the recorder's layout
-
-        return read_run(path)
+        return read_run(path, only=only)
     record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
     unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
     return RunInfo(path=str(path), units=(unit,))
@@ -73,6 +78,4 @@ def recorded_attributes(path: str | Path) -> dict[str, str]:
     for a CSV record, which records none."""
     if not is_run_file(path):
         return {}
-    from station.hdf5 import run_attributes
-
     return run_attributes(path)

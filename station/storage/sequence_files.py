@@ -31,10 +31,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
-from station.hdf5 import open_run_file, read_unit, text_value, unit_record
 from station.model.records import RateRecord
 from station.model.sequence_runs import JournalEntry, Segment, SequenceRun
 from station.model.sequences import Step
+from station.storage.hdf5 import open_run_file, read_unit, text_value, unit_record
 
 FORMAT = "gyro-station-sequence"
 FORMAT_VERSION = 1
@@ -127,7 +127,8 @@ def read_sequence(path: str | Path) -> SequenceRun:
         path=str(path), name=text("sequence"), profile=text("profile"),
         profile_version=text("profile_version"), profile_sha256=text("profile_sha256"),
         profile_path=text("profile_path"), steps=steps,
-        unit_ids=tuple(json.loads(text("unit_ids"))), unit_urls=tuple(json.loads(text("unit_urls"))),
+        unit_ids=tuple(json.loads(text("unit_ids"))),
+        unit_urls=tuple(json.loads(text("unit_urls"))),
         power_urls=tuple(json.loads(text("power_urls"))), chamber_url=text("chamber_url"),
         time_warp=float(a.get("time_warp", 1.0)), state=text("state"),
         journal=tuple(JournalEntry(text_value(r["kind"]), text_value(r["utc"]),  # type: ignore[arg-type]

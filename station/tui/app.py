@@ -4,7 +4,8 @@ Screens, one concept each: :class:`~station.tui.setup_screen.SetupScreen` (the b
 :class:`~station.tui.live_screen.LiveScreen`, :class:`~station.tui.spec_screen.SpecSheetScreen`,
 :class:`~station.tui.browse_screens.RunsScreen` and
 :class:`~station.tui.browse_screens.ResultsScreen`. Screens post messages up; the app
-starts recorders (detached processes, :mod:`station.tui.launcher`) and pushes screens;
+starts recorders (detached processes, :mod:`station.services.recorder_process`) and
+pushes screens;
 each screen's state flows down from reactive attributes that its workers set.
 """
 
@@ -21,16 +22,18 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.worker import get_current_worker
 
-from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
-from station.tui.launcher import (
+from station.output.results_backends import DatabaseLocation
+from station.services.record import RecordRequest
+from station.services.recorder_process import (
     RecorderProcess,
-    RunRequest,
+    RecorderStartError,
     find_active_runs,
-    start_recorder,
+    start_recording,
     wait_for_run_file,
 )
+from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
 from station.tui.live_screen import LiveScreen
-from station.tui.messages import explain
+from station.tui.messages import explain, for_the_form
 from station.tui.setup_screen import SetupScreen
 from station.tui.spec_screen import SpecSheetScreen
 
@@ -76,7 +79,7 @@ class TuiSettings:
         Folder of the run files (new runs go here; reattaching looks here).
     reports_dir : Path
         Folder the exported reports go to.
-    db_path : Path or None
+    db_path : str, Path or None
         Results database (None: gradings are not stored).
     check_units : bool
         Check that each unit answers when it is added.
@@ -88,7 +91,7 @@ class TuiSettings:
 
     runs_dir: Path = Path("runs")
     reports_dir: Path = Path("reports")
-    db_path: Path | None = None
+    db_path: DatabaseLocation | None = None
     check_units: bool = True
     poll_s: float = 1.0
     attach: bool = True
@@ -159,8 +162,13 @@ class StationApp(App[None]):
         #: the screen: Textual prints it on the app's error console. The recorder is
         #: another process: a run in progress goes on.
         self.crash_log = CrashLog(crash_log_path(self.settings.runs_dir))
-        self.error_console = Console(file=cast(IO[str], self.crash_log), markup=False, highlight=False,
-                                     color_system=None, width=120)
+        self.error_console = Console(
+            file=cast(IO[str], self.crash_log),
+            markup=False,
+            highlight=False,
+            color_system=None,
+            width=120,
+        )
 
     @property
     def crash_message(self) -> str:
@@ -237,20 +245,25 @@ class StationApp(App[None]):
     # -- starting a run ----------------------------------------------------------------
     @on(SetupScreen.StartRequested)
     def _start_requested(self, message: SetupScreen.StartRequested) -> None:
-        self.notify(f"Starting the recorder for {len(message.request.urls)} unit(s): it "
+        self.notify(f"Starting the recorder for {len(message.request.units)} unit(s): it "
                     f"opens and checks each unit first...", title="New run")
         self._start(message.request)
 
     @work(thread=True, exclusive=True, group="start", exit_on_error=False)
-    def _start(self, request: RunRequest) -> None:
+    def _start(self, request: RecordRequest) -> None:
         try:
-            from station.recorder import parse_duration
+            from station.model.durations import parse_duration
 
-            parse_duration(request.duration)
-            process = start_recorder(request)
+            parse_duration(request.duration or "")
+            process = start_recording(request)
             self.recorders.started.append(process)
             worker = get_current_worker()
             wait_for_run_file(process, cancelled=lambda: worker.is_cancelled)
+        except RecorderStartError as exc:
+            problems = "\n".join(for_the_form(str(p)) for p in exc.problems)
+            self.call_from_thread(self.notify, f"The run did not start: {problems}",
+                                  severity="error", timeout=30)
+            return
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.call_from_thread(self.notify, explain(exc, "The run did not start"),
                                   severity="error", timeout=30)

@@ -16,6 +16,7 @@ from textual.screen import Screen
 from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Static
 
 from station.model.kinds import VERDICTS, Verdict
+from station.output.results_backends import DatabaseLocation
 from station.tui.messages import explain
 
 if TYPE_CHECKING:
@@ -46,7 +47,7 @@ class RunListing:
 
 def list_runs(runs_dir: Path, limit: int = 200) -> list[RunListing]:
     """Run files of ``runs_dir``, newest first, with their state."""
-    from station.tui.launcher import run_file_state
+    from station.services.recorder_process import run_file_state
 
     if not runs_dir.is_dir():
         return []
@@ -128,7 +129,7 @@ class RunsScreen(Screen[None]):
         if not path.is_file():
             self.notify(f"No file {path}: check the path.", severity="error")
             return
-        from station.tui.launcher import run_file_state
+        from station.services.recorder_process import run_file_state
 
         try:
             recording = path.suffix.lower() in (".h5", ".hdf5") and run_file_state(path).recording
@@ -146,7 +147,7 @@ class ResultsScreen(Screen[None]):
 
     BINDINGS = [Binding("escape", "app.pop_screen", "Back"), Binding("f5", "refresh", "Refresh")]
 
-    def __init__(self, db_path: Path) -> None:
+    def __init__(self, db_path: DatabaseLocation) -> None:
         super().__init__()
         self.db_path = db_path
         self.rows: list[GradingRow] = []

@@ -18,7 +18,8 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.hdf5 import (
+from station.recording.progress import DEG_S_TO_DEG_H, BlockAverager
+from station.storage.hdf5 import (
     UnitCounts,
     open_run_file,
     run_state,
@@ -26,7 +27,6 @@ from station.hdf5 import (
     unit_counts,
     unit_ids,
 )
-from station.progress import DEG_S_TO_DEG_H, BlockAverager
 
 #: Length of the averages the live plots are drawn from, s.
 BLOCK_S = 0.1

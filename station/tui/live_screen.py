@@ -14,7 +14,7 @@ from textual.reactive import reactive
 from textual.screen import ModalScreen, Screen
 from textual.widgets import Button, DataTable, Footer, Header, Label, ProgressBar, Static
 
-from station.tui.launcher import RecorderProcess, run_file_state, stop_run
+from station.services.recorder_process import RecorderProcess, run_file_state, stop_run
 from station.tui.live import LiveSnapshot, RunPoller
 from station.tui.messages import explain
 from station.tui.widgets import SeriesPlot, count, hms, model_name, number

@@ -26,3 +26,15 @@ def explain(exc: BaseException, doing: str) -> str:
         return f"{doing}: {exc.strerror or exc}: check the path and the disk"
     return (f"{doing} failed: {type(exc).__name__}: {exc}. This is a bug of the station: "
             f"please report it with these words")
+
+
+#: The recorder's command-line words -> the set-up screen's fields.
+_FORM_WORDS = (("--profile PROFILE", "a profile (choose one)"), ("--out", "runs folder"),
+               ("--duration", "duration"), ("--unit", "unit URL"))
+
+
+def for_the_form(message: str) -> str:
+    """A recorder message with its option names replaced by the set-up screen's fields."""
+    for option, field_name in _FORM_WORDS:
+        message = message.replace(option, field_name)
+    return message

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from textual import on, work
 from textual.app import ComposeResult
@@ -14,43 +13,23 @@ from textual.message import Message
 from textual.screen import Screen
 from textual.widgets import Button, DataTable, Footer, Header, Input, Label, Select, Static
 
-from station.tui.launcher import ProbeResult, RunRequest, probe_unit
+from station.model.profiles import anchored_model
+from station.services.record import DEFAULT_SIM_URL, RecordRequest, simulated_unit_url
+from station.services.recorder_process import UnitCheck, check_unit
 from station.tui.messages import explain
 
-#: The simulated unit F6 adds when the profile names no simulation: a VG951 FOG at 10 Hz.
-DEFAULT_SIM_URL = "sim+serial://VG951?protocol=stim300&rate=10"
 #: Time warp of the simulated units F6 adds (simulated seconds per wall second).
 SIM_WARP = 60
 _NO_PROFILE = "(none: simulated units only)"
 
 
-def anchored_model(url: str) -> str:
-    """``url`` with a relative ``model=`` file that does not exist from here made absolute
-    against the project folder (profiles name ``profiles/models/X.toml`` from there), so
-    that the TUI works from any folder."""
-    from station.model.profiles import PROFILE_DIR
-
-    parts = urlsplit(url)
-    query = dict(parse_qsl(parts.query, keep_blank_values=True))
-    model = query.get("model", "")
-    if not model.endswith(".toml") or Path(model).is_absolute() or Path(model).exists():
-        return url
-    anchored = PROFILE_DIR.parent / model
-    if not anchored.exists():
-        return url
-    query["model"] = str(anchored)
-    return urlunsplit(parts._replace(query=urlencode(query, safe="/:.")))
-
-
-def sim_url(base: str, seed: int, warp: float = SIM_WARP) -> str:
-    """``base`` (a ``sim+`` URL) with its ``seed`` (the serial number SIM-<seed>) and
-    ``warp`` set; a non-simulated ``base`` gives :data:`DEFAULT_SIM_URL`."""
-    if not base.startswith("sim+"):
-        base = DEFAULT_SIM_URL
-    parts = urlsplit(base)
-    query = dict(parse_qsl(parts.query, keep_blank_values=True))
-    query.update(seed=str(seed), warp=f"{warp:g}")
-    return urlunsplit(parts._replace(query=urlencode(query, safe="/:.")))
+def check_summary(check: UnitCheck) -> str:
+    """One line of the units table for a unit's check."""
+    if not check.ok or check.description is None:
+        return f"no: {check.message.splitlines()[0] if check.message else 'no answer'}"
+    d = check.description
+    model = Path(d.model).stem if "/" in d.model else d.model
+    return f"ok: {model} {d.serial_number or '-'}, {d.sample_rate_hz:g} Hz, {d.n_axes} ax"
 
 
 def duration_text(seconds: float) -> str:
@@ -79,8 +58,8 @@ class SetupScreen(Screen[None]):
     runs_dir : Path
         Default folder of the run file.
     check_units : bool
-        Check that each unit answers when it is added (a short recording in a separate
-        process).
+        Check that each unit answers when it is added (``station record --check`` in a
+        process of its own: the unit is opened, checked and released; nothing is written).
     """
 
     BINDINGS = [
@@ -92,7 +71,7 @@ class SetupScreen(Screen[None]):
     class StartRequested(Message):
         """The operator asked for this run."""
 
-        def __init__(self, request: RunRequest) -> None:
+        def __init__(self, request: RecordRequest) -> None:
             super().__init__()
             self.request = request
 
@@ -101,7 +80,7 @@ class SetupScreen(Screen[None]):
         self.runs_dir = runs_dir
         self.check_units = check_units
         self.units: list[str] = []
-        self.checks: dict[str, ProbeResult | None] = {}
+        self.checks: dict[str, UnitCheck | None] = {}
         self.profile: ProfileChoice | None = None
 
     def compose(self) -> ComposeResult:
@@ -184,7 +163,7 @@ class SetupScreen(Screen[None]):
     def action_add_sim(self) -> None:
         """Add a simulated unit (the profile's simulation if it has one)."""
         base = self.profile.url if self.profile else DEFAULT_SIM_URL
-        self.add_unit(sim_url(base, seed=len(self.units) + 1))
+        self.add_unit(simulated_unit_url(base, seed=len(self.units) + 1, warp=SIM_WARP))
 
     def add_unit(self, url: str) -> bool:
         """Add a unit by URL and start its check; False (and a notification) if refused."""
@@ -209,19 +188,19 @@ class SetupScreen(Screen[None]):
             self._check(url, self.profile.name if self.profile else None)
         return True
 
-    @work(thread=True, group="probe", exit_on_error=False)
+    @work(thread=True, group="check", exit_on_error=False)
     def _check(self, url: str, profile: str | None) -> None:
         try:
-            result = probe_unit(url, profile)
+            result = check_unit(url, profile)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
-            result = ProbeResult(url, False, message=explain(exc, "checking the unit"))
+            result = UnitCheck(url, False, message=explain(exc, "checking the unit"))
         self.app.call_from_thread(self._checked, result)
 
-    def _checked(self, result: ProbeResult) -> None:
+    def _checked(self, result: UnitCheck) -> None:
         if result.url not in self.checks:
             return  # removed meanwhile
         self.checks[result.url] = result
-        self.query_one("#units", DataTable).update_cell(result.url, "check", result.summary,
+        self.query_one("#units", DataTable).update_cell(result.url, "check", check_summary(result),
                                                         update_width=True)
         if not result.ok:
             self.notify(f"Unit {self.units.index(result.url) + 1} does not answer: "
@@ -238,7 +217,7 @@ class SetupScreen(Screen[None]):
         table.clear()
         for i, u in enumerate(self.units):
             check = self.checks.get(u)
-            table.add_row(str(i + 1), u, check.summary if check else "checking...", key=u)
+            table.add_row(str(i + 1), u, check_summary(check) if check else "checking...", key=u)
 
     # -- start -------------------------------------------------------------------------
     @on(Button.Pressed, "#start")
@@ -248,7 +227,7 @@ class SetupScreen(Screen[None]):
         if request is not None:
             self.post_message(self.StartRequested(request))
 
-    def request(self) -> RunRequest | None:
+    def request(self) -> RecordRequest | None:
         """The run the form describes, or None (with a notification saying what to fix)."""
         if not self.units:
             self.notify("Add at least one unit: type its URL and press Enter, or F6 for a "
@@ -265,7 +244,7 @@ class SetupScreen(Screen[None]):
             self.notify("Give a duration: 12h, 90min, 30s.", severity="error")
             return None
         profile = self.query_one("#profile", Select).value
-        return RunRequest(
+        return RecordRequest(
             tuple(self.units), duration,
             Path(self.query_one("#runs_dir", Input).value.strip() or str(self.runs_dir)),
             profile if isinstance(profile, str) else None,

@@ -26,7 +26,9 @@ def allan_series(axes: tuple[AxisGrade, ...]) -> tuple[Series, ...]:
     for a in axes:
         al, fit = a.analysis.allan, a.analysis.fit
         out.append(Series(f"{a.axis} measured", al.tau_s, al.adev * S_PER_H, "points"))
-        out.append(Series(f"{a.axis} fitted", al.tau_s, np.sqrt(fit.model_avar(al.tau_s)) * S_PER_H))
+        out.append(
+            Series(f"{a.axis} fitted", al.tau_s, np.sqrt(fit.model_avar(al.tau_s)) * S_PER_H)
+        )
     if axes:
         first = axes[0]
         tau, fit = first.analysis.allan.tau_s, first.analysis.fit

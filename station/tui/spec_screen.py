@@ -25,6 +25,7 @@ from textual.worker import get_current_worker
 
 from station.evaluation.grading import RunGrade, UnitGrade
 from station.output.report import FORMATS, ReportFormat
+from station.output.results_backends import DatabaseLocation
 from station.tui.heatmap import DavarHeatMap
 from station.tui.messages import explain
 from station.tui.widgets import (
@@ -49,7 +50,7 @@ class SpecSheetScreen(Screen[None]):
         The run file.
     reports_dir : Path
         Where exported reports go.
-    db_path : Path or None
+    db_path : str, Path or None
         Results database the grading and the reports are recorded in (None: not stored).
     profile : str, optional
         Profile name or path (default: the run's, else one whose model matches).
@@ -75,7 +76,7 @@ class SpecSheetScreen(Screen[None]):
     unit_index: reactive[int] = reactive(0)
     axis_index: reactive[int] = reactive(0)
 
-    def __init__(self, path: Path, reports_dir: Path, db_path: Path | None, *,
+    def __init__(self, path: Path, reports_dir: Path, db_path: DatabaseLocation | None, *,
                  profile: str | None = None, unit: str | None = None) -> None:
         super().__init__()
         self.path = Path(path)

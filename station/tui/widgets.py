@@ -11,10 +11,15 @@ from textual.app import RenderResult
 from textual.reactive import reactive
 from textual_plotext import PlotextPlot
 
+from station.model.kinds import Verdict, verdict_of_grade
 from station.tui.live import Series
 
 #: Verdict -> style of its cell (pass green, fail red, indeterminate yellow).
-VERDICT_STYLES = {"pass": "bold green", "fail": "bold red", "indeterminate": "bold yellow"}
+VERDICT_STYLES: dict[Verdict, str] = {
+    "pass": "bold green",
+    "fail": "bold red",
+    "indeterminate": "bold yellow",
+}
 #: plotext markers of the series kinds.
 _MARKERS = {"line": "braille", "points": "dot", "dashed": "·"}
 _DRAW_ORDER = {"dashed": 0, "line": 1, "points": 2}
@@ -55,17 +60,16 @@ def model_name(model: str) -> str:
     return model
 
 
-def verdict_text(verdict: str | None) -> Text:
+def verdict_text(verdict: Verdict | None) -> Text:
     """A verdict cell in its colour (``info`` for an ungraded figure)."""
     if verdict is None:
         return Text("info", style="dim")
-    return Text(verdict, style=VERDICT_STYLES.get(verdict, ""))
+    return Text(verdict, style=VERDICT_STYLES[verdict])
 
 
 def grade_text(grade: str, reject: str) -> Text:
     """A grade in the colour of its verdict."""
-    verdict = "indeterminate" if grade == "indeterminate" else "fail" if grade == reject else "pass"
-    return Text(grade, style=VERDICT_STYLES[verdict])
+    return Text(grade, style=VERDICT_STYLES[verdict_of_grade(grade, reject)])
 
 
 class SeriesPlot(PlotextPlot):

@@ -21,7 +21,9 @@ LAYOUTS = {"shared": (256, 2.0**-14), "per_axis": (16, 0.5e-6)}
 @pytest.mark.parametrize("layout", LAYOUTS)
 def test_round_trip_exact_samples(layout: str) -> None:
     modulus, half_lsb = LAYOUTS[layout]
-    with open_device(f"sim+can://STIM300?layout={layout}&rate=500&warp=5&history=100000&seed=5") as dev:
+    with open_device(
+        f"sim+can://STIM300?layout={layout}&rate=500&warp=5&history=100000&seed=5"
+    ) as dev:
         dev.source.open()
         got = collect(dev.source, 1200)
         core = dev.simulator.core

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from devices.errors import DeviceConfigurationError, DeviceDisconnectedError
+from devices.protocols import Simulated
 from devices.sim.process import SimulatorProcess
 from devices.urls import open_device
 from station.cli import main
@@ -176,7 +177,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
         assert info["pid"] not in (None, proc.pid, os.getpid())  # the node's own process
         assert url.startswith("can://239.255.") and "interface=udp_multicast" in url
         with open_device(url) as dev:
-            assert dev.simulator is None  # a real-hardware URL: nothing simulated here
+            assert not isinstance(dev, Simulated)  # a real-hardware URL: nothing simulated here
             dev.source.open()
             got = collect(dev.source, 200)
             assert np.all(np.diff(got.counter) == 1) and got.gaps == []

@@ -2,7 +2,8 @@
 python-can virtual bus.
 
 Proves that the adapter configures the node over SDO (heartbeat, output rate, TPDO1/2
-mapping, event timer or SYNC-driven transmission) and starts it with NMT; that it returns exactly the generated
+mapping, event timer or SYNC-driven transmission) and starts it with NMT; that it returns exactly
+the generated
 samples (INT32 x scale) with continuous counters; that lost PDOs and an unplugged node
 come back as gaps covering every lost sample, with the node loss reported from the
 heartbeat and the reconnect logged; and it pins down canopen's LocalNode PDO pitfall.
@@ -42,7 +43,9 @@ def test_round_trip_exact_samples_and_identity() -> None:
 
 def test_sync_driven_tpdos_one_sample_per_sync() -> None:
     """``tpdo=sync``: transmission type 1, the adapter's SYNC producer paces the node."""
-    with open_device("sim+canopen://STIM300/6?rate=100&warp=4&history=100000&seed=13&tpdo=sync") as dev:
+    with open_device(
+        "sim+canopen://STIM300/6?rate=100&warp=4&history=100000&seed=13&tpdo=sync"
+    ) as dev:
         dev.source.open()
         got = collect(dev.source, 300)
         core = dev.simulator.core

@@ -80,7 +80,11 @@ def _crc32_mpeg2_bitwise(data: bytes) -> int:
     for byte in data:
         crc ^= byte << 24
         for _ in range(8):
-            crc = ((crc << 1) ^ 0x04C11DB7) & 0xFFFFFFFF if crc & 0x80000000 else (crc << 1) & 0xFFFFFFFF
+            crc = (
+                ((crc << 1) ^ 0x04C11DB7) & 0xFFFFFFFF
+                if crc & 0x80000000
+                else (crc << 1) & 0xFFFFFFFF
+            )
     return crc
 
 

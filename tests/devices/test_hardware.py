@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from devices.protocols import RateSource
+from devices.protocols import RateSource, Simulated
 from devices.urls import open_device
 from tests.devices.helpers import collect
 
 
 def test_real_gyro_streams_continuous_samples(hardware_url: str) -> None:
     with open_device(hardware_url) as dev:
-        assert dev.simulator is None, "pass a hardware URL, not a sim+ URL"
+        assert not isinstance(dev, Simulated), "pass a hardware URL, not a sim+ URL"
         source = dev.source
         assert isinstance(source, RateSource)
         source.open()

@@ -3,7 +3,8 @@ RTU on a pty null modem.
 
 Proves that the register codec is an exact inverse both ways for INT32 (ABCD) and
 FLOAT32 (CDAB) maps, that a polled gyro returns exactly the generated samples with
-counters continuous but for declared polling misses, that an outage of the server is reported, reconnected and counted,
+counters continuous but for declared polling misses, that an outage of the server is reported,
+reconnected and counted,
 and that the environment channel (a chamber temperature) reads through the same stack.
 """
 

@@ -16,6 +16,7 @@ from devices.canopen_node import CanopenRateSource
 from devices.codecs.can_frame import CanSignal
 from devices.errors import DeviceConfigurationError, DeviceDisconnectedError
 from devices.modbus import ModbusRateSource
+from devices.protocols import Simulated
 from devices.sim.faults import FaultConfig
 from devices.stream import StreamRateSource
 from devices.urls import SimParams, can_layout, open_device, parse_sim_params, register_map
@@ -62,7 +63,7 @@ def test_real_hardware_urls_build_adapters_without_opening() -> None:
     }
     for url, kind in cases.items():
         dev = open_device(url)
-        assert isinstance(dev.source, kind) and dev.simulator is None and dev.ledger is None
+        assert isinstance(dev.source, kind) and not isinstance(dev, Simulated)
         dev.close()  # never opened: nothing to release
     desc = open_device(next(iter(cases))).source.describe()
     assert dict(desc.settings) == {"port": "/dev/ttyUSB7", "baudrate": "460800"}

@@ -46,7 +46,8 @@ def writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
 
 
 def write_report(graded: RunGrade, fmt: str, out_dir: str | Path) -> Path:
-    """Write the report of ``graded`` in format ``fmt`` into ``out_dir`` (created); returns the file.
+    """Write the report of ``graded`` in format ``fmt`` into ``out_dir`` (created); returns the
+    file.
 
     Raises
     ------

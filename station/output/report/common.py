@@ -1,7 +1,8 @@
 """What every spec-sheet format shows, computed once: header, figure rows, event summary.
 
 The format writers (:mod:`~station.output.report.pdf`, :mod:`~station.output.report.html`,
-:mod:`~station.output.report.json_report`, :mod:`~station.output.report.csv_report`) lay these out; none of
+:mod:`~station.output.report.json_report`, :mod:`~station.output.report.csv_report`) lay these out;
+none of
 them computes a figure.
 """
 
@@ -14,10 +15,12 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.model.kinds import Verdict
 from station.model.runs import UnitRun
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
-VERDICT_COLORS = {"pass": "#c8ecc8", "fail": "#f5c2c2", "indeterminate": "#fbe7a9", None: "#ffffff"}
+VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
+                                             "indeterminate": "#fbe7a9", None: "#ffffff"}
 #: How many individual events a report lists before it only counts them.
 MAX_EVENTS_LISTED = 12
 
@@ -45,7 +48,7 @@ class FigureRow:
     ci_high: float | None
     limit: float | None
     grade: str
-    verdict: str | None
+    verdict: Verdict | None
     note: str
 
 
@@ -54,11 +57,21 @@ def figure_rows(axis: AxisGrade) -> list[FigureRow]:
     rows = []
     for f in sorted(axis.figures, key=lambda f: not f.spec.graded):
         graded = f.spec.graded
-        rows.append(FigureRow(
-            axis.axis, f.name, f.spec.label, f.spec.unit, f.value, f.ci_low, f.ci_high,
-            f.spec.limits.get(axis.deciding_grade) if graded else None,
-            axis.deciding_grade if graded else "", f.verdicts.get(axis.deciding_grade, "pass") if graded else None,
-            f.note))
+        rows.append(
+            FigureRow(
+                axis.axis,
+                f.name,
+                f.spec.label,
+                f.spec.unit,
+                f.value,
+                f.ci_low,
+                f.ci_high,
+                f.spec.limits.get(axis.deciding_grade) if graded else None,
+                axis.deciding_grade if graded else "",
+                f.verdicts.get(axis.deciding_grade, "pass") if graded else None,
+                f.note,
+            )
+        )
     return rows
 
 
@@ -82,15 +95,22 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
         lines.append(f"gaps: {gaps.text()} missing; no Allan difference or average straddles a gap")
     removed = [(a.axis, a.analysis.figures.earth_rate_removed_deg_h) for a in axes]
     if all(v is None for _, v in removed):
-        notes = [n for n in (axes[0].analysis.figures.notes if axes else ()) if n.startswith("Earth rate")]
+        notes = [
+            n
+            for n in (axes[0].analysis.figures.notes if axes else ())
+            if n.startswith("Earth rate")
+        ]
         lines.append(notes[0] if notes else "Earth rate not removed from the bias")
     else:
         lines.append("Earth rate removed from the bias: " + ", ".join(
             f"{axis} {'not removed' if v is None else f'{v:+.4g} deg/h'}" for axis, v in removed))
     for a in axes:
         lines += [f"{a.axis}: {t.describe()}" for t in a.analysis.tones]
-        lines += [f"{a.axis}: fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s ({z.kind})"
-                  for z in a.analysis.zones]
+        lines += [
+            f"{a.axis}: fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s "
+            f"({z.kind})"
+            for z in a.analysis.zones
+        ]
     return review + lines
 
 
@@ -102,13 +122,19 @@ def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
         ("Model", u.model or p.model),
         ("Serial number", u.serial_number or f"({u.unit_id})"),
         ("Test date (UTC)", run.start_utc or "not recorded"),
-        ("Duration", f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
-                     f"discarded"),
+        (
+            "Duration",
+            f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
+            f"discarded",
+        ),
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
-        ("Station", run.station_host or "-"),
-        ("Operator", run.operator or "-"),
-        ("Lot", run.lot or "-"),
-        ("Software version", f"{graded.software_version} (recorded with {run.software_version or '-'})"),
+        ("Station", run.metadata.station_host or "-"),
+        ("Operator", run.metadata.operator or "-"),
+        ("Lot", run.metadata.lot or "-"),
+        (
+            "Software version",
+            f"{graded.software_version} (recorded with {run.metadata.software_version or '-'})",
+        ),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
         ("Graded (UTC)", graded.graded_utc),
@@ -134,10 +160,15 @@ class EventSummary:
             out = ["no event log (a record without run metadata, e.g. CSV)"]
         else:
             kinds = ", ".join(f"{k} {n}" for k, n in sorted(self.counts.items())) or "none"
-            out = [f"events: {kinds}", f"gaps: {self.n_gaps}, samples missing: {self.missing_samples}"]
+            out = [
+                f"events: {kinds}",
+                f"gaps: {self.n_gaps}, samples missing: {self.missing_samples}",
+            ]
             out += [] if brief else list(self.listed)
         if self.stop_reason or self.interrupted:
-            out.append(f"run stop: {self.stop_reason or '-'}{' (interrupted)' if self.interrupted else ''}")
+            out.append(
+                f"run stop: {self.stop_reason or '-'}{' (interrupted)' if self.interrupted else ''}"
+            )
         return out
 
     def as_json(self) -> dict[str, object]:

@@ -19,10 +19,31 @@ from pathlib import Path
 from station.evaluation.grading import RunGrade
 from station.output.report.common import figure_rows
 
-FIXED = ["run", "unit_id", "model", "serial_number", "lot", "test_date", "profile", "rule", "confidence",
-         "unit_grade", "axis", "axis_grade", "deciding_grade"]
+FIXED = [
+    "run",
+    "unit_id",
+    "model",
+    "serial_number",
+    "lot",
+    "test_date",
+    "profile",
+    "rule",
+    "confidence",
+    "unit_grade",
+    "axis",
+    "axis_grade",
+    "deciding_grade",
+]
 PER_FIGURE = ["unit", "value", "ci_low", "ci_high", "limit", "verdict"]
-ANALYSIS = ["spikes", "spikes_removed", "gaps", "missing_s", "earth_rate_removed_deg_h", "tones", "review"]
+ANALYSIS = [
+    "spikes",
+    "spikes_removed",
+    "gaps",
+    "missing_s",
+    "earth_rate_removed_deg_h",
+    "tones",
+    "review",
+]
 
 
 def _cell(value: object) -> object:
@@ -41,18 +62,43 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
             u = unit.unit
             for axis in unit.axes:
                 rows = {r.name: r for r in figure_rows(axis)}
-                fixed = [run.path, u.unit_id, u.model or p.model, u.serial_number, run.lot,
-                         run.start_utc or graded.graded_utc, p.ref, p.rule, p.confidence, unit.grade,
-                         axis.axis, axis.grade, axis.deciding_grade]
+                fixed = [
+                    run.path,
+                    u.unit_id,
+                    u.model or p.model,
+                    u.serial_number,
+                    run.metadata.lot,
+                    run.start_utc or graded.graded_utc,
+                    p.ref,
+                    p.rule,
+                    p.confidence,
+                    unit.grade,
+                    axis.axis,
+                    axis.grade,
+                    axis.deciding_grade,
+                ]
                 cells = []
                 for n in names:
                     r = rows[n]
-                    cells += [r.unit, _cell(r.value), _cell(r.ci_low), _cell(r.ci_high), _cell(r.limit),
-                              r.verdict or "info"]
+                    cells += [
+                        r.unit,
+                        _cell(r.value),
+                        _cell(r.ci_low),
+                        _cell(r.ci_high),
+                        _cell(r.limit),
+                        r.verdict or "info",
+                    ]
                 an = axis.analysis
-                cells += [an.outliers.count, str(an.outliers.removed).lower(), an.gaps.count,
-                          an.gaps.missing_s, _cell(an.figures.earth_rate_removed_deg_h),
-                          "; ".join(f"{t.freq_hz:.6g} Hz {t.amplitude_deg_s:.4g} deg/s" for t in an.tones),
-                          "; ".join(axis.review)]
+                cells += [
+                    an.outliers.count,
+                    str(an.outliers.removed).lower(),
+                    an.gaps.count,
+                    an.gaps.missing_s,
+                    _cell(an.figures.earth_rate_removed_deg_h),
+                    "; ".join(
+                        f"{t.freq_hz:.6g} Hz {t.amplitude_deg_s:.4g} deg/s" for t in an.tones
+                    ),
+                    "; ".join(axis.review),
+                ]
                 writer.writerow(fixed + cells)
     return path

@@ -53,9 +53,11 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
              f"</span></h1>", '<table class="header">']
     parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in sheet.header]
     parts.append("</table><h2>Figures</h2>")
-    parts.append('<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
-                 "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
-                 "<th>note</th></tr>")
+    parts.append(
+        '<table class="figures"><tr><th>axis</th><th>figure</th><th>unit</th><th>value</th>'
+        "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
+        "<th>note</th></tr>"
+    )
     for r in sheet.rows:
         verdict = r.verdict or "info"
         parts.append(
@@ -118,6 +120,9 @@ def write_html(graded: RunGrade, path: str | Path) -> Path:
     path = Path(path)
     body = "\n".join(unit_section(graded, u) for u in graded.units)
     title = escape(f"Spec sheets {graded.profile.ref}: {Path(graded.run.path).name}")
-    path.write_text(f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
-                    f"<style>{CSS}</style></head>\n<body>\n{body}\n</body></html>\n", encoding="utf-8")
+    path.write_text(
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{title}</title>'
+        f"<style>{CSS}</style></head>\n<body>\n{body}\n</body></html>\n",
+        encoding="utf-8",
+    )
     return path

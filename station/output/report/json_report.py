@@ -1,6 +1,7 @@
 """The spec sheet as JSON for a factory MES; the schema is docs/report-json-schema.md.
 
-The document is :meth:`station.evaluation.grading.RunGrade.as_json` (schema ``gyro-station/spec-sheet``)
+The document is :meth:`station.evaluation.grading.RunGrade.as_json` (schema
+``gyro-station/spec-sheet``)
 with, per unit, the header, the event summary, and per axis the Allan curve and the fit.
 """
 
@@ -40,5 +41,7 @@ def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
 def write_json(graded: RunGrade, path: str | Path) -> Path:
     """Write the JSON spec sheet document (NaN/inf are not allowed: they become errors)."""
     path = Path(path)
-    path.write_text(json.dumps(spec_sheet_json(graded), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    path.write_text(
+        json.dumps(spec_sheet_json(graded), indent=1, allow_nan=False) + "\n", encoding="utf-8"
+    )
     return path

@@ -41,7 +41,9 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         c = colors[i % len(colors)]
         al, fit = a.analysis.allan, a.analysis.fit
         tau = al.tau_s
-        ax.fill_between(tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0)
+        ax.fill_between(
+            tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0
+        )
         ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured"
                   + (f" ({'spikes removed' if a.analysis.outliers.removed else 'spikes kept'})"
                      if a.analysis.allan_alternative is not None else ""))
@@ -61,7 +63,9 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         lows.append(float(np.min(al.adev_ci_low)) * S_PER_H)
         # the band of a two-cluster tau reaches far up (30x at 95 %): drawn to the edge,
         # it must not squeeze the rest of the curve
-        highs.append(min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H)
+        highs.append(
+            min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H
+        )
     if axes:
         _draw_limits(ax, axes[0], fontsize)
         ax.set_ylim(min(lows) / 4, max(highs))
@@ -73,7 +77,8 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
 
 
 def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
-    """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum limit."""
+    """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum
+    limit."""
     for line in limit_lines(axis):
         label = f"{line.label} limit ({line.grade})"
         if line.shape == "slope":
@@ -118,7 +123,16 @@ def placeholder(ax: Axes, text: str, *, fontsize: float = 8) -> None:
     """A clearly labelled empty panel."""
     ax.set_xticks([])
     ax.set_yticks([])
-    ax.text(0.5, 0.5, text, ha="center", va="center", wrap=True, fontsize=fontsize, transform=ax.transAxes)
+    ax.text(
+        0.5,
+        0.5,
+        text,
+        ha="center",
+        va="center",
+        wrap=True,
+        fontsize=fontsize,
+        transform=ax.transAxes,
+    )
 
 
 def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
@@ -133,7 +147,9 @@ def allan_png(unit: UnitGrade) -> bytes:
     """The Allan panel of a unit as a PNG."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
     draw_allan(ax, unit.axes, fontsize=9)
-    ax.set_title("Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10)
+    ax.set_title(
+        "Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10
+    )
     return figure_png(fig)
 
 

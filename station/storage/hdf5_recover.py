@@ -7,7 +7,7 @@ mode, and HDF5 refuses to open it for writing. :func:`recover_run` clears those 
 the ``committed`` lengths of the last flush, and records the run as interrupted. A run
 that stopped but could not close its file (a full disk) is repaired the same way and
 keeps its own stop reason. A damaged file (cut short, flipped bits) is not touched: what
-still reads is salvaged into a new file (:mod:`station.hdf5_salvage`). Whatever was done,
+still reads is salvaged into a new file (:mod:`station.storage.hdf5_salvage`). Whatever was done,
 the result is read back whole before it is reported.
 """
 
@@ -23,18 +23,19 @@ import h5py
 import numpy as np
 
 from station.errors import RecordFormatError, RunInProgressError
-from station.hdf5 import (
+from station.storage.hdf5 import (
     REASON_RECOVERED,
     SAMPLE_DATASETS,
     fixed_text,
     open_run_file,
+    read_run,
     read_unit,
     run_state,
     text_value,
     unit_ids,
 )
-from station.hdf5_open import superblock
-from station.hdf5_salvage import salvage_run, salvaged_path
+from station.storage.hdf5_open import superblock
+from station.storage.hdf5_salvage import salvage_run, salvaged_path
 
 
 def _rot(x: int, k: int) -> int:
@@ -235,8 +236,6 @@ def _salvage(path: Path, out: Path, damage: str) -> RecoveryResult:
 def _verify(path: Path, what: str) -> None:
     """Read the run back whole as every reader does (each unit's samples finite), or say
     that it does not read."""
-    from station.hdf5 import read_run
-
     try:
         run = read_run(path)
     except RecordFormatError as exc:

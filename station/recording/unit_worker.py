@@ -1,6 +1,6 @@
 """Reading one unit: its adapter, its simulator if it has one, and its event batches.
 
-A :class:`UnitWorker` runs in the unit's own process (:mod:`station.unit_process`): it
+A :class:`UnitWorker` runs in the unit's own process (:mod:`station.recording.unit_process`): it
 reads the device on the unit's own time base (a simulation's warped clock,
 ``time.monotonic`` for hardware), reconnects with exponential backoff after a
 disconnect, turns every adapter batch into an :class:`~station.model.documents.EventBatch`
@@ -25,9 +25,9 @@ from functools import partial
 import numpy as np
 
 from devices.errors import DeviceError, DeviceTimeoutError
-from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch
+from devices.opened import OpenedDevice
+from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch, Simulated
 from devices.replay import EndOfReplayError
-from devices.urls import OpenedDevice
 from station.model.documents import EventBatch, LogEntry, UnitTally, utc_now
 
 #: Stop reasons a unit reports in its ``end`` log entry.
@@ -111,13 +111,11 @@ class UnitWorker:
         self.opened = opened
         self.settings = settings
         self.description: DeviceDescription = opened.source.describe()
-        sim = opened.simulator
-        self.clock: Callable[[], float] = (sim.core.clock if sim is not None else
-                                           opened.clock or time.monotonic)
-        self.time_warp = sim.core.clock.warp if sim is not None else 1.0
-        self.time_base = (f"simulated device clock, warp x{self.time_warp:g}" if sim is not None
-                          else "the replayed capture's clock (s since it started)"
-                          if opened.clock is not None else "station monotonic clock")
+        #: The simulated device's controls, None for hardware (and a replay).
+        self.simulated: Simulated | None = opened if isinstance(opened, Simulated) else None
+        self.clock: Callable[[], float] = opened.unit_clock
+        self.time_warp = opened.time_warp
+        self.time_base = opened.time_base
         self._out = Batcher(send, settings.batch_s)
         #: The source has nothing more to give (the end of a replayed capture).
         self.source_ended = False
@@ -140,10 +138,10 @@ class UnitWorker:
         """Start reading (a held simulation starts sampling now)."""
         self.start_utc = utc_now()
         self._t0 = self.clock()
-        if self.opened.simulator is not None:
+        if self.simulated is not None:
             if isinstance(self.opened.source, HeldQuiet):
                 self.opened.source.quiet_until_now()  # held since it was opened
-            self.opened.simulator.core.resume()
+            self.simulated.resume()
         self._thread.start()
 
     def join(self, timeout_s: float | None = None) -> None:
@@ -178,7 +176,7 @@ class UnitWorker:
         """A simulated unit starts at counter 0 when the recorder starts listening: samples
         it produced before the first one received (a polled register overwritten, a CAN
         frame before the bus was read) are declared as a gap counted by the counter."""
-        if self.tally.samples or not len(batch) or self.opened.simulator is None:
+        if self.tally.samples or not len(batch) or self.simulated is None:
             return []
         first = int(batch.counter[0])
         if first <= 0:
@@ -230,19 +228,17 @@ class UnitWorker:
                 last_progress = time.monotonic()
         return True
 
-    def _finish_simulation(self) -> None:
+    def _finish_simulation(self, sim: Simulated) -> None:
         """End a simulated unit exactly: faults off, then on a sample index, read to it."""
-        assert self.opened.simulator is not None
-        core = self.opened.simulator.core
-        core.clear_faults()
+        sim.clear_faults()
         settle = time.monotonic() + 0.05
         self._read_until(lambda: time.monotonic() > settle and self.tally.samples > 0,
                          quiet_s=10.0, limit_s=10.0)
         margin = max(1, round(0.05 * self.description.sample_rate_hz))
         modulus = self.description.counter_modulus or 1 << 62
         for _ in range(4):
-            end = core.ledger.generated + margin
-            core.stop_after(end)  # its time line goes on: no silence a counter cannot see
+            end = sim.samples_sent() + margin
+            sim.finish_after(end)  # its time line goes on: no silence a counter cannot see
             # (its last sample is recognized by its counter as sent: the unwrapped count
             # may differ from the simulator's by the wraps a gap could not pin down)
             if self._read_until(partial(self._read_through, end, modulus), quiet_s=2.0,
@@ -250,14 +246,14 @@ class UnitWorker:
                 break
             # Its last frames were lost (a full port on a starved host): let it run on,
             # so that a later sample shows the gap.
-            core.stop_after(None)
+            sim.finish_after(None)
             more = self.last_counter
             self._read_until(partial(self._read_past, more), quiet_s=2.0, limit_s=10.0)
         else:
             self._emit(None, [LogEntry("error", self.elapsed_s(), detail=(
-                f"the simulator's last {core.ledger.generated - 1 - self.last_counter} "
+                f"the simulator's last {sim.samples_sent() - 1 - self.last_counter} "
                 f"samples never arrived")[:120])])
-        core.pause()
+        sim.pause()
 
     def _read_through(self, end: int, modulus: int) -> bool:
         """Whether the sample before index ``end`` arrived and the line went quiet after."""
@@ -278,8 +274,8 @@ class UnitWorker:
     def _run(self) -> None:
         try:
             self._record()
-            if self.opened.simulator is not None:
-                self._finish_simulation()
+            if self.simulated is not None:
+                self._finish_simulation(self.simulated)
             else:
                 self._drain()
             self._emit(None, [LogEntry("end", self.elapsed_s(), detail=(
@@ -292,9 +288,9 @@ class UnitWorker:
         finally:
             self._out.tick(force=True)
             self.cpu_s = time.thread_time()
-            if self.opened.ledger is not None:
+            if self.simulated is not None:
                 try:
-                    self.samples_sent = self.opened.ledger.generated
+                    self.samples_sent = self.simulated.samples_sent()
                 except DeviceError:
                     self.samples_sent = None  # its process is gone
             self.opened.close()

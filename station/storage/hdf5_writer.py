@@ -1,7 +1,7 @@
 """The run file's writer: layout, SWMR writing, flushing, and a full disk.
 
 :class:`RunFileWriter` is a subscriber of the recorder's documents (layout in
-``docs/hdf5-layout.md``, constants in :mod:`station.hdf5`). The file exists under its name
+``docs/hdf5-layout.md``, constants in :mod:`station.storage.hdf5`). The file exists under its name
 only once its whole layout is written and it is in SWMR mode (built under a hidden name,
 then linked into place), so a recorder killed at any instant leaves either no file or one
 that opens. Raw data carry Fletcher-32 checksums and go to the file at once (no chunk
@@ -24,17 +24,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import DiskSpaceError, RecorderError
-from station.hdf5 import (
-    EVENT_DTYPE,
-    EVENT_UNITS,
-    FORMAT,
-    FORMAT_VERSION,
-    SAMPLE_DATASETS,
-    STATE_DTYPE,
-    chunk_rows,
-    fixed_text,
-    writable_bytes,
-)
 from station.model.documents import (
     Descriptor,
     Document,
@@ -44,6 +33,17 @@ from station.model.documents import (
     RunStop,
     UnitTally,
     utc_now,
+)
+from station.storage.hdf5 import (
+    EVENT_DTYPE,
+    EVENT_UNITS,
+    FORMAT,
+    FORMAT_VERSION,
+    SAMPLE_DATASETS,
+    STATE_DTYPE,
+    chunk_rows,
+    fixed_text,
+    writable_bytes,
 )
 
 _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",
@@ -334,14 +334,11 @@ def _checked_dataset(g: h5py.Group, name: str, **kwargs: Any) -> h5py.Dataset:
 
 def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> None:
     """Root metadata, run state and every unit's group, datasets and markers."""
+    metadata = doc.metadata.as_attributes()
+    metadata["station_host"] = metadata["station_host"] or socket.gethostname()
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
-            "profile": doc.profile, "profile_version": doc.profile_version,
-            "profile_sha256": doc.profile_sha256, "profile_path": doc.profile_path,
-            "operator": doc.operator,
-            "lot": doc.lot, "station_host": doc.station_host or socket.gethostname(),
-            "software_version": doc.software_version, "start_utc": doc.start_utc,
-            "duration_requested_s": doc.duration_s, "writer_pid": os.getpid(),
-            "unit_ids": json.dumps(list(doc.unit_ids)), "bench": doc.bench}
+            **metadata, "start_utc": doc.start_utc, "duration_requested_s": doc.duration_s,
+            "writer_pid": os.getpid(), "unit_ids": json.dumps(list(doc.unit_ids))}
     f.attrs.update(meta)
     f.attrs["duration_requested_s_units"] = "s"
     # Fixed-size so they can be modified in place in SWMR mode and on a full disk.

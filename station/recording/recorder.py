@@ -1,10 +1,10 @@
 """The recorder engine: several gyros at once, each in a process of its own, into one file.
 
-:class:`Recorder` starts one process per unit (:mod:`station.unit_process`), which opens
+:class:`Recorder` starts one process per unit (:mod:`station.recording.unit_process`), which opens
 the unit's adapter from its device URL (and the simulated device behind a ``sim+`` URL),
 refuses a bad configuration before anything is recorded (:meth:`Recorder.prepare`), then
 starts every unit. Each unit reads its device on its own time base, reconnects after a
-disconnect while the others go on (:mod:`station.unit_worker`), and sends its event
+disconnect while the others go on (:mod:`station.recording.unit_worker`), and sends its event
 batches here. The engine routes documents to the subscribers (the HDF5 writer first,
 then the progress line and anything else) and flushes the file at least every
 ``flush_interval_s``. A unit stops at its duration, on :meth:`Recorder.request_stop`
@@ -17,26 +17,18 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import re
 import socket
 import time
 import uuid
 from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
-from importlib import metadata
 from multiprocessing.connection import wait
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from devices.protocols import DeviceDescription
-from station.errors import RecorderError, RunConfigurationError, UsageError
-from station.hdf5 import (
-    REASON_DURATION,
-    REASON_END_OF_REPLAY,
-    bytes_per_sample,
-    writable_bytes,
-)
-from station.hdf5_writer import RunFileWriter
+from devices.url_query import is_simulated
+from station.errors import Problem, RecorderError, RunConfigurationError, UsageError
 from station.model.documents import (
     Dispatcher,
     RunStart,
@@ -45,35 +37,20 @@ from station.model.documents import (
     UnitTotals,
     utc_now,
 )
-from station.unit_process import UnitProcess
-from station.unit_worker import ReadSettings
+from station.model.runs import RunMetadata
+from station.model.version import software_version
+from station.recording.unit_process import UnitProcess
+from station.recording.unit_worker import ReadSettings
+from station.storage.hdf5 import (
+    REASON_DURATION,
+    REASON_END_OF_REPLAY,
+    bytes_per_sample,
+    writable_bytes,
+)
+from station.storage.hdf5_writer import RunFileWriter
 
 if TYPE_CHECKING:
     from station.model.profiles import Profile
-
-_DURATION_RE = re.compile(r"(\d+(?:\.\d*)?|\.\d+)\s*(ms|min|d|h|m|s)?", re.IGNORECASE)
-_UNIT_S = {"d": 86400.0, "h": 3600.0, "min": 60.0, "m": 60.0, "s": 1.0, "ms": 1e-3, None: 1.0}
-
-
-def parse_duration(text: str) -> float:
-    """A duration in seconds from ``12h``, ``1h30m``, ``90s``, ``2.5min`` or plain seconds.
-
-    Raises
-    ------
-    UsageError
-        Not a duration, or not > 0.
-    """
-    s = text.strip().replace(" ", "")
-    pos, total = 0, 0.0
-    for m in _DURATION_RE.finditer(s):
-        if m.start() != pos:
-            break
-        total += float(m.group(1)) * _UNIT_S[m.group(2).lower() if m.group(2) else None]
-        pos = m.end()
-    if pos != len(s) or not s or not total > 0 or not math.isfinite(total):
-        raise UsageError(f"duration {text!r}: use e.g. 12h, 1h30m, 90s or a number of seconds")
-    return total
-
 
 @dataclasses.dataclass(frozen=True)
 class RunConfig:
@@ -130,24 +107,16 @@ def run_file_path(out: Path, uid: str) -> Path:
     return out / f"run-{stamp}-{uid[:8]}.h5"
 
 
-def software_version() -> str:
-    """The installed gyro-station version ("unknown" when not installed)."""
-    try:
-        return metadata.version("gyro-station")
-    except metadata.PackageNotFoundError:
-        return "unknown"
-
-
-def _check_against_profile(unit: str, d: DeviceDescription, profile: Profile) -> list[str]:
+def _check_against_profile(d: DeviceDescription, profile: Profile) -> list[str]:
     problems = []
     if profile.sample_rate_hz is not None and not math.isclose(
             d.sample_rate_hz, profile.sample_rate_hz, rel_tol=1e-6):
-        problems.append(f"{unit}: the device reports {d.sample_rate_hz:g} Hz, profile "
+        problems.append(f"the device reports {d.sample_rate_hz:g} Hz, profile "
                         f"{profile.name} expects {profile.sample_rate_hz:g} Hz: configure the "
                         f"device's output rate (URL key rate=) or choose the right profile")
     missing = [a for a in profile.axes if a not in d.axes]
     if missing:
-        problems.append(f"{unit}: the device has {d.n_axes} axes ({', '.join(d.axes)}), "
+        problems.append(f"the device has {d.n_axes} axes ({', '.join(d.axes)}), "
                         f"profile {profile.name} needs {', '.join(profile.axes)}: connect "
                         f"the right device or choose the right profile")
     return problems
@@ -207,7 +176,7 @@ class Recorder:
                    for w in self.workers)
         return int((8 << 20) + 10 * rate)
 
-    def _open_units(self) -> list[str]:
+    def _open_units(self) -> list[Problem]:
         cfg = self.config
         profile = cfg.profile
         settings = ReadSettings(cfg.duration_s, cfg.read_timeout_s, cfg.backoff_initial_s,
@@ -216,27 +185,26 @@ class Recorder:
         self.workers = [UnitProcess(f"unit{i + 1}", url, settings, limit)
                         for i, url in enumerate(cfg.urls)]
         deadline = time.monotonic() + self.open_timeout_s
-        problems: list[str] = []
+        found: list[Problem] = []
         for w in self.workers:
             w.wait_opened(max(1.0, deadline - time.monotonic()))
-            name = f"{w.unit_id} ({w.url})"
-            if profile is None and not w.url.lower().startswith("sim+"):
-                problems.append(f"{name}: real hardware (and a replayed capture of it) needs "
-                                f"--profile PROFILE (it gives the model, sample rate and "
-                                f"axes to check)")
+            problems: list[str] = []
+            if profile is None and not is_simulated(w.url):
+                problems.append("real hardware (and a replayed capture of it) needs --profile "
+                                "PROFILE (it gives the model, sample rate and axes to check)")
             if w.opened is None:
                 problems.append(
-                    f"{name}: bad device URL: {w.problem}; see `station devices --json` for "
-                    f"the URL of each protocol" if w.problem_stage == "url" else
-                    f"{name}: device not reachable: {w.problem}; check that it is "
-                    f"powered and connected, the port or address in the URL, and that no "
-                    f"other program holds the port")
-                continue
-            if profile is not None:
-                problems += _check_against_profile(name, w.opened.description, profile)
-        return problems
+                    f"bad device URL: {w.problem}; see `station devices --json` for the URL "
+                    f"of each protocol" if w.problem_stage == "url" else
+                    f"device not reachable: {w.problem}; check that it is powered and "
+                    f"connected, the port or address in the URL, and that no other program "
+                    f"holds the port")
+            elif profile is not None:
+                problems += _check_against_profile(w.opened.description, profile)
+            found += [Problem(text, w.unit_id, w.url) for text in problems]
+        return found
 
-    def _check_disk(self) -> list[str]:
+    def _check_disk(self) -> list[Problem | str]:
         out_dir = self.path.parent
         try:
             out_dir.mkdir(parents=True, exist_ok=True)
@@ -263,7 +231,7 @@ class Recorder:
             not match the profile, not enough disk space, a unit that sends nothing.
         """
         try:
-            problems = self._open_units()
+            problems: list[Problem | str] = [*self._open_units()]
             if not problems:
                 problems = self._check_disk()
             if not problems:
@@ -271,13 +239,34 @@ class Recorder:
                 if self._on_listening is not None:
                     self._await_units(lambda w: w.started.is_set(), self.open_timeout_s)
                     self._on_listening()
-                problems = self._await_first_samples()
+                problems = [*self._await_first_samples()]
         except BaseException:
             self._abort()
             raise
         if problems:
             self._abort()
             raise RunConfigurationError(problems)
+
+    def check_units(self) -> tuple[DeviceDescription, ...]:
+        """Open every unit, check it against the profile, wait for its first sample, and
+        release it: what :meth:`prepare` checks of the units, with nothing written (no
+        file, no folder). Returns each unit's description.
+
+        Raises
+        ------
+        RunConfigurationError
+            Every problem found with a unit.
+        """
+        try:
+            problems = self._open_units()
+            if not problems:
+                self._start_units()
+                problems = self._await_first_samples()
+        finally:
+            self._abort()
+        if problems:
+            raise RunConfigurationError(problems)
+        return tuple(w.opened.description for w in self.workers if w.opened is not None)
 
     def _start_units(self) -> None:
         for w in self.workers:
@@ -295,11 +284,11 @@ class Recorder:
                     w.receive()
             waiting = [w for w in waiting if not ready(w) and not w.done]
 
-    def _await_first_samples(self) -> list[str]:
+    def _await_first_samples(self) -> list[Problem]:
         self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
-        return [f"{w.unit_id} ({w.url}): no sample within {self.config.answer_timeout_s:g} s: "
-                f"check the protocol and rate in the URL, and that the device is streaming"
-                + (f" ({w.error})" if w.error else "")
+        return [Problem(f"no sample within {self.config.answer_timeout_s:g} s: check the "
+                        f"protocol and rate in the URL, and that the device is streaming"
+                        + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
                 for w in self.workers if not w.answered.is_set()]
 
     def _abort(self) -> None:
@@ -352,12 +341,11 @@ class Recorder:
         self.dispatcher.emit(RunStart(
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
-            profile=p.name if p else "", profile_version=p.version if p else "",
-            profile_sha256=p.sha256 if p else "",
-            profile_path=str(Path(p.path).resolve()) if p and p.path else "",
-            operator=cfg.operator, lot=cfg.lot,
-            station_host=socket.gethostname(), software_version=software_version(),
-            bench=cfg.bench_json))
+            RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
+                        profile_sha256=p.sha256 if p else "",
+                        profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+                        operator=cfg.operator, lot=cfg.lot, station_host=socket.gethostname(),
+                        software_version=software_version(), bench=cfg.bench_json)))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         stopping = False

@@ -5,7 +5,7 @@ per sample; 16 units at 2 kHz do not fit one interpreter's lock next to the HDF5
 (they starved each other: simulators fell behind, readers read late). So every unit runs
 in its own process, forked from a server process that has the device code imported
 already (``multiprocessing``'s ``forkserver``): the adapter, the simulator behind a
-``sim+`` URL, and a :class:`~station.unit_worker.UnitWorker`. The recorder's process
+``sim+`` URL, and a :class:`~station.recording.unit_worker.UnitWorker`. The recorder's process
 keeps the HDF5 writer and the other subscribers; event batches come to it over a pipe,
 joined into one message per ``batch_s`` (default 50 ms).
 
@@ -37,13 +37,16 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, Literal
 
 from devices.protocols import DeviceDescription
 from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
+#: What the engine tells a unit's process, and what the unit reports back (the table above).
+Command = Literal["start", "stop", "close"]
+Report = Literal["opened", "batch", "done", "error"]
 #: Modules the fork server imports once, so that each unit starts without importing them.
-PRELOAD = ["station.unit_worker"]
+PRELOAD = ["station.recording.unit_worker"]
 
 
 @dataclass(frozen=True)
@@ -53,8 +56,6 @@ class UnitOpened:
     description: DeviceDescription
     time_base: str
     time_warp: float
-    simulated: bool
-    hardware: bool
 
 
 @dataclass(frozen=True)
@@ -102,10 +103,10 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
               rate_limit_deg_s: float | None) -> None:
     """The unit's process: open the device, wait for the start, read, report the end."""
     from devices.errors import DeviceConfigurationError
-    from devices.protocols import RateLimited
+    from devices.protocols import RateLimited, Simulated
     from devices.urls import open_device
     from station.logs import configure_logging
-    from station.unit_worker import UnitWorker
+    from station.recording.unit_worker import UnitWorker
 
     # The recorder turns Ctrl-C and SIGTERM into a clean stop it sends here; the terminal
     # sends Ctrl-C to every process of its group.
@@ -114,7 +115,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     configure_logging()
     send_lock = threading.Lock()
 
-    def send(kind: str, payload: object) -> None:
+    def send(kind: Report, payload: object) -> None:
         with send_lock:
             try:
                 conn.send((kind, payload))
@@ -130,8 +131,8 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
         send("error", ("open", f"{type(exc).__name__}: {exc}"))
         return
     try:
-        if opened.simulator is not None:
-            opened.simulator.core.pause()  # sampling starts when the recorder listens
+        if isinstance(opened, Simulated):
+            opened.pause()  # sampling starts when the recorder listens
         opened.source.open()
     except Exception as exc:  # noqa: BLE001 - reported to the engine, which says what to do
         send("error", ("open", str(exc) or type(exc).__name__))
@@ -140,9 +141,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     if isinstance(opened.source, RateLimited):
         opened.source.limit_rates(rate_limit_deg_s)
     worker = UnitWorker(unit_id, opened, settings, lambda doc: send("batch", doc))
-    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp,
-                              opened.simulator is not None,
-                              opened.simulator is None and opened.clock is None))
+    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp))
     started = False
     while not worker.done.is_set():
         try:
@@ -177,7 +176,7 @@ class UnitProcess:
     unit_id, url : str
         The unit and its device URL.
     settings : ReadSettings
-        How it reads (:class:`station.unit_worker.ReadSettings`).
+        How it reads (:class:`station.recording.unit_worker.ReadSettings`).
     rate_limit_deg_s : float or None
         Measurement range from the product profile.
     """
@@ -237,7 +236,7 @@ class UnitProcess:
         return Descriptor(self.unit_id, self.url, d, data_keys(d), self.start_utc,
                           self.opened.time_base, self.opened.time_warp)
 
-    def _send(self, kind: str) -> None:
+    def _send(self, kind: Command) -> None:
         try:
             self.conn.send((kind, None))
         except OSError:

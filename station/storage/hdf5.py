@@ -8,11 +8,11 @@ the last flush. The writer runs in SWMR mode and flushes at least every
 ``flush_interval_s`` so that a live reader (``station watch``, the TUI) reads while it
 writes; after a SIGKILL the file opens with ``h5py.File(path, "r", swmr=True)`` and
 everything up to the last flush is there. :func:`recover_run` closes such a file
-properly (:mod:`station.hdf5_recover`: clears the superblock's open-for-write flags,
+properly (:mod:`station.storage.hdf5_recover`: clears the superblock's open-for-write flags,
 trims to the committed lengths, records the run as interrupted).
 
-The writer is :class:`station.hdf5_writer.RunFileWriter`. Readers open files through
-:mod:`station.hdf5_open` (no SWMR hang on a damaged file, one-line errors).
+The writer is :class:`station.storage.hdf5_writer.RunFileWriter`. Readers open files through
+:mod:`station.storage.hdf5_open` (no SWMR hang on a damaged file, one-line errors).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ import json
 import resource
 import shutil
 import time
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,10 +32,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
-from station.hdf5_open import chunks_within, cut_short, open_h5, reading
 from station.model.documents import Descriptor
+from station.model.kinds import log_kind
 from station.model.records import RateRecord
-from station.model.runs import RunEvent, RunInfo, UnitRun
+from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
+from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1
@@ -106,7 +107,7 @@ def open_run_file(path: str | Path) -> Iterator[h5py.File]:
     ``with`` block; an HDF5 failure inside the block is a one-line RecordFormatError.
 
     A file no writer holds is opened without SWMR; one a recorder holds (live or killed)
-    as a SWMR reader that gives up on a damaged block at once (:mod:`station.hdf5_open`).
+    as a SWMR reader that gives up on a damaged block at once (:mod:`station.storage.hdf5_open`).
 
     Raises
     ------
@@ -294,7 +295,12 @@ def run_events(unit: UnitData) -> tuple[RunEvent, ...]:
     for row, low, high in zip(unit.events, lows, highs, strict=True):
         method, detail = text_value(row["method"]), text_value(row["detail"])
         text = "; ".join(t for t in (f"counted by {method}" if method else "", detail) if t)
-        out.append(RunEvent(unit.unit_id, text_value(row["kind"]), float(row["time_s"]),
+        kind = log_kind(text_value(row["kind"]))
+        if kind is None:
+            raise RecordFormatError(f"unit {unit.unit_id}: an event-log entry of unknown kind "
+                                    f"{text_value(row['kind'])!r} (a damaged file, or one "
+                                    f"from a newer station)")
+        out.append(RunEvent(unit.unit_id, kind, float(row["time_s"]),
                             int(row["count"]), int(row["missing_samples"]), text,
                             int(low), int(high)))
     return tuple(out)
@@ -335,10 +341,11 @@ def unit_record(unit: UnitData, source: str) -> RateRecord:
                       unit.axes, source, unit.temperature_c, index)
 
 
-def read_run(path: str | Path) -> RunInfo:
+def read_run(path: str | Path, *, only: Collection[str] | None = None) -> RunInfo:
     """Read a run file into a :class:`RunInfo` (the interface grading, reports, TUI use).
 
     A run whose file was never closed (recorder killed) reads as ``interrupted``.
+    ``only`` names the unit ids to read (None: every unit); the others are left out.
 
     Raises
     ------
@@ -349,6 +356,8 @@ def read_run(path: str | Path) -> RunInfo:
         state = run_state(f)
         units = []
         for uid in unit_ids(f):
+            if only is not None and uid not in only:
+                continue
             u = read_unit(f, uid)
             units.append(UnitRun(
                 unit_id=uid, model=u.attrs["model"], serial_number=u.attrs["serial_number"],
@@ -358,13 +367,8 @@ def read_run(path: str | Path) -> RunInfo:
         a = {k: text_value(v) for k, v in f.attrs.items()}
     stopped = state["state"] == "stopped"
     return RunInfo(
-        path=str(path), units=tuple(units), profile=a.get("profile", ""),
-        profile_version=a.get("profile_version", ""),
-        profile_sha256=a.get("profile_sha256", ""), profile_path=a.get("profile_path", ""),
-        operator=a.get("operator", ""), lot=a.get("lot", ""),
-        station_host=a.get("station_host", ""),
-        software_version=a.get("software_version", ""), start_utc=a.get("start_utc", ""),
-        bench=a.get("bench", ""),
+        path=str(path), units=tuple(units), metadata=RunMetadata.from_attributes(a),
+        start_utc=a.get("start_utc", ""),
         stop_utc=state["stop_utc"] if stopped else state["last_flush_utc"],
         stop_reason=state["stop_reason"] if stopped else "interrupted: file not closed "
                                                          "(recorder killed or crashed)",
@@ -399,12 +403,3 @@ def read_run_record(path: str | Path, unit: str | None = None) -> RateRecord:
             raise RecordFormatError(f"{path}: no unit {unit!r}; units: {', '.join(ids)}")
         return unit_record(read_unit(f, chosen), f"{path}#{chosen}")
 
-
-def __getattr__(name: str) -> Any:
-    """``station.hdf5.RunFileWriter``, kept for the code that imports the writer from here
-    (it lives in :mod:`station.hdf5_writer`, which builds on this module)."""
-    if name == "RunFileWriter":
-        from station.hdf5_writer import RunFileWriter
-
-        return RunFileWriter
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -19,7 +19,9 @@ import numpy as np
 
 from devices.protocols import DeviceDescription
 from station.errors import RecordFormatError
-from station.hdf5 import (
+from station.model.documents import Descriptor, RunStart, data_keys
+from station.model.runs import RunMetadata
+from station.storage.hdf5 import (
     EVENT_DTYPE,
     FORMAT,
     SAMPLE_DATASETS,
@@ -27,9 +29,8 @@ from station.hdf5 import (
     fixed_text,
     text_value,
 )
-from station.hdf5_open import chunks_within, swmr_reader
-from station.hdf5_writer import write_layout
-from station.model.documents import Descriptor, RunStart, data_keys
+from station.storage.hdf5_open import chunks_within, swmr_reader
+from station.storage.hdf5_writer import write_layout
 
 REASON_SALVAGED = "interrupted: salvaged from a damaged run file (recovered)"
 
@@ -168,14 +169,7 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
         raise RecordFormatError(f"{path}: cannot be recovered: no unit's data read")
     start = RunStart(str(root.get("run_uid", "")), str(root.get("start_utc", "")),
                      tuple(u.unit_id for u in units), float(root.get("duration_requested_s", 0)),
-                     str(out), profile=str(root.get("profile", "")),
-                     profile_version=str(root.get("profile_version", "")),
-                     profile_sha256=str(root.get("profile_sha256", "")),
-                     profile_path=str(root.get("profile_path", "")),
-                     operator=str(root.get("operator", "")), lot=str(root.get("lot", "")),
-                     station_host=str(root.get("station_host", "")),
-                     software_version=str(root.get("software_version", "")),
-                     bench=str(root.get("bench", "")))
+                     str(out), RunMetadata.from_attributes(root))
     descriptors = []
     for u in units:
         d = _description(u)

@@ -1,0 +1,199 @@
+"""The producer's statistics drawn: a self-contained HTML page and a PDF.
+
+Per graded figure, two plots side by side: the histogram of the units' values with every
+grade's limit drawn as a vertical line, and the individuals control chart (values in test
+order, the mean, the 3-sigma control limits, out-of-control points marked in red); then
+the yield per grade, the Cp/Cpk table and the units flagged for review.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+from html import escape
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from station.output.report.common import fmt
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from station.output.production_stats import FigureStats, ProductionStats
+
+LIMIT_COLORS = ("#2e7d32", "#e0a800", "#d9534f", "#6a1b9a")
+
+CSS = """
+body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
+h1 { font-size: 16pt; } h2 { font-size: 13pt; margin-top: 1.5em; }
+table { border-collapse: collapse; margin: 0.5em 0; }
+td, th { border: 1px solid #bbb; padding: 0.15em 0.5em; text-align: left; }
+th { background: #eee; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
+td.low { background: #f5c2c2; } img { max-width: 100%; }
+"""
+
+
+def _title(stats: ProductionStats) -> str:
+    r = stats
+    parts = [
+        f"model {r.model}" if r.model else "all models",
+        f"lot {r.lot}" if r.lot else "all lots",
+    ]
+    if r.since:
+        parts.append(f"tested since {r.since}")
+    return f"Production statistics: {', '.join(parts)} ({stats.units} units)"
+
+
+def figure_plot(f: FigureStats) -> Figure:
+    """Histogram against the limits (left) and the individuals control chart (right)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 3.6), layout="constrained")
+    hist, chart = fig.subplots(1, 2, width_ratios=(1, 1.6))
+    x = [v.value for v in f.values if v.value is not None]
+    if x:
+        hist.hist(x, bins=min(30, max(5, len(x) // 3)), color="#90a4ae", edgecolor="#37474f")
+    for (grade, limit), color in zip(f.limits.items(), LIMIT_COLORS, strict=False):
+        hist.axvline(limit, color=color, ls="--", lw=1.5, label=f"limit {grade} = {limit:.4g}")
+    if f.capability.mean is not None:
+        hist.axvline(f.capability.mean, color="k", lw=1, label=f"mean {f.capability.mean:.4g}")
+    hist.set_xlabel(f"{f.name} [{f.unit}]")
+    hist.set_ylabel("units x axes")
+    hist.legend(fontsize=7)
+    cp, cpk = f.capability.cp, f.capability.cpk
+    hist.set_title(f"{f.name}: Cp {fmt(cp, 3)}, Cpk {fmt(cpk, 3)}", fontsize=9)
+    k = f.chart
+    idx = list(range(len(f.values)))
+    y = [float("nan") if v.value is None else v.value for v in f.values]
+    chart.plot(idx, y, "o-", ms=3, lw=0.7, color="#37474f")
+    for value, style, label in (
+        (k.center, "-", "mean"),
+        (k.ucl, "--", "UCL"),
+        (k.lcl, "--", "LCL"),
+    ):
+        if value is not None:
+            chart.axhline(value, color="#1565c0", ls=style, lw=1, label=f"{label} {value:.4g}")
+    if k.out_of_control:
+        chart.plot(
+            list(k.out_of_control),
+            [y[i] for i in k.out_of_control],
+            "o",
+            ms=8,
+            mfc="none",
+            mec="#d9534f",
+            mew=2,
+            label="out of control",
+        )
+    chart.set_xlabel("unit x axis, in test order")
+    chart.set_ylabel(f"{f.name} [{f.unit}]")
+    chart.set_title(
+        f"control chart (individuals, 3-sigma from the moving range): "
+        f"{len(k.out_of_control)} out of control",
+        fontsize=9,
+    )
+    chart.legend(fontsize=7)
+    chart.grid(True, alpha=0.3)
+    return fig
+
+
+def _png(fig: Figure) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    return buf.getvalue()
+
+
+def _rows(stats: ProductionStats) -> list[list[str]]:
+    return [
+        [
+            name,
+            f.unit,
+            str(f.capability.n),
+            fmt(f.capability.mean),
+            fmt(f.capability.std),
+            fmt(f.capability.limit),
+            fmt(f.capability.cp, 3),
+            fmt(f.capability.cpk, 3),
+            str(len(f.chart.out_of_control)),
+        ]
+        for name, f in stats.figures.items()
+    ]
+
+
+CAPABILITY_HEADER = ["figure", "unit", "n", "mean", "std", "limit", "Cp", "Cpk", "out of control"]
+
+
+def write_stats_html(stats: ProductionStats, path: Path) -> Path:
+    """The statistics as one self-contained HTML file (plots embedded as PNG data URIs)."""
+    title = _title(stats)
+    parts = [
+        f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{escape(title)}</title>"
+        f"<style>{CSS}</style></head><body><h1>{escape(title)}</h1>",
+        f"<p>Profile {escape(stats.profile or '-')}; the latest grading of each unit.</p>",
+        "<h2>Yield per grade</h2><table class='yield'><tr><th>grade</th><th>units</th>"
+        "<th>share</th></tr>",
+    ]
+    parts += [
+        f"<tr data-grade='{escape(g)}'><td>{escape(g)}</td><td class='num'>{n}</td>"
+        f"<td class='num'>{100 * n / stats.units:.1f} %</td></tr>"
+        for g, n in stats.grades.items()
+    ]
+    parts.append(
+        "</table><h2>Capability</h2><table class='capability'><tr>"
+        + "".join(f"<th>{h}</th>" for h in CAPABILITY_HEADER)
+        + "</tr>"
+    )
+    for row in _rows(stats):
+        low = stats.figures[row[0]].capability.cpk
+        cls = " class='num low'" if low is not None and low < 1.33 else " class='num'"
+        parts.append(
+            f"<tr data-figure='{escape(row[0])}'>"
+            + "".join(
+                f"<td{cls if i == 7 else ' class=num' if i > 1 else ''}>{escape(c)}</td>"
+                for i, c in enumerate(row)
+            )
+            + "</tr>"
+        )
+    parts.append("</table>")
+    for name, f in stats.figures.items():
+        data = base64.b64encode(_png(figure_plot(f))).decode("ascii")
+        parts.append(
+            f"<h2>{escape(name)} [{escape(f.unit)}]</h2>"
+            f"<img alt='{escape(name)}: histogram and control chart' "
+            f"src='data:image/png;base64,{data}'>"
+        )
+    parts.append(f"<h2>Units flagged for review ({len(stats.review)})</h2><ul class='review'>")
+    for u in stats.review:
+        parts.append(
+            f"<li>{escape(u.serial_number)} ({escape(u.lot or '-')}, {escape(u.test_date)}): "
+            + "; ".join(escape(r) for r in u.reasons)
+            + "</li>"
+        )
+    parts.append("</ul></body></html>")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(parts), encoding="utf-8")
+    return path
+
+
+def write_stats_pdf(stats: ProductionStats, path: Path) -> Path:
+    """The statistics as a PDF: a summary page (yield, capability, review), then a page per
+    figure."""
+    from matplotlib.backends.backend_pdf import PdfPages
+    from matplotlib.figure import Figure
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with PdfPages(path) as pdf:
+        page = Figure(figsize=(11.7, 8.3))
+        text = [_title(stats), f"profile {stats.profile or '-'}", "", "yield per grade:"]
+        text += [
+            f"  {g:<16} {n:>5} units  {100 * n / stats.units:5.1f} %"
+            for g, n in stats.grades.items()
+        ]
+        text += ["", "  ".join(f"{h:>10}" for h in CAPABILITY_HEADER)]
+        text += ["  ".join(f"{c:>10}" for c in row) for row in _rows(stats)]
+        text += ["", f"units flagged for review: {len(stats.review)}"]
+        text += [f"  {u.serial_number}: {'; '.join(u.reasons)}"[:150] for u in stats.review[:25]]
+        page.text(0.04, 0.96, "\n".join(text), va="top", family="monospace", fontsize=8)
+        pdf.savefig(page)
+        for f in stats.figures.values():
+            pdf.savefig(figure_plot(f))
+    return path

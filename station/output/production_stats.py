@@ -1,0 +1,214 @@
+"""The producer's statistics of the results database, per model (profile) and lot.
+
+Over the latest grading of each unit (filtered by model, lot and test date): the yield per
+grade; per graded figure its distribution against the profile's limits, its mean and
+standard deviation, Cp and Cpk against the acceptance limit (the loosest grade's, which
+divides the units sold from those rejected), and an individuals control chart in test
+order (:mod:`station.evaluation.capability`); and the units flagged for a person's
+review: those whose grading says so, and those with a figure out of statistical control.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+
+from station.errors import ProfileError
+from station.evaluation.capability import (
+    Capability,
+    ControlChart,
+    capability,
+    finite_or_none,
+    individuals_chart,
+)
+from station.model.profiles import parse_profile
+from station.output.results import FigureValue, GradingRow, ResultsDatabase
+
+
+@dataclass(frozen=True)
+class FigureStats:
+    """One graded figure over the units: values in test order, limits, capability, chart."""
+
+    name: str
+    unit: str
+    #: The profile's limits, grade by grade (best grade first), in ``unit``.
+    limits: dict[str, float]
+    values: tuple[FigureValue, ...]
+    capability: Capability
+    chart: ControlChart
+
+    @property
+    def out_of_control(self) -> tuple[FigureValue, ...]:
+        """The values beyond the control limits."""
+        return tuple(self.values[i] for i in self.chart.out_of_control)
+
+    def as_json(self) -> dict[str, object]:
+        """``{"mean", "std", "cp", "cpk", "limits", ...}`` (``limits``: the grades' upper
+        limits, best grade first; ``limit``: the acceptance limit Cp and Cpk use)."""
+        c, k = self.capability, self.chart
+        return {
+            "mean": c.mean,
+            "std": c.std,
+            "cp": finite_or_none(c.cp),
+            "cpk": finite_or_none(c.cpk),
+            "limits": list(self.limits.values()),
+            "limit_grades": list(self.limits),
+            "limit": c.limit,
+            "unit": self.unit,
+            "n": c.n,
+            "above_limit": c.above_limit,
+            "center": k.center,
+            "ucl": k.ucl,
+            "lcl": k.lcl,
+            "out_of_control": [
+                {
+                    "serial_number": v.serial_number,
+                    "axis": v.axis,
+                    "test_date": v.test_date,
+                    "value": v.value,
+                }
+                for v in self.out_of_control
+            ],
+        }
+
+
+@dataclass(frozen=True)
+class ReviewUnit:
+    """A unit a person should look at, and why."""
+
+    serial_number: str
+    model: str
+    lot: str
+    grading_id: int
+    test_date: str
+    reasons: tuple[str, ...]
+
+    def as_json(self) -> dict[str, object]:
+        """The unit and its reasons."""
+        return {
+            "serial_number": self.serial_number,
+            "model": self.model,
+            "lot": self.lot,
+            "grading_id": self.grading_id,
+            "test_date": self.test_date,
+            "reasons": list(self.reasons),
+        }
+
+
+@dataclass(frozen=True)
+class ProductionStats:
+    """The statistics of the units a model, lot and first test date select (None: all)."""
+
+    model: str | None = None
+    lot: str | None = None
+    since: str | None = None
+    units: int = 0
+    grades: dict[str, int] = field(default_factory=dict)
+    figures: dict[str, FigureStats] = field(default_factory=dict)
+    review: tuple[ReviewUnit, ...] = ()
+    profile: str = ""
+
+    @property
+    def yield_by_grade(self) -> dict[str, float]:
+        """Share of the units (0..1) per grade."""
+        return {g: n / self.units for g, n in self.grades.items()} if self.units else {}
+
+    def as_json(self) -> dict[str, object]:
+        """``{"units", "yield": {grade: share}, "figures": {name: {...}}, ...}``."""
+        return {
+            "units": self.units,
+            "yield": self.yield_by_grade,
+            "figures": {name: f.as_json() for name, f in self.figures.items()},
+            "grades": dict(self.grades),
+            "review": [u.as_json() for u in self.review],
+            "model": self.model,
+            "lot": self.lot,
+            "since": self.since,
+            "profile": self.profile,
+        }
+
+
+def _limits(
+    db: ResultsDatabase, rows: list[GradingRow]
+) -> tuple[str, dict[str, dict[str, float]], tuple[str, ...]]:
+    """(profile, limits per figure, grades best first) of the newest grading's profile."""
+    if not rows:
+        return "", {}, ()
+    ref, text = db.profile_text(rows[-1].id)
+    if not text:
+        return ref, {}, ()
+    try:
+        profile = parse_profile(text, path=ref)
+    except ProfileError:
+        return ref, {}, ()
+    return (
+        ref,
+        {
+            f.name: {g: f.limits[g] for g in profile.grades if g in f.limits}
+            for f in profile.figures
+            if f.graded
+        },
+        (*profile.grades, "indeterminate", profile.reject),
+    )
+
+
+def compute_stats(
+    db: ResultsDatabase,
+    *,
+    model: str | None = None,
+    lot: str | None = None,
+    since: str | None = None,
+) -> ProductionStats:
+    """The statistics of the latest grading of each unit that ``model``, ``lot`` and
+    ``since`` (ISO 8601 test date) select."""
+    rows = db.gradings(model=model, lot=lot, since=since, latest=True)
+    values = db.figure_values(model=model, lot=lot, since=since)
+    profile, limits, order = _limits(db, rows)
+    counts = Counter(r.grade for r in rows)
+    grades = {g: counts[g] for g in order if counts[g]} | {
+        g: n for g, n in counts.items() if g not in order
+    }
+    by_name: dict[str, list[FigureValue]] = {}
+    for v in values:
+        by_name.setdefault(v.name, []).append(v)
+    figures = {}
+    for name, vs in by_name.items():
+        figure_limits = limits.get(name, {})
+        if not figure_limits:  # the profile's text was not stored: the limits the units met
+            seen = [v.limit for v in vs if v.limit is not None]
+            figure_limits = {"stored": max(seen)} if seen else {}
+        acceptance = max(figure_limits.values()) if figure_limits else None
+        x = [float("nan") if v.value is None else v.value for v in vs]
+        figures[name] = FigureStats(
+            name,
+            vs[0].unit,
+            figure_limits,
+            tuple(vs),
+            capability(x, acceptance),
+            individuals_chart(x),
+        )
+    return ProductionStats(
+        model, lot, since, len(rows), grades, figures, _review(rows, figures), profile
+    )
+
+
+def _review(rows: list[GradingRow], figures: dict[str, FigureStats]) -> tuple[ReviewUnit, ...]:
+    reasons: dict[int, list[str]] = {r.id: list(r.review.splitlines()) for r in rows}
+    for f in figures.values():
+        k = f.chart
+        for v in f.out_of_control:
+            side = (
+                "above the upper"
+                if k.ucl is not None and (v.value or 0) > k.ucl
+                else "below the lower"
+            )
+            bound = k.ucl if "upper" in side else k.lcl
+            reasons[v.grading_id].append(
+                f"{f.name} {v.axis} = {v.value:.4g} {f.unit} is out of control "
+                f"({side} control limit {bound:.4g})"
+            )
+    return tuple(
+        ReviewUnit(r.serial_number, r.model, r.lot, r.id, r.test_date, tuple(reasons[r.id]))
+        for r in rows
+        if reasons[r.id]
+    )

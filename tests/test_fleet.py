@@ -1,0 +1,173 @@
+"""``station fleet`` on a real dask.distributed cluster of two worker processes on 127.0.0.1:
+the same JSON numbers as ``station grade`` one file at a time, failures listed with their
+reason while the other tasks finish, every unit stored (SQLite and PostgreSQL), reports
+written by the driver, the progress bar only on a terminal."""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from station.cli import main
+from station.commands.fleet import ProgressBar
+from station.output.results import ResultsDatabase
+from station.services.fleet import LOCAL, FleetProgress, cluster_client, run_files
+from tests.fleet_runs import write_run
+from tests.test_grading import profile_text, write_profile
+
+GOOD = 2  # runs of two units each
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A folder of runs: three good ones, a corrupt file, and a run too short to grade."""
+    root = tmp_path_factory.mktemp("fleet")
+    profile = write_profile(root, profile_text(warmup_s=10.0))
+    folder = root / "runs"
+    for k in range(GOOD):
+        write_run(
+            folder / f"run{k}.h5",
+            units=2,
+            duration_s=600.0,
+            seed=k + 1,
+            profile=profile,
+            lot=f"L{k % 2}",
+            start_utc=f"2026-05-0{k + 1}T08:00:00Z",
+        )
+    (folder / "corrupt.h5").write_bytes(b"this is no HDF5 file" * 50)
+    write_run(folder / "short.h5", units=1, duration_s=60.0, seed=9, profile=profile)
+    return folder, profile
+
+
+@pytest.fixture(scope="module")
+def scheduler() -> Iterator[str]:
+    """The local cluster ``station fleet`` starts by default (two worker processes here),
+    reached by its scheduler's address: one cluster for the module's tests."""
+    with cluster_client(LOCAL, 2) as client:
+        assert len(client.scheduler_info()["workers"]) == 2
+        yield client.scheduler.address
+
+
+def _fleet(capsys, *args: str) -> tuple[int, dict]:
+    code = main(["fleet", *args, "--json"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def _without_time(doc: dict) -> dict:
+    return {k: v for k, v in doc.items() if k != "graded_utc"}
+
+
+def test_fleet_grade_is_station_grade_file_by_file(runs, scheduler, tmp_path: Path, capsys) -> None:
+    folder, _ = runs
+    db = tmp_path / "fleet.sqlite"
+    code, out = _fleet(capsys, "grade", str(folder), "--scheduler", scheduler, "--db", str(db))
+    assert code == 1  # some tasks failed; the others finished
+    assert out["tasks"] == 2 * GOOD + 2  # a task per unit, and the corrupt file's listing
+    failed = {(f["file"], f["unit"]): f["error"] for f in out["failed"]}
+    assert set(failed) == {(str(folder / "corrupt.h5"), ""), (str(folder / "short.h5"), "unit1")}
+    assert "not an HDF5 file" in failed[(str(folder / "corrupt.h5"), "")]
+    assert "fewer than 1000" in failed[(str(folder / "short.h5"), "unit1")]
+    assert [r["run"]["path"] for r in out["runs"]] == [
+        str(folder / f"run{k}.h5") for k in range(GOOD)
+    ]
+    for doc in out["runs"]:
+        assert main(["grade", doc["run"]["path"], "--json", "--no-store"]) == 0
+        alone = json.loads(capsys.readouterr().out)
+        assert _without_time(doc) == _without_time(alone)  # every number, note and verdict
+    with ResultsDatabase(db) as results:
+        rows = results.gradings()
+    assert sorted(r.serial_number for r in rows) == sorted(
+        f"SN-{k + 1}-{i + 1}" for k in range(GOOD) for i in range(2)
+    )
+    assert {r.lot for r in rows} == {"L0", "L1"}
+
+
+def test_fleet_stores_into_postgresql(
+    runs, scheduler, postgres_url: str, capsys, monkeypatch
+) -> None:
+    folder, profile = runs
+    files = [str(folder / "run0.h5"), str(folder / "run1.h5")]
+    monkeypatch.setenv("STATION_RESULTS_DB", postgres_url)  # the line's database, no --db
+    code, out = _fleet(capsys, "grade", *files, "--profile", str(profile), "--scheduler", scheduler)
+    assert code == 0 and out["tasks"] == 4 and out["failed"] == []
+    with ResultsDatabase(postgres_url) as results:
+        rows = results.gradings()
+        assert len(rows) == 4 and {r.run_path for r in rows} == {
+            str(Path(f).resolve()) for f in files
+        }
+        assert all(len(results.figures(r.id)) == 4 for r in rows)
+
+
+def test_fleet_report_writes_files_from_the_driver(runs, scheduler, tmp_path: Path, capsys) -> None:
+    folder, _ = runs
+    db, out_dir = tmp_path / "r.sqlite", tmp_path / "reports"
+    code, out = _fleet(
+        capsys,
+        "report",
+        str(folder / "run1.h5"),
+        "--scheduler",
+        scheduler,
+        "--db",
+        str(db),
+        "--format",
+        "json",
+        "--format",
+        "csv",
+        "--out",
+        str(out_dir),
+    )
+    assert code == 0 and len(out["reports"]) == 2 and out["tasks"] == 3  # two units, one report
+    report = json.loads((out_dir / "run1_TEST.json").read_text())
+    assert [u["serial_number"] for u in report["units"]] == ["SN-2-1", "SN-2-2"]
+    with ResultsDatabase(db) as results:
+        rows = results.gradings()
+        assert len(rows) == 2
+        assert sorted(r["format"] for r in results.reports(rows[0].id)) == ["csv", "json"]
+
+
+def test_fleet_analyze_is_station_analyze_unit_by_unit(runs, scheduler, capsys) -> None:
+    folder, _ = runs
+    run = str(folder / "run1.h5")
+    code, out = _fleet(capsys, "analyze", run, "--scheduler", scheduler)
+    assert code == 0 and out["tasks"] == 2 and len(out["runs"]) == 2
+    assert main(["analyze", run, "--unit", "unit2", "--json"]) == 0
+    alone = json.loads(capsys.readouterr().out)
+    assert out["runs"][1] == alone
+
+
+def test_bad_input_is_refused_before_any_cluster(runs, tmp_path: Path, capsys) -> None:
+    folder, _ = runs
+    assert main(["fleet", "grade", str(tmp_path / "nothing-here")]) == 2
+    assert main(["fleet", "grade", str(folder), "--workers", "0"]) == 2
+    assert main(["fleet", "grade", str(folder), "--profile", "no-such-profile"]) == 2
+    assert (
+        main(["fleet", "grade", str(folder), "--workers", "2", "--scheduler", "tcp://127.0.0.1:1"])
+        == 2
+    )
+    err = capsys.readouterr().err
+    assert "no such file or directory" in err and "at least 1" in err and "local cluster" in err
+    assert run_files([folder, folder / "run0.h5"]).count(str(folder / "run0.h5")) == 1
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_only_on_a_terminal() -> None:
+    p = FleetProgress(done=16, total=64, elapsed_s=30.0, failed=1)
+    assert p.eta_s == pytest.approx(90.0)
+    line = ProgressBar.line(p, width=8)
+    assert line == "[##......] 16/64 tasks, 1 failed, 0:00:30 elapsed, ETA 0:01:30"
+    tty, pipe = _Terminal(), io.StringIO()
+    for stream in (tty, pipe):
+        bar = ProgressBar(stream, refresh_s=0.0)
+        bar(p)
+        bar(FleetProgress(64, 64, 120.0))
+        bar.close()
+    assert "\r" in tty.getvalue() and "64/64 tasks" in tty.getvalue()
+    assert pipe.getvalue() == ""
