@@ -292,6 +292,9 @@ class TemperatureChamber(Protocol):
 
     def describe(self) -> str:
         """Where the chamber is, for the run's records."""
+
+
+@runtime_checkable
 class Simulated(Protocol):
     """A unit whose device is simulated (a ``sim+`` URL), as the recorder may use it: held
     until the recorder listens, ended on a sample index, and counted by the simulator

@@ -28,6 +28,7 @@ measure is None (``null`` in JSON) and, when limited, indeterminate.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -459,6 +460,11 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
         linear, quadratic = _fits(points, spec, confidence)
         hyst = None if linear is None else hysteresis(
             points, tolerance_c=spec.plateau_span_c, slope_deg_h_per_c=linear.slope_deg_h_per_c)
+        if hyst is not None and linear is not None and linear.chi2_reduced is not None:
+            # the points scatter about the fit more than their own errors say (the bias
+            # wanders between plateaus): the difference's error grows by as much
+            birge = math.sqrt(max(1.0, linear.chi2_reduced))
+            hyst = dataclasses.replace(hyst, stderr_deg_h=hyst.stderr_deg_h * birge)
         axes.append(AxisSequence(axis, turn_on_repeatability(biases, confidence), warm,
                                  tuple(points), linear, quadratic, hyst))
     turn_on = summarize_cycles([np.nan if c.turn_on_time_s is None else c.turn_on_time_s

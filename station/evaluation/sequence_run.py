@@ -78,9 +78,10 @@ def grade_sequence(run: SequenceRun, profile: Profile, *, units: tuple[str, ...]
         raise GradingError(f"{run.path}: no segment can be read (the sequence recorded "
                            f"nothing yet, or its segment files are missing)")
     segment, info = picked
-    bench = bench if bench is not None else bench_from_json(info.bench)
-    info = replace(info, path=run.path, operator=run.operator or info.operator,
-                   lot=run.lot or info.lot, interrupted=not run.done)
+    bench = bench if bench is not None else bench_from_json(info.metadata.bench)
+    meta = replace(info.metadata, operator=run.operator or info.metadata.operator,
+                   lot=run.lot or info.metadata.lot)
+    info = replace(info, path=run.path, metadata=meta, interrupted=not run.done)
     grades: list[UnitGrade] = []
     for unit_id in chosen:
         sequence = grade_unit_sequence(run, unit_id, profile, spec)
