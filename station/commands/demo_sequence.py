@@ -145,12 +145,12 @@ def run(args: argparse.Namespace) -> int:
         assert seq is not None
         truth = _truths(args.seed + n, args.cycles)
         print(f"\n{unit.unit.unit_id} ({units[n]})  grade {unit.grade}")
-        print(f"  {'figure':<24} {'measured':>10} {'95 % interval':>22} {'truth':>10}")
+        print(f"  {'figure':<30} {'measured':>10} {'95 % interval':>22} {'truth':>10}")
         for key, label, unit_text in names:
             f = seq.figures[key]
             interval = "-" if f.low is None or f.high is None else f"[{f.low:.3g}, {f.high:.3g}]"
             value = "-" if f.value is None else f"{f.value:.4g}"
-            print(f"  {label + ' [' + unit_text + ']':<24} {value:>10} {interval:>22} "
+            print(f"  {label + ' [' + unit_text + ']':<30} {value:>10} {interval:>22} "
                   f"{truth[key]:>10.4g}")
     print(f"\ntruths: repeatability = the spread of the turn-on biases the units drew (their "
           f"population: {DEMO_POWER.turn_on_bias_deg_h:g} deg/h); turn-on time = the mean of "
