@@ -24,6 +24,7 @@ import pytest
 from analysis.cycle_stats import summarize_cycles
 from analysis.power_cycle import PowerCycleModel
 from devices.sim.powered import turn_on_draw
+from station.output.report import write_report
 from station.services.grade import GradeRequest, RunSource, grade
 from station.services.sequence import SequenceRequest, SimFixtureSettings, prepare_sequence
 from station.storage.sequence_files import read_sequence
@@ -170,6 +171,10 @@ def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
         assert min(temps) < 12.0 and max(temps) > 53.0  # the die reached each plateau
         assert any("noise figures not graded" in n for n in unit.notes)  # 2-min plateaus
         assert unit.grade in ("A", "B", "indeterminate")
+    html = write_report(graded, "html", tmp_path / "sheets").read_text(encoding="utf-8")
+    assert html.count('<table class="sequence">') == 2
+    assert html.count('data-figure="temperature_coefficient"') == 2
+    assert "bias against temperature" in html
 
 
 def _record(args: list[str]) -> subprocess.Popen[str]:

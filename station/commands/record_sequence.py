@@ -51,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None:
         raise UsageError("--sequence takes its durations from the profile's steps; drop "
                          "--duration")
+    if getattr(args, "check", False) or getattr(args, "status", None) is not None:
+        raise UsageError("--check and --status belong to a single recording, not --sequence")
     power = tuple(args.power)
     if "sim" in power and power != ("sim",):
         raise UsageError("--power sim stands for every unit's switch: give it once")
