@@ -20,7 +20,7 @@ import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
-from station.commands import COMMAND_HELP
+from station.commands import COMMAND_HELP, demo_sequence
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
 from station.storage.csv_records import write_csv_record
@@ -86,6 +86,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=Path("station-demo"),
         help="folder for the run file and the plot (default ./station-demo)",
     )
+    demo_sequence.add_arguments(p)
     p.set_defaults(handler=run)
 
 
@@ -111,6 +112,8 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Record, analyze, print, plot."""
+    if args.sequence:
+        return demo_sequence.run(args)
     from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()

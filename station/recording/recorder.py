@@ -20,7 +20,7 @@ import os
 import socket
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -131,12 +131,18 @@ class Recorder:
         What to record.
     subscribers : sequence of callables
         Document subscribers besides the file writer (progress line, TUI bridge, ...).
+    on_listening : callable, optional
+        Called once every unit reads its device, before the first samples are awaited:
+        a test sequence switches the units' supplies on here, so that the recording
+        holds their turn-on (the run then waits ``answer_timeout_s`` for their first
+        samples).
     """
 
     #: Longest a unit's process may take to start and open its device, wall s.
     open_timeout_s = 120.0
 
-    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = ()) -> None:
+    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = (), *,
+                 on_listening: Callable[[], None] | None = None) -> None:
         if not config.urls:
             raise UsageError("no unit to record: give --unit DEVICE_URL (or a profile with "
                              "a transport url)")
@@ -147,6 +153,7 @@ class Recorder:
         self.writer: RunFileWriter | None = None
         self.dispatcher = Dispatcher()
         self._extra = list(subscribers)
+        self._on_listening = on_listening
         self._stop_reason: str | None = None
         self.stop_reason = ""
         self.engine_cpu_s = 0.0
@@ -229,6 +236,9 @@ class Recorder:
                 problems = self._check_disk()
             if not problems:
                 self._start_units()
+                if self._on_listening is not None:
+                    self._await_units(lambda w: w.started.is_set(), self.open_timeout_s)
+                    self._on_listening()
                 problems = [*self._await_first_samples()]
         except BaseException:
             self._abort()
@@ -262,15 +272,20 @@ class Recorder:
         for w in self.workers:
             w.start(utc_now())
 
-    def _await_first_samples(self) -> list[Problem]:
-        deadline = time.monotonic() + self.config.answer_timeout_s
+    def _await_units(self, ready: Callable[[UnitProcess], bool], timeout_s: float) -> None:
+        """Take the units' messages until ``ready`` holds for each (or it ended), at most
+        ``timeout_s`` wall s."""
+        deadline = time.monotonic() + timeout_s
         waiting = list(self.workers)
         while waiting and time.monotonic() < deadline:
-            ready = wait([w.conn for w in waiting], timeout=0.05)
+            readable = wait([w.conn for w in waiting], timeout=0.05)
             for w in waiting:
-                if w.conn in ready:
+                if w.conn in readable:
                     w.receive()
-            waiting = [w for w in waiting if not w.answered.is_set() and not w.done]
+            waiting = [w for w in waiting if not ready(w) and not w.done]
+
+    def _await_first_samples(self) -> list[Problem]:
+        self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
         return [Problem(f"no sample within {self.config.answer_timeout_s:g} s: check the "
                         f"protocol and rate in the URL, and that the device is streaming"
                         + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)

@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import FrameType
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from devices.protocols import DeviceDescription
 from devices.url_query import is_simulated, with_keys
@@ -225,8 +225,14 @@ class RecordOutcome:
         return lines
 
 
+class Stoppable(Protocol):
+    """What Ctrl-C stops cleanly: a recorder, a test sequence."""
+
+    def request_stop(self, reason: str) -> None: ...
+
+
 @contextmanager
-def _stop_on_signals(recorder: Recorder) -> Iterator[None]:
+def stop_on_signals(recorder: Stoppable) -> Iterator[None]:
     """Turn Ctrl-C and SIGTERM into a clean stop of ``recorder`` while inside."""
     reasons = {signal.SIGINT: "interrupted (Ctrl-C)", signal.SIGTERM: "terminated (SIGTERM)"}
 
@@ -280,7 +286,7 @@ def record(request: RecordRequest, subscribers: Sequence[Subscriber] = (), *,
     """
     try:
         recorder = Recorder(run_config(request), subscribers)
-        with _stop_on_signals(recorder):
+        with stop_on_signals(recorder):
             recorder.prepare()
             write_status(status, RecorderStatus("recording", str(recorder.path)))
             if on_start is not None:
