@@ -525,7 +525,7 @@ class ResultsDatabase:
     def figure_names(self) -> list[str]:
         """The names of the figures stored (``arw``, ``bias_instability``, ...), sorted."""
         query = "SELECT DISTINCT name FROM figures ORDER BY name"
-        return [row[0] for row in self._con.execute(query)]
+        return [row[0] for row in self._con.execute(query).fetchall()]
 
     def integrity_check(self) -> str:
         """ "ok" when sound (SQLite: its ``PRAGMA integrity_check`` answer)."""
