@@ -57,6 +57,11 @@ def _mapping(arr: object) -> mmap.mmap | None:
     return None
 
 
+def is_mapped(arr: object) -> bool:
+    """Whether ``arr`` lives in a shared memory map (a numpy memmap or a view of one)."""
+    return _mapping(arr) is not None
+
+
 def release(arr: object) -> None:
     """Hand the resident pages of a memory-mapped array back to the operating system.
 

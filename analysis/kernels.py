@@ -48,8 +48,8 @@ Backend = Literal["auto", "numpy", "numba"]
 
 #: Samples per block of the numpy overlapping kernel: 2 x 32 k doubles stay in L2.
 _NUMPY_BLOCK = 1 << 15
-#: Terms per block of a long record's compiled overlapping sums (one m at a time: three
-#: ranges of 2 MB of the angle, then handed back).
+#: Terms per block of a memory-mapped record's compiled overlapping sums (one m at a time:
+#: three ranges of 2 MB of the angle, then handed back).
 _LONG_BLOCK = 1 << 18
 #: Blocks of the long numpy kernel between two hand-backs of a memory-mapped angle.
 _RELEASE_EVERY = 8
@@ -180,9 +180,8 @@ def _overlapping_sums_long(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
         if compiled is not None:
             for i, m in enumerate(m_arr):
                 for lo, hi in blocks.spans(0, n_points - 2 * int(m), _LONG_BLOCK):
-                    with _COMPILED_LAUNCH:
-                        out[i, c] += compiled.span_sum_parallel(th, int(m), lo, hi)
-                        _COMPILED_WARM.set()
+                    out[i, c] += compiled.span_sum(th, int(m), lo, hi)
+                    _COMPILED_WARM.set()
                     blocks.release(theta)
             continue
         for i, m in enumerate(m_arr):
@@ -207,8 +206,8 @@ def overlapping_sums(
 
     Same result as :func:`overlapping_sums_reference` (to rounding), one streaming pass
     over ``theta`` per m: the compiled kernel when numba is installed, otherwise numpy on
-    blocks that stay in cache. A long ``theta`` (:func:`analysis.blocks.is_long`, e.g. a
-    memmap of a 24 h run) is read in blocks of terms, never copied whole.
+    blocks that stay in cache. A long memory-mapped ``theta`` (a 24 h run's) is read in
+    blocks of terms, one m at a time, and its pages handed back (:mod:`analysis.blocks`).
 
     Parameters
     ----------
@@ -232,7 +231,7 @@ def overlapping_sums(
         If ``backend="numba"`` and numba is not installed.
     """
     m_arr = _check_m(m_values, theta.shape[0])
-    if blocks.is_long(theta.shape[0]) and m_arr.size:
+    if blocks.is_long(theta.shape[0]) and blocks.is_mapped(theta) and m_arr.size:
         work = _overlapping_work(theta.shape[0], m_arr, theta.shape[1])
         return _overlapping_sums_long(theta, m_arr, _pick(backend, work))
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)

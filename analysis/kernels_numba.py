@@ -119,17 +119,13 @@ def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
     return total
 
 
-@numba.njit(parallel=True, cache=True)
-def span_sum_parallel(th: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
-    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1``, its pieces of :data:`_BLOCK` terms
-    spread over cores: one block of a long record for one m (three streams through
-    ``th``, so a memory-mapped angle can be handed back block by block)."""
-    n_parts = (hi - lo + _BLOCK - 1) // _BLOCK
-    parts = np.zeros(n_parts)
-    for p in numba.prange(n_parts):
-        start = lo + p * _BLOCK
-        parts[p] = _span_sum(th, m, start, min(start + _BLOCK, hi))
-    return float(parts.sum())
+@numba.njit(cache=True)
+def span_sum(th: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
+    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1``, on one core: one block of a
+    memory-mapped record for one m (three streams through ``th``, handed back block by
+    block). One core: thousands of parallel launches cost more than they gain on a
+    loaded machine."""
+    return _span_sum(th, m, lo, hi)
 
 
 @numba.njit(cache=True)

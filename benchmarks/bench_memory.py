@@ -7,8 +7,8 @@ the recorder's writer, a second of samples at a time (bounded memory), then runs
 
     peak_rss_mb=... seconds=...
 
-the child's peak resident memory (its own ``ru_maxrss`` from ``wait4``, file pages it
-maps included) and its wall time. ``--keep FILE`` keeps the run file (and reuses it when it
+the child's peak resident memory (the VmHWM of its own address space, file pages it maps
+included) and its wall time. ``--keep FILE`` keeps the run file (and reuses it when it
 exists); ``--long-samples N`` makes records longer than N samples count as long (the
 block-wise path, :mod:`analysis.blocks`), so a short run exercises it.
 """
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -32,8 +33,21 @@ from station.storage.hdf5_writer import RunFileWriter
 #: Samples written per batch (and per flush of the writer).
 BATCH = 1 << 18
 
-CHILD = """
-import sys
+#: Printed by a child at exit: its own peak RSS (VmHWM of its address space). A child's
+#: ru_maxrss also counts the parent's peak where the child was forked (or vforked) from it.
+HWM = """
+import atexit, sys
+def _hwm():
+    try:
+        for line in open("/proc/self/status"):
+            if line.startswith("VmHWM:"):
+                sys.stderr.write("\\nVmHWM_kB=" + line.split()[1] + "\\n")
+    except OSError:
+        pass
+atexit.register(_hwm)
+"""
+
+CHILD = HWM + """
 import analysis.blocks as blocks
 if {long!r} is not None:
     blocks.LONG_SAMPLES = {long!r}
@@ -84,7 +98,8 @@ def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int =
 
 def run_child(code: str) -> tuple[float, float, str]:
     """(wall seconds, peak RSS in MB, stdout) of ``python -c code`` in a fresh process; the
-    peak is that child's own (``wait4``), file pages it maps included.
+    peak is that child's own (its VmHWM, printed at exit by :data:`HWM` when ``code``
+    starts with it; else its ``ru_maxrss``), file pages it maps included.
 
     Raises
     ------
@@ -99,9 +114,12 @@ def run_child(code: str) -> tuple[float, float, str]:
         proc.returncode = os.waitstatus_to_exitcode(status)
         out.seek(0)
         err.seek(0)
+        errors = err.read()
         if proc.returncode != 0:
-            raise SystemExit(f"child failed ({proc.returncode}): {err.read()[-2000:]}")
-        return seconds, usage.ru_maxrss / 1024.0, out.read()
+            raise SystemExit(f"child failed ({proc.returncode}): {errors[-2000:]}")
+        hwm = re.findall(r"VmHWM_kB=(\d+)", errors)
+        peak_kb = int(hwm[-1]) if hwm else usage.ru_maxrss
+        return seconds, peak_kb / 1024.0, out.read()
 
 
 def measure(path: Path, long_samples: int | None) -> tuple[float, float]:

@@ -106,32 +106,31 @@ def row_oadev(runs: int, n: int) -> str:
 
 
 def row_help(runs: int) -> str:
-    code = (
-        "import sys\nfrom station.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n"
-        "    pass\nprint(' '.join(m for m in ('scipy', 'matplotlib', 'numba') if m in sys.modules))"
+    code = bench_memory.HWM + (
+        "from station.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+        "print('loaded:', *(m for m in ('scipy', 'matplotlib', 'numba') if m in sys.modules))"
     )
     helps, numpys = [], []
     loaded = ""
     for _ in range(runs):
         seconds, peak, out = child(code)
         helps.append(seconds)
-        loaded = out.strip().splitlines()[-1] if out.strip() else ""
+        loaded = " ".join(out.strip().splitlines()[-1].split()[1:])
         numpys.append(child("import numpy")[0])
     h, npy = statistics.median(helps), statistics.median(numpys)
     return (
         f"station --help: {h:.3f}s import-numpy={npy:.3f}s ratio={h / npy:.2f} goal=0.3s "
-        f"heavy modules imported: {loaded or 'none'} peak<={peak:.0f}MB"
+        f"heavy modules imported: {loaded or 'none'} peak={peak:.0f}MB"
     )
 
 
 def row_analyze_csv(runs: int, tmp: Path) -> str:
-    from station.model.records import RateRecord
     from station.storage.csv_records import write_csv_record
 
     n = 360_000
     rate = 0.01 * np.random.default_rng(2).standard_normal((n, 3))
     path = tmp / "one_hour.csv"
-    write_csv_record(path, RateRecord(rate, 100.0, ("x", "y", "z")))
+    write_csv_record(path, rate, 100.0, axis_names=("x", "y", "z"))
     run = f"from station.cli import main\nmain(['analyze', {str(path)!r}, '--json'])\n"
     with_numba, without = [], []
     for _ in range(runs):
