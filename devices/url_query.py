@@ -8,8 +8,8 @@ with a message that names the key.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable, Mapping
-from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
+from collections.abc import Iterable
+from urllib.parse import parse_qsl
 
 from devices.errors import DeviceConfigurationError
 from devices.sim.params import BENCH_KEYS, FAULT_KEYS, FIXTURE_KEYS
@@ -64,23 +64,3 @@ def check_keys(query: dict[str, str], allowed: Iterable[str], url: str) -> None:
                 f"unknown URL key {key!r} in {url!r}{hint} (keys of this URL: "
                 f"{', '.join(known)})")
 
-
-def is_simulated(url: str) -> bool:
-    """Whether ``url`` names a simulated device (a ``sim+`` scheme)."""
-    return urlsplit(url.strip()).scheme.lower().startswith("sim+")
-
-
-def url_keys(url: str) -> dict[str, str]:
-    """The query keys of ``url`` as given (the last of a repeated key; no check)."""
-    return dict(parse_qsl(urlsplit(url).query, keep_blank_values=True))
-
-
-def with_keys(url: str, keys: Mapping[str, str], *, keep_given: bool = False) -> str:
-    """``url`` with the query ``keys`` set (``keep_given``: keys the URL has keep their
-    value); paths and ``:``/``,`` in values stay readable."""
-    parts = urlsplit(url)
-    query = dict(parse_qsl(parts.query, keep_blank_values=True))
-    for key, value in keys.items():
-        if not (keep_given and key in query):
-            query[key] = value
-    return urlunsplit(parts._replace(query=urlencode(query, safe="/:,")))

@@ -13,7 +13,7 @@ from dataclasses import asdict
 from types import FrameType
 
 from devices.opened import OpenedDevice, SimulatedDevice
-from devices.url_query import is_simulated
+from devices.url_text import is_simulated
 from devices.urls import SUPPORTED, open_device
 from station.commands import COMMAND_HELP
 from station.errors import UsageError

@@ -41,7 +41,7 @@ from analysis.earth import (
     match_axis,
     rotation_rows,
 )
-from devices.url_query import is_simulated, with_keys
+from devices.url_text import is_simulated, with_keys
 from station.errors import BenchError
 
 _KEYS = {"name", "latitude_deg", "axes", "rotation"}

@@ -41,7 +41,7 @@ from typing import Any, Literal, get_args
 
 from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
-from devices.url_query import url_keys, with_keys
+from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
 from station.model.sequences import SequenceSpec, parse_sequences
 

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from devices.protocols import DeviceDescription
-from devices.url_query import is_simulated
+from devices.url_text import is_simulated
 from station.errors import Problem, RecorderError, RunConfigurationError, UsageError
 from station.model.documents import (
     Dispatcher,

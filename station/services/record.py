@@ -20,7 +20,7 @@ from types import FrameType
 from typing import Any, Literal, Protocol
 
 from devices.protocols import DeviceDescription
-from devices.url_query import is_simulated, with_keys
+from devices.url_text import is_simulated, with_keys
 from station.errors import Problem, RunConfigurationError, StationError, UsageError
 from station.model.bench import load_bench
 from station.model.documents import RunStop, Subscriber
