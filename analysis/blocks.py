@@ -85,7 +85,7 @@ def decimated(x: NDArray[np.float64], step: int) -> NDArray[np.float64]:
     parts = []
     rows = max(1, BLOCK_SAMPLES // step) * step
     for a, b in spans(0, len(x), rows):
-        parts.append(np.asarray(x[a:b:step], dtype=np.float64))
+        parts.append(np.array(x[a:b:step], dtype=np.float64))  # a copy, not a view
         release(x)
     return np.concatenate(parts)
 
