@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import textwrap
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -34,7 +34,6 @@ from station.output.report.sequence_sheet import draw_sequence, sequence_rows  #
 
 if TYPE_CHECKING:
     from station.evaluation.sequence_grading import UnitSequence
-    from station.model.kinds import Verdict
 
 A4_IN = (8.27, 11.69)
 GRADE_COLORS = {"reject": "#d9534f", "indeterminate": "#e0a800"}
@@ -212,7 +211,7 @@ def sequence_page(graded: RunGrade, seq: UnitSequence, unit_id: str) -> Figure:
     columns = ["figure", "unit", "value", "conf. interval", "limit", "grade", "verdict"]
     cells = [[r.label, r.unit, fmt(r.value), fmt_interval(r.ci_low, r.ci_high),
               fmt(r.limit) if r.verdict else "", r.grade, r.verdict or "info"] for r in rows]
-    colors = [["white"] * 6 + [VERDICT_COLORS[cast("Verdict | None", r.verdict)]] for r in rows]
+    colors = [["white"] * 6 + [VERDICT_COLORS[r.verdict]] for r in rows]
     height = 0.018 * (len(rows) + 1)
     top = 0.93
     if rows:
