@@ -577,9 +577,9 @@ def allan_variance(
     if missing != "raise":
         raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
     if estimator == "overlapping":
-        fn = overlapping_allan_variance
-    elif estimator == "clusters":
-        fn = cluster_allan_variance
-    else:
-        raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")
-    return fn(samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence)
+        return overlapping_allan_variance(samples, sample_rate_hz, taus=taus,
+                                          input_kind=input_kind, confidence=confidence)
+    if estimator == "clusters":
+        return cluster_allan_variance(samples, sample_rate_hz, taus=taus, input_kind=input_kind,
+                                      confidence=confidence)
+    raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")

@@ -102,10 +102,10 @@ def column_sums(x: NDArray[np.float64]) -> NDArray[np.float64]:
 def first_non_finite(x: NDArray[np.float64]) -> int:
     """Index (along the first axis) of the first row holding a NaN or an infinity; -1 if none."""
     for a, b in spans(0, x.shape[0]):
-        bad = ~np.isfinite(np.asarray(x[a:b]))
+        bad: NDArray[np.bool_] = ~np.isfinite(np.asarray(x[a:b]))
         release(x)
         if bad.ndim > 1:
-            bad = bad.any(axis=tuple(range(1, bad.ndim)))
+            bad = np.asarray(bad.any(axis=tuple(range(1, bad.ndim))), dtype=bool)
         if bad.any():
             return a + int(np.argmax(bad))
     return -1

@@ -360,7 +360,8 @@ def _segment_window_sums_numpy(theta: NDArray[np.float64], m: int, starts: NDArr
     count = np.searchsorted(cuts, starts + n_terms) - first
     take = first[:, None] + np.arange(int(count.max()))
     take[take >= first[:, None] + count[:, None]] = len(cuts) - 1
-    return segments[take].sum(axis=1)
+    out: NDArray[np.float64] = segments[take].sum(axis=1)
+    return out
 
 
 def _block_window_sums_numpy(theta: NDArray[np.float64], m: int, starts: NDArray[np.int64],

@@ -202,7 +202,8 @@ def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
 def _second_differences(x: NDArray[np.float64], m: int, a: int, b: int) -> NDArray[np.float64]:
     ahead = np.asarray(x[a + 2 * m : b + 2 * m], dtype=float)
     middle = np.asarray(x[a + m : b + m], dtype=float)
-    return ahead - 2.0 * middle + np.asarray(x[a:b], dtype=float)
+    out: NDArray[np.float64] = ahead - 2.0 * middle + np.asarray(x[a:b], dtype=float)
+    return out
 
 
 def _running_sums(x: NDArray[np.float64], m: int, length: int, offset: int

@@ -378,7 +378,7 @@ def _resolution_long(x: NDArray[np.float64], cap: int = 1 << 16) -> float:
     ``cap`` (a quantized record); beyond, the smallest step inside a block, an upper
     bound of the true one that only matters when larger than the noise scale it floors
     (it is not: a record with that many distinct values is not quantized coarsely)."""
-    values = np.zeros(0)
+    values: NDArray[np.float64] | None = np.zeros(0)
     bound = np.inf
     for a, b in blocks.spans(0, len(x)):
         u = np.unique(np.asarray(x[a:b]))

@@ -231,6 +231,70 @@ class HeldQuiet(Protocol):
 
 
 @runtime_checkable
+class PowerSwitch(Protocol):
+    """A unit's supply that the station switches (a relay output, a bench supply's output)."""
+
+    def open(self) -> None:
+        """Connect to the switch."""
+
+    def close(self) -> None:
+        """Release the transport; safe to call twice (the output keeps its state)."""
+
+    def set_power(self, on: bool) -> float:
+        """Switch the output on or off and confirm it took the new state; returns when it
+        switched, as well as the station can tell (s since the epoch: the middle of the
+        command's exchange), the instant a turn-on time counts from.
+
+        Raises
+        ------
+        DeviceDisconnectedError
+            The switch cannot be reached.
+        DeviceProtocolError
+            It refused the command, or reads back another state.
+        """
+
+    def is_powered(self) -> bool:
+        """Whether the output is on now."""
+
+    def describe(self) -> str:
+        """Where the switch is, for the run's records
+        (``modbus+tcp 10.0.0.5:502 unit 1 coil 3``)."""
+
+
+@runtime_checkable
+class TemperatureChamber(Protocol):
+    """A temperature chamber the station sets and reads (degC)."""
+
+    def open(self) -> None:
+        """Connect to the chamber's controller."""
+
+    def close(self) -> None:
+        """Release the transport; safe to call twice (the chamber keeps its set point)."""
+
+    def set_temperature(self, temperature_c: float) -> None:
+        """Command a new set point, degC, and confirm the controller holds it.
+
+        Raises
+        ------
+        DeviceDisconnectedError
+            The controller cannot be reached.
+        DeviceProtocolError
+            It refused the set point, or reads back another one.
+        CodecError
+            A set point outside the chamber's range.
+        """
+
+    def setpoint_c(self) -> float:
+        """The set point the controller holds, degC."""
+
+    def temperature_c(self) -> float:
+        """The measured air temperature, degC."""
+
+    def describe(self) -> str:
+        """Where the chamber is, for the run's records."""
+
+
+@runtime_checkable
 class Simulated(Protocol):
     """A unit whose device is simulated (a ``sim+`` URL), as the recorder may use it: held
     until the recorder listens, ended on a sample index, and counted by the simulator

@@ -12,11 +12,13 @@ from collections.abc import Iterable, Mapping
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 from devices.errors import DeviceConfigurationError
-from devices.sim.params import BENCH_KEYS, FAULT_KEYS
+from devices.sim.params import BENCH_KEYS, FAULT_KEYS, FIXTURE_KEYS
 
 #: Keys every simulated device takes (``sim+`` URLs): the noise model, rate, warp, seed,
-#: history, the fault knobs and where the gyro sits on its bench (latitude, orientation).
-SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *BENCH_KEYS})
+#: history, the fault knobs, where the gyro sits on its bench (latitude, orientation) and
+#: the simulated fixture powering it with its turn-on behaviour.
+SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *BENCH_KEYS,
+                      *FIXTURE_KEYS})
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
 SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram"}),
                         "kvh1750": frozenset({"unit", "output"}),

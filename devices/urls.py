@@ -47,6 +47,7 @@ from devices.sim.modbus_server import ModbusGyroServer
 from devices.sim.params import (
     BENCH_KEYS,
     FAULT_KEYS,
+    FIXTURE_KEYS,
     SimParams,
     parse_sim_params,
     query_number,
@@ -70,7 +71,7 @@ from devices.url_query import (
 #: URL keys that say how to run a simulation or record a session, not how to talk to the
 #: device: a hardware URL of a served simulation and a capture's replay URL drop them.
 _NOT_PROTOCOL_KEYS = frozenset({"model", "warp", "seed", "history", "interface", "capture",
-                                *FAULT_KEYS, *BENCH_KEYS})
+                                *FAULT_KEYS, *BENCH_KEYS, *FIXTURE_KEYS})
 
 
 def _protocol_query(query: dict[str, str], **keys: str) -> str:

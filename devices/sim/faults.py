@@ -11,7 +11,9 @@ ones and what they were. Memory stays bounded however long the run: an overnight
 from __future__ import annotations
 
 import math
+import threading
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -174,8 +176,9 @@ class SimCore:
     -----
     Sampling stops while any *hold* is on: :meth:`pause` / :meth:`resume` are the
     operator's (the recorder holds a unit until it listens), :meth:`enter_configuration`
-    / :meth:`enter_measurement` the device's own (an Xbus GoToConfig). Each releases only
-    its own hold.
+    / :meth:`enter_measurement` the device's own (an Xbus GoToConfig), :meth:`power_off`
+    / :meth:`power_on` its supply's (a unit wired to a simulated fixture). Each releases
+    only its own hold.
     """
 
     def __init__(self, signal: SignalSource, sample_rate_hz: float, clock: WarpClock,
@@ -189,6 +192,8 @@ class SimCore:
         self._rng = np.random.default_rng(self.faults.seed)
         self._origin_s = clock()
         self._holds: set[str] = set()
+        self._hold_lock = threading.Lock()  # the operator, the device and its supply hold
+        self._closers: list[Callable[[], None]] = []
         self._paused_at: float | None = None
         self._last_index: int | None = None
 
@@ -209,15 +214,18 @@ class SimCore:
         self.sample_rate_hz = sample_rate_hz
 
     def _hold(self, reason: str) -> None:
-        if not self._holds:
-            self._paused_at = self.clock()
-        self._holds.add(reason)
+        with self._hold_lock:
+            if not self._holds:
+                self._paused_at = self.clock()
+            self._holds.add(reason)
 
-    def _release(self, reason: str) -> None:
-        self._holds.discard(reason)
-        if not self._holds and self._paused_at is not None:
-            self._origin_s += self.clock() - self._paused_at
-            self._paused_at = None
+    def _release(self, reason: str, at_s: float | None = None) -> None:
+        with self._hold_lock:
+            self._holds.discard(reason)
+            if not self._holds and self._paused_at is not None:
+                released = self.clock() if at_s is None else min(at_s, self.clock())
+                self._origin_s += max(0.0, released - self._paused_at)
+                self._paused_at = None
 
     @property
     def held(self) -> bool:
@@ -240,6 +248,27 @@ class SimCore:
     def enter_measurement(self) -> None:
         """Leave configuration mode (Xbus GoToMeasurement); the operator's hold stays."""
         self._release("configuration")
+
+    def on_close(self, closer: Callable[[], None]) -> None:
+        """Have :meth:`close` call ``closer`` (a thread that follows the unit's supply)."""
+        self._closers.append(closer)
+
+    def close(self) -> None:
+        """Stop what the simulation runs beside its device (once the device stopped)."""
+        closers, self._closers = self._closers, []
+        for closer in closers:
+            closer()
+
+    def power_off(self) -> None:
+        """The supply's hold: the unit is unpowered, or still booting after power came on
+        (:mod:`devices.sim.powered`); no samples until :meth:`power_on`."""
+        self._hold("power")
+
+    def power_on(self, at_s: float | None = None) -> None:
+        """Release the supply's hold: the unit booted at clock time ``at_s`` (default now;
+        a thread that tells it late does not delay its samples, which fall due from
+        ``at_s`` on) and samples from then on."""
+        self._release("power", at_s)
 
     def clear_faults(self) -> None:
         """Turn the faults off (drops, corruption, junk, disconnects, stalls; the clock

@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+import numpy as np
+
 from analysis.earth import earth_rate_by_axis, parse_orientation
+from analysis.power_cycle import PowerCycleModel
 from analysis.units import S_PER_H
 from devices.errors import DeviceConfigurationError
 from devices.sim.clock import WarpClock
 from devices.sim.faults import FaultConfig, SimCore
+from devices.sim.powered import PoweredSignal, PoweredUnit, parse_fixture
 from devices.sim.signal import SignalSource
 
 #: Fault knobs a URL sets (``garbage_max_bytes`` stays the device's own; ``seed`` is the
@@ -20,6 +25,15 @@ FAULT_KEYS: tuple[str, ...] = tuple(
 #: Where the simulated gyro sits: the bench's latitude (deg) and its axes' directions
 #: (``orientation=x:up,y:north,z:east``); the simulator then adds the Earth's rotation.
 BENCH_KEYS: tuple[str, ...] = ("latitude", "orientation")
+#: A simulated gyro on a simulated fixture (``fixture=HOST:PORT/OUTPUT``) and its turn-on,
+#: warm-up and temperature behaviour (:class:`analysis.power_cycle.PowerCycleModel`'s
+#: attributes, by these URL keys).
+POWER_CYCLE_KEYS: dict[str, str] = {
+    "turn_on_s": "turn_on_s", "turn_on_jitter_s": "turn_on_jitter_s",
+    "turn_on_bias_deg_h": "turn_on_bias_deg_h", "warmup_deg_h": "warmup_deg_h",
+    "warmup_tau_s": "warmup_tau_s", "tempco": "tempco_deg_h_per_c",
+    "tempco2": "tempco2_deg_h_per_c2", "tempco_ref_c": "reference_c"}
+FIXTURE_KEYS: tuple[str, ...] = ("fixture", *POWER_CYCLE_KEYS)
 #: Axis names of a simulated gyro, in the order of its rate columns.
 SIM_AXIS_NAMES = ("x", "y", "z")
 
@@ -52,6 +66,12 @@ class SimParams:
     orientation : str
         Direction of each axis (URL key ``orientation``: ``x:up,y:north,z:east``; a
         direction is up, down, north, south, east, west or ``east/north/up`` numbers).
+    fixture : str
+        ``HOST:PORT/OUTPUT`` of the simulated fixture whose relay output powers the unit
+        and whose chamber warms it ("" for none: always powered, at 25 degC).
+    power_cycle : PowerCycleModel
+        Turn-on, warm-up and temperature behaviour on the fixture (URL keys of
+        :data:`POWER_CYCLE_KEYS`).
     """
 
     model: str = "STIM300"
@@ -62,6 +82,8 @@ class SimParams:
     faults: FaultConfig = field(default_factory=FaultConfig)
     latitude: float | None = None
     orientation: str = ""
+    fixture: str = ""
+    power_cycle: PowerCycleModel = field(default_factory=PowerCycleModel)
 
 
 def query_number(key: str, text: str, kind: Callable[[str], Any]) -> Any:
@@ -104,7 +126,21 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
         earth_rate_by_axis(latitude, parse_orientation(orientation), SIM_AXIS_NAMES)
     except ValueError as exc:
         raise DeviceConfigurationError(str(exc)) from exc
-    return SimParams(model, rate, warp, seed, history, faults, latitude, orientation)
+    physics = {attr: query_number(key, query[key], float)
+               for key, attr in POWER_CYCLE_KEYS.items() if key in query}
+    fixture = query.get("fixture", "")
+    if physics and not fixture:
+        raise DeviceConfigurationError(
+            f"URL keys {', '.join(k for k in POWER_CYCLE_KEYS if k in query)} describe a unit "
+            f"on a simulated fixture: give fixture=HOST:PORT/OUTPUT too")
+    if fixture:
+        parse_fixture(fixture)
+    try:
+        power_cycle = PowerCycleModel(**physics)
+    except ValueError as exc:
+        raise DeviceConfigurationError(f"simulated turn-on behaviour: {exc}") from exc
+    return SimParams(model, rate, warp, seed, history, faults, latitude, orientation, fixture,
+                     power_cycle)
 
 
 def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
@@ -130,6 +166,20 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
         rates = earth_rate_by_axis(params.latitude, parse_orientation(params.orientation),
                                    SIM_AXIS_NAMES[:n_axes])
         earth = [0.0 if r is None else r / S_PER_H for r in rates]
-    signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed,
-                          earth_rate_deg_s=earth)
-    return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock
+    if not params.fixture:
+        signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed,
+                              earth_rate_deg_s=earth)
+        return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock
+    # On a fixture, each opening of the unit (each recorded segment) draws fresh noise:
+    # keyed by the seed, the switch-on count and the fixture time of the opening.
+    unit = PoweredUnit(params.fixture, params.power_cycle, seed=params.seed or 0, n_axes=n_axes)
+    on_count = unit.first_read(clock)
+    noise_seed = int(np.random.SeedSequence(
+        [params.seed or 0, on_count, time.monotonic_ns() % (1 << 32)]).generate_state(1)[0])
+    powered = PoweredSignal(SignalSource(params.model, params.rate, n_axes=n_axes,
+                                         seed=noise_seed, earth_rate_deg_s=earth), unit)
+    core = SimCore(powered, params.rate, clock, params.faults, history=params.history)
+    powered.bind(core)
+    unit.attach(core)
+    core.on_close(unit.stop)
+    return core, clock

@@ -6,7 +6,8 @@ module; this wrapper is the only place that knows its client API.
 
 from __future__ import annotations
 
-from typing import Literal
+from collections.abc import Callable
+from typing import Any, Literal
 
 from pymodbus.client import ModbusBaseSyncClient, ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
@@ -67,6 +68,60 @@ class ModbusTransport:
         if client is not None:
             client.close()
 
+    def _call(self, what: str, request: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """One request through the client: a lost link is DeviceDisconnectedError (the
+        client closed), a Modbus exception response DeviceProtocolError naming ``what``."""
+        try:
+            response = request(*args, **kwargs)
+        except (ModbusException, OSError) as exc:  # OSError: a reset mid-request
+            self.close()
+            raise DeviceDisconnectedError(f"Modbus {self.target}: {exc}") from exc
+        if response.isError():
+            raise DeviceProtocolError(f"Modbus exception response to {what}: {response}")
+        return response
+
+    def read_coils(self, address: int, count: int, device_id: int) -> list[bool]:
+        """Coils ``address .. address + count - 1`` of ``device_id`` (relay outputs).
+
+        Raises
+        ------
+        DeviceDisconnectedError, DeviceProtocolError
+            As :meth:`read_registers`.
+        """
+        client = self._connected()
+        response = self._call(f"reading coils {address}+{count}", client.read_coils, address,
+                              count=count, device_id=device_id)
+        return [bool(b) for b in response.bits[:count]]
+
+    def write_coil(self, address: int, value: bool, device_id: int) -> None:
+        """Set coil ``address`` of ``device_id`` on or off (a relay output).
+
+        Raises
+        ------
+        DeviceDisconnectedError, DeviceProtocolError
+            As :meth:`read_registers`.
+        """
+        client = self._connected()
+        self._call(f"writing coil {address}", client.write_coil, address, bool(value),
+                   device_id=device_id)
+
+    def write_registers(self, address: int, values: list[int], device_id: int) -> None:
+        """Write holding registers ``address ..`` of ``device_id`` (function 16).
+
+        Raises
+        ------
+        DeviceDisconnectedError, DeviceProtocolError
+            As :meth:`read_registers`.
+        """
+        client = self._connected()
+        self._call(f"writing registers {address}+{len(values)}", client.write_registers,
+                   address, list(values), device_id=device_id)
+
+    def _connected(self) -> ModbusTcpClient | ModbusSerialClient:
+        if self._client is None:
+            raise DeviceDisconnectedError("Modbus client is not connected")
+        return self._client  # type: ignore[return-value]
+
     def read_registers(self, address: int, count: int, device_id: int,
                        table: Literal["holding", "input"] = "holding") -> list[int]:
         """Registers ``address .. address + count - 1`` of ``device_id``.
@@ -78,15 +133,9 @@ class ModbusTransport:
         DeviceProtocolError
             The server answered with a Modbus exception.
         """
-        if self._client is None:
-            raise DeviceDisconnectedError("Modbus client is not connected")
-        request = (self._client.read_holding_registers if table == "holding"
-                   else self._client.read_input_registers)
-        try:
-            response = request(address, count=count, device_id=device_id)
-        except (ModbusException, OSError) as exc:  # OSError: a reset mid-request
-            self.close()
-            raise DeviceDisconnectedError(f"Modbus {self.target}: {exc}") from exc
-        if response.isError():
-            raise DeviceProtocolError(f"Modbus exception response {response}")
+        client = self._connected()
+        request = (client.read_holding_registers if table == "holding"
+                   else client.read_input_registers)
+        response = self._call(f"reading {table} registers {address}+{count}", request,
+                              address, count=count, device_id=device_id)
         return list(response.registers)

@@ -20,9 +20,10 @@ import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
-from station.commands import COMMAND_HELP
+from station.commands import COMMAND_HELP, demo_sequence
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
+from station.model.runs import RunMetadata
 from station.storage.csv_records import write_csv_record
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
@@ -86,6 +87,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=Path("station-demo"),
         help="folder for the run file and the plot (default ./station-demo)",
     )
+    demo_sequence.add_arguments(p)
     p.set_defaults(handler=run)
 
 
@@ -96,7 +98,8 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
 
     urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
     recorder = Recorder(
-        RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
+        RunConfig(urls, args.duration * 3600.0, path,
+                  metadata=RunMetadata(operator="station demo")),
         [ProgressLine(sys.stderr, plain_interval_s=5.0)],
     )
     recorder.prepare()
@@ -111,6 +114,8 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Record, analyze, print, plot."""
+    if args.sequence:
+        return demo_sequence.run(args)
     from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report.common import analysis_lines
+from station.output.report.sequence_sheet import sequence_lines
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
@@ -151,4 +152,6 @@ def format_grade(graded: RunGrade) -> str:
                     f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  "
                     f"{verdict}"
                 )
+        if u.sequence is not None:
+            lines += [f"  {line}" for line in sequence_lines(u.sequence)]
     return "\n".join(lines)

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_slice_arguments, print_notes
+from station.commands.arguments import add_slice_arguments, print_notes, record_source
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reconcile", help=COMMAND_HELP["reconcile"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument(
-        "measured", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
+        "file", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
     )
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
                    help="sample rate in Hz (required when a CSV has no time column)")
@@ -90,16 +90,8 @@ def run(args: argparse.Namespace) -> int:
 
     answer = reconcile_run(
         ReconcileRequest(
-            args.measured,
+            record_source(args),
             args.model,
-            rate_hz=args.rate,
-            units=args.units,
-            axis=args.axis,
-            unit=args.unit,
-            start_s=args.start_s,
-            stop_s=args.stop_s,
-            profile=args.profile,
-            warmup_s=args.warmup_s,
             runs=args.runs,
             seed=args.seed,
             alpha=args.alpha,
@@ -113,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         json.dump(answer.as_json(), sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{args.measured} against {args.model}")
+        print(f"{args.file} against {args.model}")
         print("\n\n".join(format_reconcile(res, label=label) for label, res in answer.results))
         if answer.png is not None:
             print(f"figure: {answer.png}")

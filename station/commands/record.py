@@ -27,7 +27,8 @@ import os
 import sys
 from pathlib import Path
 
-from station.commands import COMMAND_HELP
+from station.commands import COMMAND_HELP, record_sequence
+from station.commands.record_sequence import add_sequence_arguments
 from station.recording.progress import ProgressLine
 
 
@@ -82,11 +83,18 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "for its first sample, release it; write nothing and print the status "
                         "as JSON (exit status 2 if a unit fails)")
     p.add_argument("--quiet", action="store_true", help="no progress line")
+    add_sequence_arguments(p)
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Prepare (refusing a bad configuration), record, print the summary."""
+    if args.sequence is not None:
+        return record_sequence.run(args)
+    if args.power or args.chamber:
+        from station.errors import UsageError
+
+        raise UsageError("--power and --chamber belong to --sequence NAME")
     from station.services.record import RecordRequest, check_units, record, write_status
 
     request = RecordRequest(tuple(args.unit), args.duration, args.out, args.profile,

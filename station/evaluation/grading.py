@@ -29,9 +29,11 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from scipy import stats
@@ -55,6 +57,9 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.sheet_header import SheetHeader
 from station.model.version import software_version
+
+if TYPE_CHECKING:
+    from station.evaluation.sequence_grading import UnitSequence
 
 #: Batches of the batch-means interval of the bias.
 BIAS_BATCHES = 10
@@ -170,6 +175,10 @@ class UnitGrade:
     axes: tuple[AxisGrade, ...]
     warmup_discarded_s: float
     notes: tuple[str, ...] = ()
+    #: The unit's test-sequence figures, when the run is a sequence
+    #: (:mod:`station.evaluation.sequence_grading`); ``grade`` is then the worse of the
+    #: axes' grade and the sequence's.
+    sequence: UnitSequence | None = None
 
     @property
     def review(self) -> tuple[str, ...]:
@@ -187,7 +196,7 @@ class UnitGrade:
     def as_json(self) -> dict[str, object]:
         """JSON object of the unit."""
         u = self.unit
-        return {
+        out: dict[str, object] = {
             "unit_id": u.unit_id,
             "model": u.model,
             "serial_number": u.serial_number,
@@ -197,6 +206,9 @@ class UnitGrade:
             "notes": list(self.notes),
             "axes": {a.axis: a.as_json() for a in self.axes},
         }
+        if self.sequence is not None:
+            out["sequence_figures"] = self.sequence.as_json()
+        return out
 
 
 @dataclass(frozen=True)
@@ -217,7 +229,7 @@ class RunGrade:
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
         p, r, m = self.profile, self.run, self.run.metadata
-        return {
+        doc: dict[str, object] = {
             "schema": "gyro-station/grade",
             "schema_version": 1,
             "graded_utc": self.graded_utc,
@@ -232,6 +244,10 @@ class RunGrade:
                     "interrupted": r.interrupted},
             "units": [u.as_json() for u in self.units],
         }
+        if "sequence" in self.extra:  # a test sequence: its name, file, segment graded
+            doc["sequence"] = {k.removeprefix("sequence_") if k != "sequence" else "name": v
+                               for k, v in self.extra.items() if k.startswith("sequence")}
+        return doc
 
 
 # --- decision ------------------------------------------------------------------------------
@@ -261,7 +277,14 @@ def decide(
     return INDETERMINATE
 
 
-def assign_grade(figures: tuple[FigureResult, ...], grades: tuple[str, ...], reject: str
+class Verdicted(Protocol):
+    """A graded figure: its verdict at each grade that limits it."""
+
+    @property
+    def verdicts(self) -> Mapping[str, str]: ...
+
+
+def assign_grade(figures: Sequence[Verdicted], grades: tuple[str, ...], reject: str
                  ) -> tuple[str, str, str | None]:
     """(grade, deciding grade, could_reach) of an axis from its figures' verdicts.
 

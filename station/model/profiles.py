@@ -43,6 +43,7 @@ from analysis.fit import FIT_METHODS, FitMethod
 from analysis.units import DEG_PER_URAD, S_PER_H
 from devices.url_query import url_keys, with_keys
 from station.errors import ProfileError
+from station.model.sequences import SequenceSpec, parse_sequences
 
 DecisionRule = Literal["strict", "guard-banded", "simple"]
 DECISION_RULES: tuple[DecisionRule, ...] = get_args(DecisionRule)
@@ -217,6 +218,22 @@ class Profile:
     path: str = ""
     sha256: str = ""
     range_deg_s: float | None = None
+    #: Test sequences (``[sequence.NAME]`` tables, :mod:`station.model.sequences`).
+    sequences: dict[str, SequenceSpec] = field(default_factory=dict)
+
+    def sequence(self, name: str) -> SequenceSpec:
+        """The sequence named ``name``.
+
+        Raises
+        ------
+        ProfileError
+            The profile defines no such sequence (the message lists those it has).
+        """
+        if name not in self.sequences:
+            have = ", ".join(self.sequences) or "none"
+            raise ProfileError(f"profile {self.name} has no sequence {name!r} (its sequences: "
+                               f"{have}); add a [sequence.{name}] table", path=self.path)
+        return self.sequences[name]
 
     def figure(self, name: str) -> FigureSpec:
         """The figure spec named ``name``."""
@@ -354,7 +371,7 @@ def _get(data: dict[str, Any], key: tuple[str, ...]) -> Any:
 
 
 _TOP_KEYS = {"name", "version", "model", "description", "source", "transport", "settings", "test",
-             "grading", "figures"}
+             "grading", "figures", "sequence"}
 _TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method", "range_deg_s"}
 _GRADING_KEYS = {"rule", "confidence", "grades", "reject", "figure_source"}
 _FIGURE_KEYS = {"unit", "limits"}
@@ -432,6 +449,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         rule=rule,
         confidence=confidence,
         figures=_parse_figures(c, data, grades, source),
+        sequences=parse_sequences(c, data, grades),
         fit_method=fit_method,
         figure_source=source,
         reject=reject,

@@ -20,7 +20,7 @@ import os
 import socket
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import UTC, datetime
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -66,8 +66,9 @@ class RunConfig:
         A folder (a file ``run-<UTC>-<id>.h5`` is made in it) or a ``.h5`` path.
     profile : Profile or None
         Product profile: required for real hardware, optional for simulations.
-    operator, lot : str
-        For the run metadata.
+    metadata : RunMetadata
+        What the run records about itself besides the profile: operator, lot, bench (the
+        recorder adds the profile, the station host and the software version at the start).
     flush_interval_s : float
         Longest time between file flushes, s (<= 1).
     read_timeout_s : float
@@ -79,24 +80,19 @@ class RunConfig:
         refused.
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
-    bench_json : str
-        The bench (latitude, axis directions; :mod:`station.model.bench`) as JSON, kept in the
-        run file ("" when none was given).
     """
 
     urls: tuple[str, ...]
     duration_s: float
     out: Path
     profile: Profile | None = None
-    operator: str = ""
-    lot: str = ""
+    metadata: RunMetadata = dataclasses.field(default_factory=RunMetadata)
     flush_interval_s: float = 0.5
     read_timeout_s: float = 0.05
     backoff_initial_s: float = 0.05
     backoff_max_s: float = 1.0
     answer_timeout_s: float = 5.0
     reserve_bytes: int | None = None
-    bench_json: str = ""
 
 
 def run_file_path(out: Path, uid: str) -> Path:
@@ -131,12 +127,18 @@ class Recorder:
         What to record.
     subscribers : sequence of callables
         Document subscribers besides the file writer (progress line, TUI bridge, ...).
+    on_listening : callable, optional
+        Called once every unit reads its device, before the first samples are awaited:
+        a test sequence switches the units' supplies on here, so that the recording
+        holds their turn-on (the run then waits ``answer_timeout_s`` for their first
+        samples).
     """
 
     #: Longest a unit's process may take to start and open its device, wall s.
     open_timeout_s = 120.0
 
-    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = ()) -> None:
+    def __init__(self, config: RunConfig, subscribers: Sequence[Subscriber] = (), *,
+                 on_listening: Callable[[], None] | None = None) -> None:
         if not config.urls:
             raise UsageError("no unit to record: give --unit DEVICE_URL (or a profile with "
                              "a transport url)")
@@ -147,6 +149,7 @@ class Recorder:
         self.writer: RunFileWriter | None = None
         self.dispatcher = Dispatcher()
         self._extra = list(subscribers)
+        self._on_listening = on_listening
         self._stop_reason: str | None = None
         self.stop_reason = ""
         self.engine_cpu_s = 0.0
@@ -229,6 +232,9 @@ class Recorder:
                 problems = self._check_disk()
             if not problems:
                 self._start_units()
+                if self._on_listening is not None:
+                    self._await_units(lambda w: w.started.is_set(), self.open_timeout_s)
+                    self._on_listening()
                 problems = [*self._await_first_samples()]
         except BaseException:
             self._abort()
@@ -262,15 +268,20 @@ class Recorder:
         for w in self.workers:
             w.start(utc_now())
 
-    def _await_first_samples(self) -> list[Problem]:
-        deadline = time.monotonic() + self.config.answer_timeout_s
+    def _await_units(self, ready: Callable[[UnitProcess], bool], timeout_s: float) -> None:
+        """Take the units' messages until ``ready`` holds for each (or it ended), at most
+        ``timeout_s`` wall s."""
+        deadline = time.monotonic() + timeout_s
         waiting = list(self.workers)
         while waiting and time.monotonic() < deadline:
-            ready = wait([w.conn for w in waiting], timeout=0.05)
+            readable = wait([w.conn for w in waiting], timeout=0.05)
             for w in waiting:
-                if w.conn in ready:
+                if w.conn in readable:
                     w.receive()
-            waiting = [w for w in waiting if not w.answered.is_set() and not w.done]
+            waiting = [w for w in waiting if not ready(w) and not w.done]
+
+    def _await_first_samples(self) -> list[Problem]:
+        self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
         return [Problem(f"no sample within {self.config.answer_timeout_s:g} s: check the "
                         f"protocol and rate in the URL, and that the device is streaming"
                         + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
@@ -326,11 +337,11 @@ class Recorder:
         self.dispatcher.emit(RunStart(
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
-            RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
-                        profile_sha256=p.sha256 if p else "",
-                        profile_path=str(Path(p.path).resolve()) if p and p.path else "",
-                        operator=cfg.operator, lot=cfg.lot, station_host=socket.gethostname(),
-                        software_version=software_version(), bench=cfg.bench_json)))
+            dataclasses.replace(
+                cfg.metadata, profile=p.name if p else "", profile_version=p.version if p else "",
+                profile_sha256=p.sha256 if p else "",
+                profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+                station_host=socket.gethostname(), software_version=software_version())))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         stopping = False

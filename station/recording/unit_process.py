@@ -15,7 +15,8 @@ The engine side is :class:`UnitProcess`. Its conversation with the child:
 engine -> unit          unit -> engine
 =====================  =========================================================
 (start of the child)    ``("opened", UnitOpened)`` or ``("error", text)``
-``("start", None)``     ``("batch", EventBatch)`` ... then ``("done", UnitEnd)``
+``("start", None)``     ``("started", utc)``, ``("batch", EventBatch)`` ... then
+                        ``("done", UnitEnd)``
 ``("stop", None)``      (it finishes as at its duration, then ``done``)
 ``("close", None)``     (a unit not started: closes its device and exits)
 =====================  =========================================================
@@ -43,7 +44,7 @@ from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
 #: What the engine tells a unit's process, and what the unit reports back (the table above).
 Command = Literal["start", "stop", "close"]
-Report = Literal["opened", "batch", "done", "error"]
+Report = Literal["opened", "started", "batch", "done", "error"]
 #: Modules the fork server imports once, so that each unit starts without importing them.
 PRELOAD = ["station.recording.unit_worker"]
 
@@ -152,6 +153,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
         if kind == "start" and not started:
             started = True
             worker.start()
+            send("started", worker.start_utc)  # the unit's time base starts here
         elif kind == "stop" and started:
             worker.stop.set()
         elif kind in ("close", "stop"):
@@ -191,6 +193,8 @@ class UnitProcess:
         self.start_utc = ""
         self.tally = UnitTally()
         self.answered = threading.Event()
+        #: The unit reads its device (its ``started`` message came).
+        self.started = threading.Event()
         self.pending: list[EventBatch] = []
         ctx = _context()
         self.conn, child = ctx.Pipe()
@@ -283,6 +287,9 @@ class UnitProcess:
                 self.answered.set()
         elif kind == "opened":
             self.opened = payload
+        elif kind == "started":  # the instant its time base starts, not when we asked
+            self.start_utc = payload
+            self.started.set()
         elif kind == "done":
             self.end = payload
         elif kind == "error":

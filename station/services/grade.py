@@ -14,6 +14,7 @@ from station.output.results import ResultsDatabase, default_database_path
 from station.output.results_backends import DatabaseLocation
 from station.services.records import bench_of
 from station.storage.runs import open_run
+from station.storage.sequence_files import is_sequence_file
 
 
 class NoProfileError(UsageError):
@@ -131,6 +132,8 @@ def grade(request: GradeRequest) -> GradeResult:
     StationError, AnalysisError
         An unreadable run or profile, a run too short to grade.
     """
+    if is_sequence_file(request.run.path):
+        return _grade_sequence(request)
     run = open_run_source(request.run)
     ref = request.profile or (guess_profile(run) if request.profile_from_model
                               else run_profile_ref(run))
@@ -144,6 +147,30 @@ def grade(request: GradeRequest) -> GradeResult:
     graded = grade_run(run, profile, units=request.units,
                        bench=bench_of(request.bench) if request.bench is not None else None)
     return GradeResult(graded, warnings)
+
+
+def _grade_sequence(request: GradeRequest) -> GradeResult:
+    """A sequence file: its units' noise figures (one segment) and sequence figures."""
+    from pathlib import Path
+
+    from station.evaluation.sequence_run import grade_sequence
+    from station.storage.sequence_files import read_sequence
+
+    seq = read_sequence(request.run.path)
+    recorded = seq.profile_path if seq.profile_path and Path(seq.profile_path).is_file() \
+        else seq.profile
+    profile = load_profile(request.profile or recorded)
+    warnings = []
+    if not request.profile and seq.profile_sha256 and seq.profile_sha256 != profile.sha256:
+        warnings.append(f"profile {profile.name} changed since the sequence was run "
+                        f"(sha256 {seq.profile_sha256[:12]} then, {profile.sha256[:12]} now): "
+                        f"grading with the current file")
+    if not seq.done:
+        warnings.append(f"{request.run.path}: the sequence is {seq.state} (not every step "
+                        f"ran): its figures come from what was recorded")
+    graded = grade_sequence(seq, profile, units=request.units,
+                            bench=bench_of(request.bench) if request.bench is not None else None)
+    return GradeResult(graded, tuple(warnings))
 
 
 def store_grading(graded: RunGrade, db_path: DatabaseLocation, *, again: bool = True) -> list[int]:

@@ -23,20 +23,13 @@ class ReconcileRequest:
 
     Attributes
     ----------
-    measured : str or Path
-        A run file (``.h5``: every unit) or a rate record (CSV).
+    source : RecordSource
+        The measured record: a run file (``.h5``: every unit, or only ``source.unit``) or a
+        rate record (CSV); every axis, or only ``source.axis``; the time slice and the
+        warm-up discarded as ``station analyze`` takes them (run files default to the
+        warm-up of the profile they were recorded with).
     model : str
         Noise model TOML file or preset name.
-    rate_hz, units
-        Sample rate (Hz) and rate unit of a CSV record.
-    axis : str or None
-        Only this axis (default every axis of every unit).
-    unit : str or None
-        Run files: only this unit (id or serial number; default every unit).
-    start_s, stop_s, profile, warmup_s
-        The time slice and the warm-up discarded, as ``station analyze`` takes them
-        (:class:`station.services.records.RecordSource`: run files default to the warm-up
-        of the profile they were recorded with).
     runs, seed, alpha, max_samples
         Monte Carlo runs per comparison (>= 4), their seed, the gap test's level, and the
         longest record before decimation (:class:`analysis.reconcile.ReconcileOptions`).
@@ -44,16 +37,8 @@ class ReconcileRequest:
         Where to draw the figure.
     """
 
-    measured: str | Path
+    source: RecordSource
     model: str
-    rate_hz: float | None = None
-    units: str = "deg/s"
-    axis: str | None = None
-    unit: str | None = None
-    start_s: float = 0.0
-    stop_s: float | None = None
-    profile: str | None = None
-    warmup_s: float | None = None
     runs: int = _DEFAULTS.runs
     seed: int = _DEFAULTS.seed
     alpha: float = _DEFAULTS.alpha
@@ -80,25 +65,23 @@ class ReconcileAnswer:
 
 def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tuple[str, ...]]:
     """(label and one-axis record of each axis reconciled, notes for the operator)."""
-    run_info = open_run(request.measured, sample_rate_hz=request.rate_hz, units=request.units)
+    source = request.source
+    run_info = open_run(source.file, sample_rate_hz=source.rate_hz, units=source.units)
     units = run_info.units
-    if request.unit is not None:
-        units = tuple(u for u in units if request.unit in (u.unit_id, u.serial_number))
+    if source.unit is not None:
+        units = tuple(u for u in units if source.unit in (u.unit_id, u.serial_number))
         if not units:
-            raise UsageError(f"{request.measured}: no unit {request.unit!r}; units: "
+            raise UsageError(f"{source.file}: no unit {source.unit!r}; units: "
                              f"{', '.join(u.unit_id for u in run_info.units)}")
-    source = RecordSource(request.measured, rate_hz=request.rate_hz, units=request.units,
-                          axis=request.axis, unit=request.unit, start_s=request.start_s,
-                          stop_s=request.stop_s, profile=request.profile, warmup_s=request.warmup_s)
     several_units = len(units) > 1
     out, notes = [], []
     for unit in units:
         record = unit.record
-        names = [request.axis] if request.axis is not None else list(record.axis_names)
-        if request.axis is not None and request.axis not in record.axis_names:
+        names = [source.axis] if source.axis is not None else list(record.axis_names)
+        if source.axis is not None and source.axis not in record.axis_names:
             if several_units:
                 continue
-            record.select(request.axis)  # raises with the list of axes
+            record.select(source.axis)  # raises with the list of axes
         loaded = cut_record(record, source)
         notes += [n for n in loaded.notes if n not in notes]
         if loaded.selection.start_s > 0 or loaded.selection.stop_s is not None:
@@ -113,7 +96,7 @@ def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tupl
             label = f"{unit.unit_id}/{name}" if several_units else name
             out.append((label, loaded.record.select(name)))
     if not out:
-        raise UsageError(f"no axis {request.axis!r} in {request.measured}")
+        raise UsageError(f"no axis {source.axis!r} in {source.file}")
     return out, tuple(notes)
 
 
@@ -159,4 +142,5 @@ def reconcile_run(
         from station.output.reconcile_report import plot_reconcile  # matplotlib
 
         plot_reconcile(results, request.png)
-    return ReconcileAnswer(str(request.measured), request.model, tuple(results), request.png, notes)
+    return ReconcileAnswer(str(request.source.file), request.model, tuple(results), request.png,
+                           notes)

@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import FrameType
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from devices.protocols import DeviceDescription
 from devices.url_query import is_simulated, with_keys
@@ -26,6 +26,7 @@ from station.model.bench import load_bench
 from station.model.documents import RunStop, Subscriber
 from station.model.durations import parse_duration
 from station.model.profiles import load_profile
+from station.model.runs import RunMetadata
 from station.recording.recorder import Recorder, RunConfig
 from station.recording.unit_process import cpu_cores
 
@@ -101,9 +102,9 @@ def run_config(request: RecordRequest) -> RunConfig:
         bench = load_bench(request.bench)
         urls, bench_json = [bench.sim_url(u) for u in urls], bench.as_json()
     return RunConfig(tuple(urls), duration_s, request.out, profile=profile,
-                     operator=request.operator, lot=request.lot,
-                     flush_interval_s=request.flush_interval_s, reserve_bytes=reserve,
-                     bench_json=bench_json)
+                     metadata=RunMetadata(operator=request.operator, lot=request.lot,
+                                          bench=bench_json),
+                     flush_interval_s=request.flush_interval_s, reserve_bytes=reserve)
 
 
 def recorder_arguments(request: RecordRequest) -> list[str]:
@@ -225,8 +226,14 @@ class RecordOutcome:
         return lines
 
 
+class Stoppable(Protocol):
+    """What Ctrl-C stops cleanly: a recorder, a test sequence."""
+
+    def request_stop(self, reason: str) -> None: ...
+
+
 @contextmanager
-def _stop_on_signals(recorder: Recorder) -> Iterator[None]:
+def stop_on_signals(recorder: Stoppable) -> Iterator[None]:
     """Turn Ctrl-C and SIGTERM into a clean stop of ``recorder`` while inside."""
     reasons = {signal.SIGINT: "interrupted (Ctrl-C)", signal.SIGTERM: "terminated (SIGTERM)"}
 
@@ -280,7 +287,7 @@ def record(request: RecordRequest, subscribers: Sequence[Subscriber] = (), *,
     """
     try:
         recorder = Recorder(run_config(request), subscribers)
-        with _stop_on_signals(recorder):
+        with stop_on_signals(recorder):
             recorder.prepare()
             write_status(status, RecorderStatus("recording", str(recorder.path)))
             if on_start is not None:

@@ -12,6 +12,7 @@ import base64
 import re
 from html import escape
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from station.evaluation.grading import RunGrade, UnitGrade
 from station.output.report.common import (
@@ -22,6 +23,10 @@ from station.output.report.common import (
     unit_sheet,
 )
 from station.output.report.panels import allan_png, davar_png
+from station.output.report.sequence_sheet import sequence_png, sequence_rows
+
+if TYPE_CHECKING:
+    from station.evaluation.sequence_grading import UnitSequence
 
 CSS = """
 body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
@@ -85,19 +90,20 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>'
         )
     parts.append("</table><p>")
-    parts += [
-        f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
-        + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "")
-        + "<br>"
-        for a in sheet.axes
-    ]
-    parts.append("</p><h2>Allan deviation</h2>")
-    parts.append(
-        _img(allan_png(unit), "Allan deviation with confidence band, fitted terms and limits")
-    )
-    parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
-    parts.append("<h2>Dynamic Allan deviation</h2>")
-    parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
+    parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
+              + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
+              for a in sheet.axes]
+    if unit.axes:
+        parts.append("</p><h2>Allan deviation</h2>")
+        parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms "
+                                           "and limits"))
+        parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
+        parts.append("<h2>Dynamic Allan deviation</h2>")
+        parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
+    else:
+        parts.append("</p><p>No noise figures: see the notes below.</p>")
+    if unit.sequence is not None:
+        parts.append(sequence_section(unit.sequence))
     parts.append('<h2>Events</h2><ul class="events">')
     parts += [f"<li>{escape(line)}</li>" for line in sheet.events.lines() + list(sheet.notes)]
     parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
@@ -118,6 +124,29 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             + "</tr></table>"
         )
     parts.append("</section>")
+    return "\n".join(parts)
+
+
+def sequence_section(seq: UnitSequence) -> str:
+    """The test sequence's figures table (``<table class="sequence">``, rows with
+    ``data-figure`` and ``data-verdict``) and its three plots."""
+    parts = [f"<h2>Test sequence {escape(seq.sequence)}: {len(seq.cycles)} switch-on(s)"
+             + (f", grade {escape(seq.grade)}" if seq.grade else "") + "</h2>",
+             '<table class="sequence"><tr><th>figure</th><th>unit</th><th>value</th>'
+             "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
+             "<th>note</th></tr>"]
+    for r in sequence_rows(seq):
+        verdict = r.verdict or "info"
+        parts.append(
+            f'<tr class="{verdict}" data-figure="{escape(r.name)}" data-verdict="{verdict}">'
+            f"<td>{escape(r.label)}</td><td>{escape(r.unit)}</td>"
+            f'<td class="num">{fmt(r.value)}</td>'
+            f'<td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
+            f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
+            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
+    parts.append("</table>")
+    parts.append(_img(sequence_png(seq), "bias per switch-on, warm-up curves, bias against "
+                                         "temperature"))
     return "\n".join(parts)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -28,7 +29,11 @@ from station.output.report.common import (  # noqa: E402
     fmt_interval,
     unit_sheet,
 )
-from station.output.report.panels import draw_allan, draw_davar  # noqa: E402
+from station.output.report.panels import draw_allan, draw_davar, placeholder  # noqa: E402
+from station.output.report.sequence_sheet import draw_sequence, sequence_rows  # noqa: E402
+
+if TYPE_CHECKING:
+    from station.evaluation.sequence_grading import UnitSequence
 
 A4_IN = (8.27, 11.69)
 GRADE_COLORS = {"reject": "#d9534f", "indeterminate": "#e0a800"}
@@ -84,13 +89,14 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     davar_h = 0.13
     allan_bottom = 0.105 + davar_h + 0.065
     ax = fig.add_axes((0.1, allan_bottom, 0.84, max(allan_top - allan_bottom, 0.15)))
-    draw_allan(ax, unit.axes, fontsize=7.5)
-    ax.set_title(
-        "Allan deviation: band = confidence interval, dotted = fitted terms, dashed = limits",
-        fontsize=8.5,
-    )
+    if unit.axes:
+        draw_allan(ax, unit.axes, fontsize=7.5)
+        ax.set_title("Allan deviation: band = confidence interval, dotted = fitted terms, "
+                     "dashed = limits", fontsize=8.5)
+    else:
+        placeholder(ax, "no noise figures: see the notes", fontsize=8)
     n = len(unit.axes)
-    width = 0.84 / n
+    width = 0.84 / max(n, 1)
     for i in range(n):
         dax = fig.add_axes((0.1 + i * width, 0.105, width * 0.68, davar_h))
         draw_davar(dax, unit, i, fontsize=6.5)
@@ -156,6 +162,8 @@ def _figures_table(fig: Figure, sheet: UnitSheet, top: float) -> float:
             ]
         )
         colors.append(["white"] * 7 + [VERDICT_COLORS[r.verdict]])
+    if not rows:  # no noise figures (a sequence graded on its own figures)
+        return top
     row_h = min(0.0145, 0.40 / (len(rows) + 1))  # long tables shrink to leave room for the plots
     height = row_h * (len(rows) + 1)
     bottom = top - height
@@ -190,6 +198,39 @@ def _figures_table(fig: Figure, sheet: UnitSheet, top: float) -> float:
     return bottom - 0.012 * len(sheet.axes)
 
 
+def sequence_page(graded: RunGrade, seq: UnitSequence, unit_id: str) -> Figure:
+    """The page of a unit's test sequence: its figures table and its three plots."""
+    fig = plt.figure(figsize=A4_IN)
+    fig.text(0.06, 0.972, f"{unit_id}: test sequence {seq.sequence}", fontsize=14,
+             weight="bold", va="top")
+    if seq.grade:
+        fig.text(0.94, 0.972, f"SEQUENCE {seq.grade.upper()}", fontsize=12, weight="bold",
+                 va="top", ha="right", color="white",
+                 bbox={"boxstyle": "round,pad=0.35", "fc": _grade_color(seq.grade, graded)})
+    rows = sequence_rows(seq)
+    columns = ["figure", "unit", "value", "conf. interval", "limit", "grade", "verdict"]
+    cells = [[r.label, r.unit, fmt(r.value), fmt_interval(r.ci_low, r.ci_high),
+              fmt(r.limit) if r.verdict else "", r.grade, r.verdict or "info"] for r in rows]
+    colors = [["white"] * 6 + [VERDICT_COLORS[r.verdict]] for r in rows]
+    height = 0.018 * (len(rows) + 1)
+    top = 0.93
+    if rows:
+        tax = fig.add_axes((0.06, top - height, 0.88, height))
+        tax.axis("off")
+        table = tax.table(cellText=cells, colLabels=columns, cellColours=colors,
+                          colWidths=[0.34, 0.1, 0.1, 0.18, 0.08, 0.08, 0.12],
+                          bbox=Bbox.from_bounds(0, 0, 1, 1), cellLoc="center")
+        table.auto_set_font_size(False)
+        table.set_fontsize(7.5)
+    axes = [fig.add_axes((0.1, y, 0.84, 0.2)) for y in (0.54, 0.29, 0.05)]
+    draw_sequence(axes, seq, fontsize=7.5)
+    lines = [f"note: {n}" for n in seq.notes]
+    wrapped = [part for line in lines for part in textwrap.wrap(line, PDF_LINE_CHARS)]
+    fig.text(0.06, top - height - 0.015, "\n".join(wrapped[:PDF_NOTE_LINES]), fontsize=6.5,
+             va="top", linespacing=1.3)
+    return fig
+
+
 def write_pdf(graded: RunGrade, path: str | Path) -> Path:
     """Write the spec sheets of every unit of ``graded`` into one PDF, one page per unit."""
     path = Path(path)
@@ -204,4 +245,8 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
             fig = unit_page(graded, unit)
             pdf.savefig(fig)
             plt.close(fig)
+            if unit.sequence is not None:
+                fig = sequence_page(graded, unit.sequence, unit.unit.unit_id)
+                pdf.savefig(fig)
+                plt.close(fig)
     return path

@@ -1,0 +1,229 @@
+"""Test sequences end to end: simulated gyros with set truths on a simulated fixture whose
+relays and chamber the station drives over real Modbus (127.0.0.1), each ``record`` step a
+real recording, graded as ``station grade`` grades a sequence file; and a sequence killed
+mid-step (kill -9) that the same command resumes.
+
+Truths: every switch-on draws a turn-on time and a turn-on bias (devices.sim.powered's
+draw, keyed by seed and switch-on count: the test draws them too), a warm-up transient
+A exp(-t/tau) decays, the bias follows the die temperature by the unit's coefficient.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analysis.cycle_stats import summarize_cycles
+from analysis.power_cycle import PowerCycleModel
+from devices.sim.powered import turn_on_draw
+from station.output.report import write_report
+from station.services.grade import GradeRequest, RunSource, grade
+from station.services.sequence import SequenceRequest, SimFixtureSettings, prepare_sequence
+from station.storage.sequence_files import read_sequence
+
+RATE = 5.0
+PROFILE = """name = "SEQ"
+version = "1"
+model = "VG951"
+[test]
+sample_rate_hz = 5.0
+duration_s = 240.0
+warmup_s = 5.0
+axes = ["x"]
+[grading]
+confidence = 0.999
+grades = ["A", "B"]
+[figures.arw_fit]
+unit = "deg/sqrt(h)"
+limits = { A = 0.012, B = 0.025 }
+[sequence.turn_on]
+steps = ["power_on", "record 4min", "power_off", "cool_down 30s", "repeat 5"]
+bias_after_s = 90
+warmup_band_deg_h = 1.0
+warmup_average_s = 20
+[sequence.turn_on.figures.turn_on_repeatability]
+unit = "deg/h"
+limits = { A = 30, B = 60 }
+[sequence.turn_on.figures.warmup_time]
+unit = "s"
+limits = { A = 90, B = 300 }
+[sequence.turn_on.figures.turn_on_time]
+unit = "s"
+limits = { A = 15 }
+[sequence.temperature]
+steps = ["power_on", "wait 1min", "set_chamber 10", "wait_stable", "record 2min",
+         "set_chamber 25", "wait_stable", "record 2min", "set_chamber 40", "wait_stable",
+         "record 2min", "set_chamber 55", "wait_stable", "record 2min", "set_chamber 25",
+         "wait_stable", "record 2min", "power_off"]
+stable_band_c = 0.5
+stable_hold_s = 30
+plateau_span_c = 1.0
+[sequence.temperature.figures.temperature_coefficient]
+unit = "deg/h/degC"
+limits = { A = 1.0 }
+[sequence.temperature.figures.hysteresis]
+unit = "deg/h"
+[sequence.short]
+steps = ["power_on", "record 2min", "power_off", "cool_down 20s", "repeat 2"]
+bias_after_s = 60
+warmup_band_deg_h = 1.0
+warmup_average_s = 20
+"""
+TURN_ON = PowerCycleModel(turn_on_s=5.0, turn_on_jitter_s=1.0, turn_on_bias_deg_h=10.0,
+                          warmup_deg_h=20.0, warmup_tau_s=20.0)
+
+
+def unit_url(seed: int, warp: float, **keys: float) -> str:
+    query = "&".join(f"{k}={v:g}" for k, v in keys.items())
+    return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate={RATE:g}&warp={warp:g}"
+            f"&seed={seed}&{query}")
+
+
+def turn_on_url(seed: int, warp: float = 100.0) -> str:
+    m = TURN_ON
+    return unit_url(seed, warp, turn_on_s=m.turn_on_s, turn_on_jitter_s=m.turn_on_jitter_s,
+                    turn_on_bias_deg_h=m.turn_on_bias_deg_h, warmup_deg_h=m.warmup_deg_h,
+                    warmup_tau_s=m.warmup_tau_s)
+
+
+@pytest.fixture
+def profile(tmp_path: Path) -> Path:
+    path = tmp_path / "seq.toml"
+    path.write_text(PROFILE, encoding="utf-8")
+    return path
+
+
+def test_turn_on_figures_come_back_within_their_intervals(profile: Path, tmp_path: Path
+                                                          ) -> None:
+    """Three units (three seeds), five switch-ons: the turn-on repeatability covers the
+    spread the turn-on biases are drawn with, the turn-on time the mean drawn time (to
+    the end of the first sample), the warm-up time the transient's entry into the band;
+    each switch-on's turn-on time and bias match what it drew."""
+    seeds = (1, 2, 3)
+    request = SequenceRequest("turn_on", str(profile), tuple(turn_on_url(s) for s in seeds),
+                              power=("sim",), out=tmp_path / "runs")
+    with prepare_sequence(request) as prepared:
+        run = prepared.execute()
+    assert run.done and len(run.segments) == 5
+    doc = grade(GradeRequest(RunSource(run.path), store=False)).graded.as_json()
+    warm_truth = TURN_ON.warmup_time_s(1.0, record_s=240.0,
+                                       die_temperature_c=lambda t: np.full_like(t, 25.0))
+    for seed, unit in zip(seeds, doc["units"], strict=True):  # type: ignore[call-overload]
+        figures = unit["sequence_figures"]
+        assert figures["cycles"] == 5 and figures["temperature_coefficient_deg_h_per_c"] is None
+        draws = [turn_on_draw(TURN_ON, seed, n, 3) for n in range(1, 6)]
+        per_cycle = figures["per_cycle"]
+        for cycle, d in zip(per_cycle, draws, strict=True):
+            # to 15 ms of wall time (x100 warp) of the switch-on exchange on a loaded host
+            assert cycle["turn_on_time_s"] == pytest.approx(d.turn_on_s + 1 / RATE, abs=1.5)
+            assert cycle["bias_deg_h"]["x"] == pytest.approx(d.bias_deg_h[0], abs=1.0)
+        truths = {"turn_on_repeatability_deg_h": TURN_ON.turn_on_bias_deg_h,
+                  "turn_on_time_s": TURN_ON.turn_on_s + 1 / RATE, "warmup_time_s": warm_truth}
+        for key, truth in truths.items():
+            low, high = figures[f"{key}_ci"]
+            assert low <= truth <= high, (seed, key, figures[key], low, high, truth)
+        assert figures["warmup_time_s"] == pytest.approx(warm_truth, abs=6.0)
+        drawn = summarize_cycles([d.bias_deg_h[0] for d in draws]).std
+        assert figures["turn_on_repeatability_deg_h"] == pytest.approx(drawn, abs=0.5)
+        # the noise figures of the longest segment, unless the host lost too many samples
+        assert "x" in unit["axes"] or "leave fewer than 1000" in unit["notes"][0], unit["notes"]
+        assert set(figures["graded"]) == {"turn_on_repeatability", "warmup_time", "turn_on_time"}
+
+
+def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
+        profile: Path, tmp_path: Path) -> None:
+    """Two units (+0.5 and -0.3 deg/h per degC) in a chamber stepped 10, 25, 40, 55 and
+    back to 25 degC: the linear coefficient's interval covers each truth, the quadratic
+    term's covers 0, and the hysteresis (none simulated) is not above its interval."""
+    coefficients = (0.5, -0.3)
+    units = tuple(unit_url(s, 200.0, tempco=c) for s, c in zip((5, 6), coefficients,
+                                                                 strict=True))
+    request = SequenceRequest("temperature", str(profile), units, power=("sim",),
+                              chamber="sim", out=tmp_path / "runs", chamber_log_s=10.0,
+                              fixture=SimFixtureSettings(chamber_tau_s=30.0, unit_tau_s=20.0,
+                                                         self_heating_c=1.0))
+    with prepare_sequence(request) as prepared:
+        run = prepared.execute()
+    assert run.done and len(run.segments) == 5
+    setpoints = [e.value for e in run.journal if e.kind == "setpoint"]
+    assert setpoints == [10.0, 25.0, 40.0, 55.0, 25.0]
+    assert sum(e.kind == "chamber" for e in run.journal) > 20
+    graded = grade(GradeRequest(RunSource(run.path), store=False)).graded
+    for truth, unit in zip(coefficients, graded.units, strict=True):
+        seq = unit.sequence
+        assert seq is not None
+        f = seq.figures["temperature_coefficient_deg_h_per_c"]
+        assert f.low is not None and f.high is not None
+        assert f.low <= truth <= f.high and abs(f.value - truth) < 0.03  # type: ignore[operator]
+        q = seq.figures["temperature_coefficient2_deg_h_per_c2"]
+        assert q.low is not None and q.high is not None and q.low <= 0.0 <= q.high
+        h = seq.figures["hysteresis_deg_h"]
+        assert h.low == 0.0 or h.low is None
+        temps = [p.temperature_c for p in seq.axes[0].points]
+        assert min(temps) < 12.0 and max(temps) > 53.0  # the die reached each plateau
+        assert any("noise figures not graded" in n for n in unit.notes)  # 2-min plateaus
+        assert unit.grade in ("A", "B", "indeterminate")
+    html = write_report(graded, "html", tmp_path / "sheets").read_text(encoding="utf-8")
+    assert html.count('<table class="sequence">') == 2
+    assert html.count('data-figure="temperature_coefficient"') == 2
+    assert "bias against temperature" in html
+
+
+def _record(args: list[str]) -> subprocess.Popen[str]:
+    return subprocess.Popen([sys.executable, "-m", "station.commands.record", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[1])
+
+
+def test_a_killed_sequence_resumes_at_its_step(profile: Path, tmp_path: Path) -> None:
+    """``station record --sequence`` killed (SIGKILL) during its first recording: the same
+    command resumes it at that step, keeps the killed segment (closed, marked
+    interrupted), logs the interruption, switches the units on again as they listen,
+    finishes, and its JSON summary and grading give every unit's cycles and figures."""
+    out = tmp_path / "runs"
+    args = ["--sequence", "short", "--profile", str(profile), "--power", "sim",
+            "--unit", turn_on_url(7), "--out", str(out), "--json-summary", "--quiet"]
+    first = _record(args)
+    try:
+        deadline = time.monotonic() + 60.0
+        while not list(out.glob("*.segments/*.h5")) and time.monotonic() < deadline:
+            assert first.poll() is None, first.communicate()
+            time.sleep(0.05)
+        time.sleep(0.3)
+    finally:
+        os.kill(first.pid, signal.SIGKILL)
+        first.wait()
+    second = _record(args)
+    stdout, stderr = second.communicate(timeout=120)
+    assert second.returncode == 0, stderr
+    assert "resuming sequence short" in stderr
+    summary = [json.loads(line) for line in stdout.splitlines()]
+    assert [s["unit_id"] for s in summary] == ["unit1"]
+    for s in summary:
+        assert (s["state"], s["cycles"], s["interruptions"]) == ("done", 2, 1)
+        assert s["samples_recorded"] > 2 * 100 * RATE
+    run = read_sequence(summary[0]["file"])
+    kinds = [e.kind for e in run.journal]
+    assert kinds.index("interrupted") < kinds.index("resume")
+    interrupted = run.interruptions()[0]
+    assert run.steps[interrupted.step].kind == "record"
+    assert [s.interrupted for s in run.segments].count(True) == 1
+    assert sum(1 for s in run.segments if s.step == interrupted.step) == 2
+    doc = grade(GradeRequest(RunSource(run.path), store=False)).graded.as_json()
+    assert doc["sequence"]["interruptions"] == "1"  # type: ignore[index]
+    for unit in doc["units"]:  # type: ignore[attr-defined]
+        figures = unit["sequence_figures"]
+        for key in ("turn_on_repeatability_deg_h", "warmup_time_s", "turn_on_time_s",
+                    "temperature_coefficient_deg_h_per_c"):
+            assert key in figures and f"{key}_ci" in figures
+        assert figures["turn_on_time_s"] is not None
+        assert figures["temperature_coefficient_deg_h_per_c"] is None
+        assert figures["cycles"] >= 2
