@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import kernels
+from analysis import blocks, kernels
 from analysis.confidence import (  # re-exported: part of this module's API
     ONE_SIGMA as ONE_SIGMA,
     allan_edf_grid as allan_edf_grid,
@@ -165,8 +165,22 @@ def check_sample_rate(sample_rate_hz: float) -> float:
     return fs
 
 
+def _non_finite_error(arr: NDArray[np.float64], offset: int = 0) -> NonFiniteSamplesError:
+    finite = np.isfinite(arr)
+    rows, cols = np.nonzero(~finite)
+    where = ", ".join(f"sample {offset + r} axis {c} ({arr[r, c]})"
+                      for r, c in zip(rows[:5], cols[:5], strict=True))
+    more = f" and {len(rows) - 5} more" if len(rows) > 5 else ""
+    return NonFiniteSamplesError(
+        f"{len(rows)} non-finite sample(s): {where}{more}; remove or interpolate them first"
+    )
+
+
 def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
     """Return samples as a 2-D float64 array (N x k), refusing NaN and inf with their position.
+
+    A long float64 array (:func:`analysis.blocks.is_long`, e.g. a memmap) is checked a
+    block at a time and returned as a view, not copied.
 
     Raises
     ------
@@ -180,21 +194,19 @@ def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
         arr = arr[:, None]
     if arr.ndim != 2:
         raise ValueError(f"samples must be 1-D (N) or 2-D (N x axes), got shape {arr.shape}")
-    finite = np.isfinite(arr)
-    if not finite.all():
-        rows, cols = np.nonzero(~finite)
-        where = ", ".join(
-            f"sample {r} axis {c} ({arr[r, c]})" for r, c in zip(rows[:5], cols[:5], strict=True)
-        )
-        more = f" and {len(rows) - 5} more" if len(rows) > 5 else ""
-        raise NonFiniteSamplesError(
-            f"{len(rows)} non-finite sample(s): {where}{more}; remove or interpolate them first"
-        )
+    if blocks.is_long(arr.shape[0]):
+        first = blocks.first_non_finite(arr)
+        if first >= 0:
+            raise _non_finite_error(np.asarray(arr[first: first + blocks.BLOCK_SAMPLES]), first)
+        return arr
+    if not np.isfinite(arr).all():
+        raise _non_finite_error(arr)
     return arr
 
 
 def cumulative_angle(
-    samples: ArrayLike, sample_rate_hz: float, *, input_kind: InputKind = "rate"
+    samples: ArrayLike, sample_rate_hz: float, *, input_kind: InputKind = "rate",
+    out: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Cumulative angle ``theta`` (N + 1 x k, leading zero) of a rate or angle-increment record.
 
@@ -205,28 +217,47 @@ def cumulative_angle(
     ----------
     samples : array_like, shape (N,) or (N, k)
         Rate in (unit)/s, or angle increments in (unit) per sample when
-        ``input_kind="angle_increment"``.
+        ``input_kind="angle_increment"``. A long record (a memmap) is read a block at a
+        time (:mod:`analysis.blocks`).
     sample_rate_hz : float
         Sample rate in Hz.
     input_kind : {"rate", "angle_increment"}
         What the samples are.
+    out : ndarray, shape (N + 1, k), optional
+        Where to write the angle (e.g. a memmap, for a record too long for memory).
 
     Returns
     -------
     ndarray, shape (N + 1, k)
-        Angle in (unit) of the mean-free record, ``theta[0] = 0``.
+        Angle in (unit) of the mean-free record, ``theta[0] = 0`` (``out`` when given).
     """
     fs = check_sample_rate(sample_rate_hz)
     arr = as_samples(samples)
-    if input_kind == "angle_increment":
-        increments = arr - arr.mean(axis=0)
-    elif input_kind == "rate":
-        increments = (arr - arr.mean(axis=0)) / fs
-    else:
+    if input_kind not in ("rate", "angle_increment"):
         raise ValueError(f"input_kind must be 'rate' or 'angle_increment', got {input_kind!r}")
-    theta = np.empty((arr.shape[0] + 1, arr.shape[1]))
+    n, k = arr.shape
+    theta = np.empty((n + 1, k)) if out is None else out
+    if theta.shape != (n + 1, k):
+        raise ValueError(f"out must have shape {(n + 1, k)}, got {theta.shape}")
     theta[0] = 0.0
-    np.cumsum(increments, axis=0, out=theta[1:])
+    if not blocks.is_long(n):
+        increments = arr - arr.mean(axis=0)
+        if input_kind == "rate":
+            increments /= fs
+        np.cumsum(increments, axis=0, out=theta[1:])
+        return theta
+    mean = blocks.column_sums(arr) / n
+    carry = np.zeros(k)
+    for a, b in blocks.spans(0, n):
+        increments = np.asarray(arr[a:b]) - mean
+        if input_kind == "rate":
+            increments /= fs
+        increments[0] += carry  # one running sum, as np.cumsum over the whole record
+        np.cumsum(increments, axis=0, out=increments)
+        theta[a + 1: b + 1] = increments
+        carry = increments[-1].copy()
+        blocks.release(arr)
+        blocks.release(theta)
     return theta
 
 
@@ -443,6 +474,7 @@ def overlapping_allan_variance(
     taus: TauGrid | ArrayLike = "log",
     input_kind: InputKind = "rate",
     confidence: float = ONE_SIGMA,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> AllanResult:
     """Fully overlapping Allan variance from the cumulative angle.
 
@@ -467,6 +499,9 @@ def overlapping_allan_variance(
         Two-sided level of the chi-square interval (default +-1 sigma). The edf is
         computed (:mod:`analysis.confidence`) for the noise type identified at each tau
         (:mod:`analysis.noise_id`).
+    angle_out : ndarray, shape (N + 1, k), optional
+        Where to keep the cumulative angle: a memmap for a record too long for memory
+        (a long record is read a block at a time throughout, :mod:`analysis.blocks`).
 
     Returns
     -------
@@ -481,7 +516,7 @@ def overlapping_allan_variance(
     IEEE Std 952-1997, Annex C; Zhang et al., Acta Optica Sinica 35(4), 2015, eq. 5.
     """
     fs = check_sample_rate(sample_rate_hz)
-    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
     n = theta.shape[0] - 1
     m = resolve_m(taus, n, fs)
     sums = overlapping_sums(theta, m)
@@ -542,9 +577,9 @@ def allan_variance(
     if missing != "raise":
         raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
     if estimator == "overlapping":
-        fn = overlapping_allan_variance
-    elif estimator == "clusters":
-        fn = cluster_allan_variance
-    else:
-        raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")
-    return fn(samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence)
+        return overlapping_allan_variance(samples, sample_rate_hz, taus=taus,
+                                          input_kind=input_kind, confidence=confidence)
+    if estimator == "clusters":
+        return cluster_allan_variance(samples, sample_rate_hz, taus=taus, input_kind=input_kind,
+                                      confidence=confidence)
+    raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")

@@ -111,7 +111,9 @@ def _spikes(lags: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.
 def _span_overlap(u: NDArray[np.float64], ti: ArrayLike, tj: ArrayLike) -> NDArray[np.float64]:
     """Length of ``[0, ti) & [-u, tj - u)``: how much of the record holds both positions at lag
     u."""
-    return np.maximum(0.0, np.minimum(ti, np.subtract(tj, u)) - np.maximum(0.0, -u))
+    out: NDArray[np.float64] = np.maximum(
+        0.0, np.minimum(ti, np.subtract(tj, u)) - np.maximum(0.0, -u))
+    return out
 
 
 def _sums(c: NDArray[np.float64], weight: NDArray[np.float64], lags: NDArray[np.float64],
@@ -249,7 +251,9 @@ def _quadrature_pairs(mi: NDArray[np.int64], mj: NDArray[np.int64], si: NDArray[
     overlap over ``lcm(s_i, s_j)``) is the integral of the continuous lag function over
     ``g``; white angle noise stays a set of spikes.
     """
-    col = lambda v: np.asarray(v, dtype=float)[:, None]  # noqa: E731
+    def col(v: ArrayLike) -> NDArray[np.float64]:
+        return np.asarray(v, dtype=float)[:, None]
+
     mi_f, mj_f = col(mi), col(mj)
     g = col(np.gcd(si, sj))
     lcm = col(si) * col(sj) / g
@@ -303,13 +307,16 @@ class CovarianceBasis:
         """Structure-function coefficient of Q, N, B, K (deg^2) from beta (eq. 6, base units)."""
         dt = 1.0 / self.sample_rate_hz
         b = np.where(np.isfinite(beta[:4]) & (beta[:4] > 0), beta[:4], 0.0)
-        return b * np.array([2.0 / 3.0, dt, dt**2 / (2.0 * math.log(2.0)), dt**3 / 2.0])
+        out: NDArray[np.float64] = b * np.array(
+            [2.0 / 3.0, dt, dt**2 / (2.0 * math.log(2.0)), dt**3 / 2.0])
+        return out
 
     def mean(self, beta: ArrayLike) -> NDArray[np.float64]:
         """Expected Allan variance ((deg/s)^2) of the model ``beta`` (QNBKR, eq. 6) on this grid."""
         b = np.where(np.isfinite(beta) & (np.asarray(beta) > 0), beta, 0.0)
         tau = self.tau_s
-        return b[0] / tau**2 + b[1] / tau + b[2] + b[3] * tau + b[4] * tau**2
+        out: NDArray[np.float64] = b[0] / tau**2 + b[1] / tau + b[2] + b[3] * tau + b[4] * tau**2
+        return out
 
     def covariance(self, beta: ArrayLike, *, random_ramp: bool = False) -> NDArray[np.float64]:
         """Covariance ((deg/s)^4) of the Allan values for the model ``beta`` (QNBKR, eq. 6).
@@ -329,11 +336,13 @@ class CovarianceBasis:
         if random_ramp:
             qij = np.broadcast_to(q, tau.shape * 2 + (4,)).copy()
             qij[..., 3] += ramp * np.sqrt(np.outer(tau, tau)) / (2.0 * self.sample_rate_hz**3)
-            return 2.0 * np.einsum("ijts,ijt,ijs->ij", self.g2, qij, qij) / norm
+            random: NDArray[np.float64] = np.einsum("ijts,ijt,ijs->ij", self.g2, qij, qij)
+            return 2.0 * random / norm
         mu = math.sqrt(2.0 * ramp) * tau**2
         quad = np.einsum("ijts,t,s->ij", self.g2, q, q)
         lin = np.einsum("ijt,t->ij", self.g1, q)
-        return (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
+        out: NDArray[np.float64] = (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
+        return out
 
     def relative_covariance(
         self, beta: ArrayLike, *, random_ramp: bool = False

@@ -172,7 +172,8 @@ class MeasuredCurve:
     decimation : int
         Samples of the original record per sample here.
     temperature_c : ndarray or None
-        Temperature in degC per sample, decimated like the rate.
+        Temperature in degC per sample, decimated like the rate; None also when the channel
+        is constant (it says nothing of a temperature sensitivity).
     """
 
     rate_deg_s: NDArray[np.float64]
@@ -224,6 +225,8 @@ def measure_curve(
     d = max(1, math.ceil(rate.shape[0] / max_samples))
     rate = block_means(rate, d)
     temp = None if temp is None else block_means(temp, d)
+    if temp is not None and not np.ptp(temp) > 0:  # constant (or NaN): no slope to regress on
+        temp = None
     fs_d = fs / d
     m = reconcile_grid(
         rate.shape[0], points_per_octave=points_per_octave, min_clusters=min_clusters

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
+from analysis import blocks
 from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
 from analysis.fit import NoiseCoefficients, log_tau_share
 from analysis.fog import measure_bias_stability
@@ -71,7 +72,8 @@ def bias_stability(
         raise ValueError(f"averaging time {average_s} s is shorter than one sample at {fs} Hz")
     count = len(x) // m
     if gapped:
-        means = x[: count * m].reshape(count, m).mean(axis=1)
+        means = (blocks.group_means(x, m, count) if blocks.is_long(len(x))
+                 else x[: count * m].reshape(count, m).mean(axis=1))
         means = means[np.isfinite(means)]
         count = len(means)
     if count < 3:
@@ -88,6 +90,14 @@ def _rate_column(rate_deg_s: ArrayLike) -> tuple[NDArray[np.float64], bool]:
     """A 1-D rate record and whether it has missing samples (NaN); infinities are refused."""
     x = np.asarray(rate_deg_s, dtype=np.float64)
     x = x.reshape(-1) if x.ndim == 2 and x.shape[1] == 1 else x
+    if blocks.is_long(len(x)):  # a long record (a memmap): checked a block at a time
+        if not blocks.any_where(x, np.isnan):
+            return as_samples(x)[:, 0], False
+        if x.ndim != 1 or blocks.any_where(x, np.isinf) or not blocks.any_where(x, np.isfinite):
+            raise ValueError(
+                "a rate record with gaps must be 1-D with NaN only where samples are missing"
+            )
+        return x, True
     missing = np.isnan(x)
     if not missing.any():
         return as_samples(x)[:, 0], False
@@ -341,7 +351,8 @@ def spec_figures(
     if bs100.value_deg_h is None:
         notes += (f"bias stability 100 s: only {bs100.n_averages} averages, needs 3",)
     return SpecFigures(
-        bias_deg_h=float(np.nanmean(x)) * S_PER_H,
+        bias_deg_h=S_PER_H
+        * (blocks.nan_mean(x) if blocks.is_long(len(x)) else float(np.nanmean(x))),
         bias_stability_10s_deg_h=bs10.value_deg_h,
         bias_stability_100s_deg_h=bs100.value_deg_h,
         arw_deg_rt_h=arw.value,

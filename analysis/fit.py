@@ -57,10 +57,21 @@ from analysis.fit_select import select_terms
 from analysis.fit_uncertainty import LinearizedFit, value_covariance
 
 __all__ = [
-    "BETA_FACTOR", "COEFFICIENT_NAMES", "DEFAULT_MODEL_ERROR", "FIT_METHODS", "FitMethod",
-    "NoiseCoefficients", "TAU_POWER", "TERMS", "TO_DATASHEET", "design_matrix", "fit_every_method",
+    "BETA_FACTOR",
+    "COEFFICIENT_NAMES",
+    "DEFAULT_MODEL_ERROR",
+    "FIT_METHODS",
+    "FitMethod",
+    "NoiseCoefficients",
+    "TAU_POWER",
+    "TERMS",
+    "TO_DATASHEET",
+    "check_terms",
+    "design_matrix",
+    "fit_every_method",
     "fit_noise_terms",
-    "log_tau_share", "theoretical_avar",
+    "log_tau_share",
+    "theoretical_avar",
 ]
 
 FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
@@ -154,18 +165,34 @@ class NoiseCoefficients:
         return out
 
 
-def _check_terms(terms: str) -> str:
-    extra = set(terms.upper()) - set(TERMS)
-    terms = "".join(t for t in TERMS if t in terms.upper())
-    if not terms or extra:
-        raise FitError(f"terms must be a non-empty subset of 'QNBKR', got {terms!r}")
-    return terms
+def check_terms(terms: str) -> str:
+    """The terms of ``terms`` (letters of ``QNBKR``, any case) in model order.
+
+    Raises
+    ------
+    FitError
+        A letter that is not a term (named, with the valid ones), or no term at all.
+    """
+    extra = sorted(set(terms.upper()) - set(TERMS))
+    kept = "".join(t for t in TERMS if t in terms.upper())
+    if not kept or extra:
+        what = (
+            f"{', '.join(repr(c) for c in extra)} {'is' if len(extra) == 1 else 'are'} not"
+            if extra
+            else "no letter is"
+        )
+        raise FitError(
+            f"terms {terms!r}: {what} one of Q (quantization), N (angle random walk), "
+            f"B (bias instability), K (rate random walk), R (rate ramp); give a "
+            f"subset such as QNBKR or NBK"
+        )
+    return kept
 
 
 def _checked(
     result: AllanResult, terms: str, model_error: float
 ) -> tuple[str, NDArray[np.float64]]:
-    terms = _check_terms(terms)
+    terms = check_terms(terms)
     avar = np.asarray(result.avar, dtype=float)
     if avar.ndim != 1:
         raise FitError("fit one axis at a time: pass result.axis(i)")
@@ -174,8 +201,13 @@ def _checked(
     return terms, avar
 
 
-def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_terms: int,
-                 exclude_tau_s: tuple[tuple[float, float], ...] = ()) -> NDArray[np.bool_]:
+def _usable_rows(
+    method: str,
+    result: AllanResult,
+    avar: NDArray[np.float64],
+    n_terms: int,
+    exclude_tau_s: tuple[tuple[float, float], ...] = (),
+) -> NDArray[np.bool_]:
     """The Allan values ``method`` uses; raises FitError when fewer than ``n_terms``."""
     keep = np.isfinite(avar)
     for lo, hi in exclude_tau_s:
@@ -193,8 +225,12 @@ def _usable_rows(method: str, result: AllanResult, avar: NDArray[np.float64], n_
 
 
 def fit_noise_terms(
-    result: AllanResult, *, method: FitMethod = "wls", terms: str = TERMS,
-    model_error: float = DEFAULT_MODEL_ERROR, exclude_tau_s: tuple[tuple[float, float], ...] = (),
+    result: AllanResult,
+    *,
+    method: FitMethod = "wls",
+    terms: str = TERMS,
+    model_error: float = DEFAULT_MODEL_ERROR,
+    exclude_tau_s: tuple[tuple[float, float], ...] = (),
     select: bool | None = None,
 ) -> NoiseCoefficients:
     """Fit the five-term model (Lv 2015 eq. 3) to a single-axis Allan variance.
@@ -261,8 +297,9 @@ def fit_every_method(
         As :func:`fit_noise_terms`.
     """
     terms, avar = _checked(result, terms, model_error)
-    fit, reference = _fit_logwls(result, _usable_rows("logwls", result, avar, len(terms)), terms,
-                                 model_error, True)
+    fit, reference = _fit_logwls(
+        result, _usable_rows("logwls", result, avar, len(terms)), terms, model_error, True
+    )
     out = {"logwls": fit}
     for method in FIT_METHODS:
         if method != "logwls":
@@ -276,8 +313,9 @@ def fit_every_method(
 Reference = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]
 
 
-def _fit_logwls(result: AllanResult, keep: NDArray[np.bool_], candidates: str, model_error: float,
-                select: bool) -> tuple[NoiseCoefficients, Reference]:
+def _fit_logwls(
+    result: AllanResult, keep: NDArray[np.bool_], candidates: str, model_error: float, select: bool
+) -> tuple[NoiseCoefficients, Reference]:
     data = log_data(result, keep, model_error)
     notes: list[str] = []
     chosen = candidates
@@ -295,16 +333,19 @@ def _fit_logwls(result: AllanResult, keep: NDArray[np.bool_], candidates: str, m
             )
     beta, nfev = fit_log(data, chosen)
     lin, misfit = _log_linearization(result, data, beta)
-    notes.append("standard errors: sandwich of the fit's response with the covariance of the Allan "
-                 "values under the fitted model")
+    notes.append(
+        "standard errors: sandwich of the fit's response with the covariance of the Allan "
+        "values under the fitted model"
+    )
     fit = _finish(
         "logwls", result, keep, candidates, beta, lin, beta, misfit, notes, iterations=nfev
     )
     return fit, (beta, keep, misfit)
 
 
-def _log_linearization(result: AllanResult, data: LogData, beta: NDArray[np.float64]
-                       ) -> tuple[LinearizedFit, NDArray[np.float64]]:
+def _log_linearization(
+    result: AllanResult, data: LogData, beta: NDArray[np.float64]
+) -> tuple[LinearizedFit, NDArray[np.float64]]:
     """The log fit's linear response at ``beta`` and the model misfit its residuals show."""
     lin = LinearizedFit(data.jacobian(beta), data.weights, log=True)
     free = _free_columns(beta)
@@ -314,8 +355,9 @@ def _log_linearization(result: AllanResult, data: LogData, beta: NDArray[np.floa
     return lin, lin.local_misfit(free, data.residual(beta), cov, log_tau_share(data.tau_s))
 
 
-def _linear_solution(method: str, x: NDArray[np.float64], y: NDArray[np.float64],
-                     weights: NDArray[np.float64]) -> NDArray[np.float64]:
+def _linear_solution(
+    method: str, x: NDArray[np.float64], y: NDArray[np.float64], weights: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """Least squares of ``sqrt(w) x b = sqrt(w) y`` with columns scaled to unit norm."""
     sw = np.sqrt(weights)[:, None]
     xs = x * sw
@@ -329,11 +371,13 @@ def _linear_solution(method: str, x: NDArray[np.float64], y: NDArray[np.float64]
         bs, _ = optimize.nnls(xs, ys, maxiter=50 * xs.shape[1])
     else:
         bs = np.linalg.lstsq(xs, ys, rcond=None)[0]
-    return bs * y_scale / scale
+    out: NDArray[np.float64] = bs * y_scale / scale
+    return out
 
 
-def _fit_linear(method: str, result: AllanResult, keep: NDArray[np.bool_], terms: str,
-                reference: Reference) -> NoiseCoefficients:
+def _fit_linear(
+    method: str, result: AllanResult, keep: NDArray[np.bool_], terms: str, reference: Reference
+) -> NoiseCoefficients:
     avar = np.asarray(result.avar, dtype=float)[keep]
     x = design_matrix(result.tau_s[keep], TERMS)
     cols = [TERMS.index(t) for t in terms]
@@ -343,18 +387,41 @@ def _fit_linear(method: str, result: AllanResult, keep: NDArray[np.bool_], terms
     beta = full_beta(terms, _linear_solution(method, x[:, cols], avar, weights))
     model, log_keep, misfit = reference
     if not np.any(np.nan_to_num(model) > 0):
-        return _finish(method, result, keep, terms, beta, None, model, None, [
-            "standard errors: none; no model with positive terms fits this curve to take the "
-            "covariance of the Allan values from"])
-    notes = [f"standard errors: sandwich of {method}'s linear response with the covariance of the "
-             f"Allan values under the logwls model of this curve (the formula error of eq. 7/14 "
-             f"assumes independent values and is far too small on correlated ones)"]
-    return _finish(method, result, keep, terms, beta, LinearizedFit(x, weights, log=False), model,
-                   _on_rows(misfit, log_keep, keep), notes)
+        return _finish(
+            method,
+            result,
+            keep,
+            terms,
+            beta,
+            None,
+            model,
+            None,
+            [
+                "standard errors: none; no model with positive terms fits this curve to take the "
+                "covariance of the Allan values from"
+            ],
+        )
+    notes = [
+        f"standard errors: sandwich of {method}'s linear response with the covariance of the "
+        f"Allan values under the logwls model of this curve (the formula error of eq. 7/14 "
+        f"assumes independent values and is far too small on correlated ones)"
+    ]
+    return _finish(
+        method,
+        result,
+        keep,
+        terms,
+        beta,
+        LinearizedFit(x, weights, log=False),
+        model,
+        _on_rows(misfit, log_keep, keep),
+        notes,
+    )
 
 
-def _on_rows(values: NDArray[np.float64], rows_have: NDArray[np.bool_], rows_want: NDArray[np.bool_]
-             ) -> NDArray[np.float64]:
+def _on_rows(
+    values: NDArray[np.float64], rows_have: NDArray[np.bool_], rows_want: NDArray[np.bool_]
+) -> NDArray[np.float64]:
     full = np.zeros(len(rows_have))
     full[rows_have] = values
     return full[rows_want]
@@ -364,10 +431,19 @@ def _free_columns(beta: NDArray[np.float64]) -> NDArray[np.int64]:
     return np.flatnonzero(np.isfinite(beta) & (beta != 0)).astype(np.int64)
 
 
-def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidates: str,
-            beta: NDArray[np.float64], lin: LinearizedFit | None, model_beta: NDArray[np.float64],
-            misfit: NDArray[np.float64] | None, notes: list[str], *, iterations: int = 1
-            ) -> NoiseCoefficients:
+def _finish(
+    method: str,
+    result: AllanResult,
+    keep: NDArray[np.bool_],
+    candidates: str,
+    beta: NDArray[np.float64],
+    lin: LinearizedFit | None,
+    model_beta: NDArray[np.float64],
+    misfit: NDArray[np.float64] | None,
+    notes: list[str],
+    *,
+    iterations: int = 1,
+) -> NoiseCoefficients:
     """Coefficients, their sandwich standard errors and the notes, in data-sheet units.
 
     ``model_beta`` is the model the covariance of the values is taken under, ``misfit``
@@ -380,10 +456,13 @@ def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidate
         # a misfit worth naming: above 1 % and twice the sampling error of the value
         noted = None if misfit is None else np.where(
             misfit > np.maximum(NOTED_MISFIT, 2.0 * np.sqrt(cov.diagonal(log=True))), misfit, 0.0)
-        if noted is not None and noted.max(initial=0.0) > 0:
+        if misfit is not None and noted is not None and noted.max(initial=0.0) > 0:
             worst = int(np.argmax(noted))
-            size = (f"{misfit[worst]:.1%}" if misfit[worst] < 0.3 else
-                    f"a factor {math.exp(misfit[worst]):.2g} in Allan variance")
+            size = (
+                f"{misfit[worst]:.1%}"
+                if misfit[worst] < 0.3
+                else f"a factor {math.exp(misfit[worst]):.2g} in Allan variance"
+            )
             notes.append(
                 f"the curve departs from the five-term model beyond sampling, by up to {size} "
                 f"(near tau {result.tau_s[keep][worst]:.3g} s); that misfit is carried in the "
@@ -409,13 +488,13 @@ def _finish(method: str, result: AllanResult, keep: NDArray[np.bool_], candidate
         b = float(beta[col]) if np.isfinite(beta[col]) else 0.0
         var = variances[term]
         sb = math.sqrt(max(var, 0.0)) if var is not None else None
-        c, unit = BETA_FACTOR[term], TO_DATASHEET[term]
+        factor, unit = BETA_FACTOR[term], TO_DATASHEET[term]
         if b > 0:
-            values[term] = math.sqrt(b / c) * unit
-            stderr[term] = None if sb is None else sb / (2.0 * math.sqrt(c * b)) * unit
+            values[term] = math.sqrt(b / factor) * unit
+            stderr[term] = None if sb is None else sb / (2.0 * math.sqrt(factor * b)) * unit
         elif b == 0:
             values[term] = 0.0
-            stderr[term] = None if sb is None else math.sqrt(sb / c) * unit
+            stderr[term] = None if sb is None else math.sqrt(sb / factor) * unit
         else:
             negative += term
     full = np.where(np.isfinite(beta), beta, np.nan)

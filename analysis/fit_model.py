@@ -55,7 +55,7 @@ def full_beta(terms: str, values: ArrayLike) -> NDArray[np.float64]:
 
 def coefficient(term: str, beta_term: float) -> float:
     """Data-sheet coefficient of one term from its variance coefficient (>= 0)."""
-    return math.sqrt(max(beta_term, 0.0) / BETA_FACTOR[term]) * TO_DATASHEET[term]
+    return float(math.sqrt(max(beta_term, 0.0) / BETA_FACTOR[term]) * TO_DATASHEET[term])
 
 
 def theoretical_avar(coefficients: dict[str, float], tau_s: ArrayLike) -> NDArray[np.float64]:

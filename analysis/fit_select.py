@@ -141,6 +141,28 @@ def select_terms(result: AllanResult, data: LogData, candidates: str, *,
     return Selection(best, criteria, float(penalty), len(rows), misfit)
 
 
+def _cholesky_jittered(c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lower Cholesky factor of a covariance that rounding (or its approximations) may
+    leave short of positive definite: values at neighbouring taus of a long record
+    correlate to 1 within rounding (a 24 h record at 1 kHz does). The diagonal is raised
+    by 1e-9 of itself, then by ten times more each time the factorization fails (up to
+    1e-6); past that, the eigenvalues are floored at 1e-9 of the largest (the nearest
+    positive definite matrix of the same eigenvectors)."""
+    diag = np.diag_indices_from(c)
+    base = c[diag].copy()
+    for jitter in (1e-9, 1e-8, 1e-7, 1e-6):
+        c[diag] = base * (1.0 + jitter)
+        try:
+            return np.asarray(linalg.cholesky(c, lower=True), dtype=np.float64)
+        except linalg.LinAlgError:
+            continue
+    c[diag] = base
+    values, vectors = np.linalg.eigh((c + c.T) / 2.0)
+    floored = np.maximum(values, 1e-9 * float(values.max()))
+    repaired = (vectors * floored) @ vectors.T
+    return np.asarray(linalg.cholesky((repaired + repaired.T) / 2.0, lower=True), dtype=np.float64)
+
+
 def _deviance(
     result: AllanResult,
     data: LogData,
@@ -157,8 +179,7 @@ def _deviance(
     c = value_covariance(result, beta, keep=data.keep, random_ramp=True).sandwich(
         picks, log=True, misfit=misfit
     )
-    c[np.diag_indices_from(c)] *= 1.0 + 1e-9
-    chol = linalg.cholesky(c, lower=True)
+    chol = _cholesky_jittered(c)
     # the likelihood at its best: generalized least squares under that covariance
     # L^-1 by LAPACK's triangular inverse (solve_triangular with an identity is 100x slower)
     whiten = np.tril(lapack.dtrtri(chol, lower=1)[0])

@@ -27,7 +27,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import units
+from analysis import blocks, units
 from analysis.allan import check_sample_rate, overlapping_allan_variance
 from analysis.errors import ModelError, TooFewSamplesError
 from analysis.models import AngleRandomWalk, GaussMarkov, NoiseModel
@@ -193,7 +193,10 @@ def measure_bias_stability(
     fs = check_sample_rate(sample_rate_hz)
     rate = np.asarray(rate_deg_s, dtype=np.float64)
     m, j = _average_counts(rate.shape[0], fs, average_s)
-    means = rate[: m * j].reshape(j, m, *rate.shape[1:]).mean(axis=1)
+    if blocks.is_long(rate.shape[0]):
+        means = blocks.group_means(rate, m, j)  # a long record (a memmap): whole averages at a time
+    else:
+        means = rate[: m * j].reshape(j, m, *rate.shape[1:]).mean(axis=1)
     return np.asarray(units.S_PER_H * means.std(axis=0, ddof=1), dtype=np.float64)
 
 

@@ -203,7 +203,8 @@ class _Problem:
     def x_of(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
         x = np.array(theta, dtype=float)
         x[self.var_idx] = x[self.var_idx] / self.scale[self.var_idx]
-        return np.clip(x, self.lower, self.upper)
+        out: NDArray[np.float64] = np.clip(x, self.lower, self.upper)
+        return out
 
     def set_weights(self, v: NDArray[np.float64], *, diagonal: bool = False) -> str:
         """Whitening by ``V = L L'`` (or by its diagonal, the fallback); returns which."""

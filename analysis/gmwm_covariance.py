@@ -184,6 +184,8 @@ def wv_covariance(
     n_pairs = np.maximum(np.minimum(ci, cj - k) - np.maximum(0.0, -k), 0.0)
     terms = weight * n_pairs * s * s
     n_levels = len(m)
-    cov = np.bincount(pair_i * n_levels + pair_j, weights=terms, minlength=n_levels * n_levels)
-    cov = cov.reshape(n_levels, n_levels) * 2.0 / np.outer(counts, counts)
-    return np.triu(cov) + np.triu(cov, 1).T
+    sums: NDArray[np.float64] = np.bincount(pair_i * n_levels + pair_j, weights=terms,
+                                            minlength=n_levels * n_levels).astype(float)
+    cov = sums.reshape(n_levels, n_levels) * 2.0 / np.outer(counts, counts)
+    out: NDArray[np.float64] = np.triu(cov) + np.triu(cov, 1).T
+    return out

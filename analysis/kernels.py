@@ -8,21 +8,26 @@ Two quantities are needed over and over:
   Zhang 2015, eq. 6 and 15), per window start and m.
 
 Each has a pure-numpy implementation (always available, what the tests compare against)
-and, when the optional ``numba`` package is installed (``pip install gyro-station[fast]``),
-a compiled one that fuses the second difference, the square and the sum into one pass
-over ``theta`` and spreads the m values over the cores. ``backend="auto"`` picks the
-compiled one when it can be had; the results agree to rounding (about 1e-15 relative).
+and a compiled one (numba, a dependency of the default install) that fuses the second
+difference, the square and the sum into one pass over ``theta`` and spreads the m values
+over the cores; the results agree to rounding (about 1e-15 relative). ``backend="auto"``
+takes the compiled one when numba can be imported and either the work is large
+(:data:`COMPILED_MIN_TERMS`) or this process has launched a compiled kernel already:
+numba's import and the load of its cached kernels cost about 1.4 s on this machine,
+more than the compiled kernels save on a short record (a one-hour CSV analyses faster
+in numpy than with that start-up).
 
 Precision of the window sums: a window sum taken as the difference of two entries of one
 float64 running sum over the whole record loses about ``1e-16 N / L`` relative. None of
 the kernels here does that:
 
-* numpy: the terms are cut into blocks of ``L`` terms; a window starting at offset ``r``
-  of block ``q`` is the suffix sum of block ``q`` from ``r`` plus the prefix sum of block
-  ``q + 1`` up to ``r``: two sums of non-negative terms added, no subtraction, so the
-  relative error stays near ``1e-16 L`` at worst whatever N is;
-* compiled, steps of at least 1/32 of the window: the window edges cut the terms into
-  segments, each summed once, and a window adds up its segments (no subtraction);
+* steps of at least 1/32 of the window (both kernels): the window edges cut the terms
+  into segments, each summed once, and a window adds up its segments (no subtraction);
+* numpy, shorter steps: the terms are cut into blocks of ``L`` terms; a window starting
+  at offset ``r`` of block ``q`` is the suffix sum of block ``q`` from ``r`` plus the
+  prefix sum of block ``q + 1`` up to ``r``: two sums of non-negative terms added, no
+  subtraction, so the relative error stays near ``1e-16 L`` at worst whatever N is. The
+  numpy kernels walk the terms a chunk at a time (never a record-long array per m);
 * compiled, shorter steps: the window slides by adding the entering and subtracting the
   leaving terms in a Neumaier-compensated sum, which keeps ~1e-16 of the current sum.
 """
@@ -37,10 +42,17 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from analysis import blocks
+
 Backend = Literal["auto", "numpy", "numba"]
 
 #: Samples per block of the numpy overlapping kernel: 2 x 32 k doubles stay in L2.
 _NUMPY_BLOCK = 1 << 15
+#: Terms per block of a memory-mapped record's compiled overlapping sums (one m at a time:
+#: three ranges of 2 MB of the angle, then handed back).
+_LONG_BLOCK = 1 << 18
+#: Blocks of the long numpy kernel between two hand-backs of a memory-mapped angle.
+_RELEASE_EVERY = 8
 #: Up to this many window starts per window length, the compiled DAVAR kernel sums the
 #: segments between window edges; beyond, it slides a compensated running sum.
 _SEGMENTS_MAX_OVERLAP = 32
@@ -52,6 +64,11 @@ _SEGMENTS_MAX_OVERLAP = 32
 #: analyses in worker threads (the TUI grades a run while it computes a DAVAR), so the
 #: compiled launches take turns; each already spreads its work over every core.
 _COMPILED_LAUNCH = threading.Lock()
+#: Set once a compiled kernel has run in this process (its start-up cost is paid).
+_COMPILED_WARM = threading.Event()
+#: Second-difference terms from which ``backend="auto"`` starts numba in a process that has
+#: not used it yet: about what numpy spends in 1.4 s more than the compiled kernels.
+COMPILED_MIN_TERMS = 1_000_000_000
 
 
 @lru_cache(maxsize=1)
@@ -69,15 +86,24 @@ def have_compiled() -> bool:
     return _compiled() is not None
 
 
-def _pick(backend: Backend) -> ModuleType | None:
+def _pick(backend: Backend, work: int) -> ModuleType | None:
+    """The compiled kernels for ``backend`` and ``work`` terms, or None for numpy."""
     if backend == "numpy":
         return None
     if backend not in ("auto", "numba"):
         raise ValueError(f"backend must be 'auto', 'numpy' or 'numba', got {backend!r}")
+    if backend == "auto" and work < COMPILED_MIN_TERMS and not _COMPILED_WARM.is_set():
+        return None
     kernels = _compiled()
     if kernels is None and backend == "numba":
-        raise ImportError("backend='numba' needs numba: pip install 'gyro-station[fast]'")
+        raise ImportError("backend='numba' needs numba, which did not import: "
+                          "pip install 'numba>=0.59'")
     return kernels
+
+
+def _overlapping_work(n_points: int, m_arr: NDArray[np.int64], n_axes: int) -> int:
+    """Second-difference terms of the overlapping sums of every m and axis."""
+    return int(n_axes * (len(m_arr) * n_points - 2 * int(m_arr.sum())))
 
 
 def _check_m(
@@ -142,6 +168,37 @@ def _overlapping_sums_numpy(
     return out
 
 
+def _overlapping_sums_long(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
+                           compiled: ModuleType | None) -> NDArray[np.float64]:
+    """Overlapping sums of a long angle record (a memmap), one axis column at a time, in
+    blocks of terms; the mapped pages are handed back as it goes (:mod:`analysis.blocks`)."""
+    n_points, n_axes = theta.shape
+    out = np.zeros((len(m_arr), n_axes))
+    buf = np.empty(_NUMPY_BLOCK)
+    for c in range(n_axes):
+        th = np.asarray(theta[:, c])
+        if compiled is not None:
+            for i, m in enumerate(m_arr):
+                for lo, hi in blocks.spans(0, n_points - 2 * int(m), _LONG_BLOCK):
+                    out[i, c] += compiled.span_sum(th, int(m), lo, hi)
+                    _COMPILED_WARM.set()
+                    blocks.release(theta)
+            continue
+        for i, m in enumerate(m_arr):
+            total = 0.0
+            for j, (lo, hi) in enumerate(blocks.spans(0, n_points - 2 * int(m), _NUMPY_BLOCK)):
+                d = buf[: hi - lo]
+                np.subtract(th[lo + 2 * m : hi + 2 * m], th[lo + m : hi + m], out=d)
+                d -= th[lo + m : hi + m]
+                d += th[lo:hi]
+                total += float(np.einsum("i,i->", d, d))
+                if j % _RELEASE_EVERY == _RELEASE_EVERY - 1:
+                    blocks.release(theta)
+            out[i, c] = total
+            blocks.release(theta)
+    return out
+
+
 def overlapping_sums(
     theta: NDArray[np.float64], m_values: NDArray[np.int64], *, backend: Backend = "auto"
 ) -> NDArray[np.float64]:
@@ -149,7 +206,8 @@ def overlapping_sums(
 
     Same result as :func:`overlapping_sums_reference` (to rounding), one streaming pass
     over ``theta`` per m: the compiled kernel when numba is installed, otherwise numpy on
-    blocks that stay in cache.
+    blocks that stay in cache. A long memory-mapped ``theta`` (a 24 h run's) is read in
+    blocks of terms, one m at a time, and its pages handed back (:mod:`analysis.blocks`).
 
     Parameters
     ----------
@@ -158,7 +216,7 @@ def overlapping_sums(
     m_values : ndarray of int, shape (n_m,)
         Averaging factors (samples), ``1 <= m <= N / 2``.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"`` takes numba when it is installed.
+        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
 
     Returns
     -------
@@ -173,13 +231,17 @@ def overlapping_sums(
         If ``backend="numba"`` and numba is not installed.
     """
     m_arr = _check_m(m_values, theta.shape[0])
+    if blocks.is_long(theta.shape[0]) and blocks.is_mapped(theta) and m_arr.size:
+        work = _overlapping_work(theta.shape[0], m_arr, theta.shape[1])
+        return _overlapping_sums_long(theta, m_arr, _pick(backend, work))
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
-    kernels = _pick(backend)
+    kernels = _pick(backend, _overlapping_work(theta_t.shape[1], m_arr, theta_t.shape[0]))
     if kernels is None or m_arr.size == 0:
         return _overlapping_sums_numpy(theta_t, m_arr)
     out = np.empty((len(m_arr), theta_t.shape[0]))
     with _COMPILED_LAUNCH:
         kernels.oadev_sums(theta_t, m_arr, out)
+        _COMPILED_WARM.set()
     return out
 
 
@@ -225,7 +287,7 @@ def overlapping_stretch_sums(
         Each stretch's first and one-past-last sample index into the concatenated
         samples, in order, covering ``0 .. n`` without overlap.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"`` takes numba when it is installed.
+        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
 
     Returns
     -------
@@ -245,12 +307,13 @@ def overlapping_stretch_sums(
             "stretches must cover the samples in order, each starting where the last stopped"
         )
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
-    kernels = _pick(backend)
+    kernels = _pick(backend, _overlapping_work(theta_t.shape[1], m_arr, theta_t.shape[0]))
     if kernels is None or m_arr.size == 0:
         return _stretch_sums_numpy(theta_t, m_arr, starts, stops)
     out = np.empty((len(m_arr), theta_t.shape[0]))
     with _COMPILED_LAUNCH:
         kernels.oadev_stretch_sums(theta_t, m_arr, starts, stops, out)
+        _COMPILED_WARM.set()
     return out
 
 
@@ -268,23 +331,83 @@ def second_difference_squares(theta: NDArray[np.float64], m: int) -> NDArray[np.
     return d
 
 
-def _window_sums_numpy(
-    theta: NDArray[np.float64], m_arr: NDArray[np.int64], starts: NDArray[np.int64], window: int
-) -> NDArray[np.float64]:
-    out = np.empty((len(m_arr), len(starts)))
-    for i, m in enumerate(m_arr):
-        n_terms = window + 1 - 2 * int(m)
-        terms = second_difference_squares(theta, int(m))
-        n_blocks = -(-terms.shape[0] // n_terms) + 1
-        blocks = np.zeros((n_blocks, n_terms))
-        blocks.reshape(-1)[: terms.shape[0]] = terms
-        # suffix[q, r]: sum of block q from r on; prefix[q, r]: sum of block q before r.
+def _terms_into(buf: NDArray[np.float64], theta: NDArray[np.float64], m: int, lo: int, hi: int
+                ) -> NDArray[np.float64]:
+    """``Delta_m(k)^2`` for ``k = lo .. hi - 1`` written into ``buf[: hi - lo]`` (returned)."""
+    d = buf[: hi - lo]
+    np.subtract(theta[lo + 2 * m : hi + 2 * m], theta[lo + m : hi + m], out=d)
+    d -= theta[lo + m : hi + m]
+    d += theta[lo:hi]
+    d *= d
+    return d
+
+
+def _segment_window_sums_numpy(theta: NDArray[np.float64], m: int, starts: NDArray[np.int64],
+                               n_terms: int) -> NDArray[np.float64]:
+    """Window sums of one m from the segments between window edges (steps not much shorter
+    than the window): each term is summed once, a chunk of terms at a time, and each window
+    adds up its few segments; no running sum is subtracted."""
+    cuts = np.union1d(starts, starts + n_terms)
+    segments = np.zeros(len(cuts))  # the last entry stays 0: the padding of a window's row
+    buf = np.empty(_NUMPY_BLOCK)
+    for a in range(int(cuts[0]), int(cuts[-1]), _NUMPY_BLOCK):
+        b = min(a + _NUMPY_BLOCK, int(cuts[-1]))
+        i0 = int(np.searchsorted(cuts, a, side="right"))  # first cut after a
+        i1 = int(np.searchsorted(cuts, b, side="left"))  # first cut at or after b
+        at = np.concatenate(([0], cuts[i0:i1] - a))
+        segments[i0 - 1 : i1] += np.add.reduceat(_terms_into(buf, theta, m, a, b), at)
+    first = np.searchsorted(cuts, starts)
+    count = np.searchsorted(cuts, starts + n_terms) - first
+    take = first[:, None] + np.arange(int(count.max()))
+    take[take >= first[:, None] + count[:, None]] = len(cuts) - 1
+    out: NDArray[np.float64] = segments[take].sum(axis=1)
+    return out
+
+
+def _block_window_sums_numpy(theta: NDArray[np.float64], m: int, starts: NDArray[np.int64],
+                             n_terms: int) -> NDArray[np.float64]:
+    """Window sums of one m from block prefix and suffix sums (any step): the terms are cut
+    into blocks of one window's ``L`` terms; a window starting at offset ``r`` of block
+    ``q`` is block q's suffix from ``r`` plus block ``q + 1``'s prefix up to ``r``. Whole
+    blocks are handled a chunk of about :data:`_NUMPY_BLOCK` terms at a time."""
+    length = n_terms
+    lo = int(starts[0]) // length * length
+    end = int(starts[-1]) + length  # terms needed: lo .. end - 1
+    per_chunk = length * max(1, _NUMPY_BLOCK // length)
+    out = np.zeros(len(starts))
+    ends = starts + length
+    buf = np.zeros(per_chunk)
+    for a in range(lo, end, per_chunk):
+        b = min(a + per_chunk, end)
+        n_blocks = -(-(b - a) // length)
+        terms = buf[: n_blocks * length]
+        _terms_into(terms, theta, m, a, b)
+        terms[b - a :] = 0.0
+        blocks = terms.reshape(n_blocks, length)
         suffix = np.cumsum(blocks[:, ::-1], axis=1)[:, ::-1].ravel()
         prefix = np.zeros_like(blocks)
         np.cumsum(blocks[:, :-1], axis=1, out=prefix[:, 1:])
-        # start s = q L + r: suffix[q, r] is flat index s, prefix[q + 1, r] is s + L.
-        out[i] = suffix[starts] + prefix.ravel()[starts + n_terms]
-    return out.T
+        top = a + n_blocks * length
+        j0, j1 = np.searchsorted(starts, [a, top])
+        out[j0:j1] += suffix[starts[j0:j1] - a]
+        k0, k1 = np.searchsorted(ends, [a, top])
+        out[k0:k1] += prefix.ravel()[ends[k0:k1] - a]
+    return out
+
+
+def _window_sums_numpy(
+    theta: NDArray[np.float64], m_arr: NDArray[np.int64], starts: NDArray[np.int64], window: int
+) -> NDArray[np.float64]:
+    """Numpy window sums, one m at a time over chunks of terms: memory of one chunk (or one
+    window's terms), never a record-long array per m."""
+    out = np.empty((len(starts), len(m_arr)))
+    shortest_step = int(np.diff(starts).min()) if len(starts) > 1 else window
+    segments = window <= _SEGMENTS_MAX_OVERLAP * shortest_step
+    for i, m in enumerate(m_arr):
+        n_terms = window + 1 - 2 * int(m)
+        kernel = _segment_window_sums_numpy if segments else _block_window_sums_numpy
+        out[:, i] = kernel(theta, int(m), starts, n_terms)
+    return out
 
 
 def window_sums(
@@ -313,7 +436,7 @@ def window_sums(
     window : int
         Window length Nw in samples.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"`` takes numba when it is installed.
+        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
 
     Returns
     -------
@@ -332,7 +455,7 @@ def window_sums(
         return np.zeros((0, len(m_arr)))
     if starts[0] < 0 or starts[-1] + window > theta.shape[0] - 1 or np.any(np.diff(starts) <= 0):
         raise ValueError("window starts must increase and keep every window inside theta")
-    kernels = _pick(backend)
+    kernels = _pick(backend, len(m_arr) * int(starts[-1] + window - starts[0]))
     if kernels is None or m_arr.size == 0:
         return _window_sums_numpy(theta, m_arr, starts, window)
     out = np.empty((len(starts), len(m_arr)))
@@ -346,4 +469,5 @@ def window_sums(
             by_m = np.empty((len(m_arr), len(starts)))
             kernels.window_sums(theta, m_arr, starts, window, by_m)
             out[:] = by_m.T
+        _COMPILED_WARM.set()
     return out

@@ -120,6 +120,15 @@ def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
 
 
 @numba.njit(cache=True)
+def span_sum(th: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
+    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1``, on one core: one block of a
+    memory-mapped record for one m (three streams through ``th``, handed back block by
+    block). One core: thousands of parallel launches cost more than they gain on a
+    loaded machine."""
+    return _span_sum(th, m, lo, hi)
+
+
+@numba.njit(cache=True)
 def oadev_one(th: NDArray[np.float64], m: int) -> float:
     """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""
     return _span_sum(th, m, 0, th.shape[0] - 2 * m)

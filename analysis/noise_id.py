@@ -42,11 +42,14 @@ are reported as -2, the steepest the edf computation knows.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
+
+from analysis import blocks
 
 #: Decimated angle points the lag-1 method needs (Riley and Greenhall: about 30).
 MIN_ACF_POINTS = 30
@@ -100,13 +103,46 @@ def lag1_autocorrelation(z: NDArray[np.float64]) -> float:
     return float(np.einsum("i,i->", d[:-1], d[1:])) / den if den > 0 else 0.0
 
 
+def _decimated_differences(angle: NDArray[np.float64], m: int, d: int
+                           ) -> tuple[int, Iterator[NDArray[np.float64]]]:
+    """(length, blocks of) the ``d``-th difference of ``angle[::m]``, for a long record."""
+    n_y = (len(angle) - 1) // m + 1
+    length = n_y - d
+
+    def gen() -> Iterator[NDArray[np.float64]]:
+        for a, b in blocks.spans(0, length):
+            y = np.asarray(angle[a * m: (b + d - 1) * m + 1: m], dtype=float)
+            yield np.diff(y, n=d)
+            blocks.release(angle)
+
+    return length, gen()
+
+
+def _lag1_long(angle: NDArray[np.float64], m: int, d: int) -> tuple[float, int]:
+    """(lag-1 autocorrelation, length) of the ``d``-th difference of ``angle[::m]``, two
+    passes over a long record (mean, then the centred sums)."""
+    n, parts = _decimated_differences(angle, m, d)
+    mean = sum(float(z.sum()) for z in parts) / n
+    den = num = 0.0
+    last = None
+    for z in _decimated_differences(angle, m, d)[1]:
+        c = z - mean
+        den += float(np.einsum("i,i->", c, c))
+        num += float(np.einsum("i,i->", c[:-1], c[1:]))
+        if last is not None:
+            num += last * float(c[0])
+        last = float(c[-1])
+    return (num / den if den > 0 else 0.0), n
+
+
 def lag1_alpha(angle: NDArray[np.float64], m: int, *, d_max: int = 2) -> int:
     """Noise exponent at averaging factor m by the lag-1 autocorrelation method.
 
     Parameters
     ----------
     angle : ndarray, shape (N + 1,)
-        Angle (phase) samples of one axis, any unit.
+        Angle (phase) samples of one axis, any unit. A long record (a memmap) is read a
+        block at a time (:mod:`analysis.blocks`).
     m : int
         Averaging factor; the angle is decimated by m.
     d_max : int
@@ -119,14 +155,18 @@ def lag1_alpha(angle: NDArray[np.float64], m: int, *, d_max: int = 2) -> int:
         but split between flicker rate and rate random walk at
         :data:`FLICKER_RATE_BOUNDARY` instead of -1.5.
     """
-    z = np.diff(np.asarray(angle[::m], dtype=float))
+    long = blocks.is_long((len(angle) - 1) // m)
+    z = None if long else np.diff(np.asarray(angle[::m], dtype=float))
     d = 1
     while True:
-        r1 = lag1_autocorrelation(z)
+        if z is None:
+            r1, length = _lag1_long(angle, m, d)
+        else:
+            r1, length = lag1_autocorrelation(z), len(z)
         delta = r1 / (1.0 + r1) if r1 > -1.0 else -np.inf
-        if delta < 0.25 or d >= d_max or len(z) < 4:
+        if delta < 0.25 or d >= d_max or length < 4:
             break
-        z = np.diff(z)
+        z = None if z is None else np.diff(z)
         d += 1
     if not np.isfinite(delta):
         return ALPHA_RANGE[1]
@@ -159,14 +199,70 @@ def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
     return float(np.var(means, ddof=1)) / avar if avar > 0 else 1.0
 
 
+def _second_differences(x: NDArray[np.float64], m: int, a: int, b: int) -> NDArray[np.float64]:
+    ahead = np.asarray(x[a + 2 * m : b + 2 * m], dtype=float)
+    middle = np.asarray(x[a + m : b + m], dtype=float)
+    out: NDArray[np.float64] = ahead - 2.0 * middle + np.asarray(x[a:b], dtype=float)
+    return out
+
+
+def _running_sums(x: NDArray[np.float64], m: int, length: int, offset: int
+                  ) -> Iterator[NDArray[np.float64]]:
+    """``[0, cumsum(d2)]`` from index ``offset`` on, in blocks: the one sequential sum
+    ``np.cumsum`` makes, so equal to it exactly, for a long record."""
+    carry = 0.0
+    for a, b in blocks.spans(0, length):
+        d2 = _second_differences(x, m, a, b)
+        d2[0] += carry
+        sums = np.cumsum(d2)
+        carry = float(sums[-1])
+        # sums[i] is entry a + 1 + i of [0, cumsum(d2)]
+        full, start = (np.concatenate(([0.0], sums)), 0) if a == 0 else (sums, a + 1)
+        skip = max(0, offset - start)
+        if skip < len(full):
+            yield full[skip:]
+        blocks.release(x)
+
+
 def rn_ratio(angle: NDArray[np.float64], m: int) -> float:
-    """R(n): modified over overlapping Allan variance at averaging factor m (same scale)."""
+    """R(n): modified over overlapping Allan variance at averaging factor m (same scale).
+
+    A long record (a memmap) is read a block at a time, with the same sums."""
     x = np.asarray(angle, dtype=float)
+    length = len(x) - 2 * m
+    if blocks.is_long(length):
+        return _rn_ratio_long(x, m, length)
     d2 = x[2 * m:] - 2.0 * x[m:-m] + x[: len(x) - 2 * m]
     avar = float(np.einsum("i,i->", d2, d2)) / len(d2)
     sums = np.concatenate([[0.0], np.cumsum(d2)])
     box = (sums[m:] - sums[:-m]) / m
     mvar = float(np.einsum("i,i->", box, box)) / len(box) if len(box) else avar
+    return mvar / avar if avar > 0 else 1.0
+
+
+def _rn_ratio_long(x: NDArray[np.float64], m: int, length: int) -> float:
+    total = 0.0
+    for a, b in blocks.spans(0, length):
+        d2 = _second_differences(x, m, a, b)
+        total += float(np.einsum("i,i->", d2, d2))
+        blocks.release(x)
+    avar = total / length
+    n_box = length + 1 - m
+    box_total = 0.0
+    ahead = _running_sums(x, m, length, m)
+    buffer = np.zeros(0)
+    done = 0
+    for behind in _running_sums(x, m, length, 0):
+        take = min(len(behind), n_box - done)
+        if take <= 0:
+            break
+        while len(buffer) < take:
+            buffer = np.concatenate((buffer, next(ahead)))
+        box = (buffer[:take] - behind[:take]) / m
+        box_total += float(np.einsum("i,i->", box, box))
+        buffer = buffer[take:]
+        done += take
+    mvar = box_total / n_box if n_box > 0 else avar
     return mvar / avar if avar > 0 else 1.0
 
 
@@ -245,6 +341,7 @@ def identify_noise(
                 a, how = b1_alpha(x[:, col], int(mi))
             else:
                 a, how = (last if last is not None else 0), "carried"
+            blocks.release(x)  # a decimated read of a memmap maps in every page it strides over
             if last is not None and n_points[i] < MONOTONE_BELOW_POINTS:
                 a = min(a, last)  # a sum of power laws never turns back to a shallower type
             alpha[i, col], method[i, col], last = a, how, a

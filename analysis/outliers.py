@@ -54,6 +54,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
+from analysis import blocks
+
 #: Probability that a clean Gaussian record shows one false spike (any length).
 FALSE_ALARM = 0.01
 #: Neighbours each side in the running median.
@@ -97,8 +99,8 @@ class SpikeDetection:
 
     Attributes
     ----------
-    flags : ndarray of bool, shape (N,)
-        True at each flagged sample.
+    flagged : ndarray of int, shape (n_flagged,)
+        Index of each flagged sample, increasing (:attr:`flags` is the mask).
     spikes : tuple of Spike
         The runs of flagged samples, in time order.
     scale : float
@@ -114,7 +116,7 @@ class SpikeDetection:
         Samples examined.
     """
 
-    flags: NDArray[np.bool_]
+    flagged: NDArray[np.int64]
     spikes: tuple[Spike, ...]
     scale: float
     scale_linear: float
@@ -123,9 +125,17 @@ class SpikeDetection:
     n_samples: int
 
     @property
+    def flags(self) -> NDArray[np.bool_]:
+        """True at each flagged sample, shape (N,) (built on each call: a long record's mask
+        is as long as the record)."""
+        mask = np.zeros(self.n_samples, dtype=bool)
+        mask[self.flagged] = True
+        return mask
+
+    @property
     def count(self) -> int:
         """Samples flagged."""
-        return int(self.flags.sum())
+        return len(self.flagged)
 
     @property
     def share(self) -> float:
@@ -250,12 +260,14 @@ def detect_spikes(
     x = np.asarray(samples, dtype=np.float64)
     if x.ndim != 1:
         raise ValueError(f"samples must be 1-D, got shape {x.shape}")
-    if not np.isfinite(x).all():
+    if (blocks.first_non_finite(x) >= 0) if blocks.is_long(len(x)) else not np.isfinite(x).all():
         raise ValueError("samples must be finite (leave missing samples out)")
     if len(x) < min_samples(half_window):
         raise ValueError(
             f"{len(x)} samples are too few to look for spikes (need {min_samples(half_window)})"
         )
+    if blocks.is_long(len(x)):
+        return _detect_long(x, false_alarm, half_window)
     lin = np.empty_like(x)
     lin[1:-1] = x[1:-1] - 0.5 * (x[:-2] + x[2:])
     lin[0], lin[-1] = x[0] - x[1], x[-1] - x[-2]
@@ -285,7 +297,8 @@ def detect_spikes(
         done += b - a
         j = int(np.argmax(np.abs(run)))
         spikes.append(Spike(int(a), int(b - a), float(run[j]), float(run[j] / scale_med)))
-    return SpikeDetection(flags, tuple(spikes), scale_med, scale, threshold, false_alarm, len(x))
+    return SpikeDetection(np.flatnonzero(flags), tuple(spikes), scale_med, scale, threshold,
+                          false_alarm, len(x))
 
 
 def replace_spikes(samples: ArrayLike, flags: ArrayLike, positions: ArrayLike | None = None
@@ -315,3 +328,154 @@ def replace_spikes(samples: ArrayLike, flags: ArrayLike, positions: ArrayLike | 
     t = np.arange(len(x), dtype=float) if positions is None else np.asarray(positions, dtype=float)
     x[f] = np.interp(t[f], t[~f], x[~f])
     return x
+
+
+# ------------------------------------------------------------------ long records, in blocks
+
+
+def _linear_residuals(x: NDArray[np.float64], a: int, b: int) -> NDArray[np.float64]:
+    """``r_lin`` of samples ``a .. b - 1`` (the detector's linear residual), from one block."""
+    n = len(x)
+    lo = max(a - 1, 0)
+    v = np.asarray(x[lo:min(b + 1, n)], dtype=np.float64)
+    out = np.empty(b - a)
+    i0, i1 = max(a, 1), min(b, n - 1)  # samples with a neighbour on each side
+    if i1 > i0:
+        out[i0 - a: i1 - a] = v[i0 - lo: i1 - lo] - 0.5 * (v[i0 - lo - 1: i1 - lo - 1]
+                                                           + v[i0 - lo + 1: i1 - lo + 1])
+    if a == 0:
+        out[0] = v[0] - v[1]
+    if b == n:
+        out[-1] = v[-1] - v[-2]
+    blocks.release(x)
+    return out
+
+
+def _neighbour_residuals_long(x: NDArray[np.float64], positions: NDArray[np.int64],
+                              half_window: int) -> NDArray[np.float64]:
+    """:func:`neighbour_residuals` at increasing ``positions`` of a long record, a block of
+    the record at a time (mirrored at its ends as there)."""
+    w, n = half_window, len(x)
+    out = np.empty(len(positions))
+    for a, b in blocks.spans(0, n):
+        i0, i1 = np.searchsorted(positions, [a, b])
+        if i0 == i1:
+            continue
+        lo, hi = max(a - w, 0), min(b + w, n)
+        local = np.pad(np.asarray(x[lo:hi], dtype=np.float64),
+                       (w if lo == 0 else 0, w if hi == n else 0), mode="symmetric")
+        shift = lo - (w if lo == 0 else 0)  # record index of local[0]
+        at = positions[i0:i1] - shift
+        windows = np.lib.stride_tricks.sliding_window_view(local, 2 * w + 1)[at - w]
+        neighbours = np.concatenate((windows[:, :w], windows[:, w + 1:]), axis=1)
+        out[i0:i1] = local[at] - np.median(neighbours, axis=1)
+        blocks.release(x)
+    return out
+
+
+def _resolution_long(x: NDArray[np.float64], cap: int = 1 << 16) -> float:
+    """:func:`resolution` of a long record: exact while its distinct values number at most
+    ``cap`` (a quantized record); beyond, the smallest step inside a block, an upper
+    bound of the true one that only matters when larger than the noise scale it floors
+    (it is not: a record with that many distinct values is not quantized coarsely)."""
+    values: NDArray[np.float64] | None = np.zeros(0)
+    bound = np.inf
+    for a, b in blocks.spans(0, len(x)):
+        u = np.unique(np.asarray(x[a:b]))
+        if len(u) > 1:
+            bound = min(bound, float(np.min(np.diff(u))))
+        if values is not None:
+            values = np.union1d(values, u)
+            if len(values) > cap:
+                values = None
+        blocks.release(x)
+    if values is not None:
+        return float(np.min(np.diff(values))) if len(values) > 1 else 0.0
+    return bound
+
+
+def _grow_sparse(seeds: NDArray[np.int64], x: NDArray[np.float64], signs: NDArray[np.float64],
+                 limit: float, half_window: int) -> NDArray[np.int64]:
+    """:func:`_grow` of a long record, flags kept as a set of indices."""
+    flagged = {int(k) for k in seeds}
+    for k, sign in zip(seeds, signs, strict=True):
+        for step in (-1, 1):
+            j = int(k) + step
+            while 0 <= j < len(x) and j not in flagged:
+                r = float(_neighbour_residuals_long(x, np.array([j]), half_window)[0])
+                if sign * r <= limit:
+                    break
+                flagged.add(j)
+                j += step
+    return np.array(sorted(flagged), dtype=np.int64)
+
+
+def _detect_long(x: NDArray[np.float64], false_alarm: float, half_window: int) -> SpikeDetection:
+    """:func:`detect_spikes` of a long record (a memmap), a block at a time: the same
+    residuals, medians and thresholds, never a temporary as long as the record."""
+    n = len(x)
+
+    def lin(a: int, b: int) -> NDArray[np.float64]:
+        return _linear_residuals(x, a, b)
+
+    quantum = _resolution_long(x)
+    threshold = spike_threshold(n, false_alarm)
+    centre = blocks.median(lin, n)
+    scale = max(MAD_TO_SIGMA * blocks.median(lambda a, b: np.abs(lin(a, b) - centre), n), quantum)
+    sampled = np.arange(0, n, max(1, n // SCALE_SAMPLES))
+    scale_med = max(_robust_scale(_neighbour_residuals_long(x, sampled, half_window)), quantum)
+    flagged = np.zeros(0, dtype=np.int64)
+    if scale > 0.0 and scale_med > 0.0:  # a constant record has no spike
+        found = [np.flatnonzero(np.abs(lin(a, b)) > threshold * scale) + a
+                 for a, b in blocks.spans(0, n)]
+        blocks.release(x)
+        candidates = np.concatenate(found)
+        med_at = _neighbour_residuals_long(x, candidates, half_window)
+        lin_at = np.array([lin(int(c), int(c) + 1)[0] for c in candidates])
+        seed = (np.abs(med_at) > threshold * scale_med) & (np.sign(med_at) == np.sign(lin_at))
+        flagged = _grow_sparse(candidates[seed], x, np.sign(med_at[seed]), threshold * scale_med,
+                               half_window)
+    breaks = np.flatnonzero(np.diff(flagged) != 1) + 1
+    none = np.zeros(0, dtype=np.int64)
+    starts = np.concatenate(([0], breaks)) if len(flagged) else none
+    stops = np.concatenate((breaks, [len(flagged)])) if len(flagged) else none
+    med = _neighbour_residuals_long(x, flagged, half_window)
+    spikes = []
+    for a, b in zip(starts, stops, strict=True):
+        run = med[a:b]
+        j = int(np.argmax(np.abs(run)))
+        spikes.append(Spike(int(flagged[a]), int(b - a), float(run[j]), float(run[j] / scale_med)))
+    return SpikeDetection(flagged, tuple(spikes), scale_med, scale, threshold, false_alarm, n)
+
+
+def replace_flagged(samples: NDArray[np.float64], flagged: NDArray[np.int64],
+                    positions: NDArray[np.int64] | None = None, *,
+                    out: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """:func:`replace_spikes` with the flagged samples given by index, written into ``out``
+    (e.g. a memmap) a block at a time: each run of flagged samples takes the line between
+    its two kept neighbours, the values :func:`replace_spikes` gives.
+
+    Raises
+    ------
+    ValueError
+        Every sample flagged.
+    """
+    n = len(samples)
+    flagged = np.asarray(flagged, dtype=np.int64)
+    if len(flagged) >= n:
+        raise ValueError("every sample is flagged: nothing to interpolate from")
+    result = np.empty(n) if out is None else out
+    for a, b in blocks.spans(0, n):
+        result[a:b] = samples[a:b]
+        blocks.release(samples)
+        blocks.release(result)
+    if not len(flagged):
+        return result
+    breaks = np.flatnonzero(np.diff(flagged) != 1) + 1
+    for run in np.split(flagged, breaks):
+        left, right = int(run[0]) - 1, int(run[-1]) + 1
+        kept = [i for i in (left, right) if 0 <= i < n]
+        t_kept = np.array([float(i if positions is None else positions[i]) for i in kept])
+        t_run = run.astype(float) if positions is None else np.asarray(positions[run], dtype=float)
+        result[run] = np.interp(t_run, t_kept, np.array([float(samples[i]) for i in kept]))
+    return result

@@ -40,6 +40,7 @@ the missing effects.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -73,6 +74,9 @@ from analysis.models import (
     term_type,
 )
 from analysis.units import rate_deg_s_to_deg_h
+
+#: What the time series says of a candidate: (term to add, evidence, reason refused).
+Confirmation = tuple[NoiseTerm | None, Evidence | None, str]
 
 
 @dataclass(frozen=True)
@@ -333,7 +337,7 @@ def _ranked(
     curve: MeasuredCurve,
     opt: ReconcileOptions,
     steps: NDArray[np.float64] | None,
-) -> tuple[list[tuple[CandidateFit, str, tuple]], GmwmJudgement | None]:
+) -> tuple[list[tuple[CandidateFit, str, Confirmation]], GmwmJudgement | None]:
     """Candidates above the threshold with their confirmation, in the order they are tried,
     and the GMWM's judgement of the close ones (None when it judged none).
 
@@ -373,13 +377,14 @@ def _ranked(
     decides = (judgement is not None and all(r[2].name in judgement.scores for r in close_rows)
                and any(r[3] != "added" for r in close_rows))
     if decides:
+        assert judgement is not None
         group = [r for r in rows if r[0][0] == 1]
         ordered = new_or_more(group, lambda r: r[2].name, lambda r: r[3] == "added", judgement)
         rows = [r for r in rows if r[0][0] == 0] + ordered + [r for r in rows if r[0][0] == 2]
     return [(fit, change, verdict) for _, _, fit, change, verdict in rows], judgement
 
 
-def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, tuple]],
+def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, Confirmation]],
                   judgement: GmwmJudgement | None) -> tuple[float, str, tuple[Alternative, ...]]:
     """(score, criterion, alternatives) of the named candidate: the other viable explanations
     (confirmed where they need it, not a decrease) within ``ALTERNATIVE_SCORE`` of its GMWM
@@ -472,7 +477,8 @@ def reconcile_curve(
 
 
 def _drop_superseded(
-    changes: list[Effect], current: Comparison, comparison_of, opt: ReconcileOptions
+    changes: list[Effect], current: Comparison,
+    comparison_of: Callable[[NoiseModel], Comparison], opt: ReconcileOptions
 ) -> tuple[Effect, Comparison] | None:
     """The re-check after an addition: an earlier added effect the model no longer needs.
 

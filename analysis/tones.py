@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal, stats
 
+from analysis import blocks
 from analysis.allan import as_samples, check_sample_rate
 from analysis.gaps import valid_stretches
 
@@ -155,9 +156,11 @@ def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
     straddles a gap. None when fewer than :data:`MIN_SEGMENTS` segments of
     :data:`MIN_SEGMENT` samples fit.
     """
-    present = np.isfinite(x)
-    stretches = list(zip(*valid_stretches(present), strict=True))
-    segment = welch_segment(int(present.sum()))
+    if blocks.is_long(len(x)):
+        stretches = _stretches_long(x)
+    else:
+        stretches = list(zip(*valid_stretches(np.isfinite(x)), strict=True))
+    segment = welch_segment(sum(b - a for a, b in stretches))
     longest = max((b - a for a, b in stretches), default=0)
     while segment is not None and segment > longest:
         segment = segment // 2 if segment // 2 >= MIN_SEGMENT else None
@@ -167,16 +170,57 @@ def welch_spectrum(x: NDArray[np.float64], sample_rate_hz: float
     for a, b in stretches:
         if b - a < segment:
             continue
-        f, p = signal.welch(x[a:b], fs=sample_rate_hz, window="hann", nperseg=segment,
-                            noverlap=segment // 2, detrend="constant", scaling="density")
         k = (b - a - segment) // (segment // 2) + 1
-        total = p * k if total is None else total + p * k
+        f, p = _welch_sum(x, a, k, segment, sample_rate_hz)
+        total = p if total is None else total + p
         counts += k
         freq = f
     if total is None or freq is None or counts < MIN_SEGMENTS // 2:
         return None
     return (np.asarray(freq, dtype=np.float64), np.asarray(total / counts, dtype=np.float64),
             welch_edf(counts))
+
+
+def _welch_sum(x: NDArray[np.float64], a: int, k: int, segment: int, fs: float
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(frequencies, sum of the ``k`` half-overlapping Hann periodograms from sample ``a``):
+    scipy's Welch average times ``k``, over groups of segments of at most a block of
+    samples (a long record is never copied whole)."""
+    hop = segment // 2
+    per_group = k if not blocks.is_long(k * hop) else max(1, blocks.BLOCK_SAMPLES // hop)
+    total = None
+    for s0, s1 in blocks.spans(0, k, per_group):
+        start = a + s0 * hop
+        chunk = np.asarray(x[start: start + (s1 - s0 - 1) * hop + segment], dtype=np.float64)
+        f, p = signal.welch(chunk, fs=fs, window="hann", nperseg=segment, noverlap=hop,
+                            detrend="constant", scaling="density")
+        total = p * (s1 - s0) if total is None else total + p * (s1 - s0)
+        blocks.release(x)
+    assert total is not None
+    return f, total
+
+
+def _stretches_long(x: NDArray[np.float64]) -> list[tuple[int, int]]:
+    """The gap-free stretches (no NaN) of a long record, as ``(start, stop)``, a block at a time."""
+    out: list[tuple[int, int]] = []
+    open_at: int | None = None
+    for a, b in blocks.spans(0, len(x)):
+        present = np.isfinite(np.asarray(x[a:b]))
+        edges = np.flatnonzero(np.diff(present.astype(np.int8))) + 1
+        cuts = [0, *edges.tolist(), b - a]
+        for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+            if present[lo]:
+                open_at = a + lo if open_at is None else open_at
+                if hi < b - a:
+                    out.append((open_at, a + hi))
+                    open_at = None
+            elif open_at is not None:
+                out.append((open_at, a + lo))
+                open_at = None
+        blocks.release(x)
+    if open_at is not None:
+        out.append((open_at, len(x)))
+    return out
 
 
 def running_background(
@@ -245,7 +289,7 @@ def find_tones(
     x = x[:, 0] if x.ndim == 2 and x.shape[1] == 1 else x
     if x.ndim != 1:
         raise ValueError(f"find tones one axis at a time, got shape {x.shape}")
-    if np.isinf(x).any():
+    if blocks.any_where(x, np.isinf) if blocks.is_long(len(x)) else np.isinf(x).any():
         as_samples(x)  # raises NonFiniteSamplesError naming the samples
     spectrum = welch_spectrum(x, fs)
     if spectrum is None:

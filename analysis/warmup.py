@@ -119,7 +119,7 @@ def detect_warmup(
     judged = np.unique(np.r_[np.arange(0, len(starts), stride), len(starts) - 1])
     # Windows across a recorded gap (NaN, see DAVAR's missing="gap") are neither judged
     # nor pooled.
-    whole = np.isfinite(one.avar).all(axis=1)
+    whole = np.asarray(np.isfinite(one.avar).all(axis=1), dtype=bool)
     judged = judged[whole[judged]]
     if judged.size == 0:
         return WarmupVerdict(warmup_end_s=None, stationary=False, window_start_s=np.zeros(0),

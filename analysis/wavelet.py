@@ -208,10 +208,12 @@ def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
         )
     c2 = c * c
     if thin == 1 or max_lag < 2:
-        return (c2[0] + 2.0 * c2[1:].sum(axis=0)) * thin
+        plain: NDArray[np.float64] = (c2[0] + 2.0 * c2[1:].sum(axis=0)) * thin
+        return plain
     simpson = np.ones(max_lag + 1)
     simpson[1:-1:2], simpson[2:-1:2] = 4.0, 2.0
-    return 2.0 * thin / 3.0 * (simpson[:, None] * c2).sum(axis=0)
+    out: NDArray[np.float64] = 2.0 * thin / 3.0 * (simpson[:, None] * c2).sum(axis=0)
+    return out
 
 
 def huber_delta(c: float) -> float:

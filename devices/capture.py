@@ -317,7 +317,7 @@ class _Recorder:
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:
         """The inner transport's settings."""
-        return self.inner.settings
+        return tuple(self.inner.settings)
 
     def open(self) -> None:
         """Open ``inner``; records ``open``, or ``lost`` if it raised."""
@@ -413,12 +413,12 @@ class RecordingCanTransport(_Recorder):
     @property
     def interface(self) -> str:
         """The inner transport's python-can interface."""
-        return self.inner.interface
+        return str(self.inner.interface)
 
     @property
     def channel(self) -> str:
         """The inner transport's channel."""
-        return self.inner.channel
+        return str(self.inner.channel)
 
     def recv(self, timeout_s: float) -> can.Message | None:
         """``inner.recv(timeout_s)`` (wall s); a frame is recorded with its bus stamp."""

@@ -441,12 +441,14 @@ def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 
 @dataclass(frozen=True)
 class SupportedProtocol:
-    """A protocol the station can record, its transport, and a URL of its simulation."""
+    """A protocol the station can record, its transport, a URL of its simulation, and the
+    form of a real device's URL (names in capitals, such as ``FILE.eds``, are to be filled in)."""
 
     protocol: str
     transport: str
     sim_url: str
     description: str
+    hardware_url: str = ""
 
 
 _SIM_QUERY = "rate={rate}&warp={warp}&seed=1"
@@ -455,25 +457,32 @@ _SIM_QUERY = "rate={rate}&warp={warp}&seed=1"
 SUPPORTED: tuple[SupportedProtocol, ...] = (
     SupportedProtocol("stim300", "serial", "sim+serial://STIM300?protocol=stim300&datagram=0x94&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "Safran Sensonor STIM300 binary datagram, CRC-32"),
+                      "Safran Sensonor STIM300 binary datagram, CRC-32",
+                      "serial:///dev/ttyUSB0?protocol=stim300&datagram=0x94&baud=921600&rate=2000"),
     SupportedProtocol("kvh1750", "serial", "sim+serial://DSP-1750?protocol=kvh1750&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "KVH DSP-1750 format A, 36 bytes, CRC-32"),
+                      "KVH DSP-1750 format A, 36 bytes, CRC-32",
+                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=deg&output=rate&rate=1000"),
     SupportedProtocol("xbus", "serial", "sim+serial://MTI-630?protocol=xbus&"
                       + _SIM_QUERY.format(rate=400, warp=5),
-                      "Xsens MTi Xbus MTData2, 8-bit checksum"),
+                      "Xsens MTi Xbus MTData2, 8-bit checksum",
+                      "serial:///dev/ttyUSB0?protocol=xbus&rate=400"),
     SupportedProtocol("can", "can", "sim+can://VG951?layout=shared&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "raw CAN broadcast, configurable layout, CRC-8 SAE J1850 + counter"),
+                      "raw CAN broadcast, configurable layout, CRC-8 SAE J1850 + counter",
+                      "can://can0?interface=socketcan&layout=PROFILE.toml&rate=1000"),
     SupportedProtocol("canopen", "canopen", "sim+canopen://VG951/5?"
                       + _SIM_QUERY.format(rate=100, warp=4),
-                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2, heartbeat"),
+                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2, heartbeat",
+                      "canopen://can0/5?rate=100&eds=FILE.eds"),
     SupportedProtocol("modbus", "modbus+tcp", "sim+modbus+tcp://VG951?map=int32&"
                       + _SIM_QUERY.format(rate=50, warp=4),
-                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32)"),
+                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32)",
+                      "modbus+tcp://10.0.0.7:502/1?map=int32&rate=100"),
     SupportedProtocol("modbus", "modbus+rtu", "sim+modbus+rtu://VG951?map=float32&"
                       + _SIM_QUERY.format(rate=20, warp=2),
-                      "register-map gyro polled over Modbus RTU (a pty null modem here)"),
+                      "register-map gyro polled over Modbus RTU (a pty null modem here)",
+                      "modbus+rtu:///dev/ttyUSB0?unit=1&baud=19200&map=float32"),
 )
 
 

@@ -20,7 +20,7 @@ from analysis.davar import (
 )
 from analysis.errors import InvalidWindowError, NonFiniteSamplesError, TooFewSamplesError
 
-BACKENDS = ["numpy", "auto"]  # "auto" is the compiled kernel where numba is installed
+BACKENDS = ["numpy", "numba"]  # the numpy fallback and the compiled kernels, each forced
 
 
 def max_rel(a: np.ndarray, b: np.ndarray) -> float:

@@ -45,7 +45,10 @@ def test_json_interface(record_csv: Path, rate: np.ndarray) -> None:
     out = json.loads(proc.stdout)
     assert list(out) == ["axes"]
     x, y = out["axes"]
-    assert set(x) == {"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}
+    assert set(x) == {"name", "t_s", "tau_s", "adev", "adev_deg_s", "adev_deg_h", "warmup_end_s",
+                      "stationary"}
+    assert x["adev_deg_s"] == x["adev"]  # the old key stays, in deg/s
+    np.testing.assert_allclose(np.array(x["adev_deg_h"]), 3600 * np.array(x["adev"]), rtol=1e-12)
     assert (x["name"], y["name"]) == ("x", "y")
     expected = dynamic_allan_variance(rate, FS, window_s=100.0)
     assert len(x["t_s"]) == 291  # (3000 - 100) / 10 + 1 windows at the default step Nw/10
@@ -96,14 +99,32 @@ def test_errors_are_one_line_messages(record_csv: Path, capsys: pytest.CaptureFi
         main(["davar", str(record_csv)])  # --window-s is required
 
 
+def test_a_profile_warm_up_is_left_out_and_said(
+    record_csv: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """davar's --profile promised the profile's warm-up is discarded (CRG20: 120 s)."""
+    assert (
+        main(["davar", str(record_csv), "--window-s", "100", "--profile", "CRG20", "--json"]) == 0
+    )
+    captured = capsys.readouterr()
+    assert "the first 120 s are left out (warm-up from profile CRG20)" in captured.err
+    x = json.loads(captured.out)["axes"][0]
+    assert x["t_s"][0] == pytest.approx(
+        120 + 50
+    )  # the first window's centre, from the record start
+    assert x["warmup_end_s"] >= 120
+
+
 def test_a_record_with_gaps_leaves_out_the_windows_that_hold_one(
-        tmp_path: Path, rate: np.ndarray, capsys: pytest.CaptureFixture) -> None:
+    tmp_path: Path, rate: np.ndarray, capsys: pytest.CaptureFixture
+) -> None:
     """A CSV whose time column jumps over 100 s: the windows across the gap are null in the
     JSON, the others equal the DAVAR of the unbroken record at their true times, and the
     summary says how many windows were left out."""
     index = np.r_[0:12_000, 13_000:N]  # 1000 samples (100 s) lost
-    path = write_csv_record(tmp_path / "gap.csv", rate[index], FS, axis_names=["x", "y"],
-                            sample_index=index)
+    path = write_csv_record(
+        tmp_path / "gap.csv", rate[index], FS, axis_names=["x", "y"], sample_index=index
+    )
     assert main(["davar", str(path), "--window-s", "300", "--json"]) == 0
     axis = json.loads(capsys.readouterr().out)["axes"][1]
     ref = dynamic_allan_variance(rate[:, 1], FS, window_s=300.0)

@@ -43,7 +43,10 @@ def test_units_comments_and_missing_rate(tmp_path) -> None:
         ("0.1,0.2\n0.3,0.4\n", "header"),
         ("time,x\n0,1\n0.1,2\n0.25,3\n0.35,4\n", "irregular time"),
         ("time,x\n0,1\n0.1,2\n0.1,3\n0.2,4\n", "irregular time"),
-        ("time,x\n0,1\n0.1,abc\n", "cannot parse"),
+        ("time,x\n0,1\n0.1,abc\n", r"bad.csv, line 3: value 2 \('abc'\) is not a number; the "
+                                   r"format is 2 numbers per line separated by commas"),
+        ("# c\ntime,x\n0,1\n# note\n\n0.1;2\n", r"line 6: 1 value where the lines before have 2"),
+        ("time,x\n0,1\n0.1,2,3\n", r"line 3: 3 values where the lines before have 2"),
         ("time,x\n", "no data"),
         ("time,x\n0,nan\n0.1,1\n", "non-finite"),
     ],
@@ -63,9 +66,10 @@ def test_a_time_column_that_jumps_whole_periods_declares_a_gap(tmp_path) -> None
     assert (rec.n_samples, rec.missing_samples) == (5, 2)
     assert rec.duration_s == pytest.approx(0.7)
     np.testing.assert_array_equal(np.isnan(rec.gridded(0)), [0, 0, 1, 1, 0, 0, 0])
-    # --rate that agrees with the time column keeps the gap; one that does not ignores it
+    # --rate that agrees with the time column keeps the gap; one that does not is refused
     assert read_csv_record(path, sample_rate_hz=10.0).missing_samples == 2
-    assert read_csv_record(path, sample_rate_hz=1000.0).sample_index is None
+    with pytest.raises(RecordFormatError, match=r"steps 0.1 s \(10 Hz\) but --rate says 1000 Hz"):
+        read_csv_record(path, sample_rate_hz=1000.0)
     # a slice keeps true time: 0.35 s .. end starts at the first sample after the gap
     part = rec.slice_time(0.35)
     np.testing.assert_array_equal(part.rate_deg_s[:, 0], [3, 4, 5])

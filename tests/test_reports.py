@@ -4,17 +4,22 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
+import numpy as np
 import pytest
 from pypdf import PdfReader
 
 from station.cli import main
+from station.errors import UsageError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
 from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
+from station.model.sheet_header import load_sheet_header
 from station.output.report import FORMATS, write_report
+from station.output.report.common import header_fields
 from station.output.report.json_report import SCHEMA, SCHEMA_VERSION
 from station.storage.runs import read_record
 from tests.test_grading import make_record, profile_text, write_profile
@@ -241,3 +246,50 @@ def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
     for page, unit in zip(reader.pages, doc["units"], strict=True):
         text = page.extract_text()
         assert unit["serial_number"] in text and "recorder-test" in text and "events: " in text
+
+
+def test_sheet_header_company_logo_station_approval_and_conventions(
+    graded: RunGrade, tmp_path: Path, monkeypatch
+) -> None:
+    import matplotlib.image
+
+    monkeypatch.delenv("STATION_NAME", raising=False)
+    matplotlib.image.imsave(tmp_path / "logo.png", np.tile(np.linspace(0, 1, 40), (12, 1)))
+    (tmp_path / "sheet.toml").write_text(
+        'company = "Gyro Works Ltd."\nstation = "EOL bench 3"\n'
+        'logo = "logo.png"\nconditions = "static, granite table"\n'
+        'approval = ["Tested by", "Approved by"]\n'
+    )
+    sheet = load_sheet_header(tmp_path / "sheet.toml")
+    headed = replace(graded, sheet=sheet, units=graded.units[:1])
+    fields = dict(header_fields(headed, headed.units[0]))
+    assert fields["Company"] == "Gyro Works Ltd." and fields["Station"] == "EOL bench 3"
+    assert fields["Test date (UTC)"] == "2026-11-20 08:00:00"  # to the second
+    assert fields["Software version"].endswith("(recorded with 0.1.0)")
+    assert (
+        fields["Temperature"].startswith("not recorded")
+        and fields["Conditions"] == "static, granite table"
+    )
+    text = PdfReader(write_report(headed, "pdf", tmp_path)).pages[0].extract_text()
+    for expected in (
+        "Gyro Works Ltd.",
+        "EOL bench 3",
+        "Tested by (name, date, signature):",
+        "Approved by",
+        "0.664 x",
+    ):
+        assert expected in text, expected
+    # without a header: the host name says what it is, a CSV's unknown recording software is not "-"
+    bare = replace(
+        graded, run=replace(graded.run, metadata=replace(graded.run.metadata, software_version=""))
+    )
+    fields = dict(header_fields(bare, bare.units[0]))
+    assert (
+        fields["Station"] == "bench-3 (host name)"
+        and "recorded with" not in fields["Software version"]
+    )
+    monkeypatch.setenv("STATION_NAME", "line 2")
+    assert dict(header_fields(bare, bare.units[0]))["Station"] == "line 2"
+    (tmp_path / "bad.toml").write_text('aproval = ["Tested by"]\n')
+    with pytest.raises(UsageError, match="unknown key 'aproval'"):
+        load_sheet_header(tmp_path / "bad.toml")

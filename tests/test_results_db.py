@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from station.cli import main
-from station.errors import ResultsDatabaseError
+from station.errors import ResultsDatabaseError, UsageError
 from station.evaluation.grading import RunGrade, grade_run
 from station.model.profiles import load_profile
 from station.output.results import MIGRATIONS, SCHEMA_VERSION, ResultsDatabase, export_csv
@@ -159,6 +159,10 @@ def test_filters_yield_and_trend(filled, tmp_path: Path) -> None:
         grading_id = db.gradings()[0].id
         names = {r["name"] for r in db.figures(grading_id)}
         assert names == {"arw", "bias_instability", "bias_stability_10s", "bias"}
+        names = "arw, bias, bias_instability, bias_stability_10s"
+        with pytest.raises(UsageError, match=f"no figure 'nonsense' in the results database; "
+                                             f"its figures: {names}"):
+            db.trend("nonsense")
         rows = export_csv(db.gradings(), tmp_path / "all.csv")
     with rows.open() as fh:
         table = list(csv.DictReader(fh))
@@ -264,8 +268,9 @@ WRITERS = 8
 STORES = 25
 
 
-def _store_many(graded: RunGrade, location: str | Path, lot: str, start: object,
-                out: object) -> None:
+def _store_many(
+    graded: RunGrade, location: str | Path, lot: str, start: object, out: object
+) -> None:
     """One station (a forked process): open the database, wait for the start, store ``STORES``
     gradings, report its write window (or the error that stopped it)."""
     try:
@@ -291,8 +296,9 @@ def test_eight_processes_write_at_once(setup, location, tmp_path: Path) -> None:
     ctx = multiprocessing.get_context("fork")  # the gradings' classes are already imported
     start, out = ctx.Barrier(WRITERS + 1), ctx.Queue()
     lots = [f"P{i}" for i in range(WRITERS)]
-    procs = [ctx.Process(target=_store_many, args=(graded, location, lot, start, out))
-             for lot in lots]
+    procs = [
+        ctx.Process(target=_store_many, args=(graded, location, lot, start, out)) for lot in lots
+    ]
     for p in procs:
         p.start()
     try:
@@ -305,13 +311,16 @@ def test_eight_processes_write_at_once(setup, location, tmp_path: Path) -> None:
     for p in procs:
         p.join(timeout=60)
     assert [error for *_, error in reports if error] == []
-    assert max(t0 for _, t0, _, _ in reports) < min(t1 for _, _, t1, _ in reports), \
+    assert max(t0 for _, t0, _, _ in reports) < min(t1 for _, _, t1, _ in reports), (
         "the writers did not all write at the same time"
+    )
     assert _check_complete(location, len(graded.profile.figures)) == WRITERS * STORES
     with ResultsDatabase(location) as results:
         stored = [r.lot for r in results.gradings()]
-        shared = [results._con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0]
-                  for t in ("profiles", "runs", "units")]
+        shared = [
+            results._con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0]
+            for t in ("profiles", "runs", "units")
+        ]
     assert all(stored.count(lot) == STORES for lot in lots)
     assert shared == [1, 1, 1]
 
@@ -335,4 +344,3 @@ def test_killed_writer_leaves_a_sound_database(setup, tmp_path: Path) -> None:
     with ResultsDatabase(db) as results:  # and it takes new writes
         results.store(graded)
     assert _check_complete(db, len(graded.profile.figures)) == n + 1
-

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import gzip
+import io
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -55,11 +57,44 @@ def test_long_runs_are_written_in_chunks_identical_to_one_piece(tmp_path, capsys
     monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
     rc, _, err = _run(capsys, *args, "--out", str(pieces))
     assert rc == 0
-    assert "100.0 % (10000 of 10000 samples)" in err and "\r" in err
+    # stderr is not a terminal here (a log file, a pipe): no progress, no carriage returns
+    assert "\r" not in err and err == f"wrote 10000 samples x 1 axis at 20 Hz to {pieces}\n"
     with gzip.open(pieces, "rt", encoding="utf-8") as fh:
         assert fh.read() == whole.read_text(encoding="utf-8")
     record = read_csv_record(pieces)
     assert record.temperature_c is not None and record.n_samples == 10000
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_shows_on_a_terminal_with_its_eta_and_quiet_silences_it(tmp_path, monkeypatch):
+    monkeypatch.setattr(simulate_service, "CHUNK_SAMPLES", 3001)
+    args = [
+        "simulate",
+        "--model",
+        "VG951",
+        "--duration",
+        "500s",
+        "--rate",
+        "20",
+        "--seed",
+        "4",
+        "--axes",
+        "3",
+    ]
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert cli.main([*args, "--out", str(tmp_path / "a.csv")]) == 0
+    shown = terminal.getvalue()
+    assert "\r" in shown and "ETA" in shown and "100.0 % (10000 of 10000 samples)" in shown
+    assert "x 3 axes at 20 Hz" in shown
+    quiet = _Terminal()
+    monkeypatch.setattr(sys, "stderr", quiet)
+    assert cli.main([*args, "--quiet", "--json", "--out", str(tmp_path / "b.csv")]) == 0
+    assert "\r" not in quiet.getvalue()
 
 
 def test_simulate_from_two_indicators(tmp_path, capsys):
@@ -131,8 +166,10 @@ def test_simulate_writes_a_run_file_in_the_recorders_layout(tmp_path, capsys, mo
         (["--model", "VG951", "--arw", "1", "--out", "x.csv"], "not both"),
         (["--arw", "1", "--out", "x.csv"], "both --arw and --bias-stability"),
         (["--model", "no-such-gyro", "--out", "x.csv"], "no model file or preset"),
-        (["--arw", "0.05", "--bias-stability", "0.1", "--average-s", "10", "--out", "x.csv"],
-         "not above what the ARW alone gives"),
+        (
+            ["--arw", "0.05", "--bias-stability", "0.1", "--average-s", "10", "--out", "x.csv"],
+            "not above what the ARW alone gives",
+        ),
     ],
 )
 def test_simulate_errors_are_reported_not_raised(tmp_path, capsys, monkeypatch, argv, fragment):
@@ -143,8 +180,17 @@ def test_simulate_errors_are_reported_not_raised(tmp_path, capsys, monkeypatch, 
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize(("text", "seconds"), [("90", 90.0), ("90s", 90.0), ("2.5min", 150.0),
-                                               ("4h", 14400.0), ("1d", 86400.0), ("1e3s", 1000.0)])
+@pytest.mark.parametrize(
+    ("text", "seconds"),
+    [
+        ("90", 90.0),
+        ("90s", 90.0),
+        ("2.5min", 150.0),
+        ("4h", 14400.0),
+        ("1d", 86400.0),
+        ("1e3s", 1000.0),
+    ],
+)
 def test_durations(text, seconds):
     assert duration_type(text) == seconds
 
@@ -159,7 +205,8 @@ def test_model_curve_json_is_the_theoretical_allan_deviation(capsys):
     rc, out, _ = _run(capsys, "model", "curve", "zhang2015-fog", "--taus", "log", "--json")
     assert rc == 0
     doc = json.loads(out)
-    assert set(doc) == {"tau_s", "adev", "terms"}
+    assert set(doc) == {"tau_s", "adev", "terms", "adev_deg_h", "terms_deg_h"}
+    np.testing.assert_allclose(doc["adev_deg_h"], 3600 * np.array(doc["adev"]), rtol=1e-12)
     model = load_noise_model("zhang2015-fog")
     tau = np.array(doc["tau_s"])
     np.testing.assert_allclose(tau, log_m(4 * 3600 * 10) / 10.0)  # default: 4 h at 10 Hz
@@ -171,8 +218,10 @@ def test_model_curve_json_is_the_theoretical_allan_deviation(capsys):
 
 def test_model_curve_explicit_taus_table_and_file(tmp_path, capsys):
     path = tmp_path / "m.toml"
-    path.write_text("[arw]\nN_deg_rt_h = 60.0\n[sinusoid]\namplitude_deg_h = 1.0\nperiod_s = 2.0\n",
-                    encoding="utf-8")
+    path.write_text(
+        "[arw]\nN_deg_rt_h = 60.0\n[sinusoid]\namplitude_deg_h = 1.0\nperiod_s = 2.0\n",
+        encoding="utf-8",
+    )
     rc, out, _ = _run(capsys, "model", "curve", str(path), "--taus", "2,4", "--json")
     doc = json.loads(out)
     assert rc == 0 and doc["tau_s"] == [2.0, 4.0]

@@ -248,10 +248,39 @@ async def _setup_checks(tmp_path: Path) -> None:
         assert good.description.model == "VG951" and good.description.serial_number == "SIM-2"
         assert "does not answer" in notifications(app)
         rows = cell_texts(setup.query_one("#units", DataTable))
-        assert rows[1][2] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
+        assert rows[1][3] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
         await pilot.press("f5")
         assert "did not answer" in notifications(app)
         assert not list((tmp_path / "runs").glob("*.h5"))  # nothing was started
+
+
+def test_setup_screen_says_what_f6_adds_and_ctrl_d_keeps_focus_off_profiles(tmp_path: Path) -> None:
+    asyncio.run(_setup_keys(tmp_path))
+
+
+async def _setup_keys(tmp_path: Path) -> None:
+    app = StationApp(settings(tmp_path))
+    async with app.run_test(size=SIZE, notifications=True) as pilot:
+        setup = app.screen
+        assert isinstance(setup, SetupScreen)
+        setup.check_units = False
+        await pilot.press("f6", "f6")
+        told = notifications(app)
+        assert "no profile chosen" in told and "x60 (1h in 1min) of wall time" in told
+        table = setup.query_one("#units", DataTable)
+        rows = cell_texts(table)
+        assert all("warp=60" in row[1] and row[2] == "x60 (1h in 1min)" for row in rows)
+        setup.query_one("#duration", Input).value = "2h"
+        await pilot.pause()
+        assert cell_texts(table)[0][2] == "x60 (2h in 2min)"
+        table.focus()
+        await pilot.press("ctrl+d")
+        assert len(setup.units) == 1 and app.focused is table
+        await pilot.press("ctrl+d")
+        url = setup.query_one("#url", Input)
+        assert not setup.units and app.focused is url
+        await pilot.press(*"sim")  # goes into the URL field, not the profile list
+        assert url.value == "sim" and setup.profile is None
 
 
 class _Buggy(StationApp):
@@ -286,8 +315,9 @@ def test_a_run_the_recorder_refuses_is_a_notification_with_the_fix(tmp_path: Pat
             app.screen.query_one("#url", Input).value = "sim+serial://NOPE?rate=10"
             await pilot.click("#url")
             await pilot.press("enter", "f5")
-            await until(pilot, lambda: "did not start" in notifications(app), 60,
-                        "the recorder's refusal")
+            await until(
+                pilot, lambda: "did not start" in notifications(app), 60, "the recorder's refusal"
+            )
             text = notifications(app)
             assert "bad device URL" in text and "station devices" in text
             assert isinstance(app.screen, SetupScreen)  # still there, to fix the URL

@@ -17,7 +17,7 @@ from textual.widgets import DataTable, Input, ProgressBar
 from station.services.recorder_process import RecorderProcess, pid_alive
 from station.tui.app import StationApp, TuiSettings
 from station.tui.live_screen import LiveScreen
-from station.tui.setup_screen import SetupScreen
+from station.tui.setup_screen import SetupScreen, short_url
 from station.tui.spec_screen import SpecSheetScreen
 from tests.test_tui import SIZE, cell_texts, notifications, screen_text, until
 
@@ -63,16 +63,30 @@ async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess])
         await pilot.press(*"4h")
         await pilot.click("#operator")
         await pilot.press(*"ann")
-        assert [r[1] for r in cell_texts(setup.query_one("#units", DataTable))] == list(URLS)
+        assert [r[1] for r in cell_texts(setup.query_one("#units", DataTable))] == [
+            short_url(u) for u in URLS
+        ]
         await pilot.press("f5")
         await until(pilot, lambda: app.recorders.started, 10, "the recorder process")
         started.extend(app.recorders.started)
         await until(pilot, lambda: isinstance(app.screen, LiveScreen), 60, "the live screen")
         live = app.screen
         assert isinstance(live, LiveScreen)
-        await until(pilot, lambda: live.snapshot is not None and live.snapshot.units
-                    and all(u.samples for u in live.snapshot.units), 30, "samples")
-        assert "Run started" in notifications(app)
+        await until(
+            pilot,
+            lambda: (
+                live.snapshot is not None
+                and live.snapshot.units
+                and all(u.samples for u in live.snapshot.units)
+            ),
+            30,
+            "samples",
+        )
+        # where it records is in the header, not in a toast over the Allan plot
+        assert (
+            f"recorder pid {started[0].pid}" in live.sub_title
+            and "Run started" not in notifications(app)
+        )
         return live.path
 
 
@@ -83,25 +97,44 @@ async def _reattach_stop_and_grade(settings: TuiSettings, path: Path) -> None:
         live = app.screen
         assert isinstance(live, LiveScreen) and live.path == path and live.process is None
         assert "Reattached" in notifications(app)
-        await until(pilot, lambda: live.snapshot is not None and live.snapshot.fraction > 0.1,
-                    40, "a tenth of the run")
+        await until(
+            pilot,
+            lambda: live.snapshot is not None and live.snapshot.fraction > 0.1,
+            40,
+            "a tenth of the run",
+        )
         snap = live.snapshot
         assert snap is not None and snap.state == "recording" and snap.remaining_wall_s > 0
         assert [u.serial_number for u in snap.units] == ["SIM-1", "SIM-2"]
         bar = live.query_one("#progress", ProgressBar)
         assert 0.1 < (bar.progress or 0) < 1
-        words = ("recording", "of 04:00:00,", "left", "SIM-1", "SIM-2", "rate, axis 1",
-                 "run time [s]", "ADEV [deg/h]", "tau [s]", "s Stop run")
-        await until(pilot, lambda: all(w in screen_text(app) for w in words), 10,
-                    "the live screen's rows, times and plots")
+        words = (
+            "recording",
+            "of 04:00:00,",
+            "left",
+            "SIM-1",
+            "SIM-2",
+            "rate, axis 1",
+            "run time [s]",
+            "ADEV [deg/h]",
+            "tau [s]",
+            "s Stop run",
+        )
+        await until(
+            pilot,
+            lambda: all(w in screen_text(app) for w in words),
+            10,
+            "the live screen's rows, times and plots",
+        )
         await pilot.press("g")  # not yet: the run is recording
         assert "still recording" in notifications(app)
         await pilot.press("s", "e")  # stray typing: any key but y answers no
         assert app.screen is live and live.snapshot.state == "recording"
         await pilot.press("s")
         await pilot.press("y")  # confirm
-        await until(pilot, lambda: live.snapshot is not None and live.snapshot.stopped, 30,
-                    "the stop")
+        await until(
+            pilot, lambda: live.snapshot is not None and live.snapshot.stopped, 30, "the stop"
+        )
         assert live.snapshot.stop_reason == "terminated (SIGTERM)"
         assert live.snapshot.fraction < 1
         await pilot.press("g")
@@ -110,9 +143,10 @@ async def _reattach_stop_and_grade(settings: TuiSettings, path: Path) -> None:
         await until(pilot, lambda: sheet.graded is not None, 60, "the grading")
         assert sheet.graded.profile.name == "VG951"  # the profile of the units' model
         rows = cell_texts(sheet.query_one("#figures", DataTable))
-        assert any(r[0] == "N ARW (fit) [deg/sqrt(h)]" and r[3] in ("pass", "fail",
-                                                                    "indeterminate")
-                   for r in rows)
+        assert any(
+            r[0] == "N ARW (fit) [deg/sqrt(h)]" and r[3] in ("pass", "fail", "indeterminate")
+            for r in rows
+        )
         await pilot.press("j")
         reports = settings.reports_dir
         await until(pilot, lambda: list(reports.glob("*.json")), 30, "the report")

@@ -54,7 +54,7 @@ class Kvh1750Frame:
 
 
 def _f32(x: float) -> float:
-    return struct.unpack(">f", struct.pack(">f", x))[0]
+    return float(struct.unpack(">f", struct.pack(">f", x))[0])
 
 
 class Kvh1750Codec(StreamingOnPowerUp):

@@ -13,7 +13,7 @@ import operator
 import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, SupportsIndex
 
 from devices.codecs.base import Reading
 from devices.errors import CodecError, FrameError
@@ -25,10 +25,9 @@ _FORMATS: dict[str, str] = {"int16": ">h", "uint16": ">H", "int32": ">i", "uint3
 
 def _register(word: object, address: int) -> int:
     """A register as received: an integer in 0..65535, else FrameError."""
-    try:
-        value = operator.index(word)  # type: ignore[call-overload]
-    except TypeError:
-        raise FrameError(f"register {address}: {word!r} is not an integer") from None
+    if not isinstance(word, SupportsIndex):
+        raise FrameError(f"register {address}: {word!r} is not an integer")
+    value = operator.index(word)
     if isinstance(word, bool) or not 0 <= value <= 0xFFFF:
         raise FrameError(f"register {address}: value {word!r} out of 0..65535")
     return value
@@ -83,7 +82,7 @@ class RegisterField:
             words.reverse()
         raw = b"".join(w.to_bytes(2, "big") for w in words)
         value = struct.unpack(_FORMATS[self.kind], raw)[0]
-        return value * self.scale
+        return float(value * self.scale)
 
     def pack(self, value: float) -> list[int]:
         """Registers of ``value`` (physical units), integers rounded and clipped."""

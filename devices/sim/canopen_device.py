@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import queue
 import threading
+from collections.abc import Mapping
 from pathlib import Path
 
 import canopen
+from canopen.sdo import SdoArray, SdoRecord, SdoVariable
 
 from devices.codecs.base import Reading
 from devices.sim.faults import SimCore
@@ -54,12 +56,21 @@ class CanopenGyroNode(DeviceLoop):
         self.node_id = node_id
         self.poll_s = poll_s
         self.node = canopen.LocalNode(node_id, str(GYRO_EDS))
-        self.node.sdo[0x1018][4].raw = serial_number
+        self._entry(0x1018, 4).raw = serial_number
         self.node.add_write_callback(self._on_write)
         self.network: canopen.Network | None = None
         self._remap = threading.Event()
         self._syncs: queue.SimpleQueue[float] = queue.SimpleQueue()
-        self._scale = float(self.node.sdo[0x2003].raw)
+        self._scale = float(self._entry(0x2003).raw)
+
+    def _entry(self, index: int, subindex: int | None = None) -> SdoVariable:
+        """The node's own object-dictionary variable at ``index`` (and ``subindex``)."""
+        entry = self.node.sdo[index]
+        if subindex is not None:
+            assert isinstance(entry, SdoRecord | SdoArray)
+            entry = entry[subindex]
+        assert isinstance(entry, SdoVariable)
+        return entry
 
     def _on_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
         if 0x1800 <= index <= 0x1A01:
@@ -97,11 +108,11 @@ class CanopenGyroNode(DeviceLoop):
     def _apply_configuration(self) -> None:
         self._remap.clear()
         self.node.tpdo.read(from_od=False)  # the mapping the master wrote over SDO
-        rate = float(self.node.sdo[0x2006].raw)
+        rate = float(self._entry(0x2006).raw)
         if rate > 0 and rate != self.core.sample_rate_hz:
             self.core.retime(rate)
 
-    def _send(self, reading_index: int, values: dict[str, float], tpdo: int) -> None:
+    def _send(self, reading_index: int, values: Mapping[str, float], tpdo: int) -> None:
         pdo = self.node.tpdo[tpdo]
         if not pdo.enabled:
             return
@@ -145,7 +156,7 @@ class CanopenGyroNode(DeviceLoop):
                 continue
             if unplugged:
                 unplugged = False
-                self.node.nmt.start_heartbeat(int(self.node.sdo[0x1017].raw))
+                self.node.nmt.start_heartbeat(int(self._entry(0x1017).raw))
             if self.node.nmt.state != _OPERATIONAL:
                 core.lose(readings)
                 continue

@@ -232,7 +232,7 @@ class SimulatedFixture:
         try:
             await self._stop.wait()
         finally:
-            await server.shutdown()  # type: ignore[no-untyped-call]
+            await server.shutdown()
             task.cancel()
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await task

@@ -15,7 +15,7 @@ import threading
 import time
 
 from pymodbus.constants import ExcCodes
-from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+from pymodbus.server import ModbusBaseServer, ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from devices.codecs.base import Reading
@@ -107,7 +107,7 @@ class ModbusGyroServer:
         ]
 
     # -- serving ---------------------------------------------------------------------
-    def _server(self) -> ModbusTcpServer | ModbusSerialServer:
+    def _server(self) -> ModbusBaseServer:
         if self.bridge is not None:
             return ModbusSerialServer(self._devices(), port=self.bridge.port_a, baudrate=115200)
         return ModbusTcpServer(self._devices(), address=("127.0.0.1", self.port))
@@ -115,7 +115,7 @@ class ModbusGyroServer:
     async def _serve(self) -> None:
         self._stop = asyncio.Event()
         self._ready.set()
-        server: ModbusTcpServer | ModbusSerialServer | None = None
+        server: ModbusBaseServer | None = None
         task: asyncio.Task[None] | None = None
         try:
             while not self._stop.is_set():

@@ -66,7 +66,8 @@ class _LoopbackGroup(GeneralPurposeUdpMulticastBus):
             if hasattr(socket, "SO_REUSEPORT"):
                 sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEPORT, 1)
             try:
-                sock.setsockopt(socket.SOL_SOCKET, socket.SO_TIMESTAMPNS, 1)
+                # Linux only (not in every platform's socket module)
+                sock.setsockopt(socket.SOL_SOCKET, getattr(socket, "SO_TIMESTAMPNS", -1), 1)
                 self.timestamp_nanosecond = True
             except (OSError, AttributeError):
                 self.timestamp_nanosecond = False

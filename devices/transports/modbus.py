@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Literal
 
-from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+from pymodbus.client import ModbusBaseSyncClient, ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
@@ -41,7 +41,7 @@ class ModbusTransport:
         self.port = port
         self.baudrate = baudrate
         self.timeout_s = timeout_s
-        self._client: ModbusTcpClient | ModbusSerialClient | None = None
+        self._client: ModbusBaseSyncClient | None = None
 
     @property
     def settings(self) -> tuple[tuple[str, str], ...]:
@@ -52,7 +52,7 @@ class ModbusTransport:
     def open(self) -> None:
         self.close()
         if self.kind == "tcp":
-            client: ModbusTcpClient | ModbusSerialClient = ModbusTcpClient(
+            client: ModbusBaseSyncClient = ModbusTcpClient(
                 self.target, port=self.port, timeout=self.timeout_s, retries=0)
         else:
             client = ModbusSerialClient(self.target, baudrate=self.baudrate,
@@ -120,7 +120,7 @@ class ModbusTransport:
     def _connected(self) -> ModbusTcpClient | ModbusSerialClient:
         if self._client is None:
             raise DeviceDisconnectedError("Modbus client is not connected")
-        return self._client
+        return self._client  # type: ignore[return-value]
 
     def read_registers(self, address: int, count: int, device_id: int,
                        table: Literal["holding", "input"] = "holding") -> list[int]:

@@ -81,7 +81,7 @@ class SerialTransport:
             if not first:
                 return b""
             port.timeout = 0
-            return first + port.read(port.in_waiting or 0)
+            return bytes(first + port.read(port.in_waiting or 0))
         except (serial.SerialException, OSError, TypeError) as exc:
             # pyserial raises TypeError from a port closed under it by another thread.
             raise DeviceDisconnectedError(f"{self.port}: {exc}") from exc

@@ -10,12 +10,14 @@ from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
 from analysis.fit import FIT_METHODS
+from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
     add_record_arguments,
     print_notes,
     record_source,
 )
+from station.commands.terminal import plural
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
     GMWM_METHOD,
@@ -32,7 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``analyze`` sub-command."""
     p = sub.add_parser(
         "analyze",
-        help="Allan deviation, noise-term fit and spec figures of a record",
+        help=COMMAND_HELP["analyze"],
         description=__doc__,
     )
     add_record_arguments(p)
@@ -69,6 +71,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "with the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
+    p.add_argument("--csv", type=Path, default=None, metavar="OUT.csv",
+                   help="write the curve: per axis and tau the deviation, its interval and the "
+                        "fitted model, in deg/h (no profile or report needed)")
     add_bench_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
@@ -85,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
                                     deviation=args.deviation, taus=args.taus, method=args.method,
                                     terms=args.terms, select=args.select, gmwm_model=args.model,
                                     robust=args.robust, outliers=args.outliers, bench=args.bench,
-                                    png=args.png), progress)
+                                    png=args.png, csv=args.csv), progress)
     print_notes("analyze", result.notes)
     if args.json:
         json.dump(result.as_json(), sys.stdout)
@@ -93,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
-              f"{len(result.axes)} axis/axes")
+              f"{plural(len(result.axes), 'axis')}")
         if selection.start_s > 0 or selection.stop_s is not None:
             print(f"analyzed {selection.start_s:g} s .. "
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
@@ -101,4 +106,6 @@ def run(args: argparse.Namespace) -> int:
         print(format_analysis(list(result.axes)))
         if result.png is not None:
             print(f"figure: {result.png}")
+        if args.csv is not None:
+            print(f"curve: {args.csv}")
     return 0

@@ -23,27 +23,64 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
                         help="unit of the rate columns (default deg/s)")
     parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
-    parser.add_argument("--unit", default=None,
-                        help="run files: the unit (unit1, unit2, ... or its serial number; "
-                             "default the first)")
-    parser.add_argument("--start-s", type=float, default=0.0, metavar="S",
-                        help="analyze from S seconds after the record start (default 0)")
-    parser.add_argument("--stop-s", type=float, default=None, metavar="S",
-                        help="analyze up to S seconds after the record start (default: end)")
-    parser.add_argument("--profile", default=None,
-                        help="product profile whose warm-up (warmup_s) is discarded; run "
-                             "files default to the profile they were recorded with")
-    parser.add_argument("--warmup-s", type=float, default=None, metavar="S",
-                        help="warm-up to discard from the start, s (overrides the profile)")
+    add_slice_arguments(parser)
+
+
+def add_slice_arguments(
+    parser: argparse.ArgumentParser, *, unit_default: str = "the first"
+) -> None:
+    """``--unit``, ``--start-s``, ``--stop-s``, ``--profile``, ``--warmup-s``: which unit of a
+    run file and which part of its record (:class:`station.services.records.RecordSource`)."""
+    parser.add_argument(
+        "--unit",
+        default=None,
+        help=f"run files: the unit (unit1, unit2, ... or its serial number; "
+        f"default {unit_default})",
+    )
+    parser.add_argument(
+        "--start-s",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="analyze from S seconds after the record start (default 0)",
+    )
+    parser.add_argument(
+        "--stop-s",
+        type=float,
+        default=None,
+        metavar="S",
+        help="analyze up to S seconds after the record start (default: end)",
+    )
+    parser.add_argument(
+        "--profile",
+        default=None,
+        help="product profile whose warm-up (warmup_s) is discarded; run "
+        "files default to the profile they were recorded with",
+    )
+    parser.add_argument(
+        "--warmup-s",
+        type=float,
+        default=None,
+        metavar="S",
+        help="warm-up to discard from the start, s (overrides the profile)",
+    )
 
 
 def record_source(args: argparse.Namespace) -> RecordSource:
     """The :class:`RecordSource` the shared record arguments name."""
     from station.services.records import RecordSource
 
-    return RecordSource(args.file, rate_hz=args.rate, units=args.units, axis=args.axis,
-                        unit=args.unit, start_s=args.start_s, stop_s=args.stop_s,
-                        profile=args.profile, warmup_s=args.warmup_s)
+    return RecordSource(
+        args.file,
+        rate_hz=args.rate,
+        units=args.units,
+        axis=args.axis,
+        unit=args.unit,
+        start_s=args.start_s,
+        stop_s=args.stop_s,
+        profile=args.profile,
+        warmup_s=args.warmup_s,
+    )
 
 
 def print_notes(command: str, notes: tuple[str, ...]) -> None:
@@ -54,18 +91,27 @@ def print_notes(command: str, notes: tuple[str, ...]) -> None:
 
 def add_bench_argument(p: argparse.ArgumentParser) -> None:
     """``--bench FILE``: latitude and axis directions, so the bias has the Earth rate removed."""
-    p.add_argument("--bench", default=None, metavar="FILE",
-                   help="bench file (latitude, axis directions; docs/bench.md): the bias is "
-                        "reported with the Earth rate removed (run files: default the run's bench)")
+    p.add_argument(
+        "--bench",
+        default=None,
+        metavar="FILE",
+        help="bench file (latitude, axis directions; docs/bench.md): the bias is "
+        "reported with the Earth rate removed (run files: default the run's bench)",
+    )
 
 
 def add_database_argument(p: argparse.ArgumentParser) -> None:
     """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL."""
     from station.output.results_backends import database_location
 
-    p.add_argument("--db", type=database_location, default=None, metavar="FILE|URL",
-                   help="results database: an SQLite file or a postgresql://USER@HOST/DB URL "
-                        "(default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)")
+    p.add_argument(
+        "--db",
+        type=database_location,
+        default=None,
+        metavar="FILE|URL",
+        help="results database: an SQLite file or a postgresql://USER@HOST/DB URL "
+        "(default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)",
+    )
 
 
 def duration_type(text: str) -> float:

@@ -1,8 +1,9 @@
 """``station davar FILE``: dynamic Allan deviation of a record, warm-up time and stationarity.
 
 Prints a summary (or, with ``--json``, one object
-``{"axes": [{"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}]}`` with
-``adev`` per window and tau in deg/s) and can draw a heat map of log ADEV over time and tau.
+``{"axes": [{"name", "t_s", "tau_s", "adev_deg_h", "adev_deg_s", "adev", "warmup_end_s",
+"stationary"}]}`` with the ADEV per window and tau; ``adev`` is ``adev_deg_s``, kept for
+older readers) and can draw a heat map of log ADEV (deg/h) over time and tau.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from analysis.units import S_PER_H
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_record_arguments, print_notes, record_source
 
 if TYPE_CHECKING:
@@ -25,7 +28,7 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``davar`` sub-command."""
-    p = sub.add_parser("davar", help="dynamic Allan deviation, warm-up time and stationarity",
+    p = sub.add_parser("davar", help=COMMAND_HELP["davar"],
                        description=__doc__)
     add_record_arguments(p)
     p.add_argument("--window-s", type=float, required=True, metavar="W",
@@ -33,9 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step-s", type=float, default=None, metavar="S",
                    help="step between windows in s (default: a tenth of the window)")
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write a heat map of log10 ADEV over time and tau")
+                   help="write a heat map of log10 ADEV (deg/h) over time and tau")
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
-    # the DAVAR finds the warm-up itself: nothing is discarded unless --warmup-s asks
     p.set_defaults(handler=run)
 
 
@@ -78,11 +80,11 @@ def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: R
     ]
     picks = sorted({0, len(result.tau_s) // 2, len(result.tau_s) - 1})
     for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
-        adev = result.axis(i).adev
+        adev = result.axis(i).adev * S_PER_H
         lines.append(f"axis {name}:")
         for k in picks:
             col = adev[:, k]
             lines.append(f"  ADEV at tau {result.tau_s[k]:>9.4g} s: min {col.min():.4g}  "
-                         f"median {np.median(col):.4g}  max {col.max():.4g} deg/s over time")
+                         f"median {np.median(col):.4g}  max {col.max():.4g} deg/h over time")
         lines.append(f"  {_verdict_text(verdict)}")
     return "\n".join(lines)

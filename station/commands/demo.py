@@ -20,9 +20,10 @@ import numpy as np
 
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
-from station.commands import demo_sequence
+from station.commands import COMMAND_HELP, demo_sequence
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
+from station.model.runs import RunMetadata
 from station.storage.csv_records import write_csv_record
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
@@ -67,16 +68,25 @@ def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``demo`` sub-command."""
-    p = sub.add_parser("demo", help="record two simulated gyros, analyze them, print spec figures",
+    p = sub.add_parser("demo", help=COMMAND_HELP["demo"],
                        description=__doc__)
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")
     p.add_argument(
         "--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)"
     )
-    p.add_argument("--seed", type=int, default=1)
-    p.add_argument("--out", type=Path, default=Path("station-demo"),
-                   help="folder for the run file and the plot (default ./station-demo)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=1,
+        help="seed of the simulated gyros (default 1: the same demo every time)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path("station-demo"),
+        help="folder for the run file and the plot (default ./station-demo)",
+    )
     demo_sequence.add_arguments(p)
     p.set_defaults(handler=run)
 
@@ -87,14 +97,19 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
     from station.recording.recorder import Recorder, RunConfig
 
     urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
-    recorder = Recorder(RunConfig(urls, args.duration * 3600.0, path, operator="station demo"),
-                        [ProgressLine(sys.stderr, plain_interval_s=5.0)])
+    recorder = Recorder(
+        RunConfig(urls, args.duration * 3600.0, path,
+                  metadata=RunMetadata(operator="station demo")),
+        [ProgressLine(sys.stderr, plain_interval_s=5.0)],
+    )
     recorder.prepare()
     stop = recorder.run()
     for t in stop.totals:
-        print(f"{t.unit_id}: {t.samples_recorded} samples recorded, "
-              f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
-              f"simulator sent {t.samples_sent}")
+        print(
+            f"{t.unit_id}: {t.samples_recorded} samples recorded, "
+            f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
+            f"simulator sent {t.samples_sent}"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -107,8 +122,11 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "demo-run.h5"
     path.unlink(missing_ok=True)
-    print(f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
-          f"{args.rate:g} Hz over two Xbus serial links into {path} ...", file=sys.stderr)
+    print(
+        f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
+        f"{args.rate:g} Hz over two Xbus serial links into {path} ...",
+        file=sys.stderr,
+    )
     record_demo_run(args, path)
     plotted: list[AxisAnalysis] = []
     for unit in ("unit1", "unit2"):
@@ -120,15 +138,24 @@ def run(args: argparse.Namespace) -> int:
         plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
         if unit == "unit1":
             csv_path = write_csv_record(
-                args.out / "demo-record.csv.gz", record.rate_deg_s, record.sample_rate_hz,
-                axis_names=record.axis_names, comment=f"station demo, {record.source}, deg/s",
-                temperature_c=record.temperature_c)
-    print(f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
-          f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h")
+                args.out / "demo-record.csv.gz",
+                record.rate_deg_s,
+                record.sample_rate_hz,
+                axis_names=record.axis_names,
+                comment=f"station demo, {record.source}, deg/s",
+                temperature_c=record.temperature_c,
+            )
+    print(
+        f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
+        f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h"
+    )
     from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
 
-    png_path = plot_allan(plotted, args.out / "demo-allan.png",
-                          title="station demo: two simulated VG951 gyros, axis x")
+    png_path = plot_allan(
+        plotted,
+        args.out / "demo-allan.png",
+        title="station demo: two simulated VG951 gyros, axis x",
+    )
     print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and {png_path}")
     print(f"done in {time.monotonic() - t0:.1f} s")
     return 0

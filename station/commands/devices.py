@@ -15,15 +15,15 @@ from types import FrameType
 from devices.opened import OpenedDevice, SimulatedDevice
 from devices.url_query import is_simulated
 from devices.urls import SUPPORTED, open_device
+from station.commands import COMMAND_HELP
 from station.errors import UsageError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``devices`` sub-command (and its ``serve`` action)."""
-    p = sub.add_parser("devices", help="list supported device protocols and their simulations; "
-                       "serve a simulated gyro", description=__doc__)
+    p = sub.add_parser("devices", help=COMMAND_HELP["devices"], description=__doc__)
     p.add_argument("--json", action="store_true",
-                   help='print [{"protocol", "transport", "sim_url"}, ...] as JSON')
+                   help='print [{"protocol", "transport", "hardware_url", "sim_url"}, ...] as JSON')
     p.set_defaults(handler=run)
     actions = p.add_subparsers(dest="action", metavar="ACTION")
     serve = actions.add_parser(
@@ -49,9 +49,13 @@ def run(args: argparse.Namespace) -> int:
                           for p in SUPPORTED], indent=2))
         return 0
     width = max(len(p.protocol) for p in SUPPORTED)
+    pad = " " * (width + 15)
     for p in SUPPORTED:
         print(f"{p.protocol:<{width}}  {p.transport:<11}  {p.description}")
-        print(f"{'':<{width}}  {'':<11}  {p.sim_url}")
+        print(f"{pad}hardware:  {p.hardware_url}")
+        print(f"{pad}simulated: {p.sim_url}")
+    print("\nNames in capitals (PROFILE.toml, FILE.eds) and the port or address are yours to fill "
+          "in; docs/devices.md lists every key.")
     return 0
 
 

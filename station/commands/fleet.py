@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 from typing import TextIO
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report import FORMATS
 from station.output.results_backends import redacted
@@ -35,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``fleet`` sub-command."""
     p = sub.add_parser(
         "fleet",
-        help="grade, analyze or report many runs on a Dask cluster",
+        help=COMMAND_HELP["fleet"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -1,8 +1,8 @@
 """``station grade RUN [--profile P]``: every figure with its confidence interval, and the grade.
 
-Prints a table per unit (or, with ``--json``, the document of
-:meth:`station.evaluation.grading.RunGrade.as_json`) and stores each graded unit in the results
-database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
+Prints a table per unit (or, with ``--json``, one JSON document: the run, and per unit
+its figures with intervals, limits and verdicts; docs/json.md) and stores each graded unit in
+the results database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
 ``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
 """
 
@@ -13,6 +13,7 @@ import json
 import sys
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report.common import analysis_lines
 from station.output.report.sequence_sheet import sequence_lines
@@ -26,14 +27,32 @@ if TYPE_CHECKING:
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments shared by the commands that grade a run (grade, report)."""
     p.add_argument("run", help="run file: a recorder HDF5 run or a CSV record (one unit)")
-    p.add_argument("--profile", default=None, metavar="P",
-                   help="product profile: a name in profiles/ or a TOML file (default: the run's)")
-    p.add_argument("--rate", type=float, default=None, metavar="HZ",
-                   help="sample rate of a CSV record without a time column, Hz")
-    p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
-                   help="rate unit of a CSV record (default deg/s)")
-    p.add_argument("--unit", action="append", default=[], metavar="ID",
-                   help="grade only this unit (id or serial number); repeatable")
+    p.add_argument(
+        "--profile",
+        default=None,
+        metavar="P",
+        help="product profile: a name in profiles/ or a TOML file (default: the run's)",
+    )
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="sample rate of a CSV record without a time column, Hz",
+    )
+    p.add_argument(
+        "--units",
+        choices=sorted(UNIT_TO_DEG_S),
+        default="deg/s",
+        help="rate unit of a CSV record (default deg/s)",
+    )
+    p.add_argument(
+        "--unit",
+        action="append",
+        default=[],
+        metavar="ID",
+        help="grade only this unit (id or serial number); repeatable",
+    )
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
@@ -48,15 +67,27 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
     """The :class:`GradeRequest` the shared grading arguments name."""
     from station.services.grade import GradeRequest, RunSource
 
-    run = RunSource(args.run, rate_hz=args.rate, units=args.units, serial=args.serial,
-                    lot=args.lot, operator=args.operator)
-    return GradeRequest(run, profile=args.profile, units=tuple(args.unit), bench=args.bench,
-                        db=args.db, store=not args.no_store)
+    run = RunSource(
+        args.run,
+        rate_hz=args.rate,
+        units=args.units,
+        serial=args.serial,
+        lot=args.lot,
+        operator=args.operator,
+    )
+    return GradeRequest(
+        run,
+        profile=args.profile,
+        units=tuple(args.unit),
+        bench=args.bench,
+        db=args.db,
+        store=not args.no_store,
+    )
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``grade`` sub-command."""
-    p = sub.add_parser("grade", help="grade a run against a product profile", description=__doc__)
+    p = sub.add_parser("grade", help=COMMAND_HELP["grade"], description=__doc__)
     add_grading_arguments(p)
     p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
     p.set_defaults(handler=run)
@@ -95,8 +126,10 @@ def format_grade(graded: RunGrade) -> str:
     for u in graded.units:
         lines.append("")
         flag = "  REVIEW" if u.review else ""
-        lines.append(f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
-                     f"{u.unit.serial_number or '-'}  GRADE {u.grade}{flag}")
+        lines.append(
+            f"unit {u.unit.unit_id}  model {u.unit.model or p.model}  serial "
+            f"{u.unit.serial_number or '-'}  GRADE {u.grade}{flag}"
+        )
         for note in u.notes:
             lines.append(f"  note: {note}")
         for line in analysis_lines(u):

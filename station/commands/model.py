@@ -2,7 +2,8 @@
 indicators.
 
 * ``station model curve MODEL --taus log --json`` prints the model's theoretical Allan
-  deviation in deg/s, ``{"tau_s": [...], "adev": [...], "terms": {"<term>": [...]}}``,
+  deviation, ``{"tau_s", "adev_deg_h", "terms_deg_h": {"<term>": [...]}}`` (and, in deg/s,
+  the older keys ``adev`` and ``terms``),
   on the tau grid of a record of ``--duration`` at ``--rate`` (``log``, ``octave``,
   ``all``) or at explicit taus (``--taus 0.1,1,10``);
 * ``station model show MODEL`` prints a model (file or preset) as TOML;
@@ -17,7 +18,9 @@ import argparse
 import json
 from pathlib import Path
 
+from analysis.units import S_PER_H
 from devices.model_files import load_noise_model
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
 
 
@@ -25,13 +28,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``model`` sub-command and its actions."""
     p = sub.add_parser(
         "model",
-        help="noise models: theoretical Allan curve, show, FOG from indicators",
+        help=COMMAND_HELP["model"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
 
-    curve = actions.add_parser("curve", help="theoretical Allan deviation of a model (deg/s)")
+    curve = actions.add_parser("curve", help="theoretical Allan deviation of a model (deg/h)")
     curve.add_argument("model", metavar="MODEL", help="model TOML file or preset name")
     curve.add_argument("--taus", default="log", metavar="GRID",
                        help="log, octave, all, or comma-separated taus in s (default log)")
@@ -83,9 +86,9 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(curve.as_json()))
         return 0
     names = list(curve.terms)
-    print(f"# theoretical Allan deviation of {curve.model.name or args.model} in deg/s")
+    print(f"# theoretical Allan deviation of {curve.model.name or args.model} in deg/h")
     print("  ".join(f"{h:>12}" for h in ["tau_s", "adev", *names]))
     for i, tau in enumerate(curve.tau_s):
-        row = [tau, curve.adev[i], *(curve.terms[n][i] for n in names)]
+        row = [tau, curve.adev[i] * S_PER_H, *(curve.terms[n][i] * S_PER_H for n in names)]
         print("  ".join(f"{v:12.5g}" for v in row))
     return 0

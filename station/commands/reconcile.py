@@ -20,6 +20,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
+from station.commands import COMMAND_HELP
+from station.commands.arguments import add_slice_arguments, print_notes, record_source
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
@@ -28,10 +30,10 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reconcile`` sub-command."""
-    p = sub.add_parser("reconcile", help="model versus measurement: name the missing effects",
+    p = sub.add_parser("reconcile", help=COMMAND_HELP["reconcile"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument(
-        "measured", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
+        "file", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
     )
     p.add_argument("--rate", type=float, default=None, metavar="HZ",
                    help="sample rate in Hz (required when a CSV has no time column)")
@@ -43,6 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--axis", default=None, help="reconcile only this axis (column name); default every axis"
     )
+    add_slice_arguments(p, unit_default="every unit")
     p.add_argument(
         "--png", type=Path, default=None, metavar="OUT.png", help="write the figure here"
     )
@@ -50,16 +53,30 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--json", action="store_true", help="print one JSON object instead of the text report"
     )
     defaults = ReconcileOptions()
-    p.add_argument("--runs", type=int, default=defaults.runs, metavar="N",
-                   help=f"Monte Carlo runs per comparison (default {defaults.runs})")
+    p.add_argument(
+        "--runs",
+        type=int,
+        default=defaults.runs,
+        metavar="N",
+        help=f"Monte Carlo runs per comparison (default {defaults.runs})",
+    )
     p.add_argument(
         "--seed", type=int, default=defaults.seed, help="seed of the Monte Carlo runs (default 0)"
     )
-    p.add_argument("--alpha", type=float, default=defaults.alpha,
-                   help=f"level of the gap test (default {defaults.alpha})")
-    p.add_argument("--max-samples", type=int, default=defaults.max_samples, metavar="N",
-                   help="decimate longer records by block means to at most N samples "
-                        f"(default {defaults.max_samples})")
+    p.add_argument(
+        "--alpha",
+        type=float,
+        default=defaults.alpha,
+        help=f"level of the gap test (default {defaults.alpha})",
+    )
+    p.add_argument(
+        "--max-samples",
+        type=int,
+        default=defaults.max_samples,
+        metavar="N",
+        help="decimate longer records by block means to at most N samples "
+        f"(default {defaults.max_samples})",
+    )
     p.set_defaults(handler=run)
 
 
@@ -71,15 +88,24 @@ def run(args: argparse.Namespace) -> int:
     def progress(step: Progress) -> None:
         print(f"reconcile: {step.text} ...", file=sys.stderr, flush=True)
 
-    answer = reconcile_run(ReconcileRequest(
-        args.measured, args.model, rate_hz=args.rate, units=args.units, axis=args.axis,
-        runs=args.runs, seed=args.seed, alpha=args.alpha, max_samples=args.max_samples,
-        png=args.png), progress)
+    answer = reconcile_run(
+        ReconcileRequest(
+            record_source(args),
+            args.model,
+            runs=args.runs,
+            seed=args.seed,
+            alpha=args.alpha,
+            max_samples=args.max_samples,
+            png=args.png,
+        ),
+        progress,
+    )
+    print_notes("reconcile", answer.notes)
     if args.json:
         json.dump(answer.as_json(), sys.stdout)
         sys.stdout.write("\n")
     else:
-        print(f"{args.measured} against {args.model}")
+        print(f"{args.file} against {args.model}")
         print("\n\n".join(format_reconcile(res, label=label) for label, res in answer.results))
         if answer.png is not None:
             print(f"figure: {answer.png}")

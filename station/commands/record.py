@@ -27,7 +27,7 @@ import os
 import sys
 from pathlib import Path
 
-from station.commands import record_sequence
+from station.commands import COMMAND_HELP, record_sequence
 from station.commands.record_sequence import add_sequence_arguments
 from station.recording.progress import ProgressLine
 
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``record`` sub-command."""
-    p = sub.add_parser("record", help="record gyros into an HDF5 run file",
+    p = sub.add_parser("record", help=COMMAND_HELP["record"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--profile", default=None,
                    help="product profile (name in profiles/ or a TOML path); optional for "

@@ -12,15 +12,19 @@ anything is reported; a file nothing can be salvaged from is an error (exit 2).
 from __future__ import annotations
 
 import argparse
+import json
+import sys
+from dataclasses import asdict
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.storage.hdf5 import REASON_RECOVERED
 from station.storage.hdf5_recover import recover_run
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``recover`` sub-command."""
-    p = sub.add_parser("recover", help="close a run file left open by a killed recorder",
+    p = sub.add_parser("recover", help=COMMAND_HELP["recover"],
                        description=__doc__)
     p.add_argument("file", type=Path, help="the run's .h5 file")
     p.add_argument("--force", action="store_true",
@@ -28,12 +32,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, default=None,
                    help="where the salvage of a damaged file goes (default "
                         "NAME.recovered.h5 beside it)")
+    p.add_argument("--json", action="store_true",
+                   help='print {"path", "already_closed", "kept", "trimmed", "stop_utc", '
+                        '"stop_reason", "salvaged_to", "damage", "notes"} as one JSON object')
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Recover the file and say what was kept."""
     result = recover_run(args.file, force=args.force, out=args.out)
+    if args.json:
+        json.dump(asdict(result), sys.stdout)
+        sys.stdout.write("\n")
+        return 0
     if result.salvaged_to:
         print(f"{result.path}: damaged ({result.damage}); left as it is")
         print(f"salvaged into {result.salvaged_to} (run marked: {result.stop_reason}):")

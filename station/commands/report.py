@@ -9,20 +9,31 @@ database against each unit's grading (storing the grading first when it is not t
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import sys
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import print_warnings
 from station.commands.grade import add_grading_arguments, grade_request
+from station.model.sheet_header import HEADER_ENV
 from station.output.report import FORMATS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``report`` sub-command."""
-    p = sub.add_parser("report", help="write spec-sheet reports (PDF, HTML, JSON, CSV) of a run",
+    p = sub.add_parser("report", help=COMMAND_HELP["report"],
                        description=__doc__)
     add_grading_arguments(p)
     p.add_argument("--format", dest="formats", action="append", choices=FORMATS, default=None,
                    help="report format; repeatable (default pdf)")
+    p.add_argument("--header", type=Path, default=None, metavar="FILE",
+                   help="sheet header (TOML: company, logo, station, conditions, approval; "
+                        "default $STATION_SHEET_HEADER when set); $STATION_NAME names the station "
+                        "when the header does not")
+    p.add_argument("--json", action="store_true",
+                   help='print {"files": [{"format", "path"}], "warnings"} as one JSON object')
     p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
                    help="directory to write into (created; default the current directory)")
     p.set_defaults(handler=run)
@@ -32,8 +43,15 @@ def run(args: argparse.Namespace) -> int:
     """Grade, write each report, record the files, print their paths."""
     from station.services.report import ReportRequest, report
 
-    result = report(ReportRequest(grade_request(args), tuple(args.formats or ["pdf"]), args.out))
+    header = args.header or (Path(os.environ[HEADER_ENV]) if os.environ.get(HEADER_ENV) else None)
+    result = report(ReportRequest(grade_request(args), tuple(args.formats or ["pdf"]), args.out,
+                                  header))
     print_warnings("report", result.warnings)
+    if args.json:
+        json.dump({"files": [{"format": f, "path": str(path)} for f, path in result.files],
+                   "warnings": list(result.warnings)}, sys.stdout)
+        sys.stdout.write("\n")
+        return 0
     for _, path in result.files:
         print(path)
     return 0

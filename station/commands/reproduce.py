@@ -8,13 +8,15 @@ import sys
 import time
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
+
 if TYPE_CHECKING:
     from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reproduce`` sub-command."""
-    p = sub.add_parser("reproduce", help="re-run a published Monte Carlo (lv2015: WLS Allan fit)",
+    p = sub.add_parser("reproduce", help=COMMAND_HELP["reproduce"],
                        description=__doc__)
     p.add_argument("paper", choices=("lv2015",), help="which study to re-run")
     p.add_argument(

@@ -25,6 +25,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_database_argument
 from station.errors import UsageError
 from station.model.kinds import Verdict
@@ -37,17 +38,19 @@ if TYPE_CHECKING:
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``results`` sub-command."""
-    p = sub.add_parser("results", help="browse the results database: list, CSV, yield, trends",
+    p = sub.add_parser("results", help=COMMAND_HELP["results"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_database_argument(p)
-    p.add_argument("--model", default=None)
-    p.add_argument("--lot", default=None)
-    p.add_argument("--serial", default=None)
+    p.add_argument("--model", default=None, help="only this gyro model (as graded, e.g. CRG20)")
+    p.add_argument("--lot", default=None, help="only this production lot")
+    p.add_argument("--serial", default=None, help="only this unit's serial number")
     p.add_argument("--since", default=None, metavar="DATE", help="test date from (ISO 8601, UTC)")
     p.add_argument(
         "--until", default=None, metavar="DATE", help="test date up to, inclusive (ISO 8601)"
     )
-    p.add_argument("--verdict", choices=get_args(Verdict), default=None)
+    p.add_argument(
+        "--verdict", choices=get_args(Verdict), default=None, help="only gradings with this verdict"
+    )
     p.add_argument(
         "--review",
         action="store_true",
@@ -59,20 +62,36 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     what = p.add_mutually_exclusive_group()
     what.add_argument("--yield", dest="show_yield", action="store_true", help="yield per lot")
-    what.add_argument("--trend", default=None, metavar="FIGURE",
-                      help="trend of a figure (a profile figure name such as arw)")
-    what.add_argument("--stats", action="store_true",
-                      help="production statistics: yield per grade, Cp/Cpk, control charts, review")
+    what.add_argument(
+        "--trend",
+        default=None,
+        metavar="FIGURE",
+        help="trend of a figure (a profile figure name such as arw)",
+    )
+    what.add_argument(
+        "--stats",
+        action="store_true",
+        help="production statistics: yield per grade, Cp/Cpk, control charts, review",
+    )
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
     p.add_argument(
         "--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot"
     )
-    p.add_argument("--html", type=Path, default=None, metavar="OUT",
-                   help="with --stats: write the statistics and their plots as one HTML page")
-    p.add_argument("--pdf", type=Path, default=None, metavar="OUT",
-                   help="with --stats: write the statistics and their plots as a PDF")
-    p.add_argument("--json", action="store_true",
-                   help="print one JSON document instead of a table")
+    p.add_argument(
+        "--html",
+        type=Path,
+        default=None,
+        metavar="OUT",
+        help="with --stats: write the statistics and their plots as one HTML page",
+    )
+    p.add_argument(
+        "--pdf",
+        type=Path,
+        default=None,
+        metavar="OUT",
+        help="with --stats: write the statistics and their plots as a PDF",
+    )
+    p.add_argument("--json", action="store_true", help="print one JSON document instead of a table")
     p.set_defaults(handler=run)
 
 
@@ -86,14 +105,30 @@ def run(args: argparse.Namespace) -> int:
         return run_stats(args)
 
     show: Literal["gradings", "yield", "trend"] = (
-        "yield" if args.show_yield else "trend" if args.trend else "gradings")
-    answer = query_results(ResultsRequest(
-        args.db, show, model=args.model, lot=args.lot, serial=args.serial, since=args.since,
-        until=args.until, verdict=args.verdict, review=args.review, latest=args.latest,
-        figure=args.trend, axis=args.axis, csv=args.csv))
+        "yield" if args.show_yield else "trend" if args.trend else "gradings"
+    )
+    answer = query_results(
+        ResultsRequest(
+            args.db,
+            show,
+            model=args.model,
+            lot=args.lot,
+            serial=args.serial,
+            since=args.since,
+            until=args.until,
+            verdict=args.verdict,
+            review=args.review,
+            latest=args.latest,
+            figure=args.trend,
+            axis=args.axis,
+            csv=args.csv,
+        )
+    )
     if args.json:
-        document: dict[str, object] = {"database": redacted(answer.database),
-                                       "exists": answer.exists}
+        document: dict[str, object] = {
+            "database": redacted(answer.database),
+            "exists": answer.exists,
+        }
         if show == "yield":
             document["yield"] = [{**asdict(y), "yield": y.yield_fraction} for y in answer.yields]
         elif show == "trend":
@@ -102,8 +137,9 @@ def run(args: argparse.Namespace) -> int:
             document["gradings"] = [asdict(r) for r in answer.gradings]
         _print_json(document)
     elif not answer.exists:
-        print(f"no results database at {redacted(answer.database)} yet "
-              "(station grade stores into it)")
+        print(
+            f"no results database at {redacted(answer.database)} yet (station grade stores into it)"
+        )
     elif show == "yield":
         print(format_yield(list(answer.yields)))
     elif show == "trend":
@@ -128,15 +164,27 @@ def run_stats(args: argparse.Namespace) -> int:
     """``--stats``: compute, print (table or JSON), and draw when asked."""
     from station.services.production import StatsRequest, production_stats
 
-    answer = production_stats(StatsRequest(args.db, model=args.model, lot=args.lot,
-                                           since=args.since, html=args.html, pdf=args.pdf))
+    answer = production_stats(
+        StatsRequest(
+            args.db, model=args.model, lot=args.lot, since=args.since, html=args.html, pdf=args.pdf
+        )
+    )
     if answer.stats is None:
         if args.json:
-            _print_json({"database": redacted(answer.database), "exists": False, "units": 0,
-                         "yield": {}, "figures": {}})
+            _print_json(
+                {
+                    "database": redacted(answer.database),
+                    "exists": False,
+                    "units": 0,
+                    "yield": {},
+                    "figures": {},
+                }
+            )
         else:
-            print(f"no results database at {redacted(answer.database)} yet "
-                  "(station grade stores into it)")
+            print(
+                f"no results database at {redacted(answer.database)} yet "
+                "(station grade stores into it)"
+            )
         return 0
     if args.json:
         _print_json(answer.stats.as_json())
@@ -153,17 +201,35 @@ def format_stats(stats: ProductionStats) -> str:
     lines = [f"{stats.units} units (latest grading each), profile {stats.profile or '-'}"]
     if not stats.units:
         return lines[0]
-    lines.append(_table(["grade", "units", "share"], [
-        [g, str(n), f"{100 * n / stats.units:.1f} %"] for g, n in stats.grades.items()]))
-    body = [[name, f.unit, str(c.n), _num(c.mean), _num(c.std),
-             " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-", _num(c.cp),
-             _num(c.cpk), str(len(f.chart.out_of_control))]
-            for name, f in stats.figures.items() for c in (f.capability,)]
+    lines.append(
+        _table(
+            ["grade", "units", "share"],
+            [[g, str(n), f"{100 * n / stats.units:.1f} %"] for g, n in stats.grades.items()],
+        )
+    )
+    body = [
+        [
+            name,
+            f.unit,
+            str(c.n),
+            _num(c.mean),
+            _num(c.std),
+            " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-",
+            _num(c.cp),
+            _num(c.cpk),
+            str(len(f.chart.out_of_control)),
+        ]
+        for name, f in stats.figures.items()
+        for c in (f.capability,)
+    ]
     header = ["figure", "unit", "n", "mean", "std", "limits", "Cp", "Cpk", "out of control"]
     lines.append(_table(header, body))
     lines.append(f"{len(stats.review)} units flagged for review")
-    lines += [f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"
-              for u in stats.review for reason in u.reasons]
+    lines += [
+        f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"
+        for u in stats.review
+        for reason in u.reasons
+    ]
     return "\n".join(lines)
 
 
@@ -179,8 +245,21 @@ def _table(header: list[str], rows: list[list[str]]) -> str:
 
 def format_gradings(rows: list[GradingRow]) -> str:
     """The gradings as a terminal table."""
-    body = [[str(r.id), r.test_date, r.model, r.serial_number, r.lot or "-", r.grade, r.verdict,
-             "REVIEW" if r.needs_review else "-", r.profile, Path(r.run_path).name] for r in rows]
+    body = [
+        [
+            str(r.id),
+            r.test_date,
+            r.model,
+            r.serial_number,
+            r.lot or "-",
+            r.grade,
+            r.verdict,
+            "REVIEW" if r.needs_review else "-",
+            r.profile,
+            Path(r.run_path).name,
+        ]
+        for r in rows
+    ]
     header = [
         "id",
         "test date (UTC)",

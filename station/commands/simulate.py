@@ -14,11 +14,14 @@ stderr for long runs.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import duration_type
+from station.commands.terminal import ProgressLine, plural
 
 if TYPE_CHECKING:
     from station.services.progress import Progress
@@ -28,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``simulate`` sub-command."""
     p = sub.add_parser(
         "simulate",
-        help="write a simulated gyro run (model file or ARW + bias stability)",
+        help=COMMAND_HELP["simulate"],
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -52,8 +55,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--seed", type=int, default=None, help="seed of the run (default: fresh entropy)"
     )
-    p.add_argument("--out", type=Path, required=True, metavar="FILE",
-                   help="output: .csv, .csv.gz, or .h5 (a run file in the recorder's layout)")
+    p.add_argument(
+        "--quiet", action="store_true", help="no progress line (it shows only on a terminal)"
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='print {"out", "n_samples", "axes", "rate_hz", "model"} as one JSON object',
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        metavar="FILE",
+        help="output: .csv, .csv.gz, or .h5 (a run file in the recorder's layout)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -62,18 +78,41 @@ def run(args: argparse.Namespace) -> int:
     from station.services.simulate import CHUNK_SAMPLES, SimulateRequest, simulate_run
 
     request = SimulateRequest(
-        args.out, model=args.model, arw_deg_rt_h=args.arw,
-        bias_stability_deg_h=args.bias_stability, average_s=args.average_s,
-        correlation_s=args.correlation_s, duration_s=args.duration, rate_hz=args.rate,
-        axes=args.axes, seed=args.seed)
+        args.out,
+        model=args.model,
+        arw_deg_rt_h=args.arw,
+        bias_stability_deg_h=args.bias_stability,
+        average_s=args.average_s,
+        correlation_s=args.correlation_s,
+        duration_s=args.duration,
+        rate_hz=args.rate,
+        axes=args.axes,
+        seed=args.seed,
+    )
+
+    line = ProgressLine("simulate", quiet=args.quiet)
 
     def progress(step: Progress) -> None:
         if step.total > CHUNK_SAMPLES:  # more than one chunk
-            print(f"\rsimulate: {100.0 * step.done / step.total:5.1f} % ({step.done} of "
-                  f"{step.total} samples)", end="\n" if step.done == step.total else "",
-                  file=sys.stderr, flush=True)
+            line.update(step.done, step.total)
 
     result = simulate_run(request, progress)
-    print(f"wrote {result.n_samples} samples x {result.axes} axes at {result.rate_hz:g} Hz to "
-          f"{result.out}", file=sys.stderr)
+    if args.json:
+        json.dump(
+            {
+                "out": str(result.out),
+                "n_samples": result.n_samples,
+                "axes": result.axes,
+                "rate_hz": result.rate_hz,
+                "model": result.model.name,
+            },
+            sys.stdout,
+        )
+        sys.stdout.write("\n")
+    else:
+        print(
+            f"wrote {plural(result.n_samples, 'sample')} x {plural(result.axes, 'axis')} at "
+            f"{result.rate_hz:g} Hz to {result.out}",
+            file=sys.stderr,
+        )
     return 0

@@ -11,12 +11,13 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.commands import COMMAND_HELP
 from station.commands.arguments import add_database_argument
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``tui`` sub-command."""
-    p = sub.add_parser("tui", help="terminal user interface: run, watch and grade gyros",
+    p = sub.add_parser("tui", help=COMMAND_HELP["tui"],
                        description=__doc__)
     p.add_argument("--runs", type=Path, default=Path("runs"), metavar="DIR",
                    help="folder of the run files (default ./runs)")

@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from station.commands import COMMAND_HELP
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``watch`` sub-command."""
-    p = sub.add_parser("watch", help="follow a run file while it is being recorded",
+    p = sub.add_parser("watch", help=COMMAND_HELP["watch"],
                        description=__doc__)
     p.add_argument("run", type=Path, help="the run's .h5 file")
     p.add_argument("--interval", type=float, default=1.0, metavar="S",

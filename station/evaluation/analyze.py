@@ -12,7 +12,14 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import AllanResult, Estimator, allan_variance, analysis_log_m
+from analysis import blocks
+from analysis.allan import (
+    AllanResult,
+    Estimator,
+    allan_variance,
+    analysis_log_m,
+    overlapping_allan_variance,
+)
 from analysis.deviations import (
     DEVIATION_LABELS,
     DeviationKind,
@@ -24,13 +31,20 @@ from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_summary
 from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
-from analysis.outliers import SpikeDetection, detect_spikes, min_samples, replace_spikes
+from analysis.outliers import (
+    SpikeDetection,
+    detect_spikes,
+    min_samples,
+    replace_flagged,
+    replace_spikes,
+)
 from analysis.tones import Tone, find_tones
 from analysis.units import S_PER_H
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
+from station.storage.scratch import scratch_array
 
 DEFAULT_METHOD: FitMethod = "logwls"
 #: ``--method gmwm``: the GMWM beside the default Allan fit (whose read-offs and terms stay).
@@ -116,6 +130,17 @@ class OutlierReport:
         )
 
 
+def _in_station_units(c: DeviationResult) -> dict[str, list[float]]:
+    """The curve in the deg/h family of every other figure: ``adev_deg_h``, ``adev_ci_low_deg_h``,
+    ``adev_ci_high_deg_h`` (an angle deviation, tdev: ``adev_deg``... in deg, as it is)."""
+    if c.unit == "angle":
+        return {"adev_deg": c.deviation.tolist(), "adev_ci_low_deg": c.deviation_ci_low.tolist(),
+                "adev_ci_high_deg": c.deviation_ci_high.tolist()}
+    return {"adev_deg_h": (c.deviation * S_PER_H).tolist(),
+            "adev_ci_low_deg_h": (c.deviation_ci_low * S_PER_H).tolist(),
+            "adev_ci_high_deg_h": (c.deviation_ci_high * S_PER_H).tolist()}
+
+
 @dataclass(frozen=True)
 class AxisAnalysis:
     """Everything ``station analyze`` reports for one axis.
@@ -169,6 +194,7 @@ class AxisAnalysis:
             "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
             "tau_s": c.tau_s.tolist(),
             "adev": c.deviation.tolist(),
+            **_in_station_units(c),
             "adev_ci_low": c.deviation_ci_low.tolist(),
             "adev_ci_high": c.deviation_ci_high.tolist(),
             "n_clusters": c.n_clusters.tolist(),
@@ -201,8 +227,10 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
             rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}"
         )
     detection = detect_spikes(x)
-    grid = np.arange(len(x)) if positions is None else positions
-    times = tuple(float(grid[sp.index]) / fs for sp in detection.spikes)
+    times = tuple(
+        float(sp.index if positions is None else positions[sp.index]) / fs
+        for sp in detection.spikes
+    )
     remove = detection.count > 0 and (
         policy == "remove" or (policy == "auto" and detection.removable)
     )
@@ -210,13 +238,37 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
     if detection.count and policy != "auto":
         rule += f" (--outliers {policy})"
     report = OutlierReport(detection, remove, rule, times)
-    return (replace_spikes(x, detection.flags, grid) if remove else x), report
+    return (_replaced(x, detection, positions) if remove else x), report
+
+
+def _replaced(x: NDArray[np.float64], detection: SpikeDetection,
+              positions: NDArray[np.int64] | None) -> NDArray[np.float64]:
+    """``x`` with the detected spikes replaced (into a scratch memmap when ``x`` is long)."""
+    if blocks.is_long(len(x)):
+        return replace_flagged(x, detection.flagged, positions, out=scratch_array((len(x),)))
+    return replace_spikes(x, detection.flags, np.arange(len(x)) if positions is None else positions)
 
 
 def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
            taus: str | np.ndarray) -> AllanResult:
+    if not gapped and estimator == "overlapping" and blocks.is_long(len(grid_rate)):
+        # a long record: its angle in a scratch memmap, read a block at a time
+        return overlapping_allan_variance(grid_rate, fs, taus=taus,
+                                          angle_out=scratch_array((len(grid_rate) + 1, 1)))
     return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
                           missing="gap" if gapped else "raise")
+
+
+def _minus(x: NDArray[np.float64], offset: float) -> NDArray[np.float64]:
+    """``x - offset`` (into a scratch memmap when ``x`` is long)."""
+    if not blocks.is_long(len(x)):
+        return x - offset
+    out = scratch_array((len(x),))
+    for a, b in blocks.spans(0, len(x)):
+        np.subtract(x[a:b], offset, out=out[a:b])
+        blocks.release(x)
+        blocks.release(out)
+    return out
 
 
 def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -281,8 +333,11 @@ def analyze_record(
             f"(only the Allan deviations skip gaps); analyze a gap-free stretch with "
             f"--start-s/--stop-s"
         )
-    summary = gap_summary(record.present_mask())
-    gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
+    gaps = GapReport()  # a record without gaps (no mask as long as the record)
+    if gapped:
+        summary = gap_summary(record.present_mask())
+        gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
+    long = blocks.is_long(record.n_samples)
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
     cleaned, reports = [], []
     for i in range(len(record.axis_names)):
@@ -290,7 +345,7 @@ def analyze_record(
         cleaned.append(x)
         reports.append(report)
     joint = None
-    if not gapped and not any(r.removed for r in reports):
+    if not gapped and not long and not any(r.removed for r in reports):
         joint = allan_variance(record.rate_deg_s, fs, estimator=estimator, taus=taus)
     out = []
     for i, name in enumerate(record.axis_names):
@@ -300,16 +355,17 @@ def analyze_record(
         )
         alternative, label = None, ""
         if reports[i].count:
-            other = record.rate_deg_s[:, i] if reports[i].removed else replace_spikes(
-                record.rate_deg_s[:, i], reports[i].detection.flags,  # type: ignore[union-attr]
-                np.arange(record.n_samples) if record.sample_index is None else record.sample_index)
+            detection = reports[i].detection
+            assert detection is not None
+            other = (record.rate_deg_s[:, i] if reports[i].removed
+                     else _replaced(record.rate_deg_s[:, i], detection, record.sample_index))
             alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
         fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,
                                        select=select)
         earth_deg_h = earth[i]
-        analysed = grid_rate if earth_deg_h is None else grid_rate - earth_deg_h / S_PER_H
+        analysed = grid_rate if earth_deg_h is None else _minus(grid_rate, earth_deg_h / S_PER_H)
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:

@@ -55,6 +55,7 @@ from station.model.profiles import (
 )
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
+from station.model.sheet_header import SheetHeader
 from station.model.version import software_version
 
 if TYPE_CHECKING:
@@ -222,6 +223,8 @@ class RunGrade:
     extra: dict[str, str] = field(default_factory=dict)
     #: The bench whose Earth rate the biases are reported without (None: none known).
     bench: Bench | None = None
+    #: The test house's part of the spec sheet's header (company, station, approval...).
+    sheet: SheetHeader | None = None
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""

@@ -59,6 +59,7 @@ from analysis.turn_on import (
 from analysis.warmup import detect_warmup
 from station.evaluation.grading import INDETERMINATE, assign_grade, decide, match_axes
 from station.evaluation.sequence_cycles import SegmentView, unit_segments
+from station.model.kinds import Verdict
 from station.model.profiles import Profile
 from station.model.sequence_runs import SequenceRun
 from station.model.sequences import SequenceFigureSpec, SequenceSpec
@@ -125,7 +126,7 @@ class SequenceFigureResult:
     value: float | None
     ci_low: float | None
     ci_high: float | None
-    verdicts: dict[str, str]
+    verdicts: dict[str, Verdict]
     note: str = ""
 
     def as_json(self, grade: str | None) -> dict[str, object]:
@@ -394,7 +395,7 @@ def _graded(spec: SequenceFigureSpec, fig: Figure, profile: Profile) -> Sequence
     value, low, high = conv(value), conv(low), conv(high)
     if value is None:
         note = "not measured by this sequence"
-    verdicts: dict[str, str] = {g: decide(value, low, high, limit, profile.rule)
+    verdicts: dict[str, Verdict] = {g: decide(value, low, high, limit, profile.rule)
                                 for g, limit in spec.limits.items()}
     return SequenceFigureResult(spec, value, low, high, verdicts, note)
 

@@ -137,13 +137,13 @@ def heat_map(ax: Axes, t: np.ndarray, tau_s: np.ndarray, values: np.ndarray) -> 
 
 def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict],
                record: RateRecord) -> Path:
-    """PNG heat map per axis: time on x, log tau on y, log10 ADEV (deg/s) as colour."""
+    """PNG heat map per axis: time on x, log tau on y, log10 ADEV (deg/h) as colour."""
     n_axes = len(record.axis_names)
     fig, axs = plt.subplots(n_axes, 1, figsize=(9, 2.8 * n_axes + 0.6), squeeze=False,
                             sharex=True, constrained_layout=True)
     for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
         ax = axs[i, 0]
-        log_adev = np.log10(np.maximum(result.axis(i).adev, np.finfo(float).tiny))
+        log_adev = np.log10(np.maximum(result.axis(i).adev * S_PER_H, np.finfo(float).tiny))
         mesh = heat_map(ax, result.t_s, result.tau_s, log_adev)
         ax.set_ylabel("tau (s)")
         ax.set_title(
@@ -153,7 +153,7 @@ def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict
             ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
                        label=f"warm-up end {verdict.warmup_end_s:g} s")
             ax.legend(loc="upper right", fontsize=8)
-        fig.colorbar(mesh, ax=ax, label="log10 ADEV (deg/s)")
+        fig.colorbar(mesh, ax=ax, label="log10 ADEV (deg/h)")
     axs[-1, 0].set_xlabel("window centre time since start (s)")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

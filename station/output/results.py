@@ -35,7 +35,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from station.errors import ResultsDatabaseError
+from station.errors import ResultsDatabaseError, UsageError
 from station.model.kinds import Verdict, verdict_of_grade
 from station.output.results_backends import (
     DB_ENV,
@@ -498,7 +498,17 @@ class ResultsDatabase:
 
     def trend(self, figure: str, *, model: str | None = None, axis: str | None = None,
               lot: str | None = None) -> list[TrendPoint]:
-        """A figure over test dates, one point per grading and axis, oldest first."""
+        """A figure over test dates, one point per grading and axis, oldest first.
+
+        Raises
+        ------
+        UsageError
+            A figure no grading in the database has (the names stored are listed).
+        """
+        names = self.figure_names()
+        if figure not in names:
+            raise UsageError(f"no figure {figure!r} in the results database; its figures: "
+                             f"{', '.join(names) or 'none yet (station grade stores them)'}")
         clauses, params = _equal_to(("f.name", figure), ("u.model", model), ("f.axis", axis),
                                     ("g.lot", lot))
         rows = self._con.execute(
@@ -512,8 +522,13 @@ class ResultsDatabase:
         ).fetchall()
         return [TrendPoint(*row) for row in rows]
 
+    def figure_names(self) -> list[str]:
+        """The names of the figures stored (``arw``, ``bias_instability``, ...), sorted."""
+        query = "SELECT DISTINCT name FROM figures ORDER BY name"
+        return [row[0] for row in self._con.execute(query).fetchall()]
+
     def integrity_check(self) -> str:
-        """"ok" when sound (SQLite: its ``PRAGMA integrity_check`` answer)."""
+        """ "ok" when sound (SQLite: its ``PRAGMA integrity_check`` answer)."""
         return self._con.integrity_check()
 
 

@@ -66,8 +66,9 @@ class RunConfig:
         A folder (a file ``run-<UTC>-<id>.h5`` is made in it) or a ``.h5`` path.
     profile : Profile or None
         Product profile: required for real hardware, optional for simulations.
-    operator, lot : str
-        For the run metadata.
+    metadata : RunMetadata
+        What the run records about itself besides the profile: operator, lot, bench (the
+        recorder adds the profile, the station host and the software version at the start).
     flush_interval_s : float
         Longest time between file flushes, s (<= 1).
     read_timeout_s : float
@@ -79,24 +80,19 @@ class RunConfig:
         refused.
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
-    bench_json : str
-        The bench (latitude, axis directions; :mod:`station.model.bench`) as JSON, kept in the
-        run file ("" when none was given).
     """
 
     urls: tuple[str, ...]
     duration_s: float
     out: Path
     profile: Profile | None = None
-    operator: str = ""
-    lot: str = ""
+    metadata: RunMetadata = dataclasses.field(default_factory=RunMetadata)
     flush_interval_s: float = 0.5
     read_timeout_s: float = 0.05
     backoff_initial_s: float = 0.05
     backoff_max_s: float = 1.0
     answer_timeout_s: float = 5.0
     reserve_bytes: int | None = None
-    bench_json: str = ""
 
 
 def run_file_path(out: Path, uid: str) -> Path:
@@ -341,11 +337,11 @@ class Recorder:
         self.dispatcher.emit(RunStart(
             self.uid, min(w.start_utc for w in self.workers),
             tuple(w.unit_id for w in self.workers), cfg.duration_s, str(self.path),
-            RunMetadata(profile=p.name if p else "", profile_version=p.version if p else "",
-                        profile_sha256=p.sha256 if p else "",
-                        profile_path=str(Path(p.path).resolve()) if p and p.path else "",
-                        operator=cfg.operator, lot=cfg.lot, station_host=socket.gethostname(),
-                        software_version=software_version(), bench=cfg.bench_json)))
+            dataclasses.replace(
+                cfg.metadata, profile=p.name if p else "", profile_version=p.version if p else "",
+                profile_sha256=p.sha256 if p else "",
+                profile_path=str(Path(p.path).resolve()) if p and p.path else "",
+                station_host=socket.gethostname(), software_version=software_version())))
         for w in self.workers:
             self.dispatcher.emit(w.descriptor())
         stopping = False

@@ -37,6 +37,7 @@ from devices.protocols import PowerSwitch, TemperatureChamber
 from station.errors import RecorderError, RecordFormatError, StationError
 from station.model.documents import Subscriber, utc_now
 from station.model.profiles import Profile
+from station.model.runs import RunMetadata
 from station.model.sequence_runs import JournalEntry, JournalKind, Segment, SequenceRun
 from station.model.sequences import SequenceSpec, Step
 from station.recording.recorder import Recorder, RunConfig
@@ -463,8 +464,9 @@ class SequenceRunner:
             self._set_segments((*self.run.segments, Segment(step.index, step.cycle, file, True)))
 
         recorder = Recorder(RunConfig(cfg.urls, remaining, path, profile=cfg.profile,
-                                      operator=cfg.operator, lot=cfg.lot,
-                                      answer_timeout_s=answer_s, bench_json=cfg.bench_json),
+                                      metadata=RunMetadata(operator=cfg.operator, lot=cfg.lot,
+                                                           bench=cfg.bench_json),
+                                      answer_timeout_s=answer_s),
                             self._subscribers(step), on_listening=listening)
         self._recorder = recorder
         if self._stop_reason is not None:

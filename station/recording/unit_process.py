@@ -44,7 +44,7 @@ from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 
 #: What the engine tells a unit's process, and what the unit reports back (the table above).
 Command = Literal["start", "stop", "close"]
-Report = Literal["opened", "batch", "done", "error"]
+Report = Literal["opened", "started", "batch", "done", "error"]
 #: Modules the fork server imports once, so that each unit starts without importing them.
 PRELOAD = ["station.recording.unit_worker"]
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from analysis.allan import Estimator
 from analysis.deviations import DeviationKind
+from analysis.fit import check_terms
 from analysis.gmwm_models import GmwmModel
 from station.errors import UsageError
 from station.evaluation.analyze import (
@@ -19,6 +20,7 @@ from station.evaluation.analyze import (
 )
 from station.evaluation.settings import TauGrid
 from station.model.records import RateRecord
+from station.model.wording import plural
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.services.records import RecordSelection, RecordSource, bench_of, load_record
 
@@ -57,6 +59,8 @@ class AnalyzeRequest:
         run's bench).
     png : Path or None
         Where to draw the Allan deviation (with ``method="gmwm"``: the wavelet variance).
+    csv : Path or None
+        Where to write the curve (:mod:`station.output.curve_csv`).
     """
 
     source: RecordSource
@@ -71,6 +75,7 @@ class AnalyzeRequest:
     outliers: OutlierPolicy = "auto"
     bench: str | Path | None = None
     png: Path | None = None
+    csv: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -108,18 +113,28 @@ def analyze(request: AnalyzeRequest,
         raise UsageError("--model and --robust go with --method gmwm")
     if gmwm and request.gmwm_model.strip().lower() != "auto":
         GmwmModel.parse(request.gmwm_model)  # a bad model string fails before the record is read
+    check_terms(request.terms)  # a bad --terms fails before the record is read
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm:
-        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {len(record.axis_names)} "
-                                     f"axis/axes of {record.n_samples} samples"))
+        counted = plural(len(record.axis_names), "axis")
+        progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {counted} of "
+                                     f"{record.n_samples} samples"))
     estimator = request.estimator or ("clusters" if request.deviation == "adev" else "overlapping")
     bench = bench_of(request.bench, request.source.file)
-    axes = analyze_record(record, estimator=estimator, taus=request.taus,
-                          method=request.method, terms=request.terms,
-                          outliers=request.outliers, bench=bench,
-                          deviation_kind=request.deviation, select=request.select,
-                          gmwm_model=request.gmwm_model, robust=request.robust)
+    axes = analyze_record(
+        record,
+        estimator=estimator,
+        taus=request.taus,
+        method=request.method,
+        terms=request.terms,
+        outliers=request.outliers,
+        bench=bench,
+        deviation_kind=request.deviation,
+        select=request.select,
+        gmwm_model=request.gmwm_model,
+        robust=request.robust,
+    )
     if request.png is not None:
         from station.output.plots import (  # matplotlib: only when a plot is asked for
             plot_allan,
@@ -128,5 +143,10 @@ def analyze(request: AnalyzeRequest,
 
         plot = plot_wavelet if gmwm else plot_allan
         plot(axes, request.png, title=str(request.source.file))
-    return AnalyzeResult(str(request.source.file), record, loaded.selection, tuple(axes),
-                         loaded.notes, request.png)
+    if request.csv is not None:
+        from station.output.curve_csv import write_curve_csv
+
+        write_curve_csv(axes, request.csv)
+    return AnalyzeResult(
+        str(request.source.file), record, loaded.selection, tuple(axes), loaded.notes, request.png
+    )

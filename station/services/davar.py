@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.davar import DavarResult, dynamic_allan_variance
+from analysis.units import S_PER_H
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.errors import UsageError
 from station.model.records import RateRecord
@@ -19,8 +20,10 @@ from station.services.records import RecordSource, load_record
 class DavarRequest:
     """The record, and the DAVAR's windows (s).
 
-    The DAVAR finds the warm-up itself: unless ``source.warmup_s`` says otherwise, nothing
-    is discarded (a profile's warm-up is not applied).
+    The warm-up is discarded as ``station analyze`` discards it: ``source.warmup_s``, else
+    the profile's (given, or the one a run file was recorded with); ``warmup_s=0`` keeps
+    the whole record, to see the warm-up the DAVAR finds. Window times and the warm-up
+    verdict count from the record's start either way.
     """
 
     source: RecordSource
@@ -40,16 +43,19 @@ class DavarAnswer:
     notes: tuple[str, ...] = field(default=())
 
     def as_json(self) -> dict[str, object]:
-        """``{"axes": [{"name", "t_s", "tau_s", "adev", "warmup_end_s", "stationary"}]}``:
-        window centres (s), taus (s), ADEV per window and tau (deg/s; null in a window that
-        holds a recorded gap), the verdict."""
+        """``{"axes": [{"name", "t_s", "tau_s", "adev_deg_h", "adev_deg_s", "adev",
+        "warmup_end_s", "stationary"}]}``: window centres (s), taus (s), ADEV per window and
+        tau (null in a window that holds a recorded gap; ``adev`` is ``adev_deg_s``, the key
+        older readers know), the verdict."""
         axes = []
         for i, (name, verdict) in enumerate(zip(self.record.axis_names, self.verdicts,
                                                 strict=True)):
             one = self.result.axis(i)
             adev = [[None if math.isnan(v) else v for v in row] for row in one.adev.tolist()]
+            adev_deg_h = [[None if v is None else v * S_PER_H for v in row] for row in adev]
             axes.append({"name": name, "t_s": one.t_s.tolist(), "tau_s": one.tau_s.tolist(),
-                         "adev": adev, "warmup_end_s": verdict.warmup_end_s,
+                         "adev_deg_h": adev_deg_h, "adev_deg_s": adev, "adev": adev,
+                         "warmup_end_s": verdict.warmup_end_s,
                          "stationary": bool(verdict.stationary)})
         return {"axes": axes}
 
@@ -63,12 +69,16 @@ def davar(request: DavarRequest) -> DavarAnswer:
         A window longer than the record.
     """
     source = request.source
-    loaded = load_record(source if source.warmup_s is not None else replace(source, warmup_s=0.0))
+    loaded = load_record(source)
     record = loaded.record
     if request.window_s * record.sample_rate_hz > record.n_samples:
         raise UsageError(f"--window-s {request.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
     notes = loaded.notes
+    offset = loaded.selection.start_s
+    if loaded.selection.warmup_s > 0 and offset == loaded.selection.warmup_s:
+        notes += (f"the first {offset:g} s are left out (warm-up from "
+                  f"{loaded.selection.warmup_from}); --warmup-s 0 shows the whole record",)
     result = dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
                                     window_s=request.window_s, step_s=request.step_s,
                                     missing="gap" if record.missing_samples else "raise")
@@ -78,6 +88,16 @@ def davar(request: DavarRequest) -> DavarAnswer:
                   f"{len(result.t_s)} windows that hold one are left out (blank on the heat "
                   f"map, null in the JSON)",)
     verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
+    if offset > 0:  # times since the record's start, not since the cut
+        result = replace(result, t_s=result.t_s + offset)
+        verdicts = tuple(
+            replace(
+                v,
+                warmup_end_s=None if v.warmup_end_s is None else v.warmup_end_s + offset,
+                window_start_s=v.window_start_s + offset,
+            )
+            for v in verdicts
+        )
     if request.png is not None:
         from station.output.plots import plot_davar  # matplotlib: only for a heat map
 

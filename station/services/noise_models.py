@@ -12,6 +12,7 @@ from analysis.allan import resolve_m
 from analysis.fog import fog_from_indicators
 from analysis.models import NoiseModel
 from analysis.simulate import n_samples_of
+from analysis.units import S_PER_H
 from devices.model_files import load_noise_model, save_noise_model
 from station.errors import UsageError
 
@@ -37,9 +38,12 @@ class ModelCurve:
     terms: dict[str, NDArray[np.float64]]
 
     def as_json(self) -> dict[str, object]:
-        """``{"tau_s": [...], "adev": [...], "terms": {"<term>": [...]}}``."""
-        return {"tau_s": self.tau_s.tolist(), "adev": self.adev.tolist(),
-                "terms": {k: v.tolist() for k, v in self.terms.items()}}
+        """``{"tau_s", "adev_deg_h", "terms_deg_h": {"<term>": [...]}, "adev", "terms"}``:
+        the curve in deg/h like every other figure; ``adev`` and ``terms`` (deg/s) are the
+        keys older readers know."""
+        return {"tau_s": self.tau_s.tolist(), "adev_deg_h": (self.adev * S_PER_H).tolist(),
+                "terms_deg_h": {k: (v * S_PER_H).tolist() for k, v in self.terms.items()},
+                "adev": self.adev.tolist(), "terms": {k: v.tolist() for k, v in self.terms.items()}}
 
 
 def curve_taus(grid: str, sample_rate_hz: float, duration_s: float) -> NDArray[np.float64]:

@@ -11,6 +11,7 @@ from devices.model_files import load_noise_model
 from station.errors import UsageError
 from station.model.records import RateRecord
 from station.services.progress import Progress, ProgressSink, ignore_progress
+from station.services.records import RecordSource, cut_record
 from station.storage.runs import open_run
 
 _DEFAULTS = ReconcileOptions()
@@ -22,14 +23,13 @@ class ReconcileRequest:
 
     Attributes
     ----------
-    measured : str or Path
-        A run file (``.h5``: every unit) or a rate record (CSV).
+    source : RecordSource
+        The measured record: a run file (``.h5``: every unit, or only ``source.unit``) or a
+        rate record (CSV); every axis, or only ``source.axis``; the time slice and the
+        warm-up discarded as ``station analyze`` takes them (run files default to the
+        warm-up of the profile they were recorded with).
     model : str
         Noise model TOML file or preset name.
-    rate_hz, units
-        Sample rate (Hz) and rate unit of a CSV record.
-    axis : str or None
-        Only this axis (default every axis of every unit).
     runs, seed, alpha, max_samples
         Monte Carlo runs per comparison (>= 4), their seed, the gap test's level, and the
         longest record before decimation (:class:`analysis.reconcile.ReconcileOptions`).
@@ -37,11 +37,8 @@ class ReconcileRequest:
         Where to draw the figure.
     """
 
-    measured: str | Path
+    source: RecordSource
     model: str
-    rate_hz: float | None = None
-    units: str = "deg/s"
-    axis: str | None = None
     runs: int = _DEFAULTS.runs
     seed: int = _DEFAULTS.seed
     alpha: float = _DEFAULTS.alpha
@@ -57,6 +54,7 @@ class ReconcileAnswer:
     model: str
     results: tuple[tuple[str, ReconcileResult], ...]
     png: Path | None = None
+    notes: tuple[str, ...] = ()
 
     def as_json(self) -> dict[str, object]:
         """The ``station reconcile --json`` object: the first axis' result at the top level,
@@ -65,26 +63,46 @@ class ReconcileAnswer:
         return {"file": self.measured, **axes[0], "axes": axes}
 
 
-def _axes(request: ReconcileRequest) -> list[tuple[str, RateRecord]]:
-    run_info = open_run(request.measured, sample_rate_hz=request.rate_hz, units=request.units)
-    several_units = len(run_info.units) > 1
-    out = []
-    for unit in run_info.units:
+def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tuple[str, ...]]:
+    """(label and one-axis record of each axis reconciled, notes for the operator)."""
+    source = request.source
+    run_info = open_run(source.file, sample_rate_hz=source.rate_hz, units=source.units)
+    units = run_info.units
+    if source.unit is not None:
+        units = tuple(u for u in units if source.unit in (u.unit_id, u.serial_number))
+        if not units:
+            raise UsageError(f"{source.file}: no unit {source.unit!r}; units: "
+                             f"{', '.join(u.unit_id for u in run_info.units)}")
+    several_units = len(units) > 1
+    out, notes = [], []
+    for unit in units:
         record = unit.record
-        names = [request.axis] if request.axis is not None else list(record.axis_names)
-        if request.axis is not None and request.axis not in record.axis_names:
+        names = [source.axis] if source.axis is not None else list(record.axis_names)
+        if source.axis is not None and source.axis not in record.axis_names:
             if several_units:
                 continue
-            record.select(request.axis)  # raises with the list of axes
+            record.select(source.axis)  # raises with the list of axes
+        loaded = cut_record(record, source)
+        notes += [n for n in loaded.notes if n not in notes]
+        if loaded.selection.start_s > 0 or loaded.selection.stop_s is not None:
+            note = (
+                f"reconciled {loaded.selection.start_s:g} s .. "
+                f"{'end' if loaded.selection.stop_s is None else f'{loaded.selection.stop_s:g} s'}"
+                f" (warm-up {loaded.selection.warmup_s:g} s from {loaded.selection.warmup_from})"
+            )
+            if note not in notes:
+                notes.append(note)
         for name in names:
-            out.append((f"{unit.unit_id}/{name}" if several_units else name, record.select(name)))
+            label = f"{unit.unit_id}/{name}" if several_units else name
+            out.append((label, loaded.record.select(name)))
     if not out:
-        raise UsageError(f"no axis {request.axis!r} in {request.measured}")
-    return out
+        raise UsageError(f"no axis {source.axis!r} in {source.file}")
+    return out, tuple(notes)
 
 
-def reconcile_run(request: ReconcileRequest,
-                  progress: ProgressSink = ignore_progress) -> ReconcileAnswer:
+def reconcile_run(
+    request: ReconcileRequest, progress: ProgressSink = ignore_progress
+) -> ReconcileAnswer:
     """Reconcile each axis with the model (:func:`analysis.reconcile.reconcile`); draw the figure.
 
     ``progress`` hears of each axis as it starts.
@@ -97,20 +115,32 @@ def reconcile_run(request: ReconcileRequest,
     if request.runs < 4:
         raise UsageError(f"--runs must be at least 4, got {request.runs}")
     model = load_noise_model(request.model)
-    options = ReconcileOptions(runs=request.runs, seed=request.seed, alpha=request.alpha,
-                               max_samples=request.max_samples)
+    options = ReconcileOptions(
+        runs=request.runs, seed=request.seed, alpha=request.alpha, max_samples=request.max_samples
+    )
     cache = ComparisonCache()
-    axes = _axes(request)
+    axes, notes = _axes(request)
     results: list[tuple[str, ReconcileResult]] = []
     for i, (label, record) in enumerate(axes):
-        lost = (f"; {record.missing_samples} samples missing in gaps: reconcile joins the "
-                f"stretches between them" if record.missing_samples else "")
+        lost = (
+            f"; {record.missing_samples} samples missing in gaps: reconcile joins the "
+            f"stretches between them"
+            if record.missing_samples
+            else ""
+        )
         progress(Progress("reconcile", f"{label} ({record.n_samples} samples{lost})", i, len(axes)))
-        res = reconcile(record.rate_deg_s[:, 0], record.sample_rate_hz, model,
-                        temperature_c=record.temperature_c, options=options, cache=cache)
+        res = reconcile(
+            record.rate_deg_s[:, 0],
+            record.sample_rate_hz,
+            model,
+            temperature_c=record.temperature_c,
+            options=options,
+            cache=cache,
+        )
         results.append((label, res))
     if request.png is not None:
         from station.output.reconcile_report import plot_reconcile  # matplotlib
 
         plot_reconcile(results, request.png)
-    return ReconcileAnswer(str(request.measured), request.model, tuple(results), request.png)
+    return ReconcileAnswer(str(request.source.file), request.model, tuple(results), request.png,
+                           notes)

@@ -26,6 +26,7 @@ from station.model.bench import load_bench
 from station.model.documents import RunStop, Subscriber
 from station.model.durations import parse_duration
 from station.model.profiles import load_profile
+from station.model.runs import RunMetadata
 from station.recording.recorder import Recorder, RunConfig
 from station.recording.unit_process import cpu_cores
 
@@ -101,9 +102,9 @@ def run_config(request: RecordRequest) -> RunConfig:
         bench = load_bench(request.bench)
         urls, bench_json = [bench.sim_url(u) for u in urls], bench.as_json()
     return RunConfig(tuple(urls), duration_s, request.out, profile=profile,
-                     operator=request.operator, lot=request.lot,
-                     flush_interval_s=request.flush_interval_s, reserve_bytes=reserve,
-                     bench_json=bench_json)
+                     metadata=RunMetadata(operator=request.operator, lot=request.lot,
+                                          bench=bench_json),
+                     flush_interval_s=request.flush_interval_s, reserve_bytes=reserve)
 
 
 def recorder_arguments(request: RecordRequest) -> list[str]:

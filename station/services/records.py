@@ -100,6 +100,18 @@ def load_record(source: RecordSource) -> LoadedRecord:
                          unit=source.unit)
     if source.axis is not None:
         record = record.select(source.axis)
+    return cut_record(record, source)
+
+
+def cut_record(record: RateRecord, source: RecordSource) -> LoadedRecord:
+    """``record`` (read from ``source.file``) without its warm-up and outside the time slice
+    ``source`` names; the one place the warm-up and the slice are applied.
+
+    Raises
+    ------
+    UsageError
+        A negative or empty time slice.
+    """
     warmup_s, where, notes = _warmup(source)
     start, stop = source.start_s, source.stop_s
     if start < 0 or warmup_s < 0 or (stop is not None and stop <= max(start, warmup_s)):

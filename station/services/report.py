@@ -3,10 +3,11 @@ database."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from station.evaluation.grading import RunGrade
+from station.model.sheet_header import load_sheet_header
 from station.output.report import ReportFormat, write_report
 from station.output.results import ResultsDatabase
 from station.output.results_backends import DatabaseLocation
@@ -18,12 +19,15 @@ class ReportRequest:
     """Which run to grade and which reports to write where.
 
     ``grade.store`` (default True) also records the grading (once per run, unit and
-    profile) and each report file in ``grade.database``.
+    profile) and each report file in ``grade.database``. ``header`` is the sheet header
+    file (company, logo, station, conditions, approval block:
+    :mod:`station.model.sheet_header`), None for none.
     """
 
     grade: GradeRequest
     formats: tuple[ReportFormat, ...] = ("pdf",)
     out_dir: Path = Path(".")
+    header: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -51,7 +55,9 @@ def write_reports(graded: RunGrade, formats: tuple[ReportFormat, ...], out_dir: 
 
 def report(request: ReportRequest) -> ReportResult:
     """Grade the run as :func:`station.services.grade.grade` does and write its reports."""
+    sheet = load_sheet_header(request.header) if request.header is not None else None  # fails first
     graded = grade(request.grade)
+    run = replace(graded.graded, sheet=sheet)
     db = request.grade.database if request.grade.store else None
-    files = write_reports(graded.graded, request.formats, request.out_dir, db)
-    return ReportResult(graded.graded, files, graded.warnings)
+    files = write_reports(run, request.formats, request.out_dir, db)
+    return ReportResult(run, files, graded.warnings)

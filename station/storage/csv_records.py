@@ -19,6 +19,7 @@ from __future__ import annotations
 import gzip
 import io
 import math
+import re
 import warnings
 import zlib
 from collections.abc import Sequence
@@ -30,6 +31,7 @@ from numpy.typing import NDArray
 
 from station.errors import RecordFormatError
 from station.model.records import RateRecord, regular_or_none
+from station.model.wording import plural
 
 #: Factor from each accepted input unit to deg/s.
 UNIT_TO_DEG_S = {"deg/s": 1.0, "rad/s": 180.0 / math.pi, "deg/h": 1.0 / 3600.0}
@@ -99,9 +101,8 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecor
                 warnings.simplefilter("ignore", UserWarning)  # "no data": reported below
                 data = np.loadtxt(fh, delimiter=",", comments="#", ndmin=2, dtype=np.float64)
         except ValueError as exc:
-            raise RecordFormatError(
-                f"{path}: cannot parse the values after line {header_line}: {exc}"
-            ) from exc
+            message = _parse_error(path, header_line, len(header), str(exc))
+            raise RecordFormatError(message) from None
     if data.shape[0] == 0:
         raise RecordFormatError(f"{path}: header but no data rows")
     if data.shape[1] != len(header):
@@ -130,6 +131,46 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecor
     )
 
 
+def _data_line(path: Path, header_line: int, row: int) -> int | None:
+    """File line (1-based) of data row ``row`` (0-based; comment and blank lines skipped)."""
+    with _open_text(path) as fh:
+        seen = -1
+        for lineno, line in enumerate(fh, start=1):
+            stripped = line.split("#", 1)[0].strip()
+            if lineno > header_line and stripped:
+                seen += 1
+                if seen == row:
+                    return lineno
+    return None
+
+
+def _parse_error(path: Path, header_line: int, n_columns: int, message: str) -> str:
+    """One line naming the file line of numpy's parse error, and what the format expects.
+
+    numpy counts data rows from 0 when a value does not convert ("at row R, column C", C
+    from 1) and from 1 when the column count changes ("at row R").
+    """
+    expected = (
+        f"the format is {n_columns} numbers per line separated by commas, as the header "
+        f"on line {header_line}"
+    )
+    bad = re.search(r"could not convert string '(.*)' to \w+ at row (\d+), column (\d+)", message)
+    if bad:
+        line = _data_line(path, header_line, int(bad.group(2)))
+        return (
+            f"{path}, line {line}: value {bad.group(3)} ({bad.group(1)!r}) is not a number; "
+            f"{expected}"
+        )
+    changed = re.search(r"number of columns changed from (\d+) to (\d+) at row (\d+)", message)
+    if changed:
+        line = _data_line(path, header_line, int(changed.group(3)) - 1)
+        return (
+            f"{path}, line {line}: {plural(int(changed.group(2)), 'value')} where the lines "
+            f"before have {changed.group(1)}; {expected}"
+        )
+    return f"{path}: cannot read the values after line {header_line} ({message}); {expected}"
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
@@ -142,14 +183,23 @@ def _is_number(text: str) -> bool:
 TIME_STEP_TOLERANCE = 0.01
 
 
-def _time_grid(path: Path, data: NDArray[np.float64], time_index: int | None, given: float | None
-               ) -> tuple[float, NDArray[np.int64] | None]:
+def _time_grid(
+    path: Path, data: NDArray[np.float64], time_index: int | None, given: float | None
+) -> tuple[float, NDArray[np.int64] | None]:
     """(sample rate in Hz, grid index of each row or None when the rows have no gap).
 
     The time column decides the gaps: a step of k periods (k >= 2, within 1 % of a
     period) means k - 1 missing samples. With ``--rate`` given, the time column counts
     only when its own period agrees with that rate and every step is a whole number of
-    periods; otherwise it is ignored, as the option promises.
+    periods. A ``--rate`` that disagrees with the time column's own step is refused: one
+    of the two is wrong, and analysing at the wrong rate scales every figure. A time column
+    at the given rate whose steps are irregular is ignored, as the option promises.
+
+    Raises
+    ------
+    RecordFormatError
+        No way to know the rate, a time column that does not increase or is irregular
+        without ``--rate``, or a ``--rate`` the time column contradicts.
     """
     if given is not None and not (math.isfinite(given) and given > 0):
         raise RecordFormatError(f"sample rate must be a positive number of Hz, got {given}")
@@ -168,8 +218,13 @@ def _time_grid(path: Path, data: NDArray[np.float64], time_index: int | None, gi
     period = float(np.median(dt)) if given is None else 1.0 / float(given)
     if given is None and not period > 0:
         raise RecordFormatError(f"{path}: time column does not increase")
-    if given is not None and abs(float(np.median(dt)) - period) > TIME_STEP_TOLERANCE * period:
-        return float(given), None  # the time column is in another unit or at another rate
+    median_dt = float(np.median(dt))
+    if given is not None and abs(median_dt - period) > TIME_STEP_TOLERANCE * period:
+        says = f"{median_dt:g} s ({1.0 / median_dt:g} Hz)" if median_dt > 0 else f"{median_dt:g} s"
+        raise RecordFormatError(
+            f"{path}: the time column steps {says} but --rate says {float(given):g} Hz; leave "
+            f"out --rate to use the time column (in s), or correct the one that is wrong"
+        )
     steps = np.rint(dt / period)
     off = (steps < 1) | (np.abs(dt - steps * period) > TIME_STEP_TOLERANCE * period)
     if off.any():

@@ -391,15 +391,25 @@ def read_run_record(path: str | Path, unit: str | None = None) -> RateRecord:
         No such unit (the message lists the units).
     """
     with open_run_file(path) as f:
-        ids = unit_ids(f)
-        if not ids:
-            raise RecordFormatError(f"{path}: the run has no units")
-        chosen = ids[0] if unit is None else None
-        for uid in ids:
-            if unit in (uid, text_value(f["units"][uid].attrs["serial_number"])):
-                chosen = uid
-                break
-        if chosen is None:
-            raise RecordFormatError(f"{path}: no unit {unit!r}; units: {', '.join(ids)}")
+        chosen = chosen_unit(f, unit)
         return unit_record(read_unit(f, chosen), f"{path}#{chosen}")
+
+
+def chosen_unit(f: h5py.File, unit: str | None) -> str:
+    """The unit id a ``--unit`` names (unit id or serial number; None: the first unit).
+
+    Raises
+    ------
+    RecordFormatError
+        No units, or no such unit (the message lists the units).
+    """
+    ids = unit_ids(f)
+    if not ids:
+        raise RecordFormatError(f"{f.filename}: the run has no units")
+    if unit is None:
+        return ids[0]
+    for uid in ids:
+        if unit in (uid, text_value(f["units"][uid].attrs["serial_number"])):
+            return uid
+    raise RecordFormatError(f"{f.filename}: no unit {unit!r}; units: {', '.join(ids)}")
 

@@ -10,6 +10,7 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.storage.csv_records import read_csv_record
 from station.storage.hdf5 import read_run, read_run_record, run_attributes
+from station.storage.mapped_runs import read_long_unit
 
 
 def is_run_file(path: str | Path) -> bool:
@@ -43,7 +44,7 @@ def read_record(
     if path.is_dir():
         raise RecordFormatError(f"{path} is a directory, not a record: give a file in it")
     if is_run_file(path):
-        return read_run_record(path, unit)
+        return read_long_unit(path, unit) or read_run_record(path, unit)
     if unit is not None:
         raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
     suffixes = "".join(path.suffixes[-2:]).lower()

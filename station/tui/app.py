@@ -271,7 +271,6 @@ class StationApp(App[None]):
         self.call_from_thread(self._started, process)
 
     def _started(self, process: RecorderProcess) -> None:
+        # the live screen's header says where it records and that it outlives the TUI: a
+        # toast here would cover the Allan plot for its first seconds
         self.push_screen(LiveScreen(process.path, process, poll_s=self.settings.poll_s))
-        self.notify(f"Recording into {process.path} (recorder pid {process.pid}, log "
-                    f"{process.log_path.name}). It goes on if the TUI is closed.",
-                    title="Run started", timeout=10)

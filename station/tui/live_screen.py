@@ -109,6 +109,11 @@ class LiveScreen(Screen[None]):
     def on_mount(self) -> None:
         """Set up the table and start polling the file."""
         self.sub_title = f"Live: {self.path.name}"
+        if self.process is not None:  # said in the header, not a toast over the plots
+            self.sub_title += (
+                f" (recorder pid {self.process.pid}, log {self.process.log_path.name}; "
+                f"it goes on if the TUI is closed)"
+            )
         table = self.query_one("#units", DataTable)
         for label, key in _COLUMNS:
             table.add_column(label, key=key)
@@ -143,33 +148,48 @@ class LiveScreen(Screen[None]):
             self.process.exit_code()  # reap our recorder once it ends
         if abandoned and not self._told_abandoned:
             self._told_abandoned = True
-            self.notify(f"The recorder of {self.path.name} ended without closing the file "
-                        f"(killed or crashed). The data up to its last flush are safe: run "
-                        f"`station recover {self.path}`, then open the spec sheet.",
-                        severity="error", timeout=30)
+            self.notify(
+                f"The recorder of {self.path.name} ended without closing the file "
+                f"(killed or crashed). The data up to its last flush are safe: run "
+                f"`station recover {self.path}`, then open the spec sheet.",
+                severity="error",
+                timeout=30,
+            )
         if snap.stopped and not self._told_stopped:
             self._told_stopped = True
             if snap.stop_reason.startswith("disk full"):
-                self.notify(f"The disk filled up: the run stopped with everything recorded so "
-                            f"far intact ({snap.stop_reason}). Free some space or choose "
-                            f"another runs folder before the next run; g grades what was "
-                            f"recorded.", title="Disk full", severity="error", timeout=60)
+                self.notify(
+                    f"The disk filled up: the run stopped with everything recorded so "
+                    f"far intact ({snap.stop_reason}). Free some space or choose "
+                    f"another runs folder before the next run; g grades what was "
+                    f"recorded.",
+                    title="Disk full",
+                    severity="error",
+                    timeout=60,
+                )
             else:
-                self.notify(f"Run stopped ({snap.stop_reason}). Press g for the spec sheet.",
-                            title="Run stopped", timeout=15)
+                self.notify(
+                    f"Run stopped ({snap.stop_reason}). Press g for the spec sheet.",
+                    title="Run stopped",
+                    timeout=15,
+                )
 
     def watch_snapshot(self, snap: LiveSnapshot | None) -> None:
         """Show a new snapshot: title, progress, status rows, plots."""
         if snap is None:
             return
-        state = ("[b]stopped[/b]: " + snap.stop_reason if snap.stopped
-                 else "[b green]recording[/b green]")
+        state = (
+            "[b]stopped[/b]: " + snap.stop_reason
+            if snap.stopped
+            else "[b green]recording[/b green]"
+        )
         catching = "" if snap.caught_up else " (catching up with the file...)"
         self.query_one("#run-title", Static).update(f"{self.path.name}: {state}{catching}")
         self.query_one("#progress", ProgressBar).update(progress=snap.fraction)
         self.query_one("#times", Static).update(
             f"{hms(snap.elapsed_s)} of {hms(snap.duration_s)}"
-            + (" recorded" if snap.stopped else f", {hms(snap.remaining_wall_s)} left"))
+            + (" recorded" if snap.stopped else f", {hms(snap.remaining_wall_s)} left")
+        )
         self._fill_table(snap)
         self.query_one("#rate-plot", SeriesPlot).series = snap.rate
         self.query_one("#adev-plot", SeriesPlot).series = snap.adev
@@ -181,12 +201,19 @@ class LiveScreen(Screen[None]):
             achieved = number(u.achieved_rate_hz, 3)
             gaps = Text(f"{u.gaps} ({u.missing})", style="yellow" if u.gaps else "")
             crc = Text(str(u.crc_errors), style="yellow" if u.crc_errors else "")
-            unit = (Text(u.unit_id) if u.connected
-                    else Text(f"{u.unit_id} DISC", style="bold red"))  # reconnecting
-            cells = {"unit": unit, "who": f"{model_name(u.model)} {u.serial_number}",
-                     "samples": count(u.samples), "rate": f"{achieved}/{u.sample_rate_hz:g}",
-                     "crc": crc, "gaps": gaps, "reconn": str(u.reconnects),
-                     "temp": number(u.temperature_c, 3)}
+            unit = (
+                Text(u.unit_id) if u.connected else Text(f"{u.unit_id} DISC", style="bold red")
+            )  # reconnecting
+            cells = {
+                "unit": unit,
+                "who": f"{model_name(u.model)} {u.serial_number}",
+                "samples": count(u.samples),
+                "rate": f"{achieved}/{u.sample_rate_hz:g}",
+                "crc": crc,
+                "gaps": gaps,
+                "reconn": str(u.reconnects),
+                "temp": number(u.temperature_c, 3),
+            }
             if u.unit_id not in table.rows:
                 table.add_row(*cells.values(), key=u.unit_id)
             else:
@@ -211,17 +238,23 @@ class LiveScreen(Screen[None]):
         try:
             pid = stop_run(self.path)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
-            self.app.call_from_thread(self.notify, explain(exc, "stopping the run"),
-                                      severity="error", timeout=15)
+            self.app.call_from_thread(
+                self.notify, explain(exc, "stopping the run"), severity="error", timeout=15
+            )
             return
-        self.app.call_from_thread(self.notify, f"Stopping the recorder (pid {pid}): it "
-                                               f"writes what it has and closes the file.")
+        self.app.call_from_thread(
+            self.notify,
+            f"Stopping the recorder (pid {pid}): it writes what it has and closes the file.",
+        )
 
     def action_spec_sheet(self) -> None:
         """Open the spec sheet once the run has stopped."""
         if self.snapshot is None or not self.snapshot.stopped:
-            self.notify("The run is still recording: stop it (s) or wait for its end; the "
-                        "spec sheet grades the whole run.", severity="warning")
+            self.notify(
+                "The run is still recording: stop it (s) or wait for its end; the "
+                "spec sheet grades the whole run.",
+                severity="warning",
+            )
             return
         self.post_message(self.SpecSheetRequested(self.path))
 

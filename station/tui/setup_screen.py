@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from urllib.parse import parse_qsl, urlsplit
 
 from textual import on, work
 from textual.app import ComposeResult
@@ -21,6 +22,31 @@ from station.tui.messages import explain
 #: Time warp of the simulated units F6 adds (simulated seconds per wall second).
 SIM_WARP = 60
 _NO_PROFILE = "(none: simulated units only)"
+#: Characters of a unit's URL the units table shows (the middle is elided, so that the
+#: query keys at the end, seed and warp, stay in view).
+URL_WIDTH = 48
+
+
+def short_url(url: str, width: int = URL_WIDTH) -> str:
+    """``url`` in ``width`` characters: the start and the end, an ellipsis between."""
+    if len(url) <= width:
+        return url
+    tail = width * 3 // 5
+    return url[: width - tail - 1] + "\u2026" + url[-tail:]
+
+
+def time_text(url: str, duration_s: float | None = None) -> str:
+    """How a unit keeps time: ``"real time"``, or ``"x60 (1h in 1min)"`` for a warped simulation."""
+    warp = dict(parse_qsl(urlsplit(url).query)).get("warp") if url.startswith("sim+") else None
+    try:
+        factor = float(warp) if warp is not None else 1.0
+    except ValueError:
+        return f"warp {warp}"
+    if factor == 1.0:
+        return "real time"
+    if duration_s:
+        return f"x{factor:g} ({duration_text(duration_s)} in {duration_text(duration_s / factor)})"
+    return f"x{factor:g}"
 
 
 def check_summary(check: UnitCheck) -> str:
@@ -117,7 +143,8 @@ class SetupScreen(Screen[None]):
         self.sub_title = "New run"
         table = self.query_one("#units", DataTable)
         table.add_column("#", key="n", width=2)
-        table.add_column("device URL", key="url", width=38)
+        table.add_column("device URL", key="url", width=URL_WIDTH)
+        table.add_column("time", key="time")
         table.add_column("answers?", key="check")
         self.query_one("#profile", Select).focus()
 
@@ -152,6 +179,12 @@ class SetupScreen(Screen[None]):
             f"{choice.name}: {choice.description}. Enter adds the URL above; F6 adds a "
             f"simulated unit (x{SIM_WARP} time warp).")
 
+    @on(Input.Changed, "#duration")
+    def _duration_changed(self) -> None:
+        table = self.query_one("#units", DataTable)
+        for url in self.units:
+            table.update_cell(url, "time", time_text(url, self._duration_s()), update_width=True)
+
     # -- units -------------------------------------------------------------------------
     @on(Input.Submitted, "#url")
     @on(Button.Pressed, "#add")
@@ -161,29 +194,66 @@ class SetupScreen(Screen[None]):
             url_input.value = ""
 
     def action_add_sim(self) -> None:
-        """Add a simulated unit (the profile's simulation if it has one)."""
+        """Add a simulated unit (the profile's simulation if it has one) and say what it is."""
         base = self.profile.url if self.profile else DEFAULT_SIM_URL
-        self.add_unit(simulated_unit_url(base, seed=len(self.units) + 1, warp=SIM_WARP))
+        url = simulated_unit_url(base, seed=len(self.units) + 1, warp=SIM_WARP)
+        if not self.add_unit(url):
+            return
+        what = (
+            f"the {self.profile.name} profile's simulation"
+            if self.profile and base.startswith("sim+")
+            else "the default simulated VG951 (STIM300 framing): no profile chosen"
+            if not self.profile
+            else f"the default simulated VG951: {self.profile.name}'s URL is not a simulation"
+        )
+        self.notify(
+            f"Unit {len(self.units)}: {what}, at {time_text(url, self._duration_s())} of "
+            f"wall time.",
+            title="Simulated unit added",
+            timeout=8,
+        )
+
+    def _duration_s(self) -> float | None:
+        from station.model.durations import parse_duration
+
+        try:
+            return parse_duration(self.query_one("#duration", Input).value.strip())
+        except Exception:  # noqa: BLE001 - no duration typed yet: the time column says less
+            return None
 
     def add_unit(self, url: str) -> bool:
         """Add a unit by URL and start its check; False (and a notification) if refused."""
         if not url:
-            self.notify("Type a device URL first (see `station devices` for examples), or "
-                        "press F6 for a simulated unit.", severity="warning")
+            self.notify(
+                "Type a device URL first (see `station devices` for examples), or "
+                "press F6 for a simulated unit.",
+                severity="warning",
+            )
             return False
         if "://" not in url:
-            self.notify(f"{url!r} is not a device URL: it looks like scheme://device?key=value, "
-                        f"e.g. serial:///dev/ttyUSB0?protocol=stim300", severity="error")
+            self.notify(
+                f"{url!r} is not a device URL: it looks like scheme://device?key=value, "
+                f"e.g. serial:///dev/ttyUSB0?protocol=stim300",
+                severity="error",
+            )
             return False
         if url in self.units:
-            self.notify("That unit is in the list already; a second simulated unit needs "
-                        "another seed= (its serial number).", severity="warning")
+            self.notify(
+                "That unit is in the list already; a second simulated unit needs "
+                "another seed= (its serial number).",
+                severity="warning",
+            )
             return False
         self.units.append(url)
         self.checks[url] = None
         table = self.query_one("#units", DataTable)
-        table.add_row(str(len(self.units)), url,
-                      "checking..." if self.check_units else "not checked", key=url)
+        table.add_row(
+            str(len(self.units)),
+            short_url(url),
+            time_text(url, self._duration_s()),
+            "checking..." if self.check_units else "not checked",
+            key=url,
+        )
         if self.check_units:
             self._check(url, self.profile.name if self.profile else None)
         return True
@@ -200,24 +270,44 @@ class SetupScreen(Screen[None]):
         if result.url not in self.checks:
             return  # removed meanwhile
         self.checks[result.url] = result
-        self.query_one("#units", DataTable).update_cell(result.url, "check", check_summary(result),
-                                                        update_width=True)
+        self.query_one("#units", DataTable).update_cell(
+            result.url, "check", check_summary(result), update_width=True
+        )
         if not result.ok:
-            self.notify(f"Unit {self.units.index(result.url) + 1} does not answer: "
-                        f"{result.message}", title="Unit check", severity="error", timeout=15)
+            self.notify(
+                f"Unit {self.units.index(result.url) + 1} does not answer: {result.message}",
+                title="Unit check",
+                severity="error",
+                timeout=15,
+            )
 
     def action_remove_unit(self) -> None:
         """Remove the unit under the cursor."""
         table = self.query_one("#units", DataTable)
         if not self.units:
             return
-        url = self.units[min(table.cursor_row, len(self.units) - 1)]
+        row = min(table.cursor_row, len(self.units) - 1)
+        url = self.units[row]
         self.units.remove(url)
         self.checks.pop(url, None)
         table.clear()
         for i, u in enumerate(self.units):
             check = self.checks.get(u)
-            table.add_row(str(i + 1), u, check_summary(check) if check else "checking...", key=u)
+            table.add_row(
+                str(i + 1),
+                short_url(u),
+                time_text(u, self._duration_s()),
+                check_summary(check) if check else "checking...",
+                key=u,
+            )
+        # focus stays with the units (or the URL field when none is left): never the profile
+        # list, where the next typed characters would pick a profile
+        if self.units:
+            table.move_cursor(row=min(row, len(self.units) - 1))
+            table.focus()
+        else:
+            self.query_one("#url", Input).focus()
+        self.notify(f"Removed {short_url(url)}.", timeout=4)
 
     # -- start -------------------------------------------------------------------------
     @on(Button.Pressed, "#start")
@@ -230,14 +320,22 @@ class SetupScreen(Screen[None]):
     def request(self) -> RecordRequest | None:
         """The run the form describes, or None (with a notification saying what to fix)."""
         if not self.units:
-            self.notify("Add at least one unit: type its URL and press Enter, or F6 for a "
-                        "simulated unit.", severity="error")
+            self.notify(
+                "Add at least one unit: type its URL and press Enter, or F6 for a simulated unit.",
+                severity="error",
+            )
             return None
-        bad = [i + 1 for i, u in enumerate(self.units)
-               if (c := self.checks.get(u)) is not None and not c.ok]
+        bad = [
+            i + 1
+            for i, u in enumerate(self.units)
+            if (c := self.checks.get(u)) is not None and not c.ok
+        ]
         if bad:
-            self.notify(f"Unit(s) {', '.join(map(str, bad))} did not answer: fix the URL or "
-                        f"the connection, or remove them (ctrl+d).", severity="error")
+            self.notify(
+                f"Unit(s) {', '.join(map(str, bad))} did not answer: fix the URL or "
+                f"the connection, or remove them (ctrl+d).",
+                severity="error",
+            )
             return None
         duration = self.query_one("#duration", Input).value.strip()
         if not duration:
@@ -245,8 +343,10 @@ class SetupScreen(Screen[None]):
             return None
         profile = self.query_one("#profile", Select).value
         return RecordRequest(
-            tuple(self.units), duration,
+            tuple(self.units),
+            duration,
             Path(self.query_one("#runs_dir", Input).value.strip() or str(self.runs_dir)),
             profile if isinstance(profile, str) else None,
             self.query_one("#operator", Input).value.strip(),
-            self.query_one("#lot", Input).value.strip())
+            self.query_one("#lot", Input).value.strip(),
+        )

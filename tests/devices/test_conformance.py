@@ -22,7 +22,8 @@ from tests.devices.helpers import collect
 def test_station_devices_json_lists_every_protocol(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["devices", "--json"]) == 0
     listed = json.loads(capsys.readouterr().out)
-    assert [set(d) for d in listed] == [{"protocol", "transport", "sim_url"}] * len(SUPPORTED)
+    keys = {"protocol", "transport", "sim_url", "hardware_url"}
+    assert [set(d) for d in listed] == [keys] * len(SUPPORTED)
     assert {d["protocol"] for d in listed} == {p.protocol for p in SUPPORTED}
     assert all(d["sim_url"].startswith("sim+") for d in listed)
 

@@ -11,12 +11,16 @@ from __future__ import annotations
 import re
 from collections import Counter
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from pathlib import Path
+
+import numpy as np
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
 from station.model.kinds import Verdict
 from station.model.runs import UnitRun
+from station.model.sheet_header import station_name
 
 #: Verdict -> colour (reports, plots); None is an informational figure.
 VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
@@ -114,32 +118,63 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
     return review + lines
 
 
+def to_the_second(utc: str) -> str:
+    """An ISO 8601 time to the second (``2026-05-01T10:22:03.123456+00:00`` ->
+    ``2026-05-01 10:22:03``, in UTC); text that is not a time comes back as it is."""
+    try:
+        t = datetime.fromisoformat(utc.replace("Z", "+00:00"))
+    except ValueError:
+        return utc
+    if t.tzinfo is not None:
+        t = t.astimezone(UTC)
+    return t.strftime("%Y-%m-%d %H:%M:%S")
+
+
+def temperature_text(unit: UnitGrade) -> str:
+    """The test temperature from the unit's channel: mean and range (degC), or "not recorded"."""
+    temp = unit.unit.record.temperature_c
+    if temp is None or not np.isfinite(temp).any():
+        return "not recorded (no temperature channel)"
+    t = temp[np.isfinite(temp)]
+    return f"{float(t.mean()):.1f} degC (mean; {float(t.min()):.1f} to {float(t.max()):.1f} degC)"
+
+
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
-    """(label, text) pairs of a spec sheet's header."""
-    run, p, u = graded.run, graded.profile, unit.unit
+    """(label, text) pairs of a spec sheet's header (the test house's from ``graded.sheet``)."""
+    run, p, u, sheet = graded.run, graded.profile, unit.unit, graded.sheet
     duration = u.record.duration_s
+    recorded = (f" (recorded with {run.metadata.software_version})"
+                if run.metadata.software_version else "")
     return [
+        *([("Company", sheet.company)] if sheet is not None and sheet.company else []),
         ("Model", u.model or p.model),
         ("Serial number", u.serial_number or f"({u.unit_id})"),
-        ("Test date (UTC)", run.start_utc or "not recorded"),
+        ("Test date (UTC)", to_the_second(run.start_utc) if run.start_utc else "not recorded"),
         (
             "Duration",
             f"{duration / 3600:.3g} h ({duration:.0f} s), warm-up {unit.warmup_discarded_s:g} s "
             f"discarded",
         ),
         ("Sample rate", f"{u.record.sample_rate_hz:g} Hz"),
-        ("Station", run.metadata.station_host or "-"),
+        ("Temperature", temperature_text(unit)),
+        *([("Conditions", sheet.conditions)] if sheet is not None and sheet.conditions else []),
+        ("Station", station_name(sheet, run.metadata.station_host)),
         ("Operator", run.metadata.operator or "-"),
         ("Lot", run.metadata.lot or "-"),
-        (
-            "Software version",
-            f"{graded.software_version} (recorded with {run.metadata.software_version or '-'})",
-        ),
+        ("Software version", f"{graded.software_version}{recorded}"),
         ("Profile", f"{p.ref} ({Path(p.path).name}, sha256 {p.sha256[:8]})"),
         ("Decision rule", f"{p.rule}, {p.confidence:.0%} confidence intervals"),
-        ("Graded (UTC)", graded.graded_utc),
+        ("Graded (UTC)", to_the_second(graded.graded_utc)),
         ("Run file", Path(run.path).name),
     ]
+
+
+#: The sheet's statement of the Allan plot's bias-instability limit line (and of B).
+LIMIT_LINE_NOTE = (
+    "Allan plot: the bias-instability limit is drawn at 0.664 x the limit, the "
+    "flat Allan deviation of a unit at the limit; B = sigma_min / 0.664 (IEEE Std 952 "
+    "Annex C; imu_utils and kalibr_allan report sigma_min itself)"
+)
 
 
 @dataclass(frozen=True)
@@ -173,9 +208,14 @@ class EventSummary:
 
     def as_json(self) -> dict[str, object]:
         """JSON form."""
-        return {"has_log": self.has_log, "counts": dict(self.counts), "gaps": self.n_gaps,
-                "missing_samples": self.missing_samples, "stop_reason": self.stop_reason,
-                "interrupted": self.interrupted}
+        return {
+            "has_log": self.has_log,
+            "counts": dict(self.counts),
+            "gaps": self.n_gaps,
+            "missing_samples": self.missing_samples,
+            "stop_reason": self.stop_reason,
+            "interrupted": self.interrupted,
+        }
 
 
 def event_summary(unit: UnitRun, graded: RunGrade) -> EventSummary:
@@ -184,15 +224,24 @@ def event_summary(unit: UnitRun, graded: RunGrade) -> EventSummary:
     for e in unit.events:
         counts[e.kind] += e.count
     listed = tuple(
-        f"{e.time_s:9.1f} s  {e.kind}" + (f" x{e.count}" if e.count != 1 else "")
+        f"{e.time_s:9.1f} s  {e.kind}"
+        + (f" x{e.count}" if e.count != 1 else "")
         + (f", {e.missing_samples} samples missing" if e.missing_samples else "")
         + (f" ({e.detail})" if e.detail else "")
-        for e in unit.events[:MAX_EVENTS_LISTED])
+        for e in unit.events[:MAX_EVENTS_LISTED]
+    )
     if len(unit.events) > MAX_EVENTS_LISTED:
         listed += (f"... and {len(unit.events) - MAX_EVENTS_LISTED} more events",)
     has_log = bool(unit.events) or Path(graded.run.path).suffix.lower() in (".h5", ".hdf5")
-    return EventSummary(dict(counts), unit.n_gaps, unit.missing_samples, listed, has_log,
-                        graded.run.stop_reason, graded.run.interrupted)
+    return EventSummary(
+        dict(counts),
+        unit.n_gaps,
+        unit.missing_samples,
+        listed,
+        has_log,
+        graded.run.stop_reason,
+        graded.run.interrupted,
+    )
 
 
 def report_stem(graded: RunGrade) -> str:
@@ -237,8 +286,15 @@ def unit_sheet(graded: RunGrade, unit: UnitGrade) -> UnitSheet:
     """What the spec sheet of ``unit`` shows (the serial number falls back to the unit id)."""
     u = unit.unit
     return UnitSheet(
-        u.unit_id, u.model or graded.profile.model, u.serial_number or u.unit_id, unit.grade,
-        unit.grade == graded.profile.reject, header_fields(graded, unit),
+        u.unit_id,
+        u.model or graded.profile.model,
+        u.serial_number or u.unit_id,
+        unit.grade,
+        unit.grade == graded.profile.reject,
+        header_fields(graded, unit),
         [r for axis in unit.axes for r in figure_rows(axis)],
         [AxisLine(a.axis, a.grade, a.could_reach or "") for a in unit.axes],
-        event_summary(u, graded), analysis_lines(unit), unit.notes)
+        event_summary(u, graded),
+        analysis_lines(unit),
+        unit.notes,
+    )

@@ -15,7 +15,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from station.evaluation.grading import RunGrade, UnitGrade
-from station.output.report.common import VERDICT_COLORS, fmt, fmt_interval, unit_sheet
+from station.output.report.common import (
+    LIMIT_LINE_NOTE,
+    VERDICT_COLORS,
+    fmt,
+    fmt_interval,
+    unit_sheet,
+)
 from station.output.report.panels import allan_png, davar_png
 from station.output.report.sequence_sheet import sequence_png, sequence_rows
 
@@ -34,6 +40,11 @@ table { border-collapse: collapse; margin: 0.5em 0; }
 td, th { border: 1px solid #bbb; padding: 0.15em 0.5em; text-align: left; }
 th { background: #eee; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
 img { max-width: 100%; }
+.company img { height: 3em; vertical-align: middle; }
+.company { font-size: 13pt; font-weight: bold; }
+table.approval td { height: 3em; min-width: 14em; color: #888; font-size: 8pt;
+                    vertical-align: bottom; }
+p.convention { font-size: 9pt; color: #444; }
 """ + "".join(f"tr.{v} td.verdict {{ background: {c}; }}\n" for v, c in VERDICT_COLORS.items() if v)
 
 
@@ -46,11 +57,20 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     """The HTML ``<section>`` of one unit."""
     sheet = unit_sheet(graded, unit)
     grade_class = "reject" if sheet.rejected else re.sub(r"\W+", "-", sheet.grade)
-    parts = [f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
-             f'data-grade="{escape(sheet.grade)}">',
-             f"<h1>{escape(sheet.title)} "
-             f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
-             f"</span></h1>", '<table class="header">']
+    head = graded.sheet
+    parts = [
+        f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
+        f'data-grade="{escape(sheet.grade)}">'
+    ]
+    if head is not None and (head.logo is not None or head.company):
+        logo = _img(head.logo.read_bytes(), "logo") if head.logo is not None else ""
+        parts.append(f'<div class="company">{logo} {escape(head.company)}</div>')
+    parts += [
+        f"<h1>{escape(sheet.title)} "
+        f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
+        f"</span></h1>",
+        '<table class="header">',
+    ]
     parts += [f"<tr><th>{escape(k)}</th><td>{escape(v)}</td></tr>" for k, v in sheet.header]
     parts.append("</table><h2>Figures</h2>")
     parts.append(
@@ -67,7 +87,8 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             f'<td class="num">{fmt(r.value)}</td>'
             f'<td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
             f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
-            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>')
+            f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>'
+        )
     parts.append("</table><p>")
     parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
               + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
@@ -76,6 +97,7 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         parts.append("</p><h2>Allan deviation</h2>")
         parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms "
                                            "and limits"))
+        parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
         parts.append("<h2>Dynamic Allan deviation</h2>")
         parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
     else:
@@ -86,9 +108,22 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
     parts += [f"<li>{escape(line)}</li>" for line in sheet.events.lines() + list(sheet.notes)]
     parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
     parts += [f"<li>{escape(line)}</li>" for line in sheet.analysis]
-    parts += [f"<li>{escape(a.axis)}: {escape(n)}</li>" for a in unit.axes
-              for n in a.analysis.figures.notes if n.startswith("spikes:")]
-    parts.append("</ul></section>")
+    parts += [
+        f"<li>{escape(a.axis)}: {escape(n)}</li>"
+        for a in unit.axes
+        for n in a.analysis.figures.notes
+        if n.startswith("spikes:")
+    ]
+    parts.append("</ul>")
+    if head is not None and head.approval:
+        parts.append(
+            '<table class="approval"><tr>'
+            + "".join(f"<th>{escape(label)}</th>" for label in head.approval)
+            + "</tr><tr>"
+            + "<td>name, date, signature</td>" * len(head.approval)
+            + "</tr></table>"
+        )
+    parts.append("</section>")
     return "\n".join(parts)
 
 

@@ -73,7 +73,11 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
     ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=fontsize - 1, loc="upper right", ncol=2 if len(axes) > 1 else 1)
+    # lower left: the curves fall from the upper left, and the long-tau end on the right is
+    # where the bias instability and random walk are read
+    ax.legend(
+        fontsize=fontsize - 1, loc="lower left", ncol=2 if len(axes) > 1 else 1, framealpha=0.85
+    )
 
 
 def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
@@ -81,14 +85,22 @@ def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
     limit."""
     for line in limit_lines(axis):
         label = f"{line.label} limit ({line.grade})"
+        if line.shape == "level" and line.figure != "adev_min":
+            label = f"0.664 x {line.label} limit ({line.grade})"
         if line.shape == "slope":
             ax.loglog(line.tau_s, line.adev_deg_h, "--", color="0.3", lw=0.9, label=label)
         else:
             ax.axhline(float(line.adev_deg_h[0]), ls="-.", color="0.3", lw=0.9, label=label)
 
 
-def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 8,
-               settings: AnalysisSettings | None = None) -> bool:
+def draw_davar(
+    ax: Axes,
+    unit: UnitGrade,
+    axis_index: int,
+    *,
+    fontsize: float = 8,
+    settings: AnalysisSettings | None = None,
+) -> bool:
     """Heat map of log10 dynamic Allan deviation (deg/h) of one axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
@@ -109,8 +121,9 @@ def draw_davar(ax: Axes, unit: UnitGrade, axis_index: int, *, fontsize: float = 
     mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
     if grid.warmup_s:
         ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
-    ax.set_title(f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s",
-                 fontsize=fontsize)
+    ax.set_title(
+        f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s", fontsize=fontsize
+    )
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
     ax.set_ylabel("tau [s]", fontsize=fontsize)
     ax.tick_params(labelsize=fontsize - 1)

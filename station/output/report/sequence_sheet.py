@@ -12,8 +12,6 @@ The plots (one PNG, three panels, computed once for the PDF and the HTML sheet):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import matplotlib
 
 matplotlib.use("Agg")
@@ -23,25 +21,8 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from station.evaluation.sequence_grading import UnitSequence  # noqa: E402
-from station.output.report.common import fmt, fmt_interval  # noqa: E402
+from station.output.report.common import FigureRow, fmt, fmt_interval  # noqa: E402
 from station.output.report.panels import figure_png, placeholder  # noqa: E402
-
-
-@dataclass(frozen=True)
-class SequenceRow:
-    """One line of the sequence figures table (values in ``unit``)."""
-
-    name: str
-    label: str
-    unit: str
-    value: float | None
-    ci_low: float | None
-    ci_high: float | None
-    limit: float | None
-    grade: str
-    verdict: str | None
-    note: str
-
 
 #: The figures shown whether or not the profile limits them: (JSON key, label, unit).
 _INFO = (("turn_on_time_spread_s", "turn-on time spread (1 sigma)", "s"),
@@ -51,13 +32,14 @@ _INFO = (("turn_on_time_spread_s", "turn-on time spread (1 sigma)", "s"),
          ("hysteresis_deg_h", "thermal hysteresis", "deg/h"))
 
 
-def sequence_rows(seq: UnitSequence) -> list[SequenceRow]:
-    """The graded figures (limits of the deciding grade), then informational ones."""
+def sequence_rows(seq: UnitSequence) -> list[FigureRow]:
+    """The graded figures (limits of the deciding grade), then informational ones (a
+    sequence's figures are the unit's: no axis)."""
     rows = []
     grade = seq.deciding_grade
     for g in seq.graded:
         limited = bool(g.spec.limits)
-        rows.append(SequenceRow(g.spec.name, g.spec.label, g.spec.unit, g.value, g.ci_low,
+        rows.append(FigureRow("", g.spec.name, g.spec.label, g.spec.unit, g.value, g.ci_low,
                                 g.ci_high, g.spec.limits.get(grade) if limited else None,
                                 grade if limited else "",
                                 g.verdicts.get(grade, "pass") if limited else None, g.note))
@@ -65,7 +47,7 @@ def sequence_rows(seq: UnitSequence) -> list[SequenceRow]:
     for key, label, unit in _INFO:
         fig = seq.figures.get(key)
         if fig is not None and fig.value is not None and key not in shown:
-            rows.append(SequenceRow(key, label, unit, fig.value, fig.low, fig.high, None, "",
+            rows.append(FigureRow("", key, label, unit, fig.value, fig.low, fig.high, None, "",
                                     None, f"axis {fig.axis}" if fig.axis else ""))
     return rows
 

@@ -1,0 +1,59 @@
+"""The deviation curve of every axis as CSV (``station analyze --csv OUT``), in deg/h.
+
+One row per axis and tau (long format: axes may have different tau grids), columns
+``axis, tau_s, <kind>_deg_h, <kind>_ci_low_deg_h, <kind>_ci_high_deg_h, n_clusters`` and,
+for the Allan deviation the fit was made on, ``fit_adev_deg_h`` (the fitted five-term
+model at that tau). A time deviation (``tdev``, an angle) is in deg: ``tdev_deg``...
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from analysis.deviations import from_allan
+from analysis.units import S_PER_H
+from station.evaluation.analyze import AxisAnalysis
+from station.storage.atomic_files import write_text_atomically
+
+
+def curve_table(axes: Sequence[AxisAnalysis]) -> str:
+    """The CSV text of the shown curve of every axis (the module docstring lists the columns)."""
+    shown = [a.shown for a in axes]
+    kind = shown[0].kind if shown else "oadev"
+    angle = bool(shown) and shown[0].unit == "angle"
+    unit, scale = ("deg", 1.0) if angle else ("deg_h", S_PER_H)
+    fitted = all(c.kind == from_allan(a.allan).kind for a, c in zip(axes, shown, strict=True))
+    header = [
+        "axis",
+        "tau_s",
+        f"{kind}_{unit}",
+        f"{kind}_ci_low_{unit}",
+        f"{kind}_ci_high_{unit}",
+        "n_clusters",
+        *(["fit_adev_deg_h"] if fitted else []),
+    ]
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(header)
+    for axis, c in zip(axes, shown, strict=True):
+        fit = np.sqrt(axis.fit.model_avar(c.tau_s)) * S_PER_H if fitted else None
+        for i, tau in enumerate(c.tau_s):
+            row: list[object] = [axis.name, repr(float(tau))]
+            for v in (c.deviation[i], c.deviation_ci_low[i], c.deviation_ci_high[i]):
+                row.append(repr(float(v) * scale) if math.isfinite(v) else "")
+            row.append(int(c.n_clusters[i]))
+            if fit is not None:
+                row.append(repr(float(fit[i])))
+            writer.writerow(row)
+    return out.getvalue()
+
+
+def write_curve_csv(axes: Sequence[AxisAnalysis], path: str | Path) -> Path:
+    """Write :func:`curve_table` to ``path`` whole or not at all."""
+    return write_text_atomically(path, curve_table(axes))

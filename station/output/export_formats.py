@@ -1,0 +1,366 @@
+"""The file formats of ``station export``: each tool's own keys, units and layout.
+
+Every writer takes the per-axis :class:`analysis.tool_units.AxisNoise` and returns the
+file's text; the conversions are :mod:`analysis.tool_units`' and ``docs/units.md`` lists
+them. Every number carries its unit in a comment or a key.
+
+=====================  ==========================  ========================================
+format                 file                        read by
+=====================  ==========================  ========================================
+``kalibr``             ``imu.yaml``                Kalibr (``--imu``), and tools taking it
+``openvins``           ``kalibr_imu_chain.yaml``   OpenVINS (OpenCV ``FileStorage``)
+``matlab``             ``gyro_params.m`` / ``.json`` MATLAB's ``gyroparams`` (``imuSensor``)
+``gnss-ins-sim``       ``gyro_err.py``             gnss-ins-sim's ``imu_model.IMU(accuracy=)``
+``allan-variance-ros`` ``imu.yaml``                as allan_variance_ros' analysis.py writes it
+``json``               ``noise.json``              anything: every figure in both unit families
+=====================  ==========================  ========================================
+
+Kalibr, OpenVINS and allan_variance_ros take one value per sensor: the largest over the
+axes (allan_variance_ros' own choice), each axis listed in a comment. The station
+characterizes gyros only: the accelerometer keys those tools also need are not written,
+and the header says so (a value we did not measure would be invented).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from analysis.tool_units import AxisNoise, rate_rad_s
+from station.errors import UsageError
+
+_ACCEL_NOTE = (
+    "gyroscope only: this station does not measure accelerometers; add "
+    "accelerometer_noise_density and accelerometer_random_walk before use"
+)
+
+
+@dataclass(frozen=True)
+class ExportContext:
+    """What a file's header names: the record, the unit, the method and the topic."""
+
+    source: str
+    unit: str | None = None
+    method: str = "logwls"
+    rostopic: str = "/imu0"
+    earth_rate_removed: bool = False
+
+    def origin(self) -> str:
+        """``<file>[, unit <id>], <method> analysis``."""
+        unit = f", unit {self.unit}" if self.unit else ""
+        return f"{self.source}{unit}, {self.method} analysis (station export)"
+
+
+def _yaml(key: str, value: object, comment: str = "", indent: str = "") -> str:
+    """One ``key: value  # comment`` line, the value written by PyYAML."""
+    import yaml  # PyYAML: only when a YAML file is written
+
+    line = yaml.safe_dump({key: value}, default_flow_style=True, width=1000).strip()[1:-1]
+    return f"{indent}{line}" + (f"  # {comment}" if comment else "")
+
+
+def _rate(axes: Sequence[AxisNoise]) -> float:
+    """The record's sample rate, Hz, to 10 digits (a rate measured from time stamps)."""
+    return float(f"{axes[0].sample_rate_hz:.10g}")
+
+
+def _largest(axes: Sequence[AxisNoise]) -> tuple[AxisNoise, AxisNoise]:
+    """(the axis of the largest noise density, the axis of the largest random walk)."""
+    return (max(axes, key=lambda a: a.arw_deg_rt_h), max(axes, key=lambda a: a.rrw_deg_h_1_5))
+
+
+def _axis_comments(axes: Sequence[AxisNoise]) -> list[str]:
+    out = []
+    for a in axes:
+        out.append(
+            f"#   {a.name}: noise density {a.noise_density_rad_s_rt_hz:.6g} rad/s/sqrt(Hz) "
+            f"(ARW {a.arw_deg_rt_h:.4g} deg/sqrt(h), {(a.sources or {}).get('arw', '')}); "
+            f"random walk {a.random_walk_rad_s2_rt_hz:.6g} rad/s^2/sqrt(Hz) "
+            f"(K {a.rrw_deg_h_1_5:.4g} deg/h^1.5, {(a.sources or {}).get('rrw', '')})"
+        )
+    return out
+
+
+def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
+    nd_axis, rw_axis = _largest(axes)
+    return [
+        _yaml(
+            "gyroscope_noise_density",
+            nd_axis.noise_density_rad_s_rt_hz,
+            f"rad/s/sqrt(Hz), continuous time (axis {nd_axis.name})",
+            indent,
+        ),
+        _yaml(
+            "gyroscope_random_walk",
+            rw_axis.random_walk_rad_s2_rt_hz,
+            f"rad/s^2/sqrt(Hz), continuous time (axis {rw_axis.name})",
+            indent,
+        ),
+    ]
+
+
+def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """Kalibr's ``imu.yaml``: ``gyroscope_noise_density`` (rad/s/sqrt(Hz)),
+    ``gyroscope_random_walk`` (rad/s^2/sqrt(Hz)), ``rostopic``, ``update_rate`` (Hz)."""
+    rate = _rate(axes)
+    return "\n".join(
+        [
+            f"# Kalibr IMU noise parameters of {ctx.origin()}",
+            f"# {_ACCEL_NOTE}",
+            "# the largest value over the axes is written; per axis:",
+            *_axis_comments(axes),
+            "",
+            *_gyro_lines(axes),
+            "",
+            _yaml("rostopic", ctx.rostopic, "the IMU topic: check it"),
+            _yaml("update_rate", rate, "Hz, the record's sample rate (for the discrete values)"),
+            "",
+        ]
+    )
+
+
+def openvins(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """OpenVINS' ``kalibr_imu_chain.yaml``: an ``imu0`` block with Kalibr's keys, the
+    ``time_offset`` and the ``model``; the OpenCV header ``%YAML:1.0`` its reader needs."""
+    rate = _rate(axes)
+    return "\n".join(
+        [
+            "%YAML:1.0 # OpenCV FileStorage header: OpenVINS reads this file with cv::FileStorage",
+            f"# OpenVINS IMU noise parameters of {ctx.origin()}",
+            f"# {_ACCEL_NOTE}",
+            "# intrinsics (Tw, R_IMUtoGYRO, Tg) are not written: the station does not "
+            "calibrate them",
+            "# the largest value over the axes is written; per axis:",
+            *_axis_comments(axes),
+            "",
+            "imu0:",
+            *_gyro_lines(axes, "  "),
+            _yaml("rostopic", ctx.rostopic, "the IMU topic: check it", "  "),
+            _yaml("time_offset", 0.0, "s", "  "),
+            _yaml("update_rate", rate, "Hz, the record's sample rate", "  "),
+            _yaml("model", "kalibr", "", "  "),
+            "",
+        ]
+    )
+
+
+def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """allan_variance_ros' ``imu.yaml`` (its analysis.py output): the gyroscope section,
+    the largest value over the axes in rad units, ``rostopic`` and ``update_rate``."""
+    rate = _rate(axes)
+    return "\n".join(
+        [
+            f"# allan_variance_ros imu.yaml of {ctx.origin()}",
+            f"# {_ACCEL_NOTE}",
+            "# per axis:",
+            *_axis_comments(axes),
+            "",
+            "#Gyroscope",
+            *_gyro_lines(axes),
+            "",
+            _yaml("rostopic", ctx.rostopic, "Make sure this is correct"),
+            _yaml("update_rate", rate, "Hz, Make sure this is correct"),
+            "",
+        ]
+    )
+
+
+def _matlab_values(axes: Sequence[AxisNoise]) -> dict[str, list[float]]:
+    """gyroparams' fields in its units (rad/s/sqrt(Hz), rad/s, (rad/s) sqrt(Hz), rad/s)."""
+    missing = [a.name for a in axes if a.bias_instability_deg_h is None]
+    if missing:
+        raise UsageError(
+            f"no bias instability for axis {', '.join(missing)}: MATLAB's "
+            f"BiasInstability needs one (record longer)"
+        )
+    return {
+        "NoiseDensity": [a.noise_density_rad_s_rt_hz for a in axes],
+        "BiasInstability": [rate_rad_s(a.bias_instability_deg_h or 0.0) for a in axes],
+        "RandomWalk": [a.random_walk_rad_s2_rt_hz for a in axes],
+        "ConstantBias": [rate_rad_s(a.bias_deg_h) for a in axes],
+    }
+
+
+_MATLAB_UNITS = {
+    "NoiseDensity": "(rad/s)/sqrt(Hz)",
+    "BiasInstability": "rad/s (sigma_min / 0.664)",
+    "RandomWalk": "(rad/s)*sqrt(Hz)",
+    "ConstantBias": "rad/s",
+}
+
+
+def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """A MATLAB script that builds ``params = gyroparams(...)`` with ``NoiseDensity``,
+    ``BiasInstability``, ``RandomWalk`` and ``ConstantBias``, each a scalar (one axis) or
+    a 1x3 row vector (x, y, z), in gyroparams' units."""
+    values = _matlab_values(axes)
+    earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
+    lines = [
+        f"% MATLAB gyroparams of {ctx.origin()}",
+        f"% axes: {', '.join(a.name for a in axes)}; units as gyroparams expects them:",
+    ]
+    lines += [f"%   {k}: {u}" for k, u in _MATLAB_UNITS.items()]
+    lines += [f"% ConstantBias is the record's mean rate ({earth})", "params = gyroparams( ..."]
+    fields = list(values)
+    for i, k in enumerate(fields):
+        v = values[k]
+        text = repr(v[0]) if len(v) == 1 else "[" + " ".join(repr(x) for x in v) + "]"
+        lines.append(f"    '{k}', {text}{', ...' if i < len(fields) - 1 else ');'}")
+    return "\n".join(lines) + "\n"
+
+
+def matlab_json(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """gyroparams' fields as JSON for MATLAB's ``jsondecode`` (each a list over the axes),
+    with ``units``, ``axes`` and ``source``."""
+    body = {
+        **_matlab_values(axes),
+        "units": _MATLAB_UNITS,
+        "axes": [a.name for a in axes],
+        "source": ctx.origin(),
+        "earth_rate_removed": ctx.earth_rate_removed,
+    }
+    return json.dumps(body, indent=2) + "\n"
+
+
+def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """A Python module defining ``gyro_err``, gnss-ins-sim's gyro keys: ``gyro_b`` (deg/h),
+    ``gyro_arw`` (deg/sqrt(h)), ``gyro_b_stability`` (deg/h) and, where a Gauss-Markov
+    term exists, ``gyro_b_corr`` (s; the Gauss-Markov sigma then is ``gyro_b_stability``)."""
+
+    def arr(xs: Sequence[float]) -> str:
+        return (
+            "np.array(["
+            + ", ".join("np.inf" if math.isinf(x) else repr(float(x)) for x in xs)
+            + "])"
+        )
+
+    gm = [a.main_gauss_markov for a in axes]
+    stability, corr, how = [], [], []
+    for a, g in zip(axes, gm, strict=True):
+        if g is not None:
+            stability.append(g.sigma_deg_h)
+            corr.append(g.tau_s)
+            how.append(f"{a.name}: Gauss-Markov sigma {g.sigma_deg_h:.4g} deg/h, T {g.tau_s:.4g} s")
+        else:
+            if a.bias_instability_deg_h is None:
+                raise UsageError(
+                    f"no bias instability for axis {a.name}: gnss-ins-sim's "
+                    f"gyro_b_stability needs one (record longer)"
+                )
+            stability.append(a.bias_instability_deg_h)
+            corr.append(float("inf"))
+            how.append(
+                f"{a.name}: bias instability B = sigma_min / 0.664 = "
+                f"{a.bias_instability_deg_h:.4g} deg/h (no Gauss-Markov term)"
+            )
+    earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
+    lines = [
+        f"# gnss-ins-sim gyro error parameters of {ctx.origin()}",
+        "# gyroscope only: merge with your accelerometer's before use, e.g.",
+        "#   imu = imu_model.IMU(accuracy={**gyro_err, 'accel_b': ..., 'accel_vrw': ...,",
+        "#                                 'accel_b_stability': ...}, axis=6)",
+        f"# axes: {', '.join(a.name for a in axes)}",
+        *(f"#   {h}" for h in how),
+        "import numpy as np",
+        "",
+        "gyro_err = {",
+        f"    'gyro_b': {arr([a.bias_deg_h for a in axes])},"
+        f"  # deg/h, the record's mean rate ({earth})",
+        f"    'gyro_arw': {arr([a.arw_deg_rt_h for a in axes])},  # deg/sqrt(h)",
+        f"    'gyro_b_stability': {arr(stability)},  # deg/h",
+    ]
+    if any(g is not None for g in gm):
+        lines.append(
+            f"    'gyro_b_corr': {arr(corr)},  # s (inf: no Gauss-Markov term on that axis)"
+        )
+    lines += ["}", ""]
+    return "\n".join(lines)
+
+
+def json_format(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
+    """Every figure of every axis in both unit families (:meth:`AxisNoise.as_json`)."""
+    body = {
+        "source": ctx.source,
+        "unit": ctx.unit,
+        "method": ctx.method,
+        "earth_rate_removed": ctx.earth_rate_removed,
+        "axes": [a.as_json() for a in axes],
+    }
+    return json.dumps(body, indent=2) + "\n"
+
+
+def _any_axes(n: int, names: Sequence[str]) -> None:
+    if n < 1:
+        raise UsageError("the record has no axis to export")
+
+
+def _one_or_three(tool: str) -> Callable[[int, Sequence[str]], None]:
+    def check(n: int, names: Sequence[str]) -> None:
+        if n not in (1, 3) or (tool == "gnss-ins-sim" and n != 3):
+            want = (
+                "three axes (x, y, z)" if tool == "gnss-ins-sim" else "one axis or three (x, y, z)"
+            )
+            raise UsageError(
+                f"{tool} takes {want}; the record has {n} ({', '.join(names)}): "
+                f"pick one with --axis, or use --format json"
+            )
+
+    return check
+
+
+@dataclass(frozen=True)
+class ExportFormat:
+    """A format: its writer, default file name and the axis counts it can hold."""
+
+    write: Callable[[Sequence[AxisNoise], ExportContext], str]
+    default_name: str
+    check_axes: Callable[[int, Sequence[str]], None] = _any_axes
+    description: str = ""
+    #: The file is loaded by name as code (MATLAB script, Python module): its default name
+    #: must be an identifier.
+    identifier_name: bool = False
+
+
+FORMATS: dict[str, ExportFormat] = {
+    "kalibr": ExportFormat(kalibr, "imu.yaml", description="Kalibr imu.yaml"),
+    "openvins": ExportFormat(
+        openvins, "kalibr_imu_chain.yaml", description="OpenVINS kalibr_imu_chain.yaml"
+    ),
+    "matlab": ExportFormat(
+        matlab,
+        "gyro_params.m",
+        _one_or_three("MATLAB's gyroparams"),
+        "MATLAB gyroparams (.m script, or .json for jsondecode)",
+        True,
+    ),
+    "gnss-ins-sim": ExportFormat(
+        gnss_ins_sim,
+        "gyro_err.py",
+        _one_or_three("gnss-ins-sim"),
+        "gnss-ins-sim IMU error dictionary (Python)",
+        True,
+    ),
+    "allan-variance-ros": ExportFormat(
+        allan_variance_ros, "allan_imu.yaml", description="allan_variance_ros imu.yaml"
+    ),
+    "json": ExportFormat(json_format, "noise.json", description="every figure, both unit families"),
+}
+
+
+def render(fmt: str, axes: Sequence[AxisNoise], ctx: ExportContext, *, suffix: str = "") -> str:
+    """The text of ``fmt`` for ``axes`` (``suffix`` ``.json`` turns ``matlab`` into its JSON form).
+
+    Raises
+    ------
+    UsageError
+        An unknown format, or axes the format cannot hold.
+    """
+    if fmt not in FORMATS:
+        raise UsageError(f"unknown format {fmt!r}: one of {', '.join(FORMATS)}")
+    spec = FORMATS[fmt]
+    spec.check_axes(len(axes), [a.name for a in axes])
+    if fmt == "matlab" and suffix.lower() == ".json":
+        return matlab_json(axes, ctx)
+    return spec.write(axes, ctx)

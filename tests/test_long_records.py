@@ -1,0 +1,157 @@
+"""Long records in bounded memory: the block-wise paths give today's numbers, a memmap's
+pages are handed back, and ``station analyze`` of a long run file stays flat.
+
+The block-wise paths start above :data:`analysis.blocks.LONG_SAMPLES`; the tests lower
+it (and the block size) so that a short record takes them, and compare with the same
+record analysed in one piece.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analysis import blocks
+from analysis.allan import cumulative_angle, overlapping_allan_variance
+from analysis.figures import bias_stability
+from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
+from analysis.tones import find_tones
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture()
+def small_blocks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Records over 5000 samples are long, walked in blocks of 1237."""
+    monkeypatch.setattr(blocks, "LONG_SAMPLES", 5000)
+    monkeypatch.setattr(blocks, "BLOCK_SAMPLES", 1237)
+
+
+def _record(n: int = 60_000) -> np.ndarray:
+    rng = np.random.default_rng(7)
+    t = np.arange(n) / 100.0
+    x = 0.01 * rng.standard_normal(n) + 1e-4 * np.cumsum(rng.standard_normal(n)) / 30
+    x += 0.004 * np.sin(2 * np.pi * 11.0 * t)
+    x[[50, 20_000, 20_001, 59_990]] += [0.6, -0.5, -0.55, 0.7]
+    return x
+
+
+def _memmap(tmp_path: Path, x: np.ndarray) -> np.memmap:
+    mm = np.memmap(tmp_path / "rate.f8", dtype=np.float64, mode="w+", shape=x.shape)
+    mm[:] = x
+    mm.flush()
+    return np.memmap(tmp_path / "rate.f8", dtype=np.float64, mode="r", shape=x.shape)
+
+
+def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    x = _record()
+    whole_angle = cumulative_angle(x, 100.0)
+    whole = overlapping_allan_variance(x, 100.0)
+    spikes = detect_spikes(x)
+    tones = find_tones(x, 100.0)
+    stability = bias_stability(x, 100.0, 10.0)
+    repaired = replace_spikes(x, spikes.flags)
+    monkeypatch.setattr(blocks, "LONG_SAMPLES", 5000)
+    monkeypatch.setattr(blocks, "BLOCK_SAMPLES", 1237)
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    # one running sum either way: the angle is the same to the last bit
+    np.testing.assert_array_equal(cumulative_angle(mm, 100.0, out=angle), whole_angle)
+    for backend in ("numpy", "numba"):
+        monkeypatch.setattr(
+            "analysis.kernels._pick",
+            lambda b, w, _b=backend: (
+                None if _b == "numpy" else __import__("analysis.kernels_numba").kernels_numba
+            ),
+        )
+        got = overlapping_allan_variance(mm, 100.0, angle_out=angle)
+        np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
+        np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    long_spikes = detect_spikes(mm)
+    assert long_spikes.spikes == spikes.spikes and len(spikes.spikes) == 3
+    assert (long_spikes.scale, long_spikes.scale_linear) == (spikes.scale, spikes.scale_linear)
+    np.testing.assert_array_equal(replace_flagged(mm, long_spikes.flagged), repaired)
+    assert [t.freq_hz for t in find_tones(mm, 100.0)] == pytest.approx(
+        [t.freq_hz for t in tones], rel=1e-12
+    )
+    assert bias_stability(mm, 100.0, 10.0) == stability
+
+
+def test_exact_block_medians_of_quantized_and_continuous_values(small_blocks: None) -> None:
+    rng = np.random.default_rng(3)
+    for x in (
+        rng.standard_normal(20_001),
+        np.round(rng.standard_normal(20_000) * 3) / 7,
+        np.zeros(9000),
+    ):
+        assert blocks.median(lambda a, b, v=x: v[a:b], len(x)) == np.median(x)
+
+
+def _rss_kb() -> int:
+    status = Path("/proc/self/status").read_text()
+    return int(re.search(r"VmRSS:\s+(\d+)", status).group(1))  # type: ignore[union-attr]
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
+def test_walking_a_memmap_hands_its_pages_back(tmp_path: Path) -> None:
+    """Summing a 64 MB memmap a block at a time keeps the resident set near one block;
+    reading it through without the hand-back maps all of it."""
+    n = 8 << 20
+    path = tmp_path / "big.f8"
+    with open(path, "wb") as fh:
+        fh.truncate(n * 8)
+    mm = np.memmap(path, dtype=np.float64, mode="r", shape=(n, 1))
+    before = _rss_kb()
+    assert blocks.column_sums(mm)[0] == 0.0
+    grown = _rss_kb() - before
+    whole = np.memmap(path, dtype=np.float64, mode="r", shape=(n, 1))
+    before = _rss_kb()
+    assert float(whole.sum()) == 0.0
+    unreleased = _rss_kb() - before
+    assert unreleased > 50_000  # kB: the whole 64 MB was mapped in
+    assert grown < 16_000, grown
+
+
+def _bench_memory(minutes: float) -> int:
+    run = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "bench_memory.py"),
+            "--hours",
+            str(minutes / 60),
+            "--rate-hz",
+            "2000",
+            "--axes",
+            "1",
+            "--long-samples",
+            str(1 << 16),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
+    assert run.returncode == 0, run.stderr[-2000:]
+    lines = run.stdout.strip().splitlines()
+    assert len(lines) == 1, run.stdout
+    match = re.fullmatch(r"peak_rss_mb=(\d+) seconds=(\d+\.\d)", lines[0])
+    assert match, lines[0]
+    return int(match.group(1))
+
+
+@pytest.mark.slow
+def test_bench_memory_peak_is_flat_in_the_run_length() -> None:
+    """``station analyze`` of 2- and 16-minute runs at 2 kHz through the block-wise path
+    (records over 2^16 samples count as long): one line ``peak_rss_mb=... seconds=...``
+    each, and the peak grows by less than 20 MB (measured 129 -> 136 MB); the in-memory
+    path (``--long-samples`` above the record) measured 177 -> 218 MB on the same runs."""
+    short, long = _bench_memory(2), _bench_memory(16)
+    assert 50 < short < 400 and 50 < long < 400, (short, long)
+    assert long - short < 20, (short, long)
