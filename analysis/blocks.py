@@ -77,6 +77,19 @@ def release(arr: object) -> None:
             pass
 
 
+def decimated(x: NDArray[np.float64], step: int) -> NDArray[np.float64]:
+    """``x[::step]`` as a float64 array, read a block at a time: a strided read of a
+    memmap maps in every page it strides over (all of them for a step under 512)."""
+    if not is_mapped(x):
+        return np.asarray(x[::step], dtype=np.float64)
+    parts = []
+    rows = max(1, BLOCK_SAMPLES // step) * step
+    for a, b in spans(0, len(x), rows):
+        parts.append(np.array(x[a:b:step], dtype=np.float64))  # a copy, not a view
+        release(x)
+    return np.concatenate(parts)
+
+
 def column_sums(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Sum over the first axis of a long array, a block at a time (float64)."""
     total = np.zeros(x.shape[1:])

@@ -11,11 +11,12 @@ Each has a pure-numpy implementation (always available, what the tests compare a
 and a compiled one (numba, a dependency of the default install) that fuses the second
 difference, the square and the sum into one pass over ``theta`` and spreads the m values
 over the cores; the results agree to rounding (about 1e-15 relative). ``backend="auto"``
-takes the compiled one when numba can be imported and either the work is large
-(:data:`COMPILED_MIN_TERMS`) or this process has launched a compiled kernel already:
-numba's import and the load of its cached kernels cost about 1.4 s on this machine,
-more than the compiled kernels save on a short record (a one-hour CSV analyses faster
-in numpy than with that start-up).
+takes the compiled one when numba can be imported and the work is large
+(:data:`COMPILED_MIN_TERMS`): numba's import and the load of its cached kernels cost
+about 1.4 s on this machine, more than the compiled kernels save on a short record (a
+one-hour CSV analyses faster in numpy than with that start-up). The choice depends on the
+work alone, never on what the process ran before, so the same record gives the same
+numbers in any process (a fleet worker and the command line agree to the last bit).
 
 Precision of the window sums: a window sum taken as the difference of two entries of one
 float64 running sum over the whole record loses about ``1e-16 N / L`` relative. None of
@@ -64,8 +65,6 @@ _SEGMENTS_MAX_OVERLAP = 32
 #: analyses in worker threads (the TUI grades a run while it computes a DAVAR), so the
 #: compiled launches take turns; each already spreads its work over every core.
 _COMPILED_LAUNCH = threading.Lock()
-#: Set once a compiled kernel has run in this process (its start-up cost is paid).
-_COMPILED_WARM = threading.Event()
 #: Second-difference terms from which ``backend="auto"`` starts numba in a process that has
 #: not used it yet: about what numpy spends in 1.4 s more than the compiled kernels.
 COMPILED_MIN_TERMS = 1_000_000_000
@@ -92,7 +91,7 @@ def _pick(backend: Backend, work: int) -> ModuleType | None:
         return None
     if backend not in ("auto", "numba"):
         raise ValueError(f"backend must be 'auto', 'numpy' or 'numba', got {backend!r}")
-    if backend == "auto" and work < COMPILED_MIN_TERMS and not _COMPILED_WARM.is_set():
+    if backend == "auto" and work < COMPILED_MIN_TERMS:
         return None
     kernels = _compiled()
     if kernels is None and backend == "numba":
@@ -181,7 +180,6 @@ def _overlapping_sums_long(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
             for i, m in enumerate(m_arr):
                 for lo, hi in blocks.spans(0, n_points - 2 * int(m), _LONG_BLOCK):
                     out[i, c] += compiled.span_sum(th, int(m), lo, hi)
-                    _COMPILED_WARM.set()
                     blocks.release(theta)
             continue
         for i, m in enumerate(m_arr):
@@ -216,7 +214,7 @@ def overlapping_sums(
     m_values : ndarray of int, shape (n_m,)
         Averaging factors (samples), ``1 <= m <= N / 2``.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
+        Kernel to use; ``"auto"``: numba for large work (module docstring).
 
     Returns
     -------
@@ -241,7 +239,6 @@ def overlapping_sums(
     out = np.empty((len(m_arr), theta_t.shape[0]))
     with _COMPILED_LAUNCH:
         kernels.oadev_sums(theta_t, m_arr, out)
-        _COMPILED_WARM.set()
     return out
 
 
@@ -287,7 +284,7 @@ def overlapping_stretch_sums(
         Each stretch's first and one-past-last sample index into the concatenated
         samples, in order, covering ``0 .. n`` without overlap.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
+        Kernel to use; ``"auto"``: numba for large work (module docstring).
 
     Returns
     -------
@@ -313,7 +310,6 @@ def overlapping_stretch_sums(
     out = np.empty((len(m_arr), theta_t.shape[0]))
     with _COMPILED_LAUNCH:
         kernels.oadev_stretch_sums(theta_t, m_arr, starts, stops, out)
-        _COMPILED_WARM.set()
     return out
 
 
@@ -436,7 +432,7 @@ def window_sums(
     window : int
         Window length Nw in samples.
     backend : {"auto", "numpy", "numba"}
-        Kernel to use; ``"auto"``: numba for large work or once it runs (module docstring).
+        Kernel to use; ``"auto"``: numba for large work (module docstring).
 
     Returns
     -------
@@ -469,5 +465,4 @@ def window_sums(
             by_m = np.empty((len(m_arr), len(starts)))
             kernels.window_sums(theta, m_arr, starts, window, by_m)
             out[:] = by_m.T
-        _COMPILED_WARM.set()
     return out

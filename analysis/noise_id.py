@@ -156,7 +156,7 @@ def lag1_alpha(angle: NDArray[np.float64], m: int, *, d_max: int = 2) -> int:
         :data:`FLICKER_RATE_BOUNDARY` instead of -1.5.
     """
     long = blocks.is_long((len(angle) - 1) // m)
-    z = None if long else np.diff(np.asarray(angle[::m], dtype=float))
+    z = None if long else np.diff(blocks.decimated(angle, m))
     d = 1
     while True:
         if z is None:

@@ -155,6 +155,6 @@ class SimulatedDevice(OpenedDevice):
         finally:
             assert self.simulator is not None
             self.simulator.stop()
-            close = getattr(self.simulator.core, "close", None)
-            if close is not None:  # a core in this process: what runs beside it (a supply)
-                close()
+            stop = getattr(self.simulator.core, "stop_attached", None)
+            if stop is not None:  # a core in this process: what runs beside it (a supply)
+                stop()

@@ -110,6 +110,7 @@ def test_walking_a_memmap_hands_its_pages_back(tmp_path: Path) -> None:
     mm = np.memmap(path, dtype=np.float64, mode="r", shape=(n, 1))
     before = _rss_kb()
     assert blocks.column_sums(mm)[0] == 0.0
+    assert len(blocks.decimated(mm[:, 0], 100)) == len(range(0, n, 100))  # strided, too
     grown = _rss_kb() - before
     whole = np.memmap(path, dtype=np.float64, mode="r", shape=(n, 1))
     before = _rss_kb()

@@ -103,11 +103,11 @@ def profile(tmp_path: Path) -> Path:
 
 def test_turn_on_figures_come_back_within_their_intervals(profile: Path, tmp_path: Path
                                                           ) -> None:
-    """Three units (three seeds), five switch-ons: the turn-on repeatability covers the
+    """Two units (two seeds), five switch-ons: the turn-on repeatability covers the
     spread the turn-on biases are drawn with, the turn-on time the mean drawn time (to
     the end of the first sample), the warm-up time the transient's entry into the band;
     each switch-on's turn-on time and bias match what it drew."""
-    seeds = (1, 2, 3)
+    seeds = (1, 2)
     request = SequenceRequest("turn_on", str(profile), tuple(turn_on_url(s) for s in seeds),
                               power=("sim",), out=tmp_path / "runs")
     with prepare_sequence(request) as prepared:

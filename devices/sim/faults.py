@@ -250,10 +250,11 @@ class SimCore:
         self._release("configuration")
 
     def on_close(self, closer: Callable[[], None]) -> None:
-        """Have :meth:`close` call ``closer`` (a thread that follows the unit's supply)."""
+        """Have :meth:`stop_attached` call ``closer`` (a thread that follows the unit's
+        supply)."""
         self._closers.append(closer)
 
-    def close(self) -> None:
+    def stop_attached(self) -> None:
         """Stop what the simulation runs beside its device (once the device stopped)."""
         closers, self._closers = self._closers, []
         for closer in closers:
