@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import socket
 import threading
-import time
 from dataclasses import dataclass
 
 from pymodbus.constants import ExcCodes
@@ -42,6 +40,7 @@ from devices.codecs.fixture_map import (
 )
 from devices.errors import CodecError
 from devices.sim.clock import WarpClock
+from devices.sim.loop import wait_for_listener
 from devices.sim.modbus_server import free_tcp_port
 
 RELAY_DEVICE_ID = 1
@@ -251,17 +250,8 @@ class SimulatedFixture:
                                         daemon=True)
         self._thread.start()
         ready.wait(timeout_s)
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
-                return self
-            except OSError as exc:
-                if time.monotonic() > deadline:
-                    self.stop()
-                    raise TimeoutError(f"simulated fixture on port {self.port} did not "
-                                       f"start") from exc
-                time.sleep(0.01)
+        wait_for_listener(self.port, timeout_s, "simulated fixture", self.stop)
+        return self
 
     def stop(self) -> None:
         """Shut the server down and join its thread."""

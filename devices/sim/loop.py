@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import socket
 import threading
+import time
+from collections.abc import Callable
 
 
 class DeviceLoop:
@@ -29,3 +32,26 @@ class DeviceLoop:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=timeout_s)
+
+
+def wait_for_listener(
+    port: int, timeout_s: float, what: str, on_timeout: Callable[[], None]
+) -> None:
+    """Return once a server accepts TCP connections on 127.0.0.1:``port``.
+
+    Raises
+    ------
+    TimeoutError
+        Nothing listened within ``timeout_s`` (wall s); ``on_timeout`` (the server's stop)
+        has run first.
+    """
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+            return
+        except OSError as exc:
+            if time.monotonic() > deadline:
+                on_timeout()
+                raise TimeoutError(f"{what} on port {port} did not start") from exc
+            time.sleep(0.01)

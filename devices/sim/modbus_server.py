@@ -12,7 +12,6 @@ import asyncio
 import contextlib
 import socket
 import threading
-import time
 
 from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusBaseServer, ModbusSerialServer, ModbusTcpServer
@@ -21,6 +20,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 from devices.codecs.base import Reading
 from devices.codecs.modbus_map import ModbusRegisterMap, RegisterField
 from devices.sim.faults import SimCore
+from devices.sim.loop import wait_for_listener
 from devices.sim.pty_bridge import PtyBridge
 
 #: Where the simulated chamber keeps its temperature (device id ``env_device_id``).
@@ -154,17 +154,8 @@ class ModbusGyroServer:
         self._ready.wait(timeout_s)
         if self.bridge is not None:
             return self  # a serial server is up once its loop runs
-        deadline = time.monotonic() + timeout_s
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
-                return self
-            except OSError as exc:
-                if time.monotonic() > deadline:
-                    self.stop()
-                    raise TimeoutError(f"Modbus server on port {self.port} did not start"
-                                       ) from exc
-                time.sleep(0.01)
+        wait_for_listener(self.port, timeout_s, "Modbus server", self.stop)
+        return self
 
     def stop(self) -> None:
         """Shut the server down and join its thread."""
