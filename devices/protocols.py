@@ -78,8 +78,27 @@ class DeviceDescription:
         return len(self.axes)
 
 
+class MissingBounds:
+    """The range of samples a gap may have lost, from ``missing_samples`` (the best count)
+    and the optional ``missing_low``/``missing_high`` of the class it is mixed into."""
+
+    missing_samples: int
+    missing_low: int | None
+    missing_high: int | None
+
+    @property
+    def low(self) -> int:
+        """The fewest samples lost (``missing_samples`` when the count is exact)."""
+        return self.missing_samples if self.missing_low is None else self.missing_low
+
+    @property
+    def high(self) -> int:
+        """The most samples lost (``missing_samples`` when the count is exact)."""
+        return self.missing_samples if self.missing_high is None else self.missing_high
+
+
 @dataclass(frozen=True)
-class Gap:
+class Gap(MissingBounds):
     """Samples the device produced that never reached the station.
 
     Attributes
@@ -107,16 +126,6 @@ class Gap:
     receive_time_s: float
     missing_low: int | None = None
     missing_high: int | None = None
-
-    @property
-    def low(self) -> int:
-        """The fewest samples the gap may have lost."""
-        return self.missing_samples if self.missing_low is None else self.missing_low
-
-    @property
-    def high(self) -> int:
-        """The most samples the gap may have lost."""
-        return self.missing_samples if self.missing_high is None else self.missing_high
 
 
 @dataclass(frozen=True)

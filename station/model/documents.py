@@ -20,7 +20,7 @@ from datetime import UTC, datetime
 import numpy as np
 from numpy.typing import NDArray
 
-from devices.protocols import DeviceDescription, Gap, SampleBatch
+from devices.protocols import DeviceDescription, Gap, MissingBounds, SampleBatch
 from station.model.kinds import LogKind, LogMethod
 from station.model.runs import RunMetadata
 
@@ -106,8 +106,9 @@ class Descriptor:
 
 
 @dataclass(frozen=True)
-class LogEntry:
-    """One entry of a unit's event log.
+class LogEntry(MissingBounds):
+    """One entry of a unit's event log (:class:`MissingBounds` gives a gap's ``low`` and
+    ``high``; 0 for other entries).
 
     Attributes
     ----------
@@ -139,16 +140,6 @@ class LogEntry:
     detail: str = ""
     missing_low: int | None = None
     missing_high: int | None = None
-
-    @property
-    def low(self) -> int:
-        """The fewest samples this entry may have lost (a gap's bound; 0 otherwise)."""
-        return self.missing_samples if self.missing_low is None else self.missing_low
-
-    @property
-    def high(self) -> int:
-        """The most samples this entry may have lost (a gap's bound; 0 otherwise)."""
-        return self.missing_samples if self.missing_high is None else self.missing_high
 
 
 @dataclass(frozen=True)
