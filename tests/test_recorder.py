@@ -73,9 +73,14 @@ def test_json_summary_accounts_for_every_sample_the_simulators_sent(two_runs, wh
     assert code == 0, err
     objs = summaries(out)  # exactly the keys of the issue, one object per unit
     assert [o["unit"] for o in objs] == list(FAULTY_UNITS)
+    # every unit drops 3% of its frames: over a 40 s run (400 frames) each one shows gaps;
+    # the SIGTERM run stops after about 50-120 frames, where one unit may by chance have
+    # none (0.97**114 = 3%), so there the faults are counted over the three units
+    assert sum(o["gaps"] for o in objs) > 0
     for o in objs:
         assert o["file"] == str(path)
-        assert o["samples_recorded"] > 50 and o["gaps"] > 0
+        assert o["samples_recorded"] > 50
+        assert which == "term" or o["gaps"] > 0, o
         assert_summary_books(o)
         # 10 Hz: a counter period is 25.6 s, far beyond any timing doubt: every count exact
         assert o["samples_recorded"] + o["samples_missing_declared"] == o["samples_sent"], o

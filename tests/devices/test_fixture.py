@@ -153,7 +153,11 @@ def test_a_simulated_gyro_on_the_fixture() -> None:
     since_on = first + c / 10.0
     early, late = since_on < 20.0, since_on > 120.0
     # VG951 has no bias of its own: the transient adds 40 exp(-t/20), the warming 2 degC^-1
-    expected_late = draw.bias_deg_h[0] + 2.0 * (temp[late].mean() - 25.0)
-    assert rate[late].mean() == pytest.approx(expected_late, abs=0.5)
+    expected = draw.bias_deg_h[0] + 40.0 * np.exp(-since_on / 20.0) + 2.0 * (temp - 25.0)
+    # the 40 s mean of the unit's own noise: white 1.45 deg/h per sample (0.07 over 400
+    # samples) and its flicker, B = 0.125 deg/h, whose mean over a window wanders by
+    # several B from one switch-on to the next (seen: 0.1 to 0.74 deg/h); the effects
+    # checked are 30 (turn-on), 40 (transient) and 2 x 3.7 (warming) deg/h
+    assert rate[late].mean() == pytest.approx(expected[late].mean(), abs=1.2)
     assert rate[early].mean() - rate[late].mean() > 15.0
     assert temp[-1] - temp[0] > 2.0  # the die warms by its self-heating
