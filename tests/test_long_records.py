@@ -120,7 +120,9 @@ def test_walking_a_memmap_hands_its_pages_back(tmp_path: Path) -> None:
     assert grown < 16_000, grown
 
 
-def _bench_memory(minutes: float) -> int:
+def _bench_line(minutes: float, *options: str) -> re.Match[str]:
+    """The line of ``bench_memory.py`` on a run of ``minutes`` at 2 kHz, 1 axis, records
+    over 2^16 samples long: ``peak_rss_mb``, ``seconds`` (and ``max_rel_diff``)."""
     run = subprocess.run(
         [
             sys.executable,
@@ -133,6 +135,7 @@ def _bench_memory(minutes: float) -> int:
             "1",
             "--long-samples",
             str(1 << 16),
+            *options,
         ],
         capture_output=True,
         text=True,
@@ -142,9 +145,14 @@ def _bench_memory(minutes: float) -> int:
     assert run.returncode == 0, run.stderr[-2000:]
     lines = run.stdout.strip().splitlines()
     assert len(lines) == 1, run.stdout
-    match = re.fullmatch(r"peak_rss_mb=(\d+) seconds=(\d+\.\d)", lines[0])
+    match = re.fullmatch(r"peak_rss_mb=(\d+) seconds=(\d+\.\d)(?: max_rel_diff=(\S+))?",
+                         lines[0])
     assert match, lines[0]
-    return int(match.group(1))
+    return match
+
+
+def _bench_memory(minutes: float, *options: str) -> int:
+    return int(_bench_line(minutes, *options).group(1))
 
 
 @pytest.mark.slow
@@ -156,3 +164,17 @@ def test_bench_memory_peak_is_flat_in_the_run_length() -> None:
     short, long = _bench_memory(2), _bench_memory(16)
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
+
+
+@pytest.mark.slow
+def test_grade_peak_is_flat_in_the_run_length_with_the_numbers_of_one_piece() -> None:
+    """``station grade --json`` of 2- and 10-minute runs at 2 kHz through the block-wise
+    path: the peak grows by less than 20 MB (the in-memory path grows by about 40 bytes a
+    sample: 38 MB here), and every number of the grading is the one the in-memory path
+    gives (``--compare``: bit for bit, measured 0)."""
+    short_line = _bench_line(2, "--command", "grade", "--compare")
+    short, diff = int(short_line.group(1)), float(short_line.group(3))
+    long = _bench_memory(10, "--command", "grade")
+    assert 50 < short < 400 and 50 < long < 400, (short, long)
+    assert long - short < 20, (short, long)
+    assert diff <= 1e-12, diff

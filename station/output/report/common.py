@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from analysis import blocks
 from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
 from station.model.kinds import Verdict
@@ -133,10 +134,18 @@ def to_the_second(utc: str) -> str:
 def temperature_text(unit: UnitGrade) -> str:
     """The test temperature from the unit's channel: mean and range (degC), or "not recorded"."""
     temp = unit.unit.record.temperature_c
-    if temp is None or not np.isfinite(temp).any():
+    if temp is None or not blocks.any_where(temp, np.isfinite):
         return "not recorded (no temperature channel)"
-    t = temp[np.isfinite(temp)]
-    return f"{float(t.mean()):.1f} degC (mean; {float(t.min()):.1f} to {float(t.max()):.1f} degC)"
+    low, high = np.inf, -np.inf
+    for a, b in blocks.spans(0, len(temp)):  # a long record's channel: a block at a time
+        t = np.asarray(temp[a:b])
+        t = t[np.isfinite(t)]
+        blocks.release(temp)
+        if t.size:
+            low, high = min(low, float(t.min())), max(high, float(t.max()))
+    mean = float(blocks.finite_batch_means(temp, 1)[0]) if blocks.is_long(len(temp)) \
+        else float(temp[np.isfinite(temp)].mean())
+    return f"{mean:.1f} degC (mean; {low:.1f} to {high:.1f} degC)"
 
 
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
