@@ -21,7 +21,7 @@ def take_columns(rate: NDArray[np.float64], columns: list[int]) -> NDArray[np.fl
     else a copy in a scratch memmap written a block at a time."""
     if not blocks.is_long(rate.shape[0]):
         return rate[:, columns]
-    if columns == list(range(columns[0], columns[0] + len(columns))):
+    if columns and columns == list(range(columns[0], columns[0] + len(columns))):
         return rate[:, columns[0] : columns[0] + len(columns)]
     out = scratch_array((len(columns), rate.shape[0]))  # axis-major, as the reader's
     for a, b in blocks.spans(0, rate.shape[0]):
