@@ -31,27 +31,19 @@ log-likelihood). ``held=False`` scores with every term of the model free instead
 where a refit scores 0 (the base has that term free already).
 
 **Naming.** When the candidates the Allan curve cannot tell apart (within
-``INDISTINCT_BIC`` of the best) are all ones the GMWM can judge, the GMWM orders them
-(:func:`close_order`). A Gauss-Markov process goes first when the record resolves its
-correlation time (:func:`resolved_correlation`: the peak of its wavelet variance at 1.89 T,
-over T's two-standard-error interval, an octave inside the finest and the longest scale, so
-that both its rise and its fall are in the data) and its score is within
-``ALTERNATIVE_SCORE`` of the best rival's, or when its score beats every rival's by
-``ALTERNATIVE_SCORE``. Otherwise, for a new process against more of one the model has
-(a Gauss-Markov process or more bias instability) the higher score goes first
-(:func:`new_or_more`), where the curve's order would try the refit, with fewer parameters,
-first; and between two added terms (a Gauss-Markov process of unresolved correlation time
-or a random walk) the curve's order, the simpler first, stands: over an hour a random
-walk's realization often looks like a Gauss-Markov bump to the GMWM as well, and a
-process whose fall lies past the longest scale is a random walk to this record
-(``benchmarks/bench_reconcile_naming.py``). Every explanation within
+``INDISTINCT_BIC`` of the best) are all ones the GMWM can judge and the question is a new
+process against more of one the model has (a Gauss-Markov process or more bias
+instability), the GMWM answers it (:func:`new_or_more`): the higher score goes first,
+where the curve's order would try the explanation with fewer parameters, the refit,
+first. Between two added terms (a Gauss-Markov process or a random walk) the curve's order
+stands: over an hour a random walk's realization often looks like a Gauss-Markov bump to
+the GMWM as well (``benchmarks/bench_reconcile_naming.py``). Every explanation within
 ``ALTERNATIVE_SCORE`` of the named one is reported beside it (:class:`Alternative`), with
 its score.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TypeVar
@@ -73,39 +65,6 @@ GMWM_CODE = {"arw": "wn", "quantization": "qn", "bias_instability": "bi", "rate_
 #: Two explanations whose scores differ by less than this are both reported (N1 units: twice a
 #: log-likelihood; 6 is "strong" evidence on the scale of Kass and Raftery 1995).
 ALTERNATIVE_SCORE = 6.0
-#: The Allan variance, and so the Haar wavelet variance, of a first-order Gauss-Markov
-#: process peaks at tau = 1.89 T (IEEE Std 952-1997 Annex C, Figure C.8).
-GM_PEAK_PER_T = 1.89
-#: Standard errors of log T on each side of the fitted correlation time that must lie inside
-#: the scales (two: a 95 % interval).
-RESOLVED_SIGMAS = 2.0
-
-
-def resolved_correlation(tau_s: float, log_se: float, finest_s: float, longest_s: float) -> bool:
-    """Whether a record resolves a Gauss-Markov process of correlation time ``tau_s``.
-
-    The process' wavelet variance rises as a random walk's for scales well below T, peaks
-    at 1.89 T and falls as white noise's above it. Only when the record's scales hold
-    both flanks is it a Gauss-Markov process rather than a random walk (T beyond the
-    longest scales: the record sees the rise alone), more white noise (T below the
-    finest), or a bump in flat flicker noise. Resolved: the peak, over T's interval of
-    ``RESOLVED_SIGMAS`` standard errors of log T, lies at least one octave inside the
-    finest and the longest scale.
-
-    Parameters
-    ----------
-    tau_s : float
-        Fitted correlation time, s.
-    log_se : float
-        Standard error of ``log(tau_s)``.
-    finest_s, longest_s : float
-        The wavelet variance's finest and longest scale, s.
-    """
-    if not (math.isfinite(tau_s) and math.isfinite(log_se) and tau_s > 0):
-        return False
-    spread = math.exp(RESOLVED_SIGMAS * log_se)
-    low, high = GM_PEAK_PER_T * tau_s / spread, GM_PEAK_PER_T * tau_s * spread
-    return low >= 2.0 * finest_s and high <= longest_s / 2.0
 
 
 @dataclass(frozen=True)
@@ -121,25 +80,11 @@ class GmwmJudgement:
         base with it, e.g. ``"wn+gm+bi"``).
     base : str
         The base GMWM model (the current model's stochastic terms).
-    correlation_s : tuple of float or None
-        N2 only: the Gauss-Markov candidate's fitted correlation time (s) and the standard
-        error of its logarithm; None when it was not judged or its variance came out zero.
-    scales_s : tuple of float
-        The finest and the longest scale (s) of the wavelet variance judged.
     """
 
     scores: dict[str, float]
     models: dict[str, str]
     base: str
-    correlation_s: tuple[float, float] | None = None
-    scales_s: tuple[float, float] = (0.0, 0.0)
-
-    def resolves_gauss_markov(self) -> bool:
-        """Whether the record resolves the Gauss-Markov candidate's correlation time
-        (:func:`resolved_correlation`); False when it was not judged."""
-        if self.correlation_s is None:
-            return False
-        return resolved_correlation(*self.correlation_s, *self.scales_s)
 
 
 def base_codes(model: NoiseModel) -> list[str]:
@@ -198,9 +143,8 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
         # reference), so that no candidate is judged with weights made by its rival
         reference = gmwm(wv, union)
         v = weight_covariance(reference.model, reference.params, wv, reference.model_error)
-        correlation = None
         if held:
-            scores, correlation = _held_scores(wv, model, models, v)
+            scores = _held_scores(wv, model, models, v)
         else:
             wic = {}
             for name in {*models.values(), base_name}:
@@ -209,15 +153,12 @@ def judge(rate_deg_s: ArrayLike, sample_rate_hz: float, model: NoiseModel,
             scores = {name: wic[base_name] - wic[m] for name, m in models.items()}
     except (AnalysisError, np.linalg.LinAlgError):
         return None
-    return GmwmJudgement(scores=scores, models=models, base=base_name, correlation_s=correlation,
-                         scales_s=(float(wv.tau_s[0]), float(wv.tau_s[-1])))
+    return GmwmJudgement(scores=scores, models=models, base=base_name)
 
 
 def _held_scores(wv: WaveletVariance, model: NoiseModel, codes: dict[str, str],
-                 v: NDArray[np.float64]) -> tuple[dict[str, float], tuple[float, float] | None]:
-    """N2: ``WIC(model as it is) - WIC(model with the candidate's term fitted, the rest held)``;
-    and the Gauss-Markov candidate's correlation time (s) with the standard error of its log
-    (None when not judged or its variance is held at zero)."""
+                 v: NDArray[np.float64]) -> dict[str, float]:
+    """N2: ``WIC(model as it is) - WIC(model with the candidate's term fitted, the rest held)``."""
     duration = wv.n_samples / wv.sample_rate_hz
 
     def held_wv(terms: NoiseModel) -> NDArray[np.float64]:
@@ -232,15 +173,11 @@ def _held_scores(wv: WaveletVariance, model: NoiseModel, codes: dict[str, str],
     r0 = wv.wv - held_wv(model)
     wic0 = float(r0 @ np.linalg.solve(v, r0))
     scores = {}
-    correlation = None
     for name, code in codes.items():
         rest = model.without_term(name) if name in model else model
         fit = gmwm_with_covariance(replace(wv, wv=wv.wv - held_wv(rest)), code, v)
         scores[name] = wic0 - (fit.objective + 2.0 * fit.n_free)
-        if code == "gm" and all(fit.free[:2]) and "gm_tau_s" in fit.values:
-            t = fit.values["gm_tau_s"]
-            correlation = (t, fit.stderr["gm_tau_s"] / t if t > 0 else math.inf)
-    return scores, correlation
+    return scores
 
 
 @dataclass(frozen=True)
@@ -282,31 +219,3 @@ def new_or_more(group: Sequence[T], name_of: Callable[[T], str], added: Callable
     more = max(refits, key=lambda x: judgement.scores[name_of(x)])
     first = new if judgement.scores[name_of(new)] > judgement.scores[name_of(more)] else more
     return [first, *[x for x in group if x is not first]]
-
-
-def close_order(group: Sequence[T], name_of: Callable[[T], str], added: Callable[[T], bool],
-                judgement: GmwmJudgement) -> list[T]:
-    """``group`` (candidates the Allan curve cannot tell apart, in the order it would try
-    them) in the order the GMWM tries them.
-
-    A Gauss-Markov process goes first when the record resolves its correlation time
-    (:meth:`GmwmJudgement.resolves_gauss_markov`: both flanks of its wavelet variance inside
-    the scales) and its score is within ``ALTERNATIVE_SCORE`` of the best rival's: the
-    record then shows what neither a random walk (no fall) nor flicker noise (no peak)
-    has, and the rivals within the margin are reported beside it. It goes first too,
-    resolved or not, when its score beats every rival's by ``ALTERNATIVE_SCORE`` or more
-    ("strong" evidence). Otherwise the question
-    "a new process or more of one the model has" is :func:`new_or_more`'s, and between two
-    added terms the curve's order (the simpler first) stands.
-    """
-    scores = judgement.scores
-    gm = [x for x in group if name_of(x) == "gauss_markov" and added(x)]
-    rivals = [scores[name_of(x)] for x in group if name_of(x) in scores and x not in gm]
-    if gm and rivals:
-        own, best_rival = scores[name_of(gm[0])], max(rivals)
-        resolved = judgement.resolves_gauss_markov() and own >= best_rival - ALTERNATIVE_SCORE
-        if resolved or own >= best_rival + ALTERNATIVE_SCORE:
-            return [gm[0], *[x for x in group if x is not gm[0]]]
-    if any(not added(x) for x in group if name_of(x) in scores):
-        return new_or_more(group, name_of, added, judgement)
-    return list(group)

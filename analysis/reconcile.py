@@ -67,13 +67,7 @@ from analysis.discrepancy import (
     compare,
     measure_curve,
 )
-from analysis.gmwm_naming import (
-    ALTERNATIVE_SCORE,
-    Alternative,
-    GmwmJudgement,
-    close_order,
-    judge,
-)
+from analysis.gmwm_naming import ALTERNATIVE_SCORE, Alternative, GmwmJudgement, judge, new_or_more
 from analysis.models import (
     NoiseModel,
     NoiseTerm,
@@ -351,10 +345,9 @@ def _ranked(
     least ``CONFIRMED_SHARE`` of the best one's Delta BIC, then those within
     ``INDISTINCT_BIC`` of the best by their number of parameters (the curve cannot tell
     them apart, so the simpler explanation is tried first; with ``opt.gmwm``, when the
-    GMWM can judge every one of them, in its order: a Gauss-Markov process whose correlation
-    time the record resolves, or its answer to "a new process or more of one the model
-    has", :func:`analysis.gmwm_naming.close_order`), then the rest; by Delta BIC within
-    each group.
+    GMWM can judge every one of them and they include a refit of a term the model has, the
+    GMWM's answer to "a new process or more of one the model has" first,
+    :func:`analysis.gmwm_naming.new_or_more`), then the rest; by Delta BIC within each group.
     """
     fits = [f for f in fit_candidates(current.model, curve, current, steps=steps)
             if f.delta_bic >= opt.bic_threshold]
@@ -378,12 +371,15 @@ def _ranked(
     if opt.gmwm and len(close_rows) >= 2:
         judgement = judge(evidence.residual, curve.sample_rate_hz, current.model,
                           [(r[2].name, r[2].mode) for r in close_rows])
-    # the GMWM orders the close group when it can judge every viable member
-    # (:func:`analysis.gmwm_naming.close_order`: a resolved Gauss-Markov process, or a new
-    # process against more of one the model has; else the curve's order stands)
-    if judgement is not None and all(r[2].name in judgement.scores for r in close_rows):
+    # the GMWM orders the close group when it can judge every viable member and the question
+    # is a new process against more of one the model has (a Gauss-Markov process or more bias
+    # instability); between two added terms the curve's order (simplest first) stands
+    decides = (judgement is not None and all(r[2].name in judgement.scores for r in close_rows)
+               and any(r[3] != "added" for r in close_rows))
+    if decides:
+        assert judgement is not None
         group = [r for r in rows if r[0][0] == 1]
-        ordered = close_order(group, lambda r: r[2].name, lambda r: r[3] == "added", judgement)
+        ordered = new_or_more(group, lambda r: r[2].name, lambda r: r[3] == "added", judgement)
         rows = [r for r in rows if r[0][0] == 0] + ordered + [r for r in rows if r[0][0] == 2]
     return [(fit, change, verdict) for _, _, fit, change, verdict in rows], judgement
 

@@ -21,13 +21,7 @@ import pytest
 from scipy import signal
 
 from analysis.discrepancy import ComparisonCache
-from analysis.gmwm_naming import (
-    GmwmJudgement,
-    close_order,
-    judge,
-    new_or_more,
-    resolved_correlation,
-)
+from analysis.gmwm_naming import GmwmJudgement, judge, new_or_more
 from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
 from analysis.noise import flicker_rate_noise
 from analysis.reconcile import ReconcileOptions, reconcile
@@ -75,36 +69,6 @@ def test_new_process_or_more_of_one_goes_by_the_gmwm_score():
         "gauss_markov",
         "rate_random_walk",
     ]
-
-
-def test_a_gauss_markov_goes_first_when_the_record_resolves_its_correlation_time():
-    # 1 h at 10 Hz: scales 0.1-409.6 s; the peak 1.89 T over T's 2-sigma interval must lie an
-    # octave inside them
-    assert resolved_correlation(20.0, 0.3, 0.1, 409.6)
-    assert not resolved_correlation(120.0, 0.3, 0.1, 409.6)  # its fall is past the longest scale
-    assert not resolved_correlation(20.0, 1.0, 0.1, 409.6)  # T too poorly known
-    assert not resolved_correlation(0.1, 0.1, 0.1, 409.6)  # no rise: white noise
-    assert not resolved_correlation(20.0, math.nan, 0.1, 409.6)
-    group = ["rate_random_walk", "bias_instability", "gauss_markov"]  # the curve's order
-    added = {"gauss_markov", "rate_random_walk"}.__contains__
-    scores = {"rate_random_walk": 12.0, "bias_instability": 13.0, "gauss_markov": 8.0}
-
-    def order(correlation: tuple[float, float] | None, **changed: float) -> list[str]:
-        j = GmwmJudgement({**scores, **changed}, {k: k for k in scores}, "wn+bi", correlation,
-                          (0.1, 409.6))
-        return close_order(group, str, added, j)
-
-    resolved, unresolved = (20.0, 0.3), (300.0, 0.8)
-    assert order(resolved)[0] == "gauss_markov"  # within 6 of the best rival and resolved
-    assert order(resolved, gauss_markov=6.0)[0] == "bias_instability"  # 7 below: new_or_more
-    assert order(unresolved)[0] == "bias_instability"
-    assert order(None)[0] == "bias_instability"
-    assert order(unresolved, gauss_markov=19.5)[0] == "gauss_markov"  # strong evidence
-    two_added = ["rate_random_walk", "gauss_markov"]
-    j = GmwmJudgement({"rate_random_walk": 12.0, "gauss_markov": 14.0},
-                      {"rate_random_walk": "rw", "gauss_markov": "gm"}, "wn+bi", unresolved,
-                      (0.1, 409.6))
-    assert close_order(two_added, str, added, j) == two_added  # the simpler first stands
 
 
 def test_gmwm_scores_a_hidden_gauss_markov_above_more_bias_instability():
