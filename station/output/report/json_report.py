@@ -35,6 +35,8 @@ def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
                 "adev_ci_low_deg_h": (al.adev_ci_low * S_PER_H).tolist(),
                 "adev_ci_high_deg_h": (al.adev_ci_high * S_PER_H).tolist()}
             unit_doc["axes"][axis.axis]["fit"] = axis.analysis.fit.as_dict()
+            if axis.analysis.gmwm is not None:  # `station report --method gmwm`
+                unit_doc["axes"][axis.axis]["gmwm"] = axis.analysis.gmwm.as_json()
     return doc
 
 

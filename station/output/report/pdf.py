@@ -29,6 +29,7 @@ from station.output.report.common import (  # noqa: E402
     fmt_interval,
     unit_sheet,
 )
+from station.output.report.gmwm_sheet import gmwm_page, has_gmwm  # noqa: E402
 from station.output.report.panels import draw_allan, draw_davar, placeholder  # noqa: E402
 from station.output.report.sequence_sheet import draw_sequence, sequence_rows  # noqa: E402
 
@@ -245,6 +246,10 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
             fig = unit_page(graded, unit)
             pdf.savefig(fig)
             plt.close(fig)
+            if has_gmwm(unit):  # the GMWM page follows the unit's sheet
+                fig = gmwm_page(unit, unit_sheet(graded, unit).title, A4_IN)
+                pdf.savefig(fig)
+                plt.close(fig)
             if unit.sequence is not None:
                 fig = sequence_page(graded, unit.sequence, unit.unit.unit_id)
                 pdf.savefig(fig)
