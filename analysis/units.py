@@ -151,7 +151,8 @@ class UnitFamily:
 
     name: UnitFamilyName = "deg"
 
-    def _factor(self, label: str) -> float:
+    def factor(self, label: str) -> float:
+        """How many of this family's units one ``label`` (deg family) is."""
         unit = _BY_LABEL.get(label)
         return 1.0 if self.name == "deg" or unit is None else unit.rad_per_deg
 
@@ -162,11 +163,11 @@ class UnitFamily:
 
     def value(self, value: float | None, label: str) -> float | None:
         """``value`` (in ``label``, a deg-family unit) in this family; None stays None."""
-        return None if value is None else float(value) * self._factor(label)
+        return None if value is None else float(value) * self.factor(label)
 
     def array(self, values: NDArray[np.float64], label: str) -> NDArray[np.float64]:
         """An array of values in ``label`` (deg family) in this family."""
-        return np.asarray(values, dtype=float) * self._factor(label)
+        return np.asarray(values, dtype=float) * self.factor(label)
 
 
 def unit_family(name: str) -> UnitFamily:
@@ -179,7 +180,7 @@ def unit_family(name: str) -> UnitFamily:
     """
     if name not in UNIT_FAMILIES:
         raise ValueError(f"unknown unit family {name!r}; use one of {', '.join(UNIT_FAMILIES)}")
-    return UnitFamily(name)  # type: ignore[arg-type]
+    return UnitFamily(name)
 
 
 #: The deg family: every figure as the station computes it (the default of every output).

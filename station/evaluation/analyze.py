@@ -522,7 +522,7 @@ def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3,
     """The chosen deviation of every axis at a few taus per decade, with its interval."""
     c0 = axes[0].shown
     deg_unit, deg_scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
-    unit, scale = family.label(deg_unit), deg_scale * family.array(np.ones(1), deg_unit)[0]
+    unit, scale = family.label(deg_unit), deg_scale * family.factor(deg_unit)
     lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
                  f"({c0.interval}); the fit and figures above are on the Allan variance"]
     logt = np.log10(c0.tau_s)

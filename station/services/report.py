@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from analysis.units import DEG_FAMILY, UnitFamily
 from station.evaluation.grading import RunGrade
 from station.model.sheet_header import load_sheet_header
 from station.output.report import ReportFormat, write_report
@@ -21,13 +22,15 @@ class ReportRequest:
     ``grade.store`` (default True) also records the grading (once per run, unit and
     profile) and each report file in ``grade.database``. ``header`` is the sheet header
     file (company, logo, station, conditions, approval block:
-    :mod:`station.model.sheet_header`), None for none.
+    :mod:`station.model.sheet_header`), None for none; ``units`` the unit family the sheets
+    print their figures in.
     """
 
     grade: GradeRequest
     formats: tuple[ReportFormat, ...] = ("pdf",)
     out_dir: Path = Path(".")
     header: Path | None = None
+    units: UnitFamily = DEG_FAMILY
 
 
 @dataclass(frozen=True)
@@ -57,7 +60,7 @@ def report(request: ReportRequest) -> ReportResult:
     """Grade the run as :func:`station.services.grade.grade` does and write its reports."""
     sheet = load_sheet_header(request.header) if request.header is not None else None  # fails first
     graded = grade(request.grade)
-    run = replace(graded.graded, sheet=sheet)
+    run = replace(graded.graded, sheet=sheet, output_units=request.units)
     db = request.grade.database if request.grade.store else None
     files = write_reports(run, request.formats, request.out_dir, db)
     return ReportResult(run, files, graded.warnings)
