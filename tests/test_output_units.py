@@ -207,3 +207,20 @@ def test_grade_and_report_commands_take_output_units(record_csv: Path, graded: R
                  "json", "--out", str(tmp_path), "--output-units", "rad"]) == 0
     written = json.loads(next(tmp_path.glob("*.json")).read_text())
     assert written["units"][0]["axes"]["x"]["figures"]["arw"]["unit"] == "rad/s/sqrt(Hz)"
+
+
+def test_results_trend_in_rad(record_csv: Path, graded: RunGrade, tmp_path: Path,
+                              capsys) -> None:
+    db = tmp_path / "results.sqlite"
+    assert main(["grade", str(record_csv), "--profile", graded.profile.path, "--db", str(db)]) == 0
+    capsys.readouterr()
+    assert main(["results", "--db", str(db), "--trend", "arw", "--json"]) == 0
+    deg = json.loads(capsys.readouterr().out)
+    assert main(["results", "--db", str(db), "--trend", "arw", "--json",
+                 "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)
+    pairs = _pairs(deg, rad)
+    assert len(pairs) >= 4 and rad["points"][0]["unit"] == "rad/s/sqrt(Hz)"
+    _assert_exact(pairs)
+    assert main(["results", "--db", str(db), "--trend", "arw", "--output-units", "rad"]) == 0
+    assert "arw [rad/s/sqrt(Hz)]" in capsys.readouterr().out
