@@ -224,3 +224,4 @@ def test_results_trend_in_rad(record_csv: Path, graded: RunGrade, tmp_path: Path
     _assert_exact(pairs)
     assert main(["results", "--db", str(db), "--trend", "arw", "--output-units", "rad"]) == 0
     assert "arw [rad/s/sqrt(Hz)]" in capsys.readouterr().out
+
