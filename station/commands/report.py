@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import print_warnings
+from station.commands.arguments import output_family, print_warnings
 from station.commands.grade import add_grading_arguments, grade_request
 from station.model.sheet_header import HEADER_ENV
 from station.output.report import FORMATS
@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
 
     header = args.header or (Path(os.environ[HEADER_ENV]) if os.environ.get(HEADER_ENV) else None)
     result = report(ReportRequest(grade_request(args), tuple(args.formats or ["pdf"]), args.out,
-                                  header, method=args.method, gmwm_model=args.model))
+                                  header, output_family(args), method=args.method,
+                                  gmwm_model=args.model))
     print_warnings("report", result.warnings)
     if args.json:
         json.dump({"files": [{"format": f, "path": str(path)} for f, path in result.files],

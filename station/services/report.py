@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Literal
 
 from analysis.gmwm_models import GmwmModel
+from analysis.units import DEG_FAMILY, UnitFamily
 from station.errors import UsageError
 from station.evaluation.gmwm_run import run_with_gmwm
 from station.evaluation.grading import RunGrade
@@ -26,7 +27,8 @@ class ReportRequest:
     ``grade.store`` (default True) also records the grading (once per run, unit and
     profile) and each report file in ``grade.database``. ``header`` is the sheet header
     file (company, logo, station, conditions, approval block:
-    :mod:`station.model.sheet_header`), None for none.
+    :mod:`station.model.sheet_header`), None for none; ``units`` the unit family the sheets
+    print their figures in.
 
     ``method="gmwm"`` adds each unit's GMWM page (the GMWM terms beside the Allan
     read-offs, the wavelet variance with both models' curves) with ``gmwm_model`` (a
@@ -38,6 +40,7 @@ class ReportRequest:
     formats: tuple[ReportFormat, ...] = ("pdf",)
     out_dir: Path = Path(".")
     header: Path | None = None
+    units: UnitFamily = DEG_FAMILY
     method: Literal["allan", "gmwm"] | None = None
     gmwm_model: str | None = None
 
@@ -98,7 +101,7 @@ def report(request: ReportRequest) -> ReportResult:
     sheet = load_sheet_header(request.header) if request.header is not None else None  # fails first
     gmwm_model_of(request, None)  # a bad --model fails before the run is graded
     graded = grade(request.grade)
-    run = replace(graded.graded, sheet=sheet)
+    run = replace(graded.graded, sheet=sheet, output_units=request.units)
     model = gmwm_model_of(request, run.profile)
     if model is not None:
         run = run_with_gmwm(run, model)

@@ -96,11 +96,11 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
               for a in sheet.axes]
     if unit.axes:
         parts.append("</p><h2>Allan deviation</h2>")
-        parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms "
-                                           "and limits"))
+        parts.append(_img(allan_png(unit, graded.output_units),
+                          "Allan deviation with confidence band, fitted terms and limits"))
         parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
         parts.append("<h2>Dynamic Allan deviation</h2>")
-        parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
+        parts.append(_img(davar_png(unit, graded.output_units), "DAVAR heat map per axis"))
     else:
         parts.append("</p><p>No noise figures: see the notes below.</p>")
     if has_gmwm(unit):

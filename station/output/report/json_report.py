@@ -12,6 +12,7 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import RunGrade
+from station.output.json_units import in_family
 from station.output.report.common import event_summary, header_fields
 
 SCHEMA = "gyro-station/spec-sheet"
@@ -41,9 +42,9 @@ def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
 
 
 def write_json(graded: RunGrade, path: str | Path) -> Path:
-    """Write the JSON spec sheet document (NaN/inf are not allowed: they become errors)."""
+    """Write the JSON spec sheet document in ``graded.output_units`` (NaN/inf are not allowed: they
+    become errors)."""
     path = Path(path)
-    path.write_text(
-        json.dumps(spec_sheet_json(graded), indent=1, allow_nan=False) + "\n", encoding="utf-8"
-    )
+    doc = in_family(spec_sheet_json(graded), graded.output_units)
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     return path

@@ -91,7 +91,7 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     allan_bottom = 0.105 + davar_h + 0.065
     ax = fig.add_axes((0.1, allan_bottom, 0.84, max(allan_top - allan_bottom, 0.15)))
     if unit.axes:
-        draw_allan(ax, unit.axes, fontsize=7.5)
+        draw_allan(ax, unit.axes, fontsize=7.5, family=graded.output_units)
         ax.set_title("Allan deviation: band = confidence interval, dotted = fitted terms, "
                      "dashed = limits", fontsize=8.5)
     else:
@@ -100,7 +100,7 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     width = 0.84 / max(n, 1)
     for i in range(n):
         dax = fig.add_axes((0.1 + i * width, 0.105, width * 0.68, davar_h))
-        draw_davar(dax, unit, i, fontsize=6.5)
+        draw_davar(dax, unit, i, fontsize=6.5, family=graded.output_units)
     lines = ["; ".join(sheet.events.lines(brief=True))]
     lines += sheet.analysis
     lines += [f"note: {n}" for n in sheet.notes]
