@@ -43,7 +43,7 @@ from analysis.confidence import chi2_interval
 from analysis.figures import bias_stability, review_notes
 from analysis.fit import NoiseCoefficients
 from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.evaluation.long_records import take_columns
@@ -227,6 +227,8 @@ class RunGrade:
     bench: Bench | None = None
     #: The test house's part of the spec sheet's header (company, station, approval...).
     sheet: SheetHeader | None = None
+    #: The unit family its spec sheets print the figures in (``--output-units``).
+    output_units: UnitFamily = DEG_FAMILY
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""

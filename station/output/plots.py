@@ -208,39 +208,50 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
     return path
 
 
+def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str = "") -> None:
+    """One axis' Haar wavelet variance ((deg/h)^2) with its interval, the GMWM model (solid,
+    its terms dotted) and the Allan fit's curve as a wavelet variance (dashed, AVAR / 2).
+
+    Raises
+    ------
+    ValueError
+        The axis has no GMWM result.
+    """
+    g = a.gmwm
+    if g is None:
+        raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
+    k2 = S_PER_H**2
+    w, fit = g.wavelet, g.best
+    tau = w.tau_s
+    ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
+    ax.loglog(tau, w.wv * k2, "ko", ms=3.5, label=f"{a.name} empirical WV ({w.ci} interval)")
+    dense = np.geomspace(tau[0], tau[-1], 200)
+    ax.loglog(dense, fit.model_wv_at(dense) * k2, "-", color="tab:blue", lw=1.8,
+              label=f"GMWM {fit.model.name} (J = {fit.objective:.3g}, {fit.dof} dof)")
+    terms = zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True)
+    for label, curve in terms:
+        if np.any(curve > 0):
+            ax.loglog(dense, curve * k2, ":", color="tab:blue", lw=1)
+            j = int(np.argmax(curve))
+            ax.annotate(label, (dense[j], curve[j] * k2), color="tab:blue", fontsize=fontsize)
+    ax.loglog(dense, a.fit.model_avar(dense) / 2.0 * k2, "--", color="tab:red", lw=1.4,
+              label=f"Allan fit ({a.fit.method}) as AVAR/2")
+    ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
+    ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
+    ax.set_ylabel("Haar wavelet variance [(deg/h)^2]", fontsize=fontsize + 1)
+    ax.tick_params(labelsize=fontsize)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title(f"{title} {a.name}".strip(), fontsize=fontsize + 1)
+    ax.legend(fontsize=fontsize)
+
+
 def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "") -> Path:
-    """Haar wavelet variance ((deg/h)^2) of each axis with its interval, the GMWM model
-    (solid, its terms dotted) and the Allan fit's curve as a wavelet variance (dashed,
-    AVAR / 2)."""
+    """:func:`draw_wavelet` of each axis, one panel each, into a PNG."""
     path = Path(path)
     n = len(axes)
     fig, panels = plt.subplots(n, 1, figsize=(8, 4.6 * n), dpi=110, squeeze=False)
-    k2 = S_PER_H**2
     for ax, a in zip(panels[:, 0], axes, strict=True):
-        g = a.gmwm
-        if g is None:
-            raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
-        w, fit = g.wavelet, g.best
-        tau = w.tau_s
-        ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
-        ax.loglog(tau, w.wv * k2, "ko", ms=3.5, label=f"{a.name} empirical WV ({w.ci} interval)")
-        dense = np.geomspace(tau[0], tau[-1], 200)
-        ax.loglog(dense, fit.model_wv_at(dense) * k2, "-", color="tab:blue", lw=1.8,
-                  label=f"GMWM {fit.model.name} (J = {fit.objective:.3g}, {fit.dof} dof)")
-        terms = zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True)
-        for label, curve in terms:
-            if np.any(curve > 0):
-                ax.loglog(dense, curve * k2, ":", color="tab:blue", lw=1)
-                j = int(np.argmax(curve))
-                ax.annotate(label, (dense[j], curve[j] * k2), color="tab:blue", fontsize=8)
-        ax.loglog(dense, a.fit.model_avar(dense) / 2.0 * k2, "--", color="tab:red", lw=1.4,
-                  label=f"Allan fit ({a.fit.method}) as AVAR/2")
-        ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
-        ax.set_xlabel("averaging time tau [s]")
-        ax.set_ylabel("Haar wavelet variance [(deg/h)^2]")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.set_title(f"{title} {a.name}".strip(), fontsize=9)
-        ax.legend(fontsize=8)
+        draw_wavelet(ax, a, title=title)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

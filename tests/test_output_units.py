@@ -1,0 +1,227 @@
+"""Output unit families: the same run printed in deg and in rad (``--output-units``), figures
+that convert exactly into each other, tables and spec sheets that name the rad units."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from pypdf import PdfReader
+
+from analysis import tool_units
+from analysis.units import (
+    FAMILY_UNITS,
+    RAD_FAMILY,
+    family_unit,
+    family_unit_of_key,
+    unit_family,
+)
+from station.cli import main
+from station.evaluation.grading import RunGrade, grade_run
+from station.model.profiles import load_profile
+from station.output.json_units import to_rad_family
+from station.output.report import write_report
+from station.storage.runs import open_run
+from tests.test_grading import make_record, profile_text, write_profile
+
+FIGURES = """
+[figures.arw]
+unit = "deg/sqrt(h)"
+limits = { A = 0.06, B = 0.2 }
+
+[figures.bias_instability]
+unit = "deg/h"
+limits = { A = 1.0, B = 3.0 }
+
+[figures.bias]
+unit = "deg/s"
+
+[figures.rrw]
+unit = "deg/h^1.5"
+"""
+RAD_UNITS = ("rad/s", "rad/s/sqrt(Hz)", "rad/s^2/sqrt(Hz)", "rad/s^2", "rad")
+
+
+def test_family_factors_are_the_tool_conversions() -> None:
+    """One factor per unit, equal to the formulas the export files are checked against."""
+    rad = RAD_FAMILY
+    assert rad.value(2.5, "deg/sqrt(h)") == pytest.approx(
+        tool_units.noise_density_rad_s_rt_hz(2.5), rel=1e-15)
+    assert rad.value(150.0, "deg/h^1.5") == pytest.approx(
+        tool_units.random_walk_rad_s2_rt_hz(150.0), rel=1e-15)
+    assert rad.value(3.0, "deg/h") == pytest.approx(3.0 * math.pi / 180 / 3600, rel=1e-15)
+    assert rad.value(3.0, "deg/s") == pytest.approx(3.0 * math.pi / 180, rel=1e-15)
+    assert rad.value(7.0, "deg/h^2") == pytest.approx(7.0 * math.pi / 180 / 3600**2, rel=1e-15)
+    assert rad.value(7.0, "urad") == pytest.approx(7e-6, rel=1e-15)
+    assert rad.label("s") == "s" and rad.value(4.0, "s") == 4.0  # not a deg-family unit
+    assert unit_family("deg").value(3.0, "deg/h") == 3.0
+    with pytest.raises(ValueError, match="deg, rad"):
+        unit_family("grad")
+    for u in FAMILY_UNITS:  # every key names its unit the way docs/json.md lists it
+        assert family_unit(u.label) is u
+        assert family_unit_of_key(f"x_{u.key}_stderr") == ("x", u, "_stderr")
+    assert family_unit_of_key("tau_s") is None and family_unit_of_key("sample_rate_hz") is None
+
+
+def test_json_document_to_rad_family() -> None:
+    doc = {"tau_s": [1.0, 2.0], "adev": [1.0], "adev_deg_h": [3600.0], "adev_deg_s": [1.0],
+           "fit": {"terms": "NK", "N_deg_rt_h_stderr": 60.0},
+           "arw": {"label": "ARW", "unit": "deg/sqrt(h)", "value": 60.0, "limits": {"A": 120.0},
+                   "verdict": "pass"},
+           "deviation_unit": "deg/s", "model_after": {"arw_deg_rt_h": 1.0}}
+    out = to_rad_family(doc)
+    assert isinstance(out, dict)
+    assert out["tau_s"] == [1.0, 2.0] and "adev" not in out and "adev_deg_h" not in out
+    assert out["adev_rad_s"] == pytest.approx([math.pi / 180])
+    assert out["fit"] == {"terms": "NK", "N_rad_s_rt_hz_stderr": pytest.approx(math.pi / 180)}
+    assert out["arw"]["unit"] == "rad/s/sqrt(Hz)" and out["arw"]["verdict"] == "pass"
+    assert out["arw"]["limits"]["A"] == pytest.approx(2 * math.pi / 180)
+    assert out["deviation_unit"] == "rad/s"
+    assert out["model_after"] == {"arw_deg_rt_h": 1.0}  # a model file's tables, as read
+
+
+def _pairs(deg: object, rad: object, path: str = "") -> list[tuple[str, float, float, float]]:
+    """(where, deg value, rad value, factor) for every quantity of a deg document and its rad
+    twin; asserts the two have the same shape otherwise."""
+    found = []
+    if isinstance(deg, dict):
+        assert isinstance(rad, dict)
+        unit = family_unit(deg["unit"]) if isinstance(deg.get("unit"), str) else None
+        for key, value in deg.items():
+            split = family_unit_of_key(key)
+            if split is not None:
+                stem, u, tail = split
+                found += _scaled_pairs(value, rad[f"{stem}_{u.rad_key}{tail}"], u.rad_per_deg,
+                                       f"{path}/{key}")
+            elif unit is not None and key in ("value", "ci_low", "ci_high", "limit", "limits"):
+                found += _scaled_pairs(value, rad[key], unit.rad_per_deg, f"{path}/{key}")
+            elif key in rad:
+                found += _pairs(value, rad[key], f"{path}/{key}")
+    elif isinstance(deg, list):
+        assert isinstance(rad, list) and len(deg) == len(rad)
+        for i, (d, r) in enumerate(zip(deg, rad, strict=True)):
+            found += _pairs(d, r, f"{path}[{i}]")
+    return found
+
+
+def _scaled_pairs(deg: object, rad: object, factor: float, path: str):
+    if isinstance(deg, int | float) and not isinstance(deg, bool):
+        assert isinstance(rad, float)
+        return [(path, float(deg), rad, factor)]
+    if isinstance(deg, dict):
+        assert isinstance(rad, dict)
+        return [p for k in deg for p in _scaled_pairs(deg[k], rad[k], factor, f"{path}/{k}")]
+    if isinstance(deg, list):
+        assert isinstance(rad, list)
+        return [p for i, (d, r) in enumerate(zip(deg, rad, strict=True))
+                for p in _scaled_pairs(d, r, factor, f"{path}[{i}]")]
+    assert deg is None and rad is None, path
+    return []
+
+
+def _assert_exact(pairs: list[tuple[str, float, float, float]]) -> None:
+    for where, d, r, factor in pairs:
+        assert r == pytest.approx(d * factor, rel=1e-13, abs=0.0), where
+
+
+@pytest.fixture(scope="module")
+def record_csv(tmp_path_factory) -> Path:
+    return make_record(tmp_path_factory.mktemp("units") / "unit.csv", n=9_000, seed=5, n_axes=2)
+
+
+def test_analyze_in_deg_and_rad_convert_exactly(record_csv: Path, capsys) -> None:
+    assert main(["analyze", str(record_csv), "--json"]) == 0
+    deg = json.loads(capsys.readouterr().out)
+    assert main(["analyze", str(record_csv), "--json", "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)
+    pairs = _pairs(deg, rad)
+    keys = {where.rsplit("/", 1)[-1].split("[")[0] for where, *_ in pairs}
+    assert {"bias_deg_h", "arw_deg_rt_h", "N_deg_rt_h", "K_deg_h_1_5_stderr", "Q_urad",
+            "adev_deg_h", "bias_instability_ci_deg_h"} <= keys
+    assert len(pairs) > 200  # the curves too
+    _assert_exact(pairs)
+    axis = rad["axes"][0]
+    assert "adev" not in axis and "bias_deg_h" not in axis["figures"]
+    assert not [k for k in json.dumps(rad).split('"') if k.endswith(("_deg_h", "_deg_rt_h"))]
+    # a rad table names the rad units in its row heads, and no deg unit
+    assert main(["analyze", str(record_csv), "--output-units", "rad"]) == 0
+    table = capsys.readouterr().out
+    heads = [head for line in table.splitlines()
+             if (head := line.strip().split("  ")[0]).endswith("]")]
+    for head in ("bias [rad/s]", "ARW read-off [rad/s/sqrt(Hz)]", "fit Q quantization [rad]",
+                 "fit K rate random walk [rad/s^2/sqrt(Hz)]", "fit R rate ramp [rad/s^2]"):
+        assert any(h.startswith(head) for h in heads), head
+    assert not [h for h in heads if "deg" in h or "urad" in h]
+    # the option is checked: a bad family is one line and exit status 2
+    with pytest.raises(SystemExit) as exc:
+        main(["analyze", str(record_csv), "--output-units", "grad"])
+    assert exc.value.code == 2
+
+
+@pytest.fixture(scope="module")
+def graded(record_csv: Path, tmp_path_factory) -> RunGrade:
+    d = tmp_path_factory.mktemp("units-profile")
+    profile = load_profile(write_profile(
+        d, profile_text(axes='["x", "y"]', warmup_s=30.0, figures=FIGURES)))
+    return grade_run(open_run(record_csv), profile)
+
+
+def test_spec_sheet_in_rad(graded: RunGrade, tmp_path: Path) -> None:
+    rad = replace(graded, output_units=RAD_FAMILY)
+    deg_doc = json.loads(write_report(graded, "json", tmp_path / "deg").read_text())
+    rad_doc = json.loads(write_report(rad, "json", tmp_path / "rad").read_text())
+    pairs = _pairs(deg_doc, rad_doc)
+    assert any(w.endswith("/arw/limits/A") for w, *_ in pairs)
+    _assert_exact(pairs)
+    x = rad_doc["units"][0]["axes"]["x"]
+    assert x["figures"]["arw"]["unit"] == "rad/s/sqrt(Hz)"
+    assert x["info"]["bias"]["unit"] == "rad/s" and x["info"]["rrw"]["unit"] == "rad/s^2/sqrt(Hz)"
+    assert "adev_rad_s" in x["allan"] and "N_rad_s_rt_hz" in x["fit"]
+    with write_report(rad, "csv", tmp_path / "rad").open(encoding="utf-8") as fh:
+        row = next(csv.DictReader(fh))
+    assert row["arw_unit"] == "rad/s/sqrt(Hz)" and "earth_rate_removed_rad_s" in row
+    arw = graded.units[0].axis("x").figures[0]
+    assert float(row["arw_value"]) == pytest.approx(
+        tool_units.noise_density_rad_s_rt_hz(arw.value), rel=1e-13)
+    text = PdfReader(write_report(rad, "pdf", tmp_path / "rad")).pages[0].extract_text()
+    assert "rad/s/sqrt(Hz)" in text and "Allan deviation [rad/s]" in text
+    assert "deg/sqrt(h)" not in text and "deg/h" not in text
+
+
+def test_grade_and_report_commands_take_output_units(record_csv: Path, graded: RunGrade,
+                                                     tmp_path: Path, capsys) -> None:
+    profile = graded.profile.path
+    args = ["grade", str(record_csv), "--profile", profile, "--no-store"]
+    assert main([*args, "--output-units", "rad"]) == 0
+    table = capsys.readouterr().out
+    assert "ARW" in table and "[rad/s/sqrt(Hz)]" in table and "[deg/sqrt(h)]" not in table
+    assert main([*args, "--output-units", "rad", "--json"]) == 0
+    figure = json.loads(capsys.readouterr().out)["units"][0]["axes"]["x"]["figures"]["arw"]
+    assert figure["unit"] == "rad/s/sqrt(Hz)"
+    assert figure["limit"] == pytest.approx(tool_units.noise_density_rad_s_rt_hz(0.06))
+    assert main(["report", str(record_csv), "--profile", profile, "--no-store", "--format",
+                 "json", "--out", str(tmp_path), "--output-units", "rad"]) == 0
+    written = json.loads(next(tmp_path.glob("*.json")).read_text())
+    assert written["units"][0]["axes"]["x"]["figures"]["arw"]["unit"] == "rad/s/sqrt(Hz)"
+
+
+def test_results_trend_in_rad(record_csv: Path, graded: RunGrade, tmp_path: Path,
+                              capsys) -> None:
+    db = tmp_path / "results.sqlite"
+    assert main(["grade", str(record_csv), "--profile", graded.profile.path, "--db", str(db)]) == 0
+    capsys.readouterr()
+    assert main(["results", "--db", str(db), "--trend", "arw", "--json"]) == 0
+    deg = json.loads(capsys.readouterr().out)
+    assert main(["results", "--db", str(db), "--trend", "arw", "--json",
+                 "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)
+    pairs = _pairs(deg, rad)
+    assert len(pairs) >= 4 and rad["points"][0]["unit"] == "rad/s/sqrt(Hz)"
+    _assert_exact(pairs)
+    assert main(["results", "--db", str(db), "--trend", "arw", "--output-units", "rad"]) == 0
+    assert "arw [rad/s/sqrt(Hz)]" in capsys.readouterr().out
+
