@@ -302,3 +302,37 @@ def test_davar_png_in_rad(record_csv: Path, tmp_path: Path, capsys,
     adev = np.array(doc["axes"][0]["adev_rad_s"], dtype=float)  # [window][tau]
     mesh = np.asarray(figures[0].axes[0].collections[0].get_array(), dtype=float)
     np.testing.assert_allclose(mesh.reshape(adev.T.shape), np.log10(adev).T, rtol=1e-12)
+
+
+def test_gmwm_wavelet_variances_name_their_unit(record_csv: Path, tmp_path: Path, capsys,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """The GMWM's wavelet variances: ``wv_deg2_s2`` (and ``model_wv_``, ``wv_ci_low_``,
+    ``wv_ci_high_``) beside the interface's ``wv``...; in rad ``wv_rad2_s2``, times
+    (pi/180)^2, the unit-less keys left out; the wavelet figure in (rad/s)^2."""
+    from station.output import plots
+
+    labels: list[str] = []
+    save = plots._save
+
+    def labelled(fig, path, dpi=None):
+        labels.extend(ax.get_ylabel() for ax in fig.axes)
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", labelled)
+    command = ["analyze", str(record_csv), "--axis", "x", "--method", "gmwm", "--model", "wn",
+               "--json"]
+    assert main(command) == 0
+    deg = json.loads(capsys.readouterr().out)["axes"][0]["gmwm"]
+    png = tmp_path / "wv.png"
+    assert main([*command, "--output-units", "rad", "--png", str(png)]) == 0
+    rad = json.loads(capsys.readouterr().out)["axes"][0]["gmwm"]
+    assert rad == to_rad_family(deg)
+    assert labels == ["Haar wavelet variance [(rad/s)^2]"] and png.stat().st_size > 10_000
+    factor = (math.pi / 180) ** 2
+    for stem in ("wv", "model_wv", "wv_ci_low", "wv_ci_high"):
+        assert deg[stem] == deg[f"{stem}_deg2_s2"] and len(deg[stem]) >= 5
+        assert stem not in rad and f"{stem}_deg2_s2" not in rad
+        np.testing.assert_allclose(rad[f"{stem}_rad2_s2"], np.array(deg[stem]) * factor,
+                                   rtol=1e-13)
+    assert rad["wv_tau_s"] == deg["wv_tau_s"] and rad["wv_ci"] == deg["wv_ci"]
+    assert set(rad["params"]) == {"wn_rad_s_rt_hz"}
