@@ -336,3 +336,24 @@ def test_gmwm_wavelet_variances_name_their_unit(record_csv: Path, tmp_path: Path
                                    rtol=1e-13)
     assert rad["wv_tau_s"] == deg["wv_tau_s"] and rad["wv_ci"] == deg["wv_ci"]
     assert set(rad["params"]) == {"wn_rad_s_rt_hz"}
+
+
+def test_model_curve_in_rad(capsys) -> None:
+    """``station model curve --output-units rad``: ``adev_rad_s`` and ``terms_rad_s`` (the
+    deg/h curve times its factor), the table in rad/s."""
+    command = ["model", "curve", "zhang2015-fog", "--taus", "1,10,100"]
+    assert main([*command, "--json"]) == 0
+    deg = json.loads(capsys.readouterr().out)
+    assert main([*command, "--json", "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)
+    assert set(rad) == {"tau_s", "adev_rad_s", "terms_rad_s"}
+    factor = RAD_FAMILY.factor("deg/h")
+    np.testing.assert_allclose(rad["adev_rad_s"], np.array(deg["adev_deg_h"]) * factor,
+                               rtol=1e-13)
+    for term, values in deg["terms_deg_h"].items():
+        np.testing.assert_allclose(rad["terms_rad_s"][term], np.array(values) * factor,
+                                   rtol=1e-13)
+    assert main([*command, "--output-units", "rad"]) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[0].endswith("in rad/s") and len(table) == 2 + 3
+    assert float(table[2].split()[1]) == pytest.approx(rad["adev_rad_s"][0], rel=1e-4)
