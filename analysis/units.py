@@ -101,7 +101,8 @@ class FamilyUnit:
 #: Every deg-family unit the station prints and its SI (rad-family) counterpart
 #: (``docs/units.md``): a rate in rad/s, the angle random walk as the continuous noise density
 #: N in rad/s/sqrt(Hz) (= rad/sqrt(s)), the rate random walk K in rad/s^2/sqrt(Hz)
-#: (= rad/s^1.5), the rate ramp R in rad/s^2, the quantization Q and angles in rad.
+#: (= rad/s^1.5), the rate ramp R in rad/s^2, the quantization Q and angles in rad, a
+#: (wavelet) variance of the rate in (rad/s)^2.
 FAMILY_UNITS: tuple[FamilyUnit, ...] = (
     FamilyUnit("deg/h", "deg_h", "rad/s", "rad_s", RAD_PER_DEG / S_PER_H),
     FamilyUnit("deg/s", "deg_s", "rad/s", "rad_s", RAD_PER_DEG),
@@ -114,6 +115,7 @@ FAMILY_UNITS: tuple[FamilyUnit, ...] = (
     FamilyUnit("deg/h^2", "deg_h2", "rad/s^2", "rad_s2", RAD_PER_DEG / S_PER_H**2),
     FamilyUnit("urad", "urad", "rad", "rad", 1e-6),
     FamilyUnit("deg", "deg", "rad", "rad", RAD_PER_DEG),
+    FamilyUnit("(deg/s)^2", "deg2_s2", "(rad/s)^2", "rad2_s2", RAD_PER_DEG**2),
 )
 _BY_LABEL = {u.label: u for u in FAMILY_UNITS}
 _BY_KEY = {u.key: u for u in FAMILY_UNITS}

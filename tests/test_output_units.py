@@ -9,6 +9,7 @@ import math
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from pypdf import PdfReader
 
@@ -225,3 +226,134 @@ def test_results_trend_in_rad(record_csv: Path, graded: RunGrade, tmp_path: Path
     assert main(["results", "--db", str(db), "--trend", "arw", "--output-units", "rad"]) == 0
     assert "arw [rad/s/sqrt(Hz)]" in capsys.readouterr().out
 
+
+
+def _read_csv(path: Path) -> tuple[list[str], list[list[str]]]:
+    with path.open() as fh:
+        rows = list(csv.reader(fh))
+    return rows[0], rows[1:]
+
+
+def test_analyze_png_and_csv_in_rad(record_csv: Path, tmp_path: Path, capsys,
+                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    """``analyze --png/--csv --output-units rad``: the curve is the deg curve (of the same
+    analysis) times the deg/h factor under rad-named columns; the figure's axis names rad/s."""
+    from station.output import curve_csv, plots
+
+    labels: list[str] = []
+    analyses: list = []
+    save, write = plots._save, curve_csv.write_curve_csv
+
+    def labelled(fig, path, dpi=None):  # the figure as it is saved
+        labels.extend(ax.get_ylabel() for ax in fig.axes)
+        return save(fig, path, dpi)
+
+    def kept(axes, path, family):
+        analyses.append(axes)
+        return write(axes, path, family)
+
+    monkeypatch.setattr(plots, "_save", labelled)
+    monkeypatch.setattr(curve_csv, "write_curve_csv", kept)
+    rad_csv, png = tmp_path / "rad.csv", tmp_path / "rad.png"
+    assert main(["analyze", str(record_csv), "--csv", str(rad_csv), "--png", str(png),
+                 "--output-units", "rad"]) == 0
+    assert f"curve: {rad_csv}" in capsys.readouterr().out
+    assert png.stat().st_size > 10_000
+    assert labels == ["overlapping Allan deviation [rad/s]"]
+    deg_csv = tmp_path / "deg.csv"
+    deg_csv.write_text(curve_csv.curve_table(analyses[0]))  # the deg default
+    deg_head, deg_rows = _read_csv(deg_csv)
+    rad_head, rad_rows = _read_csv(rad_csv)
+    assert deg_head == ["axis", "tau_s", "oadev_deg_h", "oadev_ci_low_deg_h",
+                        "oadev_ci_high_deg_h", "n_clusters", "fit_adev_deg_h"]
+    assert rad_head == [h.replace("_deg_h", "_rad_s") for h in deg_head]
+    assert len(rad_rows) == len(deg_rows) > 20
+    factor = RAD_FAMILY.factor("deg/h")
+    for d, r in zip(deg_rows, rad_rows, strict=True):
+        assert (d[0], d[1], d[5]) == (r[0], r[1], r[5])
+        for i in (2, 3, 4, 6):
+            if d[i]:
+                assert float(r[i]) == pytest.approx(float(d[i]) * factor, rel=1e-13, abs=0.0)
+            else:
+                assert r[i] == ""
+
+
+def test_davar_png_in_rad(record_csv: Path, tmp_path: Path, capsys,
+                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """``davar --png --output-units rad``: the heat map's colours are log10 of the rad/s
+    deviations its JSON prints, its colour bars say so."""
+    from station.output import plots
+
+    figures = []
+    save = plots._save
+
+    def kept(fig, path, dpi=None):
+        figures.append(fig)
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", kept)
+    png = tmp_path / "davar.png"
+    assert main(["davar", str(record_csv), "--window-s", "200", "--step-s", "100", "--png",
+                 str(png), "--output-units", "rad", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert png.stat().st_size > 10_000
+    labels = [ax.get_ylabel() for ax in figures[0].axes]
+    assert labels.count("log10 ADEV (rad/s)") == 2 and not [x for x in labels if "deg" in x]
+    adev = np.array(doc["axes"][0]["adev_rad_s"], dtype=float)  # [window][tau]
+    mesh = np.asarray(figures[0].axes[0].collections[0].get_array(), dtype=float)
+    np.testing.assert_allclose(mesh.reshape(adev.T.shape), np.log10(adev).T, rtol=1e-12)
+
+
+def test_gmwm_wavelet_variances_name_their_unit(record_csv: Path, tmp_path: Path, capsys,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """The GMWM's wavelet variances: ``wv_deg2_s2`` (and ``model_wv_``, ``wv_ci_low_``,
+    ``wv_ci_high_``) beside the interface's ``wv``...; in rad ``wv_rad2_s2``, times
+    (pi/180)^2, the unit-less keys left out; the wavelet figure in (rad/s)^2."""
+    from station.output import plots
+
+    labels: list[str] = []
+    save = plots._save
+
+    def labelled(fig, path, dpi=None):
+        labels.extend(ax.get_ylabel() for ax in fig.axes)
+        return save(fig, path, dpi)
+
+    monkeypatch.setattr(plots, "_save", labelled)
+    command = ["analyze", str(record_csv), "--axis", "x", "--method", "gmwm", "--model", "wn",
+               "--json"]
+    assert main(command) == 0
+    deg = json.loads(capsys.readouterr().out)["axes"][0]["gmwm"]
+    png = tmp_path / "wv.png"
+    assert main([*command, "--output-units", "rad", "--png", str(png)]) == 0
+    rad = json.loads(capsys.readouterr().out)["axes"][0]["gmwm"]
+    assert rad == to_rad_family(deg)
+    assert labels == ["Haar wavelet variance [(rad/s)^2]"] and png.stat().st_size > 10_000
+    factor = (math.pi / 180) ** 2
+    for stem in ("wv", "model_wv", "wv_ci_low", "wv_ci_high"):
+        assert deg[stem] == deg[f"{stem}_deg2_s2"] and len(deg[stem]) >= 5
+        assert stem not in rad and f"{stem}_deg2_s2" not in rad
+        np.testing.assert_allclose(rad[f"{stem}_rad2_s2"], np.array(deg[stem]) * factor,
+                                   rtol=1e-13)
+    assert rad["wv_tau_s"] == deg["wv_tau_s"] and rad["wv_ci"] == deg["wv_ci"]
+    assert set(rad["params"]) == {"wn_rad_s_rt_hz"}
+
+
+def test_model_curve_in_rad(capsys) -> None:
+    """``station model curve --output-units rad``: ``adev_rad_s`` and ``terms_rad_s`` (the
+    deg/h curve times its factor), the table in rad/s."""
+    command = ["model", "curve", "zhang2015-fog", "--taus", "1,10,100"]
+    assert main([*command, "--json"]) == 0
+    deg = json.loads(capsys.readouterr().out)
+    assert main([*command, "--json", "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)
+    assert set(rad) == {"tau_s", "adev_rad_s", "terms_rad_s"}
+    factor = RAD_FAMILY.factor("deg/h")
+    np.testing.assert_allclose(rad["adev_rad_s"], np.array(deg["adev_deg_h"]) * factor,
+                               rtol=1e-13)
+    for term, values in deg["terms_deg_h"].items():
+        np.testing.assert_allclose(rad["terms_rad_s"][term], np.array(values) * factor,
+                                   rtol=1e-13)
+    assert main([*command, "--output-units", "rad"]) == 0
+    table = capsys.readouterr().out.splitlines()
+    assert table[0].endswith("in rad/s") and len(table) == 2 + 3
+    assert float(table[2].split()[1]) == pytest.approx(rad["adev_rad_s"][0], rel=1e-4)

@@ -75,7 +75,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     p.add_argument("--csv", type=Path, default=None, metavar="OUT.csv",
                    help="write the curve: per axis and tau the deviation, its interval and the "
-                        "fitted model, in deg/h (no profile or report needed)")
+                        "fitted model, in deg/h (rad/s with --output-units rad); no profile or "
+                        "report needed")
     add_bench_argument(p)
     add_output_units_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
@@ -93,7 +94,8 @@ def run(args: argparse.Namespace) -> int:
                                     deviation=args.deviation, taus=args.taus, method=args.method,
                                     terms=args.terms, select=args.select, gmwm_model=args.model,
                                     robust=args.robust, outliers=args.outliers, bench=args.bench,
-                                    png=args.png, csv=args.csv), progress)
+                                    png=args.png, csv=args.csv,
+                                    output_units=output_family(args)), progress)
     print_notes("analyze", result.notes)
     family = output_family(args)
     if args.json:

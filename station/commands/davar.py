@@ -41,7 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step-s", type=float, default=None, metavar="S",
                    help="step between windows in s (default: a tenth of the window)")
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write a heat map of log10 ADEV (deg/h) over time and tau")
+                   help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad) "
+                        "over time and tau")
     add_output_units_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
     p.set_defaults(handler=run)
@@ -51,9 +52,9 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, compute its DAVAR and warm-up verdict per axis, print and plot."""
     from station.services.davar import DavarRequest, davar
 
-    answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png))
-    print_notes("davar", answer.notes)
     family = output_family(args)
+    answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png, family))
+    print_notes("davar", answer.notes)
     if args.json:
         print_json(answer.as_json(), family, allow_nan=False)
     else:
