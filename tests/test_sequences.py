@@ -22,8 +22,15 @@ import numpy as np
 import pytest
 
 from analysis.cycle_stats import summarize_cycles
+from analysis.models import AngleRandomWalk
 from analysis.power_cycle import PowerCycleModel
+from analysis.readoffs import BIAS_INSTABILITY_FACTOR, bias_instability_readoff
+from analysis.units import S_PER_H
+from devices.model_files import load_noise_model
 from devices.sim.powered import turn_on_draw
+from station.evaluation.grading import RunGrade
+from station.evaluation.sequence_grading import FIGURE_KEYS
+from station.model.sequence_runs import SequenceRun
 from station.output.report import write_report
 from station.services.grade import GradeRequest, RunSource, grade
 from station.services.sequence import SequenceRequest, SimFixtureSettings, prepare_sequence
@@ -77,6 +84,8 @@ bias_after_s = 60
 warmup_band_deg_h = 1.0
 warmup_average_s = 20
 """
+#: The simulated units' noise (Lv 2015 table 3).
+VG951 = load_noise_model("VG951")
 TURN_ON = PowerCycleModel(turn_on_s=5.0, turn_on_jitter_s=1.0, turn_on_bias_deg_h=10.0,
                           warmup_deg_h=20.0, warmup_tau_s=20.0)
 
@@ -136,28 +145,43 @@ def test_turn_on_figures_come_back_within_their_intervals(profile: Path, tmp_pat
         # the noise figures of the longest segment, unless the host lost too many samples
         assert "x" in unit["axes"] or "leave fewer than 1000" in unit["notes"][0], unit["notes"]
         assert set(figures["graded"]) == {"turn_on_repeatability", "warmup_time", "turn_on_time"}
+        assert unit["sequence_plateaus"] == []  # no temperature steps
+
+
+#: The temperature test's units: seeds and temperature coefficients (deg/h per degC).
+TEMPERATURE_UNITS = ((5, 0.5), (6, -0.3))
+#: The simulated fixture's self-heating: each die sits this far above its chamber, degC.
+SELF_HEATING_C = 1.0
+
+
+@pytest.fixture(scope="module")
+def temperature_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[SequenceRun, RunGrade]:
+    """Two units (+0.5 and -0.3 deg/h per degC) in a chamber stepped 10, 25, 40, 55 and
+    back to 25 degC, recorded once and graded for the tests of this module."""
+    tmp_path = tmp_path_factory.mktemp("temperature")
+    path = tmp_path / "seq.toml"
+    path.write_text(PROFILE, encoding="utf-8")
+    units = tuple(unit_url(s, 200.0, tempco=c) for s, c in TEMPERATURE_UNITS)
+    request = SequenceRequest("temperature", str(path), units, power=("sim",),
+                              chamber="sim", out=tmp_path / "runs", chamber_log_s=10.0,
+                              fixture=SimFixtureSettings(chamber_tau_s=30.0, unit_tau_s=20.0,
+                                                         self_heating_c=SELF_HEATING_C))
+    with prepare_sequence(request) as prepared:
+        run = prepared.execute()
+    return run, grade(GradeRequest(RunSource(run.path), store=False)).graded
 
 
 def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
-        profile: Path, tmp_path: Path) -> None:
-    """Two units (+0.5 and -0.3 deg/h per degC) in a chamber stepped 10, 25, 40, 55 and
-    back to 25 degC: the linear coefficient's interval covers each truth, the quadratic
-    term's covers 0, and the hysteresis (none simulated) is not above its interval."""
-    coefficients = (0.5, -0.3)
-    units = tuple(unit_url(s, 200.0, tempco=c) for s, c in zip((5, 6), coefficients,
-                                                                 strict=True))
-    request = SequenceRequest("temperature", str(profile), units, power=("sim",),
-                              chamber="sim", out=tmp_path / "runs", chamber_log_s=10.0,
-                              fixture=SimFixtureSettings(chamber_tau_s=30.0, unit_tau_s=20.0,
-                                                         self_heating_c=1.0))
-    with prepare_sequence(request) as prepared:
-        run = prepared.execute()
+        temperature_graded: tuple[SequenceRun, RunGrade], tmp_path: Path) -> None:
+    """The temperature test: the linear coefficient's interval covers each unit's truth,
+    the quadratic term's covers 0, and the hysteresis (none simulated) is not above its
+    interval."""
+    run, graded = temperature_graded
     assert run.done and len(run.segments) == 5
     setpoints = [e.value for e in run.journal if e.kind == "setpoint"]
     assert setpoints == [10.0, 25.0, 40.0, 55.0, 25.0]
     assert sum(e.kind == "chamber" for e in run.journal) > 20
-    graded = grade(GradeRequest(RunSource(run.path), store=False)).graded
-    for truth, unit in zip(coefficients, graded.units, strict=True):
+    for (_, truth), unit in zip(TEMPERATURE_UNITS, graded.units, strict=True):
         seq = unit.sequence
         assert seq is not None
         f = seq.figures["temperature_coefficient_deg_h_per_c"]
@@ -175,6 +199,47 @@ def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
     assert html.count('<table class="sequence">') == 2
     assert html.count('data-figure="temperature_coefficient"') == 2
     assert "bias against temperature" in html
+    assert html.count('<table class="plateaus">') == 2
+    assert html.count('alt="Allan deviation of each temperature plateau"') == 2
+
+
+def test_each_temperature_plateau_has_its_allan_analysis(
+        temperature_graded: tuple[SequenceRun, RunGrade]) -> None:
+    """Per unit, one entry per plateau in the order recorded, at its set point: the die's
+    temperature (set point + self-heating), the bias the temperature points hold, the ARW
+    and bias instability of the simulated VG951 within their intervals,
+    the bias following the unit's coefficient from plateau to plateau."""
+    _, graded = temperature_graded
+    doc = graded.as_json()
+    arw = VG951.get("arw")
+    assert isinstance(arw, AngleRandomWalk)
+    for (_, tempco), unit, graded_unit in zip(TEMPERATURE_UNITS, doc["units"],  # type: ignore[call-overload]
+                                              graded.units, strict=True):
+        plateaus = unit["sequence_plateaus"]
+        assert [p["set_point_c"] for p in plateaus] == [10.0, 25.0, 40.0, 55.0, 25.0]
+        assert set(unit["sequence_figures"]) >= {f"{k}{s}" for k in FIGURE_KEYS
+                                                 for s in ("", "_ci")}
+        assert graded_unit.sequence is not None
+        points = graded_unit.sequence.axes[0].points
+        temps = np.array([p["temperature_c"] for p in plateaus])
+        bias = np.array([p["bias_deg_h"] for p in plateaus])
+        assert np.abs(temps - [p["set_point_c"] + SELF_HEATING_C for p in plateaus]).max() < 0.3
+        assert bias.tolist() == [p.bias_deg_h for p in points]
+        # the bias at each plateau less the coefficient's share: the unit's own bias, whose
+        # instability (0.12 deg/h) wanders far less than the 45 degC span's 13-23 deg/h
+        assert np.ptp(bias - tempco * temps) < 1.0
+        for p, plateau in zip(plateaus, graded_unit.sequence.plateaus, strict=True):
+            # a 2-min record step (at x200 the recorder's stop latency adds tens of seconds)
+            assert p["axis"] == "x" and 110.0 < p["duration_s"] < 300.0
+            low, high = p["arw_deg_rt_h_ci"]
+            assert low <= arw.N_deg_rt_h <= high, p
+            # a 2-min plateau reads the bias instability where white noise still adds to
+            # the curve: the truth is the model's deviation at the tau read, / 0.664
+            assert plateau.allan is not None
+            tau = bias_instability_readoff(plateau.allan).tau_low_s
+            truth = float(VG951.adev(tau)) * S_PER_H / BIAS_INSTABILITY_FACTOR
+            low, high = p["bias_instability_deg_h_ci"]
+            assert low <= truth <= high, (p, truth)
 
 
 def _record(args: list[str]) -> subprocess.Popen[str]:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
 from station.output.report.common import analysis_lines
+from station.output.report.plateau_sheet import plateau_lines
 from station.output.report.sequence_sheet import sequence_lines
 from station.storage.csv_records import UNIT_TO_DEG_S
 
@@ -154,4 +155,5 @@ def format_grade(graded: RunGrade) -> str:
                 )
         if u.sequence is not None:
             lines += [f"  {line}" for line in sequence_lines(u.sequence)]
+            lines += [f"  {line}" for line in plateau_lines(u.sequence.plateaus)]
     return "\n".join(lines)
