@@ -32,7 +32,10 @@ from station.evaluation.grading import RunGrade
 from station.evaluation.sequence_grading import FIGURE_KEYS
 from station.model.sequence_runs import SequenceRun
 from station.output.report import write_report
-from station.services.grade import GradeRequest, RunSource, grade
+from station.output.results import UNIT_AXIS, ResultsDatabase
+from station.services.grade import GradeRequest, RunSource, grade, store_grading
+from station.services.production import StatsRequest, production_stats
+from station.services.results import ResultsRequest, query_results
 from station.services.sequence import SequenceRequest, SimFixtureSettings, prepare_sequence
 from station.storage.sequence_files import read_sequence
 
@@ -110,19 +113,35 @@ def profile(tmp_path: Path) -> Path:
     return path
 
 
-def test_turn_on_figures_come_back_within_their_intervals(profile: Path, tmp_path: Path
-                                                          ) -> None:
+#: The turn-on test's units' seeds.
+TURN_ON_SEEDS = (1, 2)
+
+
+@pytest.fixture(scope="module")
+def turn_on_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[SequenceRun, RunGrade]:
+    """Two units (two seeds), five switch-ons, recorded once and graded for the tests of
+    this module."""
+    tmp_path = tmp_path_factory.mktemp("turn_on")
+    path = tmp_path / "seq.toml"
+    path.write_text(PROFILE, encoding="utf-8")
+    request = SequenceRequest("turn_on", str(path),
+                              tuple(turn_on_url(s) for s in TURN_ON_SEEDS),
+                              power=("sim",), out=tmp_path / "runs")
+    with prepare_sequence(request) as prepared:
+        run = prepared.execute()
+    return run, grade(GradeRequest(RunSource(run.path), store=False)).graded
+
+
+def test_turn_on_figures_come_back_within_their_intervals(
+        turn_on_graded: tuple[SequenceRun, RunGrade]) -> None:
     """Two units (two seeds), five switch-ons: the turn-on repeatability covers the
     spread the turn-on biases are drawn with, the turn-on time the mean drawn time (to
     the end of the first sample), the warm-up time the transient's entry into the band;
     each switch-on's turn-on time and bias match what it drew."""
-    seeds = (1, 2)
-    request = SequenceRequest("turn_on", str(profile), tuple(turn_on_url(s) for s in seeds),
-                              power=("sim",), out=tmp_path / "runs")
-    with prepare_sequence(request) as prepared:
-        run = prepared.execute()
+    run, graded = turn_on_graded
+    seeds = TURN_ON_SEEDS
     assert run.done and len(run.segments) == 5
-    doc = grade(GradeRequest(RunSource(run.path), store=False)).graded.as_json()
+    doc = graded.as_json()
     warm_truth = TURN_ON.warmup_time_s(1.0, record_s=240.0,
                                        die_temperature_c=lambda t: np.full_like(t, 25.0))
     for seed, unit in zip(seeds, doc["units"], strict=True):  # type: ignore[call-overload]
@@ -146,6 +165,40 @@ def test_turn_on_figures_come_back_within_their_intervals(profile: Path, tmp_pat
         assert "x" in unit["axes"] or "leave fewer than 1000" in unit["notes"][0], unit["notes"]
         assert set(figures["graded"]) == {"turn_on_repeatability", "warmup_time", "turn_on_time"}
         assert unit["sequence_plateaus"] == []  # no temperature steps
+
+
+def test_sequence_figures_are_stored_beside_the_others(
+        turn_on_graded: tuple[SequenceRun, RunGrade], tmp_path: Path) -> None:
+    """The graded turn-on test stored in an SQLite results database: each unit's sequence
+    figures are rows of its grading (axis '', the unit's), with the deciding grade's limit
+    and verdict; a trend lists them; the statistics give their Cp and Cpk against the
+    profile's acceptance limit."""
+    _, graded = turn_on_graded
+    db = tmp_path / "results.sqlite"
+    ids = store_grading(graded, db)
+    values: list[float] = []
+    with ResultsDatabase(db) as results:
+        for grading_id, unit in zip(ids, graded.units, strict=True):
+            seq = unit.sequence
+            assert seq is not None and seq.deciding_grade
+            rows = {r["name"]: r for r in results.figures(grading_id) if r["axis"] == UNIT_AXIS}
+            assert set(rows) == {"turn_on_repeatability", "warmup_time", "turn_on_time"}
+            for g in seq.graded:
+                row = rows[g.spec.name]
+                assert (row["value"], row["ci_low"], row["ci_high"], row["unit"]) == (
+                    g.value, g.ci_low, g.ci_high, g.spec.unit)
+                assert row["limit_value"] == g.spec.limits.get(seq.deciding_grade)
+                assert row["verdict"] == g.verdicts.get(seq.deciding_grade, "pass")
+            values.append(rows["turn_on_repeatability"]["value"])
+    trend = query_results(ResultsRequest(db, "trend", figure="turn_on_repeatability")).trend
+    assert [p.value for p in trend] == values and {p.axis for p in trend} == {UNIT_AXIS}
+    stats = production_stats(StatsRequest(db)).stats
+    assert stats is not None and stats.units == 2
+    figure = stats.figures["turn_on_repeatability"]
+    assert figure.limits == {"A": 30.0, "B": 60.0}  # the profile's, from the stored text
+    mean, std = float(np.mean(values)), float(np.std(values, ddof=1))
+    assert figure.capability.cpk == pytest.approx((60.0 - mean) / (3.0 * std))
+    assert set(stats.figures) >= {"turn_on_repeatability", "warmup_time", "turn_on_time"}
 
 
 #: The temperature test's units: seeds and temperature coefficients (deg/h per degC).

@@ -304,7 +304,7 @@ def format_trend(figure: str, points: list[TrendPoint]) -> str:
         [
             p.test_date,
             p.serial_number,
-            p.axis,
+            p.axis or "unit",  # a test sequence's figure: the unit's
             _num(p.value),
             f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
             _num(p.limit),
