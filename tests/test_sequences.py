@@ -55,7 +55,7 @@ grades = ["A", "B"]
 unit = "deg/sqrt(h)"
 limits = { A = 0.012, B = 0.025 }
 [sequence.turn_on]
-steps = ["power_on", "record 4min", "power_off", "cool_down 30s", "repeat 5"]
+steps = ["power_on", "record 210s", "power_off", "cool_down 10s", "repeat 5"]
 bias_after_s = 90
 warmup_band_deg_h = 1.0
 warmup_average_s = 20
@@ -69,12 +69,12 @@ limits = { A = 90, B = 300 }
 unit = "s"
 limits = { A = 15 }
 [sequence.temperature]
-steps = ["power_on", "wait 1min", "set_chamber 10", "wait_stable", "record 2min",
+steps = ["power_on", "wait 20s", "set_chamber 10", "wait_stable", "record 2min",
          "set_chamber 25", "wait_stable", "record 2min", "set_chamber 40", "wait_stable",
          "record 2min", "set_chamber 55", "wait_stable", "record 2min", "set_chamber 25",
          "wait_stable", "record 2min", "power_off"]
 stable_band_c = 0.5
-stable_hold_s = 30
+stable_hold_s = 15
 plateau_span_c = 1.0
 [sequence.temperature.figures.temperature_coefficient]
 unit = "deg/h/degC"
@@ -142,7 +142,7 @@ def test_turn_on_figures_come_back_within_their_intervals(
     seeds = TURN_ON_SEEDS
     assert run.done and len(run.segments) == 5
     doc = graded.as_json()
-    warm_truth = TURN_ON.warmup_time_s(1.0, record_s=240.0,
+    warm_truth = TURN_ON.warmup_time_s(1.0, record_s=210.0,
                                        die_temperature_c=lambda t: np.full_like(t, 25.0))
     for seed, unit in zip(seeds, doc["units"], strict=True):  # type: ignore[call-overload]
         figures = unit["sequence_figures"]
@@ -217,7 +217,7 @@ def temperature_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Sequen
     units = tuple(unit_url(s, 200.0, tempco=c) for s, c in TEMPERATURE_UNITS)
     request = SequenceRequest("temperature", str(path), units, power=("sim",),
                               chamber="sim", out=tmp_path / "runs", chamber_log_s=10.0,
-                              fixture=SimFixtureSettings(chamber_tau_s=30.0, unit_tau_s=20.0,
+                              fixture=SimFixtureSettings(chamber_tau_s=15.0, unit_tau_s=10.0,
                                                          self_heating_c=SELF_HEATING_C))
     with prepare_sequence(request) as prepared:
         run = prepared.execute()
