@@ -26,13 +26,14 @@ def test_setup_commands_leave_the_operators_hold_alone() -> None:
     GoToConfig / GoToMeasurement) must not start the unit, releasing the hold must."""
     with open_device("sim+serial://MTI-630?protocol=xbus&rate=500&warp=5&seed=2") as dev:
         core = dev.simulator.core
-        core.pause()
+        core.pause()  # a loaded host may let a few samples out before the hold
+        before = core.ledger.generated
         dev.source.open()  # acknowledged: the device answers while held
         time.sleep(0.2)
-        assert core.ledger.generated == 0 and core.held
+        assert core.ledger.generated == before and core.held
         core.resume()
         got = collect(dev.source, 200)
-        assert got.counter[0] < 50 and np.all(np.diff(got.counter) == 1)
+        assert got.counter[0] < before + 50 and np.all(np.diff(got.counter) == 1)
 
 
 def _data(counter: int) -> bytes:
