@@ -279,8 +279,9 @@ def test_each_temperature_plateau_has_its_allan_analysis(
         assert np.abs(temps - [p["set_point_c"] + SELF_HEATING_C for p in plateaus]).max() < 0.3
         assert bias.tolist() == [p.bias_deg_h for p in points]
         # the bias at each plateau less the coefficient's share: the unit's own bias, whose
-        # instability (0.12 deg/h) wanders far less than the 45 degC span's 13-23 deg/h
-        assert np.ptp(bias - tempco * temps) < 1.0
+        # wander between plateaus (up to 0.8 deg/h in 10 runs) is far below the 13-23 deg/h
+        # the coefficient moves it over the 45 degC span
+        assert np.ptp(bias - tempco * temps) < 2.0, (bias, temps)
         for p, plateau in zip(plateaus, graded_unit.sequence.plateaus, strict=True):
             # the whole 2-min record (at x200 the recorder's stop latency can add minutes)
             segment = read_segment_unit(Path(run.path).parent / p["segment"],
