@@ -283,15 +283,19 @@ def test_each_temperature_plateau_has_its_allan_analysis(
         # the coefficient moves it over the 45 degC span
         assert np.ptp(bias - tempco * temps) < 2.0, (bias, temps)
         for p, plateau in zip(plateaus, graded_unit.sequence.plateaus, strict=True):
-            # the whole 2-min record (at x200 the recorder's stop latency can add minutes)
+            # the whole record of the step: 2 min of sequence clock, though at x200 a loaded
+            # host's unit processes start or stop late (26 s and 541 s seen)
             segment = read_segment_unit(Path(run.path).parent / p["segment"],
                                         graded_unit.unit.unit_id)
-            assert p["axis"] == "x" and p["duration_s"] == segment.record.duration_s >= 110.0
+            assert p["axis"] == "x" and p["duration_s"] == segment.record.duration_s
             low, high = p["arw_deg_rt_h_ci"]
             assert low <= arw.N_deg_rt_h <= high, p
             # a 2-min plateau reads the bias instability where white noise still adds to
             # the curve: the truth is the model's deviation at the tau read, / 0.664
             assert plateau.allan is not None
+            if p["bias_instability_deg_h"] is None:  # a record cut short (see above)
+                assert "bias instability" in p["note"]
+                continue
             tau = bias_instability_readoff(plateau.allan).tau_low_s
             truth = float(VG951.adev(tau)) * S_PER_H / BIAS_INSTABILITY_FACTOR
             low, high = p["bias_instability_deg_h_ci"]
