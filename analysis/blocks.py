@@ -162,10 +162,36 @@ def median(values: Callable[[int, int], NDArray[np.float64]], n: int) -> float:
     return float(np.mean([a, b]))
 
 
+def pairwise_sum(x: NDArray[np.float64], start: int = 0, stop: int | None = None, *,
+                 nan_as_zero: bool = False) -> float:
+    """``np.sum(x[start:stop])`` of a 1-D record, bit for bit, a block at a time.
+
+    numpy sums a contiguous run of float64 pairwise: halves (the first a multiple of 8
+    values long) summed apart and added, down to runs of 128. The same halving down to
+    runs of :data:`BLOCK_SAMPLES`, each summed by numpy, gives numpy's sum of the whole
+    without reading more than a block at once. ``nan_as_zero``: NaN counts as 0 (the sum
+    :func:`numpy.nansum` and :func:`numpy.nanmean` take).
+    """
+    stop = len(x) if stop is None else stop
+    n = stop - start
+    if n <= BLOCK_SAMPLES:
+        v = np.asarray(x[start:stop], dtype=np.float64)
+        total = float(np.add.reduce(np.where(np.isnan(v), 0.0, v) if nan_as_zero else v))
+        release(x)
+        return total
+    half = n // 2
+    half -= half % 8
+    return (pairwise_sum(x, start, start + half, nan_as_zero=nan_as_zero)
+            + pairwise_sum(x, start + half, stop, nan_as_zero=nan_as_zero))
+
+
 def group_means(x: NDArray[np.float64], size: int, count: int) -> NDArray[np.float64]:
     """Means of the first ``count`` consecutive groups of ``size`` samples of a 1-D or 2-D
-    record (shape ``(count,)`` or ``(count, k)``), a block of whole groups at a time; each
-    group's mean is the one numpy takes of it alone."""
+    record (shape ``(count,)`` or ``(count, k)``), a block of whole groups at a time (a
+    group longer than a block of a 1-D record by :func:`pairwise_sum`); each group's mean
+    is the one numpy takes of it alone."""
+    if x.ndim == 1 and size > BLOCK_SAMPLES:
+        return np.array([pairwise_sum(x, g * size, (g + 1) * size) / size for g in range(count)])
     rows = max(1, BLOCK_SAMPLES // size)
     parts = []
     for a, b in spans(0, count, rows):
@@ -176,15 +202,41 @@ def group_means(x: NDArray[np.float64], size: int, count: int) -> NDArray[np.flo
 
 
 def nan_mean(x: NDArray[np.float64]) -> float:
-    """Mean of the samples of a 1-D record that are not NaN, a block at a time."""
-    total, count = 0.0, 0
+    """:func:`numpy.nanmean` of a 1-D record (the mean of the samples that are not NaN),
+    bit for bit, a block at a time."""
+    count = 0
     for a, b in spans(0, len(x)):
-        v = np.asarray(x[a:b], dtype=np.float64)
-        keep = ~np.isnan(v)
-        total += float(v[keep].sum())
-        count += int(keep.sum())
+        count += int(np.count_nonzero(~np.isnan(np.asarray(x[a:b]))))
         release(x)
-    return total / count if count else float("nan")
+    return pairwise_sum(x, nan_as_zero=True) / count if count else float("nan")
+
+
+def finite_batch_means(x: NDArray[np.float64], batches: int) -> NDArray[np.float64]:
+    """Means of ``batches`` consecutive equal batches of the finite values of a 1-D record
+    (``len // batches`` values each, the rest left out), a block at a time.
+
+    Where ``x`` holds no NaN or infinity these are numpy's means bit for bit
+    (:func:`group_means`); else the sums run block by block (the same to rounding).
+    """
+    n = len(x)
+    if not any_where(x, lambda v: ~np.isfinite(v)):
+        return group_means(x, n // batches, batches)
+    count = 0
+    for a, b in spans(0, n):
+        count += int(np.count_nonzero(np.isfinite(np.asarray(x[a:b]))))
+        release(x)
+    size = count // batches
+    sums = np.zeros(batches)
+    seen = 0  # finite values walked so far
+    for a, b in spans(0, n):
+        v = np.asarray(x[a:b], dtype=np.float64)
+        v = v[np.isfinite(v)]
+        release(x)
+        which = (seen + np.arange(len(v))) // max(size, 1)
+        keep = which < batches
+        sums += np.bincount(which[keep], weights=v[keep], minlength=batches)[:batches]
+        seen += len(v)
+    return sums / size if size else np.full(batches, np.nan)
 
 
 def any_where(

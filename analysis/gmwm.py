@@ -145,7 +145,9 @@ class GmwmFit:
         return self.model.term_wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
 
     def as_json(self) -> dict[str, object]:
-        """JSON form: model, params, stderr (same keys), intervals, fit statistics, the WV."""
+        """JSON form: model, params, stderr (same keys), intervals, fit statistics, the WV
+        (``wv_deg2_s2``, ``model_wv_deg2_s2``, in (deg/s)^2; ``wv``, ``model_wv``: the same
+        values under the keys of the GMWM interface)."""
         def clean(d: dict[str, float]) -> dict[str, float | None]:
             return {k: (v if math.isfinite(v) else None) for k, v in d.items()}
 
@@ -161,6 +163,8 @@ class GmwmFit:
             "p_value": self.p_value if math.isfinite(self.p_value) else None,
             "weights": self.weights,
             "wv_tau_s": self.tau_s.tolist(),
+            "wv_deg2_s2": self.wv.tolist(),
+            "model_wv_deg2_s2": self.model_wv.tolist(),
             "wv": self.wv.tolist(),
             "model_wv": self.model_wv.tolist(),
         }

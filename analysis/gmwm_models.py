@@ -365,7 +365,8 @@ class GmwmModel:
 
         A variance parameter at zero has value 0 and, as its standard error, the
         square root of its variance's standard error in the data-sheet unit (the size
-        the data cannot exclude).
+        the data cannot exclude); one within half a standard error of zero has that
+        bound too, where the delta method's ``se / (2 sqrt(v))`` would run off to infinity.
         """
         p = np.asarray(params, dtype=float)
         kinds = {iv: k for k, (iv, _) in zip(self.kinds, self.slices(), strict=True)}
@@ -380,8 +381,10 @@ class GmwmModel:
                 k = kinds[idx]
                 v = max(float(p[idx]), 0.0)
                 values[key] = math.sqrt(v) * k.scale_factor
+                # the delta method se / (2 sqrt(v)) grows without bound as v nears zero;
+                # within half a standard error of zero sqrt(se) bounds it (the same value)
                 errors[key] = (
-                    se / (2.0 * math.sqrt(v)) if v > 0 else math.sqrt(se)
+                    min(se / (2.0 * math.sqrt(v)), math.sqrt(se)) if v > 0 else math.sqrt(se)
                 ) * k.scale_factor
             else:
                 k = shaped[idx]

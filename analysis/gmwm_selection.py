@@ -66,7 +66,8 @@ class GmwmSelection:
     def as_json(self) -> dict[str, object]:
         """The ``gmwm`` object of ``station analyze --json``: the fit's JSON (model, params,
         stderr, ...) plus ``ranking: [{"model", "criterion", ...}]``, the empirical WV's
-        interval and the model whose weights ranked the candidates."""
+        interval (``wv_ci_low_deg2_s2``, ``wv_ci_high_deg2_s2``; ``wv_ci_low``, ``wv_ci_high``:
+        the same) and the model whose weights ranked the candidates."""
         w = self.wavelet
         return {
             **self.best.as_json(),
@@ -82,6 +83,8 @@ class GmwmSelection:
             ],
             "criterion": "WIC",
             "selection_weights_from": self.reference,
+            "wv_ci_low_deg2_s2": np.asarray(w.ci_low).tolist(),
+            "wv_ci_high_deg2_s2": np.asarray(w.ci_high).tolist(),
             "wv_ci_low": np.asarray(w.ci_low).tolist(),
             "wv_ci_high": np.asarray(w.ci_high).tolist(),
             "wv_ci": w.ci,

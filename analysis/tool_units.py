@@ -34,10 +34,8 @@ import math
 from dataclasses import dataclass
 
 from analysis.readoffs import BIAS_INSTABILITY_FACTOR
-from analysis.units import S_PER_H
+from analysis.units import RAD_PER_DEG, S_PER_H
 
-#: radians per degree.
-RAD_PER_DEG = math.pi / 180.0
 #: Seconds per hour to the power 1.5 (s^1.5 per h^1.5), for rate random walks.
 S_PER_H_1_5: float = S_PER_H * math.sqrt(S_PER_H)
 #: sqrt(s per h): deg/sqrt(h) per deg/sqrt(s).

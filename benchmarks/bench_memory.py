@@ -1,21 +1,30 @@
-"""Peak memory of ``station analyze`` on a run file of a given length.
+"""Peak memory of ``station analyze``, ``grade`` or ``report`` on a run file of a given length.
 
-``python benchmarks/bench_memory.py --hours H --rate-hz R --axes A`` writes a simulated run
-file of one unit (H hours at R Hz, A axes: white rate noise plus a rate random walk) with
-the recorder's writer, a second of samples at a time (bounded memory), then runs
-``station analyze FILE --json`` in a child process and prints one line::
+``python benchmarks/bench_memory.py --hours H --rate-hz R --axes A [--command C]`` writes a
+simulated run file of one unit (H hours at R Hz, A axes: white rate noise plus a rate
+random walk) with the recorder's writer, a second of samples at a time (bounded memory),
+then runs the command in a child process and prints one line::
 
     peak_rss_mb=... seconds=...
 
 the child's peak resident memory (the VmHWM of its own address space, file pages it maps
-included) and its wall time. ``--keep FILE`` keeps the run file (and reuses it when it
-exists); ``--long-samples N`` makes records longer than N samples count as long (the
-block-wise path, :mod:`analysis.blocks`), so a short run exercises it.
+included) and its wall time. ``--command`` is ``analyze`` (``station analyze FILE
+--json``, the default), ``grade`` (``station grade FILE --json --no-store``) or ``report``
+(``station report FILE --format pdf --no-store``); grade and report use a profile written
+beside the run: ADIS16405's figures and limits on the run's axes, its warm-up cut to a
+tenth of the run. ``--keep FILE`` keeps the run file (and reuses it when it exists);
+``--long-samples N`` makes records longer than N samples count as long (the block-wise
+path, :mod:`analysis.blocks`), so a short run exercises it. ``--compare`` (analyze and
+grade) runs the command a second time with every record read in one piece and appends
+``max_rel_diff=...``: the largest relative difference between the numbers of the two
+JSON documents.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
 import re
 import subprocess
@@ -49,12 +58,61 @@ atexit.register(_hwm)
 
 CHILD = HWM + """
 import analysis.blocks as blocks
-if {long!r} is not None:
-    blocks.LONG_SAMPLES = {long!r}
-    blocks.BLOCK_SAMPLES = max(1024, {long!r} // 4)
+LONG = {long!r}
+if LONG is not None:
+    blocks.LONG_SAMPLES = LONG
+    blocks.BLOCK_SAMPLES = max(1024, LONG // 4)
 from station.cli import main
-sys.exit(main(["analyze", {path!r}, "--json"]))
+sys.exit(main({argv!r}))
 """
+
+#: What the profile of ``grade`` and ``report`` takes from (its figures and limits).
+PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml"
+COMMANDS = ("analyze", "grade", "report")
+
+
+def write_profile(path: Path, axes: tuple[str, ...], warmup_s: float) -> Path:
+    """ADIS16405's profile with ``axes`` and ``warmup_s`` (TOML at ``path``)."""
+    text = PROFILE.read_text()
+    text = re.sub(r"(?m)^axes = .*$", "axes = " + json.dumps(list(axes)), text)
+    text = re.sub(r"(?m)^warmup_s = .*$", f"warmup_s = {warmup_s!r}", text)
+    path.write_text(text)
+    return path
+
+
+def command_argv(command: str, run: Path, profile: Path, out_dir: Path) -> list[str]:
+    """``station`` arguments of ``command`` on ``run``."""
+    if command == "analyze":
+        return ["analyze", str(run), "--json"]
+    if command == "grade":
+        return ["grade", str(run), "--json", "--no-store", "--profile", str(profile)]
+    return ["report", str(run), "--format", "pdf", "--no-store", "--profile", str(profile),
+            "--out", str(out_dir)]
+
+
+def numbers(doc: object, where: str = "") -> dict[str, float]:
+    """Every number of a JSON document by its path (``axes/0/fit/N``)."""
+    if isinstance(doc, dict | list):
+        items = doc.items() if isinstance(doc, dict) else enumerate(doc)
+        return {k: v for key, value in items for k, v in numbers(value, f"{where}/{key}").items()}
+    if isinstance(doc, bool) or not isinstance(doc, int | float):
+        return {}
+    return {where: float(doc)}
+
+
+def max_relative_difference(a: str, b: str) -> float:
+    """Largest relative difference between the numbers of two JSON documents (inf when
+    they hold different numbers or NaN in one place only); times of day are left out."""
+    na, nb = numbers(json.loads(a)), numbers(json.loads(b))
+    if na.keys() != nb.keys():
+        return math.inf
+    worst = 0.0
+    for key, x in na.items():
+        y = nb[key]
+        if key.endswith(("graded_utc", "seconds")) or x == y or (math.isnan(x) and math.isnan(y)):
+            continue
+        worst = max(worst, abs(x - y) / max(abs(x), abs(y)))
+    return worst
 
 
 def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int = 1) -> int:
@@ -122,10 +180,10 @@ def run_child(code: str) -> tuple[float, float, str]:
         return seconds, peak_kb / 1024.0, out.read()
 
 
-def measure(path: Path, long_samples: int | None) -> tuple[float, float]:
-    """(peak RSS in MB, wall seconds) of ``station analyze FILE --json`` in a child."""
-    seconds, peak, _ = run_child(CHILD.format(long=long_samples, path=str(path)))
-    return peak, seconds
+def measure(argv: list[str], long_samples: int | None) -> tuple[float, float, str]:
+    """(peak RSS in MB, wall seconds, stdout) of ``station ARGV`` in a child."""
+    seconds, peak, out = run_child(CHILD.format(long=long_samples, argv=argv))
+    return peak, seconds, out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -147,15 +205,27 @@ def main(argv: list[str] | None = None) -> int:
         metavar="N",
         help="records longer than N samples take the block-wise path",
     )
+    p.add_argument("--command", choices=COMMANDS, default="analyze")
+    p.add_argument("--compare", action="store_true",
+                   help="also run it with records read in one piece; print max_rel_diff")
     args = p.parse_args(argv)
     if not 1 <= args.axes <= 6 or args.hours <= 0 or args.rate_hz <= 0:
         p.error("--hours and --rate-hz must be positive, --axes 1..6")
+    if args.compare and args.command == "report":
+        p.error("--compare applies to analyze and grade (their JSON)")
     with tempfile.TemporaryDirectory() as tmp:
         path = args.keep or Path(tmp) / "run.h5"
         if not path.exists():
             write_run(path, args.hours, args.rate_hz, args.axes)
-        peak, seconds = measure(path, args.long_samples)
-    print(f"peak_rss_mb={peak:.0f} seconds={seconds:.1f}")
+        profile = write_profile(Path(tmp) / "profile.toml", tuple("xyzuvw"[: args.axes]),
+                                min(300.0, args.hours * 360.0))
+        command = command_argv(args.command, path, profile, Path(tmp))
+        peak, seconds, out = measure(command, args.long_samples)
+        line = f"peak_rss_mb={peak:.0f} seconds={seconds:.1f}"
+        if args.compare:
+            _, _, whole = measure(command, 1 << 62)
+            line += f" max_rel_diff={max_relative_difference(out, whole):.3g}"
+    print(line)
     return 0
 
 

@@ -6,10 +6,11 @@ continuous process, and reconcile's Monte Carlo band comes from the same simulat
 the records come from textbook point-sampled recursions written in this file instead:
 white noise, flicker noise by Kasdin's filter (:func:`analysis.noise.flicker_rate_noise`),
 a discrete AR(1) for the Gauss-Markov process (``phi = exp(-dt/T)``), a cumulative sum for
-the rate random walk and a sampled sine. The base model and the effects' parameter
-ranges are those of ``tests/test_reconcile.py`` (``--ranges narrow``: 1 h at 10 Hz, ARW
-0.5 deg/sqrt(h), bias instability 2 deg/h) or wider and weaker ones (``wide``, default),
-each effect's variance under a tenth of the white noise's.
+the rate random walk, a sampled sine and more Kasdin flicker noise for a bias instability
+larger than the model's (the Gauss-Markov process' rival explanation). The base model and
+the effects' parameter ranges are those of ``tests/test_reconcile.py`` (``--ranges
+narrow``: 1 h at 10 Hz, ARW 0.5 deg/sqrt(h), bias instability 2 deg/h) or wider and weaker
+ones (``wide``, default), each effect's variance under a tenth of the white noise's.
 
 For every seed set and effect it prints how many seeds name exactly that effect (and what
 else was named), then the negative controls (the base model alone) and how many name
@@ -38,7 +39,7 @@ FS_HZ, DURATION_S = 10.0, 3600.0
 N_SAMPLES = int(FS_HZ * DURATION_S)
 ARW_DEG_RT_H, B_DEG_H = 0.5, 2.0
 SIGMA_W_DEG_S = ARW_DEG_RT_H * 60.0 * math.sqrt(FS_HZ) / 3600.0  # white-noise std per sample
-EFFECTS = ("gauss_markov", "rate_random_walk", "sinusoid", "none")
+EFFECTS = ("gauss_markov", "rate_random_walk", "sinusoid", "bias_instability", "none")
 
 _CACHE = ComparisonCache()
 
@@ -60,15 +61,16 @@ def base_rate(rng: np.random.Generator, b_deg_h: float = B_DEG_H) -> np.ndarray:
 #: Parameter ranges: those of tests/test_reconcile.py ("narrow") or wider and weaker ("wide":
 #: correlation times and periods log-uniform over 5-300 s and 10-600 s, amplitudes down to
 #: half the narrow ones, random walks down to a third); (low, high) of sigma / sigma_w, tau,
-#: variance ratio, amplitude, period. Correlation times stop at a twelfth of the record:
-#: beyond it a Gauss-Markov process and a random walk are one curve in an hour.
+#: variance ratio, amplitude, period, and the bias instability added in quadrature to the
+#: model's (deg/h). Correlation times stop at a twelfth of the record: beyond it a
+#: Gauss-Markov process and a random walk are one curve in an hour.
 RANGES = {
     "narrow": {"gm_sigma": (0.22, 0.28), "gm_tau": (30.0, 120.0), "rw_ratio": (0.05, 0.08),
-               "amp": (0.25, 0.3), "period": (60.0, 300.0)},
+               "amp": (0.25, 0.3), "period": (60.0, 300.0), "bi_deg_h": (3.0, 4.0)},
     "wide": {"gm_sigma": (0.12, 0.3), "gm_tau": (5.0, 300.0), "rw_ratio": (0.02, 0.08),
-             "amp": (0.12, 0.3), "period": (10.0, 600.0)},
+             "amp": (0.12, 0.3), "period": (10.0, 600.0), "bi_deg_h": (2.0, 5.0)},
     "faint": {"gm_sigma": (0.05, 0.15), "gm_tau": (2.0, 60.0), "rw_ratio": (0.01, 0.04),
-              "amp": (0.06, 0.15), "period": (10.0, 600.0)},
+              "amp": (0.06, 0.15), "period": (10.0, 600.0), "bi_deg_h": (1.5, 3.0)},
 }
 
 
@@ -94,6 +96,8 @@ def hidden(effect: str, rng: np.random.Generator, ranges: str = "narrow") -> np.
         amp, period = rng.uniform(*r["amp"]) * SIGMA_W_DEG_S, _log_uniform(rng, r["period"])
         phase = rng.uniform(0, 2 * math.pi)
         return amp * np.sin(2 * math.pi * t / period + phase)
+    if effect == "bias_instability":
+        return flicker_rate_noise(rng.uniform(*r["bi_deg_h"]) / 3600.0, N_SAMPLES, FS_HZ, rng)
     return np.zeros(N_SAMPLES)
 
 

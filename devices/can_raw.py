@@ -79,6 +79,8 @@ class CanRateSource:
         self._open = False
         self._last_frame_s = 0.0
         self._bus_clock = BusClock(clock, clock_scale)
+        #: Frames stamped before this (clock s) are not read (see :meth:`quiet_until_now`).
+        self._not_before_s = -float("inf")
 
     def describe(self) -> DeviceDescription:
         return self._description
@@ -127,8 +129,9 @@ class CanRateSource:
             if not (msg.is_error_frame or msg.is_remote_frame):
                 # The bus stamps each frame (wall clock, s) when it is sent or received:
                 # that stamp, not when this thread got to it, times the gap arithmetic.
-                self._take(msg.arbitration_id, bytes(msg.data), self.clock(),
-                           self._bus_clock(msg.timestamp))
+                sent = self._bus_clock(msg.timestamp)
+                if sent >= self._not_before_s:
+                    self._take(msg.arbitration_id, bytes(msg.data), self.clock(), sent)
             msg = self.transport.recv(0.0)
         now = self.clock()
         silent_s = now - self._last_frame_s
@@ -137,6 +140,14 @@ class CanRateSource:
             self._builder.event("disconnect", now, detail="node silent")
             raise DeviceDisconnectedError(f"CAN node silent for {self.silence_timeout_s} s")
         return self._builder.take(now)
+
+    def quiet_until_now(self) -> None:
+        """The station held a simulated node until now (the run starts): frames stamped
+        before now are not read. A node that sent a few frames before the hold took
+        effect continues its counter after it without a gap while its time stamps jump by
+        the hold; read together, the hold would count as counter wraps. The samples of
+        those frames are the recorder's leading gap, counted by the counter."""
+        self._not_before_s = self.clock()
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""

@@ -85,6 +85,8 @@ class CanopenRateSource:
         self._last_heartbeat = 0.0
         self._lost = False
         self._bus_clock = BusClock(clock, clock_scale)
+        #: PDOs stamped before this (clock s) are not read (see :meth:`quiet_until_now`).
+        self._not_before_s = -float("inf")
         self._builder = BatchBuilder(
             3, CounterTracker(COUNTER_MODULUS, sample_rate_hz,
                               timing_uncertainty_s=0.05 * clock_scale),
@@ -188,7 +190,8 @@ class CanopenRateSource:
             except queue.Empty:
                 break
             first = False
-            self._take(*item)
+            if self._bus_clock(item[2]) >= self._not_before_s:
+                self._take(*item)
         wall = time.monotonic()
         if wall - self._last_heartbeat > self.heartbeat_timeout_s:
             if not self._lost:
@@ -200,6 +203,12 @@ class CanopenRateSource:
             self._lost = False
             self._builder.event("reconnect", self.clock(), detail="heartbeat back")
         return self._builder.take(self.clock())
+
+    def quiet_until_now(self) -> None:
+        """The station held a simulated node until now (the run starts): PDOs stamped
+        before now are not read (see :meth:`devices.can_raw.CanRateSource.quiet_until_now`;
+        their samples are the recorder's leading gap)."""
+        self._not_before_s = self.clock()
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""

@@ -21,6 +21,11 @@ from devices.protocols import Gap, GapMethod
 #: Relative error of a device's sample rate the bounds allow (1000 ppm: a crystal's
 #: tolerance and drift with margin; a simulation's ``drift_ppm`` stays inside it).
 RATE_TOLERANCE = 1e-3
+#: Where the timing bounds of a gap hold no wrap count (they contradict the counter), a
+#: wrap count is still a candidate if its sample count is within this factor of the
+#: bounds'; one further off is taken as no candidate (a polled 16-bit counter 0.5 s
+#: late is not 45 min late).
+CONTRADICTION_FACTOR = 2.0
 
 
 class CounterTracker:
@@ -116,7 +121,9 @@ class CounterTracker:
         to fewer wraps, never below zero; below ``n = modulus / 2`` the counter alone
         counts. The gap's bounds are the wrap counts whose step lies within the bounds
         of the elapsed time times the rate (+- :data:`RATE_TOLERANCE`); the chosen one
-        is kept inside them (where none fits, the estimate alone decides).
+        is kept inside them. Where none fits, the timing contradicts the counter: the
+        wrap counts on either side of the bounds are the range (see
+        :data:`CONTRADICTION_FACTOR`: uncertain where both are candidates).
         """
         if self._last_raw is None:
             self._last_raw, self._last_unwrapped = raw, raw
@@ -146,11 +153,14 @@ class CounterTracker:
             wraps = max(0, math.ceil((expected - step) / self.modulus - 0.5))
             method = elapsed_method
         fit = self._wrap_bounds(step, bounds)
-        if fit is None:  # the bounds contradict the counter: the estimate alone decides
-            low = high = wraps
+        if fit is None:
+            # The bounds contradict the counter (a host that delivered bytes late, a
+            # clock paired off): the timing is wrong by at least the distance to the
+            # nearest wrap count, so neither neighbour of the bounds is certain.
+            low, high = self._neighbours(step, bounds, wraps)
         else:
             low, high = fit
-            wraps = min(max(wraps, low), high)
+        wraps = min(max(wraps, low), high)
         if high > 0 and method == "counter":
             method = elapsed_method  # the timing is what bounds the count
         gap = None
@@ -170,6 +180,20 @@ class CounterTracker:
         if device_elapsed_s < 0:
             return False
         return bounds is None or bounds[0] - 0.5 <= device_elapsed_s <= bounds[1] + 0.5
+
+    def _neighbours(self, step: int, bounds: tuple[float, float], estimate: int
+                    ) -> tuple[int, int]:
+        """The wrap counts on either side of ``bounds`` (s) that none fits: both, where
+        each implies a sample count within :data:`CONTRADICTION_FACTOR` of the bounds'
+        (the count is then uncertain); the one that does; else the estimate's."""
+        lo_s, hi_s = bounds
+        n_lo = max(0.0, lo_s) * self.sample_rate_hz
+        n_hi = max(0.0, hi_s) * self.sample_rate_hz
+        below = math.floor((n_hi - step) / self.modulus)
+        near = [k for k in (below, below + 1)
+                if k >= 0 and n_lo / CONTRADICTION_FACTOR - 1.0 <= step + k * self.modulus
+                <= n_hi * CONTRADICTION_FACTOR + 1.0]
+        return (min(near), max(near)) if near else (estimate, estimate)
 
     def _wrap_bounds(self, step: int, bounds: tuple[float, float]) -> tuple[int, int] | None:
         """The fewest and most wraps whose counter step fits ``bounds`` (s) of the elapsed

@@ -144,12 +144,40 @@ def test_reproduce_cli_json(tmp_path: Path) -> None:
     assert out["runs"] == 2 and out["seed"] == 5 and len(out["gyros"]) == 3
 
 
-def test_demo_runs_and_writes_its_files(tmp_path: Path) -> None:
-    proc = run_station("demo", "--duration", "0.25", "--out", str(tmp_path))
+def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
+    """``station demo --json`` (in the rad family), then ``station watch --once --json`` of its
+    run file (one demo run: the recording takes most of this test's time)."""
+    proc = run_station("demo", "--duration", "0.25", "--out", str(tmp_path), "--json",
+                       "--output-units", "rad")
     assert proc.returncode == 0, proc.stderr
-    assert "ARW read-off" in proc.stdout
+    doc = json.loads(proc.stdout)  # the whole stdout is one object
+    assert [u["unit"] for u in doc["units"]] == ["unit1", "unit2"]
+    unit = doc["units"][0]
+    assert unit["samples_recorded"] + unit["samples_missing_declared"] == unit["samples_sent"]
+    axis = unit["axes"][0]
+    assert axis["figures"]["arw_rad_s_rt_hz"] > 0 and "adev_rad_s" in axis and "adev" not in axis
+    assert doc["true"]["N_rad_s_rt_hz"] == pytest.approx(7.636e-3 * np.pi / 180 / 60)
     assert (tmp_path / "demo-allan.png").stat().st_size > 10_000
     assert main(["analyze", str(tmp_path / "demo-record.csv.gz"), "--json"]) == 0
+    capsys.readouterr()
+    assert main(["demo", "--sequence", "--json", "--out", str(tmp_path)]) == 2
+    assert "--json is not available with --sequence" in capsys.readouterr().err
+
+    run = doc["run"]
+    assert main(["watch", run, "--once", "--json"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 1
+    state = json.loads(lines[0])
+    assert state["state"] == "stopped" and state["stop_reason"]
+    by_unit = {u["unit"]: u for u in state["units"]}
+    assert by_unit["unit1"]["samples_recorded"] == unit["samples_recorded"]
+    assert len(by_unit["unit1"]["newest_deg_s"]) == 3
+    assert main(["watch", run, "--once", "--json", "--output-units", "rad"]) == 0
+    rad = json.loads(capsys.readouterr().out)["units"][0]
+    assert rad["newest_rad_s"] == pytest.approx(
+        [v * np.pi / 180 for v in by_unit["unit1"]["newest_deg_s"]], rel=1e-13)
+    assert main(["watch", run, "--once"]) == 0
+    assert "unit1:" in capsys.readouterr().out
 
 
 @pytest.mark.skipif(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -13,7 +12,10 @@ from analysis.fit import FIT_METHODS
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
+    add_output_units_argument,
     add_record_arguments,
+    output_family,
+    print_json,
     print_notes,
     record_source,
 )
@@ -73,8 +75,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
     p.add_argument("--csv", type=Path, default=None, metavar="OUT.csv",
                    help="write the curve: per axis and tau the deviation, its interval and the "
-                        "fitted model, in deg/h (no profile or report needed)")
+                        "fitted model, in deg/h (rad/s with --output-units rad); no profile or "
+                        "report needed")
     add_bench_argument(p)
+    add_output_units_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     p.set_defaults(handler=run)
 
@@ -90,11 +94,12 @@ def run(args: argparse.Namespace) -> int:
                                     deviation=args.deviation, taus=args.taus, method=args.method,
                                     terms=args.terms, select=args.select, gmwm_model=args.model,
                                     robust=args.robust, outliers=args.outliers, bench=args.bench,
-                                    png=args.png, csv=args.csv), progress)
+                                    png=args.png, csv=args.csv,
+                                    output_units=output_family(args)), progress)
     print_notes("analyze", result.notes)
+    family = output_family(args)
     if args.json:
-        json.dump(result.as_json(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(result.as_json(), family)
     else:
         record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
@@ -103,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"analyzed {selection.start_s:g} s .. "
                   f"{'end' if selection.stop_s is None else f'{selection.stop_s:g} s'} "
                   f"(warm-up {selection.warmup_s:g} s from {selection.warmup_from})")
-        print(format_analysis(list(result.axes)))
+        print(format_analysis(list(result.axes), family))
         if result.png is not None:
             print(f"figure: {result.png}")
         if args.csv is not None:

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from typing import TYPE_CHECKING
 
+from analysis.units import UNIT_FAMILIES, UnitFamily, unit_family
 from station.errors import UsageError
 from station.model.durations import parse_duration
 from station.storage.csv_records import UNIT_TO_DEG_S
@@ -81,6 +83,34 @@ def record_source(args: argparse.Namespace) -> RecordSource:
         profile=args.profile,
         warmup_s=args.warmup_s,
     )
+
+
+def add_output_units_argument(parser: argparse.ArgumentParser) -> None:
+    """``--output-units deg|rad``: the unit family of every figure the command prints (its
+    tables, its ``--json`` keys, its files; ``docs/units.md``). ``--units`` stays the unit of a
+    CSV record's columns."""
+    parser.add_argument(
+        "--output-units",
+        choices=UNIT_FAMILIES,
+        default="deg",
+        help="unit family of the figures printed: deg (deg/h, deg/sqrt(h), deg/h^1.5, deg/h^2, "
+        "urad; default) or rad (rad/s, rad/s/sqrt(Hz), rad/s^2/sqrt(Hz), rad/s^2, rad); JSON "
+        "keys name the unit (docs/units.md)",
+    )
+
+
+def output_family(args: argparse.Namespace) -> UnitFamily:
+    """The :class:`UnitFamily` ``--output-units`` names (deg where the command has none)."""
+    return unit_family(getattr(args, "output_units", "deg"))
+
+
+def print_json(doc: object, family: UnitFamily, **dump: object) -> None:
+    """``doc`` (a deg-family ``--json`` document) in ``family`` on stdout, one line or as
+    ``dump`` says (``indent=1``, ``allow_nan=False``)."""
+    from station.output.json_units import in_family
+
+    json.dump(in_family(doc, family), sys.stdout, **dump)  # type: ignore[arg-type]
+    sys.stdout.write("\n")
 
 
 def print_notes(command: str, notes: tuple[str, ...]) -> None:

@@ -9,16 +9,21 @@ older readers) and can draw a heat map of log ADEV (deg/h) over time and tau.
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_record_arguments, print_notes, record_source
+from station.commands.arguments import (
+    add_output_units_argument,
+    add_record_arguments,
+    output_family,
+    print_json,
+    print_notes,
+    record_source,
+)
 
 if TYPE_CHECKING:
     from analysis.davar import DavarResult
@@ -36,7 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--step-s", type=float, default=None, metavar="S",
                    help="step between windows in s (default: a tenth of the window)")
     p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write a heat map of log10 ADEV (deg/h) over time and tau")
+                   help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad) "
+                        "over time and tau")
+    add_output_units_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
     p.set_defaults(handler=run)
 
@@ -45,13 +52,13 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, compute its DAVAR and warm-up verdict per axis, print and plot."""
     from station.services.davar import DavarRequest, davar
 
-    answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png))
+    family = output_family(args)
+    answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png, family))
     print_notes("davar", answer.notes)
     if args.json:
-        json.dump(answer.as_json(), sys.stdout, allow_nan=False)
-        sys.stdout.write("\n")
+        print_json(answer.as_json(), family, allow_nan=False)
     else:
-        print(format_summary(answer.result, list(answer.verdicts), answer.record))
+        print(format_summary(answer.result, list(answer.verdicts), answer.record, family))
         if answer.png is not None:
             print(f"heat map: {answer.png}")
     return 0
@@ -68,8 +75,10 @@ def _verdict_text(verdict: WarmupVerdict) -> str:
             f"not stationary over the whole run")
 
 
-def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: RateRecord) -> str:
-    """Human-readable summary: windows, taus, ADEV spread over time per axis, verdicts."""
+def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: RateRecord,
+                   family: UnitFamily = DEG_FAMILY) -> str:
+    """Human-readable summary: windows, taus, ADEV spread over time (in ``family``) per axis,
+    verdicts."""
     lines = [
         f"{record.source}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz "
         f"({record.duration_s:g} s)",
@@ -80,11 +89,12 @@ def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: R
     ]
     picks = sorted({0, len(result.tau_s) // 2, len(result.tau_s) - 1})
     for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
-        adev = result.axis(i).adev * S_PER_H
+        adev = result.axis(i).adev * S_PER_H * family.factor("deg/h")
         lines.append(f"axis {name}:")
         for k in picks:
             col = adev[:, k]
             lines.append(f"  ADEV at tau {result.tau_s[k]:>9.4g} s: min {col.min():.4g}  "
-                         f"median {np.median(col):.4g}  max {col.max():.4g} deg/h over time")
+                         f"median {np.median(col):.4g}  max {col.max():.4g} "
+                         f"{family.label('deg/h')} over time")
         lines.append(f"  {_verdict_text(verdict)}")
     return "\n".join(lines)

@@ -5,6 +5,7 @@ of Lv 2015 table 3) over their real transports (two Xsens Xbus streams, each on 
 pseudo-terminal, a real tty for pyserial) into an HDF5 run file, exactly as
 ``station record`` would, then analyzes each unit as ``station analyze`` would, prints
 the spec figures beside the true values, and writes the Allan deviation plot (PNG).
+``--json`` prints what it found as one JSON object instead (``docs/json.md``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.commands import COMMAND_HELP, demo_sequence
+from station.commands.arguments import add_output_units_argument, output_family, print_json
+from station.errors import UsageError
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
 from station.model.runs import RunMetadata
@@ -88,10 +91,15 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="folder for the run file and the plot (default ./station-demo)",
     )
     demo_sequence.add_arguments(p)
+    p.add_argument("--json", action="store_true",
+                   help='print {"run", "units": [{"unit", "samples_recorded", ..., "axes": '
+                        '[AXIS as station analyze]}], "true", "files"} as one JSON object '
+                        "(docs/json.md)")
+    add_output_units_argument(p)
     p.set_defaults(handler=run)
 
 
-def record_demo_run(args: argparse.Namespace, path: Path) -> None:
+def record_demo_run(args: argparse.Namespace, path: Path) -> list[dict[str, object]]:
     """Record the two simulated units into ``path`` with the real recorder."""
     from station.recording.progress import ProgressLine
     from station.recording.recorder import Recorder, RunConfig
@@ -105,16 +113,23 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> None:
     recorder.prepare()
     stop = recorder.run()
     for t in stop.totals:
-        print(
-            f"{t.unit_id}: {t.samples_recorded} samples recorded, "
-            f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
-            f"simulator sent {t.samples_sent}"
-        )
+        if not args.json:
+            print(
+                f"{t.unit_id}: {t.samples_recorded} samples recorded, "
+                f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
+                f"simulator sent {t.samples_sent}"
+            )
+    return [{"unit": t.unit_id, "samples_recorded": t.samples_recorded,
+             "samples_missing_declared": t.samples_missing_declared, "gaps": t.gaps,
+             "samples_sent": t.samples_sent} for t in stop.totals]
 
 
 def run(args: argparse.Namespace) -> int:
     """Record, analyze, print, plot."""
     if args.sequence:
+        if args.json:
+            raise UsageError("--json is not available with --sequence (its figures are "
+                             "printed as a table; station grade RUN --json gives them)")
         return demo_sequence.run(args)
     from station.storage.hdf5 import read_run_record
 
@@ -127,14 +142,17 @@ def run(args: argparse.Namespace) -> int:
         f"{args.rate:g} Hz over two Xbus serial links into {path} ...",
         file=sys.stderr,
     )
-    record_demo_run(args, path)
+    totals = {t["unit"]: t for t in record_demo_run(args, path)}
     plotted: list[AxisAnalysis] = []
+    family = output_family(args)
     for unit in ("unit1", "unit2"):
         record = read_run_record(path, unit)
         print(f"\n{unit}: analyzing {record.n_samples} samples per axis ...", file=sys.stderr)
         axes = analyze_record(record)
-        print(f"{unit} ({record.source})")
-        print(format_analysis(axes))
+        totals.setdefault(unit, {"unit": unit})["axes"] = [a.as_json() for a in axes]
+        if not args.json:
+            print(f"{unit} ({record.source})")
+            print(format_analysis(axes, family))
         plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
         if unit == "unit1":
             csv_path = write_csv_record(
@@ -145,10 +163,11 @@ def run(args: argparse.Namespace) -> int:
                 comment=f"station demo, {record.source}, deg/s",
                 temperature_c=record.temperature_c,
             )
-    print(
-        f"\ntrue values (model {Path(demo_model()).name}): Q {DEMO_TRUE['Q']} urad, "
-        f"N {DEMO_TRUE['N']} deg/sqrt(h), B {DEMO_TRUE['B']} deg/h"
-    )
+    true = {"Q": ("urad", "Q_urad"), "N": ("deg/sqrt(h)", "N_deg_rt_h"), "B": ("deg/h", "B_deg_h")}
+    if not args.json:
+        print(f"\ntrue values (model {Path(demo_model()).name}): " + ", ".join(
+            f"{term} {family.value(DEMO_TRUE[term], unit):.4g} {family.label(unit)}"
+            for term, (unit, _) in true.items()))
     from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
 
     png_path = plot_allan(
@@ -156,6 +175,13 @@ def run(args: argparse.Namespace) -> int:
         args.out / "demo-allan.png",
         title="station demo: two simulated VG951 gyros, axis x",
     )
+    if args.json:
+        print_json({"run": str(path), "model": demo_model(), "units": list(totals.values()),
+                    "true": {key: DEMO_TRUE[term] for term, (_, key) in true.items()}
+                    | {"bias_deg_h": DEMO_BIAS_DEG_H},
+                    "files": {"run": str(path), "record": str(csv_path), "png": str(png_path)}},
+                   family)
+        return 0
     print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and {png_path}")
     print(f"done in {time.monotonic() - t0:.1f} s")
     return 0

@@ -10,14 +10,16 @@ units). Units and formulas: docs/units.md. The file is written whole or not at a
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
+    add_output_units_argument,
     add_record_arguments,
+    output_family,
+    print_json,
     print_notes,
     record_source,
 )
@@ -72,11 +74,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="kalibr, openvins, allan-variance-ros: the IMU topic written (default /imu0)",
     )
     add_bench_argument(p)
+    add_output_units_argument(p)
     p.add_argument(
         "--json",
         action="store_true",
         help="print what was written as one JSON object (figures of every axis in "
-        "both unit families)",
+        "both unit families; with --output-units rad in the rad family only)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress line on a terminal")
     p.set_defaults(handler=run)
@@ -105,8 +108,7 @@ def run(args: argparse.Namespace) -> int:
     )
     print_notes("export", result.notes)
     if args.json:
-        json.dump(result.as_json(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(result.as_json(), output_family(args))
     elif result.out is None:
         sys.stdout.write(result.text)
     else:

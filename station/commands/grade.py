@@ -9,12 +9,19 @@ the results database (``--db``, default ``$STATION_RESULTS_DB`` or the user's da
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from typing import TYPE_CHECKING
 
+from analysis.units import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
+from station.commands.arguments import (
+    add_bench_argument,
+    add_database_argument,
+    add_output_units_argument,
+    output_family,
+    print_json,
+    print_warnings,
+)
 from station.output.report.common import analysis_lines
 from station.output.report.plateau_sheet import plateau_lines
 from station.output.report.sequence_sheet import sequence_lines
@@ -62,6 +69,7 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
         "--no-store", action="store_true", help="do not store the grading in the database"
     )
     add_bench_argument(p)
+    add_output_units_argument(p)
 
 
 def grade_request(args: argparse.Namespace) -> GradeRequest:
@@ -101,11 +109,11 @@ def run(args: argparse.Namespace) -> int:
     request = grade_request(args)
     result = grade(request)
     print_warnings("grade", result.warnings)
+    family = output_family(args)
     if args.json:
-        json.dump(result.graded.as_json(), sys.stdout, indent=1, allow_nan=False)
-        sys.stdout.write("\n")
+        print_json(result.graded.as_json(), family, indent=1, allow_nan=False)
     else:
-        print(format_grade(result.graded))
+        print(format_grade(result.graded, family))
     sys.stdout.flush()  # the grades are shown even when the database cannot take them
     if request.store:
         store_grading(result.graded, request.database)
@@ -116,8 +124,9 @@ def _num(v: float | None) -> str:
     return "-" if v is None else f"{v:.4g}"
 
 
-def format_grade(graded: RunGrade) -> str:
-    """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict."""
+def format_grade(graded: RunGrade, family: UnitFamily = DEG_FAMILY) -> str:
+    """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict
+    (in ``family``)."""
     p = graded.profile
     lines = [
         f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "
@@ -133,7 +142,7 @@ def format_grade(graded: RunGrade) -> str:
         )
         for note in u.notes:
             lines.append(f"  note: {note}")
-        for line in analysis_lines(u):
+        for line in analysis_lines(u, family):
             lines.append(f"  {line}")
         for a in u.axes:
             reach = f" (indeterminate at {a.could_reach})" if a.could_reach else ""
@@ -145,13 +154,15 @@ def format_grade(graded: RunGrade) -> str:
                 f"    {'figure':<40} {'value':>10} {'interval':>23} {'limit':>10}  verdict"
             )
             for f in a.figures:
-                limit = f.spec.limits.get(a.deciding_grade)
+                unit = f.spec.unit
+                limit = family.value(f.spec.limits.get(a.deciding_grade), unit)
                 verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else "(info)"
-                label = f"{f.spec.label} [{f.spec.unit}]"
-                interval = f"[{_num(f.ci_low)}, {_num(f.ci_high)}]"
+                label = f"{f.spec.label} [{family.label(unit)}]"
+                interval = (f"[{_num(family.value(f.ci_low, unit))}, "
+                            f"{_num(family.value(f.ci_high, unit))}]")
                 lines.append(
-                    f"    {label:<40} {_num(f.value):>10} {interval:>23} {_num(limit):>10}  "
-                    f"{verdict}"
+                    f"    {label:<40} {_num(family.value(f.value, unit)):>10} {interval:>23} "
+                    f"{_num(limit):>10}  {verdict}"
                 )
         if u.sequence is not None:
             lines += [f"  {line}" for line in sequence_lines(u.sequence)]

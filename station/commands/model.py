@@ -3,7 +3,8 @@ indicators.
 
 * ``station model curve MODEL --taus log --json`` prints the model's theoretical Allan
   deviation, ``{"tau_s", "adev_deg_h", "terms_deg_h": {"<term>": [...]}}`` (and, in deg/s,
-  the older keys ``adev`` and ``terms``),
+  the older keys ``adev`` and ``terms``; ``--output-units rad``: ``adev_rad_s``,
+  ``terms_rad_s``, and the table in rad/s),
   on the tau grid of a record of ``--duration`` at ``--rate`` (``log``, ``octave``,
   ``all``) or at explicit taus (``--taus 0.1,1,10``);
 * ``station model show MODEL`` prints a model (file or preset) as TOML;
@@ -15,13 +16,17 @@ indicators.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from analysis.units import S_PER_H
 from devices.model_files import load_noise_model
 from station.commands import COMMAND_HELP
-from station.commands.arguments import duration_type
+from station.commands.arguments import (
+    add_output_units_argument,
+    duration_type,
+    output_family,
+    print_json,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,7 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     actions = p.add_subparsers(dest="action", required=True, metavar="ACTION")
 
-    curve = actions.add_parser("curve", help="theoretical Allan deviation of a model (deg/h)")
+    curve = actions.add_parser("curve", help="theoretical Allan deviation of a model (deg/h "
+                                               "or rad/s)")
     curve.add_argument("model", metavar="MODEL", help="model TOML file or preset name")
     curve.add_argument("--taus", default="log", metavar="GRID",
                        help="log, octave, all, or comma-separated taus in s (default log)")
@@ -42,6 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="sample rate of the record the grid is for (default 10)")
     curve.add_argument("--duration", type=duration_type, default=4 * 3600.0, metavar="DURATION",
                        help="record length the grid (and transient terms) are for (default 4h)")
+    add_output_units_argument(curve)
     curve.add_argument("--json", action="store_true", help="print JSON instead of a table")
     curve.set_defaults(handler=run)
 
@@ -82,13 +89,16 @@ def run(args: argparse.Namespace) -> int:
         print(load_noise_model(args.model).to_toml(), end="")
         return 0
     curve = model_curve(CurveRequest(args.model, args.taus, args.rate, args.duration))
+    family = output_family(args)
     if args.json:
-        print(json.dumps(curve.as_json()))
+        print_json(curve.as_json(), family)
         return 0
     names = list(curve.terms)
-    print(f"# theoretical Allan deviation of {curve.model.name or args.model} in deg/h")
+    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit printed
+    print(f"# theoretical Allan deviation of {curve.model.name or args.model} in "
+          f"{family.label('deg/h')}")
     print("  ".join(f"{h:>12}" for h in ["tau_s", "adev", *names]))
     for i, tau in enumerate(curve.tau_s):
-        row = [tau, curve.adev[i] * S_PER_H, *(curve.terms[n][i] * S_PER_H for n in names)]
+        row = [tau, curve.adev[i] * scale, *(curve.terms[n][i] * scale for n in names)]
         print("  ".join(f"{v:12.5g}" for v in row))
     return 0

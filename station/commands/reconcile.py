@@ -14,14 +14,20 @@ before and after, and the effects' contributions.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_slice_arguments, print_notes, record_source
+from station.commands.arguments import (
+    add_output_units_argument,
+    add_slice_arguments,
+    output_family,
+    print_json,
+    print_notes,
+    record_source,
+)
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
@@ -49,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--png", type=Path, default=None, metavar="OUT.png", help="write the figure here"
     )
+    add_output_units_argument(p)
     p.add_argument(
         "--json", action="store_true", help="print one JSON object instead of the text report"
     )
@@ -102,8 +109,7 @@ def run(args: argparse.Namespace) -> int:
     )
     print_notes("reconcile", answer.notes)
     if args.json:
-        json.dump(answer.as_json(), sys.stdout)
-        sys.stdout.write("\n")
+        print_json(answer.as_json(), output_family(args))
     else:
         print(f"{args.file} against {args.model}")
         print("\n\n".join(format_reconcile(res, label=label) for label, res in answer.results))

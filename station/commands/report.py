@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import print_warnings
+from station.commands.arguments import output_family, print_warnings
 from station.commands.grade import add_grading_arguments, grade_request
 from station.model.sheet_header import HEADER_ENV
 from station.output.report import FORMATS
@@ -32,6 +32,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="sheet header (TOML: company, logo, station, conditions, approval; "
                         "default $STATION_SHEET_HEADER when set); $STATION_NAME names the station "
                         "when the header does not")
+    p.add_argument("--method", choices=("allan", "gmwm"), default=None,
+                   help="gmwm: each unit's sheet adds a GMWM page (its terms beside the Allan "
+                        "read-offs, the wavelet variance with both models' curves); allan: "
+                        "none; default what the profile's [test] gmwm_model says")
+    p.add_argument("--model", default=None, metavar="MODEL",
+                   help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, "
+                        "rw, dr (e.g. 'wn+gm+rw'), or auto: ranked by the WIC (default the "
+                        "profile's gmwm_model, else auto)")
     p.add_argument("--json", action="store_true",
                    help='print {"files": [{"format", "path"}], "warnings"} as one JSON object')
     p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
@@ -45,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
 
     header = args.header or (Path(os.environ[HEADER_ENV]) if os.environ.get(HEADER_ENV) else None)
     result = report(ReportRequest(grade_request(args), tuple(args.formats or ["pdf"]), args.out,
-                                  header))
+                                  header, output_family(args), method=args.method,
+                                  gmwm_model=args.model))
     print_warnings("report", result.warnings)
     if args.json:
         json.dump({"files": [{"format": f, "path": str(path)} for f, path in result.files],

@@ -19,14 +19,19 @@ Every listing takes ``--json`` (one JSON document on stdout instead of a table);
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
+from analysis.units import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_database_argument
+from station.commands.arguments import (
+    add_database_argument,
+    add_output_units_argument,
+    output_family,
+    print_json,
+)
 from station.errors import UsageError
 from station.model.kinds import Verdict
 from station.output.results_backends import redacted
@@ -91,6 +96,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="OUT",
         help="with --stats: write the statistics and their plots as a PDF",
     )
+    add_output_units_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON document instead of a table")
     p.set_defaults(handler=run)
 
@@ -135,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
             document |= {"figure": args.trend, "points": [asdict(p) for p in answer.trend]}
         else:
             document["gradings"] = [asdict(r) for r in answer.gradings]
-        _print_json(document)
+        _print_json(document, output_family(args))
     elif not answer.exists:
         print(
             f"no results database at {redacted(answer.database)} yet (station grade stores into it)"
@@ -143,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     elif show == "yield":
         print(format_yield(list(answer.yields)))
     elif show == "trend":
-        print(format_trend(args.trend, list(answer.trend)))
+        print(format_trend(args.trend, list(answer.trend), output_family(args)))
         if args.png is not None:
             from station.output.plots import plot_trend  # matplotlib: only for a plot
 
@@ -155,9 +161,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_json(document: dict[str, object]) -> None:
-    json.dump(document, sys.stdout, indent=1, allow_nan=False)
-    sys.stdout.write("\n")
+def _print_json(document: dict[str, object], family: UnitFamily = DEG_FAMILY) -> None:
+    print_json(document, family, indent=1, allow_nan=False)
 
 
 def run_stats(args: argparse.Namespace) -> int:
@@ -187,17 +192,18 @@ def run_stats(args: argparse.Namespace) -> int:
             )
         return 0
     if args.json:
-        _print_json(answer.stats.as_json())
+        _print_json(answer.stats.as_json(), output_family(args))
     else:
-        print(format_stats(answer.stats))
+        print(format_stats(answer.stats, output_family(args)))
     for path in (answer.html, answer.pdf):
         if path is not None:
             print(f"statistics: {path}", file=sys.stderr if args.json else sys.stdout)
     return 0
 
 
-def format_stats(stats: ProductionStats) -> str:
-    """The statistics as terminal tables: yield per grade, capability per figure, review."""
+def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str:
+    """The statistics as terminal tables: yield per grade, capability per figure (in
+    ``family``), review."""
     lines = [f"{stats.units} units (latest grading each), profile {stats.profile or '-'}"]
     if not stats.units:
         return lines[0]
@@ -210,11 +216,11 @@ def format_stats(stats: ProductionStats) -> str:
     body = [
         [
             name,
-            f.unit,
+            family.label(f.unit),
             str(c.n),
-            _num(c.mean),
-            _num(c.std),
-            " ".join(f"{g}={v:.4g}" for g, v in f.limits.items()) or "-",
+            _num(family.value(c.mean, f.unit)),
+            _num(family.value(c.std, f.unit)),
+            " ".join(f"{g}={family.value(v, f.unit):.4g}" for g, v in f.limits.items()) or "-",
             _num(c.cp),
             _num(c.cpk),
             str(len(f.chart.out_of_control)),
@@ -297,17 +303,18 @@ def _num(v: float | None) -> str:
     return "-" if v is None else f"{v:.4g}"
 
 
-def format_trend(figure: str, points: list[TrendPoint]) -> str:
-    """A figure over test dates as a terminal table."""
+def format_trend(figure: str, points: list[TrendPoint], family: UnitFamily = DEG_FAMILY) -> str:
+    """A figure over test dates as a terminal table (in ``family``)."""
     unit = points[0].unit if points else ""
+    v = family.value
     body = [
         [
             p.test_date,
             p.serial_number,
             p.axis or "unit",  # a test sequence's figure: the unit's
-            _num(p.value),
-            f"[{_num(p.ci_low)}, {_num(p.ci_high)}]",
-            _num(p.limit),
+            _num(v(p.value, p.unit)),
+            f"[{_num(v(p.ci_low, p.unit))}, {_num(v(p.ci_high, p.unit))}]",
+            _num(v(p.limit, p.unit)),
             p.verdict or "info",
         ]
         for p in points
@@ -316,7 +323,7 @@ def format_trend(figure: str, points: list[TrendPoint]) -> str:
         "test date (UTC)",
         "serial",
         "axis",
-        f"{figure} [{unit}]",
+        f"{figure} [{family.label(unit)}]",
         "interval",
         "limit",
         "verdict",

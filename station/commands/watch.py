@@ -3,18 +3,23 @@
 Prints, every ``--interval`` seconds, one line per unit: samples, sample rate, gaps and
 missing samples, CRC errors, reconnects, the unit time reached, the newest rate per axis
 (deg/s) and the mean of the last second; stops when the run stops (or on Ctrl-C).
-``--once`` prints the current state and exits.
+``--once`` prints the current state and exits. ``--json`` prints the state as one JSON object
+per refresh, one line each (``docs/json.md``): ``{"run", "state", "stop_utc", "stop_reason",
+"last_flush_utc", "units": [{"unit", "samples_recorded", "sample_rate_hz", "t_s", "gaps",
+"samples_missing_declared", "crc_errors", "reconnects", "newest_deg_s", "mean_1s_deg_s"}]}``.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from station.commands import COMMAND_HELP
+from station.commands.arguments import add_output_units_argument, output_family, print_json
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
 
 
@@ -26,40 +31,75 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--interval", type=float, default=1.0, metavar="S",
                    help="refresh period, s (default 1)")
     p.add_argument("--once", action="store_true", help="print the current state and exit")
+    p.add_argument("--json", action="store_true",
+                   help="print the state as one JSON object per refresh, one line each "
+                        "(units named in the keys: docs/json.md)")
+    add_output_units_argument(p)
     p.set_defaults(handler=run)
 
 
-def status_lines(path: Path) -> tuple[str, list[str]]:
-    """(run state, one line per unit) of a run file, from its committed data."""
+def status_json(path: Path) -> dict[str, object]:
+    """The run's state and one object per unit (rates in deg/s), from its committed data."""
     with open_run_file(path) as f:
         state = run_state(f)
-        lines = []
+        units: list[dict[str, object]] = []
         for uid in unit_ids(f):
             c = unit_counts(f, uid)
             rate_hz = float(f["units"][uid].attrs["sample_rate_hz"])
             tail = read_unit(f, uid, start=max(0, c.samples_recorded - max(1, round(rate_hz))))
-            if len(tail.counter):
-                newest = " ".join(f"{v:+.5g}" for v in tail.rate_deg_s[-1])
-                mean = " ".join(f"{v:+.5g}" for v in np.mean(tail.rate_deg_s, axis=0))
-                values = f", newest [{newest}] deg/s, last 1 s mean [{mean}] deg/s"
-            else:
-                values = ""
-            lines.append(f"{uid}: {c.samples_recorded} samples @{rate_hz:g} Hz to "
-                         f"t={c.last_time_s:.1f} s, gaps {c.gaps} "
-                         f"({c.samples_missing_declared} missing), CRC errors {c.crc_errors}, "
-                         f"reconnects {c.reconnects}{values}")
-    text = (f"stopped {state['stop_utc']}: {state['stop_reason']}" if state["state"] == "stopped"
-            else f"recording, last flush {state['last_flush_utc']}")
+            has = bool(len(tail.counter))
+            units.append({
+                "unit": uid, "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
+                "t_s": c.last_time_s, "gaps": c.gaps,
+                "samples_missing_declared": c.samples_missing_declared,
+                "crc_errors": c.crc_errors, "reconnects": c.reconnects,
+                "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
+                "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
+            })
+    return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
+            "stop_reason": state.get("stop_reason"),
+            "last_flush_utc": state.get("last_flush_utc"), "units": units}
+
+
+def status_lines(path: Path) -> tuple[str, list[str]]:
+    """(run state, one line per unit) of a run file, from its committed data."""
+    doc = status_json(path)
+    lines = []
+    for u in doc["units"]:  # type: ignore[attr-defined]
+        values = ""
+        if u["newest_deg_s"] is not None:
+            newest = " ".join(f"{v:+.5g}" for v in u["newest_deg_s"])
+            mean = " ".join(f"{v:+.5g}" for v in u["mean_1s_deg_s"])
+            values = f", newest [{newest}] deg/s, last 1 s mean [{mean}] deg/s"
+        lines.append(f"{u['unit']}: {u['samples_recorded']} samples @{u['sample_rate_hz']:g} Hz to "
+                     f"t={u['t_s']:.1f} s, gaps {u['gaps']} "
+                     f"({u['samples_missing_declared']} missing), CRC errors {u['crc_errors']}, "
+                     f"reconnects {u['reconnects']}{values}")
+    text = (f"stopped {doc['stop_utc']}: {doc['stop_reason']}" if doc["state"] == "stopped"
+            else f"recording, last flush {doc['last_flush_utc']}")
     return text, lines
 
 
 def run(args: argparse.Namespace) -> int:
     """Print the run's state until it stops."""
+    if args.json:
+        return run_json(args)
     while True:
         state, lines = status_lines(args.run)
         print(f"{args.run}: {state}")
         for line in lines:
             print("  " + line)
         if args.once or state.startswith("stopped"):
+            return 0
+        time.sleep(args.interval)
+
+
+def run_json(args: argparse.Namespace) -> int:
+    """``--json``: one object per refresh until the run stops (one with ``--once``)."""
+    while True:
+        doc = status_json(args.run)
+        print_json(doc, output_family(args))
+        sys.stdout.flush()
+        if args.once or doc["state"] == "stopped":
             return 0
         time.sleep(args.interval)

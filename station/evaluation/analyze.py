@@ -39,7 +39,7 @@ from analysis.outliers import (
     replace_spikes,
 )
 from analysis.tones import Tone, find_tones
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
 from station.model.bench import Bench, earth_rate_note
@@ -400,13 +400,21 @@ def _interval(ci: tuple[float | None, float | None] | None) -> str:
     return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
 
 
+def _in(family: UnitFamily, ci: tuple[float | None, float | None] | None,
+        unit: str) -> tuple[float | None, float | None] | None:
+    """An interval in ``unit`` (deg family) in ``family``."""
+    return None if ci is None else (family.value(ci[0], unit), family.value(ci[1], unit))
+
+
 def _range(taus: tuple[float | None, float | None]) -> str:
     return "-" if taus[0] is None else f"{taus[0]:.3g}-{taus[1]:.3g}"
 
 
-def format_analysis(axes: list[AxisAnalysis]) -> str:
-    """A plain-text table of the figures of every axis, units in the first column."""
+def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -> str:
+    """A plain-text table of the figures of every axis, units (of ``family``) in the first
+    column."""
     rows: list[tuple[str, list[str]]] = []
+    u, v = family.label, family.value
     fits = [a.fit for a in axes]
     figs = [a.figures for a in axes]
 
@@ -418,38 +426,46 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
     if any(a.gaps.count for a in axes):
         add("gaps (time missing)", [a.gaps.text() for a in axes])
     add("spikes", [a.outliers.text() for a in axes])
-    add("bias [deg/h]", [_fmt(f.bias_deg_h) for f in figs])
+    add(f"bias [{u('deg/h')}]", [_fmt(v(f.bias_deg_h, "deg/h")) for f in figs])
     add(
-        "  Earth rate removed [deg/h]",
+        f"  Earth rate removed [{u('deg/h')}]",
         [
-            _fmt(f.earth_rate_removed_deg_h)
+            _fmt(v(f.earth_rate_removed_deg_h, "deg/h"))
             if f.earth_rate_removed_deg_h is not None
             else "not removed"
             for f in figs
         ],
     )
-    add("bias stability 10 s [deg/h]", [_fmt(f.bias_stability_10s_deg_h) for f in figs])
-    add("bias stability 100 s [deg/h]", [_fmt(f.bias_stability_100s_deg_h) for f in figs])
-    add("ARW read-off [deg/sqrt(h)]", [_fmt(f.arw_deg_rt_h) for f in figs])
-    add("  interval [deg/sqrt(h)]", [_interval(f.arw_ci_deg_rt_h) for f in figs])
+    rate, arw = u("deg/h"), u("deg/sqrt(h)")
+    add(f"bias stability 10 s [{rate}]",
+        [_fmt(v(f.bias_stability_10s_deg_h, "deg/h")) for f in figs])
+    add(f"bias stability 100 s [{rate}]",
+        [_fmt(v(f.bias_stability_100s_deg_h, "deg/h")) for f in figs])
+    add(f"ARW read-off [{arw}]", [_fmt(v(f.arw_deg_rt_h, "deg/sqrt(h)")) for f in figs])
+    add(f"  interval [{arw}]", [_interval(_in(family, f.arw_ci_deg_rt_h, "deg/sqrt(h)"))
+                                for f in figs])
     add("  from tau [s]", [_range(f.arw_tau_range_s) for f in figs])
-    add("bias instability read-off [deg/h]", [_fmt(f.bias_instability_deg_h) for f in figs])
-    add("  interval [deg/h]", [_interval(f.bias_instability_ci_deg_h) for f in figs])
+    add(f"bias instability read-off [{rate}]",
+        [_fmt(v(f.bias_instability_deg_h, "deg/h")) for f in figs])
+    add(f"  interval [{rate}]", [_interval(_in(family, f.bias_instability_ci_deg_h, "deg/h"))
+                                 for f in figs])
     add("  at tau [s]", [_fmt(f.bias_instability_tau_s) for f in figs])
     labels = {
-        "Q": "Q quantization [urad]",
-        "N": "N ARW [deg/sqrt(h)]",
-        "B": "B bias instability [deg/h]",
-        "K": "K rate random walk [deg/h^1.5]",
-        "R": "R rate ramp [deg/h^2]",
+        "Q": ("Q quantization", "urad"),
+        "N": ("N ARW", "deg/sqrt(h)"),
+        "B": ("B bias instability", "deg/h"),
+        "K": ("K rate random walk", "deg/h^1.5"),
+        "R": ("R rate ramp", "deg/h^2"),
     }
-    for term, label in labels.items():
-        add(f"fit {label}", [_fmt(f.values[term], f.stderr[term]) if term not in f.negative_terms
-                             else "negative" for f in fits])
+    for term, (label, unit) in labels.items():
+        add(f"fit {label} [{u(unit)}]",
+            [_fmt(v(f.values[term], unit), v(f.stderr[term], unit))
+             if term not in f.negative_terms else "negative" for f in fits])
     add(
-        "tones [Hz: deg/s]",
+        f"tones [Hz: {u('deg/s')}]",
         [
-            ", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}" for t in a.tones) or "none"
+            ", ".join(f"{t.freq_hz:.3g}: {v(t.amplitude_deg_s, 'deg/s'):.2g}" for t in a.tones)
+            or "none"
             for a in axes
         ],
     )
@@ -465,27 +481,32 @@ def format_analysis(axes: list[AxisAnalysis]) -> str:
         f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows
     ]
     if any(a.gmwm is not None for a in axes):
-        lines += gmwm_rows(axes, width, col)
+        lines += gmwm_rows(axes, width, col, family)
     for a in axes:
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
         lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
-        lines += format_curve(axes)
+        lines += format_curve(axes, family=family)
     return "\n".join(lines)
 
 
-def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int) -> list[str]:
-    """The GMWM lines of the table: model, each parameter +- its standard error, fit test,
-    runner-up."""
+def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int,
+              family: UnitFamily = DEG_FAMILY) -> list[str]:
+    """The GMWM lines of the table: model, each parameter +- its standard error (named with
+    its unit in ``family``), fit test, runner-up."""
     fits = [a.gmwm for a in axes]
     keys = list(dict.fromkeys(k for g in fits if g is not None for k in g.best.values))
     rows: list[tuple[str, list[str]]] = [
         ("GMWM model", [g.best.model.name if g else "-" for g in fits])]
     for key in keys:
-        rows.append((f"GMWM {key}", [_fmt(g.best.values[key], g.best.stderr[key])
-                                     if g and key in g.best.values else "-" for g in fits]))
+        split = family_unit_of_key(key)
+        unit = "" if split is None else split[1].label
+        name = key if split is None or family.name == "deg" else f"{split[0]}_{split[1].rad_key}"
+        rows.append((f"GMWM {name}", [_fmt(family.value(g.best.values[key], unit),
+                                           family.value(g.best.stderr[key], unit))
+                                      if g and key in g.best.values else "-" for g in fits]))
     rows.append(("GMWM fit J / dof (p)",
                  [f"{g.best.objective:.3g} / {g.best.dof} ({g.best.p_value:.2g})" if g else "-"
                   for g in fits]))
@@ -496,10 +517,12 @@ def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int) -> list[str]:
     return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
 
 
-def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3) -> list[str]:
+def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3,
+                 family: UnitFamily = DEG_FAMILY) -> list[str]:
     """The chosen deviation of every axis at a few taus per decade, with its interval."""
     c0 = axes[0].shown
-    unit, scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
+    deg_unit, deg_scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
+    unit, scale = family.label(deg_unit), deg_scale * family.factor(deg_unit)
     lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
                  f"({c0.interval}); the fit and figures above are on the Allan variance"]
     logt = np.log10(c0.tau_s)

@@ -12,11 +12,14 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from analysis import blocks
 from analysis.allan import log_m
+from analysis.davar_long import dynamic_allan_variance_by_window
 from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.units import S_PER_H
 from station.evaluation.grading import UnitGrade
 from station.evaluation.settings import AnalysisSettings
+from station.storage.scratch import scratch_array
 
 
 @dataclass(frozen=True)
@@ -91,17 +94,40 @@ def davar_grid_of(rate_deg_s: ArrayLike, sample_rate_hz: float, axis: str = "", 
     if not m.size:
         return None
     fs = float(sample_rate_hz)
+    long = blocks.is_long(len(rate))
+    gapped = blocks.any_where(rate, np.isnan) if long else bool(np.isnan(rate).any())
     try:
-        result = dynamic_allan_variance(rate, fs, window_s=window / fs, step_s=step / fs,
-                                        taus=m / fs,
-                                        missing="gap" if np.isnan(rate).any() else "raise")
+        if long:  # one window at a time, its angle in a scratch memmap (bounded memory)
+            result = dynamic_allan_variance_by_window(
+                rate, fs, window_s=window / fs, step_s=step / fs, taus=m / fs,
+                missing="gap" if gapped else "raise",
+                angle_out=scratch_array((window + 1, 1))).axis(0)
+        else:
+            result = dynamic_allan_variance(rate, fs, window_s=window / fs, step_s=step / fs,
+                                            taus=m / fs, missing="gap" if gapped else "raise")
     except (TooFewSamplesError, InvalidWindowError):
         return None
     adev = result.adev * S_PER_H
-    present = rate[~np.isnan(rate)]
-    if present.size and np.all(present == present[0]):
+    if _constant(rate, long):
         adev = np.zeros_like(adev)
     return DavarGrid(axis, result.t_s, result.tau_s, adev, result.window_s)
+
+
+def _constant(rate: NDArray[np.float64], long: bool) -> bool:
+    """Whether every sample present (not NaN) of a record holds one value."""
+    if not long:
+        present = rate[~np.isnan(rate)]
+        return bool(present.size and np.all(present == present[0]))
+    first = None
+    for a, b in blocks.spans(0, len(rate)):
+        v = np.asarray(rate[a:b])
+        present = v[~np.isnan(v)]
+        blocks.release(rate)
+        if present.size:
+            first = float(present[0])
+            break
+    return first is not None and not blocks.any_where(
+        rate, lambda v: ~np.isnan(v) & (v != first))
 
 
 def davar_grid(unit: UnitGrade, axis_index: int = 0, *,

@@ -38,13 +38,15 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 from scipy import stats
 
+from analysis import blocks
 from analysis.confidence import chi2_interval
 from analysis.figures import bias_stability, review_notes
 from analysis.fit import NoiseCoefficients
 from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
+from station.evaluation.long_records import take_columns
 from station.model.bench import Bench, bench_from_json
 from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import (
@@ -226,6 +228,8 @@ class RunGrade:
     bench: Bench | None = None
     #: The test house's part of the spec sheet's header (company, station, approval...).
     sheet: SheetHeader | None = None
+    #: The unit family its spec sheets print the figures in (``--output-units``).
+    output_units: UnitFamily = DEG_FAMILY
 
     def as_json(self) -> dict[str, object]:
         """The ``station grade --json`` document (see docs/report-json-schema.md)."""
@@ -326,10 +330,18 @@ def _chi2_scaled(value: float, edf: float, confidence: float) -> tuple[float, fl
 
 
 def bias_interval(x: np.ndarray, confidence: float) -> Interval:
-    """``|mean|`` (deg/h) of a rate record (deg/s) with its batch-means interval."""
-    mean = float(np.mean(x)) * S_PER_H
-    size = len(x) // BIAS_BATCHES
-    means = x[: size * BIAS_BATCHES].reshape(BIAS_BATCHES, size).mean(axis=1) * S_PER_H
+    """``|mean|`` (deg/h) of the present samples of a rate record (deg/s; NaN where a
+    sample is missing) with its batch-means interval. A long record (a memmap) is read a
+    block at a time (:mod:`analysis.blocks`): the same numbers, bit for bit where it has
+    no gap."""
+    if blocks.is_long(len(x)):
+        mean = blocks.nan_mean(x) * S_PER_H
+        means = blocks.finite_batch_means(x, BIAS_BATCHES) * S_PER_H
+    else:
+        x = x[np.isfinite(x)]
+        mean = float(np.mean(x)) * S_PER_H
+        size = len(x) // BIAS_BATCHES
+        means = x[: size * BIAS_BATCHES].reshape(BIAS_BATCHES, size).mean(axis=1) * S_PER_H
     half = float(stats.t.ppf(0.5 + confidence / 2, BIAS_BATCHES - 1)) * float(
         np.std(means, ddof=1)) / math.sqrt(BIAS_BATCHES)
     low, high = mean - half, mean + half
@@ -384,7 +396,7 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
         low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
         return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
     if name == "bias":
-        b = bias_interval(x[np.isfinite(x)], confidence)
+        b = bias_interval(x, confidence)
         removed = analysis.figures.earth_rate_removed_deg_h
         earth = (
             "Earth rate not removed"
@@ -487,7 +499,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         )
     columns = match_axes(profile.axes, record.axis_names)
     trimmed = RateRecord(
-        kept.rate_deg_s[:, list(columns.values())],
+        take_columns(kept.rate_deg_s, list(columns.values())),
         fs,
         tuple(columns),
         record.source,

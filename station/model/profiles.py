@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from analysis.fit import FIT_METHODS, FitMethod
+from analysis.gmwm_models import GmwmModel, GmwmModelError
 from analysis.units import DEG_PER_URAD, S_PER_H
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
@@ -187,6 +188,9 @@ class Profile:
         Two-sided confidence level of every figure's interval (0 < c < 1).
     fit_method : str
         Noise-term fit method (:data:`analysis.fit.FIT_METHODS`).
+    gmwm_model : str or None
+        ``[test] gmwm_model``: the GMWM model (``"wn+gm+rw"``) or ``"auto"`` every spec
+        sheet of the profile shows beside the Allan read-offs; None: none.
     figure_source : str
         ``"read-off"`` or ``"fit"``: what ``arw`` and ``bias_instability`` grade.
     figures : tuple of FigureSpec
@@ -211,6 +215,7 @@ class Profile:
     figures: tuple[FigureSpec, ...]
     settings: dict[str, Any] = field(default_factory=dict)
     fit_method: FitMethod = DEFAULT_FIT_METHOD
+    gmwm_model: str | None = None
     figure_source: FigureSource = DEFAULT_FIGURE_SOURCE
     reject: str = "reject"
     description: str = ""
@@ -372,7 +377,8 @@ def _get(data: dict[str, Any], key: tuple[str, ...]) -> Any:
 
 _TOP_KEYS = {"name", "version", "model", "description", "source", "transport", "settings", "test",
              "grading", "figures", "sequence"}
-_TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method", "range_deg_s"}
+_TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method", "range_deg_s",
+              "gmwm_model"}
 _GRADING_KEYS = {"rule", "confidence", "grades", "reject", "figure_source"}
 _FIGURE_KEYS = {"unit", "limits"}
 
@@ -409,6 +415,12 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         raise c.fail(
             ("test", "fit_method"), f"{fit_method!r} is not one of {', '.join(FIT_METHODS)}"
         )
+    gmwm_model = (c.string(test, ("test", "gmwm_model")) if "gmwm_model" in test else None)
+    if gmwm_model is not None and gmwm_model.strip().lower() != "auto":
+        try:
+            gmwm_model = GmwmModel.parse(gmwm_model).name
+        except GmwmModelError as exc:
+            raise c.fail(("test", "gmwm_model"), f"{exc}; or \"auto\"") from exc
     rule = c.string(grading, ("grading", "rule"), default="guard-banded")
     if rule not in DECISION_RULES:
         raise c.fail(("grading", "rule"), f"{rule!r} is not one of {', '.join(DECISION_RULES)}")
@@ -451,6 +463,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         figures=_parse_figures(c, data, grades, source),
         sequences=parse_sequences(c, data, grades),
         fit_method=fit_method,
+        gmwm_model=gmwm_model,
         figure_source=source,
         reject=reject,
         description=str(data.get("description", "")),

@@ -1,9 +1,12 @@
-"""The deviation curve of every axis as CSV (``station analyze --csv OUT``), in deg/h.
+"""The deviation curve of every axis as CSV (``station analyze --csv OUT``), in deg/h (or
+rad/s, ``--output-units rad``).
 
 One row per axis and tau (long format: axes may have different tau grids), columns
 ``axis, tau_s, <kind>_deg_h, <kind>_ci_low_deg_h, <kind>_ci_high_deg_h, n_clusters`` and,
 for the Allan deviation the fit was made on, ``fit_adev_deg_h`` (the fitted five-term
-model at that tau). A time deviation (``tdev``, an angle) is in deg: ``tdev_deg``...
+model at that tau). A time deviation (``tdev``, an angle) is in deg: ``tdev_deg``... In the
+rad family the columns end in ``_rad_s`` (``_rad`` for ``tdev``), the values converted by
+:data:`analysis.units.FAMILY_UNITS`.
 """
 
 from __future__ import annotations
@@ -17,17 +20,29 @@ from pathlib import Path
 import numpy as np
 
 from analysis.deviations import from_allan
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit
 from station.evaluation.analyze import AxisAnalysis
 from station.storage.atomic_files import write_text_atomically
 
 
-def curve_table(axes: Sequence[AxisAnalysis]) -> str:
-    """The CSV text of the shown curve of every axis (the module docstring lists the columns)."""
+def _key_unit(label: str, family: UnitFamily) -> str:
+    """How a column name ends in the unit a deg-family ``label`` is written in (``deg_h``,
+    ``rad_s``)."""
+    named = family_unit(label)
+    if named is None:
+        raise ValueError(f"{label!r} is not a deg-family unit")
+    return named.key if family.name == "deg" else named.rad_key
+
+
+def curve_table(axes: Sequence[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -> str:
+    """The CSV text of the shown curve of every axis in ``family`` (the module docstring lists
+    the columns)."""
     shown = [a.shown for a in axes]
     kind = shown[0].kind if shown else "oadev"
     angle = bool(shown) and shown[0].unit == "angle"
-    unit, scale = ("deg", 1.0) if angle else ("deg_h", S_PER_H)
+    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit written
+    label, scale = ("deg", family.factor("deg")) if angle else ("deg/h", rate)
+    unit, rate_unit = _key_unit(label, family), _key_unit("deg/h", family)
     fitted = all(c.kind == from_allan(a.allan).kind for a, c in zip(axes, shown, strict=True))
     header = [
         "axis",
@@ -36,13 +51,13 @@ def curve_table(axes: Sequence[AxisAnalysis]) -> str:
         f"{kind}_ci_low_{unit}",
         f"{kind}_ci_high_{unit}",
         "n_clusters",
-        *(["fit_adev_deg_h"] if fitted else []),
+        *([f"fit_adev_{rate_unit}"] if fitted else []),
     ]
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(header)
     for axis, c in zip(axes, shown, strict=True):
-        fit = np.sqrt(axis.fit.model_avar(c.tau_s)) * S_PER_H if fitted else None
+        fit = np.sqrt(axis.fit.model_avar(c.tau_s)) * rate if fitted else None
         for i, tau in enumerate(c.tau_s):
             row: list[object] = [axis.name, repr(float(tau))]
             for v in (c.deviation[i], c.deviation_ci_low[i], c.deviation_ci_high[i]):
@@ -54,6 +69,7 @@ def curve_table(axes: Sequence[AxisAnalysis]) -> str:
     return out.getvalue()
 
 
-def write_curve_csv(axes: Sequence[AxisAnalysis], path: str | Path) -> Path:
-    """Write :func:`curve_table` to ``path`` whole or not at all."""
-    return write_text_atomically(path, curve_table(axes))
+def write_curve_csv(axes: Sequence[AxisAnalysis], path: str | Path,
+                    family: UnitFamily = DEG_FAMILY) -> Path:
+    """Write :func:`curve_table` (in ``family``) to ``path`` whole or not at all."""
+    return write_text_atomically(path, curve_table(axes, family))

@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from analysis.davar import DavarResult  # noqa: E402
 from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
-from analysis.units import S_PER_H  # noqa: E402
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
 from analysis.warmup import WarmupVerdict  # noqa: E402
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
@@ -26,6 +26,7 @@ from station.output.results import TrendPoint  # noqa: E402
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.collections import QuadMesh
+    from matplotlib.figure import Figure
 
 TERM_LABELS = {"Q": "quantization", "N": "angle random walk", "B": "bias instability",
                "K": "rate random walk", "R": "rate ramp"}
@@ -42,20 +43,36 @@ def y_range(low: np.ndarray, values: np.ndarray, high: np.ndarray) -> tuple[floa
     return float(np.min(low)) / 2.0, min(float(np.max(high)) * 1.5, top * BAND_HEADROOM)
 
 
-def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "") -> Path:
-    """The deviation of each axis with its confidence band and, on the Allan deviation (deg/h),
-    the fitted term lines.
+def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
+               family: UnitFamily = DEG_FAMILY) -> Path:
+    """:func:`allan_figure` into a PNG at ``path``."""
+    return _save(allan_figure(axes, title=title, family=family), Path(path))
+
+
+def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
+    """Write ``fig`` to ``path`` (at ``dpi``, default the figure's) and close it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi="figure" if dpi is None else dpi)
+    plt.close(fig)
+    return path
+
+
+def allan_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
+                 family: UnitFamily = DEG_FAMILY) -> Figure:
+    """The deviation of each axis with its confidence band and, on the Allan deviation (deg/h,
+    or rad/s in the rad ``family``), the fitted term lines.
 
     When another deviation than the fit's Allan deviation was chosen, that deviation is
     drawn with its band, the Allan deviation as a thin line, and the fit lines on it (they
-    are the Allan variance's terms); a time deviation (an angle, deg) is drawn alone.
+    are the Allan variance's terms); a time deviation (an angle, deg or rad) is drawn alone.
     """
-    path = Path(path)
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     curve0 = axes[0].shown
     angle = curve0.unit == "angle"
-    scale = 1.0 if angle else 3600.0
+    unit = "deg" if angle else "deg/h"
+    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit drawn
+    scale = family.factor("deg") if angle else rate
     own = curve0.kind == from_allan(axes[0].allan).kind
     label = DEVIATION_LABELS[curve0.kind]
     lows, values, highs = [], [], []
@@ -82,24 +99,24 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
         if not own:
             ax.loglog(
                 tau,
-                a.allan.adev * 3600,
+                a.allan.adev * rate,
                 "-",
                 lw=0.8,
                 color=c,
                 alpha=0.6,
                 label=f"{a.name} Allan (fit's)",
             )
-        ax.loglog(tau, np.sqrt(a.fit.model_avar(tau)) * 3600, "-", lw=1.5, color=c, alpha=0.8,
+        ax.loglog(tau, np.sqrt(a.fit.model_avar(tau)) * rate, "-", lw=1.5, color=c, alpha=0.8,
                   label=f"{a.name} fit ({a.fit.method})")
         for term in TERMS:
-            curve = np.sqrt(a.fit.term_avar(term, tau)) * 3600
+            curve = np.sqrt(a.fit.term_avar(term, tau)) * rate
             if np.any(curve > 0):
                 ax.loglog(tau, curve, ":", lw=1, color=c)
                 j = len(tau) // 2 if term == "B" else (0 if term in "QN" else len(tau) - 1)
                 ax.annotate(term, (tau[j], curve[j]), color=c, fontsize=8)
     ax.set_ylim(*y_range(np.concatenate(lows), np.concatenate(values), np.concatenate(highs)))
     ax.set_xlabel("averaging time tau [s]")
-    ax.set_ylabel(f"{label} [{'deg' if angle else 'deg/h'}]")
+    ax.set_ylabel(f"{label} [{family.label(unit)}]")
     ax.grid(True, which="both", alpha=0.3)
     default = f"{label}, {curve0.confidence:.3g} band" + (
         "" if angle else ", fitted noise terms (dotted)"
@@ -109,9 +126,7 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
     ax.set_title(title or default, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _edges(centres: np.ndarray, *, log: bool) -> np.ndarray:
@@ -136,14 +151,22 @@ def heat_map(ax: Axes, t: np.ndarray, tau_s: np.ndarray, values: np.ndarray) -> 
 
 
 def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict],
-               record: RateRecord) -> Path:
-    """PNG heat map per axis: time on x, log tau on y, log10 ADEV (deg/h) as colour."""
+               record: RateRecord, family: UnitFamily = DEG_FAMILY) -> Path:
+    """:func:`davar_figure` into a PNG at ``path``."""
+    return _save(davar_figure(result, verdicts, record, family), Path(path), dpi=110)
+
+
+def davar_figure(result: DavarResult, verdicts: Sequence[WarmupVerdict], record: RateRecord,
+                 family: UnitFamily = DEG_FAMILY) -> Figure:
+    """Heat map per axis: time on x, log tau on y, log10 ADEV (deg/h, or rad/s in the rad
+    ``family``) as colour."""
+    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
     n_axes = len(record.axis_names)
     fig, axs = plt.subplots(n_axes, 1, figsize=(9, 2.8 * n_axes + 0.6), squeeze=False,
                             sharex=True, constrained_layout=True)
     for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
         ax = axs[i, 0]
-        log_adev = np.log10(np.maximum(result.axis(i).adev * S_PER_H, np.finfo(float).tiny))
+        log_adev = np.log10(np.maximum(result.axis(i).adev * scale, np.finfo(float).tiny))
         mesh = heat_map(ax, result.t_s, result.tau_s, log_adev)
         ax.set_ylabel("tau (s)")
         ax.set_title(
@@ -153,12 +176,9 @@ def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict
             ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
                        label=f"warm-up end {verdict.warmup_end_s:g} s")
             ax.legend(loc="upper right", fontsize=8)
-        fig.colorbar(mesh, ax=ax, label="log10 ADEV (deg/h)")
+        fig.colorbar(mesh, ax=ax, label=f"log10 ADEV ({family.label('deg/h')})")
     axs[-1, 0].set_xlabel("window centre time since start (s)")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _date(text: str) -> datetime | None:
@@ -208,40 +228,57 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
     return path
 
 
-def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "") -> Path:
-    """Haar wavelet variance ((deg/h)^2) of each axis with its interval, the GMWM model
-    (solid, its terms dotted) and the Allan fit's curve as a wavelet variance (dashed,
-    AVAR / 2)."""
-    path = Path(path)
+def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str = "",
+                 family: UnitFamily = DEG_FAMILY) -> None:
+    """One axis' Haar wavelet variance ((deg/h)^2, or (rad/s)^2 in the rad ``family``) with
+    its interval, the GMWM model (solid, its terms dotted) and the Allan fit's curve as a
+    wavelet variance (dashed, AVAR / 2).
+
+    Raises
+    ------
+    ValueError
+        The axis has no GMWM result.
+    """
+    g = a.gmwm
+    if g is None:
+        raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
+    k2 = (S_PER_H * family.factor("deg/h")) ** 2  # (deg/s)^2 -> the unit drawn
+    w, fit = g.wavelet, g.best
+    tau = w.tau_s
+    ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
+    ax.loglog(tau, w.wv * k2, "ko", ms=3.5, label=f"{a.name} empirical WV ({w.ci} interval)")
+    dense = np.geomspace(tau[0], tau[-1], 200)
+    ax.loglog(dense, fit.model_wv_at(dense) * k2, "-", color="tab:blue", lw=1.8,
+              label=f"GMWM {fit.model.name} (J = {fit.objective:.3g}, {fit.dof} dof)")
+    terms = zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True)
+    for label, curve in terms:
+        if np.any(curve > 0):
+            ax.loglog(dense, curve * k2, ":", color="tab:blue", lw=1)
+            j = int(np.argmax(curve))
+            ax.annotate(label, (dense[j], curve[j] * k2), color="tab:blue", fontsize=fontsize)
+    ax.loglog(dense, a.fit.model_avar(dense) / 2.0 * k2, "--", color="tab:red", lw=1.4,
+              label=f"Allan fit ({a.fit.method}) as AVAR/2")
+    ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
+    ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
+    ax.set_ylabel(f"Haar wavelet variance [({family.label('deg/h')})^2]", fontsize=fontsize + 1)
+    ax.tick_params(labelsize=fontsize)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.set_title(f"{title} {a.name}".strip(), fontsize=fontsize + 1)
+    ax.legend(fontsize=fontsize)
+
+
+def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
+                 family: UnitFamily = DEG_FAMILY) -> Path:
+    """:func:`wavelet_figure` into a PNG at ``path``."""
+    return _save(wavelet_figure(axes, title=title, family=family), Path(path))
+
+
+def wavelet_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
+                   family: UnitFamily = DEG_FAMILY) -> Figure:
+    """:func:`draw_wavelet` of each axis, one panel each."""
     n = len(axes)
     fig, panels = plt.subplots(n, 1, figsize=(8, 4.6 * n), dpi=110, squeeze=False)
-    k2 = S_PER_H**2
     for ax, a in zip(panels[:, 0], axes, strict=True):
-        g = a.gmwm
-        if g is None:
-            raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
-        w, fit = g.wavelet, g.best
-        tau = w.tau_s
-        ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
-        ax.loglog(tau, w.wv * k2, "ko", ms=3.5, label=f"{a.name} empirical WV ({w.ci} interval)")
-        dense = np.geomspace(tau[0], tau[-1], 200)
-        ax.loglog(dense, fit.model_wv_at(dense) * k2, "-", color="tab:blue", lw=1.8,
-                  label=f"GMWM {fit.model.name} (J = {fit.objective:.3g}, {fit.dof} dof)")
-        terms = zip(fit.model.term_labels(fit.params), fit.term_wv_at(dense), strict=True)
-        for label, curve in terms:
-            if np.any(curve > 0):
-                ax.loglog(dense, curve * k2, ":", color="tab:blue", lw=1)
-                j = int(np.argmax(curve))
-                ax.annotate(label, (dense[j], curve[j] * k2), color="tab:blue", fontsize=8)
-        ax.loglog(dense, a.fit.model_avar(dense) / 2.0 * k2, "--", color="tab:red", lw=1.4,
-                  label=f"Allan fit ({a.fit.method}) as AVAR/2")
-        ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
-        ax.set_xlabel("averaging time tau [s]")
-        ax.set_ylabel("Haar wavelet variance [(deg/h)^2]")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.set_title(f"{title} {a.name}".strip(), fontsize=9)
-        ax.legend(fontsize=8)
+        draw_wavelet(ax, a, title=title, family=family)
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return fig

@@ -9,6 +9,7 @@ from analysis.allan import Estimator
 from analysis.deviations import DeviationKind
 from analysis.fit import check_terms
 from analysis.gmwm_models import GmwmModel
+from analysis.units import DEG_FAMILY, UnitFamily
 from station.errors import UsageError
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
@@ -61,6 +62,8 @@ class AnalyzeRequest:
         Where to draw the Allan deviation (with ``method="gmwm"``: the wavelet variance).
     csv : Path or None
         Where to write the curve (:mod:`station.output.curve_csv`).
+    output_units : UnitFamily
+        The unit family of the figure and the curve (deg/h or rad/s).
     """
 
     source: RecordSource
@@ -76,6 +79,7 @@ class AnalyzeRequest:
     bench: str | Path | None = None
     png: Path | None = None
     csv: Path | None = None
+    output_units: UnitFamily = DEG_FAMILY
 
 
 @dataclass(frozen=True)
@@ -142,11 +146,11 @@ def analyze(request: AnalyzeRequest,
         )
 
         plot = plot_wavelet if gmwm else plot_allan
-        plot(axes, request.png, title=str(request.source.file))
+        plot(axes, request.png, title=str(request.source.file), family=request.output_units)
     if request.csv is not None:
         from station.output.curve_csv import write_curve_csv
 
-        write_curve_csv(axes, request.csv)
+        write_curve_csv(axes, request.csv, request.output_units)
     return AnalyzeResult(
         str(request.source.file), record, loaded.selection, tuple(axes), loaded.notes, request.png
     )

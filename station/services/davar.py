@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from analysis.davar import DavarResult, dynamic_allan_variance
-from analysis.units import S_PER_H
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.errors import UsageError
 from station.model.records import RateRecord
@@ -30,6 +30,7 @@ class DavarRequest:
     window_s: float
     step_s: float | None = None
     png: Path | None = None
+    output_units: UnitFamily = DEG_FAMILY  # of the heat map (deg/h or rad/s)
 
 
 @dataclass(frozen=True)
@@ -101,5 +102,5 @@ def davar(request: DavarRequest) -> DavarAnswer:
     if request.png is not None:
         from station.output.plots import plot_davar  # matplotlib: only for a heat map
 
-        plot_davar(request.png, result, verdicts, record)
+        plot_davar(request.png, result, verdicts, record, request.output_units)
     return DavarAnswer(record, result, verdicts, request.png, notes)

@@ -21,7 +21,7 @@ import json
 import resource
 import shutil
 import time
-from collections.abc import Collection, Iterator
+from collections.abc import Callable, Collection, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -193,11 +193,15 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
 
     _check_inside(f, g, [k for k in SAMPLE_DATASETS if k in g], start, n)
 
-    attrs = {k: (text_value(v) if isinstance(v, bytes | str | np.bytes_) else v.item()
-                 if isinstance(v, np.generic) else v) for k, v in g.attrs.items()}
-    return UnitData(unit_id, attrs, col("rate"), col("counter"), col("receive_time"),
+    return UnitData(unit_id, unit_attributes(g), col("rate"), col("counter"), col("receive_time"),
                     col("status"), col("device_time"), col("temperature"),
                     committed_events(f, unit_id))
+
+
+def unit_attributes(g: h5py.Group) -> dict[str, Any]:
+    """A unit group's attributes: text as ``str``, numpy scalars as Python numbers."""
+    return {k: (text_value(v) if isinstance(v, bytes | str | np.bytes_) else v.item()
+                if isinstance(v, np.generic) else v) for k, v in g.attrs.items()}
 
 
 def _check_inside(f: h5py.File, g: h5py.Group, names: list[str], start: int, stop: int
@@ -290,17 +294,22 @@ def unit_counts(f: h5py.File, unit_id: str) -> UnitCounts:
 
 def run_events(unit: UnitData) -> tuple[RunEvent, ...]:
     """A unit's event log as :class:`RunEvent` s (the gap method goes in the detail)."""
+    return events_of(unit.unit_id, unit.events)
+
+
+def events_of(unit_id: str, events: NDArray[np.void]) -> tuple[RunEvent, ...]:
+    """Event-log rows of unit ``unit_id`` as :class:`RunEvent` s."""
     out = []
-    lows, highs = gap_bounds(unit.events)
-    for row, low, high in zip(unit.events, lows, highs, strict=True):
+    lows, highs = gap_bounds(events)
+    for row, low, high in zip(events, lows, highs, strict=True):
         method, detail = text_value(row["method"]), text_value(row["detail"])
         text = "; ".join(t for t in (f"counted by {method}" if method else "", detail) if t)
         kind = log_kind(text_value(row["kind"]))
         if kind is None:
-            raise RecordFormatError(f"unit {unit.unit_id}: an event-log entry of unknown kind "
+            raise RecordFormatError(f"unit {unit_id}: an event-log entry of unknown kind "
                                     f"{text_value(row['kind'])!r} (a damaged file, or one "
                                     f"from a newer station)")
-        out.append(RunEvent(unit.unit_id, kind, float(row["time_s"]),
+        out.append(RunEvent(unit_id, kind, float(row["time_s"]),
                             int(row["count"]), int(row["missing_samples"]), text,
                             int(low), int(high)))
     return tuple(out)
@@ -341,11 +350,20 @@ def unit_record(unit: UnitData, source: str) -> RateRecord:
                       unit.axes, source, unit.temperature_c, index)
 
 
-def read_run(path: str | Path, *, only: Collection[str] | None = None) -> RunInfo:
+#: Reads one unit's record from an open run file some other way (the unit id and the
+#: record's source given), or returns None to have it read into memory.
+LongRecordReader = Callable[[h5py.File, str, str], RateRecord | None]
+
+
+def read_run(path: str | Path, *, only: Collection[str] | None = None,
+             long_record: LongRecordReader | None = None) -> RunInfo:
     """Read a run file into a :class:`RunInfo` (the interface grading, reports, TUI use).
 
     A run whose file was never closed (recorder killed) reads as ``interrupted``.
     ``only`` names the unit ids to read (None: every unit); the others are left out.
+    ``long_record`` reads a unit's record when it returns one (a long unit into scratch
+    memmaps: :func:`station.storage.mapped_runs.long_unit_record`); else the unit's
+    committed samples are read into memory.
 
     Raises
     ------
@@ -358,12 +376,17 @@ def read_run(path: str | Path, *, only: Collection[str] | None = None) -> RunInf
         for uid in unit_ids(f):
             if only is not None and uid not in only:
                 continue
-            u = read_unit(f, uid)
+            source = f"{path}#{uid}"
+            record = None if long_record is None else long_record(f, uid, source)
+            if record is None:
+                u = read_unit(f, uid)
+                attrs, events, record = u.attrs, u.events, unit_record(u, source)
+            else:  # read without the per-sample columns the record does not need
+                attrs, events = unit_attributes(f["units"][uid]), committed_events(f, uid)
             units.append(UnitRun(
-                unit_id=uid, model=u.attrs["model"], serial_number=u.attrs["serial_number"],
-                record=unit_record(u, f"{path}#{uid}"), protocol=u.attrs["protocol"],
-                transport=u.attrs["transport"], settings=json.loads(u.attrs["settings"]),
-                events=run_events(u)))
+                unit_id=uid, model=attrs["model"], serial_number=attrs["serial_number"],
+                record=record, protocol=attrs["protocol"], transport=attrs["transport"],
+                settings=json.loads(attrs["settings"]), events=events_of(uid, events)))
         a = {k: text_value(v) for k, v in f.attrs.items()}
     stopped = state["state"] == "stopped"
     return RunInfo(

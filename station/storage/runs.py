@@ -10,7 +10,7 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.storage.csv_records import read_csv_record
 from station.storage.hdf5 import read_run, read_run_record, run_attributes
-from station.storage.mapped_runs import read_long_unit
+from station.storage.mapped_runs import long_unit_record, read_long_unit
 
 
 def is_run_file(path: str | Path) -> bool:
@@ -68,7 +68,7 @@ def open_run(
     """
     path = Path(path)
     if is_run_file(path):
-        return read_run(path, only=only)
+        return read_run(path, only=only, long_record=long_unit_record)
     record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
     unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
     return RunInfo(path=str(path), units=(unit,))

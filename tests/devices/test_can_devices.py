@@ -82,3 +82,24 @@ def test_node_silence_limit_is_on_the_units_clock() -> None:
         offset = device_index(got, core, 256, atol=2.0**-13)
         declared, lost = check_accounting(got, core, offset)
         assert declared == lost and len(lost) >= 300
+
+
+def test_frames_a_held_node_sent_before_its_hold_are_not_read_across_it() -> None:
+    """The recorder holds a simulated node until the run starts; frames it sent before
+    the hold took effect carry times before it, and its counter goes on after it without
+    a gap: read together, the hold (here 4 simulated s, 2000 samples) would be counted as
+    counter wraps. From ``quiet_until_now`` on they are not read."""
+    import time
+
+    with open_device("sim+can://STIM300?rate=500&warp=4&seed=1") as dev:
+        source, core = dev.source, dev.simulator.core
+        source.open()
+        time.sleep(0.1)  # the node sends before the station holds it
+        core.pause()
+        time.sleep(1.0)
+        source.quiet_until_now()  # the run starts
+        core.resume()
+        got = collect(source, 300)
+    gaps = [g for b in got.batches for g in b.gaps]
+    assert not [g for g in gaps if g.missing_high > 20], gaps
+    assert got.counter[0] > 0  # the samples before the hold are not the run's

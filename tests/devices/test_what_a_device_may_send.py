@@ -121,3 +121,31 @@ def test_a_jump_with_nothing_after_it_is_taken_once_it_waited_long_enough() -> N
     builder.add(_reading(40), 0.01)
     assert builder.take(0.02).counter.tolist() == [1]  # held: no next frame yet
     assert builder.take(1.0).counter.tolist() == [40]  # waited: a gap after all
+
+
+@pytest.mark.parametrize(("step", "bounds_s", "expected"), [
+    # bounds of 419.6-501 samples: 411 (1 wrap) and 667 (2) both near: uncertain
+    (155, (3.364, 4.002), (1, 2)),
+    # bounds of 184-226 samples: 9 is 20x off, 265 (1 wrap) is near: that one
+    (9, (1.479, 1.80), (1, 1)),
+])
+def test_timing_that_contradicts_the_counter_never_makes_a_wrong_count_certain(
+        step: int, bounds_s: tuple[float, float], expected: tuple[int, int]) -> None:
+    """Bounds of the elapsed time that hold no wrap count (seen on a host at load 20:
+    bytes delivered late) leave the neighbouring wrap counts as the gap's range."""
+    tracker = CounterTracker(256, 125.0)
+    tracker.update(0, 0.0)
+    _, gap = tracker.update(step, 10.0, elapsed_s=sum(bounds_s) / 2.0,
+                            elapsed_range_s=bounds_s)
+    assert gap is not None
+    low, high = expected
+    assert (gap.missing_low, gap.missing_high) == (step + low * 256 - 1, step + high * 256 - 1)
+    assert gap.missing_low <= gap.missing_samples <= gap.missing_high
+
+
+def test_a_polled_counter_late_by_its_poll_is_not_a_wrap() -> None:
+    """A 16-bit counter whose timing says 0.2-0.6 s for one step: the step, certain."""
+    tracker = CounterTracker(65536, 25.0)
+    tracker.update(10, 0.0)
+    _, gap = tracker.update(11, 0.4, elapsed_range_s=(0.2, 0.6))
+    assert gap is None

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.units import S_PER_H
+from analysis import blocks
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
 from station.model.kinds import Verdict
 from station.model.runs import UnitRun
@@ -56,21 +57,22 @@ class FigureRow:
     note: str
 
 
-def figure_rows(axis: AxisGrade) -> list[FigureRow]:
-    """Rows of one axis: graded figures with the deciding grade's limit, then informational ones."""
+def figure_rows(axis: AxisGrade, family: UnitFamily = DEG_FAMILY) -> list[FigureRow]:
+    """Rows of one axis: graded figures with the deciding grade's limit, then informational ones
+    (values in ``family``)."""
     rows = []
     for f in sorted(axis.figures, key=lambda f: not f.spec.graded):
-        graded = f.spec.graded
+        graded, unit = f.spec.graded, f.spec.unit
         rows.append(
             FigureRow(
                 axis.axis,
                 f.name,
                 f.spec.label,
-                f.spec.unit,
-                f.value,
-                f.ci_low,
-                f.ci_high,
-                f.spec.limits.get(axis.deciding_grade) if graded else None,
+                family.label(unit),
+                family.value(f.value, unit),
+                family.value(f.ci_low, unit),
+                family.value(f.ci_high, unit),
+                family.value(f.spec.limits.get(axis.deciding_grade), unit) if graded else None,
                 axis.deciding_grade if graded else "",
                 f.verdicts.get(axis.deciding_grade, "pass") if graded else None,
                 f.note,
@@ -79,10 +81,12 @@ def figure_rows(axis: AxisGrade) -> list[FigureRow]:
     return rows
 
 
-def analysis_lines(unit: UnitGrade) -> list[str]:
+def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str]:
     """What the analysis did to the record, one line per topic: review flags first, then
-    spikes, gaps, Earth rate, each axis' tones and the tau zones the fit and read-offs leave out."""
+    spikes, gaps, Earth rate, each axis' tones and the tau zones the fit and read-offs leave out
+    (rates in ``family``)."""
     axes = unit.axes
+    rate = family.label("deg/h")
     review = [f"REVIEW {line}" for line in unit.review]
     spikes = []
     for a in axes:
@@ -90,7 +94,7 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
         if o.count and o.detection is not None:
             largest = max(o.detection.spikes, key=lambda sp: abs(sp.size))
             spikes.append(f"{a.axis} {o.count} {'removed' if o.removed else 'kept'} (largest "
-                          f"{largest.size * S_PER_H:+.3g} deg/h)")
+                          f"{family.value(largest.size * S_PER_H, 'deg/h'):+.3g} {rate})")
         else:
             spikes.append(f"{a.axis} {o.text()}")
     lines = ["spikes: " + ", ".join(spikes)]
@@ -107,7 +111,8 @@ def analysis_lines(unit: UnitGrade) -> list[str]:
         lines.append(notes[0] if notes else "Earth rate not removed from the bias")
     else:
         lines.append("Earth rate removed from the bias: " + ", ".join(
-            f"{axis} {'not removed' if v is None else f'{v:+.4g} deg/h'}" for axis, v in removed))
+            f"{axis} " + ("not removed" if v is None else f"{family.value(v, 'deg/h'):+.4g} {rate}")
+            for axis, v in removed))
     for a in axes:
         lines += [f"{a.axis}: {t.describe()}" for t in a.analysis.tones]
         lines += [
@@ -133,10 +138,18 @@ def to_the_second(utc: str) -> str:
 def temperature_text(unit: UnitGrade) -> str:
     """The test temperature from the unit's channel: mean and range (degC), or "not recorded"."""
     temp = unit.unit.record.temperature_c
-    if temp is None or not np.isfinite(temp).any():
+    if temp is None or not blocks.any_where(temp, np.isfinite):
         return "not recorded (no temperature channel)"
-    t = temp[np.isfinite(temp)]
-    return f"{float(t.mean()):.1f} degC (mean; {float(t.min()):.1f} to {float(t.max()):.1f} degC)"
+    low, high = np.inf, -np.inf
+    for a, b in blocks.spans(0, len(temp)):  # a long record's channel: a block at a time
+        t = np.asarray(temp[a:b])
+        t = t[np.isfinite(t)]
+        blocks.release(temp)
+        if t.size:
+            low, high = min(low, float(t.min())), max(high, float(t.max()))
+    mean = float(blocks.finite_batch_means(temp, 1)[0]) if blocks.is_long(len(temp)) \
+        else float(temp[np.isfinite(temp)].mean())
+    return f"{mean:.1f} degC (mean; {low:.1f} to {high:.1f} degC)"
 
 
 def header_fields(graded: RunGrade, unit: UnitGrade) -> list[tuple[str, str]]:
@@ -292,9 +305,9 @@ def unit_sheet(graded: RunGrade, unit: UnitGrade) -> UnitSheet:
         unit.grade,
         unit.grade == graded.profile.reject,
         header_fields(graded, unit),
-        [r for axis in unit.axes for r in figure_rows(axis)],
+        [r for axis in unit.axes for r in figure_rows(axis, graded.output_units)],
         [AxisLine(a.axis, a.grade, a.could_reach or "") for a in unit.axes],
         event_summary(u, graded),
-        analysis_lines(unit),
+        analysis_lines(unit, graded.output_units),
         unit.notes,
     )

@@ -7,7 +7,8 @@ unit_grade, axis, axis_grade, deciding_grade, then for every figure of the profi
 ``<figure>_verdict`` (``pass``, ``fail``, ``indeterminate``, or ``info``); last, what the
 analysis did to the record: ``spikes`` (found), ``spikes_removed`` (true/false), ``gaps``,
 ``missing_s`` and ``earth_rate_removed_deg_h`` (empty when not removed), ``tones`` (each
-``<freq_hz> Hz <amplitude_deg_s> deg/s``, ``;``-separated) and ``review`` (the axis' review
+``<freq_hz> Hz <amplitude_deg_s> deg/s``, ``;``-separated; in the rad family
+``earth_rate_removed_rad_s`` and rad/s) and ``review`` (the axis' review
 reasons, ``;``-separated; empty when read-off and fit agree).
 """
 
@@ -57,11 +58,14 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
     names = [f.name for f in p.figures]
     with path.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
-        writer.writerow(FIXED + [f"{n}_{c}" for n in names for c in PER_FIGURE] + ANALYSIS)
+        family = graded.output_units
+        rate = family.label("deg/h")
+        analysis = [c.replace("_deg_h", "_rad_s") if rate == "rad/s" else c for c in ANALYSIS]
+        writer.writerow(FIXED + [f"{n}_{c}" for n in names for c in PER_FIGURE] + analysis)
         for unit in graded.units:
             u = unit.unit
             for axis in unit.axes:
-                rows = {r.name: r for r in figure_rows(axis)}
+                rows = {r.name: r for r in figure_rows(axis, family)}
                 fixed = [
                     run.path,
                     u.unit_id,
@@ -94,9 +98,11 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
                     str(an.outliers.removed).lower(),
                     an.gaps.count,
                     an.gaps.missing_s,
-                    _cell(an.figures.earth_rate_removed_deg_h),
+                    _cell(family.value(an.figures.earth_rate_removed_deg_h, "deg/h")),
                     "; ".join(
-                        f"{t.freq_hz:.6g} Hz {t.amplitude_deg_s:.4g} deg/s" for t in an.tones
+                        f"{t.freq_hz:.6g} Hz {family.value(t.amplitude_deg_s, 'deg/s'):.4g} "
+                        f"{family.label('deg/s')}"
+                        for t in an.tones
                     ),
                     "; ".join(axis.review),
                 ]

@@ -22,6 +22,7 @@ from station.output.report.common import (
     fmt_interval,
     unit_sheet,
 )
+from station.output.report.gmwm_sheet import gmwm_png, gmwm_section, has_gmwm
 from station.output.report.panels import allan_png, davar_png
 from station.output.report.plateau_sheet import plateau_cells, plateau_headings, plateau_png
 from station.output.report.sequence_sheet import sequence_png, sequence_rows
@@ -96,13 +97,17 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
               for a in sheet.axes]
     if unit.axes:
         parts.append("</p><h2>Allan deviation</h2>")
-        parts.append(_img(allan_png(unit), "Allan deviation with confidence band, fitted terms "
-                                           "and limits"))
+        parts.append(_img(allan_png(unit, graded.output_units),
+                          "Allan deviation with confidence band, fitted terms and limits"))
         parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
         parts.append("<h2>Dynamic Allan deviation</h2>")
-        parts.append(_img(davar_png(unit), "DAVAR heat map per axis"))
+        parts.append(_img(davar_png(unit, graded.output_units), "DAVAR heat map per axis"))
     else:
         parts.append("</p><p>No noise figures: see the notes below.</p>")
+    if has_gmwm(unit):
+        parts.append(gmwm_section(unit))
+        parts.append(_img(gmwm_png(unit), "Haar wavelet variance with its interval, the GMWM "
+                                          "model and the Allan fit's model as a wavelet variance"))
     if unit.sequence is not None:
         parts.append(sequence_section(unit.sequence))
     parts.append('<h2>Events</h2><ul class="events">')

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from analysis.units import S_PER_H
 from station.evaluation.grading import RunGrade
+from station.output.json_units import in_family
 from station.output.report.common import event_summary, header_fields
 
 SCHEMA = "gyro-station/spec-sheet"
@@ -35,13 +36,15 @@ def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
                 "adev_ci_low_deg_h": (al.adev_ci_low * S_PER_H).tolist(),
                 "adev_ci_high_deg_h": (al.adev_ci_high * S_PER_H).tolist()}
             unit_doc["axes"][axis.axis]["fit"] = axis.analysis.fit.as_dict()
+            if axis.analysis.gmwm is not None:  # `station report --method gmwm`
+                unit_doc["axes"][axis.axis]["gmwm"] = axis.analysis.gmwm.as_json()
     return doc
 
 
 def write_json(graded: RunGrade, path: str | Path) -> Path:
-    """Write the JSON spec sheet document (NaN/inf are not allowed: they become errors)."""
+    """Write the JSON spec sheet document in ``graded.output_units`` (NaN/inf are not allowed: they
+    become errors)."""
     path = Path(path)
-    path.write_text(
-        json.dumps(spec_sheet_json(graded), indent=1, allow_nan=False) + "\n", encoding="utf-8"
-    )
+    doc = in_family(spec_sheet_json(graded), graded.output_units)
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False) + "\n", encoding="utf-8")
     return path

@@ -23,7 +23,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from analysis.errors import AnalysisError  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
-from analysis.units import S_PER_H  # noqa: E402
+from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
 from station.evaluation.davar_map import davar_grid  # noqa: E402
 from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
 from station.evaluation.limits import limit_lines  # noqa: E402
@@ -33,8 +33,11 @@ from station.output.plots import heat_map  # noqa: E402
 TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
 
 
-def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> None:
-    """Allan deviation of each axis (deg/h) with band, fit, term lines and limit lines."""
+def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8,
+               family: UnitFamily = DEG_FAMILY) -> None:
+    """Allan deviation of each axis (deg/h, or rad/s in the rad ``family``) with band, fit, term
+    lines and limit lines."""
+    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     lows, highs = [], []
     for i, a in enumerate(axes):
@@ -42,35 +45,35 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
         al, fit = a.analysis.allan, a.analysis.fit
         tau = al.tau_s
         ax.fill_between(
-            tau, al.adev_ci_low * S_PER_H, al.adev_ci_high * S_PER_H, color=c, alpha=0.18, lw=0
+            tau, al.adev_ci_low * scale, al.adev_ci_high * scale, color=c, alpha=0.18, lw=0
         )
-        ax.loglog(tau, al.adev * S_PER_H, "o", ms=2.2, color=c, label=f"{a.axis} measured"
+        ax.loglog(tau, al.adev * scale, "o", ms=2.2, color=c, label=f"{a.axis} measured"
                   + (f" ({'spikes removed' if a.analysis.outliers.removed else 'spikes kept'})"
                      if a.analysis.allan_alternative is not None else ""))
         other = a.analysis.allan_alternative
         if other is not None:  # the curve the other way round, so the spikes' effect shows
-            ax.loglog(other.tau_s, other.adev * S_PER_H, "x", ms=2.6, mew=0.6, color=c, alpha=0.7,
+            ax.loglog(other.tau_s, other.adev * scale, "x", ms=2.6, mew=0.6, color=c, alpha=0.7,
                       label=f"{a.axis} {a.analysis.alternative_label}")
-        ax.loglog(tau, np.sqrt(fit.model_avar(tau)) * S_PER_H, "-", lw=1.3, color=c, alpha=0.85,
+        ax.loglog(tau, np.sqrt(fit.model_avar(tau)) * scale, "-", lw=1.3, color=c, alpha=0.85,
                   label=f"{a.axis} fit ({fit.method})")
         for term in TERMS:
-            curve = np.sqrt(fit.term_avar(term, tau)) * S_PER_H
+            curve = np.sqrt(fit.term_avar(term, tau)) * scale
             if np.any(curve > 0):
                 ax.loglog(tau, curve, ":", lw=1, color=c)
                 j = {"Q": 0, "N": len(tau) // 5, "B": len(tau) // 2}.get(term, len(tau) - 1)
                 ax.annotate(TERM_STYLE[term][0], (tau[j], curve[j]), color=c, fontsize=fontsize,
                             xytext=(2, 2), textcoords="offset points")
-        lows.append(float(np.min(al.adev_ci_low)) * S_PER_H)
+        lows.append(float(np.min(al.adev_ci_low)) * scale)
         # the band of a two-cluster tau reaches far up (30x at 95 %): drawn to the edge,
         # it must not squeeze the rest of the curve
         highs.append(
-            min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * S_PER_H
+            min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * scale
         )
     if axes:
-        _draw_limits(ax, axes[0], fontsize)
+        _draw_limits(ax, axes[0], fontsize, family)
         ax.set_ylim(min(lows) / 4, max(highs))
     ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
-    ax.set_ylabel("Allan deviation [deg/h]", fontsize=fontsize + 1)
+    ax.set_ylabel(f"Allan deviation [{family.label('deg/h')}]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
     # lower left: the curves fall from the upper left, and the long-tau end on the right is
@@ -80,7 +83,7 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8) -> N
     )
 
 
-def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
+def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float, family: UnitFamily) -> None:
     """The deciding grade's ARW limit as a -1/2 line and the bias-instability/Allan-minimum
     limit."""
     for line in limit_lines(axis):
@@ -88,9 +91,11 @@ def _draw_limits(ax: Axes, axis: AxisGrade, fontsize: float) -> None:
         if line.shape == "level" and line.figure != "adev_min":
             label = f"0.664 x {line.label} limit ({line.grade})"
         if line.shape == "slope":
-            ax.loglog(line.tau_s, line.adev_deg_h, "--", color="0.3", lw=0.9, label=label)
+            ax.loglog(line.tau_s, family.array(line.adev_deg_h, "deg/h"), "--", color="0.3",
+                      lw=0.9, label=label)
         else:
-            ax.axhline(float(line.adev_deg_h[0]), ls="-.", color="0.3", lw=0.9, label=label)
+            ax.axhline(float(line.adev_deg_h[0]) * family.factor("deg/h"), ls="-.", color="0.3",
+                       lw=0.9, label=label)
 
 
 def draw_davar(
@@ -100,8 +105,10 @@ def draw_davar(
     *,
     fontsize: float = 8,
     settings: AnalysisSettings | None = None,
+    family: UnitFamily = DEG_FAMILY,
 ) -> bool:
-    """Heat map of log10 dynamic Allan deviation (deg/h) of one axis over time and tau.
+    """Heat map of log10 dynamic Allan deviation (deg/h, or rad/s in the rad ``family``) of one
+    axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
     marked. Returns False (and writes why into the panel) when the record is too short.
@@ -117,12 +124,13 @@ def draw_davar(
         return False
     hours = unit.unit.record.duration_s > 3 * 3600
     scale, unit_name = (3600.0, "h") if hours else (60.0, "min")
-    log_adev = np.log10(np.maximum(grid.adev_deg_h, np.finfo(float).tiny))
+    log_adev = np.log10(np.maximum(family.array(grid.adev_deg_h, "deg/h"), np.finfo(float).tiny))
     mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
     if grid.warmup_s:
         ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
     ax.set_title(
-        f"DAVAR {axis.axis}: log10 ADEV [deg/h], window {grid.window_s:.0f} s", fontsize=fontsize
+        f"DAVAR {axis.axis}: log10 ADEV [{family.label('deg/h')}], window {grid.window_s:.0f} s",
+        fontsize=fontsize,
     )
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
     ax.set_ylabel("tau [s]", fontsize=fontsize)
@@ -156,20 +164,20 @@ def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
     return buffer.getvalue()
 
 
-def allan_png(unit: UnitGrade) -> bytes:
-    """The Allan panel of a unit as a PNG."""
+def allan_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
+    """The Allan panel of a unit as a PNG (in ``family``)."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    draw_allan(ax, unit.axes, fontsize=9)
+    draw_allan(ax, unit.axes, fontsize=9, family=family)
     ax.set_title(
         "Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10
     )
     return figure_png(fig)
 
 
-def davar_png(unit: UnitGrade) -> bytes:
-    """The DAVAR heat maps of a unit (one per axis) as a PNG."""
+def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
+    """The DAVAR heat maps of a unit (one per axis) as a PNG (in ``family``)."""
     n = len(unit.axes)
     fig, axs = plt.subplots(1, n, figsize=(4.2 * n, 3.2), squeeze=False, layout="constrained")
     for i in range(n):
-        draw_davar(axs[0, i], unit, i)
+        draw_davar(axs[0, i], unit, i, family=family)
     return figure_png(fig)

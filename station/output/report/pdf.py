@@ -29,6 +29,7 @@ from station.output.report.common import (  # noqa: E402
     fmt_interval,
     unit_sheet,
 )
+from station.output.report.gmwm_sheet import gmwm_page, has_gmwm  # noqa: E402
 from station.output.report.panels import draw_allan, draw_davar, placeholder  # noqa: E402
 from station.output.report.plateau_sheet import (  # noqa: E402
     draw_plateaus,
@@ -95,7 +96,7 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     allan_bottom = 0.105 + davar_h + 0.065
     ax = fig.add_axes((0.1, allan_bottom, 0.84, max(allan_top - allan_bottom, 0.15)))
     if unit.axes:
-        draw_allan(ax, unit.axes, fontsize=7.5)
+        draw_allan(ax, unit.axes, fontsize=7.5, family=graded.output_units)
         ax.set_title("Allan deviation: band = confidence interval, dotted = fitted terms, "
                      "dashed = limits", fontsize=8.5)
     else:
@@ -104,7 +105,7 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     width = 0.84 / max(n, 1)
     for i in range(n):
         dax = fig.add_axes((0.1 + i * width, 0.105, width * 0.68, davar_h))
-        draw_davar(dax, unit, i, fontsize=6.5)
+        draw_davar(dax, unit, i, fontsize=6.5, family=graded.output_units)
     lines = ["; ".join(sheet.events.lines(brief=True))]
     lines += sheet.analysis
     lines += [f"note: {n}" for n in sheet.notes]
@@ -280,6 +281,10 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
             fig = unit_page(graded, unit)
             pdf.savefig(fig)
             plt.close(fig)
+            if has_gmwm(unit):  # the GMWM page follows the unit's sheet
+                fig = gmwm_page(unit, unit_sheet(graded, unit).title, A4_IN)
+                pdf.savefig(fig)
+                plt.close(fig)
             if unit.sequence is not None:
                 fig = sequence_page(graded, unit.sequence, unit.unit.unit_id)
                 pdf.savefig(fig)

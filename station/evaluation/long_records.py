@@ -1,0 +1,31 @@
+"""Long records kept out of memory while they are evaluated.
+
+A long record (:func:`analysis.blocks.is_long`) read from a run file lives in scratch
+memmaps (:mod:`station.storage.mapped_runs`); what the evaluation derives from it whole
+(the columns a profile grades, ...) stays a view of them or goes to scratch memmaps too,
+written a block at a time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from analysis import blocks
+from station.storage.scratch import scratch_array
+
+
+def take_columns(rate: NDArray[np.float64], columns: list[int]) -> NDArray[np.float64]:
+    """``rate[:, columns]`` of a record (shape (N, k)): an in-memory copy of a short
+    record (as numpy takes it); of a long one, a view when the columns are consecutive,
+    else a copy in a scratch memmap written a block at a time."""
+    if not blocks.is_long(rate.shape[0]):
+        return rate[:, columns]
+    if columns and columns == list(range(columns[0], columns[0] + len(columns))):
+        return rate[:, columns[0] : columns[0] + len(columns)]
+    out = scratch_array((len(columns), rate.shape[0]))  # axis-major, as the reader's
+    for a, b in blocks.spans(0, rate.shape[0]):
+        out[:, a:b] = np.asarray(rate[a:b][:, columns]).T
+        blocks.release(rate)
+        blocks.release(out)
+    return out.T
