@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -99,3 +100,60 @@ def test_errors_are_reported_not_raised(files, capsys, tmp_path):
     assert rc == 2 and "at least 4" in err
     with pytest.raises(SystemExit):
         cli.main(["reconcile", str(record)])  # --model is required
+
+
+def test_text_report_and_figure_in_rad(files, capsys, monkeypatch):
+    """``--output-units rad``: the effect's parameters are the deg report's (of the same
+    result) times the family's factors, under rad-named keys; the figure, read as it is saved,
+    draws the Allan deviation in rad/s; the model's TOML stays in a model file's units."""
+    from analysis.units import RAD_FAMILY, S_PER_H
+    from station.output import plots, reconcile_report
+
+    figures, kept = [], []
+    save, fmt = plots._save, reconcile_report.format_reconcile
+
+    def saved(fig, path, dpi=None):  # the figure as it is saved
+        figures.append(fig)
+        return save(fig, path, dpi)
+
+    def formatted(res, **kw):
+        kept.append((res, kw["label"]))
+        return fmt(res, **kw)
+
+    monkeypatch.setattr(plots, "_save", saved)
+    monkeypatch.setattr(reconcile_report, "format_reconcile", formatted)
+    folder, record, model = files
+    png = folder / "rad.png"
+    rc, rad, err = _run(capsys, "reconcile", str(record), "--model", str(model), "--axis",
+                        "gyro_x", "--png", str(png), "--output-units", "rad")
+    assert rc == 0, err
+    [(res, label)] = kept
+    deg = fmt(res, label=label)  # the deg default, of the same result
+
+    def number(text: str, key: str) -> float:
+        return float(re.search(rf"\b{key} = ([-+0-9.e]+)", text).group(1))
+
+    for deg_key, rad_key, unit in (("amplitude_deg_h", "amplitude_rad_s", "deg/h"),
+                                   ("phase_deg", "phase_rad", "deg")):
+        assert number(rad, rad_key) == pytest.approx(
+            number(deg, deg_key) * RAD_FAMILY.factor(unit), rel=1e-3)
+    assert "amplitude_deg_h" not in rad.split("model after")[0]
+    assert "model after (TOML, in the deg units a model file is read in):" in rad
+    assert "N_deg_rt_h = 0.5" in rad  # the TOML, loadable as a model file
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    [ax] = figures[0].axes
+    assert ax.get_ylabel() == "Allan deviation [rad/s]"
+    measured = next(x for x in ax.get_lines() if x.get_label().startswith("measured"))
+    np.testing.assert_allclose(measured.get_ydata(), np.sqrt(res.curve.avar) * S_PER_H
+                               * RAD_FAMILY.factor("deg/h"), rtol=1e-12)
+
+
+def test_evidence_numbers_in_rad():
+    from analysis.units import RAD_FAMILY
+    from station.output.reconcile_report import _in_family_text
+
+    text = "change-point test: 2 step(s) ({3} blocks of 60 s): +0.52 deg/h at 300 s, -1e+02 deg/h"
+    rad = _in_family_text(text, RAD_FAMILY)
+    k = RAD_FAMILY.factor("deg/h")
+    assert rad == (f"change-point test: 2 step(s) ({{3}} blocks of 60 s): {0.52 * k:+.3g} rad/s "
+                   f"at 300 s, {-100 * k:.3g} rad/s")

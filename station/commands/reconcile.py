@@ -95,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     def progress(step: Progress) -> None:
         print(f"reconcile: {step.text} ...", file=sys.stderr, flush=True)
 
+    family = output_family(args)
     answer = reconcile_run(
         ReconcileRequest(
             record_source(args),
@@ -104,15 +105,17 @@ def run(args: argparse.Namespace) -> int:
             alpha=args.alpha,
             max_samples=args.max_samples,
             png=args.png,
+            output_units=family,
         ),
         progress,
     )
     print_notes("reconcile", answer.notes)
     if args.json:
-        print_json(answer.as_json(), output_family(args))
+        print_json(answer.as_json(), family)
     else:
         print(f"{args.file} against {args.model}")
-        print("\n\n".join(format_reconcile(res, label=label) for label, res in answer.results))
+        print("\n\n".join(format_reconcile(res, label=label, family=family)
+                          for label, res in answer.results))
         if answer.png is not None:
             print(f"figure: {answer.png}")
     return 0

@@ -3,14 +3,18 @@
 The figure (matplotlib, Agg backend, no display) shows per axis the measured Allan
 deviation with its confidence band, the model before and after with their Monte Carlo
 bands, and the contribution of each named effect (and of each excess term, before and
-after), all in deg/h.
+after), in deg/h, or in rad/s in the rad unit family (``--output-units rad``,
+``docs/units.md``). The text report prints each effect's parameters and the numbers of its
+evidence in the family asked for; the TOML of the model after stays in the units a model file
+is read in (deg/h, deg/sqrt(h), ...), as ``model_after`` does in ``--json``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import matplotlib
 
@@ -22,7 +26,17 @@ from matplotlib.colors import ListedColormap  # noqa: E402
 from analysis.confidence import ONE_SIGMA, chi2_interval  # noqa: E402
 from analysis.discrepancy import Comparison  # noqa: E402
 from analysis.reconcile import Effect, ReconcileResult, term_avar  # noqa: E402
-from analysis.units import S_PER_H  # noqa: E402
+from analysis.units import (  # noqa: E402
+    DEG_FAMILY,
+    FAMILY_UNITS,
+    S_PER_H,
+    UnitFamily,
+)
+from station.output import plots  # noqa: E402
+from station.output.json_units import in_family  # noqa: E402
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: Colours of the effects' curves.
 DARK2 = cast(ListedColormap, matplotlib.colormaps["Dark2"])
@@ -32,10 +46,36 @@ def _fmt(value: float) -> str:
     return f"{value:.4g}"
 
 
-def _params(effect: Effect) -> str:
+#: A number followed by a deg-family unit in free text ("+0.5 deg/h"), longest unit first.
+_NUMBER_UNIT = re.compile(
+    r"(?P<number>[+-]?\d+(?:\.\d*)?(?:[eE][+-]?\d+)?) (?P<unit>"
+    + "|".join(re.escape(u.label) for u in sorted(FAMILY_UNITS, key=lambda u: -len(u.label)))
+    + r")(?![\w/^])"
+)
+
+
+def _in_family_text(text: str, family: UnitFamily) -> str:
+    """``text`` with each "<number> <deg-family unit>" in ``family`` (an effect's evidence:
+    "+0.52 deg/h at 300 s" -> "+2.52e-06 rad/s at 300 s")."""
+    if family.name == "deg":
+        return text
+
+    def convert(m: re.Match[str]) -> str:
+        value = float(m["number"]) * family.factor(m["unit"])
+        sign = "+" if m["number"].startswith("+") else ""
+        return f"{value:{sign}.3g} {family.label(m['unit'])}"
+
+    return _NUMBER_UNIT.sub(convert, text)
+
+
+def _params(effect: Effect, family: UnitFamily) -> str:
+    """``key = value +- stderr, ...``, each key named with its unit (``amplitude_deg_h``, in
+    the rad family ``amplitude_rad_s``: the keys of ``--json``)."""
+    params = cast(Mapping[str, float], in_family(effect.params, family))
+    stderr = cast(Mapping[str, float], in_family(effect.stderr, family))
     parts = []
-    for key, value in effect.params.items():
-        err = effect.stderr.get(key)
+    for key, value in params.items():
+        err = stderr.get(key)
         parts.append(f"{key} = {_fmt(value)}" + (f" +- {_fmt(err)}" if err is not None else ""))
     return ", ".join(parts)
 
@@ -58,9 +98,11 @@ def _comparison_line(label: str, comparison: Comparison, alpha: float) -> str:
     )
 
 
-def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
-    """The text report of one axis: comparison, each round's candidates, effects, the model
-    after."""
+def format_reconcile(result: ReconcileResult, *, label: str = "",
+                     family: UnitFamily = DEG_FAMILY) -> str:
+    """The text report of one axis: comparison, each round's candidates, effects (their
+    parameters and evidence in ``family``), the model after (its TOML in a model file's
+    units)."""
     c, opt = result.curve, result.options
     decimated = f", decimated by {c.decimation}" if c.decimation > 1 else ""
     lines = [
@@ -84,18 +126,19 @@ def format_reconcile(result: ReconcileResult, *, label: str = "") -> str:
     ):
         lines.append(f"{title}: {'none' if not effects else ''}".rstrip())
         for e in effects:
-            lines.append(f"  {e.name} ({e.change}): {_params(e)}")
+            lines.append(f"  {e.name} ({e.change}): {_params(e, family)}")
             lines.append(
                 f"    explains tau {_fmt(e.tau_range_s[0])}-{_fmt(e.tau_range_s[1])} s; gap "
                 f"{_fmt(e.gap_before)} -> {_fmt(e.gap_after)}; Delta BIC {e.delta_bic:.1f}"
-                + (f"; {e.evidence}" if e.evidence else "")
+                + (f"; {_in_family_text(e.evidence, family)}" if e.evidence else "")
             )
             if e.alternatives:
                 what = "GMWM score" if e.criterion == "gmwm" else "Delta BIC"
                 others = ", ".join(f"{a.name} ({a.change}, {a.score:.3g})" for a in e.alternatives)
                 lines.append(f"    about as good ({what}; this one {e.score:.3g}): {others}")
     lines.append(_comparison_line("model after", result.after, opt.alpha))
-    lines.append("model after (TOML):")
+    lines.append("model after (TOML):" if family.name == "deg" else
+                 "model after (TOML, in the deg units a model file is read in):")
     lines.extend("  " + line for line in result.model_after.to_toml().splitlines())
     return "\n".join(lines)
 
@@ -113,15 +156,22 @@ def _effect_curves(result: ReconcileResult) -> list[tuple[str, np.ndarray, str]]
     return out
 
 
-def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | Path) -> Path:
-    """PNG of each axis: measured curve and band, model before and after with bands, effects."""
-    path = Path(path)
+def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | Path, *,
+                   family: UnitFamily = DEG_FAMILY) -> Path:
+    """PNG of each axis: measured curve and band, model before and after with bands, effects,
+    the Allan deviation in deg/h (rad/s in the rad ``family``)."""
+    return plots._save(reconcile_figure(results, family=family), Path(path))
+
+
+def reconcile_figure(results: Sequence[tuple[str, ReconcileResult]], *,
+                     family: UnitFamily = DEG_FAMILY) -> Figure:
+    """The figure :func:`plot_reconcile` saves."""
     fig, axes = plt.subplots(
         len(results), 1, figsize=(8.5, 5.2 * len(results)), dpi=110, squeeze=False
     )
     for ax, (label, res) in zip(axes[:, 0], results, strict=True):
         c = res.curve
-        tau, k = c.tau_s, S_PER_H
+        tau, k = c.tau_s, S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
         low, high = chi2_interval(c.avar, c.precision.edf, ONE_SIGMA)
         ax.fill_between(tau, np.sqrt(low) * k, np.sqrt(high) * k, color="k", alpha=0.15, lw=0)
         ax.loglog(tau, np.sqrt(c.avar) * k, "ko-", ms=2.5, lw=1, label="measured (1-sigma band)")
@@ -149,11 +199,9 @@ def plot_reconcile(results: Sequence[tuple[str, ReconcileResult]], path: str | P
         ceiling = float(np.max(np.sqrt(np.maximum(high, res.before.band.high)))) * k * 2
         ax.set_ylim(floor, ceiling)
         ax.set_xlabel("averaging time tau [s]")
-        ax.set_ylabel("Allan deviation [deg/h]")
+        ax.set_ylabel(f"Allan deviation [{family.label('deg/h')}]")
         ax.grid(True, which="both", alpha=0.3)
         ax.set_title(f"reconcile {label}".strip(), fontsize=10)
         ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return fig

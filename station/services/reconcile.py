@@ -7,6 +7,7 @@ from pathlib import Path
 
 from analysis.discrepancy import ComparisonCache
 from analysis.reconcile import ReconcileOptions, ReconcileResult, reconcile
+from analysis.units import DEG_FAMILY, UnitFamily
 from devices.model_files import load_noise_model
 from station.errors import UsageError
 from station.model.records import RateRecord
@@ -35,6 +36,8 @@ class ReconcileRequest:
         longest record before decimation (:class:`analysis.reconcile.ReconcileOptions`).
     png : Path or None
         Where to draw the figure.
+    output_units : UnitFamily
+        The unit family of the figure (Allan deviation in deg/h or rad/s).
     """
 
     source: RecordSource
@@ -44,6 +47,7 @@ class ReconcileRequest:
     alpha: float = _DEFAULTS.alpha
     max_samples: int = _DEFAULTS.max_samples
     png: Path | None = None
+    output_units: UnitFamily = DEG_FAMILY
 
 
 @dataclass(frozen=True)
@@ -141,6 +145,6 @@ def reconcile_run(
     if request.png is not None:
         from station.output.reconcile_report import plot_reconcile  # matplotlib
 
-        plot_reconcile(results, request.png)
+        plot_reconcile(results, request.png, family=request.output_units)
     return ReconcileAnswer(str(request.source.file), request.model, tuple(results), request.png,
                            notes)
