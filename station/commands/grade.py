@@ -23,6 +23,7 @@ from station.commands.arguments import (
     print_warnings,
 )
 from station.output.report.common import analysis_lines
+from station.output.report.plateau_sheet import plateau_lines
 from station.output.report.sequence_sheet import sequence_lines
 from station.storage.csv_records import UNIT_TO_DEG_S
 
@@ -165,4 +166,5 @@ def format_grade(graded: RunGrade, family: UnitFamily = DEG_FAMILY) -> str:
                 )
         if u.sequence is not None:
             lines += [f"  {line}" for line in sequence_lines(u.sequence)]
+            lines += [f"  {line}" for line in plateau_lines(u.sequence.plateaus)]
     return "\n".join(lines)

@@ -311,7 +311,7 @@ def format_trend(figure: str, points: list[TrendPoint], family: UnitFamily = DEG
         [
             p.test_date,
             p.serial_number,
-            p.axis,
+            p.axis or "unit",  # a test sequence's figure: the unit's
             _num(v(p.value, p.unit)),
             f"[{_num(v(p.ci_low, p.unit))}, {_num(v(p.ci_high, p.unit))}]",
             _num(v(p.limit, p.unit)),

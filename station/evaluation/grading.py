@@ -210,6 +210,7 @@ class UnitGrade:
         }
         if self.sequence is not None:
             out["sequence_figures"] = self.sequence.as_json()
+            out["sequence_plateaus"] = [p.as_json() for p in self.sequence.plateaus]
         return out
 
 

@@ -79,6 +79,14 @@ class SegmentView:
             return None
         return self.first_s + np.arange(self.data.record.span_samples) / self.sample_rate_hz
 
+    def settled(self, after_s: float) -> NDArray[np.bool_]:
+        """Which samples of the grid come ``after_s`` or more after the switch-on (all of
+        them without one): the warm-up left out."""
+        since = self.since_on_s()
+        if since is None:
+            return np.ones(self.data.record.span_samples, dtype=bool)
+        return since >= after_s
+
 
 def _grid(record_index: NDArray[np.int64] | None, values: NDArray[np.float64], span: int
           ) -> NDArray[np.float64]:

@@ -59,6 +59,7 @@ from analysis.turn_on import (
 from analysis.warmup import detect_warmup
 from station.evaluation.grading import INDETERMINATE, assign_grade, decide, match_axes
 from station.evaluation.sequence_cycles import SegmentView, unit_segments
+from station.evaluation.sequence_plateaus import Plateau, plateau_analyses, temperature_span_c
 from station.model.kinds import Verdict
 from station.model.profiles import Profile
 from station.model.sequence_runs import SequenceRun
@@ -176,6 +177,9 @@ class UnitSequence:
         Two-sided level of every interval.
     notes : tuple of str
         What a reader should know (interruptions, figures not measured, noisy trends).
+    plateaus : tuple of Plateau
+        The Allan analysis of each temperature plateau, per axis
+        (:mod:`station.evaluation.sequence_plateaus`).
     """
 
     unit_id: str
@@ -189,6 +193,7 @@ class UnitSequence:
     deciding_grade: str
     confidence: float
     notes: tuple[str, ...] = field(default_factory=tuple)
+    plateaus: tuple[Plateau, ...] = ()
 
     def as_json(self) -> dict[str, object]:
         """The ``sequence_figures`` object of ``station grade --json``."""
@@ -303,17 +308,13 @@ def temperature_points(views: Sequence[SegmentView], column: int, spec: Sequence
     for v in views:
         if v.temperature_c is None:
             continue
-        x = v.data.record.gridded(column)
-        temp = v.temperature_c
-        since = v.since_on_s()
-        keep = np.ones(len(x), dtype=bool) if since is None else since >= spec.bias_after_s
-        x, temp = x[keep], temp[keep]
-        finite = temp[np.isfinite(temp)]
-        if finite.size < 20:
+        keep = v.settled(spec.bias_after_s)
+        x, temp = v.data.record.gridded(column)[keep], v.temperature_c[keep]
+        span = temperature_span_c(temp)
+        if span is None:
             continue
-        lo, hi = np.percentile(finite, [5, 95])
         try:
-            if hi - lo < spec.plateau_span_c:
+            if span < spec.plateau_span_c:
                 points.append(plateau_point(x, temp))
             else:
                 points.extend(ramp_points(x, temp, bin_c=spec.ramp_bin_c))
@@ -481,5 +482,6 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
         notes.append(f"{unit_id}: no segment holds this unit")
         if limited:
             grade = INDETERMINATE
+    plateaus = plateau_analyses(views, run.steps, columns, spec, profile)
     return UnitSequence(unit_id, run.name, tuple(cycles), turn_on, tuple(axes), figures,
-                        graded, grade, deciding, confidence, tuple(notes))
+                        graded, grade, deciding, confidence, tuple(notes), plateaus)

@@ -141,13 +141,13 @@ def _limits(
         profile = parse_profile(text, path=ref)
     except ProfileError:
         return ref, {}, ()
+    figures = [(f.name, f.limits) for f in profile.figures if f.graded]
+    # a test sequence's figures (a name in two sequences: the first sequence's limits)
+    figures += [(f.name, f.limits) for seq in reversed(profile.sequences.values())
+                for f in seq.figures if f.limits]
     return (
         ref,
-        {
-            f.name: {g: f.limits[g] for g in profile.grades if g in f.limits}
-            for f in profile.figures
-            if f.graded
-        },
+        {name: {g: limits[g] for g in profile.grades if g in limits} for name, limits in figures},
         (*profile.grades, "indeterminate", profile.reject),
     )
 
@@ -204,7 +204,7 @@ def _review(rows: list[GradingRow], figures: dict[str, FigureStats]) -> tuple[Re
             )
             bound = k.ucl if "upper" in side else k.lcl
             reasons[v.grading_id].append(
-                f"{f.name} {v.axis} = {v.value:.4g} {f.unit} is out of control "
+                f"{f.name} {v.axis or 'unit'} = {v.value:.4g} {f.unit} is out of control "
                 f"({side} control limit {bound:.4g})"
             )
     return tuple(

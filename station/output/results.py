@@ -12,6 +12,7 @@ writes at once (:mod:`station.results_backends`). Tables::
     gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes, review)
     axis_grades(grading, axis, grade, deciding_grade, n_samples, sample_rate_hz, review)
     figures    (grading, axis, name, unit, value, ci_low, ci_high, limit, verdict)
+               (a test sequence's figures too, with axis '': they are the unit's)
     reports    (grading, format, path, created_utc)
 
 Robustness: every write is one transaction (a station killed mid-write leaves the database
@@ -100,6 +101,10 @@ MIGRATIONS: tuple[str, ...] = (
     """,
 )
 SCHEMA_VERSION = len(MIGRATIONS)
+#: The ``axis`` of a figure of the whole unit: a test sequence's figures (each the worst
+#: of the unit's axes), stored beside the axes' figures under their profile names
+#: (``turn_on_repeatability``, ``temperature_coefficient``, ...).
+UNIT_AXIS = ""
 
 
 def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]]:
@@ -401,6 +406,14 @@ class ResultsDatabase:
                 con.execute("INSERT INTO figures VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
                             (grading_id, a.axis, f.name, f.spec.unit, f.value, f.ci_low, f.ci_high,
                              limit, verdict))
+        if u.sequence is not None:  # the unit's own figures: axis ''
+            grade = u.sequence.deciding_grade
+            for g in u.sequence.graded:
+                limited = bool(g.spec.limits) and bool(grade)
+                con.execute("INSERT INTO figures VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            (grading_id, UNIT_AXIS, g.spec.name, g.spec.unit, g.value, g.ci_low,
+                             g.ci_high, g.spec.limits.get(grade) if limited else None,
+                             g.verdicts.get(grade, "pass") if limited else None))
         return grading_id
 
     def add_report(self, grading_id: int, fmt: str, path: str | Path) -> None:

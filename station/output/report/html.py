@@ -24,6 +24,7 @@ from station.output.report.common import (
 )
 from station.output.report.gmwm_sheet import gmwm_png, gmwm_section, has_gmwm
 from station.output.report.panels import allan_png, davar_png
+from station.output.report.plateau_sheet import plateau_cells, plateau_headings, plateau_png
 from station.output.report.sequence_sheet import sequence_png, sequence_rows
 
 if TYPE_CHECKING:
@@ -152,6 +153,20 @@ def sequence_section(seq: UnitSequence) -> str:
     parts.append("</table>")
     parts.append(_img(sequence_png(seq), "bias per switch-on, warm-up curves, bias against "
                                          "temperature"))
+    if seq.plateaus:
+        parts.append("<h2>Temperature plateaus</h2>"
+                     '<table class="plateaus"><tr>'
+                     + "".join(f"<th>{escape(h)}</th>" for h in plateau_headings())
+                     + "<th>note</th></tr>")
+        for p in seq.plateaus:
+            cells = plateau_cells(p)
+            parts.append(f'<tr data-axis="{escape(p.axis)}" data-set-point="{p.set_point_c:g}">'
+                         f"<td>{escape(cells[0])}</td>"
+                         + "".join(f'<td class="num">{escape(c)}</td>' for c in cells[1:])
+                         + f"<td>{escape(p.note)}</td></tr>")
+        parts.append("</table>")
+        parts.append(_img(plateau_png(seq.plateaus), "Allan deviation of each temperature "
+                                                     "plateau"))
     return "\n".join(parts)
 
 

@@ -31,6 +31,11 @@ from station.output.report.common import (  # noqa: E402
 )
 from station.output.report.gmwm_sheet import gmwm_page, has_gmwm  # noqa: E402
 from station.output.report.panels import draw_allan, draw_davar, placeholder  # noqa: E402
+from station.output.report.plateau_sheet import (  # noqa: E402
+    draw_plateaus,
+    plateau_cells,
+    plateau_headings,
+)
 from station.output.report.sequence_sheet import draw_sequence, sequence_rows  # noqa: E402
 
 if TYPE_CHECKING:
@@ -232,6 +237,36 @@ def sequence_page(graded: RunGrade, seq: UnitSequence, unit_id: str) -> Figure:
     return fig
 
 
+def plateau_page(seq: UnitSequence, unit_id: str) -> Figure:
+    """The page of a temperature test's plateaus: their table and Allan deviations overlaid."""
+    fig = plt.figure(figsize=A4_IN)
+    fig.text(0.06, 0.972, f"{unit_id}: temperature plateaus of {seq.sequence}", fontsize=14,
+             weight="bold", va="top")
+    cells = [plateau_cells(p) for p in seq.plateaus]
+    row_h = min(0.018, 0.36 / (len(cells) + 2))  # many plateaus: the rows shrink
+    height = row_h * (len(cells) + 2)  # the heading takes two rows' height
+    top = 0.93
+    tax = fig.add_axes((0.04, top - height, 0.92, height))
+    tax.axis("off")
+    table = tax.table(cellText=cells, colLabels=plateau_headings(sep="\n"),
+                      bbox=Bbox.from_bounds(0, 0, 1, 1), cellLoc="center")
+    table.auto_set_font_size(False)
+    table.set_fontsize(7 if row_h >= 0.015 else 6)
+    for (row, _col), cell in table.get_celld().items():
+        cell.set_linewidth(0.3)
+        if row == 0:
+            cell.set_height(2 * cell.get_height())
+            cell.set_facecolor("#e6e6e6")
+    plot_top = top - height - 0.05
+    ax = fig.add_axes((0.1, plot_top - 0.42, 0.84, 0.42))
+    draw_plateaus(ax, seq.plateaus, fontsize=7.5)
+    lines = [f"note: {p.axis} {p.set_point_c:g} degC: {p.note}" for p in seq.plateaus if p.note]
+    wrapped = [part for line in lines for part in textwrap.wrap(line, PDF_LINE_CHARS)]
+    fig.text(0.06, plot_top - 0.48, "\n".join(wrapped[:PDF_NOTE_LINES]), fontsize=6.5,
+             va="top", linespacing=1.3)
+    return fig
+
+
 def write_pdf(graded: RunGrade, path: str | Path) -> Path:
     """Write the spec sheets of every unit of ``graded`` into one PDF, one page per unit."""
     path = Path(path)
@@ -254,4 +289,8 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
                 fig = sequence_page(graded, unit.sequence, unit.unit.unit_id)
                 pdf.savefig(fig)
                 plt.close(fig)
+                if unit.sequence.plateaus:
+                    fig = plateau_page(unit.sequence, unit.unit.unit_id)
+                    pdf.savefig(fig)
+                    plt.close(fig)
     return path
