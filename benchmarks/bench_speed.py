@@ -143,8 +143,9 @@ def row_analyze_h5(hours: float) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "run.h5"
         n = bench_memory.write_run(path, hours, 1000.0, 3)
-        bounded, t_bounded = bench_memory.measure(path, 1 << 16)  # block-wise however short
-        whole, t_whole = bench_memory.measure(path, 1 << 40)
+        argv = ["analyze", str(path), "--json"]
+        bounded, t_bounded, _ = bench_memory.measure(argv, 1 << 16)  # block-wise however short
+        whole, t_whole, _ = bench_memory.measure(argv, 1 << 40)
     return (
         f"station analyze {hours:g} h x 1 kHz x 3 axes run file: block-wise peak={bounded:.0f}MB "
         f"({t_bounded:.1f}s) in-memory peak={whole:.0f}MB ({t_whole:.1f}s) "
