@@ -156,7 +156,7 @@ class CounterTracker:
         if fit is None:
             # The bounds contradict the counter (a host that delivered bytes late, a
             # clock paired off): the timing is wrong by at least the distance to the
-            # nearest wrap count, so neither neighbour of the bounds is certain.
+            # nearest wrap count, so the neighbours on either side are the candidates.
             low, high = self._neighbours(step, bounds, wraps)
         else:
             low, high = fit
