@@ -12,8 +12,8 @@ and a compiled one (numba, a dependency of the default install) that fuses the s
 difference, the square and the sum into one pass over ``theta`` and spreads the m values
 over the cores; the results agree to rounding (about 1e-15 relative). ``backend="auto"``
 takes the compiled one when numba can be imported and the work is large
-(:data:`COMPILED_MIN_TERMS`): numba's import and the load of its cached kernels cost
-about 1.1 s on this machine, more than the compiled kernels save on a short record (a
+(:data:`COMPILED_MIN_TERMS`; :data:`COMPILED_MIN_WINDOW_TERMS` for the DAVAR): numba's
+import and the load of its cached kernels cost 0.6-1.1 s on this machine, more than the compiled kernels save on a short record (a
 one-hour CSV analyses as fast in numpy as with that start-up). The choice depends on the
 work alone, never on what the process ran before, so the same record gives the same
 numbers in any process (a fleet worker and the command line agree to the last bit).
@@ -71,6 +71,12 @@ _COMPILED_LAUNCH = threading.Lock()
 #: overlapping sums of 1e7 points at 92 taus (9.2e8 terms) 2.6 s in numpy, 0.46 s compiled,
 #: so 2.3 ns saved per term: break-even near 4.8e8 terms.
 COMPILED_MIN_TERMS = 500_000_000
+#: The same for the DAVAR's window sums, which numba runs about 5x faster than numpy (3.0
+#: ns saved per term; N = 1e6, window 1e5, step 1e4, 85 taus: 0.32 s numpy, 0.066 s
+#: compiled, 0.65 s for the first compiled call of a fresh process, measured idle). One
+#: call breaks even near 1.9e8 terms; a DAVAR is computed for each axis of a unit, which
+#: pays numba's start-up once, so a three-axis unit breaks even at a third of that.
+COMPILED_MIN_WINDOW_TERMS = 60_000_000
 
 
 @lru_cache(maxsize=1)
@@ -88,13 +94,15 @@ def have_compiled() -> bool:
     return _compiled() is not None
 
 
-def _pick(backend: Backend, work: int) -> ModuleType | None:
-    """The compiled kernels for ``backend`` and ``work`` terms, or None for numpy."""
+def _pick(backend: Backend, work: int, min_terms: int = COMPILED_MIN_TERMS
+          ) -> ModuleType | None:
+    """The compiled kernels for ``backend`` and ``work`` terms (``auto``: from ``min_terms``
+    on), or None for numpy."""
     if backend == "numpy":
         return None
     if backend not in ("auto", "numba"):
         raise ValueError(f"backend must be 'auto', 'numpy' or 'numba', got {backend!r}")
-    if backend == "auto" and work < COMPILED_MIN_TERMS:
+    if backend == "auto" and work < min_terms:
         return None
     kernels = _compiled()
     if kernels is None and backend == "numba":
@@ -454,7 +462,8 @@ def window_sums(
         return np.zeros((0, len(m_arr)))
     if starts[0] < 0 or starts[-1] + window > theta.shape[0] - 1 or np.any(np.diff(starts) <= 0):
         raise ValueError("window starts must increase and keep every window inside theta")
-    kernels = _pick(backend, len(m_arr) * int(starts[-1] + window - starts[0]))
+    kernels = _pick(backend, len(m_arr) * int(starts[-1] + window - starts[0]),
+                    COMPILED_MIN_WINDOW_TERMS)
     if kernels is None or m_arr.size == 0:
         return _window_sums_numpy(theta, m_arr, starts, window)
     out = np.empty((len(starts), len(m_arr)))

@@ -110,7 +110,9 @@ def _decimated_differences(angle: NDArray[np.float64], m: int, d: int
     length = n_y - d
 
     def gen() -> Iterator[NDArray[np.float64]]:
-        for a, b in blocks.spans(0, length):
+        # a block of decimated samples strides over m times as many angle samples: keep
+        # the pages it maps in at about one block (every page is touched for m < 512)
+        for a, b in blocks.spans(0, length, max(1, blocks.BLOCK_SAMPLES // m)):
             y = np.asarray(angle[a * m: (b + d - 1) * m + 1: m], dtype=float)
             yield np.diff(y, n=d)
             blocks.release(angle)
@@ -194,7 +196,7 @@ _MU_OF_ALPHA = {2: -2, 0: -1, -1: 0, -2: 1}
 def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
     """B1: sample variance (ddof 1) of the ``N/m`` rate averages over their Allan variance."""
     n = (len(angle) - 1) // m
-    means = np.diff(np.asarray(angle[: n * m + 1 : m], dtype=float))
+    means = np.diff(blocks.decimated(angle[: n * m + 1], m))
     avar = float(np.sum(np.diff(means) ** 2)) / (2.0 * (n - 1))
     return float(np.var(means, ddof=1)) / avar if avar > 0 else 1.0
 

@@ -19,6 +19,7 @@ import pytest
 from analysis import blocks
 from analysis.allan import cumulative_angle, overlapping_allan_variance
 from analysis.figures import bias_stability
+from analysis.noise_id import b1_ratio, lag1_alpha
 from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.tones import find_tones
 
@@ -156,6 +157,26 @@ def test_walking_a_memmap_hands_its_pages_back(tmp_path: Path) -> None:
     unreleased = _rss_kb() - before
     assert unreleased > 50_000  # kB: the whole 64 MB was mapped in
     assert grown < 16_000, grown
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc (Linux)")
+def test_noise_identification_of_a_memmap_maps_in_about_one_block(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The lag-1 and B1 noise identification at m = 64 read the angle decimated: a block
+    of decimated samples must not stride over 64 blocks of the record (a 24 h run at 1 kHz
+    mapped in 150 MB at a time that way)."""
+    monkeypatch.setattr(blocks, "LONG_SAMPLES", 1 << 14)
+    n = 8 << 20
+    path = tmp_path / "angle.f8"
+    with open(path, "wb") as fh:
+        fh.truncate(n * 8)
+    angle = np.memmap(path, dtype=np.float64, mode="r", shape=(n,))
+    before = _rss_kb()
+    assert lag1_alpha(angle, 64) in (-2, -1, 0, 1, 2)
+    assert b1_ratio(angle, 64) == 1.0  # a constant angle: no Allan variance to divide by
+    grown = _rss_kb() - before
+    assert grown < 16_000, grown  # kB; the whole 64 MB before the fix
 
 
 def _bench_line(minutes: float, *options: str) -> re.Match[str]:
