@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import kernels
+from analysis import blocks, kernels
 from analysis.allan import AllanResult, TauGrid, check_sample_rate, resolve_m
 from analysis.confidence import ONE_SIGMA, allan_edf, chi2_interval, local_noise_alpha
 from analysis.errors import NonFiniteSamplesError, TooFewSamplesError
@@ -95,6 +95,25 @@ def gap_summary(valid: ArrayLike) -> GapSummary:
     return GapSummary(len(starts), int((~v).sum()), len(v), starts, stops - starts)
 
 
+def gap_summary_of_index(sample_index: NDArray[np.int64]) -> GapSummary:
+    """:func:`gap_summary` of a record given by the grid index of each present sample
+    (increasing, from 0), read a block at a time: no mask as long as the record."""
+    starts: list[NDArray[np.int64]] = []
+    lengths: list[NDArray[np.int64]] = []
+    previous = -1
+    for a, b in blocks.spans(0, len(sample_index)):
+        index = np.asarray(sample_index[a:b], dtype=np.int64)
+        step = np.diff(np.concatenate(([previous], index)))
+        where = np.flatnonzero(step > 1)
+        starts.append(index[where] - step[where] + 1)
+        lengths.append(step[where] - 1)
+        previous = int(index[-1])
+        blocks.release(sample_index)
+    s = np.concatenate(starts) if starts else np.zeros(0, np.int64)
+    n = np.concatenate(lengths) if lengths else np.zeros(0, np.int64)
+    return GapSummary(len(s), int(n.sum()), previous + 1, s, n)
+
+
 def _stretches_in_samples(valid: NDArray[np.bool_]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Gap-free stretches as (start, stop) indices into the concatenated present samples."""
     starts, stops = valid_stretches(valid)
@@ -103,12 +122,12 @@ def _stretches_in_samples(valid: NDArray[np.bool_]) -> tuple[NDArray[np.int64], 
     return (ends - lengths).astype(np.int64), ends.astype(np.int64)
 
 
-def _shared_mask(arr: NDArray[np.float64]) -> NDArray[np.bool_]:
+def _shared_mask(arr: NDArray[np.float64], offset: int = 0) -> NDArray[np.bool_]:
     finite = np.isfinite(arr)
     if np.isinf(arr).any():
         r, c = np.argwhere(np.isinf(arr))[0]
         raise NonFiniteSamplesError(
-            f"sample {r} axis {c} is infinite; only NaN marks a missing sample"
+            f"sample {offset + r} axis {c} is infinite; only NaN marks a missing sample"
         )
     valid = finite[:, 0]
     if not (finite == valid[:, None]).all():
@@ -189,6 +208,53 @@ def _prepare(samples: ArrayLike, fs: float, input_kind: str) -> _Gapped:
     return _Gapped(theta, np.flatnonzero(valid).astype(np.int64), starts, stops, arr.shape[0], fs)
 
 
+def _prepare_long(samples: NDArray[np.float64], fs: float, input_kind: str,
+                  angle_out: NDArray[np.float64]) -> _Gapped:
+    """:func:`_prepare` of a long record (a memmap), a block at a time: the angle of the
+    present samples goes to ``angle_out`` (shape (present + 1, k)); the present samples'
+    grid positions are not kept (the overlapping estimator does not need them)."""
+    arr = samples[:, None] if samples.ndim == 1 else samples
+    if input_kind not in ("rate", "angle_increment"):
+        raise ValueError(f"input_kind must be 'rate' or 'angle_increment', got {input_kind!r}")
+    total = np.zeros(arr.shape[1])
+    count = 0
+    edges: list[int] = []  # grid indices where presence flips
+    was_present = False
+    for a, b in blocks.spans(0, arr.shape[0]):
+        block = np.asarray(arr[a:b], dtype=np.float64)
+        valid = _shared_mask(block, a)
+        total += block[valid].sum(axis=0)
+        count += int(valid.sum())
+        flips = np.flatnonzero(np.diff(np.concatenate(([was_present], valid)).astype(np.int8)))
+        edges.extend((a + flips).tolist())
+        was_present = bool(valid[-1])
+        blocks.release(arr)
+    if count < 2:
+        raise TooFewSamplesError(f"{count} present samples are too few for an Allan variance")
+    if angle_out.shape != (count + 1, arr.shape[1]):
+        raise ValueError(f"angle_out must have shape {(count + 1, arr.shape[1])}, "
+                         f"got {angle_out.shape}")
+    bounds = np.asarray([*edges, *([arr.shape[0]] if was_present else [])], dtype=np.int64)
+    lengths = bounds[1::2] - bounds[0::2]
+    stops = np.cumsum(lengths).astype(np.int64)
+    mean = total / count
+    angle_out[0] = 0.0
+    carry, done = np.zeros(arr.shape[1]), 0
+    for a, b in blocks.spans(0, arr.shape[0]):
+        block = np.asarray(arr[a:b], dtype=np.float64)
+        increments = block[np.isfinite(block[:, 0])] - mean
+        if input_kind == "rate":
+            increments = increments / fs
+        if len(increments):
+            increments[0] += carry
+            np.cumsum(increments, axis=0, out=angle_out[done + 1 : done + 1 + len(increments)])
+            carry = np.array(angle_out[done + len(increments)])
+            done += len(increments)
+        blocks.release(arr)
+        blocks.release(angle_out)
+    return _Gapped(angle_out, np.zeros(0, np.int64), stops - lengths, stops, arr.shape[0], fs)
+
+
 def _keep_usable(m: NDArray[np.int64], n_terms: NDArray[np.int64], explicit: bool, g: _Gapped
                  ) -> NDArray[np.bool_]:
     usable = n_terms > 0
@@ -265,6 +331,7 @@ def gap_allan_variance(
     taus: TauGrid | ArrayLike = "log",
     input_kind: str = "rate",
     confidence: float = ONE_SIGMA,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> AllanResult:
     """Allan variance of a record whose missing samples are NaN (see the module docstring).
 
@@ -285,6 +352,10 @@ def gap_allan_variance(
         What the samples are.
     confidence : float
         Two-sided level of the chi-square interval.
+    angle_out : ndarray, shape (present samples + 1, k), optional
+        Overlapping estimator of a long record (:func:`analysis.blocks.is_long`, e.g. a
+        memmap): the angle of the present samples is written here (e.g. a memmap) and the
+        record walked a block at a time, in bounded memory; the same numbers to rounding.
 
     Returns
     -------
@@ -309,7 +380,10 @@ def gap_allan_variance(
     C. A. Greenhall and W. J. Riley, Proc. 35th PTTI (2003) for the edf of each stretch.
     """
     fs = check_sample_rate(sample_rate_hz)
-    g = _prepare(samples, fs, input_kind)
+    long = (angle_out is not None and estimator == "overlapping"
+            and blocks.is_long(np.shape(samples)[0]))
+    g = (_prepare_long(np.asarray(samples), fs, input_kind, angle_out) if long and angle_out
+         is not None else _prepare(samples, fs, input_kind))
     explicit = not isinstance(taus, str)
     m = resolve_m(taus, g.n_grid, fs)
     if estimator == "overlapping":

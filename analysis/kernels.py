@@ -13,8 +13,9 @@ difference, the square and the sum into one pass over ``theta`` and spreads the 
 over the cores; the results agree to rounding (about 1e-15 relative). ``backend="auto"``
 takes the compiled one when numba can be imported and the work is large
 (:data:`COMPILED_MIN_TERMS`; :data:`COMPILED_MIN_WINDOW_TERMS` for the DAVAR): numba's
-import and the load of its cached kernels cost 0.6-1.1 s on this machine, more than the compiled kernels save on a short record (a
-one-hour CSV analyses as fast in numpy as with that start-up). The choice depends on the
+import and the load of its cached kernels cost 0.6-1.1 s on this machine, more than the
+compiled kernels save on a short record (a one-hour CSV analyses as fast in numpy as with
+that start-up). The choice depends on the
 work alone, never on what the process ran before, so the same record gives the same
 numbers in any process (a fleet worker and the command line agree to the last bit).
 
@@ -314,6 +315,8 @@ def overlapping_stretch_sums(
         raise ValueError(
             "stretches must cover the samples in order, each starting where the last stopped"
         )
+    if blocks.is_mapped(theta) and blocks.is_long(theta.shape[0]):
+        return _stretch_sums_long(theta, m_arr, starts, stops, backend)
     theta_t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64).T)
     kernels = _pick(backend, _overlapping_work(theta_t.shape[1], m_arr, theta_t.shape[0]))
     if kernels is None or m_arr.size == 0:
@@ -321,6 +324,33 @@ def overlapping_stretch_sums(
     out = np.empty((len(m_arr), theta_t.shape[0]))
     with _COMPILED_LAUNCH:
         kernels.oadev_stretch_sums(theta_t, m_arr, starts, stops, out)
+    return out
+
+
+def _stretch_sums_long(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
+                       starts: NDArray[np.int64], stops: NDArray[np.int64], backend: Backend
+                       ) -> NDArray[np.float64]:
+    """:func:`overlapping_stretch_sums` of a memory-mapped angle: a stretch longer than a
+    block through :func:`overlapping_sums` (which walks it a block at a time), shorter ones
+    in groups spanning at most a block; the angle's pages are handed back after each."""
+    out = np.zeros((len(m_arr), theta.shape[1]))
+    i = 0
+    while i < len(starts):
+        a = int(starts[i])
+        j = i + 1
+        while j < len(starts) and int(stops[j]) - a <= blocks.BLOCK_SAMPLES:
+            j += 1
+        b = int(stops[j - 1])
+        fits = 2 * m_arr <= int(np.max(stops[i:j] - starts[i:j]))  # any difference at all
+        if fits.any():
+            part = theta[a : b + 1]
+            if j == i + 1:
+                out[fits] += overlapping_sums(part, m_arr[fits], backend=backend)
+            else:
+                out[fits] += overlapping_stretch_sums(part, m_arr[fits], starts[i:j] - a,
+                                                      stops[i:j] - a, backend=backend)
+        blocks.release(theta)
+        i = j
     return out
 
 

@@ -36,11 +36,21 @@ from pathlib import Path
 import numpy as np
 
 from devices.protocols import DeviceDescription
-from station.model.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys, utc_now
+from station.model.documents import (
+    Descriptor,
+    EventBatch,
+    LogEntry,
+    RunStart,
+    RunStop,
+    data_keys,
+    utc_now,
+)
 from station.storage.hdf5_writer import RunFileWriter
 
 #: Samples written per batch (and per flush of the writer).
 BATCH = 1 << 18
+#: Samples each gap of ``--gaps`` loses.
+GAP_SAMPLES = 1000
 
 #: Printed by a child at exit: its own peak RSS (VmHWM of its address space). A child's
 #: ru_maxrss also counts the parent's peak where the child was forked (or vforked) from it.
@@ -115,9 +125,14 @@ def max_relative_difference(a: str, b: str) -> float:
     return worst
 
 
-def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int = 1) -> int:
-    """Write a simulated one-unit run file; returns its samples per axis."""
+def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int = 1,
+              gaps: int = 0) -> int:
+    """Write a simulated one-unit run file; returns its samples per axis (on the time grid).
+    ``gaps`` batches spread over the run lose their first :data:`GAP_SAMPLES` samples (a
+    gap the recorder counted by the device counter, logged as the recorder logs it)."""
     n = int(round(hours * 3600 * rate_hz))
+    n_batches = -(-n // BATCH)
+    gapped = {int(k) for k in np.linspace(0, n_batches, gaps + 2)[1:-1]} if gaps else set()
     axes = tuple("xyzuvw"[:n_axes])
     desc = DeviceDescription(
         model="SIM",
@@ -146,9 +161,12 @@ def write_run(path: Path, hours: float, rate_hz: float, n_axes: int, seed: int =
         walk = drift[-1]
         rate = 0.002 + 0.01 * rng.standard_normal((b - a, n_axes)) + drift
         counter = np.arange(a, b, dtype=np.int64)
-        writer(
-            EventBatch("unit1", seq, rate, counter, counter / rate_hz, np.zeros(b - a, np.uint32))
-        )
+        log: tuple[LogEntry, ...] = ()
+        if seq in gapped and b - a > GAP_SAMPLES:
+            rate, counter = rate[GAP_SAMPLES:], counter[GAP_SAMPLES:]
+            log = (LogEntry("gap", a / rate_hz, 1, GAP_SAMPLES, a - 1, "counter"),)
+        writer(EventBatch("unit1", seq, rate, counter, counter / rate_hz,
+                          np.zeros(len(counter), np.uint32), log=log))
         writer.flush()
     writer(RunStop(utc_now(), "duration"))
     return n
@@ -205,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
         metavar="N",
         help="records longer than N samples take the block-wise path",
     )
+    p.add_argument("--gaps", type=int, default=0, metavar="K",
+                   help=f"K gaps of {GAP_SAMPLES} samples spread over the run (default 0)")
     p.add_argument("--command", choices=COMMANDS, default="analyze")
     p.add_argument("--compare", action="store_true",
                    help="also run it with records read in one piece; print max_rel_diff")
@@ -216,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         path = args.keep or Path(tmp) / "run.h5"
         if not path.exists():
-            write_run(path, args.hours, args.rate_hz, args.axes)
+            write_run(path, args.hours, args.rate_hz, args.axes, gaps=args.gaps)
         profile = write_profile(Path(tmp) / "profile.toml", tuple("xyzuvw"[: args.axes]),
                                 min(300.0, args.hours * 360.0))
         command = command_argv(args.command, path, profile, Path(tmp))

@@ -19,6 +19,7 @@ import pytest
 from analysis import blocks
 from analysis.allan import cumulative_angle, overlapping_allan_variance
 from analysis.figures import bias_stability
+from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
 from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.tones import find_tones
@@ -237,3 +238,43 @@ def test_grade_peak_is_flat_in_the_run_length_with_the_numbers_of_one_piece() ->
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
     assert diff <= 1e-12, diff
+
+
+def test_gapped_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The overlapping Allan variance of a long record with gaps (a memmap, its angle in
+    another) equals the in-memory one: the same stretches, terms, edf and noise types."""
+    x = _record()
+    x[5000:5037] = np.nan
+    x[20_100:20_600] = np.nan
+    x[40_001] = np.nan
+    x[59_990:] = np.nan
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = gap_allan_variance(x, 100.0)
+    mm = _memmap(tmp_path, x)
+    present = int(np.isfinite(x).sum())
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(present + 1, 1))
+    got = gap_allan_variance(mm, 100.0, angle_out=angle)
+    np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
+    for name in ("m", "n_terms", "n_clusters", "edf", "noise_alpha"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(whole, name), err_msg=name)
+    summary = gap_summary_of_index(np.flatnonzero(np.isfinite(x)))
+    assert (summary.count, summary.missing_samples) == (3, 37 + 500 + 1)
+
+
+@pytest.mark.slow
+def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one_piece(
+) -> None:
+    """``station grade --json`` of runs with three gaps through the block-wise path (its
+    sample index and the gapped Allan sums in scratch memmaps): flat from 2 to 10 minutes
+    at 2 kHz (measured 159 -> 159 MB; the in-memory path 204 -> 263 MB), and the numbers of
+    the in-memory path: the Allan values to rounding, the fitted terms to the fit's
+    convergence (measured 9e-16 here, 2.6e-9 on a 2 h x 1 kHz x 3 axes run)."""
+    short_line = _bench_line(2, "--command", "grade", "--gaps", "3", "--compare")
+    short, diff = int(short_line.group(1)), float(short_line.group(3))
+    long = _bench_memory(10, "--command", "grade", "--gaps", "3")
+    assert 50 < short < 400 and 50 < long < 400, (short, long)
+    assert long - short < 20, (short, long)
+    assert diff <= 1e-6, diff

@@ -29,7 +29,7 @@ from analysis.deviations import (
 )
 from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients
-from analysis.gaps import gap_summary
+from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
 from analysis.outliers import (
     SpikeDetection,
@@ -250,11 +250,14 @@ def _replaced(x: NDArray[np.float64], detection: SpikeDetection,
 
 
 def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
-           taus: str | np.ndarray) -> AllanResult:
-    if not gapped and estimator == "overlapping" and blocks.is_long(len(grid_rate)):
+           taus: str | np.ndarray, present: int) -> AllanResult:
+    """The Allan variance of one axis on its time grid (``present`` samples not NaN)."""
+    if estimator == "overlapping" and blocks.is_long(len(grid_rate)):
         # a long record: its angle in a scratch memmap, read a block at a time
-        return overlapping_allan_variance(grid_rate, fs, taus=taus,
-                                          angle_out=scratch_array((len(grid_rate) + 1, 1)))
+        angle = scratch_array((present + 1, 1))
+        if gapped:
+            return gap_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
+        return overlapping_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
     return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
                           missing="gap" if gapped else "raise")
 
@@ -272,11 +275,16 @@ def _minus(x: NDArray[np.float64], offset: float) -> NDArray[np.float64]:
 
 
 def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x`` (one axis' present samples) on the record's time grid, NaN in the gaps (in a
+    scratch memmap, a block at a time, when the record is long)."""
     if record.sample_index is None:
         return x
-    out = np.full(record.span_samples, np.nan)
-    out[record.sample_index] = x
-    return out
+    if not blocks.is_long(record.span_samples):
+        out = np.full(record.span_samples, np.nan)
+        out[record.sample_index] = x
+        return out
+    column = RateRecord(x[:, None], record.sample_rate_hz, ("x",), sample_index=record.sample_index)
+    return column.gridded(0, out=scratch_array((record.span_samples,)))
 
 
 def analyze_record(
@@ -335,7 +343,7 @@ def analyze_record(
         )
     gaps = GapReport()  # a record without gaps (no mask as long as the record)
     if gapped:
-        summary = gap_summary(record.present_mask())
+        summary = gap_summary_of_index(record.sample_index)
         gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     long = blocks.is_long(record.n_samples)
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
@@ -350,16 +358,16 @@ def analyze_record(
     out = []
     for i, name in enumerate(record.axis_names):
         grid_rate = _on_grid(record, cleaned[i])
-        axis = (
-            joint.axis(i) if joint is not None else _allan(grid_rate, fs, gapped, estimator, taus)
-        )
+        axis = (joint.axis(i) if joint is not None
+                else _allan(grid_rate, fs, gapped, estimator, taus, record.n_samples))
         alternative, label = None, ""
         if reports[i].count:
             detection = reports[i].detection
             assert detection is not None
             other = (record.rate_deg_s[:, i] if reports[i].removed
                      else _replaced(record.rate_deg_s[:, i], detection, record.sample_index))
-            alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus)
+            alternative = _allan(_on_grid(record, other), fs, gapped, estimator, taus,
+                                 record.n_samples)
             label = "spikes kept" if reports[i].removed else "spikes removed"
         tones = find_tones(grid_rate, fs)
         fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,

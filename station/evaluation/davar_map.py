@@ -138,6 +138,7 @@ def davar_grid(unit: UnitGrade, axis_index: int = 0, *,
     record = unit.unit.record
     axis = unit.axes[axis_index]
     column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
-    grid = davar_grid_of(record.gridded(column), record.sample_rate_hz, axis.axis,
-                         settings=settings)
+    long = record.sample_index is not None and blocks.is_long(record.span_samples)
+    rate = record.gridded(column, out=scratch_array((record.span_samples,)) if long else None)
+    grid = davar_grid_of(rate, record.sample_rate_hz, axis.axis, settings=settings)
     return None if grid is None else replace(grid, warmup_s=unit.warmup_discarded_s)

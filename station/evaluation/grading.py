@@ -59,6 +59,7 @@ from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.sheet_header import SheetHeader
 from station.model.version import software_version
+from station.storage.scratch import scratch_array
 
 if TYPE_CHECKING:
     from station.evaluation.sequence_grading import UnitSequence
@@ -475,6 +476,11 @@ def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
     )
 
 
+
+def _scratch_index(n: int) -> np.ndarray:
+    """A scratch memmap for the sample index of a long record's part (bounded memory)."""
+    return scratch_array((n,), np.int64)
+
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
@@ -489,7 +495,8 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     record = unit.record
     fs = record.sample_rate_hz
     try:
-        kept = record.slice_time(profile.warmup_s) if profile.warmup_s > 0 else record
+        kept = (record.slice_time(profile.warmup_s, index_out=_scratch_index)
+                if profile.warmup_s > 0 else record)
     except RecordFormatError:
         kept = None
     if kept is None or kept.n_samples < MIN_SAMPLES:

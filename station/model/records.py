@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from analysis import blocks
 from station.errors import RecordFormatError
 
 
@@ -66,12 +68,27 @@ class RateRecord:
         mask[slice(None) if self.sample_index is None else self.sample_index] = True
         return mask
 
-    def gridded(self, column: int) -> NDArray[np.float64]:
-        """One axis' rate (deg/s) on the time grid, NaN where a sample is missing."""
+    def gridded(self, column: int, out: NDArray[np.float64] | None = None
+                ) -> NDArray[np.float64]:
+        """One axis' rate (deg/s) on the time grid, NaN where a sample is missing; written
+        into ``out`` (shape (:attr:`span_samples`,), e.g. a memmap for a long record: a
+        block at a time) when given."""
         if self.sample_index is None:
             return self.rate_deg_s[:, column]
-        out = np.full(self.span_samples, np.nan)
-        out[self.sample_index] = self.rate_deg_s[:, column]
+        if out is None:
+            out = np.full(self.span_samples, np.nan)
+            out[self.sample_index] = self.rate_deg_s[:, column]
+            return out
+        if out.shape != (self.span_samples,):
+            raise ValueError(f"out must have shape {(self.span_samples,)}, got {out.shape}")
+        done = 0  # grid indices below this are written
+        for a, b in blocks.spans(0, self.n_samples):
+            index = np.asarray(self.sample_index[a:b])
+            out[done : int(index[-1]) + 1] = np.nan
+            out[index] = self.rate_deg_s[a:b, column]
+            done = int(index[-1]) + 1
+            for arr in (out, self.sample_index, self.rate_deg_s):
+                blocks.release(arr)
         return out
 
     def on_time_grid(self) -> NDArray[np.float64]:
@@ -98,9 +115,12 @@ class RateRecord:
                           (self.axis_names[index],), self.source, self.temperature_c,
                           self.sample_index)
 
-    def slice_time(self, start_s: float = 0.0, stop_s: float | None = None) -> RateRecord:
+    def slice_time(self, start_s: float = 0.0, stop_s: float | None = None, *,
+                   index_out: Callable[[int], NDArray[np.int64]] | None = None) -> RateRecord:
         """The part of the record between ``start_s`` and ``stop_s`` (seconds of true time
-        from its start, gaps included); the slice starts at its first sample present."""
+        from its start, gaps included); the slice starts at its first sample present.
+        ``index_out(n)`` gives the array (e.g. a memmap) a long record's sliced sample
+        index is written to, a block at a time."""
         i0 = max(0, int(round(start_s * self.sample_rate_hz)))
         i1 = self.span_samples if stop_s is None else int(round(stop_s * self.sample_rate_hz))
         if self.sample_index is None:
@@ -113,19 +133,26 @@ class RateRecord:
                 f"{self.duration_s:.1f} s record"
             )
         temp = None if self.temperature_c is None else self.temperature_c[k0:k1]
-        index = None if self.sample_index is None else regular_or_none(self.sample_index[k0:k1])
+        index = (None if self.sample_index is None
+                 else regular_or_none(self.sample_index[k0:k1], index_out))
         return RateRecord(self.rate_deg_s[k0:k1], self.sample_rate_hz, self.axis_names,
                           self.source, temp, index)
 
 
-def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None:
+def regular_or_none(sample_index: NDArray[np.int64],
+                    out: Callable[[int], NDArray[np.int64]] | None = None
+                    ) -> NDArray[np.int64] | None:
     """Grid indices made to start at 0, or None when they have no gap (a contiguous record).
+    A long index (:func:`analysis.blocks.is_long`) is read a block at a time and, shifted,
+    written to ``out(len)`` when ``out`` is given.
 
     Raises
     ------
     RecordFormatError
         Indices that do not increase (two samples at one time, or out of order).
     """
+    if out is not None and blocks.is_long(len(sample_index)):
+        return _regular_or_none_long(sample_index, out)
     index = np.asarray(sample_index, dtype=np.int64)
     if len(index) and np.any(np.diff(index) < 1):
         row = int(np.argmax(np.diff(index) < 1)) + 1
@@ -134,3 +161,25 @@ def regular_or_none(sample_index: NDArray[np.int64]) -> NDArray[np.int64] | None
         )
     index = index - index[0] if len(index) else index
     return None if not len(index) or index[-1] == len(index) - 1 else index
+
+
+def _regular_or_none_long(sample_index: NDArray[np.int64],
+                          out: Callable[[int], NDArray[np.int64]]) -> NDArray[np.int64] | None:
+    n = len(sample_index)
+    first, last = int(sample_index[0]), int(sample_index[-1])
+    previous = first - 1
+    for a, b in blocks.spans(0, n):
+        step = np.diff(np.concatenate(([previous], np.asarray(sample_index[a:b]))))
+        if np.any(step < 1):
+            raise RecordFormatError(f"sample {a + int(np.argmax(step < 1))} is not later than "
+                                    f"the one before it on the time grid")
+        previous = int(sample_index[b - 1])
+        blocks.release(sample_index)
+    if last - first == n - 1:
+        return None
+    shifted = out(n)
+    for a, b in blocks.spans(0, n):
+        np.subtract(sample_index[a:b], first, out=shifted[a:b])
+        blocks.release(sample_index)
+        blocks.release(shifted)
+    return shifted

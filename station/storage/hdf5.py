@@ -325,22 +325,32 @@ def gap_sample_index(counter: NDArray[np.int64], receive_time_s: NDArray[np.floa
     unit's samples made before it was first read) are outside the record. Fields are read
     by name, so a log with more columns reads the same.
     """
+    at, missing = gap_insertions(counter, receive_time_s, events)
+    if not len(at):
+        return None
+    inserted = np.zeros(len(counter), dtype=np.int64)
+    inserted[at] = missing
+    return np.arange(len(counter), dtype=np.int64) + np.cumsum(inserted)
+
+
+def gap_insertions(counter: NDArray[np.int64], receive_time_s: NDArray[np.float64],
+                   events: NDArray[np.void]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """(sample positions, samples missing before each) of the gaps inside the record, as
+    :func:`gap_sample_index` places them: increasing positions, no zero count. The
+    arrays may be memmaps: each gap is found by a binary search."""
     n = len(counter)
     names = events.dtype.names or ()
     gaps = events[events["kind"] == b"gap"] if "kind" in names else events[:0]
-    if n == 0 or len(gaps) == 0:
-        return None
-    inserted = np.zeros(n, dtype=np.int64)
-    for row in gaps:
+    inserted: dict[int, int] = {}
+    for row in gaps if n else ():
         after = int(row["after_counter"]) if "after_counter" in names else -1
         i = int(np.searchsorted(counter, after, side="right")) if after >= 0 else -1
         if i <= 0 or counter[i - 1] != after:
             i = int(np.searchsorted(receive_time_s, float(row["time_s"]), side="left"))
         if 0 < i < n:
-            inserted[i] += int(row["missing_samples"])
-    if not inserted.any():
-        return None
-    return np.arange(n, dtype=np.int64) + np.cumsum(inserted)
+            inserted[i] = inserted.get(i, 0) + int(row["missing_samples"])
+    at = np.array(sorted(k for k, v in inserted.items() if v), dtype=np.int64)
+    return at, np.array([inserted[int(k)] for k in at], dtype=np.int64)
 
 
 def unit_record(unit: UnitData, source: str) -> RateRecord:

@@ -5,8 +5,9 @@ datasets into axis-major scratch arrays (:mod:`station.storage.scratch`), readin
 chunks at a time and only those columns; the :class:`RateRecord` it returns views them
 (``rate_deg_s[:, i]`` is one contiguous axis). ``station analyze`` reads its unit so
 (:func:`read_long_unit`), and :func:`station.storage.runs.open_run` every unit of a run
-(grading, reports). Short units, and units with gaps (whose time grid the in-memory
-reader builds), are read by :func:`station.storage.hdf5.read_unit`.
+(grading, reports); a unit with gaps gets its sample index (the grid index of each
+sample, :func:`station.storage.hdf5.gap_sample_index`) in a scratch memmap as well. Short
+units are read by :func:`station.storage.hdf5.read_unit`.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from station.storage.hdf5 import (
     _check_inside,
     chosen_unit,
     committed_events,
+    gap_insertions,
     open_run_file,
     text_value,
 )
@@ -33,7 +35,7 @@ CHUNK_ROWS = 1 << 16
 
 
 def read_long_unit(path: str | Path, unit: str | None = None) -> RateRecord | None:
-    """One unit's record in scratch memmaps when it is long and has no gaps; else None.
+    """One unit's record in scratch memmaps when it is long; else None.
 
     Raises
     ------
@@ -46,8 +48,9 @@ def read_long_unit(path: str | Path, unit: str | None = None) -> RateRecord | No
 
 
 def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
-    """Unit ``uid`` of the open run file ``f`` in scratch memmaps when it is long and has
-    no gaps; else None (read it into memory). ``source`` names the record in reports.
+    """Unit ``uid`` of the open run file ``f`` in scratch memmaps when it is long (with
+    gaps, its sample index too); else None (read it into memory). ``source`` names the
+    record in reports.
 
     Raises
     ------
@@ -65,20 +68,45 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
     if not blocks.is_long(n):
         return None
     events = committed_events(f, uid)
-    if np.any(events["kind"] == b"gap"):
-        return None
-    _check_inside(f, g, ["rate", *(["temperature"] if "temperature" in g else [])], 0, n)
+    gapped = bool(np.any(events["kind"] == b"gap"))
+    columns = ["rate", *(["temperature"] if "temperature" in g else []),
+               *(["counter", "receive_time"] if gapped else [])]
+    for name in columns[1:]:
+        g[name].refresh()
+    n = min(n, *(g[name].shape[0] for name in columns))
+    _check_inside(f, g, columns, 0, n)
     axes = tuple(json.loads(text_value(g.attrs["axes"])))
     rate = scratch_array((len(axes), n))
     for a in range(0, n, CHUNK_ROWS):
         b = min(a + CHUNK_ROWS, n)
         rate[:, a:b] = np.asarray(g["rate"][a:b], dtype=np.float64).T
         blocks.release(rate)
-    temperature = None
-    if "temperature" in g:
-        temperature = scratch_array((n,))
-        for a in range(0, n, CHUNK_ROWS):
-            b = min(a + CHUNK_ROWS, n)
-            temperature[a:b] = g["temperature"][a:b]
-            blocks.release(temperature)
-    return RateRecord(rate.T, float(g.attrs["sample_rate_hz"]), axes, source, temperature, None)
+    temperature = _column(g, "temperature", n, np.float64) if "temperature" in g else None
+    index = _sample_index(g, events, n) if gapped else None
+    return RateRecord(rate.T, float(g.attrs["sample_rate_hz"]), axes, source, temperature, index)
+
+
+def _column(g: h5py.Group, name: str, n: int, dtype: type) -> np.memmap:
+    """The first ``n`` rows of a 1-D dataset in a scratch memmap, a chunk at a time."""
+    out = scratch_array((n,), dtype)
+    for a in range(0, n, CHUNK_ROWS):
+        b = min(a + CHUNK_ROWS, n)
+        out[a:b] = g[name][a:b]
+        blocks.release(out)
+    return out
+
+
+def _sample_index(g: h5py.Group, events: np.ndarray, n: int) -> np.memmap | None:
+    """The grid index of each of the ``n`` samples (:func:`gap_sample_index`) in a scratch
+    memmap, or None when no gap falls inside the record."""
+    at, missing = gap_insertions(_column(g, "counter", n, np.int64),
+                                 _column(g, "receive_time", n, np.float64), events)
+    if not len(at):
+        return None
+    shift = np.concatenate(([0], np.cumsum(missing)))
+    index = scratch_array((n,), np.int64)
+    for a in range(0, n, CHUNK_ROWS):
+        k = np.arange(a, min(a + CHUNK_ROWS, n), dtype=np.int64)
+        index[a : a + len(k)] = k + shift[np.searchsorted(at, k, side="right")]
+        blocks.release(index)
+    return index
