@@ -68,12 +68,18 @@ class DavarAnswer:
 def _davar_of(record: RateRecord, request: DavarRequest) -> DavarResult:
     """The DAVAR of every axis of the record; a long one a group of windows of one axis at
     a time, the angle in a scratch memmap (bounded memory, :mod:`analysis.davar_long`)."""
-    samples = record.on_time_grid()
     missing: Missing = "gap" if record.missing_samples else "raise"
-    if not blocks.is_long(samples.shape[0]):
-        return dynamic_allan_variance(samples, record.sample_rate_hz, window_s=request.window_s,
-                                      step_s=request.step_s, missing=missing)
+    if not blocks.is_long(record.span_samples):
+        return dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
+                                      window_s=request.window_s, step_s=request.step_s,
+                                      missing=missing)
     plan = plan_davar(record.sample_rate_hz, request.window_s, request.step_s, "log")
+    samples = record.rate_deg_s
+    if record.sample_index is not None:  # the time grid, NaN in the gaps, an axis a row
+        grid = scratch_array((len(record.axis_names), record.span_samples))
+        for c in range(len(record.axis_names)):
+            record.gridded(c, out=grid[c])
+        samples = grid.T
     return dynamic_allan_variance_long(samples, record.sample_rate_hz,
                                        window_s=request.window_s, step_s=request.step_s,
                                        missing=missing,
