@@ -126,15 +126,15 @@ def _group_angle(column: NDArray[np.float64], a: int, b: int, scale: float,
     for p, q in blocks.spans(a, b):
         v = np.asarray(column[p:q], dtype=np.float64)
         blocks.release(column)
-        increments = (v - mean) * scale
         bad = ~np.isfinite(v)
-        if bad.any():
-            nan = np.isnan(v)
-            if not gap or not nan[bad].all():
-                first = p + int(np.argmax(bad))
-                raise NonFiniteSamplesError(
-                    f"non-finite sample {first} ({column[first]}); remove or interpolate it "
-                    f"first" + ("" if gap else ", or read NaN as missing (missing='gap')"))
+        nan = np.isnan(v) if bad.any() else None
+        if nan is not None and (not gap or not nan[bad].all()):
+            first = p + int(np.argmax(bad))
+            raise NonFiniteSamplesError(
+                f"non-finite sample {first} ({column[first]}); remove or interpolate it "
+                f"first" + ("" if gap else ", or read NaN as missing (missing='gap')"))
+        increments = (v - mean) * scale
+        if nan is not None:
             edges = np.flatnonzero(np.diff(np.concatenate(([0], nan.view(np.int8), [0]))))
             runs.append(edges.reshape(-1, 2) + p)
             increments[nan] = 0.0
