@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from analysis import blocks
-from analysis.allan import cumulative_angle, overlapping_allan_variance
+from analysis.allan import cluster_allan_variance, cumulative_angle, overlapping_allan_variance
 from analysis.figures import bias_stability
 from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
@@ -278,3 +278,20 @@ def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
     assert diff <= 1e-6, diff
+
+
+def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None
+) -> None:
+    """The cluster (non-overlapping) estimator of a long record, its angle in a memmap and
+    the cluster edges read a block at a time, equals the in-memory estimator."""
+    x = _record()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = cluster_allan_variance(x, 100.0, taus="log")
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = cluster_allan_variance(mm, 100.0, taus="log", angle_out=angle)
+    np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.n_clusters, whole.n_clusters)

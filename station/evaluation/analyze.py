@@ -18,6 +18,7 @@ from analysis.allan import (
     Estimator,
     allan_variance,
     analysis_log_m,
+    cluster_allan_variance,
     overlapping_allan_variance,
 )
 from analysis.deviations import (
@@ -252,11 +253,14 @@ def _replaced(x: NDArray[np.float64], detection: SpikeDetection,
 def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
            taus: str | np.ndarray, present: int) -> AllanResult:
     """The Allan variance of one axis on its time grid (``present`` samples not NaN)."""
-    if estimator == "overlapping" and blocks.is_long(len(grid_rate)):
-        # a long record: its angle in a scratch memmap, read a block at a time
+    if blocks.is_long(len(grid_rate)) and not (gapped and estimator == "clusters"):
+        # a long record: its angle in a scratch memmap, read a block at a time (the cluster
+        # estimator of a record with gaps needs every sample's grid position: in memory)
         angle = scratch_array((present + 1, 1))
         if gapped:
             return gap_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
+        if estimator == "clusters":
+            return cluster_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
         return overlapping_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
     return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
                           missing="gap" if gapped else "raise")
