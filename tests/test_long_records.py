@@ -18,6 +18,7 @@ import pytest
 
 from analysis import blocks
 from analysis.allan import cluster_allan_variance, cumulative_angle, overlapping_allan_variance
+from analysis.deviations import deviation
 from analysis.figures import bias_stability
 from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
@@ -295,3 +296,22 @@ def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
     np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
     np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
     np.testing.assert_array_equal(got.n_clusters, whole.n_clusters)
+
+
+@pytest.mark.parametrize("kind", ["mdev", "tdev", "hdev", "ohdev", "totdev", "adev"])
+def test_deviations_of_a_memmap_give_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, kind: str
+) -> None:
+    """The modified, Hadamard and total deviations of a long record (its angle in a
+    memmap, the differences summed a block at a time; the total one reflected about the
+    ends without building the reflection) equal the in-memory ones."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = deviation(x, 100.0, kind=kind)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = deviation(mm, 100.0, kind=kind, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.edf, whole.edf)

@@ -389,7 +389,9 @@ def analyze_record(
                           notes=figures.notes + tuple(notes))
         curve = None
         if deviation_kind is not None and deviation_kind != own:
-            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
+            angle = (scratch_array((len(cleaned[i]) + 1, 1)) if blocks.is_long(len(cleaned[i]))
+                     else None)  # a long record's angle out of memory
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked, angle_out=angle)
         gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped)
               if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
