@@ -24,6 +24,7 @@ from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
 from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.tones import find_tones
+from analysis.wavelet import haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -315,3 +316,22 @@ def test_deviations_of_a_memmap_give_the_numbers_of_one_piece(
     np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
     np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
     np.testing.assert_array_equal(got.edf, whole.edf)
+
+
+@pytest.mark.parametrize("ci", ["pw", "eta3"])
+def test_wavelet_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, ci: str
+) -> None:
+    """The Haar wavelet variance of a long record (the GMWM's input: its mean squares from
+    the overlapping Allan sums, the lag-window estimate from the coefficients it reads)
+    equals the in-memory one, intervals included."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = haar_wavelet_variance(x, 100.0, ci=ci)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = haar_wavelet_variance(mm, 100.0, ci=ci, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.wv, whole.wv, rtol=1e-12)
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_allclose(got.edf, whole.edf, rtol=1e-12)

@@ -43,6 +43,7 @@ from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
+from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
 from station.storage.scratch import scratch_array
@@ -389,11 +390,10 @@ def analyze_record(
                           notes=figures.notes + tuple(notes))
         curve = None
         if deviation_kind is not None and deviation_kind != own:
-            angle = (scratch_array((len(cleaned[i]) + 1, 1)) if blocks.is_long(len(cleaned[i]))
-                     else None)  # a long record's angle out of memory
-            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked, angle_out=angle)
-        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped)
-              if use_gmwm else None)
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked,
+                              angle_out=angle_buffer(cleaned[i]))
+        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped,
+                            angle_out=angle_buffer(grid_rate)) if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
                                 analysed, alternative, label, tones, zones, curve, gm))
     return out
