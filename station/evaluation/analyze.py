@@ -347,7 +347,7 @@ def analyze_record(
             f"--start-s/--stop-s"
         )
     gaps = GapReport()  # a record without gaps (no mask as long as the record)
-    if gapped:
+    if record.sample_index is not None:
         summary = gap_summary_of_index(record.sample_index)
         gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     long = blocks.is_long(record.n_samples)
