@@ -17,12 +17,14 @@ import numpy as np
 import pytest
 
 from analysis import blocks
-from analysis.allan import cumulative_angle, overlapping_allan_variance
+from analysis.allan import cluster_allan_variance, cumulative_angle, overlapping_allan_variance
+from analysis.deviations import deviation
 from analysis.figures import bias_stability
 from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
 from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.tones import find_tones
+from analysis.wavelet import haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -256,3 +258,58 @@ def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
     assert diff <= 1e-6, diff
+
+
+def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None
+) -> None:
+    """The cluster (non-overlapping) estimator of a long record, its angle in a memmap and
+    the cluster edges read a block at a time, equals the in-memory estimator."""
+    x = _record()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = cluster_allan_variance(x, 100.0, taus="log")
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = cluster_allan_variance(mm, 100.0, taus="log", angle_out=angle)
+    np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.n_clusters, whole.n_clusters)
+
+
+@pytest.mark.parametrize("kind", ["mdev", "tdev", "hdev", "ohdev", "totdev", "adev"])
+def test_deviations_of_a_memmap_give_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, kind: str
+) -> None:
+    """The modified, Hadamard and total deviations of a long record (its angle in a
+    memmap, the differences summed a block at a time; the total one reflected about the
+    ends without building the reflection) equal the in-memory ones."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = deviation(x, 100.0, kind=kind)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = deviation(mm, 100.0, kind=kind, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.edf, whole.edf)
+
+
+@pytest.mark.parametrize("ci", ["pw", "eta3"])
+def test_wavelet_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, ci: str
+) -> None:
+    """The Haar wavelet variance of a long record (the GMWM's input: its mean squares from
+    the overlapping Allan sums, the lag-window estimate from the coefficients it reads)
+    equals the in-memory one, intervals included."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = haar_wavelet_variance(x, 100.0, ci=ci)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = haar_wavelet_variance(mm, 100.0, ci=ci, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.wv, whole.wv, rtol=1e-12)
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_allclose(got.edf, whole.edf, rtol=1e-12)
