@@ -141,5 +141,6 @@ def _group_angle(column: NDArray[np.float64], a: int, b: int, scale: float,
         increments[0] += carry  # one running sum over the group, as np.cumsum of it all
         np.cumsum(increments, out=increments)
         out[p - a + 1 : q - a + 1] = increments
+        blocks.release(out)  # a memmap's written pages stay in its file, not in this process
         carry = float(increments[-1])
     return np.concatenate(runs) if runs else np.zeros((0, 2), dtype=np.int64)

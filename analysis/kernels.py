@@ -494,17 +494,48 @@ def window_sums(
         raise ValueError("window starts must increase and keep every window inside theta")
     kernels = _pick(backend, len(m_arr) * int(starts[-1] + window - starts[0]),
                     COMPILED_MIN_WINDOW_TERMS)
-    if kernels is None or m_arr.size == 0:
-        return _window_sums_numpy(theta, m_arr, starts, window)
-    out = np.empty((len(starts), len(m_arr)))
     # Few windows per window length: sum segments between window edges once each;
     # many (small steps): block prefix and suffix sums, one pass each.
     shortest_step = int(np.diff(starts).min()) if len(starts) > 1 else window
+    segments = window <= _SEGMENTS_MAX_OVERLAP * shortest_step
+    if segments and blocks.is_mapped(theta) and blocks.is_long(theta.shape[0]):
+        return _mapped_segment_window_sums(theta, m_arr, starts, window, kernels)
+    if kernels is None or m_arr.size == 0:
+        return _window_sums_numpy(theta, m_arr, starts, window)
+    out = np.empty((len(starts), len(m_arr)))
     with _COMPILED_LAUNCH:
-        if window <= _SEGMENTS_MAX_OVERLAP * shortest_step:
+        if segments:
             kernels.window_sums_segments(theta, m_arr, starts, window, out)
         else:
             by_m = np.empty((len(m_arr), len(starts)))
             kernels.window_sums(theta, m_arr, starts, window, by_m)
             out[:] = by_m.T
     return out
+
+
+def _mapped_segment_window_sums(theta: NDArray[np.float64], m_arr: NDArray[np.int64],
+                                starts: NDArray[np.int64], window: int,
+                                kernels: ModuleType | None) -> NDArray[np.float64]:
+    """Window sums of a long memory-mapped angle from the segments between window edges,
+    one m and one block of terms at a time, the angle's pages handed back after each
+    block: the resident angle stays about three blocks whatever the window's length (the
+    compiled kernels would map in the whole stretch of windows)."""
+    out = np.empty((len(starts), len(m_arr)))
+    buf = np.empty(blocks.BLOCK_SAMPLES)
+    for i, m in enumerate(int(v) for v in m_arr):
+        n_terms = window + 1 - 2 * m
+        cuts = np.union1d(starts, starts + n_terms)
+        segment = np.zeros(len(cuts) - 1)
+        for j in range(len(cuts) - 1):
+            for lo, hi in blocks.spans(int(cuts[j]), int(cuts[j + 1])):
+                if kernels is not None:
+                    with _COMPILED_LAUNCH:
+                        segment[j] += kernels.span_sum(theta, m, lo, hi)
+                else:
+                    segment[j] += float(_terms_into(buf, theta, m, lo, hi).sum())
+                blocks.release(theta)
+        first = np.searchsorted(cuts, starts)
+        last = np.searchsorted(cuts, starts + n_terms)
+        out[:, i] = [segment[a:b].sum() for a, b in zip(first, last, strict=True)]
+    return out
+
