@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis.discrepancy import ComparisonCache
 from analysis import gmwm_naming
+from analysis.discrepancy import ComparisonCache
 from analysis.gmwm_naming import GmwmJudgement, judge, new_or_more
 from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
 from analysis.noise import flicker_rate_noise
@@ -169,3 +169,4 @@ def test_an_explanation_the_gmwm_scores_above_the_named_one_is_reported(cache):
     assert named.name == "rate_random_walk" and named.criterion == "gmwm"
     assert [(a.name, a.change) for a in named.alternatives] == [("gauss_markov", "added")]
     assert named.alternatives[0].score > named.score + 6.0
+    assert "about as good or better (GMWM score" in format_reconcile(result)
