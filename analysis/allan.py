@@ -406,6 +406,8 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
     a block is O(N) and the whole all-m grid is O(N log N).
     """
     n = theta.shape[0] - 1
+    if blocks.is_mapped(theta) and blocks.is_long(n):
+        return _cluster_sums_long(theta, np.asarray(m_values, dtype=np.int64))
     order = np.argsort(m_values)
     ms_sorted = np.asarray(m_values, dtype=np.int64)[order]
     out = np.empty((len(ms_sorted), theta.shape[1]))
@@ -426,6 +428,27 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
     result = np.empty_like(out)
     result[order] = out
     return result
+
+
+def _cluster_sums_long(theta: NDArray[np.float64], m_values: NDArray[np.int64]
+                       ) -> NDArray[np.float64]:
+    """:func:`cluster_sums` of a memory-mapped angle, one m at a time: the cluster edges
+    ``theta[k m]`` are read a block of the record at a time (a strided read maps in every
+    page it strides over) and the squared second differences summed with the last two
+    edges carried over; the same sums to rounding."""
+    n = theta.shape[0] - 1
+    out = np.zeros((len(m_values), theta.shape[1]))
+    for i, m in enumerate(int(v) for v in m_values):
+        last = (n // m) * m  # the last cluster edge
+        rows = max(1, blocks.BLOCK_SAMPLES // m) * m
+        carry = np.zeros((0, theta.shape[1]))
+        for a, b in blocks.spans(0, last + 1, rows):
+            edges = np.concatenate((carry, np.asarray(theta[a:b:m], dtype=np.float64)))
+            d = np.diff(edges, n=2, axis=0)
+            out[i] += np.einsum("jk,jk->k", d, d)
+            carry = edges[-2:]
+            blocks.release(theta)
+    return out
 
 
 # ---------------------------------------------------------------------------- estimators
@@ -531,6 +554,7 @@ def cluster_allan_variance(
     taus: TauGrid | ArrayLike = "all",
     input_kind: InputKind = "rate",
     confidence: float = ONE_SIGMA,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> AllanResult:
     """Non-overlapping (cluster) Allan variance, Lv et al. 2015, eq. 1-2.
 
@@ -541,11 +565,12 @@ def cluster_allan_variance(
     ``1/sqrt(2(J-1))`` (``relative_error``) assumes ``J - 1`` independent differences,
     which adjacent cluster differences are not (white rate noise: edf about 2(J-1)/3).
 
-    Parameters and raised errors are those of :func:`overlapping_allan_variance`; the
+    Parameters and raised errors are those of :func:`overlapping_allan_variance` (with
+    ``angle_out`` a long record's angle is kept there and read a block at a time); the
     default grid is every m (``"all"``), as in the paper.
     """
     fs = check_sample_rate(sample_rate_hz)
-    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
     n = theta.shape[0] - 1
     m = resolve_m(taus, n, fs)
     sums = cluster_sums(theta, m)

@@ -141,16 +141,28 @@ class DavarResult(AllanDeviationMixin):
 
 
 @dataclass(frozen=True)
-class _Plan:
+class DavarPlan:
+    """The windows of a DAVAR: sample rate ``fs`` (Hz), window ``window`` and ``step``
+    (samples), averaging factors ``m`` (samples)."""
+
     fs: float
     window: int
     step: int
     m: NDArray[np.int64]
 
 
-def _plan(
+def plan_davar(
     sample_rate_hz: float, window_s: float, step_s: float | None, taus: TauGrid | ArrayLike
-) -> _Plan:
+) -> DavarPlan:
+    """The plan of a DAVAR's windows (see :func:`dynamic_allan_variance` for the arguments).
+
+    Raises
+    ------
+    InvalidWindowError
+        If the window or step is under one sample, or too short for the tau grid.
+    InvalidSampleRateError
+        If the sample rate is not a finite positive number.
+    """
     fs = check_sample_rate(sample_rate_hz)
     window = _whole_samples("window", window_s, fs)
     step = max(1, window // 10) if step_s is None else _whole_samples("step", step_s, fs)
@@ -158,7 +170,7 @@ def _plan(
         m = resolve_m(taus, window, fs)
     except TooFewSamplesError as exc:
         raise InvalidWindowError(f"window of {window} samples: {exc}") from exc
-    return _Plan(fs, window, step, m)
+    return DavarPlan(fs, window, step, m)
 
 
 def _whole_samples(what: str, seconds: float, fs: float) -> int:
@@ -174,7 +186,14 @@ def _whole_samples(what: str, seconds: float, fs: float) -> int:
     return samples
 
 
-def _window_starts(n_samples: int, plan: _Plan) -> NDArray[np.int64]:
+def window_starts(n_samples: int, plan: DavarPlan) -> NDArray[np.int64]:
+    """Sample index of each window's start in a record of ``n_samples``.
+
+    Raises
+    ------
+    TooFewSamplesError
+        If the record is shorter than one window.
+    """
     if n_samples < plan.window:
         raise TooFewSamplesError(
             f"the record has {n_samples} samples ({n_samples / plan.fs:g} s), fewer than one "
@@ -183,10 +202,11 @@ def _window_starts(n_samples: int, plan: _Plan) -> NDArray[np.int64]:
     return np.arange(0, n_samples - plan.window + 1, plan.step, dtype=np.int64)
 
 
-def _finish(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: _Plan, n_samples: int,
-            *, confidence: float, squeeze: bool) -> DavarResult:
-    """Scale window sums (n_windows, n_tau, k) to Allan variances (in place) and attach
-    intervals."""
+def finish_davar(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: DavarPlan,
+                 n_samples: int, *, confidence: float, squeeze: bool) -> DavarResult:
+    """The DAVAR of window sums of ``Delta_m^2`` (n_windows, n_tau, k), scaled to Allan
+    variances in place (Zhang 2015, eq. 6), with each cell's edf and interval; ``squeeze``
+    drops the axis dimension of a one-axis record."""
     m = plan.m
     n_terms = plan.window + 1 - 2 * m
     tau = m / plan.fs
@@ -243,14 +263,14 @@ def davar_plain(
     O(N Nw / step) work per tau: a reference for tests, not for use on long records.
     Parameters, result and errors are those of :func:`dynamic_allan_variance`.
     """
-    plan = _plan(sample_rate_hz, window_s, step_s, taus)
+    plan = plan_davar(sample_rate_hz, window_s, step_s, taus)
     arr = as_samples(samples)
-    starts = _window_starts(arr.shape[0], plan)
+    starts = window_starts(arr.shape[0], plan)
     sums = np.empty((len(starts), len(plan.m), arr.shape[1]))
     for j, s in enumerate(starts):
         theta = cumulative_angle(arr[s : s + plan.window], plan.fs, input_kind=input_kind)
         sums[j] = kernels.overlapping_sums_reference(theta, plan.m)
-    return _finish(sums, starts, plan, arr.shape[0], confidence=confidence,
+    return finish_davar(sums, starts, plan, arr.shape[0], confidence=confidence,
                    squeeze=np.ndim(samples) == 1)
 
 
@@ -273,10 +293,10 @@ def davar_recursive(
     in the small sums that follow it. O(N) steps of O(n_tau) work whatever the step.
     Parameters, result and errors are those of :func:`dynamic_allan_variance`.
     """
-    plan = _plan(sample_rate_hz, window_s, step_s, taus)
+    plan = plan_davar(sample_rate_hz, window_s, step_s, taus)
     theta = cumulative_angle(samples, plan.fs, input_kind=input_kind)
     n_samples = theta.shape[0] - 1
-    starts = _window_starts(n_samples, plan)
+    starts = window_starts(n_samples, plan)
     n_terms = plan.window + 1 - 2 * plan.m
 
     def delta_sq(k: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -313,7 +333,7 @@ def davar_recursive(
         if next_j is not None and s == starts[next_j]:
             sums[next_j] = acc + comp
             next_j = next(record, None)
-    return _finish(sums, starts, plan, n_samples, confidence=confidence,
+    return finish_davar(sums, starts, plan, n_samples, confidence=confidence,
                    squeeze=np.ndim(samples) == 1)
 
 
@@ -490,7 +510,7 @@ def dynamic_allan_variance_stream(
     """
     if missing not in ("raise", "gap"):
         raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
-    plan = _plan(sample_rate_hz, window_s, step_s, taus)
+    plan = plan_davar(sample_rate_hz, window_s, step_s, taus)
     block = max(3 * plan.window, 1 << 20) if block_samples is None else int(block_samples)
     if block < plan.window:
         raise InvalidWindowError(
@@ -561,7 +581,7 @@ def dynamic_allan_variance_stream(
             flush()
     if pending:
         flush()
-    _window_starts(consumed, plan)  # raises when the record is shorter than one window
+    window_starts(consumed, plan)  # raises when the record is shorter than one window
     starts = np.concatenate(out_starts)
     sums = out_sums[0] if len(out_sums) == 1 else np.concatenate(out_sums)
-    return _finish(sums, starts, plan, consumed, confidence=confidence, squeeze=False)
+    return finish_davar(sums, starts, plan, consumed, confidence=confidence, squeeze=False)

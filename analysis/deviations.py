@@ -53,6 +53,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from analysis import blocks, long_sums
 from analysis.allan import (
     AllanResult,
     Estimator,
@@ -61,9 +62,11 @@ from analysis.allan import (
     allan_variance,
     analysis_log_m,
     check_sample_rate,
+    cluster_allan_variance,
     cumulative_angle,
     m_from_tau,
     octave_m,
+    overlapping_allan_variance,
 )
 from analysis.confidence import ONE_SIGMA, chi2_interval, difference_edf_grid, estimator_terms
 from analysis.errors import InvalidTauError, TooFewSamplesError
@@ -306,6 +309,22 @@ def _total_sums(theta: NDArray[np.float64], m: int) -> NDArray[np.float64]:
     return np.asarray(np.einsum("ij,ij->j", d2, d2), dtype=np.float64)
 
 
+def _long_sums(kind: str, theta: NDArray[np.float64], m: NDArray[np.int64], overlapping: bool
+               ) -> NDArray[np.float64]:
+    """The sums of :func:`_compute` for a memory-mapped angle, a block at a time."""
+    out = np.empty((len(m), theta.shape[1]))
+    for i, mi in enumerate(int(v) for v in m):
+        for col in range(theta.shape[1]):
+            x = theta[:, col]
+            if kind in ("mdev", "tdev"):
+                out[i, col] = long_sums.box_square_sum(x, mi)
+            elif kind == "totdev":
+                out[i, col] = long_sums.total_square_sum(x, mi)
+            else:
+                out[i, col] = long_sums.hadamard_square_sum(x, mi, 1 if overlapping else mi)
+    return out
+
+
 # ---------------------------------------------------------------------------------- edf
 
 
@@ -390,9 +409,10 @@ _SPECS: dict[str, _Spec] = {
 
 
 def _compute(kind: str, samples: ArrayLike, sample_rate_hz: float, *, taus: TauGrid | ArrayLike,
-             input_kind: InputKind, confidence: float) -> DeviationResult:
+             input_kind: InputKind, confidence: float,
+             angle_out: NDArray[np.float64] | None = None) -> DeviationResult:
     fs = check_sample_rate(sample_rate_hz)
-    theta = cumulative_angle(samples, fs, input_kind=input_kind)
+    theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
     n = theta.shape[0] - 1
     m = deviation_m(kind, taus, n, fs)  # type: ignore[arg-type]
     spec = _SPECS[kind]
@@ -416,7 +436,9 @@ def _compute(kind: str, samples: ArrayLike, sample_rate_hz: float, *, taus: TauG
                 f"wanders far against its short-tau differences)"
             )
     else:
-        if kind in ("mdev", "tdev"):
+        if blocks.is_mapped(theta) and blocks.is_long(n):
+            sums = _long_sums(kind, theta, m, spec.overlapping)
+        elif kind in ("mdev", "tdev"):
             sums = np.stack([_modified_sums(theta, int(mi)) for mi in m])
         elif kind == "totdev":
             sums = np.stack([_total_sums(theta, int(mi)) for mi in m])
@@ -480,6 +502,7 @@ def deviation(
     taus: TauGrid | ArrayLike = "log",
     input_kind: InputKind = "rate",
     confidence: float = ONE_SIGMA,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> DeviationResult:
     """One deviation of the Allan family of a rate record, with confidence intervals.
 
@@ -499,6 +522,10 @@ def deviation(
         What the samples are.
     confidence : float
         Two-sided level of the chi-square intervals (default +-1 sigma).
+    angle_out : ndarray, shape (N + 1, k), optional
+        Where to keep the angle of a long record (:func:`analysis.blocks.is_long`; e.g. a
+        memmap): the Allan, modified, Hadamard and total deviations then read it a block
+        at a time (:mod:`analysis.long_sums`), in bounded memory; Theo1 reads it whole.
 
     Returns
     -------
@@ -526,10 +553,14 @@ def deviation(
                 raise TooFewSamplesError(
                     f"{n} samples are too few for the 'log' grid of {kind}; record longer"
                 )
+        if angle_out is not None and blocks.is_long(int(np.shape(samples)[0])):
+            compute = (overlapping_allan_variance if estimator == "overlapping"
+                       else cluster_allan_variance)
+            return from_allan(compute(samples, sample_rate_hz, taus=taus, input_kind=input_kind,
+                                      confidence=confidence, angle_out=angle_out))
         return from_allan(allan_variance(samples, sample_rate_hz, estimator=estimator, taus=taus,
                                          input_kind=input_kind, confidence=confidence))
     if kind not in _SPECS:
         raise ValueError(f"unknown deviation {kind!r}; use one of {DEVIATION_KINDS}")
-    return _compute(
-        kind, samples, sample_rate_hz, taus=taus, input_kind=input_kind, confidence=confidence
-    )
+    return _compute(kind, samples, sample_rate_hz, taus=taus, input_kind=input_kind,
+                    confidence=confidence, angle_out=angle_out)

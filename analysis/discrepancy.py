@@ -63,6 +63,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import special, stats
 
+from analysis import blocks
 from analysis.allan import check_sample_rate, cumulative_angle, log_m, overlapping_sums
 from analysis.confidence import allan_edf_grid, local_noise_alpha
 from analysis.errors import ReconcileError
@@ -81,10 +82,16 @@ BAND_LEVEL = 0.95
 
 
 def block_means(x: ArrayLike, block: int) -> NDArray[np.float64]:
-    """Means of consecutive blocks of ``block`` samples (axis 0); a trailing part is dropped."""
+    """Means of consecutive blocks of ``block`` samples (axis 0); a trailing part is dropped.
+
+    A memory-mapped record (a long run's scratch array) is read a few blocks at a time and
+    its pages handed back (:func:`analysis.blocks.group_means`: the same means, bit for bit).
+    """
     arr = np.asarray(x, dtype=np.float64)
     if block <= 1:
         return arr
+    if blocks.is_mapped(arr):
+        return blocks.group_means(arr, block, arr.shape[0] // block)
     n = (arr.shape[0] // block) * block
     return np.asarray(arr[:n].reshape(n // block, block, *arr.shape[1:]).mean(axis=1),
                       dtype=np.float64)

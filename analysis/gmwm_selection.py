@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from analysis.confidence import ONE_SIGMA
 from analysis.gmwm import GmwmFit, gmwm, gmwm_with_covariance, weight_covariance
@@ -180,6 +180,7 @@ def gmwm_analysis(
     robust: bool = False,
     confidence: float = ONE_SIGMA,
     gaps: bool = False,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> GmwmSelection:
     """Haar wavelet variance of one axis and its GMWM fit: a given model, or ``"auto"`` selection.
 
@@ -200,13 +201,16 @@ def gmwm_analysis(
         Level of the parameter and WV intervals.
     gaps : bool
         NaN samples are missing (:func:`analysis.wavelet.haar_wavelet_variance`).
+    angle_out : ndarray, shape (N + 1, 1), optional
+        Where a long record's angle is kept (e.g. a memmap): the wavelet variance is then
+        computed in bounded memory (:func:`analysis.wavelet.haar_wavelet_variance`).
 
     Raises
     ------
     GmwmModelError, FitError, TooFewSamplesError, NonFiniteSamplesError
     """
     wv = haar_wavelet_variance(
-        rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps
+        rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps, angle_out=angle_out
     )
     if np.ndim(wv.wv) != 1:
         raise GmwmModelError("gmwm_analysis takes one axis; pass a 1-D rate")

@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from analysis import blocks
+from analysis.long_sums import box_square_sum, second_differences
 
 #: Decimated angle points the lag-1 method needs (Riley and Greenhall: about 30).
 MIN_ACF_POINTS = 30
@@ -201,31 +202,6 @@ def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
     return float(np.var(means, ddof=1)) / avar if avar > 0 else 1.0
 
 
-def _second_differences(x: NDArray[np.float64], m: int, a: int, b: int) -> NDArray[np.float64]:
-    ahead = np.asarray(x[a + 2 * m : b + 2 * m], dtype=float)
-    middle = np.asarray(x[a + m : b + m], dtype=float)
-    out: NDArray[np.float64] = ahead - 2.0 * middle + np.asarray(x[a:b], dtype=float)
-    return out
-
-
-def _running_sums(x: NDArray[np.float64], m: int, length: int, offset: int
-                  ) -> Iterator[NDArray[np.float64]]:
-    """``[0, cumsum(d2)]`` from index ``offset`` on, in blocks: the one sequential sum
-    ``np.cumsum`` makes, so equal to it exactly, for a long record."""
-    carry = 0.0
-    for a, b in blocks.spans(0, length):
-        d2 = _second_differences(x, m, a, b)
-        d2[0] += carry
-        sums = np.cumsum(d2)
-        carry = float(sums[-1])
-        # sums[i] is entry a + 1 + i of [0, cumsum(d2)]
-        full, start = (np.concatenate(([0.0], sums)), 0) if a == 0 else (sums, a + 1)
-        skip = max(0, offset - start)
-        if skip < len(full):
-            yield full[skip:]
-        blocks.release(x)
-
-
 def rn_ratio(angle: NDArray[np.float64], m: int) -> float:
     """R(n): modified over overlapping Allan variance at averaging factor m (same scale).
 
@@ -245,26 +221,12 @@ def rn_ratio(angle: NDArray[np.float64], m: int) -> float:
 def _rn_ratio_long(x: NDArray[np.float64], m: int, length: int) -> float:
     total = 0.0
     for a, b in blocks.spans(0, length):
-        d2 = _second_differences(x, m, a, b)
+        d2 = second_differences(x, m, a, b)
         total += float(np.einsum("i,i->", d2, d2))
         blocks.release(x)
     avar = total / length
     n_box = length + 1 - m
-    box_total = 0.0
-    ahead = _running_sums(x, m, length, m)
-    buffer = np.zeros(0)
-    done = 0
-    for behind in _running_sums(x, m, length, 0):
-        take = min(len(behind), n_box - done)
-        if take <= 0:
-            break
-        while len(buffer) < take:
-            buffer = np.concatenate((buffer, next(ahead)))
-        box = (buffer[:take] - behind[:take]) / m
-        box_total += float(np.einsum("i,i->", box, box))
-        buffer = buffer[take:]
-        done += take
-    mvar = box_total / n_box if n_box > 0 else avar
+    mvar = box_square_sum(x, m, divisor=m) / n_box if n_box > 0 else avar
     return mvar / avar if avar > 0 else 1.0
 
 

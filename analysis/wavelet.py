@@ -54,6 +54,7 @@ classical one over the efficiency.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -61,7 +62,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
-from analysis.allan import as_samples, check_sample_rate, cumulative_angle
+from analysis import blocks
+from analysis.allan import as_samples, check_sample_rate, cumulative_angle, overlapping_sums
 from analysis.confidence import ONE_SIGMA, chi2_interval
 from analysis.errors import TooFewSamplesError
 
@@ -174,6 +176,28 @@ def haar_coefficients(
     return w
 
 
+def _lag_sum_long(theta: NDArray[np.float64], m: int, sample_rate_hz: float, width: int
+                  ) -> NDArray[np.float64]:
+    """:func:`_lag_sum` of the level-``m`` coefficients of a memory-mapped angle, each
+    coefficient computed from the angle where the estimate reads it."""
+    thin = max(1, width // LAG_THIN)
+    n_w = theta.shape[0] - 2 * m
+
+    def take(rows: NDArray[np.int64]) -> NDArray[np.float64]:
+        t = np.asarray(rows, dtype=np.int64) * thin
+        flat = t.reshape(-1)
+        w = np.empty((len(flat), theta.shape[1]))
+        # a gathered coefficient maps in up to three pages: hand them back every few thousand
+        for a, b in blocks.spans(0, len(flat), LAG_BLOCK):
+            f = flat[a:b]
+            w[a:b] = (2.0 * theta[f + m] - theta[f] - theta[f + 2 * m]) * (
+                sample_rate_hz / (2.0 * m))
+            blocks.release(theta)
+        return w.reshape(*t.shape, theta.shape[1])
+
+    return _thinned_lag_sum(take, -(-n_w // thin), theta.shape[1], thin, width)
+
+
 def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
     """``A = sum_{|l| <= LAG_WIDTHS width} c(l)^2`` per column of ``w`` (c: sample autocovariance).
 
@@ -187,18 +211,26 @@ def _lag_sum(w: NDArray[np.float64], width: int) -> NDArray[np.float64]:
     """
     thin = max(1, width // LAG_THIN)
     x = w[::thin]
-    n = x.shape[0]
+    return _thinned_lag_sum(lambda j: x[j], x.shape[0], x.shape[1], thin, width)
+
+
+def _thinned_lag_sum(take: Callable[[NDArray[np.int64]], NDArray[np.float64]], n: int, k: int,
+                     thin: int, width: int) -> NDArray[np.float64]:
+    """:func:`_lag_sum` of the thinned coefficients ``x`` (``n`` rows, ``k`` columns, every
+    ``thin``-th coefficient), read through ``take(rows)``: only the rows the estimate
+    uses are asked for."""
     max_lag = min(LAG_WIDTHS * width // thin, n - 1)
     if thin > 1:
         max_lag -= max_lag % 2
     if n - max_lag <= LAG_PRODUCTS:
+        x = take(np.arange(n))
         c = np.array(
             [np.einsum("ij,ij->j", x[: n - i], x[i:]) / (n - i) for i in range(max_lag + 1)]
         )
     else:
         n_blocks = LAG_PRODUCTS // LAG_BLOCK
         starts = np.linspace(0, n - LAG_BLOCK - max_lag, n_blocks).astype(np.int64)
-        rows = x[starts[:, None] + np.arange(LAG_BLOCK + max_lag)[None, :]]
+        rows = take(starts[:, None] + np.arange(LAG_BLOCK + max_lag)[None, :])
         head = rows[:, :LAG_BLOCK]
         c = np.array(
             [
@@ -278,6 +310,7 @@ def haar_wavelet_variance(
     min_blocks: int = MIN_BLOCKS,
     max_level: int | None = None,
     gaps: bool = False,
+    angle_out: NDArray[np.float64] | None = None,
 ) -> WaveletVariance:
     """Haar MODWT wavelet variance (unbiased, eq. W2) at every dyadic averaging time.
 
@@ -304,6 +337,12 @@ def haar_wavelet_variance(
         NaN samples are missing (a record with gaps on its sample grid): only coefficients
         whose Haar window holds no missing sample count, ``M_j`` is their number and
         ``n_samples`` the number of samples present.
+    angle_out : ndarray, shape (N + 1, k), optional
+        A long record without gaps (:func:`analysis.blocks.is_long`, e.g. a memmap), not
+        robust: its angle is kept here (e.g. a memmap), the mean squares are the
+        overlapping Allan sums (:func:`analysis.kernels.overlapping_sums`, a block at a
+        time) and the lag-window estimate reads only the coefficients it uses: bounded
+        memory, the same numbers to rounding.
 
     Returns
     -------
@@ -345,16 +384,23 @@ def haar_wavelet_variance(
                                  f"{2 * min_blocks}")
     c = huber_constant(efficiency) if robust else 0.0
     eff = huber_efficiency(c) if robust else 1.0
-    theta = cumulative_angle(arr, fs)
+    long = angle_out is not None and missing is None and not robust and blocks.is_long(n)
+    theta = cumulative_angle(arr, fs, out=angle_out if long else None)
     k = arr.shape[1]
     wv = np.empty((len(m_values), k))
     a_sum = np.empty((len(m_values), k))
     n_coef = (n - 2 * m_values + 1).astype(np.int64)
+    if long:
+        wv[:] = (overlapping_sums(theta, m_values) * (fs / (2.0 * m_values[:, None])) ** 2
+                 / n_coef[:, None])
+        for i, m in enumerate(int(v) for v in m_values):
+            if ci != "eta3":
+                a_sum[i] = _lag_sum_long(theta, m, fs, 2 * m)
     # missing samples in the window [t, t + 2m) of each coefficient, per column
     holes = (
         None if missing is None else np.concatenate([np.zeros((1, k)), np.cumsum(missing, axis=0)])
     )
-    for i, m in enumerate(m_values):
+    for i, m in enumerate(m_values if not long else ()):
         w = haar_coefficients(theta, int(m), fs)
         share = np.ones(k)
         if holes is not None:

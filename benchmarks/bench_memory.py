@@ -10,12 +10,14 @@ then runs the command in a child process and prints one line::
 the child's peak resident memory (the VmHWM of its own address space, file pages it maps
 included) and its wall time. ``--command`` is ``analyze`` (``station analyze FILE
 --json``, the default), ``grade`` (``station grade FILE --json --no-store``) or ``report``
-(``station report FILE --format pdf --no-store``); grade and report use a profile written
+(``station report FILE --format pdf --no-store``), ``davar`` (``station davar FILE --window-s
+W --json``, W an hour or a quarter of a shorter run) or ``reconcile`` (``station reconcile
+FILE --model mems-typical --json --runs 5 --axis x``); grade and report use a profile written
 beside the run: ADIS16405's figures and limits on the run's axes, its warm-up cut to a
 tenth of the run. ``--keep FILE`` keeps the run file (and reuses it when it exists);
 ``--long-samples N`` makes records longer than N samples count as long (the block-wise
-path, :mod:`analysis.blocks`), so a short run exercises it. ``--compare`` (analyze and
-grade) runs the command a second time with every record read in one piece and appends
+path, :mod:`analysis.blocks`), so a short run exercises it. ``--compare`` (every
+command but report) runs the command a second time with every record read in one piece and appends
 ``max_rel_diff=...``: the largest relative difference between the numbers of the two
 JSON documents.
 """
@@ -78,7 +80,7 @@ sys.exit(main({argv!r}))
 
 #: What the profile of ``grade`` and ``report`` takes from (its figures and limits).
 PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml"
-COMMANDS = ("analyze", "grade", "report")
+COMMANDS = ("analyze", "grade", "report", "davar", "reconcile")
 
 
 def write_profile(path: Path, axes: tuple[str, ...], warmup_s: float) -> Path:
@@ -90,12 +92,18 @@ def write_profile(path: Path, axes: tuple[str, ...], warmup_s: float) -> Path:
     return path
 
 
-def command_argv(command: str, run: Path, profile: Path, out_dir: Path) -> list[str]:
-    """``station`` arguments of ``command`` on ``run``."""
+def command_argv(command: str, run: Path, profile: Path, out_dir: Path,
+                 window_s: float = 3600.0) -> list[str]:
+    """``station`` arguments of ``command`` on ``run`` (``window_s``: the DAVAR's window)."""
     if command == "analyze":
         return ["analyze", str(run), "--json"]
     if command == "grade":
         return ["grade", str(run), "--json", "--no-store", "--profile", str(profile)]
+    if command == "davar":
+        return ["davar", str(run), "--window-s", f"{window_s:g}", "--json"]
+    if command == "reconcile":
+        return ["reconcile", str(run), "--model", "mems-typical", "--json", "--runs", "5",
+                "--axis", "x"]
     return ["report", str(run), "--format", "pdf", "--no-store", "--profile", str(profile),
             "--out", str(out_dir)]
 
@@ -232,14 +240,15 @@ def main(argv: list[str] | None = None) -> int:
     if not 1 <= args.axes <= 6 or args.hours <= 0 or args.rate_hz <= 0:
         p.error("--hours and --rate-hz must be positive, --axes 1..6")
     if args.compare and args.command == "report":
-        p.error("--compare applies to analyze and grade (their JSON)")
+        p.error("--compare applies to the commands that print JSON, not report")
     with tempfile.TemporaryDirectory() as tmp:
         path = args.keep or Path(tmp) / "run.h5"
         if not path.exists():
             write_run(path, args.hours, args.rate_hz, args.axes, gaps=args.gaps)
         profile = write_profile(Path(tmp) / "profile.toml", tuple("xyzuvw"[: args.axes]),
                                 min(300.0, args.hours * 360.0))
-        command = command_argv(args.command, path, profile, Path(tmp))
+        command = command_argv(args.command, path, profile, Path(tmp),
+                               window_s=min(3600.0, args.hours * 900.0))
         peak, seconds, out = measure(command, args.long_samples)
         line = f"peak_rss_mb={peak:.0f} seconds={seconds:.1f}"
         if args.compare:

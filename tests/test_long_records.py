@@ -17,12 +17,14 @@ import numpy as np
 import pytest
 
 from analysis import blocks
-from analysis.allan import cumulative_angle, overlapping_allan_variance
+from analysis.allan import cluster_allan_variance, cumulative_angle, overlapping_allan_variance
+from analysis.deviations import deviation
 from analysis.figures import bias_stability
 from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.noise_id import b1_ratio, lag1_alpha
 from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.tones import find_tones
+from analysis.wavelet import haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -110,28 +112,6 @@ def test_block_sums_are_numpys_bit_for_bit(small_blocks: None) -> None:
     present = x[np.isfinite(x)]
     np.testing.assert_allclose(blocks.finite_batch_means(x, 10),
                                present[:100_000].reshape(10, 10_000).mean(axis=1), rtol=1e-12)
-
-
-def test_davar_one_window_at_a_time_gives_the_fast_davars_numbers(small_blocks: None) -> None:
-    """The heat map's DAVAR of a long record (each window's angle in a buffer, walked a
-    block at a time) against the fast DAVAR: within 1e-12 (measured 3e-13), the same NaN
-    cells where a window holds a missing sample."""
-    from analysis.allan import log_m
-    from analysis.davar import dynamic_allan_variance
-    from analysis.davar_long import dynamic_allan_variance_by_window
-
-    x = _record(100_000)
-    x[40_000:40_010] = np.nan
-    window, step = 2 * len(x) // 41, len(x) // 41
-    kw = {"window_s": window / 100, "step_s": step / 100, "taus": log_m(window, n_points=48) / 100,
-          "missing": "gap"}
-    fast = dynamic_allan_variance(x, 100.0, **kw)  # type: ignore[arg-type]
-    slow = dynamic_allan_variance_by_window(x, 100.0, angle_out=np.empty((window + 1, 1)),
-                                            **kw).axis(0)  # type: ignore[arg-type]
-    np.testing.assert_array_equal(np.isnan(slow.avar), np.isnan(fast.avar))
-    assert np.isnan(fast.avar).any() and not np.isnan(fast.avar).all()
-    np.testing.assert_allclose(slow.avar, fast.avar, rtol=1e-12)
-    np.testing.assert_array_equal(slow.t_s, fast.t_s)
 
 
 def _rss_kb() -> int:
@@ -278,3 +258,58 @@ def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
     assert diff <= 1e-6, diff
+
+
+def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None
+) -> None:
+    """The cluster (non-overlapping) estimator of a long record, its angle in a memmap and
+    the cluster edges read a block at a time, equals the in-memory estimator."""
+    x = _record()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = cluster_allan_variance(x, 100.0, taus="log")
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = cluster_allan_variance(mm, 100.0, taus="log", angle_out=angle)
+    np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.n_clusters, whole.n_clusters)
+
+
+@pytest.mark.parametrize("kind", ["mdev", "tdev", "hdev", "ohdev", "totdev", "adev"])
+def test_deviations_of_a_memmap_give_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, kind: str
+) -> None:
+    """The modified, Hadamard and total deviations of a long record (its angle in a
+    memmap, the differences summed a block at a time; the total one reflected about the
+    ends without building the reflection) equal the in-memory ones."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = deviation(x, 100.0, kind=kind)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = deviation(mm, 100.0, kind=kind, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
+    np.testing.assert_array_equal(got.edf, whole.edf)
+
+
+@pytest.mark.parametrize("ci", ["pw", "eta3"])
+def test_wavelet_variance_of_a_memmap_gives_the_numbers_of_one_piece(
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch, ci: str
+) -> None:
+    """The Haar wavelet variance of a long record (the GMWM's input: its mean squares from
+    the overlapping Allan sums, the lag-window estimate from the coefficients it reads)
+    equals the in-memory one, intervals included."""
+    x = _record()
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        whole = haar_wavelet_variance(x, 100.0, ci=ci)  # type: ignore[arg-type]
+    mm = _memmap(tmp_path, x)
+    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    got = haar_wavelet_variance(mm, 100.0, ci=ci, angle_out=angle)  # type: ignore[arg-type]
+    np.testing.assert_allclose(got.wv, whole.wv, rtol=1e-12)
+    np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
+    np.testing.assert_allclose(got.edf, whole.edf, rtol=1e-12)

@@ -18,6 +18,7 @@ from analysis.allan import (
     Estimator,
     allan_variance,
     analysis_log_m,
+    cluster_allan_variance,
     overlapping_allan_variance,
 )
 from analysis.deviations import (
@@ -42,6 +43,7 @@ from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
+from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
 from station.storage.scratch import scratch_array
@@ -252,11 +254,14 @@ def _replaced(x: NDArray[np.float64], detection: SpikeDetection,
 def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: Estimator,
            taus: str | np.ndarray, present: int) -> AllanResult:
     """The Allan variance of one axis on its time grid (``present`` samples not NaN)."""
-    if estimator == "overlapping" and blocks.is_long(len(grid_rate)):
-        # a long record: its angle in a scratch memmap, read a block at a time
+    if blocks.is_long(len(grid_rate)) and not (gapped and estimator == "clusters"):
+        # a long record: its angle in a scratch memmap, read a block at a time (the cluster
+        # estimator of a record with gaps needs every sample's grid position: in memory)
         angle = scratch_array((present + 1, 1))
         if gapped:
             return gap_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
+        if estimator == "clusters":
+            return cluster_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
         return overlapping_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
     return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
                           missing="gap" if gapped else "raise")
@@ -342,7 +347,7 @@ def analyze_record(
             f"--start-s/--stop-s"
         )
     gaps = GapReport()  # a record without gaps (no mask as long as the record)
-    if gapped:
+    if record.sample_index is not None:
         summary = gap_summary_of_index(record.sample_index)
         gaps = GapReport(summary.count, summary.missing_samples / fs, summary.share)
     long = blocks.is_long(record.n_samples)
@@ -385,9 +390,10 @@ def analyze_record(
                           notes=figures.notes + tuple(notes))
         curve = None
         if deviation_kind is not None and deviation_kind != own:
-            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked)
-        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped)
-              if use_gmwm else None)
+            curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked,
+                              angle_out=angle_buffer(cleaned[i]))
+        gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped,
+                            angle_out=angle_buffer(grid_rate)) if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
                                 analysed, alternative, label, tones, zones, curve, gm))
     return out

@@ -14,7 +14,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from analysis import blocks
 from analysis.allan import log_m
-from analysis.davar_long import dynamic_allan_variance_by_window
+from analysis.davar import dynamic_allan_variance, plan_davar
+from analysis.davar_long import dynamic_allan_variance_long, group_span
 from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.units import S_PER_H
 from station.evaluation.grading import UnitGrade
@@ -83,8 +84,6 @@ def davar_grid_of(rate_deg_s: ArrayLike, sample_rate_hz: float, axis: str = "", 
     AnalysisError
         If the samples are not finite or the sample rate is invalid (not "too short").
     """
-    from analysis.davar import dynamic_allan_variance
-
     settings = settings or AnalysisSettings()
     rate = np.asarray(rate_deg_s, dtype=np.float64)
     if rate.ndim != 1:
@@ -97,11 +96,12 @@ def davar_grid_of(rate_deg_s: ArrayLike, sample_rate_hz: float, axis: str = "", 
     long = blocks.is_long(len(rate))
     gapped = blocks.any_where(rate, np.isnan) if long else bool(np.isnan(rate).any())
     try:
-        if long:  # one window at a time, its angle in a scratch memmap (bounded memory)
-            result = dynamic_allan_variance_by_window(
+        if long:  # a group of windows at a time, its angle in a scratch memmap
+            plan = plan_davar(fs, window / fs, step / fs, m / fs)
+            result = dynamic_allan_variance_long(
                 rate, fs, window_s=window / fs, step_s=step / fs, taus=m / fs,
                 missing="gap" if gapped else "raise",
-                angle_out=scratch_array((window + 1, 1))).axis(0)
+                angle_out=scratch_array((group_span(plan) + 1,))).axis(0)
         else:
             result = dynamic_allan_variance(rate, fs, window_s=window / fs, step_s=step / fs,
                                             taus=m / fs, missing="gap" if gapped else "raise")

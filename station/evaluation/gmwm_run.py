@@ -13,6 +13,7 @@ from dataclasses import replace
 
 from analysis.errors import AnalysisError
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
+from station.evaluation.long_records import angle_buffer
 
 
 def axis_with_gmwm(axis: AxisGrade, model: str, *, robust: bool = False) -> AxisGrade:
@@ -29,7 +30,7 @@ def axis_with_gmwm(axis: AxisGrade, model: str, *, robust: bool = False) -> Axis
     if a.rate_deg_s is None:
         raise AnalysisError(f"axis {axis.axis}: the analysed rate was not kept")
     gm = gmwm_analysis(a.rate_deg_s, a.sample_rate_hz, model=model, robust=robust,
-                       gaps=a.gaps.count > 0)
+                       gaps=a.gaps.count > 0, angle_out=angle_buffer(a.rate_deg_s))
     return replace(axis, analysis=replace(a, gmwm=gm))
 
 

@@ -29,3 +29,10 @@ def take_columns(rate: NDArray[np.float64], columns: list[int]) -> NDArray[np.fl
         blocks.release(rate)
         blocks.release(out)
     return out.T
+
+
+def angle_buffer(x: NDArray[np.float64]) -> NDArray[np.float64] | None:
+    """A scratch memmap for the cumulative angle of a long axis ``x`` (shape (N + 1, 1)),
+    for the analysis functions that take ``angle_out``; None for a short axis (its angle
+    stays in memory)."""
+    return scratch_array((len(x) + 1, 1)) if blocks.is_long(len(x)) else None

@@ -8,12 +8,16 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.davar import DavarResult, dynamic_allan_variance
+from analysis import blocks
+from analysis.allan import Missing
+from analysis.davar import DavarResult, dynamic_allan_variance, plan_davar
+from analysis.davar_long import dynamic_allan_variance_long, group_span
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.errors import UsageError
 from station.model.records import RateRecord
 from station.services.records import RecordSource, load_record
+from station.storage.scratch import scratch_array
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,27 @@ class DavarAnswer:
         return {"axes": axes}
 
 
+def _davar_of(record: RateRecord, request: DavarRequest) -> DavarResult:
+    """The DAVAR of every axis of the record; a long one a group of windows of one axis at
+    a time, the angle in a scratch memmap (bounded memory, :mod:`analysis.davar_long`)."""
+    missing: Missing = "gap" if record.missing_samples else "raise"
+    if not blocks.is_long(record.span_samples):
+        return dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
+                                      window_s=request.window_s, step_s=request.step_s,
+                                      missing=missing)
+    plan = plan_davar(record.sample_rate_hz, request.window_s, request.step_s, "log")
+    samples = record.rate_deg_s
+    if record.sample_index is not None:  # the time grid, NaN in the gaps, an axis a row
+        grid = scratch_array((len(record.axis_names), record.span_samples))
+        for c in range(len(record.axis_names)):
+            record.gridded(c, out=grid[c])
+        samples = grid.T
+    return dynamic_allan_variance_long(samples, record.sample_rate_hz,
+                                       window_s=request.window_s, step_s=request.step_s,
+                                       missing=missing,
+                                       angle_out=scratch_array((group_span(plan) + 1,)))
+
+
 def davar(request: DavarRequest) -> DavarAnswer:
     """Read the record, compute its DAVAR and each axis' warm-up verdict, draw the heat map.
 
@@ -80,9 +105,7 @@ def davar(request: DavarRequest) -> DavarAnswer:
     if loaded.selection.warmup_s > 0 and offset == loaded.selection.warmup_s:
         notes += (f"the first {offset:g} s are left out (warm-up from "
                   f"{loaded.selection.warmup_from}); --warmup-s 0 shows the whole record",)
-    result = dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,
-                                    window_s=request.window_s, step_s=request.step_s,
-                                    missing="gap" if record.missing_samples else "raise")
+    result = _davar_of(record, request)
     if record.missing_samples:
         broken = int(np.isnan(result.avar).any(axis=(1, 2)).sum())
         notes += (f"{record.missing_samples} samples are missing in gaps; the {broken} of "
