@@ -150,8 +150,8 @@ class Effect:
         What named it: the GMWM's N1 score (``"gmwm"``, :mod:`analysis.gmwm_naming`) or the
         Allan curve's Delta BIC (``"allan"``).
     alternatives : tuple of Alternative
-        Other explanations within ``ALTERNATIVE_SCORE`` (GMWM) or ``INDISTINCT_BIC``
-        (Allan curve) of it, with their scores.
+        Other explanations within ``ALTERNATIVE_SCORE`` of it or above it (GMWM), or within
+        ``INDISTINCT_BIC`` of it (Allan curve), with their scores.
     """
 
     name: str
@@ -388,7 +388,9 @@ def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, Con
                   judgement: GmwmJudgement | None) -> tuple[float, str, tuple[Alternative, ...]]:
     """(score, criterion, alternatives) of the named candidate: the other viable explanations
     (confirmed where they need it, not a decrease) within ``ALTERNATIVE_SCORE`` of its GMWM
-    score when the GMWM judged it, else within ``INDISTINCT_BIC`` of its Delta BIC."""
+    score or above it when the GMWM judged it (the curve's order may name a random walk
+    that the GMWM scores below a Gauss-Markov process), else within ``INDISTINCT_BIC`` of
+    its Delta BIC."""
     viable = [(fit, change) for fit, change, verdict in ranked
               if fit.name != named.name and verdict[0] is not None and change != "decreased"]
     if judgement is not None and named.name in judgement.scores:
@@ -397,7 +399,7 @@ def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, Con
             Alternative(fit.name, judgement.scores[fit.name], "gmwm", change)
             for fit, change in viable
             if fit.name in judgement.scores
-            and abs(judgement.scores[fit.name] - own) < ALTERNATIVE_SCORE
+            and judgement.scores[fit.name] > own - ALTERNATIVE_SCORE
         )
         return own, "gmwm", alts
     alts = tuple(Alternative(fit.name, fit.delta_bic, "allan", change) for fit, change in viable

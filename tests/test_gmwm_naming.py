@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from analysis import gmwm_naming
 from analysis.discrepancy import ComparisonCache
 from analysis.gmwm_naming import GmwmJudgement, judge, new_or_more
 from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
@@ -144,3 +145,28 @@ def test_reconcile_json_keeps_its_keys_and_adds_alternatives(tmp_path: Path, cap
     assert {"name", "score"} <= set(out["alternatives"][0]) and out["alternatives"][0][
         "name"
     ] == "bias_instability"
+
+
+def test_judge_reaches_the_longest_scale_where_a_slow_gauss_markov_turns_down(monkeypatch):
+    # T = 150 s in 1 h: its Allan variance peaks at 1.89 T = 280 s and falls past the 410 s
+    # where a plotted wavelet variance (m <= N/8) stops; a random walk's keeps rising
+    rate = faint_gauss_markov(2, sigma=0.2, tau_s=150.0)
+    candidates = [("gauss_markov", "add"), ("rate_random_walk", "add")]
+    j = judge(rate, FS, BASE, candidates)
+    assert j is not None
+    assert j.scores["gauss_markov"] > j.scores["rate_random_walk"] + 6.0
+    monkeypatch.setattr(gmwm_naming, "JUDGE_MIN_BLOCKS", 8)
+    short = judge(rate, FS, BASE, candidates)
+    assert short is not None
+    assert abs(short.scores["gauss_markov"] - short.scores["rate_random_walk"]) < 6.0
+
+
+def test_an_explanation_the_gmwm_scores_above_the_named_one_is_reported(cache):
+    # between two added terms the curve's order (the simpler first) names the random walk;
+    # the Gauss-Markov process, which the GMWM scores far above it, is reported beside it
+    result = reconcile(faint_gauss_markov(2, sigma=0.2, tau_s=150.0), FS, BASE, cache=cache)
+    (named,) = result.effects
+    assert named.name == "rate_random_walk" and named.criterion == "gmwm"
+    assert [(a.name, a.change) for a in named.alternatives] == [("gauss_markov", "added")]
+    assert named.alternatives[0].score > named.score + 6.0
+    assert "about as good or better (GMWM score" in format_reconcile(result)

@@ -135,7 +135,10 @@ def format_reconcile(result: ReconcileResult, *, label: str = "",
             if e.alternatives:
                 what = "GMWM score" if e.criterion == "gmwm" else "Delta BIC"
                 others = ", ".join(f"{a.name} ({a.change}, {a.score:.3g})" for a in e.alternatives)
-                lines.append(f"    about as good ({what}; this one {e.score:.3g}): {others}")
+                how = ("about as good" if e.score is None
+                       or all(a.score <= e.score + 1e-9 for a in e.alternatives)
+                       else "about as good or better")
+                lines.append(f"    {how} ({what}; this one {e.score:.3g}): {others}")
     lines.append(_comparison_line("model after", result.after, opt.alpha))
     lines.append("model after (TOML):" if family.name == "deg" else
                  "model after (TOML, in the deg units a model file is read in):")
