@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import blocks, kernels
+from analysis import blocks, kernels, long_sums
 from analysis.confidence import (  # re-exported: part of this module's API
     ONE_SIGMA as ONE_SIGMA,
     allan_edf_grid as allan_edf_grid,
@@ -407,7 +407,7 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
     """
     n = theta.shape[0] - 1
     if blocks.is_mapped(theta) and blocks.is_long(n):
-        return _cluster_sums_long(theta, np.asarray(m_values, dtype=np.int64))
+        return long_sums.cluster_square_sums(theta, np.asarray(m_values, dtype=np.int64))
     order = np.argsort(m_values)
     ms_sorted = np.asarray(m_values, dtype=np.int64)[order]
     out = np.empty((len(ms_sorted), theta.shape[1]))
@@ -428,27 +428,6 @@ def cluster_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]) -> NDA
     result = np.empty_like(out)
     result[order] = out
     return result
-
-
-def _cluster_sums_long(theta: NDArray[np.float64], m_values: NDArray[np.int64]
-                       ) -> NDArray[np.float64]:
-    """:func:`cluster_sums` of a memory-mapped angle, one m at a time: the cluster edges
-    ``theta[k m]`` are read a block of the record at a time (a strided read maps in every
-    page it strides over) and the squared second differences summed with the last two
-    edges carried over; the same sums to rounding."""
-    n = theta.shape[0] - 1
-    out = np.zeros((len(m_values), theta.shape[1]))
-    for i, m in enumerate(int(v) for v in m_values):
-        last = (n // m) * m  # the last cluster edge
-        rows = max(1, blocks.BLOCK_SAMPLES // m) * m
-        carry = np.zeros((0, theta.shape[1]))
-        for a, b in blocks.spans(0, last + 1, rows):
-            edges = np.concatenate((carry, np.asarray(theta[a:b:m], dtype=np.float64)))
-            d = np.diff(edges, n=2, axis=0)
-            out[i] += np.einsum("jk,jk->k", d, d)
-            carry = edges[-2:]
-            blocks.release(theta)
-    return out
 
 
 # ---------------------------------------------------------------------------- estimators

@@ -10,7 +10,9 @@ The Allan family's estimators other than the overlapping and cluster Allan varia
 * Hadamard (HVAR, OHVAR): third differences ``theta[k+3m] - 3 theta[k+2m] + 3 theta[k+m]
   - theta[k]`` (NIST SP 1065, eq. 18-19), every ``stride``-th k;
 * total (TOTVAR): second differences of the angle reflected about both ends (NIST SP
-  1065, eq. 25).
+  1065, eq. 25);
+* cluster (non-overlapping) Allan: second differences of the cluster edges
+  ``theta[k m]``, read a block of the record at a time.
 
 Each walks the record in blocks of :data:`analysis.blocks.BLOCK_SAMPLES` and hands a
 memory-mapped record's pages back after each (:func:`analysis.blocks.release`); the sums
@@ -122,3 +124,24 @@ def total_square_sum(x: NDArray[np.float64], m: int) -> float:
         total += float(np.einsum("i,i->", d2, d2))
         blocks.release(x)
     return total
+
+
+def cluster_square_sums(theta: NDArray[np.float64], m_values: NDArray[np.int64]
+                        ) -> NDArray[np.float64]:
+    """:func:`analysis.allan.cluster_sums` of a memory-mapped angle (shape (N + 1, k)), one
+    m at a time: the cluster edges ``theta[k m]`` are read a block of the record at a time
+    (a strided read maps in every page it strides over) and the squared second differences
+    summed with the last two edges carried over, per column; the same sums to rounding."""
+    n = theta.shape[0] - 1
+    out = np.zeros((len(m_values), theta.shape[1]))
+    for i, m in enumerate(int(v) for v in m_values):
+        last = (n // m) * m  # the last cluster edge
+        rows = max(1, blocks.BLOCK_SAMPLES // m) * m
+        carry = np.zeros((0, theta.shape[1]))
+        for a, b in blocks.spans(0, last + 1, rows):
+            edges = np.concatenate((carry, np.asarray(theta[a:b:m], dtype=np.float64)))
+            d = np.diff(edges, n=2, axis=0)
+            out[i] += np.einsum("jk,jk->k", d, d)
+            carry = edges[-2:]
+            blocks.release(theta)
+    return out

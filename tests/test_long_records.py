@@ -11,7 +11,9 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 import pytest
@@ -27,6 +29,7 @@ from analysis.tones import find_tones
 from analysis.wavelet import haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
+T = TypeVar("T")
 
 
 @pytest.fixture()
@@ -52,6 +55,18 @@ def _memmap(tmp_path: Path, x: np.ndarray) -> np.memmap:
     return np.memmap(tmp_path / "rate.f8", dtype=np.float64, mode="r", shape=x.shape)
 
 
+def _angle_out(tmp_path: Path, n_samples: int) -> np.memmap:
+    """A memmap for the angle of ``n_samples`` (shape (n + 1, 1))."""
+    return np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(n_samples + 1, 1))
+
+
+def _in_one_piece(monkeypatch: pytest.MonkeyPatch, compute: Callable[[], T]) -> T:
+    """``compute()`` with no record counting as long (the in-memory path)."""
+    with monkeypatch.context() as mp:
+        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
+        return compute()
+
+
 def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -65,7 +80,7 @@ def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
     monkeypatch.setattr(blocks, "LONG_SAMPLES", 5000)
     monkeypatch.setattr(blocks, "BLOCK_SAMPLES", 1237)
     mm = _memmap(tmp_path, x)
-    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    angle = _angle_out(tmp_path, len(x))
     # one running sum either way: the angle is the same to the last bit
     np.testing.assert_array_equal(cumulative_angle(mm, 100.0, out=angle), whole_angle)
     for backend in ("numpy", "numba"):
@@ -230,12 +245,10 @@ def test_gapped_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
     x[20_100:20_600] = np.nan
     x[40_001] = np.nan
     x[59_990:] = np.nan
-    with monkeypatch.context() as mp:
-        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
-        whole = gap_allan_variance(x, 100.0)
+    whole = _in_one_piece(monkeypatch, lambda: gap_allan_variance(x, 100.0))
     mm = _memmap(tmp_path, x)
     present = int(np.isfinite(x).sum())
-    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(present + 1, 1))
+    angle = _angle_out(tmp_path, present)
     got = gap_allan_variance(mm, 100.0, angle_out=angle)
     np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
     for name in ("m", "n_terms", "n_clusters", "edf", "noise_alpha"):
@@ -261,16 +274,14 @@ def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one
 
 
 def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
-    tmp_path: Path, small_blocks: None
+    tmp_path: Path, small_blocks: None, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The cluster (non-overlapping) estimator of a long record, its angle in a memmap and
     the cluster edges read a block at a time, equals the in-memory estimator."""
     x = _record()
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
-        whole = cluster_allan_variance(x, 100.0, taus="log")
+    whole = _in_one_piece(monkeypatch, lambda: cluster_allan_variance(x, 100.0, taus="log"))
     mm = _memmap(tmp_path, x)
-    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    angle = _angle_out(tmp_path, len(x))
     got = cluster_allan_variance(mm, 100.0, taus="log", angle_out=angle)
     np.testing.assert_allclose(got.avar, whole.avar, rtol=1e-12)
     np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
@@ -285,11 +296,10 @@ def test_deviations_of_a_memmap_give_the_numbers_of_one_piece(
     memmap, the differences summed a block at a time; the total one reflected about the
     ends without building the reflection) equal the in-memory ones."""
     x = _record()
-    with monkeypatch.context() as mp:
-        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
-        whole = deviation(x, 100.0, kind=kind)  # type: ignore[arg-type]
+    whole = _in_one_piece(
+        monkeypatch, lambda: deviation(x, 100.0, kind=kind))  # type: ignore[arg-type]
     mm = _memmap(tmp_path, x)
-    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    angle = _angle_out(tmp_path, len(x))
     got = deviation(mm, 100.0, kind=kind, angle_out=angle)  # type: ignore[arg-type]
     np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
     np.testing.assert_array_equal(got.noise_alpha, whole.noise_alpha)
@@ -304,11 +314,10 @@ def test_wavelet_variance_of_a_memmap_gives_the_numbers_of_one_piece(
     the overlapping Allan sums, the lag-window estimate from the coefficients it reads)
     equals the in-memory one, intervals included."""
     x = _record()
-    with monkeypatch.context() as mp:
-        mp.setattr(blocks, "LONG_SAMPLES", 1 << 30)
-        whole = haar_wavelet_variance(x, 100.0, ci=ci)  # type: ignore[arg-type]
+    whole = _in_one_piece(
+        monkeypatch, lambda: haar_wavelet_variance(x, 100.0, ci=ci))  # type: ignore[arg-type]
     mm = _memmap(tmp_path, x)
-    angle = np.memmap(tmp_path / "angle.f8", dtype=np.float64, mode="w+", shape=(len(x) + 1, 1))
+    angle = _angle_out(tmp_path, len(x))
     got = haar_wavelet_variance(mm, 100.0, ci=ci, angle_out=angle)  # type: ignore[arg-type]
     np.testing.assert_allclose(got.wv, whole.wv, rtol=1e-12)
     np.testing.assert_allclose(got.variance, whole.variance, rtol=1e-12)
