@@ -227,12 +227,18 @@ def test_grade_peak_is_flat_in_the_run_length_with_the_numbers_of_one_piece() ->
     path: the peak grows by less than 20 MB (measured 159 -> 159 MB; the in-memory path
     205 -> 246 MB), and every number of the grading is the one the in-memory path gives
     (``--compare``: bit for bit, measured 0)."""
-    short_line = _bench_line(2, "--command", "grade", "--compare")
+    _grade_is_flat_with_the_numbers_of_one_piece(max_diff=1e-12)
+
+
+def _grade_is_flat_with_the_numbers_of_one_piece(*options: str, max_diff: float) -> None:
+    """``station grade`` (bench_memory ``options``) of 2- and 10-minute runs through the
+    block-wise path: the peak grows by under 20 MB, the numbers within ``max_diff``."""
+    short_line = _bench_line(2, "--command", "grade", *options, "--compare")
     short, diff = int(short_line.group(1)), float(short_line.group(3))
-    long = _bench_memory(10, "--command", "grade")
+    long = _bench_memory(10, "--command", "grade", *options)
     assert 50 < short < 400 and 50 < long < 400, (short, long)
     assert long - short < 20, (short, long)
-    assert diff <= 1e-12, diff
+    assert diff <= max_diff, diff
 
 
 def test_gapped_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
@@ -265,12 +271,7 @@ def test_grade_of_a_gapped_run_is_flat_in_the_run_length_with_the_numbers_of_one
     at 2 kHz (measured 159 -> 159 MB; the in-memory path 204 -> 263 MB), and the numbers of
     the in-memory path: the Allan values to rounding, the fitted terms to the fit's
     convergence (measured 9e-16 here, 2.6e-9 on a 2 h x 1 kHz x 3 axes run)."""
-    short_line = _bench_line(2, "--command", "grade", "--gaps", "3", "--compare")
-    short, diff = int(short_line.group(1)), float(short_line.group(3))
-    long = _bench_memory(10, "--command", "grade", "--gaps", "3")
-    assert 50 < short < 400 and 50 < long < 400, (short, long)
-    assert long - short < 20, (short, long)
-    assert diff <= 1e-6, diff
+    _grade_is_flat_with_the_numbers_of_one_piece("--gaps", "3", max_diff=1e-6)
 
 
 def test_cluster_allan_variance_of_a_memmap_gives_the_numbers_of_one_piece(
