@@ -60,7 +60,7 @@ def _worker_environ() -> dict[str, str | None]:
 
 def test_local_workers_keep_mallocs_own_threshold(scheduler) -> None:
     """The local workers start without Dask's MALLOC_TRIM_THRESHOLD_ (it makes every large
-    array a fresh mmap: 8 % more CPU per unit graded) and keep one thread each."""
+    array a fresh mmap: 8-12 % more CPU per unit graded) and keep one thread each."""
     from distributed import Client
 
     with Client(scheduler) as client:

@@ -212,7 +212,7 @@ def _worker_environ(config: Any) -> dict[str, object]:
     """The environment a local worker starts with: Dask's, without its glibc setting
     ``MALLOC_TRIM_THRESHOLD_``. Setting it fixes malloc's mmap threshold, so every
     array over 128 kB of a grading is a fresh mmap whose pages the kernel zeroes again:
-    measured 8 % more CPU per unit graded, and the analysis' memory is bounded by
+    measured 8-12 % more CPU per unit graded, and the analysis' memory is bounded by
     itself (the thread limits Dask sets are kept)."""
     environ = dict(config.get("distributed.nanny.pre-spawn-environ", {}) or {})
     environ.pop("MALLOC_TRIM_THRESHOLD_", None)
