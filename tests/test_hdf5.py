@@ -217,3 +217,34 @@ def test_davar_reads_a_run_file(written: Path) -> None:
     with contextlib.redirect_stdout(buf):
         assert main(["davar", str(written), "--window-s", "1.0", "--json"]) == 0
     assert len(json.loads(buf.getvalue())["axes"]) == 3
+
+
+def test_a_second_reader_in_the_process_reads_the_same_samples(tmp_path: Path) -> None:
+    """Two readers of one run file in one process (the TUI's live view beside a spec sheet,
+    two tasks of one Dask worker): HDF5 rebuilds a dataset refreshed while another handle
+    is open on it only partly, and its reads then fail ("can't insert duplicate key") or,
+    in a file of the latest format, return other rows. A closed file and one a killed
+    recorder left open for writing (read in SWMR mode) each read the same with the first
+    reader holding every dataset open."""
+    from station.storage.hdf5 import open_run_file
+    from tests.test_damaged_runs import _write_run
+
+    closed, held, killed = tmp_path / "closed.h5", tmp_path / "held.h5", tmp_path / "killed.h5"
+    _write_run(closed, close=True)
+    writer = _write_run(held, close=False)
+    killed.write_bytes(held.read_bytes())
+    writer(RunStop(utc_now(), "duration"))
+    for path in (closed, killed):
+        alone = read_run(path)
+        with open_run_file(path) as first:
+            holding = [first[f"units/{u}/{name}"] for u in ("unit1", "unit2")
+                       for name in first[f"units/{u}"]]
+            again = read_run(path)
+            assert len(holding) == 14 and all(h.shape[0] > 0 for h in holding)
+        assert alone.interrupted == (path == killed)
+        for a, b in zip(alone.units, again.units, strict=True):
+            assert a.record.n_samples == 6000 and len(a.events) == 6
+            np.testing.assert_array_equal(a.record.rate_deg_s, b.record.rate_deg_s)
+            np.testing.assert_array_equal(a.record.sample_index, b.record.sample_index)
+            np.testing.assert_array_equal(a.record.temperature_c, b.record.temperature_c)
+            assert a.events == b.events

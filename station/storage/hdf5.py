@@ -36,7 +36,7 @@ from station.model.documents import Descriptor
 from station.model.kinds import log_kind
 from station.model.records import RateRecord
 from station.model.runs import RunEvent, RunInfo, RunMetadata, UnitRun
-from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading
+from station.storage.hdf5_open import chunks_within, cut_short, open_h5, reading, refresh_alone
 
 FORMAT = "gyro-station-run"
 FORMAT_VERSION = 1
@@ -136,9 +136,7 @@ def open_run_file(path: str | Path) -> Iterator[h5py.File]:
 
 def run_state(f: h5py.File) -> dict[str, str]:
     """The run state row (``state``, ``stop_utc``, ``stop_reason``, ``last_flush_utc``)."""
-    ds = f["run_state"]
-    ds.refresh()
-    row = ds[0]
+    row = refresh_alone(f["run_state"])[0]
     return {name: text_value(row[name]) for name in STATE_DTYPE.names or ()}
 
 
@@ -180,13 +178,12 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
     """
     g = f["units"][unit_id]
     for name in list(g):
-        ds = g[name]
-        if not isinstance(ds, h5py.Dataset):
+        if not isinstance(g[name], h5py.Dataset):
             raise RecordFormatError(f"{f.filename}: damaged run file: {unit_id}/{name} is "
                                     f"not a dataset; `station recover {f.filename}` "
                                     f"salvages what is readable")
-        ds.refresh()
-    n = min([int(g["committed"][0]), *(g[k].shape[0] for k in SAMPLE_DATASETS if k in g)])
+    n = min([int(refresh_alone(g["committed"])[0]),
+             *(refresh_alone(g[k]).shape[0] for k in SAMPLE_DATASETS if k in g)])
 
     def col(name: str) -> Any:
         return _rows(g[name], start, n) if name in g else None
@@ -230,7 +227,7 @@ def _rows(ds: h5py.Dataset, start: int, stop: int) -> Any:
             if attempt == tries - 1:
                 raise
             time.sleep(0.01)
-            ds.refresh()
+            refresh_alone(ds)
     raise AssertionError("unreachable")
 
 
@@ -238,9 +235,7 @@ def committed_events(f: h5py.File, unit_id: str) -> NDArray[np.void]:
     """The committed event log of one unit (rows of :data:`EVENT_DTYPE`; a file written
     before ``missing_low``/``missing_high`` existed lacks them: see :func:`gap_bounds`)."""
     g = f["units"][unit_id]
-    g["committed"].refresh()
-    g["events"].refresh()
-    m = min(int(g["committed"][1]), g["events"].shape[0])
+    m = min(int(refresh_alone(g["committed"])[1]), refresh_alone(g["events"]).shape[0])
     _check_inside(f, g, ["events"], 0, m)
     return _rows(g["events"], 0, m)
 

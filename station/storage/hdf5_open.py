@@ -38,6 +38,7 @@ from functools import cache
 from pathlib import Path
 
 import h5py
+from h5py._objects import phil
 
 from station.errors import RecordFormatError, StationError
 
@@ -183,6 +184,34 @@ def cut_short(path: Path) -> int | None:
     length itself, and a file at least that long holds every chunk committed)."""
     sb = superblock(path)
     return sb.size if sb.open_for_write and sb.truncated else None
+
+
+def refresh_alone(ds: h5py.Dataset) -> h5py.Dataset:
+    """``ds`` with its metadata read again, where that is both needed and safe; ``ds`` itself.
+
+    Needed only when the file is open as a SWMR reader (its writer may have extended the
+    dataset since it was opened); a file no writer holds is as it was opened. Safe only when
+    ``ds`` is the one open handle on that dataset in this process: HDF5 (1.10 to 2.0)
+    rebuilds a refreshed dataset's chunk layout only partly when another handle to it is
+    open (another reader of the same file in this process: the TUI's live view beside a
+    spec sheet, a Dask worker), and every later read of it then fails with "can't insert
+    duplicate key" or, in a file of the latest format, returns other rows without an error.
+    With another handle open the dataset is left as it is: its extent is then the one seen
+    when that handle refreshed it, a few flushes old at worst, never more than was written.
+    """
+    with phil:  # no other thread opens a handle between the count and the refresh
+        if ds.file.swmr_mode and _handles_on(ds) == 1:
+            ds.refresh()
+    return ds
+
+
+def _handles_on(ds: h5py.Dataset) -> int:
+    """Open dataset handles in this process on the dataset ``ds`` is (``ds``'s included),
+    through any open of its file."""
+    path = h5py.h5f.get_name(ds.id)
+    name = h5py.h5i.get_name(ds.id)
+    return sum(1 for i in h5py.h5f.get_obj_ids(h5py.h5f.OBJ_ALL, h5py.h5f.OBJ_DATASET)
+               if h5py.h5i.get_name(i) == name and h5py.h5f.get_name(i) == path)
 
 
 def chunks_within(ds: h5py.Dataset, start: int, stop: int, size: int) -> bool:

@@ -28,6 +28,7 @@ from station.storage.hdf5 import (
     open_run_file,
     text_value,
 )
+from station.storage.hdf5_open import refresh_alone
 from station.storage.scratch import scratch_array
 
 #: Rows read from the HDF5 dataset at a time (1.5 MB of a 3-axis float64 rate).
@@ -59,7 +60,7 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
     """
     g = f["units"][uid]
     for name in ("committed", "rate", *(["temperature"] if "temperature" in g else [])):
-        g[name].refresh()
+        refresh_alone(g[name])
     n = min(
         int(g["committed"][0]),
         g["rate"].shape[0],
@@ -72,7 +73,7 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
     columns = ["rate", *(["temperature"] if "temperature" in g else []),
                *(["counter", "receive_time"] if gapped else [])]
     for name in columns[1:]:
-        g[name].refresh()
+        refresh_alone(g[name])
     n = min(n, *(g[name].shape[0] for name in columns))
     _check_inside(f, g, columns, 0, n)
     axes = tuple(json.loads(text_value(g.attrs["axes"])))

@@ -27,6 +27,7 @@ from station.storage.hdf5 import (
     unit_counts,
     unit_ids,
 )
+from station.storage.hdf5_open import refresh_alone
 
 #: Length of the averages the live plots are drawn from, s.
 BLOCK_S = 0.1
@@ -169,10 +170,10 @@ class RunPoller:
         """Read samples ``next_index:`` (bounded) of the first axis; True when caught up."""
         stop = min(committed, st.next_index + self.max_samples_per_poll)
         if stop > st.next_index and st.averager is not None:
-            g["rate"].refresh()
+            refresh_alone(g["rate"])
             st.averager.add(np.asarray(g["rate"][st.next_index:stop, 0], dtype=np.float64))
             if "temperature" in g:
-                g["temperature"].refresh()
+                refresh_alone(g["temperature"])
                 st.temperature_c = float(g["temperature"][stop - 1])
             st.next_index = stop
         return stop == committed
