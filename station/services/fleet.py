@@ -208,6 +208,17 @@ def local_workers(workers: int | None) -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
+def _worker_environ(config: Any) -> dict[str, object]:
+    """The environment a local worker starts with: Dask's, without its glibc setting
+    ``MALLOC_TRIM_THRESHOLD_``. Setting it fixes malloc's mmap threshold, so every
+    array over 128 kB of a grading is a fresh mmap whose pages the kernel zeroes again:
+    measured 8 % more CPU per unit graded, and the analysis' memory is bounded by
+    itself (the thread limits Dask sets are kept)."""
+    environ = dict(config.get("distributed.nanny.pre-spawn-environ", {}) or {})
+    environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    return environ
+
+
 @contextmanager
 def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterator[Any]:
     """A Dask client: of a local cluster of ``workers`` single-threaded processes on
@@ -223,8 +234,9 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
 
     quiet = {
         "distributed.scheduler.allowed-failures": 1,  # a task that kills its worker: once
-        "distributed.admin.tick.limit": "1h",
-    }  # long tasks on a busy machine are no news
+        "distributed.admin.tick.limit": "1h",  # long tasks on a busy machine are no news
+        "distributed.nanny.pre-spawn-environ": _worker_environ(dask.config),
+    }
     with dask.config.set(quiet):
         if scheduler == LOCAL:
             try:
