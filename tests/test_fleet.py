@@ -52,20 +52,28 @@ def scheduler() -> Iterator[str]:
         yield client.scheduler.address
 
 
-def _worker_environ() -> dict[str, str | None]:
+def _worker_settings() -> dict[str, object]:
     import os
 
-    return {k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS")}
+    import dask
+
+    settings: dict[str, object] = {
+        k: os.environ.get(k) for k in ("MALLOC_TRIM_THRESHOLD_", "OMP_NUM_THREADS")
+    }
+    settings["profiler"] = dask.config.get("distributed.worker.profile.enabled")
+    return settings
 
 
-def test_local_workers_keep_mallocs_own_threshold(scheduler) -> None:
+def test_local_workers_keep_mallocs_own_threshold_and_no_profiler(scheduler) -> None:
     """The local workers start without Dask's MALLOC_TRIM_THRESHOLD_ (it makes every large
-    array a fresh mmap: 8 % more CPU per unit graded) and keep one thread each."""
+    array a fresh mmap: 8 % more CPU per unit graded) and without its sampling profiler,
+    and keep one thread each."""
     from distributed import Client
 
     with Client(scheduler) as client:
-        environs = list(client.run(_worker_environ).values())
-    assert environs == [{"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": "1"}] * 2
+        settings = list(client.run(_worker_settings).values())
+    expected = {"MALLOC_TRIM_THRESHOLD_": None, "OMP_NUM_THREADS": "1", "profiler": False}
+    assert settings == [expected] * 2
 
 
 def _fleet(capsys, *args: str) -> tuple[int, dict]:

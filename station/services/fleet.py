@@ -236,6 +236,9 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
         "distributed.scheduler.allowed-failures": 1,  # a task that kills its worker: once
         "distributed.admin.tick.limit": "1h",  # long tasks on a busy machine are no news
         "distributed.nanny.pre-spawn-environ": _worker_environ(dask.config),
+        # the dashboard's sampling profiler walks the task's stack every 10 ms: CPU a
+        # grading needs, for a profile no one looks at
+        "distributed.worker.profile.enabled": False,
     }
     with dask.config.set(quiet):
         if scheduler == LOCAL:
