@@ -191,10 +191,10 @@ def refresh_alone(ds: h5py.Dataset) -> h5py.Dataset:
 
     Needed only when the file is open as a SWMR reader (its writer may have extended the
     dataset since it was opened); a file no writer holds is as it was opened. Safe only when
-    ``ds`` is the one open handle on that dataset in this process: HDF5 (1.10 to 2.0)
-    rebuilds a refreshed dataset's chunk layout only partly when another handle to it is
-    open (another reader of the same file in this process: the TUI's live view beside a
-    spec sheet, a Dask worker), and every later read of it then fails with "can't insert
+    ``ds`` is the one open handle on that dataset in this process: HDF5 (2.0.0, as h5py 3.16
+    ships it) rebuilds a refreshed dataset's chunk layout only partly when another handle
+    to it is open (another reader of the same file in this process: the TUI's live view
+    beside a spec sheet), and every later read of it then fails with "can't insert
     duplicate key" or, in a file of the latest format, returns other rows without an error.
     With another handle open the dataset is left as it is: its extent is then the one seen
     when that handle refreshed it, a few flushes old at worst, never more than was written.
