@@ -195,3 +195,58 @@ def test_progress_bar_only_on_a_terminal() -> None:
         bar.close()
     assert "\r" in tty.getvalue() and "64/64 tasks" in tty.getvalue()
     assert pipe.getvalue() == ""
+
+
+def _exit_worker(tries: str) -> None:
+    import os
+
+    with open(tries, "a") as log:
+        log.write(f"{os.getpid()}\n")
+    os._exit(9)  # what the kernel's OOM killer does to a worker, from inside
+
+
+def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
+    runs, tmp_path: Path
+) -> None:
+    """A worker killed while it grades (the OOM killer, an operator) costs its tasks one
+    retry on a fresh worker and nothing else: every run graded as without the kill. A task
+    whose worker dies on every try is reported as such, once it has had a second worker."""
+    import os
+    import signal
+
+    from distributed import Client, KilledWorker
+
+    from station.services.fleet import FleetRequest, fleet, lost_task_text
+
+    folder, _ = runs
+    files = tuple(str(folder / f"run{k}.h5") for k in range(GOOD))
+    with cluster_client(LOCAL, 2) as client:
+        request = FleetRequest("grade", files, scheduler=client.scheduler.address, store=False)
+        unharmed = fleet(request)
+        killed: list[tuple[str, tuple[str, ...]]] = []
+
+        def kill_a_busy_worker(progress: FleetProgress) -> None:
+            if killed or progress.done == 0:
+                return
+            with Client(client.scheduler.address) as spy:
+                busy = {w: tuple(map(str, keys)) for w, keys in spy.processing().items() if keys}
+                if busy:
+                    worker, keys = sorted(busy.items())[0]
+                    pids = spy.run(os.getpid, workers=[worker])
+                    os.kill(pids[worker], signal.SIGKILL)
+                    killed.append((worker, keys))
+
+        result = fleet(request, progress=kill_a_busy_worker)
+        assert killed, "no worker was busy when the first task came back"
+        assert result.failed == () and result.tasks == unharmed.tasks == 2 * GOOD
+        assert [_without_time(r.as_json()) for r in result.runs] == [
+            _without_time(r.as_json()) for r in unharmed.runs
+        ]
+
+        tries = tmp_path / "tries.txt"
+        deaths = client.submit(_exit_worker, str(tries), pure=False)
+        with pytest.raises(KilledWorker) as lost:
+            deaths.result(timeout=120)
+        assert len(set(tries.read_text().split())) == 2  # two workers, then no more
+        assert "died on each of 2 tries" in lost_task_text(lost.value)
+        client.wait_for_workers(2, timeout=60)  # the nannies start fresh workers

@@ -48,8 +48,27 @@ LOCAL = "local"
 RUN_SUFFIXES = (".h5", ".hdf5")
 
 
+#: Times a task may take its worker down with it (killed for memory, a crash in a library)
+#: and still be run again on another; the next time it is listed as failed.
+WORKER_DEATHS_FORGIVEN = 1
+
+
 class FleetError(StationError, RuntimeError):
     """The cluster cannot be started or reached."""
+
+
+def lost_task_text(exc: BaseException) -> str:
+    """One line saying why a task's result did not come back: a task whose worker died on
+    every try (Dask's ``KilledWorker``) says so and where to look; any other error as
+    :func:`error_text` writes it."""
+    from distributed import KilledWorker  # imported with the cluster, not with the CLI
+
+    if isinstance(exc, KilledWorker):
+        return (
+            f"its worker died on each of {WORKER_DEATHS_FORGIVEN + 1} tries (killed for "
+            "memory, or a crash in a library): the workers' logs say which"
+        )
+    return error_text(exc)
 
 
 @dataclass(frozen=True)
@@ -233,7 +252,7 @@ def cluster_client(scheduler: str = LOCAL, workers: int | None = None) -> Iterat
     from distributed import Client, LocalCluster
 
     quiet = {
-        "distributed.scheduler.allowed-failures": 1,  # a task that kills its worker: once
+        "distributed.scheduler.allowed-failures": WORKER_DEATHS_FORGIVEN,
         "distributed.admin.tick.limit": "1h",  # long tasks on a busy machine are no news
         "distributed.nanny.pre-spawn-environ": _worker_environ(dask.config),
         # the dashboard's sampling profiler walks the task's stack every 10 ms: CPU a
@@ -353,7 +372,7 @@ class _Driver:
                 value = future.result()
                 error = ""
             except Exception as exc:  # the task's worker died, or the result did not come back
-                value, error = None, error_text(exc)
+                value, error = None, lost_task_text(exc)
             getattr(self, f"_on_{what}")(key, value, error)
             self.tell()
 

@@ -30,8 +30,9 @@ def test_set_point_round_trips_to_its_resolution(temperature: float) -> None:
     # half a step of 0.1 degC, and the float error of a value that lies exactly halfway
     # (1.05 degC: 10.5 steps rounds to even, 1.0, and 1.05 - 1.0 is 0.05 + 4e-17)
     half_step = 0.5 * m.setpoint.scale * (1.0 + 1e-9)
-    assert m.decode_setpoint(m.encode_setpoint(temperature)) == pytest.approx(temperature, abs=half_step)
-    assert m.decode_measured(m.encode_measured(temperature)) == pytest.approx(temperature, abs=half_step)
+    within = pytest.approx(temperature, abs=half_step)
+    assert m.decode_setpoint(m.encode_setpoint(temperature)) == within
+    assert m.decode_measured(m.encode_measured(temperature)) == within
 
 
 @FUZZ
