@@ -59,13 +59,13 @@ class FleetError(StationError, RuntimeError):
 
 def lost_task_text(exc: BaseException) -> str:
     """One line saying why a task's result did not come back: a task whose worker died on
-    every try (Dask's ``KilledWorker``) says so and where to look; any other error as
-    :func:`error_text` writes it."""
+    every try (Dask's ``KilledWorker``; the tries are the scheduler's, which a remote one
+    sets itself) says so and where to look; any other error as :func:`error_text` writes it."""
     from distributed import KilledWorker  # imported with the cluster, not with the CLI
 
     if isinstance(exc, KilledWorker):
         return (
-            f"its worker died on each of {WORKER_DEATHS_FORGIVEN + 1} tries (killed for "
+            f"its worker died on each of {exc.allowed_failures + 1} tries (killed for "
             "memory, or a crash in a library): the workers' logs say which"
         )
     return error_text(exc)
