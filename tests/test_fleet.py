@@ -214,7 +214,7 @@ def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
     import os
     import signal
 
-    from distributed import Client, KilledWorker
+    from distributed import KilledWorker
 
     from station.services.fleet import FleetRequest, fleet, lost_task_text
 
@@ -223,18 +223,15 @@ def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
     with cluster_client(LOCAL, 2) as client:
         request = FleetRequest("grade", files, scheduler=client.scheduler.address, store=False)
         unharmed = fleet(request)
-        killed: list[tuple[str, tuple[str, ...]]] = []
+        killed: list[str] = []
 
         def kill_a_busy_worker(progress: FleetProgress) -> None:
             if killed or progress.done == 0:
                 return
-            with Client(client.scheduler.address) as spy:
-                busy = {w: tuple(map(str, keys)) for w, keys in spy.processing().items() if keys}
-                if busy:
-                    worker, keys = sorted(busy.items())[0]
-                    pids = spy.run(os.getpid, workers=[worker])
-                    os.kill(pids[worker], signal.SIGKILL)
-                    killed.append((worker, keys))
+            busy = sorted(w for w, keys in client.processing().items() if keys)
+            if busy:
+                os.kill(client.run(os.getpid, workers=busy[:1])[busy[0]], signal.SIGKILL)
+                killed.append(busy[0])
 
         result = fleet(request, progress=kill_a_busy_worker)
         assert killed, "no worker was busy when the first task came back"
