@@ -7,15 +7,26 @@ from __future__ import annotations
 
 import io
 import json
+import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from distributed import KilledWorker
 
 from station.cli import main
 from station.commands.fleet import ProgressBar
 from station.output.results import ResultsDatabase
-from station.services.fleet import LOCAL, FleetProgress, cluster_client, run_files
+from station.services.fleet import (
+    LOCAL,
+    FleetProgress,
+    FleetRequest,
+    cluster_client,
+    fleet,
+    lost_task_text,
+    run_files,
+)
 from tests.fleet_runs import write_run
 from tests.test_grading import profile_text, write_profile
 
@@ -211,13 +222,6 @@ def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
     """A worker killed while it grades (the OOM killer, an operator) costs its tasks one
     retry on a fresh worker and nothing else: every run graded as without the kill. A task
     whose worker dies on every try is reported as such, once it has had a second worker."""
-    import os
-    import signal
-
-    from distributed import KilledWorker
-
-    from station.services.fleet import FleetRequest, fleet, lost_task_text
-
     folder, _ = runs
     files = tuple(str(folder / f"run{k}.h5") for k in range(GOOD))
     with cluster_client(LOCAL, 2) as client:
