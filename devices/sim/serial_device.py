@@ -148,6 +148,15 @@ class PtySerialDevice(DeviceLoop):
         not written whole is booked lost (the bytes of one cut short reach the station,
         which resynchronizes after them).
         """
+        # Frames overdue by more than this device's latency (its thread was starved
+        # between taking them due and writing them) are lost, not written late: a late
+        # write would look to the station like a longer gap than the counter steps.
+        overdue = self.core.clock() - self.max_latency_s
+        late = [i for _, i, delivered in frames
+                if delivered and self.core.due_time(i) < overdue]
+        if late:
+            frames = [f for f in frames if f[1] < 0 or self.core.due_time(f[1]) >= overdue]
+            self.core.overrun(late)
         data = b"".join(f for f, _, _ in frames)
         written = 0
         if data and self._master is not None:

@@ -8,12 +8,17 @@ lost samples, with the adapter reconnecting by itself.
 
 from __future__ import annotations
 
+import os
+import select
 import time
 
 import numpy as np
 import pytest
 
+from devices.codecs.stim300 import Stim300Codec
 from devices.errors import DeviceTimeoutError
+from devices.sim.params import parse_sim_params, sim_core
+from devices.sim.serial_device import PtySerialDevice
 from devices.urls import open_device
 from tests.devices.helpers import (
     Collected,
@@ -30,7 +35,7 @@ MODULUS = {"stim300": 256, "kvh1750": 128, "xbus": 65536}
 
 @pytest.mark.parametrize(("protocol", "atol", "rtol"), PROTOCOLS)
 def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> None:
-    url = f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=5&history=100000&seed=4"
+    url = f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=2&history=100000&seed=4"
     with open_device(url) as dev:
         dev.source.open()
         got = collect(dev.source, 1500)
@@ -38,9 +43,12 @@ def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> No
         offset = device_index(got, core, MODULUS[protocol])
         idx = got.counter + offset
         # No fault is injected: the only possible losses are the simulator's own, when
-        # a loaded host starves its thread (booked in its ledger); none on a quiet host.
+        # a loaded host starves a thread (its own, or the reader's until the pty is full),
+        # booked in its ledger; none on a quiet host. A CI host under load lost 119 of 1635
+        # at warp 5 (declared exactly): what is checked is that every loss is declared,
+        # with enough samples left to compare.
         declared, lost = check_accounting(got, core, offset)
-        assert declared == lost and len(lost) <= 0.05 * len(idx)
+        assert declared == lost and len(lost) <= 0.25 * (len(idx) + len(lost))
         assert got.crc_errors == 0
         np.testing.assert_allclose(got.rate, core.history(idx), atol=atol + 1e-12, rtol=rtol)
         temp = got.column("temperature_c")
@@ -134,3 +142,37 @@ def test_silence_limit_is_on_the_units_clock() -> None:
     with open_device(url.replace("stall_for_s=8", "stall_for_s=3")) as dev:
         dev.source.open()
         collect(dev.source, 1200)  # raises on a timeout
+
+
+def test_frames_a_starved_simulator_took_due_are_lost_not_written_late() -> None:
+    """A real gyro sends on time or not at all. Frames whose writing the host delayed past
+    the simulator's latency (its thread starved between taking them due and writing
+    them) are booked lost, and none of their bytes reach the port: a late write would
+    look to the station like a gap longer than the counter steps, by a whole wrap."""
+    params = parse_sim_params("STIM300", {"rate": "500", "history": "1000", "seed": "3"})
+    codec = Stim300Codec()
+    core, _ = sim_core(params, codec.n_axes)
+    device = PtySerialDevice(codec, core)  # its loop is not started: this test is its thread
+    device._attach()
+    try:
+        def frames(readings: list) -> list[tuple[bytes, int, bool]]:
+            # as the device loop builds them: the wire books each frame delivered
+            return [(core.wire(codec.encode(codec.from_reading(r)), r.counter), r.counter,
+                     True) for r in readings]
+
+        time.sleep(0.02)
+        on_time = frames(core.due(max_lag_s=device.max_lag_s))
+        device._write(on_time)
+        time.sleep(0.02)
+        starved = frames(core.due(max_lag_s=device.max_lag_s))
+        time.sleep(2 * device.max_latency_s)  # the host holds the thread up
+        device._write(starved)
+        assert on_time and starved
+        port = b""  # all the port got (a pty hands bytes over asynchronously)
+        while select.select([device._slave], [], [], 0.2)[0]:
+            port += os.read(device._slave, 1 << 16)
+        assert port == b"".join(f for f, _, _ in on_time)
+        assert list(core.ledger.lost_indices) == [i for _, i, _ in starved]
+        assert core.ledger.delivered == len(on_time)
+    finally:
+        device._detach()
