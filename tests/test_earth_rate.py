@@ -38,12 +38,15 @@ x = "up"
 y = "north"
 z = "east"
 """
-#: A navigation-grade FOG of the KVH DSP-1750 class: ARW 0.012 deg/sqrt(h), bias 0.05 deg/h.
-NAV_MODEL = """name = "DSP-1750 class"
+#: A navigation-grade FOG of the KVH DSP-1750 class: ARW 0.012 deg/sqrt(h), bias 0.02 deg/h,
+#: well inside the profile's 0.1 deg/h: at warp 1000 a loaded host's simulator loses up
+#: to a tenth of the samples, and the bias interval (about +-0.03 deg/h) widens with that.
+BIAS_DEG_H = 0.02
+NAV_MODEL = f"""name = "DSP-1750 class"
 [arw]
 N_deg_rt_h = 0.012
 [bias]
-value_deg_h = 0.05
+value_deg_h = {BIAS_DEG_H}
 """
 NAV_PROFILE = """name = "NAV"
 version = "1"
@@ -128,7 +131,7 @@ def test_a_simulated_unit_on_a_bench_measures_the_earth_rate(tmp_path: Path) -> 
     core, _ = sim_core(parse_sim_params(str(model), query), 3)
     rate = core.signal.read(36_000).rate_deg_s * S_PER_H  # 1 h at 10 Hz
     np.testing.assert_allclose(
-        rate.mean(axis=0), [0.05 + UP_AT_45, 0.05 + UP_AT_45, 0.05], atol=0.05
+        rate.mean(axis=0), [BIAS_DEG_H + UP_AT_45, BIAS_DEG_H + UP_AT_45, BIAS_DEG_H], atol=0.05
     )
     with pytest.raises(DeviceConfigurationError, match="both"):
         parse_sim_params(str(model), {"latitude": "45"})
@@ -138,7 +141,7 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """Recorded as a user would: a bench file, a simulated KVH DSP-1750 class unit (bias
-    0.05 deg/h, x axis up at 45 deg N), 1 h at 10 Hz; analyze and grade read the bench
+    0.02 deg/h, x axis up at 45 deg N), 1 h at 10 Hz; analyze and grade read the bench
     from the run file."""
     bench, model, profile = tmp_path / "bench.toml", tmp_path / "nav.toml", tmp_path / "NAV.toml"
     bench.write_text(BENCH)
@@ -168,8 +171,10 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(
     axes = {a["name"]: a for a in json.loads(capsys.readouterr().out)["axes"]}
     x, z = axes["x"]["figures"], axes["z"]["figures"]
     assert x["earth_rate_removed_deg_h"] == pytest.approx(UP_AT_45, rel=1e-9)
-    assert x["bias_deg_h"] == pytest.approx(0.05, abs=0.05)  # the set bias, Earth rate removed
-    assert z["earth_rate_removed_deg_h"] == 0.0 and z["bias_deg_h"] == pytest.approx(0.05, abs=0.05)
+    # the set bias, Earth rate removed
+    assert x["bias_deg_h"] == pytest.approx(BIAS_DEG_H, abs=0.05)
+    assert z["earth_rate_removed_deg_h"] == 0.0
+    assert z["bias_deg_h"] == pytest.approx(BIAS_DEG_H, abs=0.05)
     assert any("Earth rate +10.64 deg/h removed" in n for n in x["notes"])
     # the same run without a latitude: the bias holds the Earth rate, and says so
     nowhere = tmp_path / "nowhere.toml"
@@ -179,7 +184,7 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(
         a["figures"] for a in json.loads(capsys.readouterr().out)["axes"] if a["name"] == "x"
     ]
     assert x_raw["earth_rate_removed_deg_h"] is None
-    assert x_raw["bias_deg_h"] == pytest.approx(0.05 + UP_AT_45, abs=0.05)
+    assert x_raw["bias_deg_h"] == pytest.approx(BIAS_DEG_H + UP_AT_45, abs=0.05)
     assert any("not removed" in n for n in x_raw["notes"])
     # grading: the unit passes its 0.1 deg/h bias limit only with the Earth rate removed
     assert main(["grade", str(run), "--profile", str(profile), "--json", "--no-store"]) == 0
