@@ -127,15 +127,18 @@ class CanopenGyroNode(DeviceLoop):
         self.network.send_message(pdo.cob_id, bytes(pdo.data))
 
     def _sync_readings(self) -> list[Reading]:
-        """One sample per SYNC received (none while unplugged: it hears no SYNC)."""
-        readings = []
-        while not self._syncs.empty():
-            self._syncs.get()
-            if not self.core.link_down() and self.node.nmt.state == _OPERATIONAL:
-                reading = self.core.next_reading()
-                if reading is not None:
-                    readings.append(reading)
-        return readings
+        """One sample per SYNC received (none while unplugged: it hears no SYNC).
+
+        The SYNCs waiting when the pass starts, all sampled at once: a thread the host
+        starves (each SYNC slower to handle than the SYNC period) would otherwise take
+        SYNCs as fast as they come and never get to send a PDO.
+        """
+        n = self._syncs.qsize()
+        for _ in range(n):
+            self._syncs.get_nowait()
+        if n == 0 or self.core.link_down() or self.node.nmt.state != _OPERATIONAL:
+            return []
+        return self.core.next_readings(n)
 
     def _run(self) -> None:
         core = self.core

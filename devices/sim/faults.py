@@ -331,12 +331,12 @@ class SimCore:
             self.ledger.lost_indices.extend(range(max(start, start + n - self.ledger.window),
                                                   start + n))
 
-    def next_reading(self) -> Reading | None:
-        """One more sample now, off the time schedule (a SYNC-triggered measurement);
-        None past :meth:`stop_after`'s end."""
-        if self._last_index is not None and self.ledger.generated >= self._last_index:
-            return None
-        return self._generate(1)[0]
+    def next_readings(self, n: int) -> list[Reading]:
+        """``n`` more samples now, off the time schedule (SYNC-triggered measurements);
+        none past :meth:`stop_after`'s end."""
+        if self._last_index is not None:
+            n = min(n, self._last_index - self.ledger.generated)
+        return self._generate(n)
 
     def _generate(self, n: int) -> list[Reading]:
         if n <= 0:

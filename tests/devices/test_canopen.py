@@ -11,6 +11,7 @@ heartbeat and the reconnect logged; and it pins down canopen's LocalNode PDO pit
 
 from __future__ import annotations
 
+import threading
 import time
 
 import canopen
@@ -54,6 +55,36 @@ def test_sync_driven_tpdos_one_sample_per_sync() -> None:
         offset = device_index(got, core, 65536, atol=1e-6)
         declared, lost = check_accounting(got, core, offset)
         assert declared == lost == set()  # a SYNC-driven node samples only when asked
+        np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
+                                   atol=0.5e-6 + 1e-12, rtol=0)
+
+
+def test_a_sync_driven_node_keeps_sending_in_a_busy_process() -> None:
+    """A thread spinning in the node's process (holding the interpreter half the time)
+    makes each SYNC slower for the node to handle than the SYNC period (2.5 ms here).
+    The node still sends, one sample per SYNC it took; taking SYNCs one at a time as they
+    came, it once took them for ever and sent nothing (2 samples in 20 s)."""
+    spinning = threading.Event()
+
+    def spin() -> None:
+        while not spinning.is_set():
+            pass
+
+    with open_device(
+        "sim+canopen://STIM300/6?rate=100&warp=4&history=100000&seed=14&tpdo=sync"
+    ) as dev:
+        dev.source.open()
+        spinner = threading.Thread(target=spin, daemon=True)
+        spinner.start()
+        try:
+            got = collect(dev.source, 300)
+        finally:
+            spinning.set()
+            spinner.join()
+        core = dev.simulator.core
+        offset = device_index(got, core, 65536, atol=1e-6)
+        declared, lost = check_accounting(got, core, offset)
+        assert declared == lost
         np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
 
