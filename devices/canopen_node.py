@@ -181,15 +181,15 @@ class CanopenRateSource:
         """Samples received since the last call (see :meth:`RateSource.read`)."""
         if self.network is None:
             self.open()
-        deadline = time.monotonic() + timeout_s
-        first = True
-        while True:
-            try:
-                item = self._queue.get(timeout=max(0.0, deadline - time.monotonic())
-                                       if first else 0.0)
-            except queue.Empty:
-                break
-            first = False
+        # The PDOs there once the first came, not those that keep coming meanwhile: a
+        # host too slow for the node's PDO rate still returns, and says so by its gaps.
+        try:
+            items = [self._queue.get(timeout=timeout_s)]
+        except queue.Empty:
+            items = []
+        else:
+            items += [self._queue.get_nowait() for _ in range(self._queue.qsize())]
+        for item in items:
             if self._bus_clock(item[2]) >= self._not_before_s:
                 self._take(*item)
         wall = time.monotonic()
