@@ -266,6 +266,11 @@ def test_each_temperature_plateau_has_its_allan_analysis(
     doc = graded.as_json()
     arw = VG951.get("arw")
     assert isinstance(arw, AngleRandomWalk)
+    # Each 95 % interval misses its truth one time in twenty. At x200 a loaded host's unit
+    # processes start and stop late, so each run records other stretches of the seeded
+    # noise: of the ten plateaus' intervals of a figure, at most two may miss (a fair
+    # interval misses more about one time in 90). An idle run misses none.
+    misses: dict[str, list[object]] = {"arw": [], "bias instability": []}
     for (_, tempco), unit, graded_unit in zip(TEMPERATURE_UNITS, doc["units"],  # type: ignore[call-overload]
                                               graded.units, strict=True):
         plateaus = unit["sequence_plateaus"]
@@ -289,7 +294,8 @@ def test_each_temperature_plateau_has_its_allan_analysis(
                                         graded_unit.unit.unit_id)
             assert p["axis"] == "x" and p["duration_s"] == segment.record.duration_s
             low, high = p["arw_deg_rt_h_ci"]
-            assert low <= arw.N_deg_rt_h <= high, p
+            if not low <= arw.N_deg_rt_h <= high:
+                misses["arw"].append(p)
             # a 2-min plateau reads the bias instability where white noise still adds to
             # the curve: the truth is the model's deviation at the tau read, / 0.664
             assert plateau.allan is not None
@@ -299,7 +305,9 @@ def test_each_temperature_plateau_has_its_allan_analysis(
             tau = bias_instability_readoff(plateau.allan).tau_low_s
             truth = float(VG951.adev(tau)) * S_PER_H / BIAS_INSTABILITY_FACTOR
             low, high = p["bias_instability_deg_h_ci"]
-            assert low <= truth <= high, (p, truth)
+            if not low <= truth <= high:
+                misses["bias instability"].append((p, truth))
+    assert all(len(missed) <= 2 for missed in misses.values()), misses
 
 
 def _record(args: list[str]) -> subprocess.Popen[str]:
