@@ -152,11 +152,13 @@ class PtySerialDevice(DeviceLoop):
         # between taking them due and writing them) are lost, not written late: a late
         # write would look to the station like a longer gap than the counter steps.
         overdue = self.core.clock() - self.max_latency_s
-        late = [i for _, i, delivered in frames
-                if delivered and self.core.due_time(i) < overdue]
-        if late:
-            frames = [f for f in frames if f[1] < 0 or self.core.due_time(f[1]) >= overdue]
-            self.core.overrun(late)
+        on_time: list[tuple[bytes, int, bool]] = []
+        late: list[tuple[bytes, int, bool]] = []
+        for item in frames:
+            in_time = item[1] < 0 or self.core.due_time(item[1]) >= overdue  # replies: -1
+            (on_time if in_time else late).append(item)
+        self.core.overrun([index for _, index, delivered in late if delivered])
+        frames = on_time
         data = b"".join(f for f, _, _ in frames)
         written = 0
         if data and self._master is not None:
