@@ -15,7 +15,7 @@ import tempfile
 import tty
 from typing import Any
 
-from devices.codecs.base import StreamCodec
+from devices.codecs.base import Reading, StreamCodec
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
 
@@ -140,6 +140,17 @@ class PtySerialDevice(DeviceLoop):
                 self.core.enter_configuration()
         return reply
 
+    def _frames(self, readings: list[Reading]) -> list[tuple[bytes, int, bool]]:
+        """The readings as they go on the wire (maybe dropped, corrupted, after garbage):
+        (bytes, sample index, booked delivered) each, for :meth:`_write`."""
+        core, frames = self.core, []
+        for reading in readings:
+            before = core.ledger.delivered
+            wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
+                             reading.counter, header=self.header)
+            frames.append((wire, reading.counter, core.ledger.delivered > before))
+        return frames
+
     def _write(self, frames: list[tuple[bytes, int, bool]]) -> None:
         """Write the frames now, as a UART sends: what the port cannot take (the reader
         not reading, the port closed) is lost, never sent late.
@@ -202,10 +213,6 @@ class PtySerialDevice(DeviceLoop):
                 core.lose(readings)
                 readings = []
             frames = [(replies, -1, False)] if replies else []
-            for reading in readings:
-                before = core.ledger.delivered
-                wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
-                                 reading.counter, header=self.header)
-                frames.append((wire, reading.counter, core.ledger.delivered > before))
+            frames += self._frames(readings)
             if frames:
                 self._write(frames)

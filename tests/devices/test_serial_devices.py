@@ -155,16 +155,11 @@ def test_frames_a_starved_simulator_took_due_are_lost_not_written_late() -> None
     device = PtySerialDevice(codec, core)  # its loop is not started: this test is its thread
     device._attach()
     try:
-        def frames(readings: list) -> list[tuple[bytes, int, bool]]:
-            # as the device loop builds them: the wire books each frame delivered
-            return [(core.wire(codec.encode(codec.from_reading(r)), r.counter), r.counter,
-                     True) for r in readings]
-
         time.sleep(0.02)
-        on_time = frames(core.due(max_lag_s=device.max_lag_s))
+        on_time = device._frames(core.due(max_lag_s=device.max_lag_s))
         device._write(on_time)
         time.sleep(0.02)
-        starved = frames(core.due(max_lag_s=device.max_lag_s))
+        starved = device._frames(core.due(max_lag_s=device.max_lag_s))
         time.sleep(2 * device.max_latency_s)  # the host holds the thread up
         device._write(starved)
         assert on_time and starved
