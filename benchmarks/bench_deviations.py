@@ -1,7 +1,7 @@
 """The Allan family beside the Allan deviation: cost, and whether the intervals are right.
 
     python benchmarks/bench_deviations.py --quick   # a few minutes
-    python benchmarks/bench_deviations.py           # the numbers README.md quotes
+    python benchmarks/bench_deviations.py           # the numbers docs/allan.md quotes
 
 Three parts, each printing ratios measured side by side in this run:
 

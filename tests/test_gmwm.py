@@ -233,7 +233,7 @@ def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
     )
     sel = gmwm_analysis(record.rate_deg_s[:, 0], 100.0)
     taus = [v for k, v in sel.best.values.items() if k.endswith("_tau_s") and v > 0.5]
-    # the Allan curve's shoulder at 3-40 s (README): a Gauss-Markov of a few seconds
+    # the Allan curve's shoulder at 3-40 s (docs/real-data.md): a Gauss-Markov of a few seconds
     assert "gm" in sel.best.model.codes and any(1.0 < t < 10.0 for t in taus), sel.best.values
     assert sel.best.values["wn_deg_rt_h"] == pytest.approx(1.94, rel=0.03)
 

@@ -280,7 +280,7 @@ def test_the_adis16405_z_tone_is_named_a_sinusoid_near_nyquist():
     model (ARW 2.0 deg/sqrt(h) plus a 25.8 deg/h, 100 s Gauss-Markov term, as `station model
     fog --arw 2.0 --bias-stability 25.2` writes it): the 19-23 Hz line, whose frequency
     wanders, is named a sinusoid with its period, and the gap shrinks more than 5-fold
-    (the whole record: README, "Model versus measurement")."""
+    (the whole record: docs/reconcile.md)."""
     rate = read_csv_record(ADIS_RECORD, sample_rate_hz=100.0).rate_deg_s[:100_000, 2]
     model = NoiseModel(
         terms=(AngleRandomWalk(N_deg_rt_h=2.0), GaussMarkov(sigma_deg_h=25.83, tau_s=100.0))
