@@ -22,9 +22,9 @@ from numpy.typing import ArrayLike, NDArray
 from analysis import blocks, kernels
 from analysis.allan import ONE_SIGMA, Missing, TauGrid
 from analysis.davar import DavarPlan, DavarResult, finish_davar, plan_davar, window_starts
-from analysis.partial_clusters import partial_window_sums
 from analysis.errors import NonFiniteSamplesError
 from analysis.kernels import Backend
+from analysis.partial_clusters import partial_window_sums
 
 
 def group_span(plan: DavarPlan) -> int:

@@ -119,7 +119,8 @@ def test_a_record_with_gaps_leaves_out_the_windows_that_hold_one(
     tmp_path: Path, rate: np.ndarray, capsys: pytest.CaptureFixture
 ) -> None:
     """A CSV whose time column jumps over 100 s: the windows across the gap are null in the
-    JSON (those missing at most a tenth keep partial clusters), the whole ones equal the DAVAR of the unbroken record at their true times, and the
+    JSON (those missing at most a tenth keep partial clusters), the whole ones equal the
+    DAVAR of the unbroken record at their true times, and the
     summary says how many windows were left out."""
     index = np.r_[0:12_000, 13_000:N]  # 1000 samples (100 s) lost
     path = write_csv_record(

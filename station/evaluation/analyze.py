@@ -32,7 +32,6 @@ from analysis.figures import SpecFigures, spec_figures
 from analysis.fit import FitMethod, NoiseCoefficients
 from analysis.gaps import gap_allan_variance, gap_summary_of_index
 from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
-from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
 from analysis.outliers import (
     SpikeDetection,
     detect_spikes,
@@ -40,6 +39,7 @@ from analysis.outliers import (
     replace_flagged,
     replace_spikes,
 )
+from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
 from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
