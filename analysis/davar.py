@@ -48,6 +48,7 @@ from analysis.allan import (
 )
 from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.kernels import Backend
+from analysis.partial_clusters import partial_windows
 
 
 @dataclass(frozen=True)
@@ -203,10 +204,12 @@ def window_starts(n_samples: int, plan: DavarPlan) -> NDArray[np.int64]:
 
 
 def finish_davar(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: DavarPlan,
-                 n_samples: int, *, confidence: float, squeeze: bool) -> DavarResult:
+                 n_samples: int, *, confidence: float, squeeze: bool,
+                 edf_scale: NDArray[np.float64] | None = None) -> DavarResult:
     """The DAVAR of window sums of ``Delta_m^2`` (n_windows, n_tau, k), scaled to Allan
     variances in place (Zhang 2015, eq. 6), with each cell's edf and interval; ``squeeze``
-    drops the axis dimension of a one-axis record."""
+    drops the axis dimension of a one-axis record; ``edf_scale`` (n_windows, k) reduces
+    the edf of windows with missing samples."""
     m = plan.m
     n_terms = plan.window + 1 - 2 * m
     tau = m / plan.fs
@@ -224,6 +227,9 @@ def finish_davar(sums: NDArray[np.float64], starts: NDArray[np.int64], plan: Dav
     low_f, high_f = chi2_interval(np.ones_like(edf_tau), edf_tau, confidence)
     edf = np.broadcast_to(edf_tau, avar.shape)  # read-only view: the same for every window
     low, high = avar * low_f, avar * high_f
+    if edf_scale is not None and (edf_scale < 1).any():
+        edf = np.maximum(edf * edf_scale[:, None, :], 1.0)
+        low, high = chi2_interval(avar, edf, confidence)
     if squeeze:
         avar, edf, low, high = avar[..., 0], edf[..., 0], low[..., 0], high[..., 0]
         alpha = alpha[:, 0]
@@ -396,9 +402,10 @@ def dynamic_allan_variance(
         Kernel for the window sums.
     missing : {"raise", "gap"}
         ``"gap"`` reads NaN samples as missing ones on the record's time grid (a gap of a
-        recorded run): a window that holds a missing sample of an axis gets NaN there (no
-        Allan value of a window is computed across a gap), every other window is exact,
-        and window times stay true time. The default refuses NaN
+        recorded run): a window missing at most a tenth of an axis' samples gets partial
+        clusters there, its edf reduced (:func:`analysis.partial_clusters.partial_windows`),
+        one missing more gets NaN, every other window is exact, and window times stay true
+        time. The default refuses NaN
         (:class:`NonFiniteSamplesError`).
 
     Returns
@@ -527,6 +534,7 @@ def dynamic_allan_variance_stream(
     n_axes: int | None = None
     out_sums: list[NDArray[np.float64]] = []
     out_starts: list[NDArray[np.int64]] = []
+    out_scale: list[NDArray[np.float64]] = []
 
     def flush() -> None:
         nonlocal pending, n_pending, pending_start, next_start
@@ -551,11 +559,11 @@ def dynamic_allan_variance_stream(
             for c in range(seg.shape[1]):
                 sums[:, :, c] = kernels.window_sums(theta[:, c], plan.m, local, plan.window,
                                                     backend=backend)
-            if lost is not None:
-                held = np.zeros((lost.shape[0] + 1, lost.shape[1]), dtype=np.int64)
-                np.cumsum(lost, axis=0, out=held[1:])
-                broken = held[local + plan.window] - held[local] > 0  # (windows, axes)
-                sums[np.broadcast_to(broken[:, None, :], sums.shape)] = np.nan
+            present = np.ones((len(starts), seg.shape[1]))
+            if lost is not None:  # windows with gaps: partial clusters, or NaN past the share
+                present = partial_windows(seg * (scale * plan.fs), local, plan.window, plan.m,
+                                          plan.fs, sums)
+            out_scale.append(present)
             out_sums.append(sums)
             out_starts.append(starts)
             next_start = int(starts[-1]) + plan.step
@@ -584,4 +592,5 @@ def dynamic_allan_variance_stream(
     window_starts(consumed, plan)  # raises when the record is shorter than one window
     starts = np.concatenate(out_starts)
     sums = out_sums[0] if len(out_sums) == 1 else np.concatenate(out_sums)
-    return finish_davar(sums, starts, plan, consumed, confidence=confidence, squeeze=False)
+    return finish_davar(sums, starts, plan, consumed, confidence=confidence, squeeze=False,
+                        edf_scale=np.concatenate(out_scale))

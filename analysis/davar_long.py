@@ -24,6 +24,7 @@ from analysis.allan import ONE_SIGMA, Missing, TauGrid
 from analysis.davar import DavarPlan, DavarResult, finish_davar, plan_davar, window_starts
 from analysis.errors import NonFiniteSamplesError
 from analysis.kernels import Backend
+from analysis.partial_clusters import partial_window_sums
 
 
 def group_span(plan: DavarPlan) -> int:
@@ -56,8 +57,9 @@ def dynamic_allan_variance_long(
         memmap is read a block at a time (an axis-major one, ``x[:, c]`` contiguous,
         reads only the axis at hand).
     sample_rate_hz, window_s, step_s, taus, confidence, missing, backend
-        As for :func:`analysis.davar.dynamic_allan_variance`: a window holding a missing
-        sample of an axis gets NaN there.
+        As for :func:`analysis.davar.dynamic_allan_variance`: a window missing at most a
+        tenth of an axis' samples gets partial clusters there
+        (:func:`analysis.partial_clusters.partial_window_sums`), one missing more NaN.
     angle_out : ndarray, shape (M,), M >= group_span(plan) + 1, optional
         Where to keep a group's cumulative angle (a memmap keeps it out of memory; its
         pages are handed back after each group); ``plan`` is
@@ -95,6 +97,7 @@ def dynamic_allan_variance_long(
         raise ValueError(f"angle_out must hold {span + 1} values, got {angle.shape[0]}")
     per_group = (span - plan.window) // plan.step + 1
     sums = np.empty((len(starts), len(plan.m), x.shape[1]))
+    present = np.ones((len(starts), x.shape[1]))
     for c in range(x.shape[1]):
         column = x[:, c]
         for g in range(0, len(starts), per_group):
@@ -105,12 +108,16 @@ def dynamic_allan_variance_long(
             sums[g : g + len(group), :, c] = kernels.window_sums(
                 theta, plan.m, group - a, plan.window, backend=backend)
             blocks.release(theta)
-            if len(lost):  # windows holding a missing sample: NaN, as the fast DAVAR's
+            if len(lost):  # windows holding a missing sample: partial, as the fast DAVAR's
                 after = np.searchsorted(lost[:, 1], group, side="right")
                 held = after < len(lost)
                 held[held] = lost[after[held], 0] < group[held] + plan.window
-                sums[g : g + len(group), :, c][held] = np.nan
-    return finish_davar(sums, starts, plan, x.shape[0], confidence=confidence, squeeze=False)
+                for w in np.flatnonzero(held):
+                    s = int(group[w])
+                    sums[g + w, :, c], present[g + w, c] = partial_window_sums(
+                        column[s : s + plan.window], plan.fs, plan.m)
+    return finish_davar(sums, starts, plan, x.shape[0], confidence=confidence, squeeze=False,
+                        edf_scale=present)
 
 
 def _group_angle(column: NDArray[np.float64], a: int, b: int, scale: float,

@@ -22,6 +22,12 @@ from analysis import blocks
 from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
 from analysis.fit import NoiseCoefficients, log_tau_share
 from analysis.fog import measure_bias_stability
+from analysis.partial_clusters import (
+    MAX_MISSING_SHARE,
+    corrected_mean_variance,
+    partial_means,
+    white_level,
+)
 from analysis.readoffs import (
     BIAS_INSTABILITY_FACTOR,
     ReadOff,
@@ -46,7 +52,9 @@ class BiasStability:
 
     The definition of bias stability used by the FOG simulation paper (Lv 2014) and by
     most FOG data sheets. ``ci_low_deg_h``/``ci_high_deg_h`` is the +-1 sigma chi-square
-    interval with ``n_averages - 1`` degrees of freedom (exact for independent averages).
+    interval with ``edf`` degrees of freedom: ``n_averages - 1`` (exact for independent
+    averages), reduced by the share of samples missing from partial averages
+    (:mod:`analysis.partial_clusters`; ``missing_share`` of the kept averages' samples).
     """
 
     average_s: float
@@ -54,16 +62,23 @@ class BiasStability:
     n_averages: int
     ci_low_deg_h: float | None = None
     ci_high_deg_h: float | None = None
+    edf: float | None = None
+    missing_share: float = 0.0
 
 
 def bias_stability(
-    rate_deg_s: ArrayLike, sample_rate_hz: float, average_s: float
+    rate_deg_s: ArrayLike, sample_rate_hz: float, average_s: float, *,
+    white_level: float | None = None, max_missing_share: float = MAX_MISSING_SHARE,
 ) -> BiasStability:
     """Bias stability (deg/h): std (ddof=1) of ``average_s``-second means of a 1-D rate record.
 
-    NaN marks a missing sample (a record with gaps on its time grid): an average that
-    would include one is left out. Returns a value of ``None`` when the record holds
-    fewer than 3 whole averages.
+    NaN marks a missing sample (a record with gaps on its time grid): an average missing
+    at most ``max_missing_share`` of its samples is the mean of the present ones, its
+    white-noise excess removed with ``white_level`` (``N^2`` in (deg/s)^2 s,
+    :func:`analysis.partial_clusters.white_level`) and the edf reduced for what is missing;
+    one missing more is left out (:mod:`analysis.partial_clusters`; a long record, a
+    memmap, keeps only complete averages). Returns a value of ``None`` when the record
+    holds fewer than 3 kept averages.
     """
     fs = check_sample_rate(sample_rate_hz)
     x, gapped = _rate_column(rate_deg_s)
@@ -71,9 +86,19 @@ def bias_stability(
     if m < 1:
         raise ValueError(f"averaging time {average_s} s is shorter than one sample at {fs} Hz")
     count = len(x) // m
+    if gapped and not blocks.is_long(len(x)):
+        partial = partial_means(x, m, max_missing_share=max_missing_share)
+        n = len(partial.means)
+        if n < 3:
+            return BiasStability(average_s, None, n)
+        variance = corrected_mean_variance(partial, fs, white_level)
+        edf = (n - 1) * (1.0 - partial.missing_share)
+        low, high = chi2_interval(variance, edf)
+        return BiasStability(average_s, math.sqrt(variance) * S_PER_H, n,
+                             math.sqrt(float(low)) * S_PER_H, math.sqrt(float(high)) * S_PER_H,
+                             edf, partial.missing_share)
     if gapped:
-        means = (blocks.group_means(x, m, count) if blocks.is_long(len(x))
-                 else x[: count * m].reshape(count, m).mean(axis=1))
+        means = blocks.group_means(x, m, count)
         means = means[np.isfinite(means)]
         count = len(means)
     if count < 3:
@@ -83,7 +108,8 @@ def bias_stability(
     else:
         std = float(measure_bias_stability(x, fs, average_s=average_s))
     low, high = chi2_interval(std**2, count - 1)
-    return BiasStability(average_s, std, count, math.sqrt(float(low)), math.sqrt(float(high)))
+    return BiasStability(average_s, std, count, math.sqrt(float(low)), math.sqrt(float(high)),
+                         float(count - 1))
 
 
 def _rate_column(rate_deg_s: ArrayLike) -> tuple[NDArray[np.float64], bool]:
@@ -335,8 +361,9 @@ def spec_figures(
         Tau ranges the five-term model does not describe; no read-off is taken there.
     """
     x, _ = _rate_column(rate_deg_s)
-    bs10 = bias_stability(x, sample_rate_hz, 10.0)
-    bs100 = bias_stability(x, sample_rate_hz, 100.0)
+    white = white_level(result)
+    bs10 = bias_stability(x, sample_rate_hz, 10.0, white_level=white)
+    bs100 = bias_stability(x, sample_rate_hz, 100.0, white_level=white)
     arw = arw_readoff(result, fit, zones=zones)
     bi = bias_instability_readoff(result, zones=zones)
     notes = tuple(

@@ -403,3 +403,28 @@ def simulate(
     sim = GyroSimulator(model, sample_rate_hz, n_axes=n_axes, seed=seed,
                         flicker_floor_hz=flicker_floor_hz)
     return sim.read(n)
+
+
+def polled_loss(n_samples: int, *, missing_share: float, rng: np.random.Generator,
+                longest_run: int = 3) -> NDArray[np.bool_]:
+    """Mask of present samples (True) of a polled unit that loses short runs of samples.
+
+    A polled bus (Modbus) loses a reply now and then: each loss drops a run of 1 to
+    ``longest_run`` consecutive samples (equally likely lengths), at uniformly random,
+    non-adjacent places, ``round(missing_share * n_samples)`` samples in all (to within
+    the last run). The first and the last sample are present.
+    """
+    if not 0.0 <= missing_share < 0.5:
+        raise ValueError(f"missing_share must be in [0, 0.5), got {missing_share}")
+    if longest_run < 1:
+        raise ValueError(f"longest_run must be at least 1, got {longest_run}")
+    target = int(round(missing_share * n_samples))
+    runs = rng.integers(1, longest_run + 1, size=max(1, 2 * target // max(longest_run, 1) + 2))
+    runs = runs[: int(np.searchsorted(np.cumsum(runs), target, side="right"))]
+    present = n_samples - int(runs.sum())
+    cuts = np.sort(rng.choice(np.arange(1, present), size=len(runs), replace=False))
+    mask = np.ones(n_samples, dtype=bool)
+    for k, (cut, run) in enumerate(zip(cuts, runs, strict=True)):
+        start = int(cut) + int(runs[:k].sum())
+        mask[start : start + int(run)] = False
+    return mask

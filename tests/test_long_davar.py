@@ -53,10 +53,11 @@ def test_davar_by_groups_of_windows_gives_the_fast_davars_numbers(
     """An axis-major memmap (as a long run file is read), a gap in one axis, several groups
     of windows: the fast DAVAR's Allan variances within 4e-12 (measured 1.9e-12, 1e-12 in
     deviation: rounding of the angles, each group's own against each block's), the same
-    NaN cells."""
+    NaN cells and the same partial windows (edf reduced)."""
     n, fs = 100_000, 100.0
     x = _record(n)
-    x[40_000:40_010, 1] = np.nan
+    x[40_000:40_010, 1] = np.nan  # a short gap: partial clusters in the windows holding it
+    x[70_000:71_200, 1] = np.nan  # over a tenth of any window: NaN there
     mapped = np.memmap(tmp_path / "rate.f8", dtype=np.float64, mode="w+", shape=(2, n))
     mapped[:] = x.T
     window_s = windows[0] * n / fs
@@ -70,7 +71,10 @@ def test_davar_by_groups_of_windows_gives_the_fast_davars_numbers(
     long = dynamic_allan_variance_long(mapped.T, fs, angle_out=angle, **kw)  # type: ignore[arg-type]
     np.testing.assert_array_equal(np.isnan(long.avar), np.isnan(fast.avar))
     assert np.isnan(fast.avar[:, :, 1]).any() and not np.isnan(fast.avar[:, :, 0]).any()
+    partial = np.isfinite(fast.avar[:, 0, 1]) & (fast.edf[:, 0, 1] < fast.edf[:, 0, 0])
+    assert partial.any()
     np.testing.assert_allclose(long.avar, fast.avar, rtol=4e-12)
+    np.testing.assert_allclose(long.edf, fast.edf, rtol=1e-12)
     np.testing.assert_array_equal(long.t_s, fast.t_s)
     np.testing.assert_array_equal(long.noise_alpha, fast.noise_alpha)
 

@@ -29,8 +29,16 @@ def test_capability_worked_by_hand() -> None:
     c = capability([1.0, 2.0, 3.0, 4.0, 5.0, float("nan")], 10.0)
     std = math.sqrt(2.5)  # sum of squares 10 over 4 degrees of freedom
     assert (c.n, c.mean, c.std) == (5, 3.0, pytest.approx(std))
-    assert c.cp == pytest.approx(10.0 / (6 * std)) and c.cpk == pytest.approx(7.0 / (3 * std))
+    # an upper limit only: Cpu (= Cpk), no Cp against the natural bound 0
+    assert c.cp is None and c.cpk == pytest.approx(7.0 / (3 * std)) and c.cpu == c.cpk
     assert c.above_limit == 0.0
+    half = 1.959964 * math.sqrt(1 / 45 + c.cpk**2 / 8)  # the normal approximation's interval
+    assert c.cpk_ci == (pytest.approx(c.cpk - half), pytest.approx(c.cpk + half))
+    both = capability([1.0, 2.0, 3.0, 4.0, 5.0], 10.0, 0.5)
+    assert both.cp == pytest.approx(9.5 / (6 * std)) and both.cpl == pytest.approx(2.5 / (3 * std))
+    assert both.cpk == both.cpl and both.cpk is not None and both.cpk <= both.cp
+    assert both.fitted is not None and both.fitted.cpk is not None and both.fitted.cp is not None
+    assert both.fitted.cpk <= both.fitted.cp
     assert capability([2.0, 2.0], 1.0).cpk is None and capability([2.0], 1.0).std is None
     # individuals chart: moving ranges 1, 1, 1, 16, 15 -> mean 6.8, sigma 6.8 / 1.128
     k = individuals_chart([1.0, 2.0, 3.0, 4.0, 20.0, 5.0])
@@ -111,9 +119,11 @@ def test_stats_of_a_line(line_db: str, capsys) -> None:
     assert arw["limits"] == [0.06, 0.2] and arw["limit"] == 0.2
     mean, std = float(np.mean(ARW)), float(np.std(ARW, ddof=1))
     assert (arw["mean"], arw["std"]) == (pytest.approx(mean), pytest.approx(std))
-    assert arw["cp"] == pytest.approx(0.2 / (6 * std)) and arw["cpk"] == pytest.approx(
-        (0.2 - mean) / (3 * std)
-    )
+    assert arw["cp"] is None and arw["cpk"] == pytest.approx((0.2 - mean) / (3 * std))
+    assert arw["cpu"] == arw["cpk"] and arw["cpk_ci"][0] < arw["cpk"] < arw["cpk_ci"][1]
+    assert arw["fitted_distribution"] in ("lognormal", "gamma")
+    assert arw["cpk_fitted"] == pytest.approx(
+        (0.2 - arw["fitted_median"]) / (arw["fitted_p99865"] - arw["fitted_median"]))
     assert [p["serial_number"] for p in arw["out_of_control"]] == ["S08"]
     assert set(out["figures"]) == {"arw", "bias_instability"}  # the graded figures only
     assert [u["serial_number"] for u in out["review"]] == ["S08"]
@@ -150,3 +160,24 @@ def test_every_listing_takes_json(line_file: str, capsys) -> None:
     assert main(["results", "--db", line_db, "--trend", "arw", "--json"]) == 0
     points = json.loads(capsys.readouterr().out)["points"]
     assert [p["value"] for p in points] == [ARW[0], *ARW]  # S00 graded twice on its date
+
+
+def test_fitted_capability_of_skewed_values_uses_the_fitted_percentiles() -> None:
+    """Chi-square values (a noise figure's spread): gamma fitted by maximum likelihood as
+    scipy fits it, the index from its percentiles, a bootstrap interval that holds it and
+    is the same on a second call (fixed seed)."""
+    from scipy import stats
+
+    from station.evaluation.capability import fitted_capability
+
+    x = stats.chi2.rvs(9, size=80, random_state=np.random.default_rng(5)) / 9 * 0.1
+    f = fitted_capability(x, 0.2)
+    assert f is not None and f.cpk is not None and f.cpk_ci is not None
+    fits = {"gamma": stats.gamma.fit(x, floc=0), "lognormal": stats.lognorm.fit(x, floc=0)}
+    dist = (stats.gamma(fits["gamma"][0], scale=fits["gamma"][2]) if f.distribution == "gamma"
+            else stats.lognorm(fits["lognormal"][0], scale=fits["lognormal"][2]))
+    assert f.median == pytest.approx(dist.median(), rel=1e-4)
+    assert f.p99865 == pytest.approx(dist.ppf(0.99865), rel=1e-4)
+    assert f.cpk == pytest.approx((0.2 - f.median) / (f.p99865 - f.median))
+    assert f.cpk_ci[0] < f.cpk < f.cpk_ci[1] and fitted_capability(x, 0.2) == f
+    assert fitted_capability(np.r_[x, 0.0], 0.2) is None  # a value at the bound: no fit

@@ -33,6 +33,7 @@ from station.commands.arguments import (
     print_json,
 )
 from station.errors import UsageError
+from station.evaluation.capability import CAPABILITY_NOTE
 from station.model.kinds import Verdict
 from station.output.results_backends import redacted
 
@@ -201,6 +202,10 @@ def run_stats(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ci(ci: tuple[float, float] | None) -> str:
+    return "-" if ci is None else f"[{ci[0]:.3g}, {ci[1]:.3g}]"
+
+
 def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str:
     """The statistics as terminal tables: yield per grade, capability per figure (in
     ``family``), review."""
@@ -221,15 +226,20 @@ def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str
             _num(family.value(c.mean, f.unit)),
             _num(family.value(c.std, f.unit)),
             " ".join(f"{g}={family.value(v, f.unit):.4g}" for g, v in f.limits.items()) or "-",
-            _num(c.cp),
             _num(c.cpk),
+            _ci(c.cpk_ci),
+            _num(c.fitted.cpk if c.fitted else None),
+            _ci(c.fitted.cpk_ci if c.fitted else None),
+            c.fitted.distribution if c.fitted else "-",
             str(len(f.chart.out_of_control)),
         ]
         for name, f in stats.figures.items()
         for c in (f.capability,)
     ]
-    header = ["figure", "unit", "n", "mean", "std", "limits", "Cp", "Cpk", "out of control"]
+    header = ["figure", "unit", "n", "mean", "std", "limits", "Ppk (upper)", "95 % CI",
+              "Ppk fitted", "95 % CI", "fit", "out of control"]
     lines.append(_table(header, body))
+    lines.append(CAPABILITY_NOTE)
     lines.append(f"{len(stats.review)} units flagged for review")
     lines += [
         f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"

@@ -39,6 +39,7 @@ from analysis.outliers import (
     replace_flagged,
     replace_spikes,
 )
+from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
 from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
@@ -263,8 +264,9 @@ def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: E
         if estimator == "clusters":
             return cluster_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
         return overlapping_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
-    return allan_variance(grid_rate, fs, estimator=estimator, taus=taus,
-                          missing="gap" if gapped else "raise")
+    if gapped:  # short gaps: partial clusters kept (analysis.partial_clusters)
+        return partial_allan_variance(grid_rate, fs, estimator=estimator, taus=taus)
+    return allan_variance(grid_rate, fs, estimator=estimator, taus=taus)
 
 
 def _minus(x: NDArray[np.float64], offset: float) -> NDArray[np.float64]:
@@ -312,8 +314,11 @@ def analyze_record(
     selection; ``robust``: the robust wavelet variance) beside the default Allan fit, on
     the same samples (spikes removed as the rule says, no Haar window across a gap).
 
-    Samples missing in gaps (``record.sample_index``) stay missing: no Allan difference
-    and no bias-stability average straddles one (:mod:`analysis.gaps`). Isolated spikes
+    Samples missing in gaps (``record.sample_index``) stay missing: an Allan cluster or a
+    bias-stability average is kept when at most a tenth of it is missing, as the mean of
+    its present samples with its edf reduced (:mod:`analysis.partial_clusters`; a long
+    record, over :data:`analysis.blocks.LONG_SAMPLES`, keeps only averages that straddle no
+    gap, :mod:`analysis.gaps`). Isolated spikes
     are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
     The bias is reported with the Earth-rate projection of ``bench`` removed when it
     gives the axis' latitude and direction. Tones are looked for in every axis
@@ -382,8 +387,11 @@ def analyze_record(
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
         notes = [earth_rate_note(bench, name, earth[i])]
         if gaps.count:
-            notes.append(f"gaps: {gaps.text()} missing; no Allan difference or average "
-                         f"straddles a gap, tau is true time")
+            rule = ("no Allan difference or average straddles a gap"
+                    if blocks.is_long(record.span_samples) else
+                    f"an Allan cluster or average is kept when at most {MAX_MISSING_SHARE:.0%} "
+                    f"of it is missing (mean of its present samples, edf reduced)")
+            notes.append(f"gaps: {gaps.text()} missing; {rule}, tau is true time")
         if reports[i].count:
             notes.append(f"spikes: {reports[i].note()}")
         figures = replace(figures, earth_rate_removed_deg_h=earth[i],

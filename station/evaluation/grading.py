@@ -42,6 +42,7 @@ from analysis import blocks
 from analysis.confidence import chi2_interval
 from analysis.figures import bias_stability, review_notes
 from analysis.fit import NoiseCoefficients
+from analysis.partial_clusters import white_level
 from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.errors import RecordFormatError, StationError
@@ -389,13 +390,17 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
     """
     average_s = bias_stability_average_s(name)
     if average_s is not None:
-        bs = bias_stability(x, analysis.sample_rate_hz, average_s)
+        bs = bias_stability(x, analysis.sample_rate_hz, average_s,
+                            white_level=white_level(analysis.allan))
         if bs.value_deg_h is None:
             return Interval(
                 None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3"
             )
-        low, high = _chi2_scaled(bs.value_deg_h, bs.n_averages - 1, confidence)
-        return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages")
+        edf = bs.n_averages - 1 if bs.edf is None else bs.edf
+        low, high = _chi2_scaled(bs.value_deg_h, edf, confidence)
+        partial = (f", {bs.missing_share:.1%} of their samples missing, edf {edf:.3g}"
+                   if bs.missing_share else "")
+        return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages{partial}")
     if name == "bias":
         b = bias_interval(x, confidence)
         removed = analysis.figures.earth_rate_removed_deg_h

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import base64
 import io
+import textwrap
 from html import escape
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from station.evaluation.capability import CAPABILITY_NOTE
 from station.output.report.common import fmt
 
 if TYPE_CHECKING:
@@ -60,8 +62,10 @@ def figure_plot(f: FigureStats) -> Figure:
     hist.set_xlabel(f"{f.name} [{f.unit}]")
     hist.set_ylabel("units x axes")
     hist.legend(fontsize=7)
-    cp, cpk = f.capability.cp, f.capability.cpk
-    hist.set_title(f"{f.name}: Cp {fmt(cp, 3)}, Cpk {fmt(cpk, 3)}", fontsize=9)
+    c = f.capability
+    fitted = c.fitted.cpk if c.fitted is not None else None
+    hist.set_title(f"{f.name}: Ppk {fmt(c.cpk, 3)} (normal), {fmt(fitted, 3)} (fitted)",
+                   fontsize=9)
     k = f.chart
     idx = list(range(len(f.values)))
     y = [float("nan") if v.value is None else v.value for v in f.values]
@@ -111,15 +115,24 @@ def _rows(stats: ProductionStats) -> list[list[str]]:
             fmt(f.capability.mean),
             fmt(f.capability.std),
             fmt(f.capability.limit),
-            fmt(f.capability.cp, 3),
             fmt(f.capability.cpk, 3),
+            _interval(f.capability.cpk_ci),
+            fmt(fitted.cpk if fitted is not None else None, 3),
+            _interval(fitted.cpk_ci if fitted is not None else None),
+            fitted.distribution if fitted is not None else "-",
             str(len(f.chart.out_of_control)),
         ]
         for name, f in stats.figures.items()
+        for fitted in (f.capability.fitted,)
     ]
 
 
-CAPABILITY_HEADER = ["figure", "unit", "n", "mean", "std", "limit", "Cp", "Cpk", "out of control"]
+def _interval(ci: tuple[float, float] | None) -> str:
+    return "-" if ci is None else f"[{ci[0]:.3g}, {ci[1]:.3g}]"
+
+
+CAPABILITY_HEADER = ["figure", "unit", "n", "mean", "std", "limit", "Ppk (upper)", "95 % CI",
+                     "Ppk fitted", "95 % CI", "fit", "out of control"]
 
 
 def write_stats_html(stats: ProductionStats, path: Path) -> Path:
@@ -148,12 +161,12 @@ def write_stats_html(stats: ProductionStats, path: Path) -> Path:
         parts.append(
             f"<tr data-figure='{escape(row[0])}'>"
             + "".join(
-                f"<td{cls if i == 7 else ' class=num' if i > 1 else ''}>{escape(c)}</td>"
+                f"<td{cls if i == 6 else ' class=num' if i > 1 else ''}>{escape(c)}</td>"
                 for i, c in enumerate(row)
             )
             + "</tr>"
         )
-    parts.append("</table>")
+    parts.append(f"</table><p>{escape(CAPABILITY_NOTE)}</p>")
     for name, f in stats.figures.items():
         data = base64.b64encode(_png(figure_plot(f))).decode("ascii")
         parts.append(
@@ -190,6 +203,7 @@ def write_stats_pdf(stats: ProductionStats, path: Path) -> Path:
         ]
         text += ["", "  ".join(f"{h:>10}" for h in CAPABILITY_HEADER)]
         text += ["  ".join(f"{c:>10}" for c in row) for row in _rows(stats)]
+        text += textwrap.wrap(CAPABILITY_NOTE, 150)
         text += ["", f"units flagged for review: {len(stats.review)}"]
         text += [f"  {u.serial_number}: {'; '.join(u.reasons)}"[:150] for u in stats.review[:25]]
         page.text(0.04, 0.96, "\n".join(text), va="top", family="monospace", fontsize=8)

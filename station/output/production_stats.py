@@ -43,14 +43,22 @@ class FigureStats:
         return tuple(self.values[i] for i in self.chart.out_of_control)
 
     def as_json(self) -> dict[str, object]:
-        """``{"mean", "std", "cp", "cpk", "limits", ...}`` (``limits``: the grades' upper
-        limits, best grade first; ``limit``: the acceptance limit Cp and Cpk use)."""
-        c, k = self.capability, self.chart
+        """``{"mean", "std", "cp", "cpk", "cpu", "cpk_ci", "cpk_fitted", "limits", ...}``
+        (``limits``: the grades' upper limits, best grade first; ``limit``: the acceptance
+        limit the indexes use; ``cp`` is null: no lower limit; docs/json.md)."""
+        c, k, f = self.capability, self.chart, self.capability.fitted
         return {
             "mean": c.mean,
             "std": c.std,
             "cp": finite_or_none(c.cp),
             "cpk": finite_or_none(c.cpk),
+            "cpu": finite_or_none(c.cpu),
+            "cpk_ci": list(c.cpk_ci) if c.cpk_ci is not None else None,
+            "cpk_fitted": finite_or_none(f.cpk) if f is not None else None,
+            "cpk_fitted_ci": list(f.cpk_ci) if f is not None and f.cpk_ci is not None else None,
+            "fitted_distribution": f.distribution if f is not None else None,
+            "fitted_median": f.median if f is not None else None,
+            "fitted_p99865": f.p99865 if f is not None else None,
             "limits": list(self.limits.values()),
             "limit_grades": list(self.limits),
             "limit": c.limit,

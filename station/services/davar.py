@@ -12,6 +12,7 @@ from analysis import blocks
 from analysis.allan import Missing
 from analysis.davar import DavarResult, dynamic_allan_variance, plan_davar
 from analysis.davar_long import dynamic_allan_variance_long, group_span
+from analysis.partial_clusters import MAX_MISSING_SHARE
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.errors import UsageError
@@ -108,9 +109,10 @@ def davar(request: DavarRequest) -> DavarAnswer:
     result = _davar_of(record, request)
     if record.missing_samples:
         broken = int(np.isnan(result.avar).any(axis=(1, 2)).sum())
-        notes += (f"{record.missing_samples} samples are missing in gaps; the {broken} of "
-                  f"{len(result.t_s)} windows that hold one are left out (blank on the heat "
-                  f"map, null in the JSON)",)
+        notes += (f"{record.missing_samples} samples are missing in gaps; a window missing "
+                  f"at most {MAX_MISSING_SHARE:.0%} keeps partial clusters (edf reduced), the "
+                  f"{broken} of {len(result.t_s)} windows that miss more are left out (blank "
+                  f"on the heat map, null in the JSON)",)
     verdicts = tuple(detect_warmup(result, axis=i) for i in range(len(record.axis_names)))
     if offset > 0:  # times since the record's start, not since the cut
         result = replace(result, t_s=result.t_s + offset)
