@@ -34,7 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "NAME.recovered.h5 beside it)")
     p.add_argument("--json", action="store_true",
                    help='print {"path", "already_closed", "kept", "trimmed", "stop_utc", '
-                        '"stop_reason", "salvaged_to", "damage", "notes"} as one JSON object')
+                        '"stop_reason", "salvaged_to", "damage", "notes", "lost"} as one JSON '
+                        'object')
     p.set_defaults(handler=run)
 
 
