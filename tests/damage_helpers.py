@@ -42,16 +42,17 @@ def damaged_copies(original: Path, folder: Path, *, flips: int, seed: int,
     return out
 
 
-def flip_in_chunk(original: Path, out: Path, dataset: str, chunk: int) -> Path:
+def flip_in_chunks(original: Path, out: Path, chunks: list[tuple[str, int]]) -> Path:
     """A copy of ``original`` (a closed run file) at ``out`` with one byte flipped in the
-    middle of chunk number ``chunk`` of ``dataset`` (e.g. ``units/unit1/rate``)."""
+    middle of each chunk ``(dataset, chunk number)``, e.g. ``("units/unit1/rate", 5)``."""
     import h5py
 
-    with h5py.File(original, "r") as f:
-        ds = f[dataset]
-        info = ds.id.get_chunk_info_by_coord((chunk * ds.chunks[0], *(0,) * (ds.ndim - 1)))
     data = bytearray(original.read_bytes())
-    data[info.byte_offset + info.size // 2] ^= 0xFF
+    with h5py.File(original, "r") as f:
+        for name, chunk in chunks:
+            ds = f[name]
+            info = ds.id.get_chunk_info_by_coord((chunk * ds.chunks[0], *(0,) * (ds.ndim - 1)))
+            data[info.byte_offset + info.size // 2] ^= 0xFF
     out.write_bytes(bytes(data))
     return out
 
