@@ -42,6 +42,21 @@ def damaged_copies(original: Path, folder: Path, *, flips: int, seed: int,
     return out
 
 
+def flip_in_chunks(original: Path, out: Path, chunks: list[tuple[str, int]]) -> Path:
+    """A copy of ``original`` (a closed run file) at ``out`` with one byte flipped in the
+    middle of each chunk ``(dataset, chunk number)``, e.g. ``("units/unit1/rate", 5)``."""
+    import h5py
+
+    data = bytearray(original.read_bytes())
+    with h5py.File(original, "r") as f:
+        for name, chunk in chunks:
+            ds = f[name]
+            info = ds.id.get_chunk_info_by_coord((chunk * ds.chunks[0], *(0,) * (ds.ndim - 1)))
+            data[info.byte_offset + info.size // 2] ^= 0xFF
+    out.write_bytes(bytes(data))
+    return out
+
+
 def _analyze(path: Path) -> Any:
     from station.storage.hdf5 import read_run_record
 
@@ -76,16 +91,40 @@ def _tui_runs(path: Path) -> Any:
     return (state.state, state.stop_reason)
 
 
+def unit_samples(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Each unit's (counters, rates) of a run file, as committed."""
+    from station.storage.hdf5 import open_run_file, read_unit, unit_ids
+
+    with open_run_file(path) as f:
+        return {u: (np.asarray(d.counter), np.asarray(d.rate_deg_s))
+                for u in unit_ids(f) for d in (read_unit(f, u),)}
+
+
 def _recover(path: Path) -> Any:
-    """Recover a copy; the result must read, and hold a prefix of each unit's samples."""
+    """Recover a copy; the result must read, and hold some of each unit's samples."""
     from station.storage.hdf5 import read_run
     from station.storage.hdf5_recover import recover_run
 
     work = path.with_name(path.stem + "-recovering.h5")
     shutil.copyfile(path, work)
     result = recover_run(work, force=True, out=path.with_name(path.stem + "-salvage.h5"))
-    run = read_run(result.salvaged_to or work)
-    return {u.unit_id: u.record.rate_deg_s for u in run.units}
+    read_run(result.salvaged_to or work)  # reads as every reader reads it
+    return unit_samples(Path(result.salvaged_to or work))
+
+
+def kept_as_recorded(original: dict[str, tuple[np.ndarray, np.ndarray]],
+                     got: dict[str, tuple[np.ndarray, np.ndarray]]) -> bool:
+    """Whether every unit ``got`` holds (one at least) is a unit of ``original``, and each
+    of its samples is the original's sample of the same counter."""
+    if not got or not set(got) <= set(original):
+        return False
+    for uid, (counter, rate) in got.items():
+        ref_counter, ref_rate = original[uid]
+        at = np.searchsorted(ref_counter, counter)
+        if np.any(at >= len(ref_counter)) or not np.array_equal(ref_counter[at], counter) \
+                or not np.array_equal(ref_rate[at], rate):
+            return False
+    return True
 
 
 #: Every reader of a run file, by the command or screen that uses it.
@@ -94,17 +133,13 @@ READERS: dict[str, Callable[[Path], Any]] = {
     "tui live": _tui_live, "tui run list": _tui_runs, "recover": _recover}
 
 
-def _same(a: Any, b: Any, prefix: bool) -> bool:
-    """Equal (for recover: each unit it kept, a prefix of the original's samples)."""
-    if isinstance(a, dict):
-        return (isinstance(b, dict) and set(b) <= set(a) and (bool(b) or not prefix)
-                and all(_same(a[k], b[k], prefix) for k in b))
+def _same(a: Any, b: Any) -> bool:
+    """Equal, arrays included."""
     if isinstance(a, np.ndarray):
-        return (isinstance(b, np.ndarray) and (len(b) <= len(a) if prefix else a.shape == b.shape)
-                and np.array_equal(a[:len(b)], b))
+        return isinstance(b, np.ndarray) and a.shape == b.shape and np.array_equal(a, b)
     if isinstance(a, list | tuple):
         return (isinstance(b, list | tuple) and len(a) == len(b)
-                and all(_same(x, y, prefix) for x, y in zip(a, b, strict=True)))
+                and all(_same(x, y) for x, y in zip(a, b, strict=True)))
     return bool(a == b)
 
 
@@ -137,22 +172,17 @@ def _one(reader: str, path: Path, original: Any) -> Outcome:
                        f"{type(exc).__name__}: {exc}"[:300])
     seconds = time.monotonic() - t0
     if reader == "recover":
-        return Outcome(reader, str(path), "salvaged" if _same(original, got, True)
+        return Outcome(reader, str(path), "salvaged" if kept_as_recorded(original, got)
                        else "wrong data", seconds)
-    return Outcome(reader, str(path), "same data" if _same(original, got, False)
-                   else "wrong data", seconds)
+    return Outcome(reader, str(path), "same data" if _same(original, got) else "wrong data",
+                   seconds)
 
 
 def sweep_here(original: Path, damaged: list[Path]) -> list[Outcome]:
     """Every reader on every damaged copy (in this process)."""
     out = []
     for reader, fn in READERS.items():
-        if reader == "recover":
-            from station.storage.hdf5 import read_run
-
-            reference = {u.unit_id: u.record.rate_deg_s for u in read_run(original).units}
-        else:
-            reference = fn(original)
+        reference = unit_samples(original) if reader == "recover" else fn(original)
         out += [_one(reader, path, reference) for path in damaged]
     return out
 

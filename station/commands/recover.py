@@ -5,8 +5,10 @@ written after it, clears the file's open-for-write flags (so any HDF5 tool opens
 again without SWMR) and records the run as interrupted. A file still being recorded is
 refused (``--force`` overrides); a file closed properly is left as it is. A damaged file
 (cut short, bits flipped) is left as it is too: what still reads is salvaged into a new
-run file (``--out``, default NAME.recovered.h5). The result is read back whole before
-anything is reported; a file nothing can be salvaged from is an error (exit 2).
+run file (``--out``, default NAME.recovered.h5), read chunk by chunk: a damaged chunk
+costs only its own samples, declared as a gap (docs/hdf5-layout.md). The result is read
+back whole before anything is reported; a file nothing can be salvaged from is an error
+(exit 2) and nothing is written.
 """
 
 from __future__ import annotations
@@ -34,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "NAME.recovered.h5 beside it)")
     p.add_argument("--json", action="store_true",
                    help='print {"path", "already_closed", "kept", "trimmed", "stop_utc", '
-                        '"stop_reason", "salvaged_to", "damage", "notes"} as one JSON object')
+                        '"stop_reason", "salvaged_to", "damage", "notes", "lost"} as one JSON '
+                        'object')
     p.set_defaults(handler=run)
 
 

@@ -26,9 +26,10 @@ RecorderKind = Literal["gap", "error", "end"]
 #: and the recorder's own.
 LogKind = EventKind | RecorderKind
 LOG_KINDS: tuple[LogKind, ...] = (*get_args(EventKind), *get_args(RecorderKind))
-#: How a gap was counted (:data:`devices.protocols.GapMethod`); "" for any other entry.
-LogMethod = GapMethod | Literal[""]
-LOG_METHODS: tuple[LogMethod, ...] = (*get_args(GapMethod), "")
+#: How a gap was counted (:data:`devices.protocols.GapMethod`, or ``salvage``: rows of a
+#: damaged run file ``station recover`` could not read); "" for any other entry.
+LogMethod = GapMethod | Literal["salvage", ""]
+LOG_METHODS: tuple[LogMethod, ...] = (*get_args(GapMethod), "salvage", "")
 
 
 def log_kind(text: str) -> LogKind | None:

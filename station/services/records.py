@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from station.errors import ProfileError, UsageError
+from station.errors import ProfileError, RecordFormatError, UsageError
 from station.evaluation.settings import settings_of
 from station.model.bench import Bench, bench_from_json, load_bench
 from station.model.profiles import load_profile
@@ -111,7 +111,13 @@ def cut_record(record: RateRecord, source: RecordSource) -> LoadedRecord:
     ------
     UsageError
         A negative or empty time slice.
+    RecordFormatError
+        A record of fewer than 2 samples (an empty run: its recorder stopped before the
+        first flush, or a salvage that kept nothing of this unit).
     """
+    if record.n_samples < 2:
+        raise RecordFormatError(f"{record.source}: {record.n_samples} samples recorded, "
+                                f"nothing to analyze (an empty run)")
     warmup_s, where, notes = _warmup(source)
     start, stop = source.start_s, source.stop_s
     if start < 0 or warmup_s < 0 or (stop is not None and stop <= max(start, warmup_s)):

@@ -123,14 +123,15 @@ def _set_read_attempts() -> ctypes._CFuncPtr | None:  # type: ignore[name-define
     return None
 
 
-def swmr_reader(path: Path) -> h5py.File:
-    """``path`` opened as a SWMR reader with few metadata retries: it opens a file its
-    writer still holds, and a truncated one (for salvage: reads past the end return
-    zeros, which only checksums or :func:`chunks_within` tell from data)."""
+def swmr_reader(path: Path, *, read_attempts: int = SWMR_READ_ATTEMPTS) -> h5py.File:
+    """``path`` opened as a SWMR reader with few metadata retries (``read_attempts``; a
+    salvage, which no writer races, takes 1): it opens a file its writer still holds, and
+    a truncated one (for salvage: reads past the end return zeros, which only checksums
+    or :func:`chunks_within` tell from data)."""
     fapl = h5py.h5p.create(h5py.h5p.FILE_ACCESS)
     setter = _set_read_attempts()
     if setter is not None:
-        setter(fapl.id, SWMR_READ_ATTEMPTS)
+        setter(fapl.id, read_attempts)
     fid = h5py.h5f.open(os.fsencode(path), h5py.h5f.ACC_RDONLY | h5py.h5f.ACC_SWMR_READ,
                         fapl=fapl)
     return h5py.File(fid)

@@ -108,7 +108,8 @@ class RecoveryResult:
 
     ``salvaged_to`` is the new file a damaged run was salvaged into ("" when the file
     itself was repaired or was closed already); ``damage`` says what was wrong with it,
-    and ``notes`` per unit what could not be kept.
+    ``lost`` per unit the committed samples that did not read (declared as gaps in the
+    salvage's event log) and ``notes`` per unit what could not be kept, and where.
     """
 
     path: str
@@ -120,6 +121,7 @@ class RecoveryResult:
     salvaged_to: str = ""
     damage: str = ""
     notes: dict[str, str] = field(default_factory=dict)
+    lost: dict[str, int] = field(default_factory=dict)
 
 
 def _writer_alive(f: h5py.File, state: dict[str, str], stale_s: float) -> bool:
@@ -230,7 +232,8 @@ def _salvage(path: Path, out: Path, damage: str) -> RecoveryResult:
         str(path), False, {u.unit_id: u.kept for u in units},
         {u.unit_id: max(0, (u.committed or u.kept) - u.kept) for u in units},
         state["stop_utc"], state["stop_reason"], salvaged_to=str(out), damage=damage,
-        notes={u.unit_id: u.note for u in units if u.note})
+        notes={u.unit_id: u.note for u in units if u.note},
+        lost={u.unit_id: u.lost for u in units})
 
 
 def _verify(path: Path, what: str) -> None:

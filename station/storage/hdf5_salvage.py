@@ -2,9 +2,11 @@
 
 A run file cut short (a copy interrupted, a disk that failed) or with flipped bits cannot
 be repaired in place: :func:`salvage_run` reads what it can (each attribute, each unit's
-datasets chunk by chunk up to the first block that fails its checksum or lies past the
-end of the file, never beyond the committed marker), writes it into a new file with the
-recorder's layout, and marks that run as salvaged. The original is not touched.
+datasets chunk by chunk, never beyond the committed marker: a chunk that fails its
+checksum or lies past the end of the file costs only its own rows, declared as a gap,
+:mod:`station.storage.hdf5_mend`), writes it into a new file with the recorder's layout,
+and marks that run as salvaged. A unit of which no sample reads is left out; a file of
+which none does is an error, and nothing is written. The original is not touched.
 """
 
 from __future__ import annotations
@@ -29,7 +31,8 @@ from station.storage.hdf5 import (
     fixed_text,
     text_value,
 )
-from station.storage.hdf5_open import chunks_within, swmr_reader
+from station.storage.hdf5_mend import mend_rows, readable_rows
+from station.storage.hdf5_open import swmr_reader
 from station.storage.hdf5_writer import write_layout
 
 REASON_SALVAGED = "interrupted: salvaged from a damaged run file (recovered)"
@@ -44,6 +47,7 @@ class SalvagedUnit:
     committed: int | None
     events_kept: int
     note: str
+    lost: int = 0
 
 
 def salvaged_path(path: Path) -> Path:
@@ -71,24 +75,6 @@ def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
     return out
 
 
-def _readable_rows(ds: h5py.Dataset, limit: int, size: int) -> tuple[np.ndarray, int]:
-    """Rows ``0:limit`` of ``ds`` up to the first chunk that does not read (its checksum
-    fails, or it lies past the end of a file of ``size`` bytes)."""
-    rows = ds.chunks[0] if ds.chunks else max(limit, 1)
-    parts, n = [], 0
-    while n < limit:
-        stop = min(n + rows, limit)
-        if not _get(lambda a=n, b=stop: chunks_within(ds, a, b, size), False):
-            break
-        part = _get(lambda a=n, b=stop: ds[a:b])
-        if part is None:
-            break
-        parts.append(part)
-        n += len(part)
-    data = np.concatenate(parts) if parts else np.empty((0, *ds.shape[1:]), ds.dtype)
-    return data, n
-
-
 @dataclass
 class _Unit:
     unit_id: str
@@ -96,32 +82,50 @@ class _Unit:
     data: dict[str, np.ndarray]
     events: np.ndarray
     committed: int | None
+    lost: int
     note: str
 
 
 def _read_unit(g: h5py.Group, unit_id: str, size: int) -> _Unit:
+    """Every readable row of one unit, chunk by chunk, mended (:mod:`.hdf5_mend`): a
+    chunk that does not read costs only its own rows, declared as a gap."""
     attrs = _attrs(g)
     committed = _get(lambda: [int(v) for v in g["committed"][:]])
     names = [k for k in SAMPLE_DATASETS if _get(lambda k=k: k in g, False)]
     shapes = {k: _get(lambda k=k: g[k].shape[0], 0) for k in names}
     limit = min([*shapes.values(), committed[0] if committed else min(shapes.values(), default=0)],
                 default=0)
-    data, n = {}, limit
-    for k in names:
-        rows, got = _readable_rows(g[k], limit, size)
-        data[k] = rows
-        n = min(n, got)
-    data = {k: v[:n] for k, v in data.items()}
+    read = {k: readable_rows(g[k], limit, size) for k in names}
+    for k in ("receive_time", "status"):  # a column whose header does not read: no row reads
+        read.setdefault(k, (np.zeros(limit, "<f8" if k == "receive_time" else "<u4"),
+                            np.zeros(limit, bool)))
+    mended = mend_rows({k: v for k, (v, _) in read.items()}, {k: ok for k, (_, ok) in read.items()},
+                       float(attrs["sample_rate_hz"]))
     ev_limit = min(_get(lambda: g["events"].shape[0], 0),
                    committed[1] if committed else _get(lambda: g["events"].shape[0], 0))
-    events, _ = (_readable_rows(g["events"], ev_limit, size)
-                 if _get(lambda: "events" in g, False)
-                 else (np.zeros(0, EVENT_DTYPE), 0))
-    note = "" if n == limit else f"{limit - n} committed samples unreadable"
+    events, ev_ok = (readable_rows(g["events"], ev_limit, size)
+                     if _get(lambda: "events" in g, False)
+                     else (np.zeros(0, EVENT_DTYPE), np.zeros(0, bool)))
+    notes = list(mended.notes)
+    if not ev_ok.all():
+        notes.append(f"{int((~ev_ok).sum())} of {len(ev_ok)} event-log entries unreadable")
     if committed is None:
-        note = "its committed marker is unreadable: " + (note or "every readable row kept")
-    return _Unit(unit_id, attrs, data, events, None if committed is None else committed[0],
-                 note)
+        notes.insert(0, "its committed marker is unreadable: every readable row kept")
+    return _Unit(unit_id, attrs, mended.columns, _with_gaps(events[ev_ok], mended.gaps),
+                 None if committed is None else committed[0], mended.lost, "; ".join(notes))
+
+
+def _with_gaps(events: np.ndarray, gaps: np.ndarray) -> np.ndarray:
+    """The unit's readable event-log rows (in the layout's dtype) with the salvage's gaps,
+    in time order."""
+    out = np.zeros(len(events), EVENT_DTYPE)
+    for name in events.dtype.names or ():
+        if name in (EVENT_DTYPE.names or ()):
+            out[name] = events[name]
+    if "missing_low" not in (events.dtype.names or ()):
+        out["missing_low"] = out["missing_high"] = out["missing_samples"]
+    merged = np.concatenate([out, gaps])
+    return merged[np.argsort(merged["time_s"], kind="stable")]
 
 
 def _description(u: _Unit) -> DeviceDescription:
@@ -147,7 +151,7 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
     units: list[_Unit] = []
     size = path.stat().st_size
     try:
-        f = swmr_reader(path)
+        f = swmr_reader(path, read_attempts=1)  # no writer races a salvage
     except (OSError, RuntimeError, KeyError, ValueError) as exc:
         raise RecordFormatError(f"{path}: cannot be recovered: HDF5 cannot open it at all "
                                 f"({' '.join(str(exc).split())[:160]})") from exc
@@ -162,11 +166,14 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
             g = _get(lambda u=uid: f["units"][u])
             if g is not None:
                 unit = _get(lambda grp=g, u=uid: _read_unit(grp, u, size))
-                if unit is not None and "axes" in unit.attrs and all(
-                        k in unit.data for k in ("rate", "counter", "receive_time", "status")):
+                if unit is not None and "axes" in unit.attrs:
                     units.append(unit)
+    empty = [SalvagedUnit(u.unit_id, 0, u.committed, 0, "no sample readable: left out of the "
+                          "salvage", u.lost) for u in units if not len(u.data["rate"])]
+    units = [u for u in units if len(u.data["rate"])]
     if not units:
-        raise RecordFormatError(f"{path}: cannot be recovered: no unit's data read")
+        raise RecordFormatError(f"{path}: cannot be recovered: no sample of any unit reads "
+                                f"(nothing written)")
     start = RunStart(str(root.get("run_uid", "")), str(root.get("start_utc", "")),
                      tuple(u.unit_id for u in units), float(root.get("duration_requested_s", 0)),
                      str(out), RunMetadata.from_attributes(root))
@@ -182,19 +189,13 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
         write_layout(f, start, descriptors)
         for u in units:
             g = f["units"][u.unit_id]
-            n = len(next(iter(u.data.values())))
+            n = len(u.data["rate"])
             for k, rows in u.data.items():
                 g[k].resize(n, axis=0)
                 g[k][:] = rows
-            events = np.zeros(len(u.events), EVENT_DTYPE)
-            for name in u.events.dtype.names or ():
-                if name in (EVENT_DTYPE.names or ()):
-                    events[name] = u.events[name]
-            if "missing_low" not in (u.events.dtype.names or ()):
-                events["missing_low"] = events["missing_high"] = events["missing_samples"]
-            g["events"].resize(len(events), axis=0)
-            g["events"][:] = events
-            g["committed"][:] = (n, len(events))
+            g["events"].resize(len(u.events), axis=0)
+            g["events"][:] = u.events
+            g["committed"][:] = (n, len(u.events))
         row = np.zeros(1, STATE_DTYPE)
         row[0] = (b"stopped", last_flush.encode(), REASON_SALVAGED.encode()[:128],
                   last_flush.encode())
@@ -202,5 +203,5 @@ def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:
         f.attrs.modify("stop_utc", fixed_text(last_flush, 32))
         f.attrs.modify("stop_reason", fixed_text(REASON_SALVAGED, 128))
         f.attrs["salvaged_from"] = str(path)
-    return [SalvagedUnit(u.unit_id, len(next(iter(u.data.values()))), u.committed,
-                         len(u.events), u.note) for u in units]
+    return [SalvagedUnit(u.unit_id, len(u.data["rate"]), u.committed, len(u.events), u.note,
+                         u.lost) for u in units] + empty
