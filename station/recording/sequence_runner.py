@@ -188,6 +188,8 @@ class SequenceRunner:
         #: before, and the plateau's record step, redone in full (None: none).
         self._resettle_at: int | None = None
         self._redo_step: int | None = None
+        #: When this resume switched a supply on again (sequence clock s; None: it did not).
+        self._restored_at: float | None = None
 
     # -- the journal -----------------------------------------------------------------
     def _log(self, kind: JournalKind, step: Step | None = None, *, unit: str = "",
@@ -342,6 +344,9 @@ class SequenceRunner:
         self._save()
 
     def _step(self, step: Step) -> None:
+        if step.kind == "record":
+            self._record(step)  # (journals its own step_start)
+            return
         self._notify(step.label)
         if self.run.elapsed_s(step.index) == 0.0:
             self._log("step_start", step)
@@ -358,15 +363,13 @@ class SequenceRunner:
             self._set_chamber(step)
         elif step.kind == "wait_stable":
             elapsed = self._wait_stable(step, elapsed)
-        else:
-            self._record(step)
-            return
         self._log("step_done", step, value=elapsed)
         self._save()
 
-    def _wait(self, step: Step, remaining_s: float, done_s: float) -> None:
+    def _wait(self, step: Step, remaining_s: float, done_s: float, *,
+              progress: bool = True) -> None:
         """Sleep ``remaining_s`` on the sequence clock, journaling progress (cumulative
-        from ``done_s``) and the chamber; a stop request ends it."""
+        from ``done_s``; unless not ``progress``) and the chamber; a stop request ends it."""
         start = self.clock()
         last_progress = start
         every = max(PROGRESS_SHARE * (remaining_s + done_s), 1e-9)
@@ -376,7 +379,7 @@ class SequenceRunner:
                 return
             self._check_stop()
             self._log_chamber(step)
-            if now - last_progress >= every:
+            if progress and now - last_progress >= every:
                 last_progress = now
                 self._log("progress", step, value=done_s + now - start)
                 self._save()
@@ -439,6 +442,9 @@ class SequenceRunner:
         the plateau goes on (journaled ``stable`` against ``step``)."""
         self._notify(f"{step.label}: the chamber settles again before the plateau resumes")
         self._wait_stable(step, 0.0)
+        if self._restored_at is not None:  # and the warm-up of a unit switched on again
+            self._wait(step, self.config.spec.bias_after_s - (self.clock() - self._restored_at),
+                       0.0, progress=False)
         self._resettle_at = None
         self._save()
 
@@ -602,6 +608,8 @@ class SequenceRunner:
                 continue  # the resumed record switches it on once it listens
             if want != now_on:
                 wall = switch.set_power(want)
+                if want:
+                    self._restored_at = self.clock()
                 self._log("power_on" if want else "power_off", None, unit=unit, wall_s=wall,
                           detail=f"restored on resume: {switch.describe()}")
         target = self._setpoint()
