@@ -19,6 +19,14 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   unit of a closed run file (6000 samples a unit, 12 chunks), and a ``station simulate``
   run (60 s at 100 Hz) cut to half its length; each recovered. Printed per damage:
   samples kept of the samples committed, summed over the trials.
+* ``sequence kill -9 + resume``: the issue 29 temperature sequence (25 degC, power on,
+  record; 40, 10, 25 degC plateaus; ``tests/sequence_kill.py``) killed with SIGKILL in a
+  step drawn over every step kind (set_chamber, wait_stable, power_on, record, power_off;
+  which of them and how far into it drawn too) and resumed by the same command. Per
+  trial: the step, the switch-ons counted (1 asked for), the turn-on repeatability (none
+  uninterrupted), the temperature points (4), the coefficient and whether its interval
+  covers the truth, the samples declared missing. "bad errors" counts trials whose
+  figures differ from an uninterrupted run's.
 
 Printed per case: trials, data lost (max, s), books balanced, and errors that were not
 one clear line (a traceback, several lines, a crash, a hang, a file that does not open).
@@ -45,6 +53,7 @@ from station.cli import main as station_main
 from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import read_run
 from station.storage.hdf5_recover import recover_run
+from tests import sequence_kill
 from tests.damage_helpers import damaged_copies, flip_in_chunks, sweep
 from tests.test_damaged_runs import _write_run
 from tests.test_recorder_books import UNITS, _at_warp
@@ -247,6 +256,36 @@ def chunk_trial(case: Case, tmp: Path, rng: random.Random) -> None:
     case.trials += 1
 
 
+def sequence_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    folder = tmp / f"seq{case.trials}"
+    folder.mkdir()
+    profile = folder / "p.toml"
+    profile.write_text(sequence_kill.PROFILE, encoding="utf-8")
+    kind, nth, share = sequence_kill.random_kind(rng)
+    case.trials += 1
+    try:
+        out = sequence_kill.killed_and_resumed(profile, folder / "runs", seed=case.trials,
+                                               kind=kind, nth=nth, share=share)
+    except Exception as exc:  # noqa: BLE001 - every failure is counted
+        case.bad_errors.append(f"{kind} #{nth + 1} at {share:.2f}: {type(exc).__name__}: "
+                               f"{exc}"[:300])
+        return
+    f = out.figures
+    points = len(f["temperature_points"].get("x", []))  # type: ignore[attr-defined]
+    low, high = f["temperature_coefficient_deg_h_per_c_ci"] or (None, None)  # type: ignore[misc]
+    covered = low is not None and low <= sequence_kill.TEMPCO <= high
+    missing = sum(int(s["samples_missing_declared"]) for s in out.summary)  # type: ignore[call-overload]
+    rep = f["turn_on_repeatability_deg_h"]
+    print(f"  {kind:12s} #{nth + 1} at {share:.2f} (step {out.step + 1:2d}): switch-ons "
+          f"{f['cycles']}, repeatability {rep}, points {points}, coefficient "
+          f"{f['temperature_coefficient_deg_h_per_c']} deg/h/degC in [{low}, {high}] "
+          f"{'covers' if covered else 'MISSES'} {sequence_kill.TEMPCO}, declared missing "
+          f"{missing}", flush=True)
+    if f["cycles"] != 1 or rep is not None or points != 4 or not covered:
+        case.bad_errors.append(f"{kind} #{nth + 1} at {share:.2f}: figures differ from an "
+                               f"uninterrupted run's")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=10)
@@ -258,7 +297,8 @@ def main() -> None:
              "disk full (small file system)": tmpfs_trial,
              "fault matrix warp 1": lambda c, t, r: matrix_trial(c, t, 1),
              "fault matrix warp 4": lambda c, t, r: matrix_trial(c, t, 4),
-             "damaged files": damaged_trial, "damaged chunks": chunk_trial}
+             "damaged files": damaged_trial, "damaged chunks": chunk_trial,
+             "sequence kill -9 + resume": sequence_trial}
     print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':34s}{'trials':>7s}{'data lost max s':>16s}{'books balanced':>16s}"

@@ -10,6 +10,10 @@ clock, s since the epoch). Put together, every sample gets its time since power-
   reads give its send time), so a late first read does not make the turn-on look late;
 * a segment whose recorder read the unit before its supply came on holds the turn-on:
   its *turn-on time* is that of its first valid sample (status 0) since the switch-on;
+* the *switch-on number* counts the ``power_on`` steps the profile asked for and that ran
+  before the segment: a supply a resume found off and switched on again is no turn-on
+  (the time since switch-on counts from it all the same: the unit warmed up again), and
+  a turn-on redone after a resume is the same one;
 * every sample on the grid (gaps included) follows one sample period apart.
 
 Each unit's temperature is the one it reports; a unit without one takes the chamber's air
@@ -45,11 +49,13 @@ class SegmentView:
     data : SegmentUnit
         The unit's samples.
     power_cycle : int or None
-        1-based count of the unit's switch-ons up to this segment's first sample (None:
-        the journal has none, a unit that was never switched).
+        1-based count of the profile's ``power_on`` steps that switched the unit on up to
+        this segment's first sample (None: none did, a unit that was never switched).
     first_s : float or None
-        Time of the first sample since the switch-on, s (sequence clock); None without a
-        switch-on.
+        Time of the first sample since the latest switch-on (the profile's or a resume's),
+        s (sequence clock); None without a switch-on.
+    switch_on_wall_s : float or None
+        That switch-on's instant, s since the epoch (None without one).
     turn_on_time_s : float or None
         Switch-on to the first valid sample, s, when the recorder read the unit from
         before its switch-on; None otherwise.
@@ -64,6 +70,7 @@ class SegmentView:
     data: SegmentUnit
     power_cycle: int | None
     first_s: float | None
+    switch_on_wall_s: float | None
     turn_on_time_s: float | None
     temperature_c: NDArray[np.float64] | None
     temperature_source: str
@@ -117,10 +124,6 @@ def first_sample_unit_s(data: SegmentUnit, *, valid_only: bool = True) -> float 
     return float(np.min(data.receive_time_s[start:stop] - k / rec.sample_rate_hz))
 
 
-def _power_ons(run: SequenceRun, unit_id: str) -> list[float]:
-    return [e.wall_s for e in run.journal if e.kind == "power_on" and e.unit == unit_id]
-
-
 def _chamber_readings(run: SequenceRun) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     rows = [(e.wall_s, e.value) for e in run.journal if e.kind == "chamber" and
             math.isfinite(e.value)]
@@ -143,16 +146,17 @@ def segment_view(run: SequenceRun, segment: Segment, unit_id: str) -> SegmentVie
     rec = data.record
     warp = data.time_warp if data.time_warp > 0 else 1.0
     first_unit = first_sample_unit_s(data, valid_only=False)
-    power_cycle = first_s = turn_on = None
+    power_cycle = first_s = turn_on = switch_on = None
     if first_unit is not None and math.isfinite(data.start_wall_s):
         first_wall = data.start_wall_s + first_unit / warp
-        ons = [t for t in _power_ons(run, unit_id) if t <= first_wall]
+        ons = [e for e in run.switch_ons(unit_id) if e.wall_s <= first_wall]
         if ons:
-            power_cycle = len(ons)
-            on_unit = (ons[-1] - data.start_wall_s) * warp  # the switch-on, unit time base
+            power_cycle = len({e.step for e in ons if run.asked_for(e)}) or None
+            switch_on = ons[-1].wall_s
+            on_unit = (switch_on - data.start_wall_s) * warp  # the switch-on, unit time base
             first_s = first_unit - on_unit
             valid_unit = first_sample_unit_s(data)
-            if ons[-1] >= data.start_wall_s and valid_unit is not None:
+            if switch_on >= data.start_wall_s and valid_unit is not None:
                 turn_on = valid_unit - on_unit
     span = rec.span_samples
     temperature, source = None, ""
@@ -163,15 +167,19 @@ def segment_view(run: SequenceRun, segment: Segment, unit_id: str) -> SegmentVie
         if times.size and first_unit is not None:
             wall = data.start_wall_s + (first_unit + np.arange(span) / rec.sample_rate_hz) / warp
             temperature, source = np.interp(wall, times, values), "chamber"
-    return SegmentView(segment, step, data, power_cycle, first_s, turn_on, temperature, source)
+    return SegmentView(segment, step, data, power_cycle, first_s, switch_on, turn_on,
+                       temperature, source)
 
 
 def unit_segments(run: SequenceRun, unit_id: str) -> list[SegmentView]:
-    """Every segment of ``unit_id`` in recording order (segments without it left out)."""
+    """Every segment of ``unit_id`` in recording order (segments without it, and those a
+    redone step superseded, left out)."""
     from station.errors import RecordFormatError
 
     views = []
     for seg in run.segments:
+        if seg.superseded:
+            continue
         try:
             views.append(segment_view(run, seg, unit_id))
         except (RecordFormatError, OSError):

@@ -255,7 +255,9 @@ def _combined(biases: list[CycleBias]) -> CycleBias | None:
 
 def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: SequenceSpec
                   ) -> list[CycleFigures]:
-    """Per switch-on, the figures of its first recorded step (all its attempts)."""
+    """Per switch-on the profile asked for, the figures of its first recorded step (all its
+    attempts since the latest switch-on: a resume that had to switch the unit on again
+    leaves the parts before out of its bias)."""
     by_cycle: dict[int, list[SegmentView]] = {}
     for v in views:
         if v.power_cycle is not None:
@@ -264,6 +266,8 @@ def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: S
     for cycle, group in sorted(by_cycle.items()):
         first_step = group[0].step.index
         attempts = [v for v in group if v.step.index == first_step]
+        latest = max(v.switch_on_wall_s or 0.0 for v in attempts)
+        attempts = [v for v in attempts if (v.switch_on_wall_s or 0.0) == latest]
         heard = next((v for v in attempts if v.turn_on_time_s is not None), None)
         biases: dict[str, CycleBias | None] = {}
         warmups: dict[str, WarmupCurve | None] = {}
@@ -301,15 +305,21 @@ def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: S
 
 def temperature_points(views: Sequence[SegmentView], column: int, spec: SequenceSpec
                        ) -> list[TemperaturePoint]:
-    """Points of bias against temperature of one axis: a plateau point per segment whose
-    temperature moves less than ``plateau_span_c``, ramp bins otherwise; the warm-up
+    """Points of bias against temperature of one axis: a plateau point per ``record`` step
+    whose temperature moves less than ``plateau_span_c`` (the parts of a step recorded in
+    several, interrupted and resumed, joined), ramp bins otherwise; the warm-up
     (``bias_after_s`` from switch-on) left out."""
     points: list[TemperaturePoint] = []
+    by_step: dict[int, list[SegmentView]] = {}
     for v in views:
-        if v.temperature_c is None:
-            continue
-        keep = v.settled(spec.bias_after_s)
-        x, temp = v.data.record.gridded(column)[keep], v.temperature_c[keep]
+        if v.temperature_c is not None:
+            by_step.setdefault(v.step.index, []).append(v)
+    for parts in by_step.values():
+        keeps = [v.settled(spec.bias_after_s) for v in parts]
+        x = np.concatenate([v.data.record.gridded(column)[k] for v, k in zip(parts, keeps,
+                                                                            strict=True)])
+        temp = np.concatenate([v.temperature_c[k] for v, k in zip(parts, keeps, strict=True)
+                               if v.temperature_c is not None])
         span = temperature_span_c(temp)
         if span is None:
             continue

@@ -33,10 +33,12 @@ from station.storage.sequence_files import segment_path
 
 
 def noise_segment(run: SequenceRun) -> tuple[Segment, RunInfo] | None:
-    """The longest segment that ran to its end (the latest of equals), read; None when no
-    segment reads."""
+    """The longest segment that ran to its end (the latest of equals; none a redone step
+    superseded), read; None when no segment reads."""
     best: tuple[float, int, Segment, RunInfo] | None = None
     for n, seg in enumerate(run.segments):
+        if seg.superseded:
+            continue
         try:
             info = open_run(segment_path(run, seg))
         except (OSError, RecordFormatError):

@@ -76,12 +76,17 @@ class Segment:
     interrupted : bool
         It ended early (the station stopped, crashed or the unit failed); the step was
         then recorded again from where it was.
+    superseded : bool
+        The step was redone in full after it (a turn-on whose supplies a resume found off,
+        switched on again; a temperature plateau resumed from its settle): kept in the
+        file, left out of every figure.
     """
 
     step: int
     cycle: int
     file: str
     interrupted: bool = False
+    superseded: bool = False
 
 
 @dataclass(frozen=True)
@@ -150,6 +155,17 @@ class SequenceRun:
         done = [e.value for e in self.journal if e.step == step
                 and e.kind in ("progress", "step_done", "interrupted") and e.value == e.value]
         return max(done, default=0.0)
+
+    def switch_ons(self, unit_id: str) -> tuple[JournalEntry, ...]:
+        """Every switch-on of the unit's supply, in order: those the profile asked for and
+        those a resume made (:meth:`asked_for` tells them apart)."""
+        return tuple(e for e in self.journal if e.kind == "power_on" and e.unit == unit_id)
+
+    def asked_for(self, entry: JournalEntry) -> bool:
+        """Whether a switch-on is one the profile asked for: journaled against a
+        ``power_on`` step. A supply that a resume found off and switched on again is
+        journaled against no step (-1): it counts as no turn-on."""
+        return 0 <= entry.step < len(self.steps) and self.steps[entry.step].kind == "power_on"
 
     def interruptions(self) -> tuple[JournalEntry, ...]:
         """The journal's ``interrupted`` entries."""

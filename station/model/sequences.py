@@ -194,6 +194,20 @@ class SequenceSpec:
         return next((f for f in self.figures if f.name == name), None)
 
 
+def plateau_record(steps: tuple[Step, ...], index: int) -> Step | None:
+    """The ``record`` step of the temperature plateau that step ``index`` is in: past the
+    plateau's ``wait_stable``, up to its record (None: not in a plateau)."""
+    chamber = [s.kind for s in steps[:index] if s.kind in ("set_chamber", "wait_stable")]
+    if not chamber or chamber[-1] != "wait_stable":
+        return None
+    for s in steps[index:]:
+        if s.kind in ("set_chamber", "wait_stable"):
+            return None
+        if s.kind == "record":
+            return s
+    return None
+
+
 class _Fails(Protocol):
     """What the profile parser's checker lends: ProfileErrors located in the file."""
 

@@ -17,7 +17,18 @@ Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again:
 journal says which step was running; a segment left open by a killed recorder is closed
 (:func:`station.storage.hdf5_recover.recover_run`) and kept, marked interrupted; the supplies and
 the chamber are put back as the journal left them; the interrupted step runs for what
-was left of it; the interruption and the resumption are in the journal.
+was left of it; the interruption and the resumption are in the journal. Three cases are
+redone rather than continued, so that a resumed sequence measures what an uninterrupted
+one does:
+
+* a supply found off that the journal left on is switched on again journaled against no
+  step: a switch-on the profile did not ask for, which counts as no turn-on;
+* a turn-on record whose supplies were found off is redone in full from a new switch-on
+  (when its recorder listens); the parts recorded before are kept, marked superseded;
+* a step resumed inside a temperature plateau (after its ``wait_stable``, up to its
+  ``record``) first waits for the chamber to be stable at the set point again, and the
+  plateau's ``record`` is redone in full (the parts before superseded): a chamber that
+  drifted, or a fixture that started again at ambient, records no ramp.
 """
 
 from __future__ import annotations
@@ -39,7 +50,7 @@ from station.model.documents import Subscriber, utc_now
 from station.model.profiles import Profile
 from station.model.runs import RunMetadata
 from station.model.sequence_runs import JournalEntry, JournalKind, Segment, SequenceRun
-from station.model.sequences import SequenceSpec, Step
+from station.model.sequences import SequenceSpec, Step, plateau_record
 from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import REASON_DURATION
 from station.storage.hdf5_recover import recover_run
@@ -173,6 +184,12 @@ class SequenceRunner:
         #: Resumed into a turn-on record with the supplies found off: they are switched
         #: on when its recorder listens, attributed to this power_on step.
         self._deferred_power_on: Step | None = None
+        #: Resumed inside a temperature plateau: the step the chamber is settled again
+        #: before, and the plateau's record step, redone in full (None: none).
+        self._resettle_at: int | None = None
+        self._redo_step: int | None = None
+        #: When this resume switched a supply on again (sequence clock s; None: it did not).
+        self._restored_at: float | None = None
 
     # -- the journal -----------------------------------------------------------------
     def _log(self, kind: JournalKind, step: Step | None = None, *, unit: str = "",
@@ -286,6 +303,8 @@ class SequenceRunner:
             while index < len(steps):
                 self._check_stop()
                 step = steps[index]
+                if index == self._resettle_at:
+                    self._settle_again(step)
                 if step.kind == "power_on" and index + 1 < len(steps) and \
                         steps[index + 1].kind == "record":
                     self._record(steps[index + 1], power_on=step)
@@ -325,6 +344,9 @@ class SequenceRunner:
         self._save()
 
     def _step(self, step: Step) -> None:
+        if step.kind == "record":
+            self._record(step)  # (journals its own step_start)
+            return
         self._notify(step.label)
         if self.run.elapsed_s(step.index) == 0.0:
             self._log("step_start", step)
@@ -341,15 +363,13 @@ class SequenceRunner:
             self._set_chamber(step)
         elif step.kind == "wait_stable":
             elapsed = self._wait_stable(step, elapsed)
-        else:
-            self._record(step)
-            return
         self._log("step_done", step, value=elapsed)
         self._save()
 
-    def _wait(self, step: Step, remaining_s: float, done_s: float) -> None:
+    def _wait(self, step: Step, remaining_s: float, done_s: float, *,
+              progress: bool = True) -> None:
         """Sleep ``remaining_s`` on the sequence clock, journaling progress (cumulative
-        from ``done_s``) and the chamber; a stop request ends it."""
+        from ``done_s``; unless not ``progress``) and the chamber; a stop request ends it."""
         start = self.clock()
         last_progress = start
         every = max(PROGRESS_SHARE * (remaining_s + done_s), 1e-9)
@@ -359,7 +379,7 @@ class SequenceRunner:
                 return
             self._check_stop()
             self._log_chamber(step)
-            if now - last_progress >= every:
+            if progress and now - last_progress >= every:
                 last_progress = now
                 self._log("progress", step, value=done_s + now - start)
                 self._save()
@@ -417,6 +437,17 @@ class SequenceRunner:
                     f"stable_timeout_s / stable_band_c in the profile")
             time.sleep(max(TICK_WALL_S, min(poll_s / self.clock.warp, 1.0)))
 
+    def _settle_again(self, step: Step) -> None:
+        """Resumed inside a plateau: the chamber held stable at its set point again before
+        the plateau goes on (journaled ``stable`` against ``step``)."""
+        self._notify(f"{step.label}: the chamber settles again before the plateau resumes")
+        self._wait_stable(step, 0.0)
+        if self._restored_at is not None:  # and the warm-up of a unit switched on again
+            self._wait(step, self.config.spec.bias_after_s - (self.clock() - self._restored_at),
+                       0.0, progress=False)
+        self._resettle_at = None
+        self._save()
+
     # -- recording -------------------------------------------------------------------
     def _segment_file(self, step: Step) -> str:
         folder = f"{Path(self.run.path).stem}.segments"
@@ -427,7 +458,7 @@ class SequenceRunner:
         """Time already recorded by the step's earlier segments (s, the shortest unit)."""
         total = 0.0
         for seg in self.run.segments:
-            if seg.step != step.index:
+            if seg.step != step.index or seg.superseded:
                 continue
             try:
                 run = open_run(Path(self.run.path).parent / seg.file)
@@ -439,6 +470,12 @@ class SequenceRunner:
 
     def _record(self, step: Step, *, power_on: Step | None = None) -> None:
         assert step.duration_s is not None
+        if power_on is not None or step.index == self._redo_step:
+            self._redo_step = None  # recorded in full: from its switch-on, or its settle
+            if any(s.step == step.index for s in self.run.segments):
+                self._set_segments(tuple(dataclasses.replace(s, superseded=True)
+                                         if s.step == step.index else s
+                                         for s in self.run.segments))
         remaining = step.duration_s - self._recorded_s(step)
         if remaining <= 0.5 / max(1.0, self.clock.warp):
             self._log("step_done", step, value=step.duration_s)
@@ -543,6 +580,12 @@ class SequenceRunner:
             self.run = dataclasses.replace(self.run, segments=tuple(kept), state="running")
         self._log("resume", detail=f"resumed at step {index + 1} of {len(run.steps)}")
         self._restore(index)
+        plateau = plateau_record(self.run.steps, index) if self.chamber is not None else None
+        if plateau is not None:
+            self._resettle_at = index
+            turn_on = plateau.index > 0 and self.run.steps[plateau.index - 1].kind == "power_on"
+            # a turn-on record is redone only with its switch-on (supplies found off)
+            self._redo_step = None if turn_on else plateau.index
 
     def _last_resume_utc(self) -> str:
         return max((e.utc for e in self.run.journal if e.kind in ("resume", "start")), default="")
@@ -565,6 +608,8 @@ class SequenceRunner:
                 continue  # the resumed record switches it on once it listens
             if want != now_on:
                 wall = switch.set_power(want)
+                if want:
+                    self._restored_at = self.clock()
                 self._log("power_on" if want else "power_off", None, unit=unit, wall_s=wall,
                           detail=f"restored on resume: {switch.describe()}")
         target = self._setpoint()

@@ -7,7 +7,7 @@ Layout (``docs/hdf5-layout.md``, "Sequence files")::
                           unit_ids, unit_urls, power_urls (JSON), chamber_url, time_warp,
                           state, operator, lot, start_utc
     /journal    (M,)      compound: kind, utc, wall_s, clock_s, step, cycle, unit, value, detail
-    /segments   (K,)      compound: step, cycle, file, interrupted
+    /segments   (K,)      compound: step, cycle, file, interrupted, superseded
     /segment/<NNN>        external link to the root of segment NNN's run file
 
 Each segment is a run file of the recorder (``<sequence>.segments/sNNN-cCC-unitsK.h5``
@@ -42,7 +42,7 @@ JOURNAL_DTYPE = np.dtype([("kind", "S16"), ("utc", "S32"), ("wall_s", "<f8"), ("
                           ("step", "<i4"), ("cycle", "<i4"), ("unit", "S32"), ("value", "<f8"),
                           ("detail", "S200")])
 SEGMENT_DTYPE = np.dtype([("step", "<i4"), ("cycle", "<i4"), ("file", "S200"),
-                          ("interrupted", "u1")])
+                          ("interrupted", "u1"), ("superseded", "u1")])
 
 
 def is_sequence_file(path: str | Path) -> bool:
@@ -86,7 +86,8 @@ def write_sequence(run: SequenceRun) -> None:
         ds = f.create_dataset("journal", data=journal)
         ds.attrs["units"] = json.dumps({"wall_s": "s", "clock_s": "s", "value": "degC or s"})
         f.create_dataset("segments", data=np.array(
-            [(s.step, s.cycle, _fixed(s.file, 200), s.interrupted) for s in run.segments],
+            [(s.step, s.cycle, _fixed(s.file, 200), s.interrupted, s.superseded)
+             for s in run.segments],
             dtype=SEGMENT_DTYPE))
         for n, s in enumerate(run.segments):
             f[f"segment/{n:03d}"] = h5py.ExternalLink(s.file, "/")
@@ -123,6 +124,7 @@ def read_sequence(path: str | Path) -> SequenceRun:
         return text_value(a.get(k, ""))
 
     steps = tuple(Step(**d) for d in json.loads(text("steps")))
+    superseded = "superseded" in (segments.dtype.names or ())  # (files before it: none)
     return SequenceRun(
         path=str(path), name=text("sequence"), profile=text("profile"),
         profile_version=text("profile_version"), profile_sha256=text("profile_sha256"),
@@ -136,7 +138,8 @@ def read_sequence(path: str | Path) -> SequenceRun:
                                    int(r["cycle"]), text_value(r["unit"]), float(r["value"]),
                                    text_value(r["detail"])) for r in journal),
         segments=tuple(Segment(int(r["step"]), int(r["cycle"]), text_value(r["file"]),
-                               bool(r["interrupted"])) for r in segments),
+                               bool(r["interrupted"]), superseded and bool(r["superseded"]))
+                        for r in segments),
         operator=text("operator"), lot=text("lot"), start_utc=text("start_utc"))
 
 

@@ -1,0 +1,185 @@
+"""A temperature sequence killed (SIGKILL) at a chosen step and resumed by the same command:
+what ``tests/test_sequence_resume.py`` checks once per step kind and
+``benchmarks/bench_reliability.py`` repeats over kill moments.
+
+The sequence is the issue's: the chamber at 25 degC, power on and record the turn-on, then
+plateaus at 40, 10 and 25 degC. The simulated fixture lives in the killed process, so the
+resumed one finds it as after a power cut: chamber back at ambient, every relay open.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from station.errors import RecordFormatError
+from station.model.sequence_runs import SequenceRun
+from station.services.grade import GradeRequest, RunSource, grade
+from station.services.sequence import (
+    SequenceRequest,
+    SimFixtureSettings,
+    prepare_sequence,
+    sequence_summary,
+)
+from station.storage.sequence_files import read_sequence
+
+RATE_HZ = 5.0
+WARP = 100.0
+#: Each unit's bias temperature coefficient, deg/h per degC.
+TEMPCO = 0.5
+SELF_HEATING_C = 1.0
+RECORD_S = 90.0
+PLATEAUS_C = (25.0, 40.0, 10.0, 25.0)
+PROFILE = f"""name = "SEQKILL"
+version = "1"
+model = "VG951"
+[test]
+sample_rate_hz = {RATE_HZ:g}
+duration_s = 240.0
+warmup_s = 5.0
+axes = ["x"]
+[grading]
+confidence = 0.999
+grades = ["A", "B"]
+[figures.arw_fit]
+unit = "deg/sqrt(h)"
+limits = {{ A = 0.012, B = 0.025 }}
+[sequence.plateaus]
+steps = ["set_chamber 25", "wait_stable", "power_on", "record {RECORD_S:g}s",
+         "set_chamber 40", "wait_stable", "record {RECORD_S:g}s",
+         "set_chamber 10", "wait_stable", "record {RECORD_S:g}s",
+         "set_chamber 25", "wait_stable", "record {RECORD_S:g}s", "power_off"]
+bias_after_s = 30
+stable_band_c = 0.5
+stable_hold_s = 10
+plateau_span_c = 1.0
+[sequence.plateaus.figures.temperature_coefficient]
+unit = "deg/h/degC"
+limits = {{ A = 1.0 }}
+[sequence.plateaus.figures.hysteresis]
+unit = "deg/h"
+[sequence.plateaus.figures.turn_on_repeatability]
+unit = "deg/h"
+"""
+#: The step kinds of the sequence, where a kill can land.
+STEP_KINDS = ("set_chamber", "wait_stable", "power_on", "record", "power_off")
+
+
+def unit_url(seed: int) -> str:
+    """A simulated VG951 with a turn-on bias, a warm-up transient and a temperature
+    coefficient."""
+    return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate={RATE_HZ:g}&warp={WARP:g}"
+            f"&seed={seed}&tempco={TEMPCO:g}&turn_on_s=3&turn_on_jitter_s=0.5"
+            f"&turn_on_bias_deg_h=10&warmup_deg_h=5&warmup_tau_s=8")
+
+
+def command(profile: Path, out: Path, seed: int) -> list[str]:
+    """The command that runs (and, again, resumes) the sequence: ``station record
+    --sequence plateaus --power sim --chamber sim`` as this module's :func:`main` runs it,
+    with a quick chamber and die (the command line's simulated fixture has the slow
+    default physics)."""
+    return [sys.executable, "-m", "tests.sequence_kill", str(profile), str(out), str(seed)]
+
+
+def main() -> int:
+    """``python -m tests.sequence_kill PROFILE OUT SEED``: run or resume the sequence
+    through the record service, print the ``--json-summary`` lines."""
+    profile, out, seed = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3])
+    request = SequenceRequest("plateaus", profile, (unit_url(seed),), power=("sim",),
+                              chamber="sim", out=out, chamber_log_s=10.0,
+                              fixture=SimFixtureSettings(chamber_tau_s=15.0, unit_tau_s=8.0,
+                                                         self_heating_c=SELF_HEATING_C))
+    with prepare_sequence(request) as prepared:
+        run = prepared.execute()
+    for obj in sequence_summary(run):
+        print(json.dumps(obj))
+    return 0 if run.done else 1
+
+
+def _start(args: list[str]) -> subprocess.Popen[str]:
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[1])
+
+
+def _current(out: Path) -> tuple[SequenceRun | None, int]:
+    """The sequence file in ``out`` and the index of the step it runs (-1: none yet)."""
+    for path in out.glob("seq-*.h5"):
+        try:
+            run = read_sequence(path)
+        except (RecordFormatError, OSError):
+            return None, -1
+        return run, run.next_step()
+    return None, -1
+
+
+@dataclass(frozen=True)
+class KillOutcome:
+    """A sequence killed in one step and resumed."""
+
+    kind: str
+    step: int
+    summary: list[dict[str, object]]
+    run: SequenceRun
+    figures: dict[str, object]
+    plateaus: list[dict[str, object]]
+    resume_stderr: str
+
+
+def killed_and_resumed(profile: Path, out: Path, *, seed: int, kind: str, nth: int = 0,
+                       share: float = 0.5, timeout_s: float = 120.0) -> KillOutcome:
+    """Run the sequence, kill -9 it ``share`` of the way into the ``nth`` step of ``kind``
+    (a timed step's duration, else a moment soon after its start), resume it with the
+    same command, and grade the result.
+
+    Raises
+    ------
+    AssertionError
+        The first run ended before the kill, or the resume failed.
+    """
+    args = command(profile, out, seed)
+    first = _start(args)
+    deadline = time.monotonic() + timeout_s
+    try:
+        while True:
+            assert first.poll() is None, first.communicate()
+            assert time.monotonic() < deadline, "the sequence did not reach its step in time"
+            run, index = _current(out)
+            steps = run.steps if run is not None else ()
+            targets = [s for s in steps if s.kind == kind]
+            target = targets[min(nth, len(targets) - 1)] if targets else None
+            if target is not None and index >= target.index and run is not None and \
+                    any(e.kind == "step_start" and e.step == target.index for e in run.journal):
+                break
+            time.sleep(0.01)
+        delay = (target.duration_s or 0.0) * share / WARP if target.duration_s else 0.3 * share
+        time.sleep(delay)
+    finally:
+        os.kill(first.pid, signal.SIGKILL)
+        first.communicate()
+    second = _start(args)
+    stdout, stderr = second.communicate(timeout=timeout_s)
+    assert second.returncode == 0, stderr
+    summary = [json.loads(line) for line in stdout.splitlines()]
+    run = read_sequence(str(summary[0]["file"]))
+    doc = grade(GradeRequest(RunSource(run.path), store=False)).graded.as_json()
+    unit = doc["units"][0]  # type: ignore[index]
+    return KillOutcome(kind, target.index, summary, run, unit["sequence_figures"],
+                       unit["sequence_plateaus"], stderr)
+
+
+def random_kind(rng: random.Random) -> tuple[str, int, float]:
+    """A kill moment drawn over the step kinds: (kind, which of them, share of it)."""
+    kind = rng.choice(STEP_KINDS)
+    count = {"set_chamber": 4, "wait_stable": 4, "power_on": 1, "record": 4, "power_off": 1}
+    return kind, rng.randrange(count[kind]), rng.random()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
