@@ -13,6 +13,9 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   that another writer fills while the recorder runs (default reserve).
 * ``fault matrix warp 1`` / ``warp 4``: five units over five transports with drops,
   corruption, outages and stalls (``tests/test_recorder_books.py``).
+* ``fault matrix overload``: six units over every protocol while two processes spin
+  and every unit's process is frozen for 0.3-0.7 s again and again from its start
+  (``tests/test_recorder_overload.py``).
 * ``damaged files``: copies of a run file cut short and with single bits flipped, read by
   every reader (``tests/damage_helpers.py``).
 * ``damaged chunks``: one byte flipped in a chunk (drawn per trial) of each dataset of a
@@ -50,6 +53,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from station.cli import main as station_main
+from station.model.documents import UnitTotals
 from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import read_run
 from station.storage.hdf5_recover import recover_run
@@ -63,6 +67,7 @@ from tests.test_recorder_helpers import (
     start_recorder,
     summaries,
 )
+from tests.test_recorder_overload import record_overloaded
 
 URL = "sim+serial://STIM300?protocol=xbus&rate=500&seed={seed}"
 
@@ -206,11 +211,22 @@ def matrix_trial(case: Case, tmp: Path, warp: int) -> None:
                                   backoff_max_s=0.1))
     stop = recorder.run()
     case.trials += 1
-    for t in stop.totals:
+    _tally_books(case, stop.totals)
+
+
+def _tally_books(case: Case, totals: tuple[UnitTotals, ...]) -> None:
+    for t in totals:
         case.books_checked += 1
         sent = t.samples_sent or 0
         case.balanced += (t.samples_recorded + t.samples_missing_low <= sent
                           <= t.samples_recorded + t.samples_missing_high)
+
+
+def overload_trial(case: Case, tmp: Path) -> None:
+    stop = record_overloaded(tmp / f"o-{case.trials}.h5", seed=case.trials * 10 + 1,
+                             duration_s=5.0)
+    case.trials += 1
+    _tally_books(case, stop.totals)
 
 
 def damaged_trial(case: Case, tmp: Path, rng: random.Random) -> None:
@@ -297,6 +313,7 @@ def main() -> None:
              "disk full (small file system)": tmpfs_trial,
              "fault matrix warp 1": lambda c, t, r: matrix_trial(c, t, 1),
              "fault matrix warp 4": lambda c, t, r: matrix_trial(c, t, 4),
+             "fault matrix overload": lambda c, t, r: overload_trial(c, t),
              "damaged files": damaged_trial, "damaged chunks": chunk_trial,
              "sequence kill -9 + resume": sequence_trial}
     print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "

@@ -17,7 +17,7 @@ from devices.errors import (
 from devices.gaps import CounterTracker
 from devices.protocols import DeviceDescription, SampleBatch
 from devices.stream_timing import StreamTiming
-from devices.transports.serial import ByteTransport
+from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
 
 class StreamRateSource:
@@ -194,7 +194,8 @@ class StreamRateSource:
             # s), and returns bytes no later than the end of that wait.
             window_s = slice_s * self.clock_scale
             wait_end = min(now, started + window_s)
-            self._timing.read_done(started, wait_end, window_s / 2.0, bool(data))
+            self._timing.read_done(started, wait_end, window_s / 2.0, bool(data),
+                                   drained=len(data) < LINE_DISCIPLINE_BYTES)
             if data or time.monotonic() >= deadline:
                 break
         result = self.codec.decode(self._rest + data)

@@ -127,18 +127,28 @@ class StreamTiming:
         return out
 
     def read_done(self, started_s: float, wait_end_s: float, half_window_s: float,
-                  got_bytes: bool) -> None:
+                  got_bytes: bool, drained: bool = True) -> None:
         """Book one read: started at ``started_s``; its wait ended by ``wait_end_s``.
 
         ``half_window_s`` caps how long after the proof a silence is taken to last.
+        ``drained``: the read took everything the port held when it started; False for
+        a read that got as many bytes as the port hands over at once (a tty's line
+        discipline: 4096), which may have left bytes that were there before it started
+        (a backlog of a reader that fell behind).
         """
-        self._prev_read_started_s, self._read_started_s = self._read_started_s, started_s
+        # The start of the latest read before this one that drained the port.
+        self._prev_read_started_s = self._read_started_s
+        if drained or not got_bytes:
+            self._read_started_s = started_s
         if not got_bytes:
             self.quiet_until(wait_end_s)
             return
         # The bytes got now arrived after the port was last seen drained; what this read
-        # left arrived after it started (it took everything there by then).
-        self._bytes_after_s, self._drained_s = self._drained_s, started_s
+        # left arrived after it started (it took everything there by then), unless it
+        # may have left a backlog: then the port was last seen drained where it was.
+        self._bytes_after_s = self._drained_s
+        if drained:
+            self._drained_s = started_s
         quiet = self._quiet_until_s
         if quiet is not None:
             self._silence_end_s = quiet + min(max(0.0, wait_end_s - quiet) / 2.0,

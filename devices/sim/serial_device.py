@@ -162,11 +162,14 @@ class PtySerialDevice(DeviceLoop):
         # Frames overdue by more than this device's latency (its thread was starved
         # between taking them due and writing them) are lost, not written late: a late
         # write would look to the station like a longer gap than the counter steps.
+        # Sample i covers [due_time(i), due_time(i + 1)): it is ready, and is sent, at the
+        # end of its period (at 10 Hz a whole 0.1 s after due_time(i), more than the
+        # latency allowance: a frame is late only past its own period's end).
         overdue = self.core.clock() - self.max_latency_s
         on_time: list[tuple[bytes, int, bool]] = []
         late: list[tuple[bytes, int, bool]] = []
         for item in frames:
-            in_time = item[1] < 0 or self.core.due_time(item[1]) >= overdue  # replies: -1
+            in_time = item[1] < 0 or self.core.due_time(item[1] + 1) >= overdue  # replies: -1
             (on_time if in_time else late).append(item)
         self.core.overrun([index for _, index, delivered in late if delivered])
         frames = on_time

@@ -8,6 +8,10 @@ import serial
 
 from devices.errors import DeviceDisconnectedError
 
+#: The most bytes a tty read hands over at once (the line discipline's buffer, 4096 on
+#: Linux): a read that got that many may have left older bytes in the port.
+LINE_DISCIPLINE_BYTES = 4096
+
 
 class ByteTransport(Protocol):
     """A byte stream that can be opened again after it is lost."""

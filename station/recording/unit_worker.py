@@ -16,6 +16,7 @@ Every sample it generated is then recorded or declared missing.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -25,6 +26,7 @@ from functools import partial
 import numpy as np
 
 from devices.errors import DeviceError, DeviceTimeoutError
+from devices.gaps import RATE_TOLERANCE
 from devices.opened import OpenedDevice
 from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch, Simulated
 from devices.replay import EndOfReplayError
@@ -127,6 +129,7 @@ class UnitWorker:
         self.samples_sent: int | None = None
         self.start_utc = ""
         self.last_counter = -1
+        self._held_at = 0
         self._last_sample_at = 0.0
         self._t0 = 0.0
         self._seq = 0
@@ -141,6 +144,9 @@ class UnitWorker:
         if self.simulated is not None:
             if isinstance(self.opened.source, HeldQuiet):
                 self.opened.source.quiet_until_now()  # held since it was opened
+            # Samples it made between being opened and being held: the leading gap's
+            # count starts there (an 8-bit counter cannot say how many wraps that was).
+            self._held_at = self.simulated.samples_sent()
             self.simulated.resume()
         self._thread.start()
 
@@ -175,15 +181,27 @@ class UnitWorker:
     def _leading_gap(self, batch: SampleBatch) -> list[LogEntry]:
         """A simulated unit starts at counter 0 when the recorder starts listening: samples
         it produced before the first one received (a polled register overwritten, a CAN
-        frame before the bus was read) are declared as a gap counted by the counter."""
+        frame before the bus was read, samples a starved simulator lost) are declared as
+        a gap.
+
+        The counter gives the count modulo its wrap; the time from the start to the
+        first sample's reception bounds the wraps (:func:`leading_gap_bounds`): a host
+        that held the first sample back for longer than a counter period makes the count
+        an interval, never a certain count that misses whole wraps.
+        """
         if self.tally.samples or not len(batch) or self.simulated is None:
             return []
         first = int(batch.counter[0])
-        if first <= 0:
+        elapsed = float(batch.receive_time_s[0]) - self._t0
+        low, best, high = leading_gap_bounds(
+            first, self._held_at, elapsed, self.description.sample_rate_hz,
+            self.description.counter_modulus)
+        if high <= 0:
             return []
-        return [LogEntry("gap", float(batch.receive_time_s[0]) - self._t0, 1, first, -1,
-                         "counter", "before the first sample received (the simulated "
-                                    "device starts at counter 0)")]
+        return [LogEntry("gap", elapsed, 1, best, -1,
+                         "counter" if low == high else "counter+elapsed",
+                         "before the first sample received (the simulated device starts "
+                         "at counter 0)", low, high)]
 
     def _read_once(self, backoff_s: float, timeout_s: float | None = None) -> tuple[int, float]:
         """One adapter read (``timeout_s`` wall s, default the settings'); returns
@@ -295,6 +313,38 @@ class UnitWorker:
                     self.samples_sent = None  # its process is gone
             self.opened.close()
             self.done.set()
+
+
+def leading_gap_bounds(first: int, held_at: int, elapsed_s: float, sample_rate_hz: float,
+                       modulus: int | None) -> tuple[int, int, int]:
+    """(fewest, best, most) samples a simulated unit made before the first one received.
+
+    Parameters
+    ----------
+    first : int
+        The first sample's counter as received (its unwrapped count starts there).
+    held_at : int
+        Samples the simulator had made when the recorder held it (before the start).
+    elapsed_s : float
+        From the start (the hold released) to the first sample's reception, unit s.
+    sample_rate_hz : float
+        Nominal rate, Hz.
+    modulus : int or None
+        The counter's wrap (None: it does not wrap).
+
+    Returns
+    -------
+    (int, int, int)
+        The counts ``first + k * modulus`` for the fewest wraps (none), the best (the
+        fewest that reach ``held_at``) and the most the elapsed time can hold at the
+        nominal rate (+ RATE_TOLERANCE, and one sample of slack).
+    """
+    if not modulus:
+        return first, first, first
+    most = held_at + elapsed_s * sample_rate_hz * (1.0 + RATE_TOLERANCE) + 1.0
+    k_high = max(0, math.floor((most - first) / modulus))
+    k_best = min(k_high, max(0, math.ceil((held_at - first) / modulus)))
+    return first, first + k_best * modulus, first + k_high * modulus
 
 
 def _log_only(unit_id: str, seq: int, n_axes: int, log: Sequence[LogEntry]) -> EventBatch:

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import functools
+import json
+import subprocess
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -125,3 +128,17 @@ def multicast_unavailable() -> str:
         b.close()
     return "" if msg is not None and bytes(msg.data) == b"probe" else (
         "no udp_multicast bus on this host: a frame sent on it never came back")
+
+
+def serve(url: str, seconds: float) -> tuple[subprocess.Popen[str], dict[str, object]]:
+    """``station devices serve URL --json`` in a process of its own, as a user runs it:
+    the process and its first line ({"url", "sim_url", "pid"}); the caller ends it."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "station.cli", "devices", "serve", url, "--json",
+         "--seconds", str(seconds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    if not line:
+        proc.kill()
+        raise AssertionError(f"serve printed nothing: {proc.stderr.read() if proc.stderr else ''}")
+    return proc, json.loads(line)

@@ -32,6 +32,7 @@ from tests.devices.helpers import (
     collect,
     device_index,
     multicast_unavailable,
+    serve,
 )
 
 MULTICAST = "interface=udp_multicast"
@@ -158,20 +159,9 @@ def test_a_node_that_cannot_start_is_a_clear_error() -> None:
         open_device("sim+can://VG951?interface=socketcan")
 
 
-def _serve(url: str, seconds: float) -> tuple[subprocess.Popen[str], dict[str, object]]:
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "station.cli", "devices", "serve", url, "--json",
-         "--seconds", str(seconds)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    if not line:
-        raise AssertionError(f"serve printed nothing: {proc.stderr.read() if proc.stderr else ''}")
-    return proc, json.loads(line)
-
-
 def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
     """``station devices serve`` in one process, a hardware ``can://`` URL in this one."""
-    proc, info = _serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
+    proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
     try:
         url = str(info["url"])
         assert info["pid"] not in (None, proc.pid, os.getpid())  # the node's own process
@@ -205,7 +195,7 @@ def test_serve_refuses_what_another_process_cannot_reach(
 
 def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
     """The opt-in hardware test is live code: run it on a served CANopen gyro."""
-    proc, info = _serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
+    proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
     try:
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                               "tests/devices/test_hardware.py", "--hardware-url",
