@@ -201,6 +201,6 @@ def store_grading(graded: RunGrade, db_path: DatabaseLocation, *,
             if lost.conflict:
                 raise SerialConflictError(lost.error)
             raise GradingNotStoredError(
-                f"{graded.run.path}: the results database did not take the grading within "
-                f"{retry_s:g} s ({lost.error})")
+                f"{graded.run.path}: grading not stored: the results database did not take "
+                f"it within {retry_s:g} s ({lost.error})")
         return queue.stored[str(graded.run.path)]
