@@ -85,6 +85,7 @@ class StoreQueue:
         self._outage_since: float | None = None
         self._backoff_s = FIRST_BACKOFF_S
         self._next_try = 0.0
+        self._last_error = ""
         #: The grading ids of each run stored, by its key.
         self.stored: dict[str, list[int]] = {}
 
@@ -138,8 +139,8 @@ class StoreQueue:
             if not self._pending or self._given_up():
                 break
             self._sleep(max(0.0, self._next_try - self._clock()))
-        lost = self._refused + [NotStored(p.key, _units(p.graded), p.error)
-                                for p in self._pending]
+        lost = self._refused + [NotStored(p.key, _units(p.graded), p.error or self._last_error)
+                                for p in self._pending]  # those behind the first: its error
         self._pending.clear()
         return lost
 
@@ -160,7 +161,7 @@ class StoreQueue:
                 self._refused.append(NotStored(item.key, _units(item.graded), str(exc), True))
                 continue
             except ResultsDatabaseError as exc:
-                item.error = str(exc)
+                item.error = self._last_error = str(exc)
                 self.close()  # the next try opens a new connection
                 now = self._clock()
                 self._outage_since = self._outage_since if self._outage_since is not None \
