@@ -17,6 +17,7 @@ import socket
 import subprocess
 import tempfile
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -89,6 +90,13 @@ def postgres_server() -> Iterator[PostgresServer]:
         pytest.skip(
             f"PostgreSQL server binaries not installed in {PG_BIN} (apt install postgresql-15)"
         )
+    with running_server() as server:
+        yield server
+
+
+@contextmanager
+def running_server() -> Iterator[PostgresServer]:
+    """A PostgreSQL server in a fresh temporary directory (stopped and removed after)."""
     prefix = _as_postgres()
     root = Path(tempfile.mkdtemp(prefix="station-pg-"))
     data = root / "data"
