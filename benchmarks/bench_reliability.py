@@ -30,6 +30,12 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   uninterrupted), the temperature points (4), the coefficient and whether its interval
   covers the truth, the samples declared missing. "bad errors" counts trials whose
   figures differ from an uninterrupted run's.
+* ``results database outage``: 12 gradings stored through the station's store queue into
+  a real PostgreSQL server (``tests/postgres_server.py``) stopped after a random 0-6 of
+  them for a random 0.5-4 s; then the 12 stored again (a fleet run again). Data lost: the
+  longest a store waited for the server, s; books balanced: exactly one row per grading
+  (none lost, none twice); errors: a grading listed as not stored (the outage is shorter
+  than the 30 s retry bound).
 
 Printed per case: trials, data lost (max, s), books balanced, and errors that were not
 one clear line (a traceback, several lines, a crash, a hang, a file that does not open).
@@ -300,6 +306,52 @@ def sequence_trial(case: Case, tmp: Path, rng: random.Random) -> None:
     if f["cycles"] != 1 or rep is not None or points != 4 or not covered:
         case.bad_errors.append(f"{kind} #{nth + 1} at {share:.2f}: figures differ from an "
                                f"uninterrupted run's")
+_GRADED: list[object] = []
+
+
+def outage_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    import threading
+
+    from station.evaluation.grading import grade_run
+    from station.model.profiles import load_profile
+    from station.output.results import ResultsDatabase
+    from station.output.results_queue import StoreQueue
+    from station.storage.runs import open_run
+    from tests.postgres_server import running_server
+    from tests.test_grading import make_record, profile_text, write_profile
+    from tests.test_results_db import _variant
+
+    if not _GRADED:
+        record = make_record(tmp / "unit.csv", n=6_000, seed=11)
+        profile = write_profile(tmp, profile_text(warmup_s=10.0))
+        _GRADED.append(grade_run(open_run(record), load_profile(profile)))
+    graded = _GRADED[0]
+    runs = [_variant(graded, f"SN-{k}", "L1", f"2026-05-{k + 1:02d}T08:00:00Z", "A")  # type: ignore[arg-type]
+            for k in range(12)]
+    stop_after, outage_s = rng.randint(0, 6), rng.uniform(0.5, 4.0)
+    with running_server() as server:
+        url = server.create_database()
+        waited = 0.0
+        for rerun in (False, True):
+            with StoreQueue(url) as queue:
+                queue.open()
+                for k, run in enumerate(runs):
+                    if k == stop_after and not rerun:
+                        server.stop()
+                        threading.Timer(outage_s, server.start).start()
+                    t0 = time.monotonic()
+                    queue.put(f"run{k}", run)
+                    waited = max(waited, time.monotonic() - t0)
+                t0 = time.monotonic()
+                lost = queue.finish()
+                waited = max(waited, time.monotonic() - t0)
+            case.bad_errors += [f"{n.file}: {n.error}" for n in lost]
+        with ResultsDatabase(url) as db:
+            rows = db.gradings()
+    case.trials += 1
+    case.lost_s.append(waited)
+    case.books_checked += 1
+    case.balanced += len(rows) == len(runs) and {r.revision for r in rows} == {1}
 
 
 def main() -> None:
@@ -315,7 +367,8 @@ def main() -> None:
              "fault matrix warp 4": lambda c, t, r: matrix_trial(c, t, 4),
              "fault matrix overload": lambda c, t, r: overload_trial(c, t),
              "damaged files": damaged_trial, "damaged chunks": chunk_trial,
-             "sequence kill -9 + resume": sequence_trial}
+             "sequence kill -9 + resume": sequence_trial,
+             "results database outage": outage_trial}
     print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':34s}{'trials':>7s}{'data lost max s':>16s}{'books balanced':>16s}"

@@ -149,7 +149,7 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
     transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
                           params.warp)
     source = StreamRateSource(transport, codec, model=_unit_model(host, params),
-                              serial_number=f"SIM-{params.seed or 0}",
+                              serial_number=params.serial_number,
                               sample_rate_hz=params.rate, clock=clock,
                               clock_scale=params.warp, max_latency_s=device.max_latency_s)
     return SimulatedDevice(source, hardware_url=_hardware_url(params, "serial", device.port,
@@ -293,7 +293,7 @@ def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
                else 0.005 * params.warp)
     source = CanRateSource(_captured(transport, "can", query, params.rate, params.warp),
                            layout, model=_unit_model(host, params),
-                           serial_number=f"SIM-{params.seed or 0}",
+                           serial_number=params.serial_number,
                            sample_rate_hz=params.rate, clock=clock,
                            clock_scale=params.warp, max_latency_s=latency)
     return SimulatedDevice(source, hardware_url=reach, simulator=simulator)
@@ -373,7 +373,7 @@ def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool
                  else ModbusTransport("tcp", "127.0.0.1", port=server.port))
     source = ModbusRateSource(transport, regs,
                               device_id=server.device_id, model=_unit_model(host, params),
-                              serial_number=f"SIM-{params.seed or 0}",
+                              serial_number=params.serial_number,
                               sample_rate_hz=params.rate, clock=clock,
                               clock_scale=params.warp, oversample=oversample)
     reach = (_hardware_url(params, "modbus+rtu", server.serial_port, query,

@@ -52,6 +52,17 @@ class ResultsDatabaseError(StationError, RuntimeError):
     """The results database cannot be opened, migrated or written."""
 
 
+class GradingNotStoredError(ResultsDatabaseError):
+    """The results database did not take a grading within the time its outage was waited
+    for; the grading was shown, and grading the run again stores it (once)."""
+
+
+class SerialConflictError(ResultsDatabaseError, ValueError):
+    """A unit's serial number is another unit's in the results database (another unit of
+    the same run, or a unit recorded at the same time in another run): storing its grading
+    would let one unit's grading stand for another's, so it is not stored."""
+
+
 class RecorderError(StationError, RuntimeError):
     """A recording that cannot start or go on; the message says what to fix.
 

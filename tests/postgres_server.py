@@ -17,6 +17,7 @@ import socket
 import subprocess
 import tempfile
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,10 +34,22 @@ class PostgresServer:
     host: str
     port: int
     data_dir: Path
+    #: The server's options and log file, to start it again after :meth:`stop`.
+    options: str = ""
+    log: Path | None = None
 
     def url(self, database: str = "postgres") -> str:
         """Connection URL of ``database`` (trust authentication, user ``postgres``)."""
         return f"postgresql://postgres@{self.host}:{self.port}/{database}"
+
+    def stop(self) -> None:
+        """Stop the server at once (an outage: connections are cut, new ones refused)."""
+        _pg_ctl(self.data_dir, "-m", "immediate", "-w", "stop")
+
+    def start(self) -> None:
+        """Start the server again (after :meth:`stop`), on the same port and data."""
+        _pg_ctl(self.data_dir, "-l", str(self.log), "-o", self.options, "-w", "-t", "60",
+                "start")
 
     def create_database(self) -> str:
         """A new, empty database; its URL."""
@@ -46,6 +59,13 @@ class PostgresServer:
         with psycopg.connect(self.url(), autocommit=True) as con:
             con.execute(f'CREATE DATABASE "{name}"')
         return self.url(name)
+
+
+def _pg_ctl(data: Path, *args: str) -> None:
+    result = subprocess.run([*_as_postgres(), str(PG_BIN / "pg_ctl"), "-D", str(data), *args],
+                            capture_output=True, text=True, timeout=120)
+    if result.returncode != 0:
+        raise RuntimeError(f"pg_ctl {' '.join(args)} failed: {result.stderr}{result.stdout}")
 
 
 def _free_port() -> int:
@@ -70,6 +90,13 @@ def postgres_server() -> Iterator[PostgresServer]:
         pytest.skip(
             f"PostgreSQL server binaries not installed in {PG_BIN} (apt install postgresql-15)"
         )
+    with running_server() as server:
+        yield server
+
+
+@contextmanager
+def running_server() -> Iterator[PostgresServer]:
+    """A PostgreSQL server in a fresh temporary directory (stopped and removed after)."""
     prefix = _as_postgres()
     root = Path(tempfile.mkdtemp(prefix="station-pg-"))
     data = root / "data"
@@ -115,7 +142,7 @@ def postgres_server() -> Iterator[PostgresServer]:
         "start",
     )
     try:
-        yield PostgresServer("127.0.0.1", port, data)
+        yield PostgresServer("127.0.0.1", port, data, options, log)
     finally:
         subprocess.run(
             [*prefix, str(PG_BIN / "pg_ctl"), "-D", str(data), "-m", "immediate", "-w", "stop"],

@@ -9,7 +9,9 @@ import io
 import json
 import os
 import signal
+import threading
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -251,3 +253,55 @@ def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
         assert len(set(tries.read_text().split())) == 2  # two workers, then no more
         assert "died on each of 2 tries" in lost_task_text(lost.value)
         client.wait_for_workers(2, timeout=60)  # the nannies start fresh workers
+
+
+def test_postgresql_stopped_mid_fleet_then_run_again_stores_one_row_per_run(
+    scheduler, postgres_server, postgres_url: str, tmp_path: Path, capsys
+) -> None:
+    """Issue 29: the server stopped once two runs are stored. The fleet goes on, tries the
+    other stores with back-off, and lists each run not stored (exit 1); run again with the
+    server back, it stores those and nothing twice: one grading per run. A server back
+    within --db-retry loses nothing."""
+    profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
+    files = [str(write_run(tmp_path / f"r{k}.h5", units=1, seed=20 + k, profile=profile,
+                           start_utc=f"2026-05-0{k + 1}T08:00:00Z")) for k in range(6)]
+    stopped: list[int] = []
+
+    def stop_after_two(p: FleetProgress) -> None:
+        if p.done == 2 and not stopped:
+            stopped.append(p.done)
+            postgres_server.stop()
+
+    request = FleetRequest("grade", tuple(files), scheduler=scheduler, db=postgres_url,
+                           db_retry_s=1.0)
+    try:
+        result = fleet(request, stop_after_two)
+    finally:
+        postgres_server.start()
+    assert stopped and result.failed == () and len(result.runs) == 6 and not result.complete
+    doc = result.as_json()
+    assert len(doc["not_stored"]) == 4 and result.stored == 2
+    assert {n["file"] for n in doc["not_stored"]} < set(files)  # those graded after the stop
+    assert all(n["units"] == ["unit1"] and postgres_url.rsplit("/", 1)[1] in n["error"]
+               for n in doc["not_stored"])
+    code, out = _fleet(capsys, "grade", *files, "--scheduler", scheduler, "--db", postgres_url)
+    assert code == 0 and out["not_stored"] == [] and out["failed"] == []
+    with ResultsDatabase(postgres_url) as results:
+        rows = results.gradings()
+    assert sorted(r.run_path for r in rows) == sorted(str(Path(f).resolve()) for f in files)
+    assert {r.revision for r in rows} == {1}
+
+    back = postgres_server.create_database()  # a short outage: the fleet waits it out
+    timer: list[threading.Timer] = []
+
+    def stop_briefly(p: FleetProgress) -> None:
+        if p.done == 2 and not timer:
+            postgres_server.stop()
+            timer.append(threading.Timer(1.0, postgres_server.start))
+            timer[0].start()
+
+    try:
+        result = fleet(replace(request, db=back, db_retry_s=60.0), stop_briefly)
+    finally:
+        timer[0].join() if timer else None
+    assert result.complete and result.stored == 6

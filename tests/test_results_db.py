@@ -223,14 +223,14 @@ from dataclasses import replace
 from station.output.results import ResultsDatabase
 graded = pickle.load(open(sys.argv[1], "rb"))
 run = graded.run
-graded = replace(graded, run=replace(run, metadata=replace(run.metadata, lot=sys.argv[5])))
 with ResultsDatabase(sys.argv[2]) as db:
     print("ready", flush=True)
     while not os.path.exists(sys.argv[4]):
         time.sleep(0.005)
     start = time.time()
-    for i in range(int(sys.argv[3])):
-        db.store(graded)
+    for i in range(int(sys.argv[3])):  # each a new revision (its lot differs)
+        lot = f"{sys.argv[5]}-{i}"
+        db.store(replace(graded, run=replace(run, metadata=replace(run.metadata, lot=lot))))
         time.sleep(0.01)  # a station stores a unit now and then, not in a tight loop
     print(start, time.time(), flush=True)
 """
@@ -272,15 +272,16 @@ def _store_many(
     graded: RunGrade, location: str | Path, lot: str, start: object, out: object
 ) -> None:
     """One station (a forked process): open the database, wait for the start, store ``STORES``
-    gradings, report its write window (or the error that stopped it)."""
+    gradings (each of the same run, unit and profile, with its own lot: the next revision),
+    report its write window (or the error that stopped it)."""
     try:
         run = graded.run
-        graded = replace(graded, run=replace(run, metadata=replace(run.metadata, lot=lot)))
         with ResultsDatabase(location) as db:
             start.wait(timeout=60)  # type: ignore[attr-defined]
             t0 = time.time()
-            for _ in range(STORES):
-                db.store(graded)
+            for i in range(STORES):
+                metadata = replace(run.metadata, lot=f"{lot}-{i}")
+                db.store(replace(graded, run=replace(run, metadata=metadata)))
             out.put((lot, t0, time.time(), ""))  # type: ignore[attr-defined]
     except BaseException as exc:  # the test shows it
         out.put((lot, 0.0, 0.0, f"{type(exc).__name__}: {exc}"))  # type: ignore[attr-defined]
@@ -289,7 +290,8 @@ def _store_many(
 def test_eight_processes_write_at_once(setup, location, tmp_path: Path) -> None:
     """Eight stations open one new database and store gradings into it at the same instant:
     each creates and migrates it, none fails ("database is locked", a unique key, a
-    deadlock), no row is lost, and the unit, run and profile they share are stored once."""
+    deadlock), no row is lost, the unit, run and profile they share are stored once, and
+    the revisions of their grading are numbered 1 to 200 without a gap or a double."""
     import multiprocessing
 
     graded = setup[2]
@@ -316,12 +318,14 @@ def test_eight_processes_write_at_once(setup, location, tmp_path: Path) -> None:
     )
     assert _check_complete(location, len(graded.profile.figures)) == WRITERS * STORES
     with ResultsDatabase(location) as results:
-        stored = [r.lot for r in results.gradings()]
+        rows = results.gradings()
         shared = [
             results._con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0]
             for t in ("profiles", "runs", "units")
         ]
-    assert all(stored.count(lot) == STORES for lot in lots)
+    assert sorted(r.lot for r in rows) == sorted(f"{lot}-{i}" for lot in lots
+                                                 for i in range(STORES))
+    assert sorted(r.revision for r in rows) == list(range(1, WRITERS * STORES + 1))
     assert shared == [1, 1, 1]
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import secrets
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
@@ -51,7 +52,9 @@ class SimParams:
     warp : float
         Time-warp factor (simulated seconds per wall second).
     seed : int or None
-        Seed of the signal; the faults draw from ``seed + 1``.
+        Seed of the signal; the faults draw from ``seed + 1``. A URL without ``seed=``
+        gets one drawn at random when it is parsed (:func:`parse_sim_params`), so every
+        simulated unit has its own serial number (:attr:`serial_number`).
     history : int
         Samples whose rates and lost indices the simulator keeps for tests (0: counts
         only, so that an overnight run stays in bounded memory).
@@ -85,6 +88,17 @@ class SimParams:
     fixture: str = ""
     power_cycle: PowerCycleModel = field(default_factory=PowerCycleModel)
 
+    @property
+    def serial_number(self) -> str:
+        """The serial number the simulated unit reports: ``SIM-<seed>`` (the seed that
+        draws its noise, given or drawn), which no two units of a bench share."""
+        return f"SIM-{self.seed if self.seed is not None else 0}"
+
+
+#: Seeds drawn for a simulated unit without ``seed=`` are below this (a CANopen node
+#: reports its seed as its UNSIGNED32 serial number, object 0x1018:4).
+DRAWN_SEED_LIMIT = 1 << 31
+
 
 def query_number(key: str, text: str, kind: Callable[[str], Any]) -> Any:
     """``kind(text)`` of a URL query value; a DeviceConfigurationError naming the key."""
@@ -105,7 +119,8 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
     model = query.get("model", host_model) or SimParams.model
     rate = query_number("rate", query.get("rate", str(SimParams.rate)), float)
     warp = query_number("warp", query.get("warp", str(SimParams.warp)), float)
-    seed = query_number("seed", query["seed"], int) if "seed" in query else None
+    seed = (query_number("seed", query["seed"], int) if "seed" in query
+            else secrets.randbelow(DRAWN_SEED_LIMIT))  # a unit of its own: SIM-<seed>
     history = query_number("history", query.get("history", "0"), int)
     if not (rate > 0 and warp > 0):
         raise DeviceConfigurationError(f"rate and warp must be > 0, got rate={rate} Hz, "

@@ -130,8 +130,10 @@ def add_bench_argument(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_database_argument(p: argparse.ArgumentParser) -> None:
-    """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL."""
+def add_database_argument(p: argparse.ArgumentParser, *, stores: bool = False) -> None:
+    """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL; a
+    command that ``stores`` gradings also takes ``--db-retry S``, how long a database that
+    is away is waited for (``args.db_retry``, s)."""
     from station.output.results_backends import database_location
 
     p.add_argument(
@@ -142,6 +144,28 @@ def add_database_argument(p: argparse.ArgumentParser) -> None:
         help="results database: an SQLite file or a postgresql://USER@HOST/DB URL "
         "(default: $STATION_RESULTS_DB or ~/.local/share/gyro-station)",
     )
+    if stores:
+        from station.output.results_backends import STORE_RETRY_S
+
+        p.add_argument(
+            "--db-retry",
+            type=_seconds_or_zero,
+            default=STORE_RETRY_S,
+            metavar="S",
+            help="how long a results database that is away is tried again, with back-off, "
+            f"before a grading is listed as not stored, s (default {STORE_RETRY_S:g})",
+        )
+
+
+def _seconds_or_zero(text: str) -> float:
+    """A time >= 0 s for argparse."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: give 0 s or more")
+    return value
 
 
 def duration_type(text: str) -> float:

@@ -12,8 +12,12 @@ a SLURM cluster with dask-jobqueue). Directories are searched for ``.h5`` run fi
 * ``analyze``: every unit analysed as ``station analyze FILE --unit U`` does.
 
 A failed task (a corrupt file, a bad profile, a run too short) is listed with its reason,
-the others finish, and the exit status is 1. On a terminal a progress bar on stderr shows
-the tasks done and the time left; nothing is drawn when stderr is not a terminal.
+the others finish, and the exit status is 1. So is a run the results database did not
+take (a server stopped: its stores are tried again with back-off for ``--db-retry``
+seconds while the fleet goes on; ``--json``: ``"not_stored": [{"file", "units",
+"error"}]``); running the fleet again stores it, and nothing twice. On a terminal a
+progress bar on stderr shows the tasks done and the time left; nothing is drawn when
+stderr is not a terminal.
 """
 
 from __future__ import annotations
@@ -66,7 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="worker processes of the local cluster (default: one per CPU)",
     )
-    add_database_argument(p)
+    add_database_argument(p, stores=True)
     p.add_argument("--no-store", action="store_true", help="do not store the gradings")
     add_bench_argument(p)
     p.add_argument(
@@ -101,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
         store=not args.no_store,
         formats=tuple(args.formats or ["pdf"]),
         out=args.out,
+        db_retry_s=args.db_retry,
     )
     bar = ProgressBar(sys.stderr)
     try:
@@ -113,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_fleet(result, None if args.no_store else redacted(request.database)))
     print_warnings("fleet", result.warnings)
-    return 1 if result.failed else 0
+    return 0 if result.complete else 1
 
 
 def _hms(seconds: float) -> str:
@@ -184,6 +189,8 @@ def format_fleet(result: FleetResult, database: str | None) -> str:
         )
     for f in result.failed:
         lines.append(f"FAILED {f.file}{'  ' + f.unit if f.unit else ''}: {f.error}")
+    for n in result.not_stored:
+        lines.append(f"NOT STORED {n.file}  {' '.join(n.units)}: {n.error}")
     for path in result.reports:
         lines.append(f"report: {path}")
     summary = (

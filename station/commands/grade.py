@@ -3,7 +3,10 @@
 Prints a table per unit (or, with ``--json``, one JSON document: the run, and per unit
 its figures with intervals, limits and verdicts; docs/json.md) and stores each graded unit in
 the results database (``--db``, default ``$STATION_RESULTS_DB`` or the user's data directory;
-``--no-store`` to skip). Re-grading a stored run with another profile needs only the file.
+``--no-store`` to skip). A database that is away is tried again with back-off for
+``--db-retry`` seconds; a grading it did not take is said in one line on stderr, exit
+status 1 (grading the run again stores it once). Re-grading a stored run with another
+profile needs only the file.
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
-    add_database_argument(p)
+    add_database_argument(p, stores=True)
     p.add_argument(
         "--no-store", action="store_true", help="do not store the grading in the database"
     )
@@ -91,6 +94,7 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
         bench=args.bench,
         db=args.db,
         store=not args.no_store,
+        db_retry_s=args.db_retry,
     )
 
 
@@ -103,7 +107,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Grade, print, store."""
+    """Grade, print, store; 1 when the database did not take the grading."""
+    from station.errors import GradingNotStoredError
     from station.services.grade import grade, store_grading
 
     request = grade_request(args)
@@ -116,7 +121,12 @@ def run(args: argparse.Namespace) -> int:
         print(format_grade(result.graded, family))
     sys.stdout.flush()  # the grades are shown even when the database cannot take them
     if request.store:
-        store_grading(result.graded, request.database)
+        try:
+            store_grading(result.graded, request.database, retry_s=request.db_retry_s)
+        except GradingNotStoredError as exc:
+            print(f"station grade: {exc}; grade it again with the same --db when the database "
+                  f"answers: it is stored once", file=sys.stderr)
+            return 1
     return 0
 
 

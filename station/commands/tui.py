@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="folder of the run files (default ./runs)")
     p.add_argument("--reports", type=Path, default=Path("reports"), metavar="DIR",
                    help="folder for exported reports (default ./reports)")
-    add_database_argument(p)
+    add_database_argument(p, stores=True)
     p.add_argument("--no-check", action="store_true",
                    help="do not check that each unit answers when it is added")
     p.add_argument("--poll", type=float, default=1.0, metavar="S",
@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     from station.tui.app import StationApp, TuiSettings
 
     settings = TuiSettings(runs_dir=args.runs, reports_dir=args.reports,
-                           db_path=args.db or default_database_path(),
+                           db_path=args.db or default_database_path(), db_retry_s=args.db_retry,
                            check_units=not args.no_check, poll_s=args.poll)
     app = StationApp(settings)
     app.run()

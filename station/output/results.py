@@ -9,7 +9,8 @@ writes at once (:mod:`station.results_backends`). Tables::
     profiles   (name, version, sha256, rule, confidence, grades, text)   one row per profile file
     runs       (path, start_utc, stop_utc, operator, lot, station, software_version)
     units      (model, serial_number)                                   one row per gyro
-    gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes, review)
+    gradings   (run, unit, profile, graded_utc, test_date, lot, grade, verdict, notes, review,
+                revision)   one per run, unit in the run and profile file (or its revisions)
     axis_grades(grading, axis, grade, deciding_grade, n_samples, sample_rate_hz, review)
     figures    (grading, axis, name, unit, value, ci_low, ci_high, limit, verdict)
                (a test sequence's figures too, with axis '': they are the unit's)
@@ -27,17 +28,15 @@ SQLite's ``PRAGMA user_version``).
 from __future__ import annotations
 
 import csv
-import json
 import os
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from station.errors import ResultsDatabaseError, UsageError
-from station.model.kinds import Verdict, verdict_of_grade
+from station.model.kinds import Verdict
 from station.output.results_backends import (
     DB_ENV,
     WRITE_ATTEMPTS,
@@ -47,9 +46,13 @@ from station.output.results_backends import (
     is_database_url,
     open_backend,
 )
+from station.output.results_store import UNIT_AXIS, ReportFile, add_report, now_utc, store_run
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
-    from station.evaluation.grading import RunGrade, UnitGrade
+    from station.evaluation.grading import RunGrade
+
+__all__ = ["UNIT_AXIS", "ResultsDatabase", "GradingRow", "LotYield", "TrendPoint", "FigureValue",
+           "default_database_path", "export_csv"]
 
 #: Numbered migrations; index + 1 is the schema version each brings the database to.
 MIGRATIONS: tuple[str, ...] = (
@@ -99,12 +102,17 @@ MIGRATIONS: tuple[str, ...] = (
     ALTER TABLE axis_grades ADD COLUMN review TEXT NOT NULL DEFAULT '';
     CREATE INDEX gradings_review ON gradings (review != '');
     """,
+    # 4: a grading is one per run, unit in the run and profile file, or a numbered revision:
+    # the copies earlier stations stored of one grading (a re-run) become its revisions
+    """
+    ALTER TABLE gradings ADD COLUMN revision INTEGER NOT NULL DEFAULT 1;
+    UPDATE gradings SET revision = (SELECT COUNT(*) FROM gradings g2 WHERE g2.run_id =
+        gradings.run_id AND g2.run_unit = gradings.run_unit AND g2.profile_id =
+        gradings.profile_id AND g2.id <= gradings.id);
+    CREATE UNIQUE INDEX gradings_identity ON gradings (run_id, run_unit, profile_id, revision);
+    """,
 )
 SCHEMA_VERSION = len(MIGRATIONS)
-#: The ``axis`` of a figure of the whole unit: a test sequence's figures (each the worst
-#: of the unit's axes), stored beside the axes' figures under their profile names
-#: (``turn_on_repeatability``, ``temperature_coefficient``, ...).
-UNIT_AXIS = ""
 
 
 def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]]:
@@ -142,12 +150,6 @@ def default_database_path() -> DatabaseLocation:
     return base / "gyro-station" / "results.sqlite"
 
 
-def _now() -> str:
-    return datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
-
-
-
-
 @dataclass(frozen=True)
 class GradingRow:
     """One stored grading of one unit (what ``station results`` lists)."""
@@ -164,6 +166,7 @@ class GradingRow:
     run_path: str
     run_unit: str
     review: str = ""
+    revision: int = 1
 
     @property
     def needs_review(self) -> bool:
@@ -287,36 +290,33 @@ class ResultsDatabase:
                         "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
             for number in range(version + 1, SCHEMA_VERSION + 1):
                 con.run_ddl(MIGRATIONS[number - 1])
-                con.execute("INSERT INTO schema_migrations VALUES (?, ?)", (number, _now()))
+                con.execute("INSERT INTO schema_migrations VALUES (?, ?)", (number, now_utc()))
                 con.set_schema_version(number)
 
     # --- writing ------------------------------------------------------------------------
 
-    def _id(self, con: Backend, table: str, keys: dict[str, object],
-            extra: dict[str, object] | None = None) -> int:
-        """Id of the row with ``keys``, added (with ``extra``) when there is none; another
-        station adding the same row at the same time is no error (``ON CONFLICT``)."""
-        where = " AND ".join(f"{k} = ?" for k in keys)
-        select = f"SELECT id FROM {table} WHERE {where}"
-        row = con.execute(select, tuple(keys.values())).fetchone()
-        if row is None:
-            cols = {**keys, **(extra or {})}
-            row = con.execute(f"INSERT INTO {table} ({', '.join(cols)}) VALUES "
-                              f"({', '.join('?' * len(cols))}) ON CONFLICT DO NOTHING RETURNING id",
-                              tuple(cols.values())).fetchone()
-            if row is None:  # the other station's row, committed while this insert waited
-                row = con.execute(select, tuple(keys.values())).fetchone()
-        return int(row[0])
+    def store(self, graded: RunGrade, reports: Sequence[ReportFile] = (), *,
+              join: bool = False) -> list[int]:
+        """Store every unit of a graded run, and the report files written for it, in one
+        transaction; returns the grading ids, one per unit.
 
-    def store(self, graded: RunGrade) -> list[int]:
-        """Store every unit of a graded run in one transaction; returns the grading ids.
+        Storing the same grading again returns the stored one; a different grading of the
+        same run, unit and profile file is stored as its next revision, or with ``join``
+        the stored one is kept (:mod:`station.output.results_store`). A transaction the
+        server aborted to break a deadlock with another station is tried again (up to
+        ``WRITE_ATTEMPTS`` times).
 
-        A transaction the server aborted to break a deadlock with another station is tried
-        again (up to ``WRITE_ATTEMPTS`` times).
+        Raises
+        ------
+        SerialConflictError
+            A unit's serial number is another unit's (nothing of the run is stored).
+        ResultsDatabaseError
+            The database cannot take the grading (a server gone, a disk full).
         """
         for attempt in range(1, WRITE_ATTEMPTS + 1):
             try:
-                return self._store(graded)
+                with self.transaction() as con:
+                    return store_run(con, graded, reports, join=join)
             except self._con.retryable as exc:
                 if attempt == WRITE_ATTEMPTS:
                     raise ResultsDatabaseError(f"{self.name}: {exc}") from exc
@@ -325,104 +325,10 @@ class ResultsDatabase:
                                            f"{str(exc).strip().splitlines()[0]}") from exc
         raise AssertionError("unreachable")
 
-    def _store(self, graded: RunGrade) -> list[int]:
-        p, r = graded.profile, graded.run
-        try:
-            text = Path(p.path).read_text(encoding="utf-8") if p.path else None
-        except OSError:
-            text = None
-        with self.transaction() as con:
-            profile_id = self._id(
-                con,
-                "profiles",
-                {"name": p.name, "version": p.version, "sha256": p.sha256},
-                {
-                    "model": p.model,
-                    "path": p.path,
-                    "rule": p.rule,
-                    "confidence": p.confidence,
-                    "grades": json.dumps(list(p.grades)),
-                    "text": text,
-                },
-            )
-            run_id = self._id(
-                con,
-                "runs",
-                {"path": str(Path(r.path).resolve()), "start_utc": r.start_utc},
-                {
-                    "stop_utc": r.stop_utc,
-                    "operator": r.metadata.operator,
-                    "lot": r.metadata.lot,
-                    "station": r.metadata.station_host,
-                    "software_version": r.metadata.software_version,
-                    "interrupted": int(r.interrupted),
-                },
-            )
-            return [self._store_unit(con, graded, u, profile_id, run_id) for u in graded.units]
-
-    def _store_unit(self, con: Backend, graded: RunGrade, u: UnitGrade, profile_id: int,
-                    run_id: int) -> int:
-        model = u.unit.model or graded.profile.model
-        serial = u.unit.serial_number or u.unit.unit_id
-        unit_id = self._id(con, "units", {"model": model, "serial_number": serial})
-        test_date = graded.run.start_utc or graded.graded_utc
-        cur = con.execute(
-            "INSERT INTO gradings (run_id, unit_id, profile_id, run_unit, graded_utc, test_date,"
-            " lot, grade, verdict, software_version, notes, review)"
-            " VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) RETURNING id",
-            (
-                run_id,
-                unit_id,
-                profile_id,
-                u.unit.unit_id,
-                graded.graded_utc,
-                test_date,
-                graded.run.metadata.lot,
-                u.grade,
-                verdict_of_grade(u.grade, graded.profile.reject),
-                graded.software_version,
-                "\n".join(u.notes),
-                "\n".join(u.review),
-            ),
-        )
-        grading_id = int(cur.fetchone()[0])
-        for a in u.axes:
-            con.execute(
-                "INSERT INTO axis_grades (grading_id, axis, grade, deciding_grade, n_samples,"
-                " sample_rate_hz, review) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (
-                    grading_id,
-                    a.axis,
-                    a.grade,
-                    a.deciding_grade,
-                    a.analysis.n_samples,
-                    a.analysis.sample_rate_hz,
-                    "\n".join(a.review),
-                ),
-            )
-            for f in a.figures:
-                limit = f.spec.limits.get(a.deciding_grade)
-                verdict = f.verdicts.get(a.deciding_grade, "pass") if f.spec.graded else None
-                con.execute("INSERT INTO figures VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                            (grading_id, a.axis, f.name, f.spec.unit, f.value, f.ci_low, f.ci_high,
-                             limit, verdict))
-        if u.sequence is not None:  # the unit's own figures: axis ''
-            grade = u.sequence.deciding_grade
-            for g in u.sequence.graded:
-                limited = bool(g.spec.limits) and bool(grade)
-                con.execute("INSERT INTO figures VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                            (grading_id, UNIT_AXIS, g.spec.name, g.spec.unit, g.value, g.ci_low,
-                             g.ci_high, g.spec.limits.get(grade) if limited else None,
-                             g.verdicts.get(grade, "pass") if limited else None))
-        return grading_id
-
     def add_report(self, grading_id: int, fmt: str, path: str | Path) -> None:
-        """Record a report file written for a grading."""
+        """Record a report file written for a grading (once)."""
         with self.transaction() as con:
-            con.execute(
-                "INSERT INTO reports (grading_id, format, path, created_utc) VALUES (?, ?, ?, ?)",
-                (grading_id, fmt, str(Path(path).resolve()), _now()),
-            )
+            add_report(con, grading_id, fmt, path)
 
     # --- reading ------------------------------------------------------------------------
 
@@ -448,7 +354,8 @@ class ResultsDatabase:
         rows = self._con.execute(
             "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, "
             "g.verdict,"
-            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review FROM "
+            " p.name || '@' || p.version AS profile, r.path AS run_path, g.run_unit, g.review,"
+            " g.revision FROM "
             "gradings g"
             " JOIN units u ON u.id = g.unit_id JOIN profiles p ON p.id = g.profile_id"
             f" JOIN runs r ON r.id = g.run_id {where} ORDER BY g.test_date, g.id",

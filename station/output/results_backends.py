@@ -35,6 +35,9 @@ BUSY_TIMEOUT_S = 60.0
 MIGRATION_LOCK_KEY = 0x6779726F2D6462
 #: How many times a write aborted by the server (deadlock, serialization) is tried.
 WRITE_ATTEMPTS = 8
+#: How long an outage of the results database is waited for, by default, s
+#: (:class:`station.output.results_queue.StoreQueue`).
+STORE_RETRY_S = 30.0
 
 
 def is_database_url(location: DatabaseLocation) -> bool:
@@ -91,6 +94,11 @@ class Backend(Protocol):
 
     def schema_version(self) -> int:
         """The schema version the database was migrated to (0: a new database)."""
+        ...
+
+    def lock(self, key: str) -> None:
+        """Inside a write transaction: wait until no other writer holds ``key``, and hold
+        it until the transaction ends (two stations numbering one grading's revisions)."""
         ...
 
     def migration(self) -> AbstractContextManager[None]:
@@ -154,6 +162,9 @@ class SqliteBackend:
             self._con.execute("ROLLBACK")
             raise
         self._con.execute("COMMIT")
+
+    def lock(self, key: str) -> None:
+        """Nothing: ``BEGIN IMMEDIATE`` already keeps every other writer out."""
 
     def schema_version(self) -> int:
         """``PRAGMA user_version``."""
@@ -274,6 +285,10 @@ class PostgresBackend:
         return int(
             self.execute("SELECT COALESCE(MAX(version), 0) FROM schema_migrations").fetchone()[0]
         )
+
+    def lock(self, key: str) -> None:
+        """A transaction-level advisory lock on the key's hash."""
+        self.execute("SELECT pg_advisory_xact_lock(hashtext(?))", (key,))
 
     @contextmanager
     def migration(self) -> Iterator[None]:

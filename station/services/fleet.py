@@ -9,7 +9,10 @@ reason and the others finish. Results are those of ``station grade`` run on each
 (the same numbers in the same JSON document).
 
 Each run is stored as soon as its last unit is back, so a driver stopped half-way keeps
-every run it finished.
+every run it finished. A store the results database does not take (a server stopped) is
+tried again with back-off while the other runs go on, and at the end for at most
+``db_retry_s``; each run still not stored is listed (``not_stored``). Storing is
+idempotent: running the fleet again stores those runs and nothing twice.
 """
 
 from __future__ import annotations
@@ -30,8 +33,9 @@ from station.model.bench import Bench, load_bench
 from station.model.profiles import Profile, load_profile
 from station.model.version import software_version
 from station.output.report import FORMATS, ReportFormat
-from station.output.results import ResultsDatabase, default_database_path
+from station.output.results import default_database_path
 from station.output.results_backends import DatabaseLocation
+from station.output.results_queue import STORE_RETRY_S, NotStored, StoreQueue
 from station.services.fleet_tasks import (
     UnitOutcome,
     analyze_task,
@@ -101,6 +105,9 @@ class FleetRequest:
         ``report``: the formats (``pdf``, ``html``, ``json``, ``csv``).
     out : Path
         ``report``: where the report files go.
+    db_retry_s : float
+        How long a results database that is away is waited for (its stores tried again
+        with back-off while the fleet goes on, and at its end), s.
     """
 
     action: FleetAction
@@ -113,6 +120,7 @@ class FleetRequest:
     store: bool = True
     formats: tuple[ReportFormat, ...] = ("pdf",)
     out: Path = Path(".")
+    db_retry_s: float = STORE_RETRY_S
 
     @property
     def database(self) -> DatabaseLocation:
@@ -153,7 +161,8 @@ class FleetProgress:
 
 @dataclass(frozen=True)
 class FleetResult:
-    """What came back: the graded runs (or each unit's analysis), and the failures."""
+    """What came back: the graded runs (or each unit's analysis), the failures, and the
+    runs graded but not stored (the results database was away, or refused a serial)."""
 
     action: FleetAction
     tasks: int
@@ -165,11 +174,18 @@ class FleetResult:
     workers: int = 0
     wall_s: float = 0.0
     stored: int = 0
+    not_stored: tuple[NotStored, ...] = ()
+
+    @property
+    def complete(self) -> bool:
+        """Whether every task succeeded and every grading was stored."""
+        return not self.failed and not self.not_stored
 
     def as_json(self) -> dict[str, object]:
-        """``{"tasks", "failed": [{"file", "unit", "error"}], "runs": [...]}``: each run the
-        document ``station grade --json`` prints for it (``analyze``: per unit, the one
-        ``station analyze --json --unit U`` prints)."""
+        """``{"tasks", "failed": [{"file", "unit", "error"}], "runs": [...], "not_stored":
+        [{"file", "units", "error"}]}``: each run the document ``station grade --json``
+        prints for it (``analyze``: per unit, the one ``station analyze --json --unit U``
+        prints)."""
         runs = [r.as_json() for r in self.runs] if self.action != "analyze" else list(self.analyses)
         out: dict[str, object] = {
             "tasks": self.tasks,
@@ -178,6 +194,8 @@ class FleetResult:
         }
         if self.reports:
             out["reports"] = [str(p) for p in self.reports]
+        if self.action != "analyze":
+            out["not_stored"] = [n.as_json() for n in self.not_stored]
         out["warnings"] = list(self.warnings)
         return out
 
@@ -333,23 +351,23 @@ class _Driver:
         request: FleetRequest,
         client: Any,
         progress: ProgressSink,
-        db: ResultsDatabase | None,
+        store: StoreQueue | None,
         profile: Profile | None,
         bench: Bench | None,
     ) -> None:
         from distributed import as_completed
 
-        self.request, self.client, self.progress, self.db = request, client, progress, db
+        self.request, self.client, self.progress, self.store = request, client, progress, store
         self.profile, self.bench = profile, bench
         self.pending = as_completed()
         self.kind: dict[Any, tuple[str, Any]] = {}
         self.runs: dict[str, _Run] = {}
         self.failed: list[TaskFailure] = []
         self.graded: dict[str, RunGrade] = {}
-        self.grading_ids: dict[str, list[int]] = {}
+        self.not_stored: list[NotStored] = []
         self.reports: list[Path] = []
         self.warnings: list[str] = []
-        self.tasks = self.done = self.stored = 0
+        self.tasks = self.done = 0
         self.t0 = time.monotonic()
 
     def submit(self, what: str, key: Any, fn: Callable[..., Any], *args: Any) -> None:
@@ -374,7 +392,11 @@ class _Driver:
             except Exception as exc:  # the task's worker died, or the result did not come back
                 value, error = None, lost_task_text(exc)
             getattr(self, f"_on_{what}")(key, value, error)
+            if self.store is not None:
+                self.store.poll()  # the stores an outage held back, when their back-off is over
             self.tell()
+        if self.store is not None:
+            self.not_stored = self.store.finish()
 
     def _on_list(self, file: str, listed: tuple[list[str], str] | None, error: str) -> None:
         units, error = listed if listed is not None else ([], error)
@@ -411,30 +433,29 @@ class _Driver:
         if graded is None:
             return
         self.graded[run.file] = graded
-        if self.db is not None:
-            self.grading_ids[run.file] = self.db.store(graded)
-            self.stored += len(self.grading_ids[run.file])
-        if self.request.action == "report":
+        if self.request.action == "report":  # stored with its report files when they are back
             self.tasks += 1
             self.submit("report", run.file, report_task, graded, self.request.formats)
+        elif self.store is not None:
+            self.store.put(run.file, graded)
 
     def _on_report(self, file: str, files: list[tuple[str, str, bytes]] | None, error: str) -> None:
         self.done += 1
+        written: list[tuple[str, Path]] = []
         if error or files is None:
             self.failed.append(TaskFailure(file, "", f"report not written: {error}"))
-            return
-        out = self.request.out
-        out.mkdir(parents=True, exist_ok=True)
-        ids = self.grading_ids.get(file, [])
-        for fmt, name, data in files:
-            path = out / name
-            tmp = path.with_name(f".{name}.part")
-            tmp.write_bytes(data)
-            tmp.replace(path)  # a report is there whole, or not at all
-            self.reports.append(path)
-            if self.db is not None:
-                for grading_id in ids:
-                    self.db.add_report(grading_id, fmt, path)
+        else:
+            out = self.request.out
+            out.mkdir(parents=True, exist_ok=True)
+            for fmt, name, data in files:
+                path = out / name
+                tmp = path.with_name(f".{name}.part")
+                tmp.write_bytes(data)
+                tmp.replace(path)  # a report is there whole, or not at all
+                self.reports.append(path)
+                written.append((fmt, path))
+        if self.store is not None:
+            self.store.put(file, self.graded[file], tuple(written))
 
     def result(self, files: list[str], workers: int) -> FleetResult:
         order = {f: i for i, f in enumerate(files)}
@@ -456,7 +477,8 @@ class _Driver:
             tuple(self.warnings),
             workers,
             time.monotonic() - self.t0,
-            self.stored,
+            sum(len(ids) for ids in self.store.stored.values()) if self.store else 0,
+            tuple(self.not_stored),
         )
 
 
@@ -473,7 +495,8 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     FleetError
         The cluster cannot be started or reached.
     ResultsDatabaseError
-        The results database cannot be opened or written.
+        The results database cannot be opened (a grading it does not take later, within
+        ``db_retry_s``, is listed in ``not_stored`` and the fleet goes on).
     """
     if request.action not in ACTIONS:
         raise UsageError(
@@ -487,19 +510,22 @@ def fleet(request: FleetRequest, progress: ProgressSink = _ignore) -> FleetResul
     bench = load_bench(request.bench) if request.bench is not None else None  # any cluster
     store = request.store and request.action != "analyze"
     with (
-        _database(request.database if store else None) as db,
+        _store_queue(request if store else None) as queue,
         cluster_client(request.scheduler, request.workers) as client,
     ):
         workers = len(client.scheduler_info().get("workers", {}))
-        driver = _Driver(request, client, progress, db, profile, bench)
+        driver = _Driver(request, client, progress, queue, profile, bench)
         driver.run(files)
         return driver.result(files, workers)
 
 
 @contextmanager
-def _database(location: DatabaseLocation | None) -> Iterator[ResultsDatabase | None]:
-    if location is None:
+def _store_queue(request: FleetRequest | None) -> Iterator[StoreQueue | None]:
+    """The request's results database, opened before any cluster starts (a wrong ``--db``
+    fails at once); None when nothing is stored."""
+    if request is None:
         yield None
         return
-    with ResultsDatabase(location) as db:
-        yield db
+    with StoreQueue(request.database, retry_s=request.db_retry_s) as queue:
+        queue.open()
+        yield queue

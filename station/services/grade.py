@@ -6,12 +6,14 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from station.errors import UsageError
+from station.errors import GradingNotStoredError, SerialConflictError, UsageError
 from station.evaluation.grading import RunGrade, grade_run, profile_changed_note, run_profile_ref
 from station.model.profiles import available_profiles, load_profile
 from station.model.runs import RunInfo
-from station.output.results import ResultsDatabase, default_database_path
+from station.output.results import default_database_path
 from station.output.results_backends import DatabaseLocation
+from station.output.results_queue import STORE_RETRY_S, StoreQueue
+from station.output.results_store import ReportFile
 from station.services.records import bench_of
 from station.storage.runs import open_run
 from station.storage.sequence_files import is_sequence_file
@@ -65,6 +67,9 @@ class GradeRequest:
         Results database: an SQLite file or a PostgreSQL URL (None: :func:`default_database_path`).
     store : bool
         Whether the grading is stored (:func:`store_grading`).
+    db_retry_s : float
+        How long a results database that is away is waited for before the grading is
+        reported not stored, s.
     """
 
     run: RunSource
@@ -74,6 +79,7 @@ class GradeRequest:
     profile_from_model: bool = False
     db: DatabaseLocation | None = None
     store: bool = True
+    db_retry_s: float = STORE_RETRY_S
 
     @property
     def database(self) -> DatabaseLocation:
@@ -173,16 +179,28 @@ def _grade_sequence(request: GradeRequest) -> GradeResult:
     return GradeResult(graded, tuple(warnings))
 
 
-def store_grading(graded: RunGrade, db_path: DatabaseLocation, *, again: bool = True) -> list[int]:
-    """Store the grading of every unit in the results database; returns the grading ids.
+def store_grading(graded: RunGrade, db_path: DatabaseLocation, *,
+                  reports: tuple[ReportFile, ...] = (), join: bool = False,
+                  retry_s: float = STORE_RETRY_S) -> list[int]:
+    """Store the grading of every unit (and the report files written for it) in the results
+    database; returns the grading ids. A grading stored before is not stored twice (its ids
+    are returned); ``join``: nor is another grading of the same run, unit and profile
+    file (a report joins the grading stored before). A database that is away is tried
+    again with back-off for ``retry_s`` seconds (:class:`StoreQueue`).
 
-    ``again=False`` stores it only once per run, unit and profile file: the ids of a
-    grading stored before are returned instead (a report or a spec sheet opened twice).
+    Raises
+    ------
+    SerialConflictError
+        A unit's serial is another unit's in the database (nothing stored).
+    GradingNotStoredError
+        The database did not take the grading within ``retry_s`` (it says what to do).
     """
-    with ResultsDatabase(db_path) as db:
-        if not again:
-            ids = [db.latest_grading(graded.run.path, u.unit.unit_id, graded.profile.sha256)
-                   for u in graded.units]
-            if all(i is not None for i in ids):
-                return [i for i in ids if i is not None]
-        return db.store(graded)
+    with StoreQueue(db_path, retry_s=retry_s) as queue:
+        queue.put(str(graded.run.path), graded, reports, join=join)
+        for lost in queue.finish():
+            if lost.conflict:
+                raise SerialConflictError(lost.error)
+            raise GradingNotStoredError(
+                f"{graded.run.path}: grading not stored: the results database did not take "
+                f"it within {retry_s:g} s ({lost.error})")
+        return queue.stored[str(graded.run.path)]

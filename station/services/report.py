@@ -15,8 +15,8 @@ from station.evaluation.grading import RunGrade
 from station.model.profiles import Profile
 from station.model.sheet_header import load_sheet_header
 from station.output.report import ReportFormat, write_report
-from station.output.results import ResultsDatabase
 from station.output.results_backends import DatabaseLocation
+from station.output.results_queue import STORE_RETRY_S
 from station.services.grade import GradeRequest, grade, store_grading
 
 
@@ -76,16 +76,14 @@ class ReportResult:
 
 
 def write_reports(graded: RunGrade, formats: tuple[ReportFormat, ...], out_dir: Path,
-                  db_path: DatabaseLocation | None) -> tuple[tuple[ReportFormat, Path], ...]:
+                  db_path: DatabaseLocation | None, *, retry_s: float = STORE_RETRY_S
+                  ) -> tuple[tuple[ReportFormat, Path], ...]:
     """Write each report of ``graded`` into ``out_dir``; with ``db_path``, record the files
-    against the unit gradings (storing the grading first when it is not there yet)."""
+    against the unit gradings (storing the grading with them when it is not there yet;
+    :func:`store_grading`, which waits up to ``retry_s`` for a database that is away)."""
     files = tuple((fmt, write_report(graded, fmt, out_dir)) for fmt in formats)
     if db_path is not None:
-        ids = store_grading(graded, db_path, again=False)
-        with ResultsDatabase(db_path) as db:
-            for grading_id in ids:
-                for fmt, path in files:
-                    db.add_report(grading_id, fmt, path)
+        store_grading(graded, db_path, reports=files, join=True, retry_s=retry_s)
     return files
 
 
@@ -106,5 +104,6 @@ def report(request: ReportRequest) -> ReportResult:
     if model is not None:
         run = run_with_gmwm(run, model)
     db = request.grade.database if request.grade.store else None
-    files = write_reports(run, request.formats, request.out_dir, db)
+    files = write_reports(run, request.formats, request.out_dir, db,
+                          retry_s=request.grade.db_retry_s)
     return ReportResult(run, files, graded.warnings)

@@ -22,7 +22,7 @@ from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.worker import get_current_worker
 
-from station.output.results_backends import DatabaseLocation
+from station.output.results_backends import STORE_RETRY_S, DatabaseLocation
 from station.services.record import RecordRequest
 from station.services.recorder_process import (
     RecorderProcess,
@@ -81,6 +81,9 @@ class TuiSettings:
         Folder the exported reports go to.
     db_path : str, Path or None
         Results database (None: gradings are not stored).
+    db_retry_s : float
+        How long a results database that is away is waited for before the spec sheet says
+        its grading was not stored, s.
     check_units : bool
         Check that each unit answers when it is added.
     poll_s : float
@@ -92,6 +95,7 @@ class TuiSettings:
     runs_dir: Path = Path("runs")
     reports_dir: Path = Path("reports")
     db_path: DatabaseLocation | None = None
+    db_retry_s: float = STORE_RETRY_S
     check_units: bool = True
     poll_s: float = 1.0
     attach: bool = True
@@ -229,7 +233,8 @@ class StationApp(App[None]):
                         unit: str | None = None) -> None:
         """Push the spec sheet of a stored run."""
         self.push_screen(SpecSheetScreen(path, self.settings.reports_dir, self.settings.db_path,
-                                         profile=profile, unit=unit))
+                                         profile=profile, unit=unit,
+                                         db_retry_s=self.settings.db_retry_s))
 
     @on(RunChosen)
     def _run_chosen(self, message: RunChosen) -> None:

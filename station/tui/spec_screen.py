@@ -25,7 +25,7 @@ from textual.worker import get_current_worker
 
 from station.evaluation.grading import RunGrade, UnitGrade
 from station.output.report import FORMATS, ReportFormat
-from station.output.results_backends import DatabaseLocation
+from station.output.results_backends import STORE_RETRY_S, DatabaseLocation
 from station.tui.heatmap import DavarHeatMap
 from station.tui.messages import explain
 from station.tui.widgets import (
@@ -77,11 +77,13 @@ class SpecSheetScreen(Screen[None]):
     axis_index: reactive[int] = reactive(0)
 
     def __init__(self, path: Path, reports_dir: Path, db_path: DatabaseLocation | None, *,
-                 profile: str | None = None, unit: str | None = None) -> None:
+                 profile: str | None = None, unit: str | None = None,
+                 db_retry_s: float = STORE_RETRY_S) -> None:
         super().__init__()
         self.path = Path(path)
         self.reports_dir = reports_dir
         self.db_path = db_path
+        self.db_retry_s = db_retry_s
         self.profile_ref = profile
         self.first_unit = unit
         self._davar_key: tuple[UnitGrade, int] | None = None  # what the DAVAR tab is of
@@ -119,20 +121,12 @@ class SpecSheetScreen(Screen[None]):
     # -- grading (worker) --------------------------------------------------------------
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, profile_ref: str | None) -> None:
-        from station.services.grade import (
-            GradeRequest,
-            NoProfileError,
-            RunSource,
-            grade,
-            store_grading,
-        )
+        from station.services.grade import GradeRequest, NoProfileError, RunSource, grade
 
         request = GradeRequest(RunSource(self.path), profile=profile_ref,
                                profile_from_model=True, db=self.db_path)
         try:
             result = grade(request)
-            if self.db_path is not None:
-                store_grading(result.graded, self.db_path, again=False)
         except NoProfileError:
             self.app.call_from_thread(
                 self.notify, f"{self.path.name} names no profile and none matches its "
@@ -149,6 +143,21 @@ class SpecSheetScreen(Screen[None]):
             self.app.call_from_thread(self.notify, note, title="Profile changed",
                                       severity="warning", timeout=20)
         self.app.call_from_thread(setattr, self, "graded", result.graded)
+        if self.db_path is not None:
+            self._store(result.graded, self.db_path)
+
+    def _store(self, graded: RunGrade, db: DatabaseLocation) -> None:
+        """Store the grading shown (in the grading worker); say so when it is not stored."""
+        from station.errors import ResultsDatabaseError
+        from station.services.grade import store_grading
+
+        try:
+            store_grading(graded, db, retry_s=self.db_retry_s)
+        except ResultsDatabaseError as exc:
+            self.app.call_from_thread(
+                self.notify, f"The grading shown here was NOT stored: {exc}. Open this spec "
+                f"sheet again once the database answers: the grading is then stored (once).",
+                title="Not stored", severity="error", timeout=60)
 
     def _show_status(self, text: str) -> None:
         self.query_one("#grade", Static).update(text)
@@ -287,7 +296,8 @@ class SpecSheetScreen(Screen[None]):
         from station.services.report import write_reports
 
         try:
-            ((_, path),) = write_reports(graded, (fmt,), self.reports_dir, self.db_path)
+            ((_, path),) = write_reports(graded, (fmt,), self.reports_dir, self.db_path,
+                                         retry_s=self.db_retry_s)
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self.notify, explain(exc, f"writing the {fmt} report"),
                                       severity="error", timeout=20)

@@ -137,3 +137,20 @@ def test_a_served_simulations_hardware_url_keeps_protocol_keys_only(tmp_path) ->
     with open_device(url) as dev:
         query = dict(parse_qsl(urlsplit(dev.hardware_url).query))
     assert query == {"protocol": "stim300", "datagram": "0x94", "rate": "200"}
+
+
+def test_simulated_units_without_a_seed_each_have_their_own_serial() -> None:
+    """A unit without ``seed=`` draws one, and reports it as its serial number: two such
+    units of one bench never both report SIM-0 (the results database would take one for
+    the other); a given seed is the serial, as before."""
+    url = "sim+modbus+tcp://VG951?rate=20"
+    serials = []
+    for _ in range(2):
+        with open_device(url) as dev:
+            serials.append(dev.source.describe().serial_number)
+    assert serials[0] != serials[1] and all(s.startswith("SIM-") for s in serials)
+    drawn = {parse_sim_params("", {}).serial_number for _ in range(50)}
+    assert len(drawn) == 50 and "SIM-0" not in drawn
+    assert parse_sim_params("", {"seed": "7"}).serial_number == "SIM-7"
+    with open_device(f"{url}&seed=7") as dev:
+        assert dev.source.describe().serial_number == "SIM-7"
