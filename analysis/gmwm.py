@@ -27,8 +27,14 @@ so M1 is a non-negative least-squares problem in them; a grid over the correlati
 (``GRID_PER_OCTAVE``, ordered ``T_1 < T_2 < ...``) with NNLS in the variances gives global
 starting values, together with the five-term Allan fit's values (``logwls``,
 :func:`analysis.fit.fit_noise_terms` on the octave Allan curve ``2 nu_hat``) for the
-terms the two share; ``scipy.optimize.least_squares`` refines the best starts under
-``v >= 0`` and ``dt <= T <= N dt``. Each re-weighting starts from the previous solution;
+terms the two share; ``scipy.optimize.least_squares`` refines the best grid point of each
+of ``REFINED_STARTS`` basins (an octave apart) and the Allan start under ``v >= 0`` and
+``dt / 64 <= T <= N dt``: a correlation time far below one sample period is reachable (an
+AR(1)'s ``phi = exp(-dt / T)`` from ``e^-64``, i.e. towards 0, up to the record's length;
+the closed forms hold for every ``phi`` in (0, 1)), and the grid starts two octaves below
+``dt``. The wavelet variance of :func:`analysis.gmwm_selection.gmwm_analysis` has every
+level the record holds (``GMWM_MIN_BLOCKS``: ``floor(log2 N)`` scales, as the reference
+implementation). Each re-weighting starts from the previous solution;
 the last one also from the grid and the Allan fit again, since the first step's weights
 can leave the solution in a local minimum the efficient weights do not prefer.
 
