@@ -27,8 +27,14 @@ so M1 is a non-negative least-squares problem in them; a grid over the correlati
 (``GRID_PER_OCTAVE``, ordered ``T_1 < T_2 < ...``) with NNLS in the variances gives global
 starting values, together with the five-term Allan fit's values (``logwls``,
 :func:`analysis.fit.fit_noise_terms` on the octave Allan curve ``2 nu_hat``) for the
-terms the two share; ``scipy.optimize.least_squares`` refines the best starts under
-``v >= 0`` and ``dt <= T <= N dt``. Each re-weighting starts from the previous solution;
+terms the two share; ``scipy.optimize.least_squares`` refines the best grid point of each
+of ``REFINED_STARTS`` basins (an octave apart) and the Allan start under ``v >= 0`` and
+``dt / 64 <= T <= N dt``: a correlation time far below one sample period is reachable (an
+AR(1)'s ``phi = exp(-dt / T)`` from ``e^-64``, i.e. towards 0, up to the record's length;
+the closed forms hold for every ``phi`` in (0, 1)), and the grid starts two octaves below
+``dt``. The wavelet variance of :func:`analysis.gmwm_selection.gmwm_analysis` has every
+level the record holds (``GMWM_MIN_BLOCKS``: ``floor(log2 N)`` scales, as the reference
+implementation). Each re-weighting starts from the previous solution;
 the last one also from the grid and the Allan fit again, since the first step's weights
 can leave the solution in a local minimum the efficient weights do not prefer.
 
@@ -61,16 +67,25 @@ from analysis.errors import FitError, TooFewSamplesError
 from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm_covariance import wv_covariance
 from analysis.gmwm_models import GmwmModel
-from analysis.wavelet import WaveletVariance
+from analysis.wavelet import WaveletVariance, dyadic_m
 
 #: Correlation-time grid points per octave for one, two, three or more shaped terms.
 GRID_PER_OCTAVE = {1: 4, 2: 2, 3: 1}
-#: Starts refined by least squares with two or more correlation times (else the best one).
-REFINED_STARTS = 2
+#: Shortest correlation time, in sample periods (AR(1): ``phi >= e^-64``, i.e. phi -> 0).
+SHORTEST_T_SAMPLES = 1.0 / 64.0
+#: The starting grid begins this many octaves below one sample period (phi = e^-4 = 0.018).
+GRID_OCTAVES_BELOW_SAMPLE = 2
+#: Grid starts refined by least squares (the best of each basin: ``START_SEPARATION``).
+REFINED_STARTS = 3
+#: Grid starts at least this far apart in some log correlation time (one octave and a bit).
+START_SEPARATION = 1.01 * math.log(2.0)
 #: Condition number above which V falls back to its diagonal.
 MAX_CONDITION = 1e13
 #: A model whose J test gives a p-value below this gets the model-error floor in its weights.
 REJECT_P = 1e-3
+#: Scales of the GMWM: every level the record holds, ``2 m <= N`` (``floor(log2 N)`` levels, the
+#: reference implementation's rule; :func:`analysis.wavelet.dyadic_m` with this ``min_blocks``).
+GMWM_MIN_BLOCKS = 2
 #: Five-term Allan fit letter of each GMWM term.
 ALLAN_TERM = {"qn": "Q", "wn": "N", "bi": "B", "rw": "K", "dr": "R"}
 
@@ -190,7 +205,8 @@ class _Problem:
         # each variance scaled by the largest value whose term stays under the data everywhere
         self.scale = np.ones(n)
         self.lower, self.upper = np.zeros(n), np.full(n, np.inf)
-        self.t_lo, self.t_hi = math.log(self.dt), math.log(wv.n_samples * self.dt)
+        self.t_lo = math.log(SHORTEST_T_SAMPLES * self.dt)
+        self.t_hi = math.log(wv.n_samples * self.dt)
         for kind, (iv, ish) in zip(model.kinds, self.slices, strict=True):
             unit = kind.unit_wv(self.tau, 0.5 * (self.t_lo + self.t_hi), self.dt)
             self.scale[iv] = float(np.min(self.nu / np.maximum(unit, 1e-300)))
@@ -274,8 +290,9 @@ class _Problem:
             x[self.var_idx] = optimize.nnls(self._columns(np.zeros(0)), b)[0]
             return [x]
         per_octave = GRID_PER_OCTAVE.get(n_shaped, 1)
-        n_points = max(int((self.t_hi - self.t_lo) / math.log(2.0) * per_octave) + 1, n_shaped)
-        grid = np.linspace(self.t_lo, self.t_hi - math.log(2.0), n_points)
+        grid_lo = max(self.t_lo, math.log(self.dt) - GRID_OCTAVES_BELOW_SAMPLE * math.log(2.0))
+        n_points = max(int((self.t_hi - grid_lo) / math.log(2.0) * per_octave) + 1, n_shaped)
+        grid = np.linspace(grid_lo, self.t_hi - math.log(2.0), n_points)
         shaped = [
             (c, kind, ish)
             for c, (kind, (_, ish)) in enumerate(zip(self.model.kinds, self.slices, strict=True))
@@ -300,14 +317,19 @@ class _Problem:
             u, norm = optimize.nnls(a, b, maxiter=50 * a.shape[1])
             scored.append((norm, u, combo))
         scored.sort(key=lambda item: item[0])
-        starts = []
-        for _, u, combo in scored[:count]:
+        starts: list[NDArray[np.float64]] = []
+        for _, u, combo in scored:
             x = np.zeros(self.model.n_params)
             x[self.var_idx] = u
             for (_, cols), picks in zip(groups.items(), combo, strict=True):
                 for c, g in zip(cols, picks, strict=True):
                     x[self.slices[c][1]] = grid[g]
-            starts.append(x)
+            # the best point of each basin: a start an octave or more from every one taken
+            if all(np.max(np.abs(x[self.shape_idx] - y[self.shape_idx])) > START_SEPARATION
+                   for y in starts):
+                starts.append(x)
+            if len(starts) == count:
+                break
         return starts
 
     def allan_start(self, base: NDArray[np.float64]) -> NDArray[np.float64] | None:
@@ -379,14 +401,14 @@ class _Problem:
         ``fresh`` adds the grid and the Allan fit to ``previous`` (the weights changed much)."""
         if previous is not None and not fresh:
             return self.refine([previous], 1)
-        count = REFINED_STARTS if len(self.shape_idx) > 1 else 1
+        count = REFINED_STARTS if self.shape_idx else 1
         starts = self.grid_starts(count)
         start = self.allan_start(starts[0]) if allan else None
         if start is not None:
             starts.append(start)
         if previous is not None:
             starts.append(previous)
-        return self.refine(starts, count + (previous is not None))
+        return self.refine(starts, len(starts))
 
     def free(self, x: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Parameters not held at a bound (a shape is free only when its variance is)."""
@@ -469,14 +491,32 @@ def _as_model(model: GmwmModel | str) -> GmwmModel:
     return model if isinstance(model, GmwmModel) else GmwmModel.parse(model)
 
 
+def gmwm_levels(n_samples: int) -> int:
+    """Number of wavelet scales the GMWM takes from ``n_samples`` samples (``GMWM_MIN_BLOCKS``)."""
+    return len(dyadic_m(n_samples, min_blocks=GMWM_MIN_BLOCKS))
+
+
+def check_model_scales(model: GmwmModel, n_levels: int, n_samples: int) -> None:
+    """Check that ``n_levels`` wavelet scales (of ``n_samples`` samples) identify ``model``:
+    one degree of freedom at least, ``n_levels >= n_params + 1``.
+
+    Raises
+    ------
+    TooFewSamplesError
+        A model with as many parameters as scales or more.
+    """
+    if n_levels < model.n_params + 1:
+        raise TooFewSamplesError(
+            f"model {model.name} has {model.n_params} parameters, more than the "
+            f"{n_levels} wavelet scales of {n_samples} samples can identify (at most "
+            f"{max(n_levels - 1, 0)}); fit fewer terms or record longer"
+        )
+
+
 def _check(model: GmwmModel, wv: WaveletVariance) -> None:
     if np.ndim(wv.wv) != 1:
         raise FitError("fit one axis at a time: pass wv.axis(i)")
-    if len(wv.tau_s) < model.n_params + 1:
-        raise TooFewSamplesError(
-            f"{len(wv.tau_s)} wavelet scales are too few for the {model.n_params} "
-            f"parameters of {model.name}; record longer or fit a smaller model"
-        )
+    check_model_scales(model, len(wv.tau_s), wv.n_samples)
 
 
 def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficient", steps: int = 2,

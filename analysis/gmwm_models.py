@@ -215,6 +215,8 @@ KINDS: dict[str, TermKind] = {
 }
 #: Terms that may appear more than once in a model.
 REPEATABLE = frozenset({"gm", "ar1"})
+#: Most terms of a model: a record would need 2^(2 MAX_TERMS) samples for the scales of more.
+MAX_TERMS = 31
 
 
 @dataclass(frozen=True)
@@ -236,7 +238,8 @@ class GmwmModel:
         Raises
         ------
         GmwmModelError
-            An unknown term, a non-repeatable term twice, or an empty model.
+            An unknown term, a non-repeatable term twice, more than ``MAX_TERMS`` terms, or
+            an empty model.
         """
         codes: list[str] = []
         for raw in str(text).lower().replace(" ", "").split("+"):
@@ -252,6 +255,11 @@ class GmwmModel:
             if code not in KINDS or count < 1:
                 raise GmwmModelError(
                     f"unknown GMWM term {raw!r} in {text!r}; use {', '.join(KINDS)} joined by '+'"
+                )
+            if len(codes) + count > MAX_TERMS:
+                raise GmwmModelError(
+                    f"GMWM model {text!r} has more than {MAX_TERMS} terms, more than any record's "
+                    f"wavelet scales can identify; fit fewer terms"
                 )
             codes += [code] * count
         if not codes:

@@ -29,7 +29,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from analysis.confidence import ONE_SIGMA
-from analysis.gmwm import GmwmFit, gmwm, gmwm_with_covariance, weight_covariance
+from analysis.gmwm import (
+    GMWM_MIN_BLOCKS,
+    GmwmFit,
+    gmwm,
+    gmwm_with_covariance,
+    weight_covariance,
+)
 from analysis.gmwm_models import GmwmModel, GmwmModelError
 from analysis.wavelet import WaveletVariance, haar_wavelet_variance
 
@@ -184,6 +190,9 @@ def gmwm_analysis(
 ) -> GmwmSelection:
     """Haar wavelet variance of one axis and its GMWM fit: a given model, or ``"auto"`` selection.
 
+    The wavelet variance has every level the record holds (``floor(log2 N)`` scales,
+    ``GMWM_MIN_BLOCKS``), as the reference implementation of the GMWM uses.
+
     With a given model the ranking holds that model alone, with its WIC (J + 2 free
     parameters under its own weights).
 
@@ -210,7 +219,8 @@ def gmwm_analysis(
     GmwmModelError, FitError, TooFewSamplesError, NonFiniteSamplesError
     """
     wv = haar_wavelet_variance(
-        rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps, angle_out=angle_out
+        rate, sample_rate_hz, robust=robust, confidence=confidence, gaps=gaps, angle_out=angle_out,
+        min_blocks=GMWM_MIN_BLOCKS,
     )
     if np.ndim(wv.wv) != 1:
         raise GmwmModelError("gmwm_analysis takes one axis; pass a 1-D rate")

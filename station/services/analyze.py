@@ -120,6 +120,11 @@ def analyze(request: AnalyzeRequest,
     check_terms(request.terms)  # a bad --terms fails before the record is read
     loaded = load_record(request.source)
     record = loaded.record
+    if gmwm and request.gmwm_model.strip().lower() != "auto":
+        from analysis.gmwm import check_model_scales, gmwm_levels  # scipy: only when asked
+
+        n = record.n_samples  # a model the record's scales cannot identify fails before the fit
+        check_model_scales(GmwmModel.parse(request.gmwm_model), gmwm_levels(n), n)
     if gmwm:
         counted = plural(len(record.axis_names), "axis")
         progress(Progress("analyze", f"GMWM ({request.gmwm_model}) of {counted} of "
