@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from analysis import blocks
+from analysis.ambiguity import resolve_for_rate
 from analysis.allan import (
     AllanResult,
     Estimator,
@@ -377,6 +378,10 @@ def analyze_record(
         tones = find_tones(grid_rate, fs)
         fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,
                                        select=select)
+        fit = resolve_for_rate(axis, fit, grid_rate, fs, gaps=gapped,
+                               exclude_tau_s=tuple((z.tau_low_s, z.tau_high_s) for z in zones),
+                               angle_out=angle_buffer(grid_rate) if "K" not in fit.terms
+                               else None)
         earth_deg_h = earth[i]
         analysed = grid_rate if earth_deg_h is None else _minus(grid_rate, earth_deg_h / S_PER_H)
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
