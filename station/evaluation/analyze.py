@@ -13,7 +13,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from analysis import blocks
-from analysis.ambiguity import resolve_for_rate
 from analysis.allan import (
     AllanResult,
     Estimator,
@@ -22,6 +21,7 @@ from analysis.allan import (
     cluster_allan_variance,
     overlapping_allan_variance,
 )
+from analysis.ambiguity import resolve_for_rate
 from analysis.deviations import (
     DEVIATION_LABELS,
     DeviationKind,
