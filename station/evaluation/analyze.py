@@ -505,6 +505,8 @@ def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
         lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
+        lines += [f"AMBIGUOUS ({a.name}): the record also allows {alt.describe()}"
+                  for alt in a.fit.alternatives]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
         lines += format_curve(axes, family=family)
