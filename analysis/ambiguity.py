@@ -90,10 +90,11 @@ class Alternative:
 
 
 def _with_walk(terms: str, candidates: str) -> list[str]:
-    """The term sets that read the lookalikes of ``terms`` as a rate random walk."""
+    """The term sets that read the lookalikes of ``terms`` as a rate random walk (none
+    where ``terms`` holds neither: whether K is there at all is the selection's call)."""
     present = [t for t in WALK_LOOKALIKES if t in terms]
     out = []
-    for mask in range(1, 2 ** len(present)) if present else [0]:
+    for mask in range(1, 2 ** len(present)):
         gone = {t for i, t in enumerate(present) if mask >> i & 1}
         out.append("".join(t for t in candidates if (t in terms and t not in gone) or t == "K"))
     return out
