@@ -33,8 +33,8 @@ the formula errors ``s^2 (X^T X)^-1`` of eq. 7 and 14 assume independent values 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -56,6 +56,9 @@ from analysis.fit_model import (
 from analysis.fit_select import select_terms
 from analysis.fit_uncertainty import LinearizedFit, value_covariance
 
+if TYPE_CHECKING:
+    from analysis.ambiguity import Alternative
+
 __all__ = [
     "BETA_FACTOR",
     "COEFFICIENT_NAMES",
@@ -70,6 +73,7 @@ __all__ = [
     "design_matrix",
     "fit_every_method",
     "fit_noise_terms",
+    "fit_term_set",
     "log_tau_share",
     "theoretical_avar",
 ]
@@ -119,6 +123,12 @@ class NoiseCoefficients:
     notes : tuple of str
         What a reader of the numbers should know: terms left out and why, the origin of
         the standard errors, a model misfit.
+    criteria : dict
+        ``logwls`` with term selection: the information criterion of every subset of
+        ``candidate_terms`` tried (:mod:`analysis.fit_select`); empty otherwise.
+    alternatives : tuple of Alternative
+        Other readings of the same record that its criteria cannot tell from this one
+        (:mod:`analysis.ambiguity`); empty when the reading is unambiguous.
     """
 
     method: str
@@ -131,6 +141,8 @@ class NoiseCoefficients:
     iterations: int = field(default=1)
     candidate_terms: str = ""
     notes: tuple[str, ...] = ()
+    criteria: dict[str, float] = field(default_factory=dict)
+    alternatives: tuple[Alternative, ...] = ()
 
     def model_avar(self, tau_s: ArrayLike) -> NDArray[np.float64]:
         """Allan variance ((deg/s)^2) of the fitted model at ``tau_s`` (s), eq. 3.
@@ -153,7 +165,8 @@ class NoiseCoefficients:
 
     def as_dict(self) -> dict[str, object]:
         """JSON form: ``method``, each ``<name>`` and ``<name>_stderr`` (null where not
-        estimable), ``negative_terms``, ``terms`` (the model's terms) and ``notes``."""
+        estimable), ``negative_terms``, ``terms`` (the model's terms), ``notes`` and
+        ``alternatives`` (the other readings the record allows, docs/json.md)."""
         out: dict[str, object] = {"method": self.method}
         for term in TERMS:
             name = COEFFICIENT_NAMES[term]
@@ -162,6 +175,7 @@ class NoiseCoefficients:
         out["negative_terms"] = list(self.negative_terms)
         out["terms"] = self.terms
         out["notes"] = list(self.notes)
+        out["alternatives"] = [a.as_dict() for a in self.alternatives]
         return out
 
 
@@ -313,15 +327,42 @@ def fit_every_method(
 Reference = tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]
 
 
+def fit_term_set(
+    result: AllanResult,
+    candidates: str,
+    chosen: str,
+    *,
+    model_error: float = DEFAULT_MODEL_ERROR,
+    exclude_tau_s: tuple[tuple[float, float], ...] = (),
+) -> NoiseCoefficients:
+    """The ``logwls`` fit of the terms ``chosen`` among ``candidates``, as if the term
+    selection had kept them: the others come back as 0 with their 1-sigma bound.
+
+    Raises
+    ------
+    FitError
+        As :func:`fit_noise_terms`, or ``chosen`` not a subset of ``candidates``.
+    """
+    candidates, avar = _checked(result, candidates, model_error)
+    chosen = check_terms(chosen)
+    if set(chosen) - set(candidates):
+        raise FitError(f"terms {chosen!r} are not all among the candidates {candidates!r}")
+    keep = _usable_rows("logwls", result, avar, len(chosen), exclude_tau_s)
+    return _fit_logwls(result, keep, candidates, model_error, False, chosen=chosen)[0]
+
+
 def _fit_logwls(
-    result: AllanResult, keep: NDArray[np.bool_], candidates: str, model_error: float, select: bool
+    result: AllanResult, keep: NDArray[np.bool_], candidates: str, model_error: float, select: bool,
+    *, chosen: str | None = None,
 ) -> tuple[NoiseCoefficients, Reference]:
     data = log_data(result, keep, model_error)
     notes: list[str] = []
-    chosen = candidates
+    criteria: dict[str, float] = {}
+    if chosen is None:
+        chosen = candidates
     if select and len(candidates) > 1:
         selection = select_terms(result, data, candidates)
-        chosen = selection.terms
+        chosen, criteria = selection.terms, selection.criteria
         dropped = "".join(t for t in candidates if t not in chosen)
         if dropped:
             notes.append(
@@ -340,7 +381,7 @@ def _fit_logwls(
     fit = _finish(
         "logwls", result, keep, candidates, beta, lin, beta, misfit, notes, iterations=nfev
     )
-    return fit, (beta, keep, misfit)
+    return replace(fit, criteria=criteria), (beta, keep, misfit)
 
 
 def _log_linearization(

@@ -21,6 +21,7 @@ from analysis.allan import (
     cluster_allan_variance,
     overlapping_allan_variance,
 )
+from analysis.ambiguity import resolve_for_rate
 from analysis.deviations import (
     DEVIATION_LABELS,
     DeviationKind,
@@ -382,6 +383,10 @@ def analyze_record(
         tones = find_tones(grid_rate, fs)
         fit, zones = fit_outside_zones(axis, tones, method=allan_method, terms=terms,
                                        select=select)
+        fit = resolve_for_rate(axis, fit, grid_rate, fs, gaps=gapped,
+                               exclude_tau_s=tuple((z.tau_low_s, z.tau_high_s) for z in zones),
+                               angle_out=angle_buffer(grid_rate) if "K" not in fit.terms
+                               else None)
         earth_deg_h = earth[i]
         analysed = grid_rate if earth_deg_h is None else _minus(grid_rate, earth_deg_h / S_PER_H)
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
@@ -508,6 +513,8 @@ def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
         lines += [f"tone ({a.name}): {t.describe()}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in a.figures.notes]
         lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
+        lines += [f"AMBIGUOUS ({a.name}): the record also allows {alt.describe()}"
+                  for alt in a.fit.alternatives]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
         lines += format_curve(axes, family=family)

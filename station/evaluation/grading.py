@@ -48,6 +48,14 @@ from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.errors import RecordFormatError, StationError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.evaluation.long_records import take_columns
+from station.evaluation.readings import (
+    FIT_TERM as _FIT_TERM,
+    Reading,
+    alternative_readings,
+    fit_term,
+    readings_note,
+    safe_verdict,
+)
 from station.model.bench import Bench, bench_from_json
 from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import (
@@ -69,8 +77,6 @@ if TYPE_CHECKING:
 BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
 MIN_SAMPLES = 1000
-_FIT_TERM = {"quantization": "Q", "arw_fit": "N", "bias_instability_fit": "B", "rrw": "K",
-             "rate_ramp": "R"}
 
 
 class GradingError(StationError, ValueError):
@@ -91,7 +97,9 @@ class Interval:
 class FigureResult:
     """One graded figure of one axis, in the profile's unit for that figure.
 
-    ``verdicts`` maps each grade that limits this figure to its verdict.
+    ``verdicts`` maps each grade that limits this figure to its verdict; ``alternatives``
+    are the other readings an ambiguous fit allows (canonical unit), which the verdicts hold
+    for too (:mod:`station.evaluation.readings`).
     """
 
     spec: FigureSpec
@@ -100,6 +108,7 @@ class FigureResult:
     ci_high: float | None
     verdicts: dict[str, Verdict]
     note: str = ""
+    alternatives: tuple[Reading, ...] = ()
 
     @property
     def name(self) -> str:
@@ -124,6 +133,7 @@ class FigureResult:
             "limits": dict(self.spec.limits),
             "verdicts": dict(self.verdicts),
             "note": self.note,
+            "alternatives": [r.as_json(self.spec.unit_factor) for r in self.alternatives],
         }
 
 
@@ -417,18 +427,23 @@ def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence
     return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
 
 
-def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile) -> FigureResult:
-    """Convert a canonical interval to the spec's unit and decide it at every limited grade."""
+def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
+                 alternatives: tuple[Reading, ...] = ()) -> FigureResult:
+    """Convert a canonical interval to the spec's unit and decide it at every limited grade,
+    safely over the ``alternatives`` (other readings, canonical unit) when there are any."""
     factor = spec.unit_factor
 
     def conv(v: float | None) -> float | None:
         return None if v is None or not math.isfinite(v) else v / factor
 
     value, low, high = conv(interval.value), conv(interval.low), conv(interval.high)
-    verdicts = {
-        g: decide(value, low, high, limit, profile.rule) for g, limit in spec.limits.items()
-    }
-    return FigureResult(spec, value, low, high, verdicts, interval.note)
+    readings = [(value, low, high), *((conv(r.value), conv(r.low), conv(r.high))
+                                      for r in alternatives)]
+    verdicts = {g: safe_verdict([decide(*r, limit, profile.rule) for r in readings])
+                for g, limit in spec.limits.items()}
+    note = "; ".join(t for t in (interval.note, readings_note(alternatives, spec.unit, factor))
+                     if t)
+    return FigureResult(spec, value, low, high, verdicts, note, alternatives)
 
 
 # --- runs ----------------------------------------------------------------------------------
@@ -486,6 +501,7 @@ def _scratch_index(n: int) -> np.ndarray:
     """A scratch memmap for the sample index of a long record's part (bounded memory)."""
     return scratch_array((n,), np.int64)
 
+
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
@@ -535,13 +551,14 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
+        z, source = _z(profile.confidence), profile.figure_source
         figures = tuple(
             grade_figure(
                 spec,
-                figure_interval(
-                    spec.name, x, analysis, profile.confidence, source=profile.figure_source
-                ),
+                figure_interval(spec.name, x, analysis, profile.confidence, source=source),
                 profile,
+                () if (term := fit_term(spec.name, source)) is None
+                else alternative_readings(analysis.fit, term, z),
             )
             for spec in profile.figures
         )

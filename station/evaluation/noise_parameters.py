@@ -9,7 +9,9 @@ per axis):
   the GMWM's flicker term when its model has one; else the fit's B;
 * rate random walk K: the fit's K, or the GMWM's random walk; a K the record does not
   resolve (fitted to zero) is its 1-sigma upper bound, and the source says so, because a
-  filter given no bias random walk at all trusts its bias estimate for ever;
+  filter given no bias random walk at all trusts its bias estimate for ever; where the
+  record allows other readings (:mod:`analysis.ambiguity`), the largest K of them, the
+  source naming the alternatives;
 * Gauss-Markov terms: the GMWM's ``gm`` terms (``gmwm``), none otherwise.
 """
 
@@ -38,6 +40,22 @@ def _rrw(value: float | None, stderr: float | None, what: str) -> tuple[float, s
     return 0.0, f"{what}: none found and no bound"
 
 
+def _safe_rrw(axis: AxisAnalysis) -> tuple[float, str]:
+    """K from the fit, the largest over its readings where the record allows several
+    (:mod:`analysis.ambiguity`), its source naming the alternatives the record allowed."""
+    fit = axis.fit
+    k, k_from = _rrw(fit.values.get("K"), fit.stderr.get("K"), f"fit ({fit.method})")
+    if not fit.alternatives:
+        return k, k_from
+    for alt in fit.alternatives:
+        other, _ = _rrw(alt.fit.values.get("K"), alt.fit.stderr.get("K"), "")
+        if other > k:
+            k, k_from = other, f"fit ({fit.method}, reading {alt.fit.terms})"
+    allowed = "; ".join(alt.describe() for alt in fit.alternatives)
+    return k, (f"{k_from}; ambiguous: the record also allows {allowed} (printed terms "
+               f"{fit.terms}); the larger K of the readings is written")
+
+
 def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     """The noise parameters of one analysed axis (the module docstring says which figure
     feeds which).
@@ -59,7 +77,7 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
             if _positive(fit.values.get("B"))
             else (None, "none")
         )
-    k, k_from = _rrw(fit.values.get("K"), fit.stderr.get("K"), f"fit ({fit.method})")
+    k, k_from = _safe_rrw(axis)
     gauss_markov: list[GaussMarkovBias] = []
     if method == GMWM_METHOD:
         if axis.gmwm is None:

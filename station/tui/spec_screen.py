@@ -211,7 +211,12 @@ class SpecSheetScreen(Screen[None]):
 
     def show(self) -> None:
         """Fill the header line, figures table, plots and run tab for the unit and axis."""
-        from station.output.report.common import event_summary, figure_rows, header_fields
+        from station.output.report.common import (
+            ambiguity_lines,
+            event_summary,
+            figure_rows,
+            header_fields,
+        )
         from station.tui.spec_data import allan_series
 
         graded = self.graded
@@ -242,7 +247,7 @@ class SpecSheetScreen(Screen[None]):
         self.query_one("#grade", Static).update(head)
         header = "\n".join(f"{k}: {v}" for k, v in header_fields(graded, unit))
         events = "\n".join(event_summary(u, graded).lines(brief=True))
-        notes = "\n".join(f"note: {t}" for t in unit.notes)
+        notes = "\n".join([*ambiguity_lines(unit), *(f"note: {t}" for t in unit.notes)])
         self.query_one("#header", Static).update("\n".join(t for t in (events, notes, header)
                                                            if t))
 

@@ -120,7 +120,38 @@ def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str
             f"({z.kind})"
             for z in a.analysis.zones
         ]
-    return review + lines
+    return review + ambiguity_lines(unit, family) + lines
+
+
+def ambiguity_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str]:
+    """One line per fitted figure whose record allows other readings: the printed value
+    and the others with their intervals (values in ``family``); the sheets and the TUI
+    show them."""
+    out = []
+    for a in unit.axes:
+        for f in a.figures:
+            if not f.alternatives:
+                continue
+            unit_text = family.label(f.spec.unit)
+            others = "; ".join(
+                f"{_num(family.value(r.value / f.spec.unit_factor, f.spec.unit))} "
+                f"[{_num(family.value(_over(r.low, f.spec.unit_factor), f.spec.unit))}, "
+                f"{_num(family.value(_over(r.high, f.spec.unit_factor), f.spec.unit))}] "
+                f"(terms {r.terms})" for r in f.alternatives if r.value is not None)
+            out.append(
+                f"AMBIGUOUS {a.axis} {f.spec.label}: printed "
+                f"{_num(family.value(f.value, f.spec.unit))} {unit_text} (terms "
+                f"{a.analysis.fit.terms}); the record also allows {others}; verdict "
+                f"{f.verdicts.get(a.deciding_grade, 'not limited')}, safe for every reading")
+    return out
+
+
+def _over(v: float | None, factor: float) -> float | None:
+    return None if v is None else v / factor
+
+
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.3g}"
 
 
 def to_the_second(utc: str) -> str:

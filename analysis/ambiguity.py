@@ -1,0 +1,219 @@
+"""Term sets a record cannot tell apart, and the reading a spec sheet prints.
+
+Over a few hours a realisation of a rate random walk wanders like a rate ramp or flattens
+like a bias instability: its last octaves hold a handful of clusters, each Allan value
+there nearly one chi-square degree of freedom. The term selection of ``logwls``
+(:mod:`analysis.fit_select`) then often keeps ``N+R``, ``N+B`` or ``N+B+R`` where the
+record holds ``N+K``, and a K reported as 0 with a bound is a figure a walk's realisation
+bought, not a measurement (N 0.1 deg/sqrt(h) + K 1 deg/h^1.5, 6 h: K kept in 11 of 20
+records, its mean 0.58).
+
+A reading that exchanges the rate random walk with the ramp or the bias instability is
+therefore held against the selected one by two criteria, and the record counts as
+unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN`:
+
+* the selection's own information criterion (log Allan values with their covariance);
+* the wavelet information criterion of the GMWM (:mod:`analysis.gmwm_selection`) of the
+  two models on the Haar wavelet variance, whose full covariance weighs the last scales
+  as little as they hold (run only when K was left out, about 0.5-1.5 s per axis).
+
+Where the selected reading left K out and a reading with K is not ruled out, the reading
+with K is the one printed (a realised walk holds the ramp-like rise and the slow wander a
+separate R or B would claim), and the selected one becomes its alternative. Where the
+selected reading kept K, readings that trade it for R or B within the margin of the
+information criterion are listed as alternatives. Every alternative carries its values
+and standard errors, so that a verdict can take the reading that is safe for a limit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from analysis.allan import AllanResult
+from analysis.errors import AnalysisError, FitError
+from analysis.fit import COEFFICIENT_NAMES, TERMS, NoiseCoefficients, fit_term_set
+from analysis.gmwm_models import GmwmModelError
+from analysis.gmwm_selection import select_model
+from analysis.wavelet import WaveletVariance, haar_wavelet_variance
+
+#: Criterion units (-2 log-likelihood) within which two readings count as the same: about
+#: one term's penalty of the selection (log n, n about 40-60 values), twice the GMWM's.
+AMBIGUITY_MARGIN = 4.0
+#: Terms a rate random walk's realisation may be read as.
+WALK_LOOKALIKES = "BR"
+#: The GMWM term of each IEEE term.
+GMWM_TERM = {"Q": "qn", "N": "wn", "B": "bi", "K": "rw", "R": "dr"}
+
+
+@dataclass(frozen=True)
+class Alternative:
+    """Another reading of the record, as good by its criteria as the one printed.
+
+    Attributes
+    ----------
+    fit : NoiseCoefficients
+        The reading: its terms, values and standard errors (data-sheet units).
+    criterion_delta : float
+        Its ``logwls`` information criterion minus the printed reading's (negative: the
+        term selection preferred it).
+    wavelet_criterion_delta : float or None
+        The same for the GMWM's wavelet information criterion; None where not computed.
+    """
+
+    fit: NoiseCoefficients
+    criterion_delta: float
+    wavelet_criterion_delta: float | None = None
+
+    def describe(self) -> str:
+        """One line: the terms and the values of the terms that differ from zero."""
+        shown = []
+        for t in self.fit.candidate_terms:
+            v, s = self.fit.values[t], self.fit.stderr[t]
+            if v is not None and v > 0:
+                shown.append(f"{t} {v:.3g}" + (f" +- {s:.2g}" if s is not None else ""))
+        return f"terms {self.fit.terms}: {', '.join(shown) or 'none above zero'}"
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON form: ``terms``, ``values`` and ``stderr`` by coefficient name,
+        ``criterion_delta``, ``wavelet_criterion_delta``."""
+        return {
+            "terms": self.fit.terms,
+            "values": {COEFFICIENT_NAMES[t]: self.fit.values[t] for t in TERMS},
+            "stderr": {COEFFICIENT_NAMES[t]: self.fit.stderr[t] for t in TERMS},
+            "criterion_delta": self.criterion_delta,
+            "wavelet_criterion_delta": self.wavelet_criterion_delta,
+        }
+
+
+def _with_walk(terms: str, candidates: str) -> list[str]:
+    """The term sets that read the lookalikes of ``terms`` as a rate random walk (none
+    where ``terms`` holds neither: whether K is there at all is the selection's call)."""
+    present = [t for t in WALK_LOOKALIKES if t in terms]
+    out = []
+    for mask in range(1, 2 ** len(present)):
+        gone = {t for i, t in enumerate(present) if mask >> i & 1}
+        out.append("".join(t for t in candidates if (t in terms and t not in gone) or t == "K"))
+    return out
+
+
+def _gmwm_model(terms: str) -> str:
+    return "+".join(GMWM_TERM[t] for t in terms)
+
+
+def wavelet_criterion_delta(wavelet: WaveletVariance, terms: str, other: str) -> float | None:
+    """WIC of the GMWM model of ``other`` minus that of ``terms``, both fitted with the
+    weights of the larger (:func:`analysis.gmwm_selection.select_model`); None where the
+    record has too few scales or a model cannot be fitted."""
+    try:
+        ranking = select_model(wavelet, [_gmwm_model(terms), _gmwm_model(other)]).ranking
+    except (GmwmModelError, AnalysisError, np.linalg.LinAlgError):
+        return None
+    criteria = {r.model: r.criterion for r in ranking}
+    a, b = criteria.get(_gmwm_model(terms)), criteria.get(_gmwm_model(other))
+    return None if a is None or b is None else b - a
+
+
+def resolve_ambiguity(
+    result: AllanResult,
+    fit: NoiseCoefficients,
+    wavelet: WaveletVariance | None,
+    *,
+    exclude_tau_s: tuple[tuple[float, float], ...] = (),
+    margin: float = AMBIGUITY_MARGIN,
+) -> NoiseCoefficients:
+    """The reading a sheet prints, with the others the record allows (module docstring).
+
+    Parameters
+    ----------
+    result : AllanResult
+        The one-axis Allan variance ``fit`` was made from.
+    fit : NoiseCoefficients
+        The ``logwls`` fit with term selection (others are returned as they are).
+    wavelet : WaveletVariance or None
+        The axis' Haar wavelet variance (:func:`analysis.wavelet.haar_wavelet_variance`)
+        for the GMWM criterion; None: the information criterion alone decides.
+    exclude_tau_s : tuple of (float, float)
+        The tau ranges ``fit`` left out (:func:`analysis.zones.fit_outside_zones`).
+    margin : float
+        Criterion difference within which two readings are the same
+        (:data:`AMBIGUITY_MARGIN`).
+
+    Returns
+    -------
+    NoiseCoefficients
+        The printed reading, its ``alternatives`` filled (unchanged when unambiguous).
+    """
+    crit, chosen, cand = fit.criteria, fit.terms, fit.candidate_terms
+    if fit.method != "logwls" or "K" not in cand or not crit or chosen not in crit:
+        return fit
+
+    def refit(terms: str) -> NoiseCoefficients | None:
+        try:
+            return fit_term_set(result, cand, terms, exclude_tau_s=exclude_tau_s)
+        except FitError:
+            return None
+
+    if "K" in chosen:
+        rivals = [s for t in WALK_LOOKALIKES if t in cand and t not in chosen
+                  for s in (chosen.replace("K", t), chosen.replace("K", "") + t)]
+        alternatives = []
+        for terms in dict.fromkeys("".join(t for t in TERMS if t in s) for s in rivals):
+            if terms in crit and crit[terms] - crit[chosen] <= margin:
+                other = refit(terms)
+                if other is not None:
+                    alternatives.append(Alternative(other, crit[terms] - crit[chosen]))
+        return replace(fit, alternatives=tuple(alternatives)) if alternatives else fit
+    walks = [s for s in _with_walk(chosen, cand) if s in crit]
+    if not walks:
+        return fit
+    walk = min(walks, key=lambda s: crit[s])
+    delta = crit[walk] - crit[chosen]
+    wic = (wavelet_criterion_delta(wavelet, chosen, walk) if wavelet is not None
+           and delta > margin else None)
+    if delta > margin and (wic is None or wic > margin):
+        return fit
+    printed = refit(walk)
+    if printed is None or not (printed.values["K"] or 0.0) > 0:
+        return fit
+    gmwm = "" if wic is None else f", the GMWM's wavelet criterion {_signed(wic)}"
+    note = (
+        f"terms {walk} and {chosen} are not told apart by this record (information criterion "
+        f"of {walk} {_signed(delta)}{gmwm}): a rate random walk's realisation rises like a "
+        f"ramp or flattens like a bias instability over a few hours. Printed: the reading "
+        f"with K; the other is listed as an alternative, and a verdict takes the reading "
+        f"safe for its limit"
+    )
+    back = Alternative(fit, -delta, None if wic is None else -wic)
+    return replace(printed, notes=(note, *printed.notes), criteria=crit, alternatives=(back,))
+
+
+def _signed(x: float) -> str:
+    return f"{x:+.1f}" if math.isfinite(x) else "n/a"
+
+
+
+def resolve_for_rate(
+    result: AllanResult,
+    fit: NoiseCoefficients,
+    rate_deg_s: NDArray[np.float64],
+    sample_rate_hz: float,
+    *,
+    gaps: bool = False,
+    exclude_tau_s: tuple[tuple[float, float], ...] = (),
+    angle_out: NDArray[np.float64] | None = None,
+) -> NoiseCoefficients:
+    """:func:`resolve_ambiguity` with the wavelet variance of ``rate_deg_s`` (deg/s, NaN
+    where missing when ``gaps``), computed only where the GMWM criterion is needed (K a
+    candidate the selection left out)."""
+    wavelet = None
+    if fit.method == "logwls" and "K" in fit.candidate_terms and "K" not in fit.terms:
+        try:
+            wavelet = haar_wavelet_variance(rate_deg_s, sample_rate_hz, gaps=gaps,
+                                            angle_out=angle_out)
+        except AnalysisError:
+            wavelet = None
+    return resolve_ambiguity(result, fit, wavelet, exclude_tau_s=exclude_tau_s)

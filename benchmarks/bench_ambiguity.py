@@ -1,0 +1,86 @@
+"""The figures a spec sheet prints where the record cannot tell a rate random walk from a
+ramp or a bias instability (issue 28): N 0.1 deg/sqrt(h) + K 1.0 deg/h^1.5, 10 Hz, 6 h.
+
+Each record comes from the station's streaming simulator (:mod:`analysis.simulate`, as
+``station simulate`` writes it) and is analysed as ``station analyze --json`` does
+(:func:`station.evaluation.analyze.analyze_record`). Printed per estimator, over the seeds:
+K's mean, how many of the ``value +- stderr`` intervals hold the truth, the mean standard
+error over the spread between seeds (1 when honest), how often K is 0; and N's.
+
+* ``sheet``: the figure the sheet prints (``fit`` of the analysis: the reading with K where
+  the record cannot tell it from a ramp or a bias instability, :mod:`analysis.ambiguity`);
+* ``selected``: the term selection's reading alone (what the sheet printed before);
+* ``gmwm wn+rw``: the GMWM in the true model form (``--method gmwm --model wn+rw``).
+
+    python -m benchmarks.bench_ambiguity            # seeds 28000-28019 (no test uses them)
+    python -m benchmarks.bench_ambiguity --seeds 40 --first 28100
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from analysis.gmwm_selection import gmwm_analysis
+from analysis.models import AngleRandomWalk, NoiseModel, RateRandomWalk
+from analysis.simulate import simulate
+from station.evaluation.analyze import analyze_record
+from station.model.records import RateRecord
+
+TRUE_N, TRUE_K, HOURS, RATE_HZ = 0.1, 1.0, 6.0, 10.0
+
+
+def _row(name: str, values: list[float], errors: list[float], truth: float) -> str:
+    v, e = np.array(values), np.array(errors)
+    spread = float(np.std(v, ddof=1))
+    cover = int(np.sum(np.abs(v - truth) <= e))
+    return (f"{name:<22} mean {v.mean():.4g} ({v.mean() / truth - 1:+.1%})  sd {spread:.3g}  "
+            f"within 1 se {cover}/{len(v)}  se/sd {e.mean() / spread:.2f}  "
+            f"zero {int(np.sum(v == 0))}/{len(v)}")
+
+
+def main() -> None:
+    """Simulate, analyse and print the figures (module docstring)."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--first", type=int, default=28000)
+    args = parser.parse_args()
+    model = NoiseModel((AngleRandomWalk(N_deg_rt_h=TRUE_N), RateRandomWalk(K_deg_h_1_5=TRUE_K)))
+    got: dict[str, tuple[list[float], list[float]]] = {}
+    ambiguous = 0
+    start = time.perf_counter()
+    for seed in range(args.first, args.first + args.seeds):
+        rate = simulate(model, HOURS * 3600.0, RATE_HZ, seed=seed).rate_deg_s
+        axis = analyze_record(RateRecord(rate, RATE_HZ, ("x",)))[0]
+        fit = axis.fit
+        # the selection's reading: the alternative it preferred, where the sheet took K's
+        selected = next((a.fit for a in fit.alternatives
+                         if a.criterion_delta <= 0 and "K" not in a.fit.terms), fit)
+        ambiguous += bool(fit.alternatives)
+        g = gmwm_analysis(rate[:, 0], RATE_HZ, model="wn+rw").best
+        for name, value, err in (
+            ("sheet K", fit.values["K"], fit.stderr["K"]),
+            ("selected K", selected.values["K"], selected.stderr["K"]),
+            ("gmwm wn+rw K", g.values["rw_deg_h_rt_h"], g.stderr["rw_deg_h_rt_h"]),
+            ("sheet N", fit.values["N"], fit.stderr["N"]),
+            ("selected N", selected.values["N"], selected.stderr["N"]),
+            ("gmwm wn+rw N", g.values["wn_deg_rt_h"], g.stderr["wn_deg_rt_h"]),
+        ):
+            values, errors = got.setdefault(name, ([], []))
+            values.append(float(value or 0.0))
+            errors.append(float(err) if err is not None else float("nan"))
+        print(f"seed {seed}: terms {fit.terms}, K {fit.values['K']:.3g} +- "
+              f"{fit.stderr['K'] or float('nan'):.2g}; alternatives "
+              f"{[a.fit.terms for a in fit.alternatives]}", flush=True)
+    print(f"\nN {TRUE_N} deg/sqrt(h) + K {TRUE_K} deg/h^1.5, {HOURS:g} h at {RATE_HZ:g} Hz, "
+          f"seeds {args.first}-{args.first + args.seeds - 1}, "
+          f"{time.perf_counter() - start:.0f} s; ambiguous in {ambiguous}/{args.seeds}")
+    for name, (values, errors) in got.items():
+        truth = TRUE_K if name.endswith("K") else TRUE_N
+        print(_row(name, values, errors, truth))
+
+
+if __name__ == "__main__":
+    main()

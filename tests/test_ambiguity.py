@@ -1,0 +1,102 @@
+"""Readings a record cannot tell apart (issue 28): reported, graded safely, exported.
+
+The record: N 0.1 deg/sqrt(h) + K 1 deg/h^1.5, 6 h at 10 Hz (the issue's case), on a
+seed whose realised walk the term selection reads as a ramp (``N+R``, with ``N+K`` within
+its margin). The statistics over seeds are ``benchmarks/bench_ambiguity.py``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from analysis.ambiguity import AMBIGUITY_MARGIN
+from analysis.models import AngleRandomWalk, NoiseModel, RateRandomWalk
+from analysis.simulate import simulate
+from station.evaluation.analyze import analyze_record
+from station.evaluation.grading import Interval, grade_figure
+from station.evaluation.noise_parameters import axis_noise
+from station.evaluation.readings import Reading, alternative_readings, safe_verdict
+from station.model.profiles import parse_profile
+from station.model.records import RateRecord
+
+PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml"
+
+
+@pytest.fixture(scope="module")
+def ambiguous_axis():
+    model = NoiseModel((AngleRandomWalk(N_deg_rt_h=0.1), RateRandomWalk(K_deg_h_1_5=1.0)))
+    rate = simulate(model, 6 * 3600.0, 10.0, seed=508).rate_deg_s
+    return analyze_record(RateRecord(rate, 10.0, ("x",)))[0]
+
+
+def test_the_reading_with_k_is_printed_and_the_ramp_reading_named(ambiguous_axis):
+    fit = ambiguous_axis.fit
+    assert "K" in fit.terms and fit.values["K"] > 0
+    ramp = [a for a in fit.alternatives if "R" in a.fit.terms and "K" not in a.fit.terms]
+    assert ramp, "the ramp reading the selection preferred is not listed"
+    alt = ramp[0]
+    assert alt.fit.values["R"] > 0 and alt.fit.values["K"] == 0.0
+    # the selection preferred it, by less than the margin on one of the two criteria
+    assert alt.criterion_delta <= 0
+    assert (-alt.criterion_delta <= AMBIGUITY_MARGIN
+            or (alt.wavelet_criterion_delta is not None
+                and -alt.wavelet_criterion_delta >= -AMBIGUITY_MARGIN))
+    doc = ambiguous_axis.as_json()["fit"]
+    assert doc["alternatives"][0]["terms"] == alt.fit.terms
+    assert doc["alternatives"][0]["values"]["R_deg_h2"] == alt.fit.values["R"]
+    assert any("not told apart" in n for n in fit.notes)
+
+
+def test_export_writes_the_larger_k_and_names_the_alternative(ambiguous_axis):
+    noise = axis_noise(ambiguous_axis)
+    readings = [ambiguous_axis.fit.values["K"],
+                *(a.fit.values["K"] for a in ambiguous_axis.fit.alternatives)]
+    assert noise.rrw_deg_h_1_5 == pytest.approx(max(r for r in readings if r is not None))
+    source = (noise.sources or {})["rrw"]
+    assert "ambiguous" in source
+    assert ambiguous_axis.fit.alternatives[0].fit.terms in source
+
+
+def _rrw_profile(limit: float):
+    text = PROFILE.read_text().replace(
+        '[figures.rrw]\nunit = "deg/h^1.5"',
+        f'[figures.rrw]\nunit = "deg/h^1.5"\nlimits = {{ datasheet = {limit}, '
+        f'industrial = {limit} }}')
+    profile = parse_profile(text)
+    return profile, next(f for f in profile.figures if f.name == "rrw")
+
+
+def test_a_verdict_holds_for_every_reading(ambiguous_axis):
+    fit = ambiguous_axis.fit
+    z = 1.96
+    others = alternative_readings(fit, "K", z)
+    assert others and all(r.value == 0.0 for r in others)
+    k, err = fit.values["K"], fit.stderr["K"]
+    printed = Interval(k, max(k - z * err, 0.0), k + z * err)
+    # a limit just below the walk's lower bound: the printed reading fails it, the ramp
+    # reading (K 0, its bound above the limit) does not; together: indeterminate
+    assert printed.low is not None and printed.low > 0
+    limit = printed.low * 0.99
+    profile, spec = _rrw_profile(limit)
+    alone = grade_figure(spec, printed, profile)
+    both = grade_figure(spec, printed, profile, others)
+    assert set(alone.verdicts.values()) == {"fail"}
+    assert set(both.verdicts.values()) == {"indeterminate"}
+    assert "ambiguous" in both.note and both.as_json("datasheet")["alternatives"]
+    # above every reading: pass; the readings do not change a clear verdict
+    high = max(printed.high, others[0].high) * 1.1
+    profile, spec = _rrw_profile(high)
+    assert set(grade_figure(spec, printed, profile, others).verdicts.values()) == {"pass"}
+
+
+def test_safe_verdict_passes_or_fails_only_on_agreement():
+    assert safe_verdict(["pass", "pass"]) == "pass"
+    assert safe_verdict(["fail", "fail"]) == "fail"
+    assert safe_verdict(["pass", "fail"]) == "indeterminate"
+    assert safe_verdict(["pass", "indeterminate"]) == "indeterminate"
+    r = Reading("NR", 0.0, 0.0, 1.5)
+    assert r.as_json(0.5) == {"terms": "NR", "value": 0.0, "ci_low": 0.0, "ci_high": 3.0}
+    assert np.isfinite(r.high or np.nan)
