@@ -243,10 +243,11 @@ class RecordOutcome:
             return (f"the run stopped: {what}. {self.path} was removed with it, and what it "
                     f"held up to its last flush{flushed} ({kept}) is lost: find what removed "
                     f"it and record again into a folder that is kept")
-        todo = (f"run `station recover {self.path}` to close the file" if self.close_failed
-                else "the file is closed: grade or analyze it as it is")
-        if self.stop.reason.startswith("disk full"):
-            todo = f"free some space, then {todo}"
+        full = self.stop.reason.startswith("disk full")
+        todo = (("free some space, then " if full else "")
+                + f"run `station recover {self.path}` to close the file" if self.close_failed
+                else ("free some space before the next run; " if full else "")
+                + "the file is closed: grade or analyze it as it is")
         return (f"the run stopped: {what}. {self.path} keeps every sample up to its last "
                 f"flush{flushed}: {kept}{after}; {todo}")
 

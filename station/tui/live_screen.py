@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from rich.markup import escape
 from rich.text import Text
 from textual import events, work
 from textual.app import ComposeResult
@@ -181,7 +180,7 @@ class LiveScreen(Screen[None]):
         state = (
             "[b]stopped[/b]: " + snap.stop_reason
             if snap.stopped
-            else f"[b red]recorder gone[/b red]: {escape(self.recorder_gone)}"
+            else "[b red]recorder gone[/b red]: run `station recover` to close the file"
             if self.recorder_gone
             else "[b green]recording[/b green]"
         )
