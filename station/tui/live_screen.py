@@ -152,7 +152,7 @@ class LiveScreen(Screen[None]):
             self.process.exit_code()  # reap our recorder once it ends
         if gone and not self._told_abandoned:
             self._told_abandoned = True
-            self.notify(gone[0].upper() + gone[1:] + ", then open the spec sheet.",
+            self.notify(gone[0].upper() + gone[1:] + ".",
                         title="Recorder gone", severity="error", timeout=30)
         if snap.stopped and not self._told_stopped:
             self._told_stopped = True
@@ -180,7 +180,7 @@ class LiveScreen(Screen[None]):
         state = (
             "[b]stopped[/b]: " + snap.stop_reason
             if snap.stopped
-            else "[b red]recorder gone[/b red]: run `station recover` to close the file"
+            else "[b red]recorder gone[/b red]: run `station recover`"
             if self.recorder_gone
             else "[b green]recording[/b green]"
         )
