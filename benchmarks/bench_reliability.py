@@ -11,6 +11,14 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   so that a write fails.
 * ``disk full (small file system)``: where this process may mount one, a 24 MB tmpfs
   that another writer fills while the recorder runs (default reserve).
+* ``output folder removed``: the recorder's output folder removed 0.2-2 s after its run
+  file appears: the run must stop with exit status 3 and one line that says so.
+* ``device lost``: the unit's process (its reader and simulated device) killed with
+  SIGKILL 0.2-2 s after the file appears: exit status 3, one line, the file closed with
+  the reason ``device lost`` and the simulated signal in it.
+* ``recorder gone (watch)``: a recorder killed 0.2-2 s after its file appears; data lost
+  as for ``kill -9``, and ``station watch --json --once`` must say ``recorder_gone`` once
+  the flush interval plus 2 s have passed (the figure: seconds from the kill until it does).
 * ``fault matrix warp 1`` / ``warp 4``: five units over five transports with drops,
   corruption, outages and stalls (``tests/test_recorder_books.py``).
 * ``fault matrix overload``: six units over every protocol while two processes spin
@@ -37,8 +45,10 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   (none lost, none twice); errors: a grading listed as not stored (the outage is shorter
   than the 30 s retry bound).
 
-Printed per case: trials, data lost (max, s), books balanced, and errors that were not
-one clear line (a traceback, several lines, a crash, a hang, a file that does not open).
+Printed per case: trials, data lost (max, s), books balanced, errors that were not
+one clear line (a traceback, several lines, a crash, a hang, a file that does not open,
+a fault stop without exit status 3), and how long after a kill ``station watch`` said
+the recorder is gone (max, s).
 
 Run::
 
@@ -51,6 +61,7 @@ import argparse
 import os
 import random
 import resource
+import shutil
 import signal
 import subprocess
 import tempfile
@@ -59,8 +70,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from station.cli import main as station_main
+from station.commands.watch import status_json
 from station.model.documents import UnitTotals
 from station.recording.recorder import Recorder, RunConfig
+from station.services.record import EXIT_RUN_FAULT
 from station.storage.hdf5 import read_run
 from station.storage.hdf5_recover import recover_run
 from tests import sequence_kill
@@ -69,9 +82,11 @@ from tests.test_damaged_runs import _write_run
 from tests.test_recorder_books import UNITS, _at_warp
 from tests.test_recorder_helpers import (
     check_unit_against_signal,
+    child_pids,
     data_lost_s,
     start_recorder,
     summaries,
+    wait_for_file,
 )
 from tests.test_recorder_overload import record_overloaded
 
@@ -89,12 +104,14 @@ class Case:
     books_checked: int = 0
     bad_errors: list[str] = field(default_factory=list)
     kept: dict[str, list[int]] = field(default_factory=dict)  # damage -> [kept, committed]
+    told_after_s: list[float] = field(default_factory=list)
 
     def line(self) -> str:
         lost = f"{max(self.lost_s):.3f}" if self.lost_s else "-"
         books = f"{self.balanced}/{self.books_checked}" if self.books_checked else "-"
+        told = f"{max(self.told_after_s):.1f}" if self.told_after_s else "-"
         return (f"{self.name:34s}{self.trials:7d}{lost:>16s}{books:>16s}"
-                f"{len(self.bad_errors):>12d}")
+                f"{len(self.bad_errors):>12d}{told:>14s}")
 
 
 def _one_line(text: str) -> bool:
@@ -158,7 +175,7 @@ def _disk_full_outcome(case: Case, proc: subprocess.Popen, folder: Path, url: st
     stdout, stderr = proc.communicate(timeout=120)
     case.trials += 1
     message = "\n".join(line for line in stderr.splitlines() if not line.startswith("recording"))
-    if proc.returncode in (0, -signal.SIGSEGV, 139) or not _one_line(message):
+    if proc.returncode != EXIT_RUN_FAULT or not _one_line(message):
         case.bad_errors.append(f"rc {proc.returncode}: {message[:300]}")
         return
     path = next(folder.glob("*.h5"))
@@ -208,6 +225,63 @@ def tmpfs_trial(case: Case, tmp: Path, rng: random.Random) -> None:
         _disk_full_outcome(case, proc, mount, url)
     finally:
         subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def _stopped_by_fault(case: Case, proc: subprocess.Popen, expect: str) -> str:
+    """Count a fault stop that is not exit status 3 with one line naming ``expect``."""
+    _, stderr = proc.communicate(timeout=120)
+    case.trials += 1
+    message = "\n".join(line for line in stderr.splitlines() if not line.startswith("recording"))
+    if proc.returncode != EXIT_RUN_FAULT or not _one_line(message) or expect not in message:
+        case.bad_errors.append(f"rc {proc.returncode}: {message[:300]}")
+    return message
+
+
+def _recording(case: Case, tmp: Path, rng: random.Random, name: str) -> tuple:
+    folder = tmp / f"{name}{case.trials}" / "out"
+    url = URL.format(seed=300 + case.trials)
+    proc = start_recorder("--unit", url, "--duration", "1h", "--out", str(folder), "--quiet")
+    path = wait_for_file(folder)
+    time.sleep(rng.uniform(0.2, 2.0))
+    return proc, folder, path, url
+
+
+def folder_removed_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    proc, folder, _, _ = _recording(case, tmp, rng, "removed")
+    shutil.rmtree(folder)
+    _stopped_by_fault(case, proc, f"the output folder {folder} was removed")
+
+
+def device_lost_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    proc, _, path, url = _recording(case, tmp, rng, "device")
+    for server in child_pids(proc.pid):
+        for unit in child_pids(server):
+            os.kill(unit, signal.SIGKILL)
+    _stopped_by_fault(case, proc, "unit1 ended on an error")
+    try:
+        run = read_run(path)
+        if not run.stop_reason.startswith("device lost"):
+            case.bad_errors.append(f"{path}: stop reason {run.stop_reason}")
+        if run.units[0].record.n_samples:
+            check_unit_against_signal(path, "unit1", url)
+    except Exception as exc:  # noqa: BLE001
+        case.bad_errors.append(f"{path}: {type(exc).__name__}: {exc}"[:300])
+
+
+def gone_trial(case: Case, tmp: Path, rng: random.Random) -> None:
+    proc, _, path, _ = _recording(case, tmp, rng, "gone")
+    os.kill(proc.pid, signal.SIGKILL)
+    killed = time.monotonic()
+    killed_at = time.time()
+    proc.communicate(timeout=30)
+    case.trials += 1
+    case.lost_s.append(data_lost_s(path, killed_at))
+    while time.monotonic() - killed < 30.0:
+        if status_json(path)["recorder_gone"]:
+            case.told_after_s.append(time.monotonic() - killed)
+            return
+        time.sleep(0.1)
+    case.bad_errors.append(f"{path}: watch never said the recorder is gone")
 
 
 def matrix_trial(case: Case, tmp: Path, warp: int) -> None:
@@ -363,6 +437,9 @@ def main() -> None:
     rng = random.Random(args.seed)
     cases = {"kill -9": kill_trial, "disk full (file size limit)": fsize_trial,
              "disk full (small file system)": tmpfs_trial,
+             "output folder removed": folder_removed_trial,
+             "device lost": device_lost_trial,
+             "recorder gone (watch)": gone_trial,
              "fault matrix warp 1": lambda c, t, r: matrix_trial(c, t, 1),
              "fault matrix warp 4": lambda c, t, r: matrix_trial(c, t, 4),
              "fault matrix overload": lambda c, t, r: overload_trial(c, t),
@@ -372,7 +449,7 @@ def main() -> None:
     print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':34s}{'trials':>7s}{'data lost max s':>16s}{'books balanced':>16s}"
-          f"{'bad errors':>12s}")
+          f"{'bad errors':>12s}{'gone told s':>14s}")
     bad: list[str] = []
     for name, trial in cases.items():
         if args.only not in name:

@@ -110,5 +110,14 @@ class DiskSpaceError(RecorderError, OSError):
     reason = "disk full"
 
 
+class OutputLostError(RecorderError, FileNotFoundError):
+    """The run file or its folder was removed while recording (the run stops).
+
+    ``reason`` is the run's stop reason it stands for (``output lost: ...``).
+    """
+
+    reason = "output lost"
+
+
 class RunInProgressError(RecorderError):
     """A run file that a live recorder is still writing (``station recover`` refuses it)."""

@@ -26,6 +26,7 @@ from station.model.documents import (
     utc_now,
 )
 from station.model.runs import RunMetadata
+from station.services.record import EXIT_RUN_FAULT
 from station.storage.hdf5 import read_run, read_run_record
 from station.storage.hdf5_recover import lookup3
 from station.storage.hdf5_writer import RunFileWriter
@@ -182,7 +183,7 @@ def full_disk_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple]
 def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
         full_disk_runs: dict[str, tuple], name: str) -> None:
     code, stdout, stderr, path, url, before, stop_after_s, limit = full_disk_runs[name]
-    assert code == 1, stderr  # stopped on its own, reporting the failure
+    assert code == EXIT_RUN_FAULT, stderr  # stopped on its own, reporting the fault
     message = [line for line in stderr.splitlines() if not line.startswith("recording ")]
     assert len(message) == 1 and "disk full" in message[0], stderr  # one line, no traceback
     assert stop_after_s < 30.0

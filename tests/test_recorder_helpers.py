@@ -15,6 +15,7 @@ import h5py
 import numpy as np
 
 from devices.sim.signal import SignalSource
+from station.model.documents import utc_seconds
 from station.storage.hdf5 import open_run_file, read_unit, run_state
 
 #: Keys of one ``--json-summary`` object, exactly (issue 6, and the bounds of issue 21).
@@ -74,6 +75,21 @@ def assert_summary_books(obj: dict) -> None:
                  obj["samples_sent"], obj)
 
 
+def child_pids(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (Linux /proc): a recorder's forkserver, whose
+    children are the recorder's unit processes."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue  # ended meanwhile
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
 def wait_for_samples(folder: Path, min_samples: int, timeout_s: float = 60.0) -> Path:
     """The run file in ``folder`` once every unit has ``min_samples`` committed samples."""
     deadline = time.monotonic() + timeout_s
@@ -107,10 +123,10 @@ def data_lost_s(path: Path, killed_at_s: float) -> float:
     """Seconds of data a killed recorder lost: from its newest committed sample (or, with
     none, the start of its run) to the kill (``time.time()``), the largest over its
     units."""
-    from datetime import UTC, datetime
-
     def stamp(text: str) -> float:
-        return datetime.strptime(text, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=UTC).timestamp()
+        seconds = utc_seconds(text)
+        assert seconds is not None, text
+        return seconds
 
     lost = 0.0
     with open_run_file(path) as f:
@@ -125,12 +141,11 @@ def data_lost_s(path: Path, killed_at_s: float) -> float:
 
 def last_flush_age_s(path: Path, at_utc_s: float) -> float:
     """Seconds between the file's last flush and ``at_utc_s`` (a ``time.time()``)."""
-    from datetime import UTC, datetime
-
     with open_run_file(path) as f:
         stamp = run_state(f)["last_flush_utc"]
-    flushed = datetime.strptime(stamp, "%Y-%m-%dT%H:%M:%S.%fZ").replace(tzinfo=UTC)
-    return at_utc_s - flushed.timestamp()
+    flushed = utc_seconds(stamp)
+    assert flushed is not None, stamp
+    return at_utc_s - flushed
 
 
 def check_unit_against_signal(path: Path, unit_id: str, url: str) -> int:

@@ -14,8 +14,11 @@ of generated samples, null for hardware; it lies within ``samples_recorded`` plu
 and the high count of missing samples, which differ only where a counter's wrap count
 was not certain). Each unit runs in a process of its own; at the end the CPU time of each
 (reading, and its simulator) and of the recorder's process is printed (to stderr with
-``--json-summary``; not with ``--quiet``). A full disk stops the run with one message,
-exit status 1.
+``--json-summary``; not with ``--quiet``). A fault that stops the run early (a full
+disk or a failed write, the output folder or file removed, a unit's device or its
+process lost) ends with one line saying what happened, what the file kept (each unit's
+samples up to its last flush, the file, and ``station recover FILE`` if it needs
+closing) and exit status 3; input refused before anything is recorded is exit status 2.
 """
 
 from __future__ import annotations
@@ -127,26 +130,13 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print("\n".join(outcome.cpu_lines()),
               file=sys.stderr if args.json_summary else sys.stdout)
-    for unit_id, error in outcome.unit_errors:
-        print(f"station record: {unit_id} ended on an error: {error}", file=sys.stderr)
-    failed = bool(outcome.write_failure)
-    if not failed and outcome.stopped_early:
-        print(f"station record: the run stopped early ({outcome.stop.reason}); {outcome.path} "
-              f"is closed with every sample received: free some space before the next run",
-              file=sys.stderr)
-    if failed:
-        lost = ", ".join(f"{unit_id} {n}" for unit_id, n in outcome.uncommitted)
-        print(f"station record: {outcome.write_failure}. The run stopped; every sample "
-              f"committed before is intact (samples received or declared missing after "
-              f"that, not written: {lost}). Free some space, then run `station recover "
-              f"{outcome.path}`", file=sys.stderr)
+    message = outcome.fault_message()
+    if message:
+        print(f"station record: {message}", file=sys.stderr)
     if outcome.close_failed:
         # HDF5 could not close the file (a write failed on the full disk) and would try
         # again, and fail, at exit: leave now, as a killed recorder would (everything
         # committed is intact; `station recover` closes the file).
-        if not failed:
-            print(f"station record: {outcome.stop.reason}; the file could not be closed: run "
-                  f"`station recover {outcome.path}` once there is space", file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(outcome.exit_status)

@@ -3,10 +3,14 @@
 Prints, every ``--interval`` seconds, one line per unit: samples, sample rate, gaps and
 missing samples, CRC errors, reconnects, the unit time reached, the newest rate per axis
 (deg/s) and the mean of the last second; stops when the run stops (or on Ctrl-C).
+A run whose recorder is gone (no flush past its flush interval plus 2 s, and the
+recorder's process, named in the file with its station, not running) is said so, with
+what to do (``station recover RUN``), and the watch ends with exit status 3.
 ``--once`` prints the current state and exits. ``--json`` prints the state as one JSON object
 per refresh, one line each (``docs/json.md``): ``{"run", "state", "stop_utc", "stop_reason",
-"last_flush_utc", "units": [{"unit", "samples_recorded", "sample_rate_hz", "t_s", "gaps",
-"samples_missing_declared", "crc_errors", "reconnects", "newest_deg_s", "mean_1s_deg_s"}]}``.
+"last_flush_utc", "last_flush_age_s", "recorder_gone", "advice", "units": [{"unit",
+"samples_recorded", "sample_rate_hz", "t_s", "gaps", "samples_missing_declared",
+"crc_errors", "reconnects", "newest_deg_s", "mean_1s_deg_s"}]}``.
 """
 
 from __future__ import annotations
@@ -20,6 +24,8 @@ import numpy as np
 
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_output_units_argument, output_family, print_json
+from station.services.record import EXIT_RUN_FAULT
+from station.services.recorder_process import run_file_state
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
 
 
@@ -56,9 +62,15 @@ def status_json(path: Path) -> dict[str, object]:
                 "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
                 "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
             })
+    writer = run_file_state(path)
+    age = writer.flush_age_s() if state["state"] == "recording" else None
+    gone = writer.recorder_gone()
     return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
             "stop_reason": state.get("stop_reason"),
-            "last_flush_utc": state.get("last_flush_utc"), "units": units}
+            "last_flush_utc": state.get("last_flush_utc"),
+            "last_flush_age_s": None if age is None else round(age, 3),
+            "recorder_gone": gone, "advice": writer.gone_advice() if gone else None,
+            "units": units}
 
 
 def status_lines(path: Path) -> tuple[str, list[str]]:
@@ -76,8 +88,16 @@ def status_lines(path: Path) -> tuple[str, list[str]]:
                      f"({u['samples_missing_declared']} missing), CRC errors {u['crc_errors']}, "
                      f"reconnects {u['reconnects']}{values}")
     text = (f"stopped {doc['stop_utc']}: {doc['stop_reason']}" if doc["state"] == "stopped"
-            else f"recording, last flush {doc['last_flush_utc']}")
+            else f"RECORDER GONE, last flush {doc['last_flush_utc']}: {doc['advice']}"
+            if doc["recorder_gone"] else f"recording, last flush {doc['last_flush_utc']}")
     return text, lines
+
+
+def _exit_status(state: str) -> int | None:
+    """How the watch ends on ``state`` (a status line): None while the run goes on."""
+    if state.startswith("stopped"):
+        return 0
+    return EXIT_RUN_FAULT if state.startswith("RECORDER GONE") else None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -89,8 +109,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.run}: {state}")
         for line in lines:
             print("  " + line)
-        if args.once or state.startswith("stopped"):
-            return 0
+        end = _exit_status(state)
+        if end is not None or args.once:
+            return end or 0
         time.sleep(args.interval)
 
 
@@ -100,6 +121,8 @@ def run_json(args: argparse.Namespace) -> int:
         doc = status_json(args.run)
         print_json(doc, output_family(args))
         sys.stdout.flush()
+        if doc["recorder_gone"]:
+            return EXIT_RUN_FAULT
         if args.once or doc["state"] == "stopped":
             return 0
         time.sleep(args.interval)

@@ -24,10 +24,22 @@ from devices.protocols import DeviceDescription, Gap, MissingBounds, SampleBatch
 from station.model.kinds import LogKind, LogMethod
 from station.model.runs import RunMetadata
 
+#: How run documents and run files write a time: UTC, ISO 8601 with microseconds.
+UTC_FORMAT = "%Y-%m-%dT%H:%M:%S.%fZ"
+
 
 def utc_now() -> str:
     """The current time, UTC, ISO 8601 with microseconds (``2026-11-21T23:40:01.123456Z``)."""
-    return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+    return datetime.now(UTC).strftime(UTC_FORMAT)
+
+
+def utc_seconds(text: str) -> float | None:
+    """A time :func:`utc_now` wrote, as seconds since the epoch (``time.time()``); None
+    for text that is not one (an empty stamp)."""
+    try:
+        return datetime.strptime(text, UTC_FORMAT).replace(tzinfo=UTC).timestamp()
+    except ValueError:
+        return None
 
 
 @dataclass(frozen=True)

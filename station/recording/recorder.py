@@ -42,6 +42,7 @@ from station.model.version import software_version
 from station.recording.unit_process import UnitProcess
 from station.recording.unit_worker import ReadSettings
 from station.storage.hdf5 import (
+    REASON_DEVICE_LOST,
     REASON_DURATION,
     REASON_END_OF_REPLAY,
     bytes_per_sample,
@@ -364,12 +365,21 @@ class Recorder:
         self.engine_cpu_s = time.process_time() - cpu0
         self.wall_s = time.monotonic() - t0
         ended = [w.end for w in self.workers if w.end is not None]
-        self.stop_reason = self._stop_reason or (
+        self.stop_reason = self._stop_reason or self._device_lost() or (
             REASON_END_OF_REPLAY if ended and all(e.source_ended for e in ended)
             and len(ended) == len(self.workers) else REASON_DURATION)
         stop = RunStop(utc_now(), self.stop_reason, tuple(self._totals(w) for w in self.workers))
         self.dispatcher.emit(stop)
         return stop
+
+    def _device_lost(self) -> str:
+        """The stop reason of a run whose unit ended on an error (its device or its
+        process lost) before the run's end, "" if none did."""
+        lost = [w for w in self.workers if w.error]
+        if not lost:
+            return ""
+        return (f"{REASON_DEVICE_LOST}: " + "; ".join(f"{w.unit_id} ({w.error})"
+                                                      for w in lost))[:128]
 
     @staticmethod
     def _totals(w: UnitProcess) -> UnitTotals:

@@ -33,8 +33,13 @@ from station.recording.unit_process import cpu_cores
 #: The simulated unit a set-up adds when the profile names no simulation: a VG951 FOG at
 #: 10 Hz.
 DEFAULT_SIM_URL = "sim+serial://VG951?protocol=stim300&rate=10"
-#: Stop reasons of a run that ended early for want of disk space or a failed write.
-EARLY_STOPS = ("disk full", "write error")
+#: Stop reasons of a run that ended early on a fault: disk space, a failed write, the
+#: output folder or file removed, a unit's device (or its process) lost.
+EARLY_STOPS = ("disk full", "write error", "output lost", "device lost")
+#: Exit status of ``station record`` when the run stopped early on such a fault (the
+#: file, where it still exists, holds every sample up to its last flush); 2 stays for
+#: input the command refused before recording.
+EXIT_RUN_FAULT = 3
 
 
 @dataclass(frozen=True)
@@ -188,6 +193,9 @@ class RecordOutcome:
         Per unit, samples received or declared missing after the failure, not written.
     close_failed : bool
         HDF5 could not close the file (``station recover`` closes it).
+    last_flush_utc : str
+        When the last completed flush took its cut ("" if none did): every sample
+        received before it is in the file.
     """
 
     path: Path
@@ -200,16 +208,48 @@ class RecordOutcome:
     write_failure: str = ""
     uncommitted: tuple[tuple[str, int], ...] = ()
     close_failed: bool = False
+    last_flush_utc: str = ""
 
     @property
     def stopped_early(self) -> bool:
-        """The disk filled or a write failed before the run's end."""
+        """A fault stopped the run before its end (disk, output folder, a device)."""
         return self.stop.reason.startswith(EARLY_STOPS)
 
     @property
     def exit_status(self) -> int:
-        """1 when a unit ended on an error or the file is not whole, else 0."""
-        return 1 if self.write_failure or self.unit_errors or self.stopped_early else 0
+        """:data:`EXIT_RUN_FAULT` when a fault stopped the run, a unit ended on an error
+        or the file is not whole, else 0."""
+        faulty = self.write_failure or self.unit_errors or self.stopped_early
+        return EXIT_RUN_FAULT if faulty or self.close_failed else 0
+
+    def fault_message(self) -> str:
+        """One line for the operator when a fault stopped the run ("" otherwise): what
+        happened, what the file kept (samples per unit up to its last flush), and what
+        to do."""
+        if not (self.exit_status or self.close_failed):
+            return ""
+        what = self.write_failure or self.stop.reason
+        errors = "; ".join(f"{unit_id} ended on an error: {error}"
+                           for unit_id, error in self.unit_errors)
+        if errors and errors not in what:
+            what = f"{what}; {errors}" if self.write_failure else errors
+        kept = ", ".join(f"{t.unit_id} {u.samples_recorded} samples"
+                         for t, u in zip(self.stop.totals, self.units, strict=True))
+        flushed = f" ({self.last_flush_utc})" if self.last_flush_utc else ""
+        lost = ", ".join(f"{unit_id} {n}" for unit_id, n in self.uncommitted)
+        after = (f" (samples received or declared missing after that, not written: {lost})"
+                 if lost else "")
+        if not self.path.exists():
+            return (f"the run stopped: {what}. {self.path} was removed with it, and what it "
+                    f"held up to its last flush{flushed} ({kept}) is lost: find what removed "
+                    f"it and record again into a folder that is kept")
+        full = self.stop.reason.startswith("disk full")
+        todo = (("free some space, then " if full else "")
+                + f"run `station recover {self.path}` to close the file" if self.close_failed
+                else ("free some space before the next run; " if full else "")
+                + "the file is closed: grade or analyze it as it is")
+        return (f"the run stopped: {what}. {self.path} keeps every sample up to its last "
+                f"flush{flushed}: {kept}{after}; {todo}")
 
     def cpu_lines(self) -> list[str]:
         """CPU time per unit and of the recorder's own process (documents, HDF5), as
@@ -264,7 +304,7 @@ def _outcome(recorder: Recorder, stop: RunStop) -> RecordOutcome:
         tuple(UnitCpu(t.unit_id, t.cpu_s, t.reader_cpu_s) for t in stop.totals),
         recorder.wall_s, recorder.engine_cpu_s, failure,
         tuple((t.unit_id, writer.uncommitted(t.unit_id)) for t in stop.totals)
-        if failure else (), writer.close_failed)
+        if failure else (), writer.close_failed, writer.last_flush_utc)
 
 
 def record(request: RecordRequest, subscribers: Sequence[Subscriber] = (), *,

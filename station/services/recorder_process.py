@@ -28,6 +28,7 @@ from pathlib import Path
 
 from devices.protocols import DeviceDescription
 from station.errors import Problem, RecorderError, StationError
+from station.model.documents import utc_seconds
 from station.recording.recorder import run_file_path
 from station.services.record import (
     RecorderStatus,
@@ -229,15 +230,51 @@ def pid_alive(pid: int) -> bool:
     return stat.rsplit(")", 1)[-1].split()[0] != "Z"
 
 
+#: How far past its flush interval a run file's last flush may lag, s, before a reader
+#: that also finds the writer's process gone says that the recorder is gone.
+GONE_MARGIN_S = 2.0
+#: The flush interval assumed for a file that does not record its own (the longest
+#: allowed), s.
+LONGEST_FLUSH_INTERVAL_S = 1.0
+
+
 @dataclass(frozen=True)
 class RunFileState:
-    """What a run file says about its recorder."""
+    """What a run file says about its recorder: its state, the writer's pid and host,
+    when it last flushed and how often it flushes."""
 
     path: Path
     state: str
     writer_pid: int
     writer_here: bool
     stop_reason: str
+    station_host: str = ""
+    last_flush_utc: str = ""
+    flush_interval_s: float = LONGEST_FLUSH_INTERVAL_S
+
+    def flush_age_s(self, now_s: float | None = None) -> float | None:
+        """Seconds since the last flush (``now_s`` a ``time.time()``), None before one."""
+        flushed = utc_seconds(self.last_flush_utc)
+        return None if flushed is None else (time.time() if now_s is None else now_s) - flushed
+
+    def recorder_gone(self, *, margin_s: float = GONE_MARGIN_S,
+                      now_s: float | None = None) -> bool:
+        """Recording, no flush for longer than the flush interval plus ``margin_s``, and
+        the writer's process absent from this station (a recorder on another station:
+        False, that cannot be told from here)."""
+        age = self.flush_age_s(now_s)
+        return (self.state == "recording" and self.writer_here
+                and age is not None and age > self.flush_interval_s + margin_s
+                and not pid_alive(self.writer_pid))
+
+    def gone_advice(self, now_s: float | None = None) -> str:
+        """What the operator reads when :meth:`recorder_gone`: what happened, what is
+        safe and what to do."""
+        age = self.flush_age_s(now_s) or 0.0
+        return (f"the recorder is gone (pid {self.writer_pid} on {self.station_host} is not "
+                f"running, no flush for {age:.0f} s): the data up to its last flush "
+                f"({self.last_flush_utc}) are safe; run `station recover {self.path}` to "
+                f"close the file, then record the rest again")
 
     @property
     def recording(self) -> bool:
@@ -262,8 +299,9 @@ def run_file_state(path: Path) -> RunFileState:
         state = run_state(f)
         pid = int(f.attrs.get("writer_pid", -1))
         host = text_value(f.attrs.get("station_host", ""))
+        interval = float(f.attrs.get("flush_interval_s", LONGEST_FLUSH_INTERVAL_S))
     return RunFileState(path, state["state"], pid, host == socket.gethostname(),
-                        state["stop_reason"])
+                        state["stop_reason"], host, state["last_flush_utc"], interval)
 
 
 def find_active_runs(runs_dir: Path) -> list[Path]:

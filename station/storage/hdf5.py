@@ -44,6 +44,9 @@ FORMAT_VERSION = 1
 REASON_DURATION = "duration"
 #: Every unit was a replayed capture, and each reached its end before the duration.
 REASON_END_OF_REPLAY = "end of the replayed capture"
+#: A unit ended on an error (its device, or the process reading it, was lost) before
+#: the run's end; the units named follow it.
+REASON_DEVICE_LOST = "device lost"
 REASON_RECOVERED = "interrupted: the recorder stopped without closing the file (recovered)"
 
 #: Event-log rows. ``missing_low`` and ``missing_high`` (format 1 files written before

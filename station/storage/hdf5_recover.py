@@ -15,14 +15,15 @@ from __future__ import annotations
 
 import os
 import socket
+import time
 from dataclasses import dataclass, field
-from datetime import UTC, datetime
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from station.errors import RecordFormatError, RunInProgressError
+from station.model.documents import utc_seconds
 from station.storage.hdf5 import (
     REASON_RECOVERED,
     SAMPLE_DATASETS,
@@ -131,11 +132,8 @@ def _writer_alive(f: h5py.File, state: dict[str, str], stale_s: float) -> bool:
         os.kill(int(f.attrs.get("writer_pid", -1)), 0)
     except (OSError, ValueError):
         return False
-    try:
-        last = datetime.strptime(state["last_flush_utc"], "%Y-%m-%dT%H:%M:%S.%fZ")
-    except ValueError:
-        return True
-    return (datetime.now(UTC) - last.replace(tzinfo=UTC)).total_seconds() < stale_s
+    last = utc_seconds(state["last_flush_utc"])
+    return last is None or time.time() - last < stale_s
 
 
 def recover_run(path: str | Path, *, force: bool = False, stale_s: float = 10.0,

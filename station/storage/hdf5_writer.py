@@ -23,7 +23,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from station.errors import DiskSpaceError, RecorderError
+from station.errors import DiskSpaceError, OutputLostError, RecorderError
 from station.model.documents import (
     Descriptor,
     Document,
@@ -120,6 +120,9 @@ class RunFileWriter:
         #: Per unit, the counts of what was handed to the writer (committed or not).
         self.received: dict[str, UnitTally] = {}
         self._last_flush = time.monotonic()
+        #: When the last completed flush took its cut (UTC text): every sample handed to
+        #: the writer before it is committed; "" before the first.
+        self.last_flush_utc = ""
         self.flushes = 0
         self.stopped = False
         #: A write failed (a full disk): nothing more is written; the file is left open
@@ -173,7 +176,8 @@ class RunFileWriter:
         # it, so a full disk fails that call (not a flush later, nor a destructor).
         f = h5py.File(building, "w", libver="latest", rdcc_nbytes=0)
         try:
-            write_layout(f, self._start_doc, self._descriptors)
+            write_layout(f, self._start_doc, self._descriptors,
+                         flush_interval_s=self.flush_interval_s)
             f.flush()
             f.swmr_mode = True  # flushes the layout and marks the file for SWMR readers
             _link_into_place(building, self.path)
@@ -223,6 +227,8 @@ class RunFileWriter:
             raise self.failed
         f = self._h5()
         self._last_flush = time.monotonic()
+        cut = utc_now()  # every batch handed over before now is in this flush
+        self._check_kept(f)
         try:
             new = {uid: self._write_unit(f["units"][uid], batches)
                    for uid, batches in self._pending.items() if batches}
@@ -232,7 +238,7 @@ class RunFileWriter:
             for uid, counts in new.items():
                 f["units"][uid]["committed"][:] = counts
                 self._committed[uid] = counts
-            f["run_state"]["last_flush_utc", 0] = utc_now().encode()
+            f["run_state"]["last_flush_utc", 0] = cut.encode()
             f.flush()
             for uid in new:
                 for batch in self._pending[uid]:
@@ -246,13 +252,30 @@ class RunFileWriter:
             self.failed.reason = f"disk full: {why}" if why else f"write error: {_short(exc)}"
             raise self.failed from exc
         self.flushes += 1
-        left = writable_bytes(self.path)
+        self.last_flush_utc = cut
+        try:
+            left = writable_bytes(self.path)
+        except OSError:  # the folder went away: the next flush says so
+            return
         if left < self.reserve_bytes:
             error = DiskSpaceError(f"disk nearly full: {left / 1e6:.1f} MB left for "
                                    f"{self.path} (reserve {self.reserve_bytes / 1e6:.1f} MB)")
             error.reason = (f"disk full: disk nearly full, {left / 1e6:.1f} MB left "
                             f"(reserve {self.reserve_bytes / 1e6:.1f} MB)")
             raise error
+
+    def _check_kept(self, f: h5py.File) -> None:
+        """Raise :class:`OutputLostError` (and write nothing more) once the run file has
+        no name left: it, or its folder, was removed while the recorder held it open."""
+        if os.fstat(f.id.get_vfd_handle()).st_nlink > 0:
+            return
+        folder = self.path.parent
+        what = (f"the output folder {folder} was removed" if not folder.exists()
+                else f"the run file {self.path} was deleted")
+        self.failed = OutputLostError(f"{what} while recording")
+        self.failed.reason = ("output lost: folder removed" if not folder.exists()
+                              else "output lost: run file deleted")
+        raise self.failed
 
     def uncommitted(self, unit_id: str) -> int:
         """Samples of a unit handed to the writer, recorded or declared missing, but not
@@ -332,8 +355,10 @@ def _checked_dataset(g: h5py.Group, name: str, **kwargs: Any) -> h5py.Dataset:
     return g.create_dataset(name, fletcher32=True, **kwargs)
 
 
-def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> None:
-    """Root metadata, run state and every unit's group, datasets and markers."""
+def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor], *,
+                 flush_interval_s: float | None = None) -> None:
+    """Root metadata, run state and every unit's group, datasets and markers (with the
+    writer's ``flush_interval_s``, s, when given: how a reader tells a recorder gone)."""
     metadata = doc.metadata.as_attributes()
     metadata["station_host"] = metadata["station_host"] or socket.gethostname()
     meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "run_uid": doc.uid,
@@ -341,6 +366,9 @@ def write_layout(f: h5py.File, doc: RunStart, descriptors: list[Descriptor]) -> 
             "writer_pid": os.getpid(), "unit_ids": json.dumps(list(doc.unit_ids))}
     f.attrs.update(meta)
     f.attrs["duration_requested_s_units"] = "s"
+    if flush_interval_s is not None:
+        f.attrs["flush_interval_s"] = flush_interval_s
+        f.attrs["flush_interval_s_units"] = "s"
     # Fixed-size so they can be modified in place in SWMR mode and on a full disk.
     f.attrs.create("stop_utc", fixed_text("", 32))
     f.attrs.create("stop_reason", fixed_text("", 128))

@@ -91,6 +91,8 @@ class LiveScreen(Screen[None]):
         self._polling = False
         self._told_stopped = False
         self._told_abandoned = False
+        #: What the operator reads while the run's recorder is gone ("" while it records).
+        self.recorder_gone = ""
 
     def compose(self) -> ComposeResult:
         yield Header()
@@ -131,30 +133,27 @@ class LiveScreen(Screen[None]):
     def _read(self) -> None:
         try:
             snap = self.poller.poll()
-            abandoned = snap.state == "recording" and run_file_state(self.path).abandoned
+            writer = run_file_state(self.path)
+            gone = writer.gone_advice() if writer.recorder_gone() else ""
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             self.app.call_from_thread(self._failed, exc)
             return
-        self.app.call_from_thread(self._arrived, snap, abandoned)
+        self.app.call_from_thread(self._arrived, snap, gone)
 
     def _failed(self, exc: BaseException) -> None:
         self._polling = False
         self.notify(explain(exc, f"reading {self.path.name}"), severity="error", timeout=10)
 
-    def _arrived(self, snap: LiveSnapshot, abandoned: bool) -> None:
+    def _arrived(self, snap: LiveSnapshot, gone: str) -> None:
         self._polling = False
+        self.recorder_gone = gone
         self.snapshot = snap
         if self.process is not None:
             self.process.exit_code()  # reap our recorder once it ends
-        if abandoned and not self._told_abandoned:
+        if gone and not self._told_abandoned:
             self._told_abandoned = True
-            self.notify(
-                f"The recorder of {self.path.name} ended without closing the file "
-                f"(killed or crashed). The data up to its last flush are safe: run "
-                f"`station recover {self.path}`, then open the spec sheet.",
-                severity="error",
-                timeout=30,
-            )
+            self.notify(gone[0].upper() + gone[1:] + ".",
+                        title="Recorder gone", severity="error", timeout=30)
         if snap.stopped and not self._told_stopped:
             self._told_stopped = True
             if snap.stop_reason.startswith("disk full"):
@@ -181,6 +180,8 @@ class LiveScreen(Screen[None]):
         state = (
             "[b]stopped[/b]: " + snap.stop_reason
             if snap.stopped
+            else "[b red]recorder gone[/b red]: run `station recover`"
+            if self.recorder_gone
             else "[b green]recording[/b green]"
         )
         catching = "" if snap.caught_up else " (catching up with the file...)"
