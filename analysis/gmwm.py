@@ -14,13 +14,15 @@ estimate, and once more at the second (``steps``). When that matrix cannot be fa
 (or with ``weights="diagonal"``), its diagonal is used: the diagonal fallback.
 
 **Misspecified models.** A record of a million samples resolves the finest scales' WV
-to 0.1 %, better than any model of a real sensor holds (an anti-alias filter, the output
-quantization). With efficient weights such a model is then fitted through those scales at
-the price of every other, and the strongly correlated ``V`` can even put the fitted curve
-above all the data. When the J test below rejects the model (``p < REJECT_P``), its
-weights get a relative floor ``(model_error nu(theta))^2`` on the diagonal of ``V`` (2 %,
-the floor of the ``logwls`` Allan fit) and it is refitted; ``weights`` then ends in
-``"+floor"``. A model that holds keeps the efficient weights.
+to 0.1 %, better than any model of a real sensor holds (an anti-alias filter, quantization,
+a bias-instability plateau). When the J test below rejects the model (``p < REJECT_P``),
+the model-based ``V`` is not the covariance of ``nu_hat``: it grows with the fitted curve,
+so a wrong model that overshoots the long scales weights down the scales that contradict
+it (wn+ar1+rw on a bias-instability plateau: 30 times above the top scales). A rejected
+model is refitted with the first step's nonparametric variances plus a relative floor
+``(model_error nu_hat)^2`` (2 %, the ``logwls`` Allan fit's): ``"nonparametric+floor"``.
+A model that holds keeps the efficient weights (on records simulated from the model they
+recover it as well as the reference implementation's weights: ``bench_gmwm_sim``).
 
 **Solution.** For fixed correlation times the model is linear in its variance parameters,
 so M1 is a non-negative least-squares problem in them; a grid over the correlation times
@@ -113,8 +115,8 @@ class GmwmFit:
         P(chi2_dof >= J); NaN with no degree of freedom.
     weights : str
         ``"efficient"`` (full V), ``"diagonal"`` (its diagonal) or ``"reference"`` (the
-        V of another model, as in model selection); ``"+floor"`` when the model was
-        rejected and its weights floored (``model_error``).
+        V of another model, as in model selection); ``"nonparametric+floor"`` when the
+        model was rejected and refitted with the data's variances, floored (``model_error``).
     tau_s, wv, model_wv : ndarray
         Averaging times (s), empirical and fitted wavelet variance ((deg/s)^2).
     sample_rate_hz : float
@@ -539,8 +541,9 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         Two-sided level of the parameter intervals (default +-1 sigma).
     model_error : float
         Relative accuracy (of the WV) to which a model the J test rejects (p < ``REJECT_P``)
-        is trusted: its weights are then refitted with this floor (default 2 %, the floor of
-        the ``logwls`` Allan fit); 0 keeps the efficient weights whatever the fit.
+        is trusted: it is then refitted with the nonparametric variances plus this floor
+        (default 2 %, the floor of the ``logwls`` Allan fit); 0 keeps the efficient weights
+        whatever the fit.
 
     Returns
     -------
@@ -568,29 +571,25 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer
         x = problem.solve(previous=x, fresh=step == steps - 1)
     dof = len(wv.tau_s) - int(problem.free(x).sum())
-    if (
-        model_error > 0
-        and steps > 0
-        and dof > 0
-        and stats.chi2.sf(problem.objective(x), dof) < REJECT_P
-    ):
-        # the record resolves the scales better than the model holds: cap their weight
+    if model_error > 0 < steps and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
+        # the model does not hold: weights from the data, capped by the model error
         floor = model_error
-        for _ in range(max(steps, 1)):
-            v = weight_covariance(model, problem.theta(x), wv, floor)
-            used = problem.set_weights(v, diagonal=weights == "diagonal") + "+floor"
-            x = problem.solve(previous=x, fresh=True)
+        problem.set_weights(weight_covariance(model, problem.theta(x), wv, floor), diagonal=True)
+        used = "nonparametric+floor"
+        x = problem.solve(previous=x, fresh=True)
     return _finish(problem, x, used, confidence, floor)
 
 
 def weight_covariance(model: GmwmModel, params: NDArray[np.float64], wv: WaveletVariance,
                       model_error: float = 0.0) -> NDArray[np.float64]:
-    """``V`` of the weights: the model-based covariance of the WV (:mod:`analysis.gmwm_covariance`)
-    plus ``(model_error nu(theta))^2`` on the diagonal (the floor of a rejected model)."""
-    v = wv_covariance(model, params, wv.m, wv.n_samples, wv.sample_rate_hz)
+    """``V`` ((deg/s)^4) of the weights of a fit: the model-based covariance of the WV
+    (:mod:`analysis.gmwm_covariance`) at ``params`` for a model that holds
+    (``model_error == 0``); for a rejected one (``model_error > 0``, the relative floor) the
+    nonparametric variances of ``wv`` (diagonal) plus ``(model_error nu_hat)^2``."""
     if model_error > 0:
-        v = v + np.diag((model_error * model.wv(params, wv.tau_s, 1.0 / wv.sample_rate_hz)) ** 2)
-    return v
+        return np.diag(np.asarray(wv.variance, dtype=float)
+                       + (model_error * np.asarray(wv.wv, dtype=float)) ** 2)
+    return wv_covariance(model, params, wv.m, wv.n_samples, wv.sample_rate_hz)
 
 
 def gmwm_with_covariance(wv: WaveletVariance, model: GmwmModel | str, v: NDArray[np.float64], *,

@@ -21,7 +21,9 @@ deg/h^1.5):
 * the station's fit under R's scales and weights (``gmwm_with_covariance``): its objective
   should be at most R's (within 5 %);
 * the station's own fit (``station analyze --method gmwm --model wn+ar1+rw``: its efficient
-  weights, floored when the J test rejects the model).
+  weights, or the data's variances plus a 2 % floor when the J test rejects the model).
+
+Whether each estimator recovers a known model: ``benchmarks/bench_gmwm_sim.py``.
 
 Run from the repository root::
 
