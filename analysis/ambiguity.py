@@ -132,23 +132,52 @@ def resolve_ambiguity(
         return fit
     walk = min(walks, key=lambda s: crit[s])
     delta = crit[walk] - crit[chosen]
-    wic = (wavelet_criterion_delta(wavelet, chosen, walk) if wavelet is not None
-           and delta > margin else None)
+    wic = None if wavelet is None else wavelet_criterion_delta(wavelet, chosen, walk)
     if delta > margin and (wic is None or wic > margin):
         return fit
-    printed = refit(walk)
-    if printed is None or not (printed.values["K"] or 0.0) > 0:
+    other = refit(walk)
+    if other is None or not (other.values["K"] or 0.0) > 0:
         return fit
     gmwm = "" if wic is None else f", the GMWM's wavelet criterion {_signed(wic)}"
-    note = (
-        f"terms {walk} and {chosen} are not told apart by this record (information criterion "
-        f"of {walk} {_signed(delta)}{gmwm}): a rate random walk's realisation rises like a "
-        f"ramp or flattens like a bias instability over a few hours. Printed: the reading "
-        f"with K; the other is listed as an alternative, and a verdict takes the reading "
-        f"safe for its limit"
-    )
+    why = (f"terms {walk} and {chosen} are not told apart by this record (information "
+           f"criterion of {walk} {_signed(delta)}{gmwm}): a rate random walk's realisation "
+           f"rises like a ramp or flattens like a bias instability over a few hours")
+    # Printed: the reading with K (a dropped K is the figure a walk's realisation buys),
+    # except where the selection read the walk as a bias instability alone and the GMWM's
+    # criterion (the full covariance of the wavelet variance, which weighs the last
+    # octaves as little as they hold) prefers that: a flat Allan curve over the last
+    # octaves is a bias instability's, and a record of one is not to print a walk.
+    if wic is not None and wic >= 0 and "R" not in chosen:
+        note = (f"{why}. Printed: the reading without K, which the GMWM prefers; the reading "
+                f"with K is listed as an alternative, and a verdict takes the reading safe "
+                f"for its limit")
+        walk_alt = Alternative(other, delta, wic)
+        return replace(fit, notes=(note, *fit.notes), alternatives=(walk_alt,))
+    note = (f"{why}. Printed: the reading with K, its standard error widened by the chance "
+            f"that the other reading holds (the unconditional error over the two readings); "
+            f"the other is listed as an alternative, and a verdict takes the reading safe "
+            f"for its limit")
     back = Alternative(fit, -delta, None if wic is None else -wic)
-    return replace(printed, notes=(note, *printed.notes), criteria=crit, alternatives=(back,))
+    printed = replace(other, stderr=_unconditional_stderr(other, fit, delta))
+    return replace(printed, notes=(note, *other.notes), criteria=crit, alternatives=(back,))
+
+
+def _unconditional_stderr(printed: NoiseCoefficients, other: NoiseCoefficients,
+                          delta: float) -> dict[str, float | None]:
+    """Standard errors of ``printed`` that carry the choice between two readings: each
+    term's variance plus the other reading's weight times the squared difference of their
+    values (the unconditional variance of a model-averaging estimate; Akaike weights from
+    the criterion difference ``delta`` of ``printed`` minus ``other``)."""
+    weight = 1.0 / (1.0 + math.exp(min(delta, 50.0) / 2.0))  # of ``other``
+    out: dict[str, float | None] = {}
+    for term, err in printed.stderr.items():
+        a, b = printed.values.get(term), other.values.get(term)
+        if err is None or a is None:
+            out[term] = err
+            continue
+        shift = a - (b or 0.0)
+        out[term] = math.sqrt(err ** 2 + weight * shift ** 2)
+    return out
 
 
 def _signed(x: float) -> str:
