@@ -33,6 +33,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from analysis import blocks
 from analysis.allan import AllanResult
 from analysis.errors import AnalysisError, FitError
 from analysis.fit import TERMS, Alternative, NoiseCoefficients, fit_term_set
@@ -199,8 +200,12 @@ def resolve_for_rate(
 ) -> NoiseCoefficients:
     """:func:`resolve_ambiguity` with the wavelet variance of ``rate_deg_s`` (deg/s, NaN
     where missing when ``gaps``), computed only where the GMWM criterion is needed (K a
-    candidate the selection left out)."""
+    candidate the selection left out). A long record with gaps (:func:`analysis.blocks.is_long`)
+    has no block-wise wavelet variance: there the information criterion decides alone, so
+    that the memory a grading needs stays flat in the record's length."""
     wavelet = None
+    if gaps and blocks.is_long(len(rate_deg_s)):
+        return resolve_ambiguity(result, fit, None, exclude_tau_s=exclude_tau_s)
     if fit.method == "logwls" and "K" in fit.candidate_terms and "K" not in fit.terms:
         try:
             wavelet = haar_wavelet_variance(rate_deg_s, sample_rate_hz, gaps=gaps,
