@@ -72,7 +72,8 @@ def _rrw_profile(limit: float):
 
 def test_a_verdict_holds_for_every_reading(ambiguous_axis):
     fit = ambiguous_axis.fit
-    z = 1.96
+    z = 1.0  # one sigma: the printed K's error carries the other reading's chance, and its
+    # 95 % interval reaches 0 on this record
     others = alternative_readings(fit, "K", z)
     assert others and all(r.value == 0.0 for r in others)
     k, err = fit.values["K"], fit.stderr["K"]
