@@ -13,7 +13,8 @@ switched once every unit is read (the recorder's ``on_listening``), so its segme
 the turn-on. Durations count on the sequence's clock (a simulated fixture's warped time,
 else the station's).
 
-Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again: the
+Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again
+(:mod:`station.recording.sequence_resume`): the
 journal says which step was running; a segment left open by a killed recorder is closed
 (:func:`station.storage.hdf5_recover.recover_run`) and kept, marked interrupted; the supplies and
 the chamber are put back as the journal left them; the interrupted step runs for what
