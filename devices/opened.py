@@ -41,8 +41,12 @@ class SimControl(Protocol):
     def clear_faults(self) -> None:
         """Turn the injected faults off (a clean end of a run)."""
 
-    def stop_after(self, n_samples: int | None) -> None:
-        """Generate no sample beyond the first ``n_samples`` (the end of a run)."""
+    def stop_after(self, n_samples: int | None) -> int | None:
+        """Generate no sample beyond the first ``n_samples`` (the end of a run); returns
+        the count it ends on."""
+
+    def stop_in(self, duration_s: float | None) -> None:
+        """Generate no sample due after ``duration_s`` clock s from now (a run's end)."""
 
 
 class Simulator(Protocol):
@@ -140,9 +144,15 @@ class SimulatedDevice(OpenedDevice):
         """Turn the injected faults off."""
         self.core.clear_faults()
 
-    def finish_after(self, n_samples: int | None) -> None:
-        """Generate no sample beyond the first ``n_samples`` (None: go on)."""
-        self.core.stop_after(n_samples)
+    def finish_after(self, n_samples: int | None) -> int | None:
+        """Generate no sample beyond the first ``n_samples`` (None: go on); returns the
+        count it ends on (fewer where :meth:`finish_in`'s end comes first)."""
+        return self.core.stop_after(n_samples)
+
+    def finish_in(self, duration_s: float | None) -> None:
+        """Generate no sample due after ``duration_s`` of its clock from now (None: no
+        end)."""
+        self.core.stop_in(duration_s)
 
     def samples_sent(self) -> int:
         """Samples the simulated device has generated so far."""

@@ -63,6 +63,11 @@ class SerialConflictError(ResultsDatabaseError, ValueError):
     would let one unit's grading stand for another's, so it is not stored."""
 
 
+class SequenceError(StationError, RuntimeError):
+    """A sequence that cannot go on (a unit that does not turn on, a chamber that does not
+    settle, a supply that does not switch); the message says what to fix."""
+
+
 class RecorderError(StationError, RuntimeError):
     """A recording that cannot start or go on; the message says what to fix.
 

@@ -31,11 +31,11 @@ from station.services.sequence import (
 from station.storage.sequence_files import read_sequence
 
 RATE_HZ = 5.0
-WARP = 100.0
+WARP = 200.0
 #: Each unit's bias temperature coefficient, deg/h per degC.
 TEMPCO = 0.5
 SELF_HEATING_C = 1.0
-RECORD_S = 90.0
+RECORD_S = 60.0
 PLATEAUS_C = (25.0, 40.0, 10.0, 25.0)
 PROFILE = f"""name = "SEQKILL"
 version = "1"
@@ -56,9 +56,9 @@ steps = ["set_chamber 25", "wait_stable", "power_on", "record {RECORD_S:g}s",
          "set_chamber 40", "wait_stable", "record {RECORD_S:g}s",
          "set_chamber 10", "wait_stable", "record {RECORD_S:g}s",
          "set_chamber 25", "wait_stable", "record {RECORD_S:g}s", "power_off"]
-bias_after_s = 30
+bias_after_s = 20
 stable_band_c = 0.5
-stable_hold_s = 10
+stable_hold_s = 5
 plateau_span_c = 1.0
 [sequence.plateaus.figures.temperature_coefficient]
 unit = "deg/h/degC"
@@ -94,7 +94,7 @@ def main() -> int:
     profile, out, seed = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3])
     request = SequenceRequest("plateaus", profile, (unit_url(seed),), power=("sim",),
                               chamber="sim", out=out, chamber_log_s=10.0,
-                              fixture=SimFixtureSettings(chamber_tau_s=15.0, unit_tau_s=8.0,
+                              fixture=SimFixtureSettings(chamber_tau_s=8.0, unit_tau_s=5.0,
                                                          self_heating_c=SELF_HEATING_C))
     with prepare_sequence(request) as prepared:
         run = prepared.execute()

@@ -196,6 +196,7 @@ class SimCore:
         self._closers: list[Callable[[], None]] = []
         self._paused_at: float | None = None
         self._last_index: int | None = None
+        self._end_s: float | None = None
 
     def device_time(self) -> float:
         """Device clock, s since start (drifting by ``drift_ppm``)."""
@@ -277,8 +278,10 @@ class SimCore:
         self.faults = replace(self.faults, drop=0.0, corrupt=0.0, garbage=0.0,
                               disconnect_every_s=math.inf, stall_every_s=math.inf)
 
-    def stop_after(self, n_samples: int | None) -> None:
-        """Generate no sample beyond the first ``n_samples`` (None: no end).
+    def stop_after(self, n_samples: int | None) -> int | None:
+        """Generate no sample beyond the first ``n_samples`` (None: no end); returns the
+        sample count it ends on (``n_samples``, or fewer where :meth:`stop_in`'s end
+        comes first; None: no end).
 
         A run ends on a sample index, not on a hold: the device keeps its time line (a
         hold would put a silence in it that no counter shows), it just produces nothing
@@ -286,6 +289,24 @@ class SimCore:
         than the lateness allowance are lost, as a running gyro's would be.
         """
         self._last_index = n_samples
+        return self._final_index()
+
+    def stop_in(self, duration_s: float | None) -> None:
+        """Generate no sample due after ``duration_s`` clock seconds from now (None: no
+        end): a run's end on the device's own time line, however late the host reads it
+        or runs this simulator's thread (a starved reader finds the samples of the run,
+        never the ones of the time it overran). :meth:`stop_after` does not lift it."""
+        self._end_s = None if duration_s is None else self.clock() + duration_s
+
+    def _final_index(self) -> int | None:
+        """The sample count generation stops at (None: none set)."""
+        ends = [] if self._last_index is None else [self._last_index]
+        if self._end_s is not None:  # the samples whose periods end by then
+            scale = 1.0 + self.faults.drift_ppm * 1e-6
+            held = self.clock() - self._paused_at if self._paused_at is not None else 0.0
+            ends.append(max(0, int((self._end_s - self._origin_s - held) * scale
+                                   * self.sample_rate_hz)))
+        return min(ends) if ends else None
 
     def link_down(self) -> bool:
         """Whether the device is disconnected now."""
@@ -312,8 +333,9 @@ class SimCore:
         if self._holds:
             return []
         target = int(self.device_time() * self.sample_rate_hz)
-        if self._last_index is not None:
-            target = min(target, self._last_index)
+        final = self._final_index()
+        if final is not None:
+            target = min(target, final)
         if max_lag_s is not None:
             keep = max(1, int(max_lag_s * self.sample_rate_hz))
             self._skip(target - self.ledger.generated - keep)
@@ -334,8 +356,9 @@ class SimCore:
     def next_readings(self, n: int) -> list[Reading]:
         """``n`` more samples now, off the time schedule (SYNC-triggered measurements);
         none past :meth:`stop_after`'s end."""
-        if self._last_index is not None:
-            n = min(n, self._last_index - self.ledger.generated)
+        final = self._final_index()
+        if final is not None:
+            n = min(n, final - self.ledger.generated)
         return self._generate(n)
 
     def _generate(self, n: int) -> list[Reading]:

@@ -75,7 +75,8 @@ class LocalSimulator(Protocol):
 
 
 #: Operator controls and read-outs the parent may ask of the child's core.
-_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after"})
+_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after",
+                    "stop_in"})
 _READS = frozenset({"ledger", "history_start", "sample_rate_hz", "held"})
 
 
@@ -157,9 +158,14 @@ class RemoteSimCore:
         """Hold sampling (see :meth:`SimCore.pause`)."""
         self._ask("pause")
 
-    def stop_after(self, n_samples: int | None) -> None:
+    def stop_after(self, n_samples: int | None) -> int | None:
         """Generate no sample beyond the first ``n_samples`` (see :meth:`SimCore.stop_after`)."""
-        self._ask("stop_after", n_samples)
+        end: int | None = self._ask("stop_after", n_samples)
+        return end
+
+    def stop_in(self, duration_s: float | None) -> None:
+        """Generate no sample due after ``duration_s`` from now (see :meth:`SimCore.stop_in`)."""
+        self._ask("stop_in", duration_s)
 
     def resume(self) -> None:
         """Release the operator's hold (see :meth:`SimCore.resume`)."""

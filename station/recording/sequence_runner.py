@@ -13,7 +13,8 @@ switched once every unit is read (the recorder's ``on_listening``), so its segme
 the turn-on. Durations count on the sequence's clock (a simulated fixture's warped time,
 else the station's).
 
-Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again: the
+Stopped (Ctrl-C) or killed at any step, the sequence resumes when started again
+(:mod:`station.recording.sequence_resume`): the
 journal says which step was running; a segment left open by a killed recorder is closed
 (:func:`station.storage.hdf5_recover.recover_run`) and kept, marked interrupted; the supplies and
 the chamber are put back as the journal left them; the interrupted step runs for what
@@ -45,15 +46,15 @@ from typing import Protocol, TypeVar
 
 from devices.errors import DeviceError
 from devices.protocols import PowerSwitch, TemperatureChamber
-from station.errors import RecorderError, RecordFormatError, StationError
+from station.errors import RecorderError, RecordFormatError, SequenceError, StationError
 from station.model.documents import Subscriber, utc_now
 from station.model.profiles import Profile
 from station.model.runs import RunMetadata
 from station.model.sequence_runs import JournalEntry, JournalKind, Segment, SequenceRun
-from station.model.sequences import SequenceSpec, Step, plateau_record
+from station.model.sequences import SequenceSpec, Step
 from station.recording.recorder import Recorder, RunConfig
+from station.recording.sequence_resume import SequenceResume
 from station.storage.hdf5 import REASON_DURATION
-from station.storage.hdf5_recover import recover_run
 from station.storage.runs import open_run
 from station.storage.sequence_files import write_sequence
 
@@ -64,11 +65,8 @@ TICK_WALL_S = 0.05
 #: Attempts at each exchange with a supply switch or the chamber.
 DEVICE_ATTEMPTS = 3
 T = TypeVar("T")
-
-
-class SequenceError(StationError, RuntimeError):
-    """A sequence that cannot go on (a unit that does not turn on, a chamber that does not
-    settle, a supply that does not switch); the message says what to fix."""
+__all__ = ["SequenceClock", "SequenceConfig", "SequenceError", "SequenceRunner",
+           "new_sequence_run"]
 
 
 class SequenceClock(Protocol):
@@ -142,7 +140,7 @@ class _Stopped(Exception):
     """The operator asked the sequence to stop."""
 
 
-class SequenceRunner:
+class SequenceRunner(SequenceResume):
     """Runs (or resumes) one sequence.
 
     Parameters
@@ -181,15 +179,9 @@ class SequenceRunner:
         self._recorder: Recorder | None = None
         self._lock = threading.RLock()  # journal, and the chamber's one Modbus link
         self._last_chamber_log = -math.inf
-        #: Resumed into a turn-on record with the supplies found off: they are switched
-        #: on when its recorder listens, attributed to this power_on step.
-        self._deferred_power_on: Step | None = None
-        #: Resumed inside a temperature plateau: the step the chamber is settled again
-        #: before, and the plateau's record step, redone in full (None: none).
-        self._resettle_at: int | None = None
-        self._redo_step: int | None = None
-        #: When this resume switched a supply on again (sequence clock s; None: it did not).
-        self._restored_at: float | None = None
+        self._deferred_power_on = None  # the resume's marks (see SequenceResume)
+        self._resettle_at = self._redo_step = None
+        self._restored_at = None
 
     # -- the journal -----------------------------------------------------------------
     def _log(self, kind: JournalKind, step: Step | None = None, *, unit: str = "",
@@ -400,10 +392,6 @@ class SequenceRunner:
         self._log("setpoint", step, value=step.temperature_c, detail=self.chamber.describe())
         self._log_chamber(step, force=True)
 
-    def _setpoint(self) -> float | None:
-        points = [e.value for e in self.run.journal if e.kind == "setpoint"]
-        return points[-1] if points else None
-
     def _wait_stable(self, step: Step, done_s: float) -> float:
         """Wait until the air has stayed within the band of the set point for the hold time;
         returns the step's time so far (s)."""
@@ -547,73 +535,3 @@ class SequenceRunner:
                 self._log_chamber(step)
             except SequenceError:
                 return
-
-    # -- resuming --------------------------------------------------------------------
-    def _resume(self) -> None:
-        """Journal the interruption, close what a killed recorder left open, and put the
-        supplies and the chamber back as the journal left them."""
-        run = self.run
-        index = run.next_step()
-        if index < len(run.steps) and not any(e.kind == "interrupted" and e.step == index
-                                              and e.utc > self._last_resume_utc()
-                                              for e in run.journal):
-            step = run.steps[index]
-            self._log("interrupted", step, value=run.elapsed_s(index),
-                      detail=f"the station stopped during {step.label} without closing the "
-                             f"sequence (killed, or a crash)")
-        kept = []
-        for seg in run.segments:
-            path = Path(run.path).parent / seg.file
-            if not path.exists():
-                continue  # killed before the segment's file was made: nothing recorded
-            if seg.interrupted:
-                try:
-                    result = recover_run(path, force=True)
-                except (RecordFormatError, RecorderError) as exc:
-                    self._log("error", run.steps[seg.step], detail=f"{seg.file}: {exc}")
-                    continue
-                if result.salvaged_to:
-                    seg = dataclasses.replace(seg, file=str(
-                        Path(result.salvaged_to).relative_to(Path(run.path).parent)))
-            kept.append(seg)
-        with self._lock:
-            self.run = dataclasses.replace(self.run, segments=tuple(kept), state="running")
-        self._log("resume", detail=f"resumed at step {index + 1} of {len(run.steps)}")
-        self._restore(index)
-        plateau = plateau_record(self.run.steps, index) if self.chamber is not None else None
-        if plateau is not None:
-            self._resettle_at = index
-            turn_on = plateau.index > 0 and self.run.steps[plateau.index - 1].kind == "power_on"
-            # a turn-on record is redone only with its switch-on (supplies found off)
-            self._redo_step = None if turn_on else plateau.index
-
-    def _last_resume_utc(self) -> str:
-        return max((e.utc for e in self.run.journal if e.kind in ("resume", "start")), default="")
-
-    def _restore(self, index: int) -> None:
-        steps = self.run.steps
-        turn_on_next = (index < len(steps) and steps[index].kind == "record" and index > 0
-                        and steps[index - 1].kind == "power_on")
-        for unit, switch in zip(self.run.unit_ids, self.power, strict=True):
-            states = [e.kind for e in self.run.journal if e.unit == unit
-                      and e.kind in ("power_on", "power_off")]
-            want = bool(states) and states[-1] == "power_on"
-            try:
-                now_on = switch.is_powered()
-            except DeviceError as exc:
-                raise SequenceError(f"{unit}: its supply ({switch.describe()}) does not "
-                                    f"answer: {exc}") from exc
-            if want and not now_on and turn_on_next:
-                self._deferred_power_on = steps[index - 1]
-                continue  # the resumed record switches it on once it listens
-            if want != now_on:
-                wall = switch.set_power(want)
-                if want:
-                    self._restored_at = self.clock()
-                self._log("power_on" if want else "power_off", None, unit=unit, wall_s=wall,
-                          detail=f"restored on resume: {switch.describe()}")
-        target = self._setpoint()
-        if target is not None and self.chamber is not None:
-            with self._lock:
-                self.chamber.set_temperature(target)
-            self._log("setpoint", None, value=target, detail="restored on resume")

@@ -1,0 +1,57 @@
+"""A unit whose process the host starves across the end of its run (issue 29, item 3).
+
+A time-warped simulated unit (x20) is frozen (SIGSTOP: its reader and its simulator) from
+three quarters of its run to well past its end. A run ends at its duration on the unit's
+own time base: the simulator generates no sample due after it, so the record does not run
+on by the time the host overran (a 300 s step had run to ~510 s of device time), and the
+samples declared missing are the ones it generated and lost while frozen inside the run,
+never the ones of the time after it (1257 and 2095 had been declared against 0).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from pathlib import Path
+
+from station.recording.recorder import Recorder, RunConfig
+from station.storage.hdf5 import read_run
+from tests.test_recorder_helpers import assert_books
+
+RATE_HZ = 20.0
+WARP = 20.0
+DURATION_S = 40.0  # 2 s of wall time
+URL = f"sim+serial://MTI-630?protocol=xbus&rate={RATE_HZ:g}&warp={WARP:g}&seed=3"
+
+
+def test_a_unit_starved_past_its_end_records_its_duration_only(tmp_path: Path) -> None:
+    """Frozen from 30 s to about 70 s of its clock: the record ends by 40 s, the simulator
+    sent no more than 40 s of samples, and the books balance: what it sent is what was
+    recorded plus what was declared missing (at most the 10 s frozen inside the run)."""
+    recorder = Recorder(RunConfig((URL,), DURATION_S, tmp_path / "r.h5"))
+    recorder.prepare()
+    worker = recorder.workers[0]
+    assert worker.pid is not None
+
+    def starve() -> None:
+        threading.Event().wait(0.75 * DURATION_S / WARP)
+        os.kill(worker.pid, signal.SIGSTOP)  # type: ignore[arg-type]
+        try:
+            threading.Event().wait(2.0)  # 40 s of its clock: 30 s past its end
+        finally:
+            os.kill(worker.pid, signal.SIGCONT)  # type: ignore[arg-type]
+
+    freezer = threading.Thread(target=starve, daemon=True)
+    freezer.start()
+    stop = recorder.run()
+    freezer.join()
+    totals = stop.totals[0]
+    record = read_run(recorder.path).units[0].record
+    assert record.duration_s <= DURATION_S + 1.0 / RATE_HZ, record.duration_s
+    assert totals.samples_sent is not None
+    assert totals.samples_sent <= DURATION_S * RATE_HZ + 1, totals
+    assert totals.samples_missing_declared <= 0.25 * DURATION_S * RATE_HZ + 2, totals
+    assert_books(totals.samples_recorded, totals.samples_missing_low,
+                 totals.samples_missing_declared, totals.samples_missing_high,
+                 totals.samples_sent, totals)
