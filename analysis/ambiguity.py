@@ -28,14 +28,14 @@ and standard errors, so that a verdict can take the reading that is safe for a l
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from analysis.allan import AllanResult
 from analysis.errors import AnalysisError, FitError
-from analysis.fit import COEFFICIENT_NAMES, TERMS, NoiseCoefficients, fit_term_set
+from analysis.fit import TERMS, Alternative, NoiseCoefficients, fit_term_set
 from analysis.gmwm_models import GmwmModelError
 from analysis.gmwm_selection import select_model
 from analysis.wavelet import WaveletVariance, haar_wavelet_variance
@@ -47,46 +47,6 @@ AMBIGUITY_MARGIN = 4.0
 WALK_LOOKALIKES = "BR"
 #: The GMWM term of each IEEE term.
 GMWM_TERM = {"Q": "qn", "N": "wn", "B": "bi", "K": "rw", "R": "dr"}
-
-
-@dataclass(frozen=True)
-class Alternative:
-    """Another reading of the record, as good by its criteria as the one printed.
-
-    Attributes
-    ----------
-    fit : NoiseCoefficients
-        The reading: its terms, values and standard errors (data-sheet units).
-    criterion_delta : float
-        Its ``logwls`` information criterion minus the printed reading's (negative: the
-        term selection preferred it).
-    wavelet_criterion_delta : float or None
-        The same for the GMWM's wavelet information criterion; None where not computed.
-    """
-
-    fit: NoiseCoefficients
-    criterion_delta: float
-    wavelet_criterion_delta: float | None = None
-
-    def describe(self) -> str:
-        """One line: the terms and the values of the terms that differ from zero."""
-        shown = []
-        for t in self.fit.candidate_terms:
-            v, s = self.fit.values[t], self.fit.stderr[t]
-            if v is not None and v > 0:
-                shown.append(f"{t} {v:.3g}" + (f" +- {s:.2g}" if s is not None else ""))
-        return f"terms {self.fit.terms}: {', '.join(shown) or 'none above zero'}"
-
-    def as_dict(self) -> dict[str, object]:
-        """JSON form: ``terms``, ``values`` and ``stderr`` by coefficient name,
-        ``criterion_delta``, ``wavelet_criterion_delta``."""
-        return {
-            "terms": self.fit.terms,
-            "values": {COEFFICIENT_NAMES[t]: self.fit.values[t] for t in TERMS},
-            "stderr": {COEFFICIENT_NAMES[t]: self.fit.stderr[t] for t in TERMS},
-            "criterion_delta": self.criterion_delta,
-            "wavelet_criterion_delta": self.wavelet_criterion_delta,
-        }
 
 
 def _with_walk(terms: str, candidates: str) -> list[str]:

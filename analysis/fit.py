@@ -33,11 +33,11 @@ the formula errors ``s^2 (X^T X)^-1`` of eq. 7 and 14 assume independent values 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Literal
+from dataclasses import replace
+from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from scipy import optimize
 
 from analysis.allan import AllanResult
@@ -53,11 +53,9 @@ from analysis.fit_model import (
     full_beta,
     theoretical_avar,
 )
+from analysis.fit_result import Alternative, NoiseCoefficients
 from analysis.fit_select import select_terms
 from analysis.fit_uncertainty import LinearizedFit, value_covariance
-
-if TYPE_CHECKING:
-    from analysis.ambiguity import Alternative
 
 __all__ = [
     "BETA_FACTOR",
@@ -65,6 +63,7 @@ __all__ = [
     "DEFAULT_MODEL_ERROR",
     "FIT_METHODS",
     "FitMethod",
+    "Alternative",
     "NoiseCoefficients",
     "TAU_POWER",
     "TERMS",
@@ -85,98 +84,6 @@ OLS40_MAX_ERROR = 0.40
 DEFAULT_MODEL_ERROR = 0.02
 #: A model misfit above this relative size (beyond sampling) is named in the notes.
 NOTED_MISFIT = 0.01
-
-
-@dataclass(frozen=True)
-class NoiseCoefficients:
-    """Fitted noise-term coefficients in data-sheet units.
-
-    A coefficient is ``None`` when it was not a candidate or its variance term came out
-    negative (no physical meaning; ``negative_terms`` names those). A candidate term the
-    data do not resolve (``logwls`` leaves it out of the model) is ``0.0``, its standard
-    error then the coefficient at which its variance term would be one standard error of
-    the fit: an upper bound at 1 sigma, not a measurement.
-
-    Attributes
-    ----------
-    method : str
-        Fit method (see the module docstring).
-    terms : str
-        The terms in the fitted model, a subset of ``"QNBKR"``.
-    values : dict
-        ``{"Q": urad, "N": deg/sqrt(h), "B": deg/h, "K": deg/h^1.5, "R": deg/h^2}``,
-        ``None`` where not estimable.
-    stderr : dict
-        Standard error of each value in the same unit; ``None`` where it cannot be computed
-        honestly (``notes`` says why).
-    beta : ndarray, shape (5,)
-        The fitted variance coefficients of eq. 6 in base units ((deg/s)^2 s^p), NaN for
-        terms not fitted.
-    negative_terms : str
-        Terms whose fitted variance coefficient is negative.
-    n_points : int
-        Number of Allan variance values used.
-    iterations : int
-        Function evaluations of an iterative fit (1 for the linear ones).
-    candidate_terms : str
-        The terms asked for (``terms`` is the subset kept); default ``terms``.
-    notes : tuple of str
-        What a reader of the numbers should know: terms left out and why, the origin of
-        the standard errors, a model misfit.
-    criteria : dict
-        ``logwls`` with term selection: the information criterion of every subset of
-        ``candidate_terms`` tried (:mod:`analysis.fit_select`); empty otherwise.
-    alternatives : tuple of Alternative
-        Other readings of the same record that its criteria cannot tell from this one
-        (:mod:`analysis.ambiguity`); empty when the reading is unambiguous.
-    """
-
-    method: str
-    terms: str
-    values: dict[str, float | None]
-    stderr: dict[str, float | None]
-    beta: NDArray[np.float64]
-    negative_terms: str = ""
-    n_points: int = 0
-    iterations: int = field(default=1)
-    candidate_terms: str = ""
-    notes: tuple[str, ...] = ()
-    criteria: dict[str, float] = field(default_factory=dict)
-    alternatives: tuple[Alternative, ...] = ()
-
-    def model_avar(self, tau_s: ArrayLike) -> NDArray[np.float64]:
-        """Allan variance ((deg/s)^2) of the fitted model at ``tau_s`` (s), eq. 3.
-
-        Terms that were not fitted or came out negative contribute nothing.
-        """
-        tau = np.asarray(tau_s, dtype=float)
-        total = np.zeros_like(tau)
-        for i, term in enumerate(TERMS):
-            b = self.beta[i]
-            if np.isfinite(b) and b > 0:
-                total = total + b * tau ** TAU_POWER[term]
-        return total
-
-    def term_avar(self, term: str, tau_s: ArrayLike) -> NDArray[np.float64]:
-        """Allan variance ((deg/s)^2) of one fitted term at ``tau_s`` (s)."""
-        b = self.beta[TERMS.index(term)]
-        tau = np.asarray(tau_s, dtype=float)
-        return (b if np.isfinite(b) and b > 0 else 0.0) * tau ** TAU_POWER[term]
-
-    def as_dict(self) -> dict[str, object]:
-        """JSON form: ``method``, each ``<name>`` and ``<name>_stderr`` (null where not
-        estimable), ``negative_terms``, ``terms`` (the model's terms), ``notes`` and
-        ``alternatives`` (the other readings the record allows, docs/json.md)."""
-        out: dict[str, object] = {"method": self.method}
-        for term in TERMS:
-            name = COEFFICIENT_NAMES[term]
-            out[name] = self.values[term]
-            out[f"{name}_stderr"] = self.stderr[term]
-        out["negative_terms"] = list(self.negative_terms)
-        out["terms"] = self.terms
-        out["notes"] = list(self.notes)
-        out["alternatives"] = [a.as_dict() for a in self.alternatives]
-        return out
 
 
 def check_terms(terms: str) -> str:

@@ -16,7 +16,8 @@ from analysis.ambiguity import AMBIGUITY_MARGIN
 from analysis.models import AngleRandomWalk, NoiseModel, RateRandomWalk
 from analysis.simulate import simulate
 from station.evaluation.analyze import analyze_record
-from station.evaluation.grading import Interval, grade_figure
+from station.evaluation.figure_intervals import Interval
+from station.evaluation.grading import grade_figure
 from station.evaluation.noise_parameters import axis_noise
 from station.evaluation.readings import Reading, alternative_readings, safe_verdict
 from station.model.profiles import parse_profile

@@ -13,15 +13,8 @@ from analysis.noise import flicker_rate_noise, random_walk_rate_noise, white_rat
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s, rrw_deg_h_1_5_to_deg_s_1_5
 from station.cli import main
 from station.errors import ProfileError
-from station.evaluation.grading import (
-    FigureResult,
-    GradingError,
-    assign_grade,
-    decide,
-    grade_run,
-    match_axes,
-    regrade,
-)
+from station.evaluation.decision import GradingError, assign_grade, decide, match_axes
+from station.evaluation.grading import FigureResult, grade_run, regrade
 from station.model.profiles import FigureSpec, load_profile, parse_profile
 from station.storage.csv_records import write_csv_record
 from station.storage.runs import open_run

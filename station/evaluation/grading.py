@@ -28,28 +28,28 @@ profile without the device.
 from __future__ import annotations
 
 import math
-import re
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy import stats
 
-from analysis import blocks
-from analysis.confidence import chi2_interval
-from analysis.figures import bias_stability, review_notes
-from analysis.fit import NoiseCoefficients
-from analysis.partial_clusters import white_level
-from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
-from station.errors import RecordFormatError, StationError
+from analysis.figures import review_notes
+from analysis.readoffs import arw_readoff, bias_instability_readoff
+from analysis.units import DEG_FAMILY, UnitFamily
+from station.errors import RecordFormatError
 from station.evaluation.analyze import AxisAnalysis, analyze_record
+from station.evaluation.decision import (
+    GradingError,
+    assign_grade,
+    decide,
+    grade_rank,
+    match_axes,
+)
+from station.evaluation.figure_intervals import Interval, figure_interval, normal_quantile
 from station.evaluation.long_records import take_columns
 from station.evaluation.readings import (
-    FIT_TERM as _FIT_TERM,
     Reading,
     alternative_readings,
     fit_term,
@@ -57,13 +57,8 @@ from station.evaluation.readings import (
     safe_verdict,
 )
 from station.model.bench import Bench, bench_from_json
-from station.model.kinds import INDETERMINATE, Verdict
-from station.model.profiles import (
-    DEFAULT_FIGURE_SOURCE,
-    FigureSpec,
-    Profile,
-    bias_stability_average_s,
-)
+from station.model.kinds import Verdict
+from station.model.profiles import FigureSpec, Profile
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
 from station.model.sheet_header import SheetHeader
@@ -73,24 +68,8 @@ from station.storage.scratch import scratch_array
 if TYPE_CHECKING:
     from station.evaluation.sequence_grading import UnitSequence
 
-#: Batches of the batch-means interval of the bias.
-BIAS_BATCHES = 10
 #: Fewest samples left after the warm-up for grading to proceed.
 MIN_SAMPLES = 1000
-
-
-class GradingError(StationError, ValueError):
-    """A run that cannot be graded with a profile (too short, axes missing, ...)."""
-
-
-@dataclass(frozen=True)
-class Interval:
-    """A figure in its canonical unit with its two-sided confidence interval (None if unknown)."""
-
-    value: float | None
-    low: float | None
-    high: float | None
-    note: str = ""
 
 
 @dataclass(frozen=True)
@@ -267,164 +246,7 @@ class RunGrade:
         return doc
 
 
-# --- decision ------------------------------------------------------------------------------
-
-
-def decide(
-    value: float | None, low: float | None, high: float | None, limit: float, rule: str
-) -> Verdict:
-    """Verdict of one figure against an upper ``limit`` under a decision rule.
-
-    ``simple``: pass when the value is within the limit, else fail (the interval is
-    ignored). ``guard-banded``: pass when the upper confidence bound is within the limit,
-    fail when the lower bound is beyond it, indeterminate when the interval straddles it.
-    ``strict``: pass only when the upper bound is within the limit, fail otherwise.
-    A figure that could not be computed is indeterminate under every rule.
-    """
-    if value is None:
-        return INDETERMINATE
-    if rule == "simple":
-        return "pass" if value <= limit else "fail"
-    if high is None or low is None:
-        return INDETERMINATE
-    if high <= limit:
-        return "pass"
-    if rule == "strict" or low > limit:
-        return "fail"
-    return INDETERMINATE
-
-
-class Verdicted(Protocol):
-    """A graded figure: its verdict at each grade that limits it."""
-
-    @property
-    def verdicts(self) -> Mapping[str, str]: ...
-
-
-def assign_grade(figures: Sequence[Verdicted], grades: tuple[str, ...], reject: str
-                 ) -> tuple[str, str, str | None]:
-    """(grade, deciding grade, could_reach) of an axis from its figures' verdicts.
-
-    The grade is the best grade at which every limited figure passes; when none does and
-    some grade had no fail but an indeterminate verdict, the axis is ``indeterminate``;
-    otherwise it is ``reject``.
-    """
-    first_open: str | None = None
-    for grade in grades:
-        verdicts = [f.verdicts[grade] for f in figures if grade in f.verdicts]
-        if all(v == "pass" for v in verdicts):
-            return grade, grade, first_open
-        if "fail" not in verdicts and first_open is None:
-            first_open = grade
-    if first_open is not None:
-        return INDETERMINATE, first_open, None
-    return reject, grades[-1], None
-
-
-def grade_rank(grade: str, profile: Profile) -> int:
-    """Order of grades, best first: the profile's grades, then indeterminate, then reject."""
-    if grade in profile.grades:
-        return profile.grades.index(grade)
-    return len(profile.grades) + (0 if grade == INDETERMINATE else 1)
-
-
 # --- figures -------------------------------------------------------------------------------
-
-
-def _z(confidence: float) -> float:
-    return float(stats.norm.ppf(0.5 + confidence / 2))
-
-
-def _chi2_scaled(value: float, edf: float, confidence: float) -> tuple[float, float]:
-    """Interval of a deviation ``value`` whose variance has ``edf`` degrees of freedom."""
-    low, high = chi2_interval(1.0, edf, confidence)
-    return value * math.sqrt(float(low)), value * math.sqrt(float(high))
-
-
-def bias_interval(x: np.ndarray, confidence: float) -> Interval:
-    """``|mean|`` (deg/h) of the present samples of a rate record (deg/s; NaN where a
-    sample is missing) with its batch-means interval. A long record (a memmap) is read a
-    block at a time (:mod:`analysis.blocks`): the same numbers, bit for bit where it has
-    no gap."""
-    if blocks.is_long(len(x)):
-        mean = blocks.nan_mean(x) * S_PER_H
-        means = blocks.finite_batch_means(x, BIAS_BATCHES) * S_PER_H
-    else:
-        x = x[np.isfinite(x)]
-        mean = float(np.mean(x)) * S_PER_H
-        size = len(x) // BIAS_BATCHES
-        means = x[: size * BIAS_BATCHES].reshape(BIAS_BATCHES, size).mean(axis=1) * S_PER_H
-    half = float(stats.t.ppf(0.5 + confidence / 2, BIAS_BATCHES - 1)) * float(
-        np.std(means, ddof=1)) / math.sqrt(BIAS_BATCHES)
-    low, high = mean - half, mean + half
-    if low <= 0 <= high:
-        return Interval(abs(mean), 0.0, max(-low, high), "interval includes zero bias")
-    return Interval(abs(mean), min(abs(low), abs(high)), max(abs(low), abs(high)))
-
-
-def _readoff_interval(analysis: AxisAnalysis, name: str, confidence: float) -> Interval:
-    allan = analysis.allan
-    if name == "arw":
-        r = arw_readoff(allan, analysis.fit, zones=analysis.zones)
-        where = f"tau {r.tau_low_s:.3g}-{r.tau_high_s:.3g} s" if r.tau_low_s is not None else ""
-    else:
-        r = bias_instability_readoff(allan, zones=analysis.zones)
-        where = f"at tau {r.tau_low_s:.3g} s" if r.tau_low_s is not None else ""
-    if r.value is None:
-        return Interval(None, None, None, r.note)
-    scale = BIAS_INSTABILITY_FACTOR if name == "adev_min" else 1.0
-    low, high = r.interval(confidence)
-    assert low is not None and high is not None
-    return Interval(r.value * scale, low * scale, high * scale, r.note or where)
-
-
-def _fit_interval(fit: NoiseCoefficients, term: str, confidence: float) -> Interval:
-    value, err = fit.values[term], fit.stderr[term]
-    if value is None:
-        why = "negative variance term" if term in fit.negative_terms else "not fitted"
-        return Interval(None, None, None, f"not estimable ({why})")
-    if err is None or not math.isfinite(err):
-        return Interval(value, None, None, "no standard error")
-    half = _z(confidence) * err
-    return Interval(value, max(value - half, 0.0), value + half)
-
-
-def figure_interval(name: str, x: np.ndarray, analysis: AxisAnalysis, confidence: float, *,
-                    source: str = DEFAULT_FIGURE_SOURCE) -> Interval:
-    """A figure (canonical unit) with its interval from one axis' rate (deg/s) and analysis.
-
-    ``x`` is the rate the analysis worked on (:attr:`AxisAnalysis.rate_deg_s`: NaN where a
-    sample is missing, spikes removed, Earth rate taken off where the bench gives it).
-    ``source`` (``"read-off"`` or ``"fit"``) says where ``arw`` and ``bias_instability``
-    come from (the profile's ``[grading] figure_source``).
-    """
-    average_s = bias_stability_average_s(name)
-    if average_s is not None:
-        bs = bias_stability(x, analysis.sample_rate_hz, average_s,
-                            white_level=white_level(analysis.allan))
-        if bs.value_deg_h is None:
-            return Interval(
-                None, None, None, f"only {bs.n_averages} averages of {average_s:g} s, needs 3"
-            )
-        edf = bs.n_averages - 1 if bs.edf is None else bs.edf
-        low, high = _chi2_scaled(bs.value_deg_h, edf, confidence)
-        partial = (f", {bs.missing_share:.1%} of their samples missing, edf {edf:.3g}"
-                   if bs.missing_share else "")
-        return Interval(bs.value_deg_h, low, high, f"{bs.n_averages} averages{partial}")
-    if name == "bias":
-        b = bias_interval(x, confidence)
-        removed = analysis.figures.earth_rate_removed_deg_h
-        earth = (
-            "Earth rate not removed"
-            if removed is None
-            else f"Earth rate {removed:+.4g} deg/h removed"
-        )
-        return replace(b, note="; ".join(t for t in (b.note, earth) if t))
-    if name in ("arw", "bias_instability") and source == "fit":
-        return _fit_interval(analysis.fit, _FIT_TERM[f"{name}_fit"], confidence)
-    if name in ("arw", "bias_instability", "adev_min"):
-        return _readoff_interval(analysis, name, confidence)
-    return _fit_interval(analysis.fit, _FIT_TERM[name], confidence)
 
 
 def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
@@ -447,34 +269,6 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
 
 
 # --- runs ----------------------------------------------------------------------------------
-
-
-def _axis_token(name: str) -> str:
-    return re.split(r"[_\-. ]", name.lower())[-1]
-
-
-def match_axes(profile_axes: tuple[str, ...], record_axes: tuple[str, ...]) -> dict[str, int]:
-    """Column index of each profile axis in a record: by name, by last name token (``gyro_x``
-    is ``x``), or one to one when both have a single axis.
-
-    Raises
-    ------
-    GradingError
-        When an axis of the profile is not in the record.
-    """
-    out: dict[str, int] = {}
-    tokens = [_axis_token(a) for a in record_axes]
-    for axis in profile_axes:
-        if axis in record_axes:
-            out[axis] = record_axes.index(axis)
-        elif tokens.count(axis.lower()) == 1:
-            out[axis] = tokens.index(axis.lower())
-        elif len(profile_axes) == 1 and len(record_axes) == 1:
-            out[axis] = 0
-        else:
-            raise GradingError(f"the profile grades axis {axis!r}, the record has "
-                               f"{', '.join(record_axes)}")
-    return out
 
 
 def axis_review(analysis: AxisAnalysis, profile: Profile) -> tuple[str, ...]:
@@ -551,7 +345,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         x = analysis.rate_deg_s
         assert x is not None
-        z, source = _z(profile.confidence), profile.figure_source
+        z, source = normal_quantile(profile.confidence), profile.figure_source
         figures = tuple(
             grade_figure(
                 spec,

@@ -57,10 +57,10 @@ from analysis.turn_on import (
     warmup_curve,
 )
 from analysis.warmup import detect_warmup
-from station.evaluation.grading import INDETERMINATE, assign_grade, decide, match_axes
+from station.evaluation.decision import assign_grade, decide, match_axes
 from station.evaluation.sequence_cycles import SegmentView, unit_segments
 from station.evaluation.sequence_plateaus import Plateau, plateau_analyses, temperature_span_c
-from station.model.kinds import Verdict
+from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import Profile
 from station.model.sequence_runs import SequenceRun
 from station.model.sequences import SequenceFigureSpec, SequenceSpec

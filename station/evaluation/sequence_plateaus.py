@@ -6,7 +6,7 @@ test at stabilized temperatures). Beside the bias against temperature, each plat
 record tells how the noise changes with temperature: it is analysed as any record is
 (:func:`station.evaluation.analyze.analyze_record` with the profile's fit method), and its
 ARW and bias instability are read off with their intervals as grading reads them
-(:func:`station.evaluation.grading.figure_interval`: IEEE Std 952-1997 Annex C read-offs,
+(:func:`station.evaluation.figure_intervals.figure_interval`: IEEE Std 952-1997 Annex C read-offs,
 chi-square intervals on the edf of the Allan values, or the fitted N and B when the
 profile's ``figure_source`` is ``"fit"``).
 
@@ -30,7 +30,7 @@ from analysis.errors import AnalysisError
 from analysis.temperature_sensitivity import plateau_point
 from station.errors import RecordFormatError
 from station.evaluation.analyze import analyze_record
-from station.evaluation.grading import Interval, figure_interval
+from station.evaluation.figure_intervals import Interval, figure_interval
 from station.evaluation.sequence_cycles import SegmentView
 from station.model.profiles import Profile
 from station.model.sequences import SequenceSpec, Step

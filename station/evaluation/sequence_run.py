@@ -14,16 +14,11 @@ from dataclasses import replace
 from datetime import UTC, datetime
 
 from station.errors import RecordFormatError
-from station.evaluation.grading import (
-    INDETERMINATE,
-    GradingError,
-    RunGrade,
-    UnitGrade,
-    grade_rank,
-    grade_run,
-)
+from station.evaluation.decision import GradingError, grade_rank
+from station.evaluation.grading import RunGrade, UnitGrade, grade_run
 from station.evaluation.sequence_grading import grade_unit_sequence
 from station.model.bench import Bench, bench_from_json
+from station.model.kinds import INDETERMINATE
 from station.model.profiles import Profile
 from station.model.runs import RunInfo, UnitRun
 from station.model.sequence_runs import Segment, SequenceRun

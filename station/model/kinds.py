@@ -6,7 +6,7 @@ from typing import Literal, get_args
 
 from devices.protocols import EventKind, GapMethod
 
-#: The verdict of one figure against one limit (:func:`station.evaluation.grading.decide`).
+#: The verdict of one figure against one limit (:func:`station.evaluation.decision.decide`).
 Verdict = Literal["pass", "fail", "indeterminate"]
 VERDICTS: tuple[Verdict, ...] = get_args(Verdict)
 #: The grade (and verdict) of a unit whose figures' intervals straddle a limit.
