@@ -55,6 +55,12 @@ class DeviceDescription:
         ``"degC"`` and ``"s"``.
     settings : tuple of (str, str)
         Transport settings as text (port, baud, bus, address) for the run metadata.
+    accel_axes : tuple of str
+        Accelerometer axis names, in the column order of :attr:`SampleBatch.accel_m_s2`;
+        empty for a source that sends no accelerometer (a gyro, or an IMU whose protocol
+        here carries only its gyros).
+    accel_unit : str
+        Always ``"m/s^2"``: adapters convert from the wire unit (g, mg, counts).
     """
 
     model: str
@@ -71,6 +77,8 @@ class DeviceDescription:
     temperature_unit: str = "degC"
     time_unit: str = "s"
     settings: tuple[tuple[str, str], ...] = ()
+    accel_axes: tuple[str, ...] = ()
+    accel_unit: str = "m/s^2"
 
     @property
     def n_axes(self) -> int:
@@ -167,6 +175,9 @@ class SampleBatch:
         Link events since the previous batch (CRC errors, resyncs, reconnects).
     crc_errors : int
         Frames rejected for a bad CRC or checksum since the previous batch.
+    accel_m_s2 : ndarray, shape (n, n_accel_axes), or None
+        Specific force per accelerometer axis, m/s^2, one row per rate row (the same
+        datagram, counter and times); None when the source sends no accelerometer.
     """
 
     rate_deg_s: NDArray[np.float64]
@@ -180,8 +191,10 @@ class SampleBatch:
     crc_errors: int = 0
     units: tuple[tuple[str, str], ...] = field(
         default=(("rate_deg_s", "deg/s"), ("receive_time_s", "s"), ("device_time_s", "s"),
-                 ("temperature_c", "degC"), ("counter", "1"), ("status", "1")),
+                 ("temperature_c", "degC"), ("counter", "1"), ("status", "1"),
+                 ("accel_m_s2", "m/s^2")),
     )
+    accel_m_s2: NDArray[np.float64] | None = None
 
     def __len__(self) -> int:
         return int(self.counter.shape[0])

@@ -45,3 +45,10 @@ def test_every_docs_page_is_in_the_site_and_every_link_resolves() -> None:
     assert sorted(nav) == pages, "every page of docs/ in mkdocs.yml's nav, and no other"
     broken = [link for page in DOCS.rglob("*.md") for link in _broken_links(page)]
     assert broken == []
+
+
+def test_the_command_reference_is_the_live_help() -> None:
+    from tests.command_reference import PAGE, render
+
+    assert PAGE.read_text() == render(), (
+        "docs/reference/commands.md is stale: python -m tests.command_reference rewrites it")

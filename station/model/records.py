@@ -33,6 +33,11 @@ class RateRecord:
         ``sample_index[i] / sample_rate_hz`` s after the first, so ``sample_index[0]``
         is 0): samples missing in gaps are skipped indices. None for a record without
         gaps (the indices are then ``0 .. N - 1``).
+    accel_m_s2 : ndarray, shape (N, j), or None
+        Specific force per accelerometer axis in m/s^2, one row per row of
+        ``rate_deg_s`` (the same samples, times and gaps); None for a gyro-only record.
+    accel_axis_names : tuple of str
+        One name per column of ``accel_m_s2`` (empty without accelerometers).
     """
 
     rate_deg_s: NDArray[np.float64]
@@ -41,6 +46,8 @@ class RateRecord:
     source: str = ""
     temperature_c: NDArray[np.float64] | None = field(default=None)
     sample_index: NDArray[np.int64] | None = field(default=None)
+    accel_m_s2: NDArray[np.float64] | None = field(default=None)
+    accel_axis_names: tuple[str, ...] = ()
 
     @property
     def n_samples(self) -> int:
