@@ -7,7 +7,7 @@ it is what tests call directly.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,7 +44,9 @@ from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
 from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
+from analysis.accel import AccelFigures
 from station.errors import UsageError
+from station.evaluation.accel_axes import Quantity, accel_fit_dict, analyze_accel
 from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
@@ -174,6 +176,10 @@ class AxisAnalysis:
     zones: tuple[TauZone, ...] = ()
     curve: DeviationResult | None = None
     gmwm: GmwmSelection | None = None
+    #: What the axis measures; an accelerometer axis' series is in m/s^2 where a rate
+    #: axis' is in deg/s, and ``accel`` holds its figures.
+    quantity: Quantity = "rate"
+    accel: AccelFigures | None = None
 
     @property
     def shown(self) -> DeviationResult:
@@ -188,17 +194,25 @@ class AxisAnalysis:
         ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
         """
         c = self.shown
+        accel = self.accel
+        unit = ("m/s^2" if accel is not None else "deg/s") if c.unit != "angle" else (
+            "m/s" if accel is not None else "deg")
+        station_units = (_in_station_units(c) if accel is None else
+                         {f"adev{k}_{unit.replace('/', '_').replace('^', '')}": v.tolist()
+                          for k, v in (("", c.deviation), ("_ci_low", c.deviation_ci_low),
+                                       ("_ci_high", c.deviation_ci_high))})
         return {
             "name": self.name,
+            "quantity": self.quantity,
             "sample_rate_hz": self.sample_rate_hz,
             "n_samples": self.n_samples,
             "estimator": self.allan.estimator,
             "deviation": c.kind,
             "deviation_label": DEVIATION_LABELS[c.kind],
-            "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
+            "deviation_unit": unit,
             "tau_s": c.tau_s.tolist(),
             "adev": c.deviation.tolist(),
-            **_in_station_units(c),
+            **station_units,
             "adev_ci_low": c.deviation_ci_low.tolist(),
             "adev_ci_high": c.deviation_ci_high.tolist(),
             "n_clusters": c.n_clusters.tolist(),
@@ -209,8 +223,8 @@ class AxisAnalysis:
             "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace(
                 "deviation", "variance"
             ),
-            "fit": self.fit.as_dict(),
-            "figures": self.figures.as_dict(),
+            "fit": self.fit.as_dict() if accel is None else accel_fit_dict(self.fit.as_dict()),
+            "figures": self.figures.as_dict() if accel is None else accel.as_dict(),
             "gaps": self.gaps.as_json(),
             "outliers": self.outliers.as_json(),
             "tones": [t.as_dict() for t in self.tones],
@@ -295,7 +309,17 @@ def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
     return column.gridded(0, out=scratch_array((record.span_samples,)))
 
 
-def analyze_record(
+def analyze_record(record: RateRecord, *, bench: Bench | None = None,
+                   **options: Any) -> list[AxisAnalysis]:
+    """Every rate axis of ``record`` (:func:`analyze_rates`), then its accelerometer axes
+    through the same analysis in m/s^2 (:func:`station.evaluation.accel_axes.analyze_accel`:
+    no Earth rate; gravity off the bias). ``options`` are :func:`analyze_rates`'."""
+    rates = analyze_rates(record, bench=bench, **options) if record.axis_names else []
+    return rates + analyze_accel(record, bench,
+                                 lambda accel: analyze_rates(accel, bench=None, **options))
+
+
+def analyze_rates(
     record: RateRecord,
     *,
     estimator: Estimator = "overlapping",
