@@ -112,3 +112,35 @@ def accel_fit_dict(fit_json: dict[str, object]) -> dict[str, object]:
             value = out.pop(f"{old}{suffix}", None)
             out[f"{key}{suffix}"] = (value * factor if isinstance(value, float) else value)
     return out
+
+
+def _cell(value: float | None, digits: int = 4) -> str:
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def format_accel_table(axes: Sequence[AxisAnalysis]) -> str:
+    """A plain-text table of the accelerometer figures of ``axes`` (SI, bias in mg,
+    bias instability in ug), then each axis' notes."""
+    figs = [a.accel for a in axes if a.accel is not None]
+    rows = [
+        ("samples", [str(a.n_samples) for a in axes]),
+        ("bias, gravity removed [mg]", [_cell(f.accel_bias_mg) for f in figs]),
+        ("  gravity removed [m/s^2]", [_cell(f.gravity_removed_m_s2, 6) for f in figs]),
+        ("VRW read-off [m/s/sqrt(h)]", [_cell(f.vrw_m_s_rt_h) for f in figs]),
+        ("  as density [m/s^2/sqrt(Hz)]", [_cell(f.vrw_m_s2_rt_hz) for f in figs]),
+        ("bias instability read-off [ug]", [_cell(f.bias_instability_ug) for f in figs]),
+        ("  at tau [s]", [_cell(f.bias_instability_tau_s) for f in figs]),
+        ("fit VRW [m/s/sqrt(h)]", [_cell(f.vrw_fit_m_s_rt_h) for f in figs]),
+        ("fit bias instability [ug]", [_cell(f.bias_instability_fit_ug) for f in figs]),
+        ("fit accel. random walk [m/s/h^1.5]",
+         [_cell(f.acceleration_random_walk_m_s_h1_5) for f in figs]),
+    ]
+    width = max(len(label) for label, _ in rows)
+    col = max(14, *(len(a.name) for a in axes))
+    lines = ["accelerometers (the same Allan analysis in m/s^2)",
+             " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)]
+    lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals)
+              for label, vals in rows]
+    for a, f in zip(axes, figs, strict=True):
+        lines += [f"note ({a.name}): {n}" for n in f.notes]
+    return "\n".join(lines)

@@ -46,7 +46,12 @@ from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
 from analysis.accel import AccelFigures
 from station.errors import UsageError
-from station.evaluation.accel_axes import Quantity, accel_fit_dict, analyze_accel
+from station.evaluation.accel_axes import (
+    Quantity,
+    accel_fit_dict,
+    analyze_accel,
+    format_accel_table,
+)
 from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
@@ -463,7 +468,13 @@ def _range(taus: tuple[float | None, float | None]) -> str:
 
 def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -> str:
     """A plain-text table of the figures of every axis, units (of ``family``) in the first
-    column."""
+    column; accelerometer axes in a table of their own (SI, ``format_accel_table``)."""
+    accel = [a for a in axes if a.accel is not None]
+    axes = [a for a in axes if a.accel is None]
+    if not axes:
+        return format_accel_table(accel)
+    if accel:
+        return format_analysis(axes, family) + "\n\n" + format_accel_table(accel)
     rows: list[tuple[str, list[str]]] = []
     u, v = family.label, family.value
     fits = [a.fit for a in axes]

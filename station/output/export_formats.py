@@ -16,9 +16,10 @@ format                 file                        read by
 =====================  ==========================  ========================================
 
 Kalibr, OpenVINS and allan_variance_ros take one value per sensor: the largest over the
-axes (allan_variance_ros' own choice), each axis listed in a comment. The station
-characterizes gyros only: the accelerometer keys those tools also need are not written,
-and the header says so (a value we did not measure would be invented).
+axes (allan_variance_ros' own choice), each axis listed in a comment. A record with
+accelerometers (``ExportContext.accel``) gets the accelerometer keys too, in SI
+(:mod:`analysis.tool_units_accel`); a gyro-only record's files leave them out and the
+header says so (a value we did not measure would be invented).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from analysis.tool_units import AxisNoise, rate_rad_s
+from analysis.tool_units_accel import AccelNoise
 from station.errors import UsageError
 
 _ACCEL_NOTE = (
@@ -46,6 +48,8 @@ class ExportContext:
     method: str = "logwls"
     rostopic: str = "/imu0"
     earth_rate_removed: bool = False
+    #: The record's accelerometer axes (empty: a gyro-only record).
+    accel: tuple[AccelNoise, ...] = ()
 
     def origin(self) -> str:
         """``<file>[, unit <id>], <method> analysis``."""
@@ -101,6 +105,36 @@ def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
     ]
 
 
+def _accel_comments(accel: Sequence[AccelNoise]) -> list[str]:
+    return [
+        f"#   {a.name}: noise density {a.noise_density_m_s2_rt_hz:.6g} m/s^2/sqrt(Hz) "
+        f"(VRW {a.vrw_m_s_rt_h:.4g} m/s/sqrt(h)); random walk {a.random_walk_m_s3_rt_hz:.6g} "
+        f"m/s^3/sqrt(Hz) (K {a.accel_random_walk_m_s_h1_5:.4g} m/s/h^1.5)"
+        for a in accel
+    ]
+
+
+def _accel_lines(ctx: ExportContext, indent: str = "") -> list[str]:
+    """The accelerometer keys of Kalibr's noise model (the largest over the axes), or the
+    comment that says the record has none."""
+    if not ctx.accel:
+        return [f"{indent}# {_ACCEL_NOTE}"]
+    nd = max(ctx.accel, key=lambda a: a.noise_density_m_s2_rt_hz)
+    rw = max(ctx.accel, key=lambda a: a.random_walk_m_s3_rt_hz)
+    return [
+        _yaml("accelerometer_noise_density", nd.noise_density_m_s2_rt_hz,
+              f"m/s^2/sqrt(Hz), continuous time (axis {nd.name})", indent),
+        _yaml("accelerometer_random_walk", rw.random_walk_m_s3_rt_hz,
+              f"m/s^3/sqrt(Hz), continuous time (axis {rw.name})", indent),
+    ]
+
+
+def _header_note(ctx: ExportContext) -> list[str]:
+    return ([f"# {_ACCEL_NOTE}"] if not ctx.accel else
+            ["# accelerometers: the largest value over the axes is written; per axis:",
+             *_accel_comments(ctx.accel)])
+
+
 def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """Kalibr's ``imu.yaml``: ``gyroscope_noise_density`` (rad/s/sqrt(Hz)),
     ``gyroscope_random_walk`` (rad/s^2/sqrt(Hz)), ``rostopic``, ``update_rate`` (Hz)."""
@@ -108,11 +142,12 @@ def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     return "\n".join(
         [
             f"# Kalibr IMU noise parameters of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
-            "# the largest value over the axes is written; per axis:",
+            *_header_note(ctx),
+            "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
             "",
             *_gyro_lines(axes),
+            *(_accel_lines(ctx) if ctx.accel else []),
             "",
             _yaml("rostopic", ctx.rostopic, "the IMU topic: check it"),
             _yaml("update_rate", rate, "Hz, the record's sample rate (for the discrete values)"),
@@ -129,13 +164,14 @@ def openvins(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         [
             "%YAML:1.0 # OpenCV FileStorage header: OpenVINS reads this file with cv::FileStorage",
             f"# OpenVINS IMU noise parameters of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
+            *_header_note(ctx),
             "# intrinsics (Tw, R_IMUtoGYRO, Tg) are not written: the station does not "
             "calibrate them",
             "# the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
             "",
             "imu0:",
+            *(_accel_lines(ctx, "  ") if ctx.accel else []),
             *_gyro_lines(axes, "  "),
             _yaml("rostopic", ctx.rostopic, "the IMU topic: check it", "  "),
             _yaml("time_offset", 0.0, "s", "  "),
@@ -153,10 +189,11 @@ def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     return "\n".join(
         [
             f"# allan_variance_ros imu.yaml of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
-            "# per axis:",
+            *_header_note(ctx),
+            "# gyroscopes, per axis:",
             *_axis_comments(axes),
             "",
+            *(["#Accelerometer", *_accel_lines(ctx), ""] if ctx.accel else []),
             "#Gyroscope",
             *_gyro_lines(axes),
             "",
@@ -280,13 +317,15 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
 
 
 def json_format(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
-    """Every figure of every axis in both unit families (:meth:`AxisNoise.as_json`)."""
+    """Every figure of every gyro axis in both unit families (:meth:`AxisNoise.as_json`),
+    and of every accelerometer axis in SI (``accel_axes``, :meth:`AccelNoise.as_json`)."""
     body = {
         "source": ctx.source,
         "unit": ctx.unit,
         "method": ctx.method,
         "earth_rate_removed": ctx.earth_rate_removed,
         "axes": [a.as_json() for a in axes],
+        "accel_axes": [a.as_json() for a in ctx.accel],
     }
     return json.dumps(body, indent=2) + "\n"
 

@@ -1,0 +1,128 @@
+"""Accelerometer axes of an IMU record (issue 30): CSV columns, the same analysis in m/s^2,
+gravity off the bias, Kalibr's accelerometer keys, grading a velocity random walk.
+
+Golden data: the real ADIS16405 static recording of ``../shared/real-data`` (SMAC-Group's
+imudata, CC BY-NC-SA 4.0), gyro in deg/s and accelerometer in g, joined into one 6-column
+CSV; a 60 s slice keeps each test short. The independent reference is allantools' OADEV.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from analysis.accel import STANDARD_GRAVITY_M_S2, normal_gravity_m_s2, vertical_axis
+from station.cli import main
+from station.errors import RecordFormatError
+from station.services.export import ExportRequest, export_noise
+from station.services.records import RecordSource
+from station.storage.csv_records import read_csv_record
+
+REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
+GYRO = REAL_DATA / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
+ACCEL = REAL_DATA / "adis16405_imu1_accel_g_100hz.csv.gz"
+ROWS = 6_000  # 60 s at 100 Hz
+real = pytest.mark.skipif(not (GYRO.exists() and ACCEL.exists()),
+                          reason="../shared/real-data (ADIS16405 gyro and accel) is not beside "
+                                 "this checkout")
+
+
+def _rows(path: Path) -> list[str]:
+    with gzip.open(path, "rt") as fh:
+        lines = [line.strip() for line in fh if not line.startswith("#")]
+        return lines[: ROWS + 1]
+
+
+@pytest.fixture(scope="module")
+def imu_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The first 60 s of the ADIS16405 as one CSV: gyro_x,y,z (deg/s), accel_x,y,z (g)."""
+    path = tmp_path_factory.mktemp("imu") / "adis16405_imu.csv"
+    joined = [f"{g},{a}" for g, a in zip(_rows(GYRO), _rows(ACCEL), strict=True)]
+    path.write_text("\n".join(joined) + "\n")
+    return path
+
+
+def test_normal_gravity_matches_wgs84_and_falls_with_height() -> None:
+    # WGS-84 (NIMA TR8350.2 table 3.4): equator 9.7803253359, poles 9.8321849378 m/s^2
+    assert normal_gravity_m_s2(0.0) == pytest.approx(9.7803253359, abs=1e-9)
+    assert normal_gravity_m_s2(90.0) == pytest.approx(9.8321849378, abs=1e-8)
+    # free-air gradient about -3.086e-6 s^-2 near the surface
+    drop = normal_gravity_m_s2(45.0) - normal_gravity_m_s2(45.0, 1000.0)
+    assert drop == pytest.approx(3.086e-3, rel=0.01)
+    assert vertical_axis([0.01, -9.9, 0.2]) == 1
+
+
+def test_accel_units_convert_and_bad_units_refused(tmp_path: Path) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text("time,gyro_x,acc_z\n0,0.1,-1\n0.01,0.2,-1.5\n0.02,0.3,-0.5\n")
+    rec = read_csv_record(path, accel_units="mg")
+    assert rec.axis_names == ("gyro_x",) and rec.accel_axis_names == ("acc_z",)
+    assert rec.accel_m_s2 is not None
+    np.testing.assert_allclose(rec.accel_m_s2[:, 0], np.array([-1e-3, -1.5e-3, -0.5e-3])
+                               * np.float64(STANDARD_GRAVITY_M_S2))
+    with pytest.raises(RecordFormatError, match="'deg/s' is a rate unit"):
+        read_csv_record(path, accel_units="deg/s")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time,gyro_x,accel_x_deg_s\n0,0.1,1\n0.01,0.2,1\n")
+    with pytest.raises(RecordFormatError, match="accel_x_deg_s"):
+        read_csv_record(bad)
+
+
+def test_cli_refuses_unknown_accel_unit_in_one_line(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text("time,gyro_x,accel_x\n0,0.1,1\n0.01,0.2,1\n")
+    assert main(["analyze", str(path), "--accel-units", "furlong"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "'furlong'" in err
+
+
+def _oadev_at(x: np.ndarray, fs: float, tau_s: float) -> float:
+    import allantools
+
+    taus, adev, _, _ = allantools.oadev(x, rate=fs, data_type="freq", taus=[tau_s])
+    assert taus[0] == pytest.approx(tau_s)
+    return float(adev[0])
+
+
+@real
+def test_imu_csv_gives_six_axes_and_kalibr_in_each_tools_units(imu_csv: Path) -> None:
+    rec = read_csv_record(imu_csv, sample_rate_hz=100.0, accel_units="g")
+    assert rec.accel_m_s2 is not None
+    result = export_noise(ExportRequest(RecordSource(imu_csv, rate_hz=100.0, accel_units="g"),
+                                        "kalibr", out=Path("-")))
+    as_json = result.as_json()
+    quantities = [a["quantity"] for a in as_json["accel_axes"]]  # type: ignore[union-attr, index]
+    assert len(result.axes) == 3 and quantities == ["acceleration"] * 3
+    doc = yaml.safe_load(result.text)
+    # the white-noise level an independent estimator reads: sigma(tau) sqrt(tau) at 0.1 s,
+    # past the ADIS's output filter and, for the accelerometer, before its quantization
+    # dip (1-3 s), both where the white noise dominates
+    gyro_rad = np.deg2rad(rec.rate_deg_s)
+    gyro_n = max(_oadev_at(gyro_rad[:, i], 100.0, 0.1) * math.sqrt(0.1) for i in range(3))
+    accel_n = max(_oadev_at(rec.accel_m_s2[:, i], 100.0, 0.1) * math.sqrt(0.1)
+                  for i in range(3))
+    assert doc["gyroscope_noise_density"] == pytest.approx(gyro_n, rel=0.10)
+    assert doc["accelerometer_noise_density"] == pytest.approx(accel_n, rel=0.10)
+    assert "accelerometer_random_walk" in doc and "gyroscope only" not in result.text
+
+
+@real
+def test_analyze_json_names_quantity_and_takes_gravity_off(imu_csv: Path, tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture[str]
+                                                           ) -> None:
+    assert main(["analyze", str(imu_csv), "--rate", "100", "--accel-units", "g",
+                 "--terms", "NK", "--json"]) == 0
+    axes = json.loads(capsys.readouterr().out)["axes"]
+    assert [a["quantity"] for a in axes] == ["rate"] * 3 + ["acceleration"] * 3
+    z = axes[5]
+    assert z["figures"]["gravity_removed_m_s2"] == pytest.approx(-STANDARD_GRAVITY_M_S2)
+    # z reads about -1.017 g: what stays after -1 g is about -17 mg, far under 1 g
+    assert abs(z["figures"]["accel_bias_mg"]) < 50
+    assert z["figures"]["vrw_m_s_rt_h"] > 0 and z["deviation_unit"] == "m/s^2"
