@@ -150,7 +150,8 @@ def _interval(ci: tuple[float | None, float | None] | None, factor: float
     return None if ci is None else (_scaled(ci[0], factor), _scaled(ci[1], factor))
 
 
-def accel_figures(figures: SpecFigures, fit: NoiseCoefficients, *, gravity_removed_m_s2: float | None,
+def accel_figures(figures: SpecFigures, fit: NoiseCoefficients, *,
+                  gravity_removed_m_s2: float | None,
                   notes: Sequence[str] = ()) -> AccelFigures:
     """The accelerometer figures of an axis whose series (m/s^2) went through the gyro's
     :func:`analysis.figures.spec_figures` and fit.

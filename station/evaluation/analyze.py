@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from analysis import blocks
+from analysis.accel import AccelFigures
 from analysis.allan import (
     AllanResult,
     Estimator,
@@ -44,7 +45,6 @@ from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
 from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
-from analysis.accel import AccelFigures
 from station.errors import UsageError
 from station.evaluation.accel_axes import (
     Quantity,

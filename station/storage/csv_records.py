@@ -102,8 +102,8 @@ def read_csv_record(
     ------
     RecordFormatError
         Unknown unit (or a rate unit for the accelerometers), a column name that says a
-        rate unit on an accelerometer axis, no header, no axis column, unparsable or non-finite values,
-        irregular time stamps, or no way to know the sample rate.
+        rate unit on an accelerometer axis, no header, no axis column, unparsable or
+        non-finite values, irregular time stamps, or no way to know the sample rate.
     """
     path = Path(path)
     check_units(units, accel_units)
