@@ -83,6 +83,9 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
                 ]
                 cells = []
                 for n in names:
+                    if n not in rows:  # a rate figure on an accelerometer axis, or the reverse
+                        cells += [""] * len(PER_FIGURE)
+                        continue
                     r = rows[n]
                     cells += [
                         r.unit,
