@@ -163,3 +163,25 @@ def test_accel_limit_on_gyro_only_record_is_one_line_exit_2(
                  "--no-store"]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "accel_vrw" in err and "no accelerometer" in err
+
+
+def test_matlab_accelparams_of_white_accelerometer_noise(tmp_path: Path) -> None:
+    """White acceleration noise of density q (m/s^2/sqrt(Hz)) on a unit lying flat (z up,
+    +1 g plus a 2 mg bias): accelparams' NoiseDensity is q and its ConstantBias the 2 mg
+    with gravity taken off."""
+    rng = np.random.default_rng(11)
+    fs, n, q = 100.0, 20_000, 0.004
+    accel = rng.normal(0.0, q * math.sqrt(fs), size=(n, 3))
+    accel[:, 2] += STANDARD_GRAVITY_M_S2 * (1.0 + 2e-3)
+    gyro = rng.normal(0.0, 0.05, size=(n, 1))
+    path = tmp_path / "imu.csv"
+    np.savetxt(path, np.column_stack([gyro, accel]), delimiter=",", comments="",
+               header="gyro_x,accel_x,accel_y,accel_z")
+    result = export_noise(ExportRequest(RecordSource(path, rate_hz=fs), "matlab",
+                                        out=tmp_path / "p.json"))
+    params = json.loads(result.text)["accelparams"]
+    assert params["NoiseDensity"] == pytest.approx([q] * 3, rel=0.1)
+    bias = np.array(params["ConstantBias"])
+    assert bias[2] == pytest.approx(2e-3 * STANDARD_GRAVITY_M_S2, abs=5 * q * math.sqrt(fs / n))
+    assert "aparams = accelparams(" in export_noise(
+        ExportRequest(RecordSource(path, rate_hz=fs), "matlab", out=Path("-"))).text

@@ -167,7 +167,7 @@ def openvins(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             *_header_note(ctx),
             "# intrinsics (Tw, R_IMUtoGYRO, Tg) are not written: the station does not "
             "calibrate them",
-            "# the largest value over the axes is written; per axis:",
+            "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
             "",
             "imu0:",
@@ -228,10 +228,45 @@ _MATLAB_UNITS = {
 }
 
 
+def _accel_matlab_values(accel: Sequence[AccelNoise]) -> dict[str, list[float]]:
+    """accelparams' fields in its units (m/s^2/sqrt(Hz), m/s^2, (m/s^2) sqrt(Hz), m/s^2)."""
+    missing = [a.name for a in accel if a.bias_instability_m_s2 is None]
+    if missing:
+        raise UsageError(
+            f"no bias instability for accelerometer axis {', '.join(missing)}: MATLAB's "
+            f"BiasInstability needs one (record longer)"
+        )
+    return {
+        "NoiseDensity": [a.noise_density_m_s2_rt_hz for a in accel],
+        "BiasInstability": [a.bias_instability_m_s2 or 0.0 for a in accel],
+        "RandomWalk": [a.random_walk_m_s3_rt_hz for a in accel],
+        "ConstantBias": [a.accel_bias_mg * 1e-3 * 9.80665 for a in accel],
+    }
+
+
+_ACCEL_MATLAB_UNITS = {
+    "NoiseDensity": "(m/s^2)/sqrt(Hz)",
+    "BiasInstability": "m/s^2 (sigma_min / 0.664)",
+    "RandomWalk": "(m/s^2)*sqrt(Hz)",
+    "ConstantBias": "m/s^2 (gravity removed)",
+}
+
+
+def _matlab_call(name: str, function: str, values: dict[str, list[float]]) -> list[str]:
+    lines = [f"{name} = {function}( ..."]
+    fields = list(values)
+    for i, k in enumerate(fields):
+        v = values[k]
+        text = repr(v[0]) if len(v) == 1 else "[" + " ".join(repr(x) for x in v) + "]"
+        lines.append(f"    '{k}', {text}{', ...' if i < len(fields) - 1 else ');'}")
+    return lines
+
+
 def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """A MATLAB script that builds ``params = gyroparams(...)`` with ``NoiseDensity``,
     ``BiasInstability``, ``RandomWalk`` and ``ConstantBias``, each a scalar (one axis) or
-    a 1x3 row vector (x, y, z), in gyroparams' units."""
+    a 1x3 row vector (x, y, z), in gyroparams' units; with accelerometers also
+    ``aparams = accelparams(...)`` with the same fields in SI."""
     values = _matlab_values(axes)
     earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
     lines = [
@@ -239,12 +274,13 @@ def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         f"% axes: {', '.join(a.name for a in axes)}; units as gyroparams expects them:",
     ]
     lines += [f"%   {k}: {u}" for k, u in _MATLAB_UNITS.items()]
-    lines += [f"% ConstantBias is the record's mean rate ({earth})", "params = gyroparams( ..."]
-    fields = list(values)
-    for i, k in enumerate(fields):
-        v = values[k]
-        text = repr(v[0]) if len(v) == 1 else "[" + " ".join(repr(x) for x in v) + "]"
-        lines.append(f"    '{k}', {text}{', ...' if i < len(fields) - 1 else ');'}")
+    lines += [f"% ConstantBias is the record's mean rate ({earth})"]
+    lines += _matlab_call("params", "gyroparams", values)
+    if ctx.accel:
+        lines += [f"% accelparams of the accelerometer axes "
+                  f"{', '.join(a.name for a in ctx.accel)}; units:"]
+        lines += [f"%   {k}: {u}" for k, u in _ACCEL_MATLAB_UNITS.items()]
+        lines += _matlab_call("aparams", "accelparams", _accel_matlab_values(ctx.accel))
     return "\n".join(lines) + "\n"
 
 
@@ -258,13 +294,18 @@ def matlab_json(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         "source": ctx.origin(),
         "earth_rate_removed": ctx.earth_rate_removed,
     }
+    if ctx.accel:
+        body["accelparams"] = {**_accel_matlab_values(ctx.accel), "units": _ACCEL_MATLAB_UNITS,
+                               "axes": [a.name for a in ctx.accel]}
     return json.dumps(body, indent=2) + "\n"
 
 
 def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """A Python module defining ``gyro_err``, gnss-ins-sim's gyro keys: ``gyro_b`` (deg/h),
     ``gyro_arw`` (deg/sqrt(h)), ``gyro_b_stability`` (deg/h) and, where a Gauss-Markov
-    term exists, ``gyro_b_corr`` (s; the Gauss-Markov sigma then is ``gyro_b_stability``)."""
+    term exists, ``gyro_b_corr`` (s; the Gauss-Markov sigma then is ``gyro_b_stability``);
+    with three accelerometer axes ``imu_err``, those and ``accel_b`` (m/s^2, gravity
+    removed), ``accel_vrw`` (m/s/sqrt(h)), ``accel_b_stability`` (m/s^2, B)."""
 
     def arr(xs: Sequence[float]) -> str:
         return (
@@ -294,10 +335,13 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             )
     earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
     lines = [
-        f"# gnss-ins-sim gyro error parameters of {ctx.origin()}",
-        "# gyroscope only: merge with your accelerometer's before use, e.g.",
-        "#   imu = imu_model.IMU(accuracy={**gyro_err, 'accel_b': ..., 'accel_vrw': ...,",
-        "#                                 'accel_b_stability': ...}, axis=6)",
+        f"# gnss-ins-sim {'IMU' if len(ctx.accel) == 3 else 'gyro'} error parameters of "
+        f"{ctx.origin()}",
+        *(["# gyroscope only: merge with your accelerometer's before use, e.g.",
+           "#   imu = imu_model.IMU(accuracy={**gyro_err, 'accel_b': ..., 'accel_vrw': ...,",
+           "#                                 'accel_b_stability': ...}, axis=6)"]
+          if len(ctx.accel) != 3 else
+          ["# gyroscopes and accelerometers: imu_model.IMU(accuracy=imu_err, axis=6)"]),
         f"# axes: {', '.join(a.name for a in axes)}",
         *(f"#   {h}" for h in how),
         "import numpy as np",
@@ -313,6 +357,18 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             f"    'gyro_b_corr': {arr(corr)},  # s (inf: no Gauss-Markov term on that axis)"
         )
     lines += ["}", ""]
+    if len(ctx.accel) == 3:
+        values = _accel_matlab_values(ctx.accel)  # the same SI figures (B checked there)
+        lines += [
+            "imu_err = {",
+            "    **gyro_err,",
+            f"    'accel_b': {arr(values['ConstantBias'])},  # m/s^2, the mean, gravity removed",
+            f"    'accel_vrw': {arr([a.vrw_m_s_rt_h for a in ctx.accel])},  # m/s/sqrt(h)",
+            f"    'accel_b_stability': {arr(values['BiasInstability'])},"
+            "  # m/s^2, B = sigma_min / 0.664",
+            "}",
+            "",
+        ]
     return "\n".join(lines)
 
 
