@@ -78,6 +78,11 @@ class AccelNoise:
         return self.accel_random_walk_m_s_h1_5 / S_PER_H_1_5
 
     @property
+    def accel_bias_m_s2(self) -> float:
+        """The bias (gravity removed) in m/s^2."""
+        return self.accel_bias_mg * 1e-3 * STANDARD_GRAVITY_M_S2
+
+    @property
     def bias_instability_m_s2(self) -> float | None:
         """B in m/s^2 (None: not measured)."""
         b = self.bias_instability_ug
@@ -100,5 +105,5 @@ class AccelNoise:
             "accel_random_walk_m_s_h1_5": self.accel_random_walk_m_s_h1_5,
             "random_walk_m_s3_rt_hz": self.random_walk_m_s3_rt_hz,
             "accel_bias_mg": self.accel_bias_mg,
-            "accel_bias_m_s2": self.accel_bias_mg * 1e-3 * STANDARD_GRAVITY_M_S2,
+            "accel_bias_m_s2": self.accel_bias_m_s2,
         }

@@ -19,7 +19,7 @@ import yaml
 
 from analysis.accel import STANDARD_GRAVITY_M_S2, normal_gravity_m_s2, vertical_axis
 from station.cli import main
-from station.errors import RecordFormatError
+from station.errors import BenchError, RecordFormatError
 from station.services.export import ExportRequest, export_noise
 from station.services.records import RecordSource
 from station.storage.csv_records import read_csv_record
@@ -185,3 +185,23 @@ def test_matlab_accelparams_of_white_accelerometer_noise(tmp_path: Path) -> None
     assert bias[2] == pytest.approx(2e-3 * STANDARD_GRAVITY_M_S2, abs=5 * q * math.sqrt(fs / n))
     assert "aparams = accelparams(" in export_noise(
         ExportRequest(RecordSource(path, rate_hz=fs), "matlab", out=Path("-"))).text
+
+
+def test_bench_gravity_is_normal_gravity_on_the_up_component(tmp_path: Path) -> None:
+    from station.evaluation.accel_axes import gravity_on_axes
+    from station.model.bench import load_bench
+
+    path = tmp_path / "bench.toml"
+    path.write_text('latitude_deg = 45.0\nheight_m = 1000.0\n'
+                    '[axes]\nx = "north"\ny = [0.0, 0.6, -0.8]\nz = "down"\n')
+    bench = load_bench(path)
+    g = normal_gravity_m_s2(45.0, 1000.0)
+    gravity, notes = gravity_on_axes(bench, ("accel_x", "accel_y", "accel_z"), [0.0, 0.0, 0.0])
+    assert gravity == pytest.approx([0.0, -0.8 * g, -g])
+    assert "1000 m" in notes[2]
+    # no bench: the axis nearest 1 g is the vertical, at standard gravity, and it says so
+    gravity, notes = gravity_on_axes(None, ("a", "b"), [9.7, 0.3])
+    assert gravity == [STANDARD_GRAVITY_M_S2, 0.0] and "nearest +1 g" in notes[0]
+    path.write_text('latitude_deg = 45.0\nheight_m = 1e6\n[axes]\nz = "up"\n')
+    with pytest.raises(BenchError, match="height_m"):
+        load_bench(path)

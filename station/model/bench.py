@@ -89,20 +89,22 @@ class Bench:
         return with_keys(url, keys, keep_given=True)
 
 
+def _number_in(value: Any, key: str, what: str, low: float, high: float, path: str
+               ) -> float | None:
+    """``value`` as a float in ``low .. high`` (None stays None)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) \
+            or not math.isfinite(value) or not low <= value <= high:
+        raise BenchError(f"{path or 'bench'}: {key} must be a number{what} in {low:g} .. "
+                         f"{high:g}, got {value!r}")
+    return float(value)
+
+
 def _checked(name: str, latitude: Any, axes: dict[str, Any], path: str,
              height: Any = None) -> Bench:
-    if latitude is not None:
-        if isinstance(latitude, bool) or not isinstance(latitude, int | float) \
-                or not math.isfinite(latitude) or not -90 <= latitude <= 90:
-            raise BenchError(f"{path or 'bench'}: latitude_deg must be a number in -90 .. 90, "
-                             f"got {latitude!r}")
-        latitude = float(latitude)
-    if height is not None:
-        if isinstance(height, bool) or not isinstance(height, int | float) \
-                or not math.isfinite(height) or not -1000 <= height <= 10000:
-            raise BenchError(f"{path or 'bench'}: height_m must be a number of m in "
-                             f"-1000 .. 10000, got {height!r}")
-        height = float(height)
+    latitude = _number_in(latitude, "latitude_deg", "", -90, 90, path)
+    height = _number_in(height, "height_m", " of m", -1000, 10000, path)
     for axis, direction in axes.items():
         try:
             axis_direction(direction)

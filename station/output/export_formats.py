@@ -204,14 +204,18 @@ def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     )
 
 
-def _matlab_values(axes: Sequence[AxisNoise]) -> dict[str, list[float]]:
-    """gyroparams' fields in its units (rad/s/sqrt(Hz), rad/s, (rad/s) sqrt(Hz), rad/s)."""
-    missing = [a.name for a in axes if a.bias_instability_deg_h is None]
+def _need_bias_instability(missing: Sequence[str], what: str = "axis") -> None:
+    """Refuse MATLAB's parameters when an axis has no bias instability."""
     if missing:
         raise UsageError(
-            f"no bias instability for axis {', '.join(missing)}: MATLAB's "
+            f"no bias instability for {what} {', '.join(missing)}: MATLAB's "
             f"BiasInstability needs one (record longer)"
         )
+
+
+def _matlab_values(axes: Sequence[AxisNoise]) -> dict[str, list[float]]:
+    """gyroparams' fields in its units (rad/s/sqrt(Hz), rad/s, (rad/s) sqrt(Hz), rad/s)."""
+    _need_bias_instability([a.name for a in axes if a.bias_instability_deg_h is None])
     return {
         "NoiseDensity": [a.noise_density_rad_s_rt_hz for a in axes],
         "BiasInstability": [rate_rad_s(a.bias_instability_deg_h or 0.0) for a in axes],
@@ -230,17 +234,13 @@ _MATLAB_UNITS = {
 
 def _accel_matlab_values(accel: Sequence[AccelNoise]) -> dict[str, list[float]]:
     """accelparams' fields in its units (m/s^2/sqrt(Hz), m/s^2, (m/s^2) sqrt(Hz), m/s^2)."""
-    missing = [a.name for a in accel if a.bias_instability_m_s2 is None]
-    if missing:
-        raise UsageError(
-            f"no bias instability for accelerometer axis {', '.join(missing)}: MATLAB's "
-            f"BiasInstability needs one (record longer)"
-        )
+    _need_bias_instability([a.name for a in accel if a.bias_instability_m_s2 is None],
+                           "accelerometer axis")
     return {
         "NoiseDensity": [a.noise_density_m_s2_rt_hz for a in accel],
         "BiasInstability": [a.bias_instability_m_s2 or 0.0 for a in accel],
         "RandomWalk": [a.random_walk_m_s3_rt_hz for a in accel],
-        "ConstantBias": [a.accel_bias_mg * 1e-3 * 9.80665 for a in accel],
+        "ConstantBias": [a.accel_bias_m_s2 for a in accel],
     }
 
 
