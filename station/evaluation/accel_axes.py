@@ -22,6 +22,7 @@ from analysis.accel import (
     normal_gravity_m_s2,
     vertical_axis,
 )
+from analysis.deviations import DeviationResult
 from analysis.fit_model import COEFFICIENT_NAMES
 from analysis.units import DEG_PER_URAD, S_PER_H
 from station.model.bench import Bench
@@ -100,6 +101,20 @@ def analyze_accel(record: RateRecord, bench: Bench | None,
                                 notes=(note, *kept))
         out.append(replace(a, quantity="acceleration", accel=figures))
     return out
+
+
+def accel_unit(curve: DeviationResult) -> str:
+    """The unit of an accelerometer axis' deviation: m/s^2 (m/s for an angle-like tdev)."""
+    return "m/s" if curve.unit == "angle" else "m/s^2"
+
+
+def accel_curve_keys(curve: DeviationResult) -> dict[str, list[float]]:
+    """``adev_m_s2``, ``adev_ci_low_m_s2``, ``adev_ci_high_m_s2`` (tdev: ``_m_s``): an
+    accelerometer axis' deviation and its interval under keys naming their unit."""
+    suffix = "m_s" if curve.unit == "angle" else "m_s2"
+    return {f"adev{k}_{suffix}": v.tolist() for k, v in (
+        ("", curve.deviation), ("_ci_low", curve.deviation_ci_low),
+        ("_ci_high", curve.deviation_ci_high))}
 
 
 def accel_fit_dict(fit_json: dict[str, object]) -> dict[str, object]:

@@ -48,7 +48,9 @@ from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
 from station.evaluation.accel_axes import (
     Quantity,
+    accel_curve_keys,
     accel_fit_dict,
+    accel_unit,
     analyze_accel,
     format_accel_table,
 )
@@ -198,14 +200,9 @@ class AxisAnalysis:
         of the chosen ``deviation`` (``adev`` holds its values, in ``deviation_unit``);
         ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
         """
-        c = self.shown
-        accel = self.accel
-        unit = ("m/s^2" if accel is not None else "deg/s") if c.unit != "angle" else (
-            "m/s" if accel is not None else "deg")
-        station_units = (_in_station_units(c) if accel is None else
-                         {f"adev{k}_{unit.replace('/', '_').replace('^', '')}": v.tolist()
-                          for k, v in (("", c.deviation), ("_ci_low", c.deviation_ci_low),
-                                       ("_ci_high", c.deviation_ci_high))})
+        c, accel = self.shown, self.accel
+        unit = ("deg" if c.unit == "angle" else "deg/s") if accel is None else accel_unit(c)
+        station_units = _in_station_units(c) if accel is None else accel_curve_keys(c)
         return {
             "name": self.name,
             "quantity": self.quantity,
@@ -552,6 +549,8 @@ def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
                   for alt in a.fit.alternatives]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
+        from station.evaluation.curve_text import format_curve
+
         lines += format_curve(axes, family=family)
     return "\n".join(lines)
 
@@ -579,29 +578,3 @@ def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int,
                   if g and g.runner_up else "-" for g in fits]))
     width = max(width, *(len(label) for label, _ in rows))
     return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
-
-
-def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3,
-                 family: UnitFamily = DEG_FAMILY) -> list[str]:
-    """The chosen deviation of every axis at a few taus per decade, with its interval."""
-    c0 = axes[0].shown
-    deg_unit, deg_scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
-    unit, scale = family.label(deg_unit), deg_scale * family.factor(deg_unit)
-    lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
-                 f"({c0.interval}); the fit and figures above are on the Allan variance"]
-    logt = np.log10(c0.tau_s)
-    picks = np.unique(
-        [
-            int(np.argmin(np.abs(logt - v)))
-            for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)
-        ]
-        + [len(logt) - 1]
-    )
-    lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
-    for j in picks:
-        cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "
-                 f"{a.shown.deviation_ci_high[j] * scale:.3g}]" for a in axes]
-        lines.append(f"{c0.tau_s[j]:>10.4g}  " + "  ".join(f"{c:>30}" for c in cells))
-    for a in axes:
-        lines += [f"note ({a.name}): {n}" for n in a.shown.notes]
-    return lines
