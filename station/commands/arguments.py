@@ -24,8 +24,16 @@ def add_record_arguments(parser: argparse.ArgumentParser) -> None:
                         help="sample rate in Hz (required when the file has no time column)")
     parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
                         help="unit of the rate columns (default deg/s)")
+    add_accel_units_argument(parser)
     parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
     add_slice_arguments(parser)
+
+
+def add_accel_units_argument(parser: argparse.ArgumentParser) -> None:
+    """``--accel-units``: the unit of a CSV record's ``accel_*`` columns (checked by the
+    reader, so that a wrong one is one line naming it)."""
+    parser.add_argument("--accel-units", default="m/s^2", metavar="UNIT",
+                        help="unit of the accel_* (acc_*) columns: m/s^2 (default), g or mg")
 
 
 def add_slice_arguments(
@@ -76,6 +84,7 @@ def record_source(args: argparse.Namespace) -> RecordSource:
         args.file,
         rate_hz=args.rate,
         units=args.units,
+        accel_units=args.accel_units,
         axis=args.axis,
         unit=args.unit,
         start_s=args.start_s,

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 from analysis.units import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
+    add_accel_units_argument,
     add_bench_argument,
     add_database_argument,
     add_output_units_argument,
@@ -73,6 +74,7 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_bench_argument(p)
     add_output_units_argument(p)
+    add_accel_units_argument(p)
 
 
 def grade_request(args: argparse.Namespace) -> GradeRequest:
@@ -83,6 +85,7 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
         args.run,
         rate_hz=args.rate,
         units=args.units,
+        accel_units=args.accel_units,
         serial=args.serial,
         lot=args.lot,
         operator=args.operator,

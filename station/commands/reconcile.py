@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING
 from analysis.reconcile import ReconcileOptions
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
+    add_accel_units_argument,
     add_output_units_argument,
     add_slice_arguments,
     output_family,
@@ -45,6 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="sample rate in Hz (required when a CSV has no time column)")
     p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
                    help="unit of a CSV's rate columns (default deg/s)")
+    add_accel_units_argument(p)
     p.add_argument(
         "--model", required=True, metavar="MODEL.toml", help="noise model TOML file or preset name"
     )

@@ -7,12 +7,13 @@ it is what tests call directly.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
 from analysis import blocks
+from analysis.accel import AccelFigures
 from analysis.allan import (
     AllanResult,
     Estimator,
@@ -45,6 +46,14 @@ from analysis.tones import Tone, find_tones
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from analysis.zones import TauZone, fit_outside_zones
 from station.errors import UsageError
+from station.evaluation.accel_axes import (
+    Quantity,
+    accel_curve_keys,
+    accel_fit_dict,
+    accel_unit,
+    analyze_accel,
+    format_accel_table,
+)
 from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
@@ -174,6 +183,10 @@ class AxisAnalysis:
     zones: tuple[TauZone, ...] = ()
     curve: DeviationResult | None = None
     gmwm: GmwmSelection | None = None
+    #: What the axis measures; an accelerometer axis' series is in m/s^2 where a rate
+    #: axis' is in deg/s, and ``accel`` holds its figures.
+    quantity: Quantity = "rate"
+    accel: AccelFigures | None = None
 
     @property
     def shown(self) -> DeviationResult:
@@ -187,18 +200,21 @@ class AxisAnalysis:
         of the chosen ``deviation`` (``adev`` holds its values, in ``deviation_unit``);
         ``fit`` and ``figures`` always come from the Allan variance named by ``estimator``.
         """
-        c = self.shown
+        c, accel = self.shown, self.accel
+        unit = ("deg" if c.unit == "angle" else "deg/s") if accel is None else accel_unit(c)
+        station_units = _in_station_units(c) if accel is None else accel_curve_keys(c)
         return {
             "name": self.name,
+            "quantity": self.quantity,
             "sample_rate_hz": self.sample_rate_hz,
             "n_samples": self.n_samples,
             "estimator": self.allan.estimator,
             "deviation": c.kind,
             "deviation_label": DEVIATION_LABELS[c.kind],
-            "deviation_unit": "deg" if c.unit == "angle" else "deg/s",
+            "deviation_unit": unit,
             "tau_s": c.tau_s.tolist(),
             "adev": c.deviation.tolist(),
-            **_in_station_units(c),
+            **station_units,
             "adev_ci_low": c.deviation_ci_low.tolist(),
             "adev_ci_high": c.deviation_ci_high.tolist(),
             "n_clusters": c.n_clusters.tolist(),
@@ -209,8 +225,8 @@ class AxisAnalysis:
             "fit_from": DEVIATION_LABELS[from_allan(self.allan).kind].replace(
                 "deviation", "variance"
             ),
-            "fit": self.fit.as_dict(),
-            "figures": self.figures.as_dict(),
+            "fit": self.fit.as_dict() if accel is None else accel_fit_dict(self.fit.as_dict()),
+            "figures": self.figures.as_dict() if accel is None else accel.as_dict(),
             "gaps": self.gaps.as_json(),
             "outliers": self.outliers.as_json(),
             "tones": [t.as_dict() for t in self.tones],
@@ -295,7 +311,17 @@ def _on_grid(record: RateRecord, x: NDArray[np.float64]) -> NDArray[np.float64]:
     return column.gridded(0, out=scratch_array((record.span_samples,)))
 
 
-def analyze_record(
+def analyze_record(record: RateRecord, *, bench: Bench | None = None,
+                   **options: Any) -> list[AxisAnalysis]:
+    """Every rate axis of ``record`` (:func:`analyze_rates`), then its accelerometer axes
+    through the same analysis in m/s^2 (:func:`station.evaluation.accel_axes.analyze_accel`:
+    no Earth rate; gravity off the bias). ``options`` are :func:`analyze_rates`'."""
+    rates = analyze_rates(record, bench=bench, **options) if record.axis_names else []
+    return rates + analyze_accel(record, bench,
+                                 lambda accel: analyze_rates(accel, bench=None, **options))
+
+
+def analyze_rates(
     record: RateRecord,
     *,
     estimator: Estimator = "overlapping",
@@ -439,7 +465,13 @@ def _range(taus: tuple[float | None, float | None]) -> str:
 
 def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -> str:
     """A plain-text table of the figures of every axis, units (of ``family``) in the first
-    column."""
+    column; accelerometer axes in a table of their own (SI, ``format_accel_table``)."""
+    accel = [a for a in axes if a.accel is not None]
+    axes = [a for a in axes if a.accel is None]
+    if not axes:
+        return format_accel_table(accel)
+    if accel:
+        return format_analysis(axes, family) + "\n\n" + format_accel_table(accel)
     rows: list[tuple[str, list[str]]] = []
     u, v = family.label, family.value
     fits = [a.fit for a in axes]
@@ -517,6 +549,8 @@ def format_analysis(axes: list[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
                   for alt in a.fit.alternatives]
         lines += [f"REVIEW ({a.name}): {n}" for n in a.figures.review]
     if axes and axes[0].curve is not None:
+        from station.evaluation.curve_text import format_curve
+
         lines += format_curve(axes, family=family)
     return "\n".join(lines)
 
@@ -544,29 +578,3 @@ def gmwm_rows(axes: list[AxisAnalysis], width: int, col: int,
                   if g and g.runner_up else "-" for g in fits]))
     width = max(width, *(len(label) for label, _ in rows))
     return [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals) for label, vals in rows]
-
-
-def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3,
-                 family: UnitFamily = DEG_FAMILY) -> list[str]:
-    """The chosen deviation of every axis at a few taus per decade, with its interval."""
-    c0 = axes[0].shown
-    deg_unit, deg_scale = ("deg", 1.0) if c0.unit == "angle" else ("deg/h", 3600.0)
-    unit, scale = family.label(deg_unit), deg_scale * family.factor(deg_unit)
-    lines = ["", f"{DEVIATION_LABELS[c0.kind]} [{unit}] with its {c0.confidence:.3g} interval "
-                 f"({c0.interval}); the fit and figures above are on the Allan variance"]
-    logt = np.log10(c0.tau_s)
-    picks = np.unique(
-        [
-            int(np.argmin(np.abs(logt - v)))
-            for v in np.arange(logt[0], logt[-1] + 1e-9, 1.0 / per_decade)
-        ]
-        + [len(logt) - 1]
-    )
-    lines.append(f"{'tau [s]':>10}  " + "  ".join(f"{a.name:>30}" for a in axes))
-    for j in picks:
-        cells = [f"{a.shown.deviation[j] * scale:.4g} [{a.shown.deviation_ci_low[j] * scale:.3g}, "
-                 f"{a.shown.deviation_ci_high[j] * scale:.3g}]" for a in axes]
-        lines.append(f"{c0.tau_s[j]:>10.4g}  " + "  ".join(f"{c:>30}" for c in cells))
-    for a in axes:
-        lines += [f"note ({a.name}): {n}" for n in a.shown.notes]
-    return lines

@@ -18,6 +18,7 @@ from analysis.davar import dynamic_allan_variance, plan_davar
 from analysis.davar_long import dynamic_allan_variance_long, group_span
 from analysis.errors import InvalidWindowError, TooFewSamplesError
 from analysis.units import S_PER_H
+from station.evaluation.accel_axes import accel_record
 from station.evaluation.grading import UnitGrade
 from station.evaluation.settings import AnalysisSettings
 from station.storage.scratch import scratch_array
@@ -137,7 +138,13 @@ def davar_grid(unit: UnitGrade, axis_index: int = 0, *,
     ends); None when the record is too short."""
     record = unit.unit.record
     axis = unit.axes[axis_index]
-    column = record.axis_names.index(axis.axis) if axis.axis in record.axis_names else axis_index
+    if axis.analysis.accel is not None and axis.axis in record.accel_axis_names:
+        accel = accel_record(record.select_accel(axis.axis))  # its m/s^2 in the rate's place
+        assert accel is not None
+        record, column = accel, 0
+    else:
+        column = (record.axis_names.index(axis.axis) if axis.axis in record.axis_names
+                  else axis_index)
     long = record.sample_index is not None and blocks.is_long(record.span_samples)
     rate = record.gridded(column, out=scratch_array((record.span_samples,)) if long else None)
     grid = davar_grid_of(rate, record.sample_rate_hz, axis.axis, settings=settings)

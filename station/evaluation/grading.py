@@ -39,6 +39,11 @@ from analysis.figures import review_notes
 from analysis.readoffs import arw_readoff, bias_instability_readoff
 from analysis.units import DEG_FAMILY, UnitFamily
 from station.errors import RecordFormatError
+from station.evaluation.accel_grading import (
+    accel_columns,
+    accel_figure_interval,
+    figures_for,
+)
 from station.evaluation.analyze import AxisAnalysis, analyze_record
 from station.evaluation.decision import (
     GradingError,
@@ -141,7 +146,9 @@ class AxisGrade:
 
     def as_json(self) -> dict[str, object]:
         """JSON object of the axis (the ``station grade --json`` interface)."""
+        accel = self.analysis.accel
         return {
+            "quantity": self.analysis.quantity,
             "grade": self.grade,
             "deciding_grade": self.deciding_grade,
             "could_reach": self.could_reach,
@@ -153,7 +160,8 @@ class AxisGrade:
             "duration_s": self.analysis.n_samples / self.analysis.sample_rate_hz,
             "figures": {f.name: f.as_json(self.deciding_grade) for f in self.graded_figures},
             "info": {f.name: f.as_json(None) for f in self.figures if not f.spec.graded},
-            "earth_rate_removed_deg_h": self.analysis.figures.earth_rate_removed_deg_h,
+            **({"earth_rate_removed_deg_h": self.analysis.figures.earth_rate_removed_deg_h}
+               if accel is None else {"gravity_removed_m_s2": accel.gravity_removed_m_s2}),
             "gaps": self.analysis.gaps.as_json(),
             "outliers": self.analysis.outliers.as_json(),
         }
@@ -320,6 +328,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
             f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up"
         )
     columns = match_axes(profile.axes, record.axis_names)
+    accel = accel_columns(profile, kept)
     trimmed = RateRecord(
         take_columns(kept.rate_deg_s, list(columns.values())),
         fs,
@@ -327,6 +336,9 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         record.source,
         kept.temperature_c,
         kept.sample_index,
+        None if not accel or kept.accel_m_s2 is None
+        else take_columns(kept.accel_m_s2, list(accel.values())),
+        tuple(kept.accel_axis_names[i] for i in accel.values()),
     )
     notes = []
     if unit.model and unit.model != profile.model:
@@ -346,19 +358,21 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         x = analysis.rate_deg_s
         assert x is not None
         z, source = normal_quantile(profile.confidence), profile.figure_source
+        is_accel = analysis.accel is not None
+        interval_of = accel_figure_interval if is_accel else figure_interval
         figures = tuple(
             grade_figure(
                 spec,
-                figure_interval(spec.name, x, analysis, profile.confidence, source=source),
+                interval_of(spec.name, x, analysis, profile.confidence, source=source),
                 profile,
-                () if (term := fit_term(spec.name, source)) is None
+                () if is_accel or (term := fit_term(spec.name, source)) is None
                 else alternative_readings(analysis.fit, term, z),
             )
-            for spec in profile.figures
+            for spec in figures_for(profile, analysis)
         )
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
-                              axis_review(analysis, profile)))
+                              () if is_accel else axis_review(analysis, profile)))
     worst = max(axes, key=lambda a: grade_rank(a.grade, profile)).grade
     return UnitGrade(unit, worst, tuple(axes), profile.warmup_s if profile.warmup_s > 0 else 0.0,
                      tuple(notes))

@@ -6,6 +6,7 @@ is tested in several plants; the latitude is the plant's, the directions the fix
     # Bench 3, hall B
     name = "bench-3"
     latitude_deg = 45.0          # geodetic latitude, north positive
+    height_m = 120.0             # height above the ellipsoid (accelerometers' gravity)
     [axes]                       # each sensitive axis: up, down, north, south, east, west,
     x = "up"                     # or a vector [east, north, up]
     y = "north"
@@ -44,7 +45,7 @@ from analysis.earth import (
 from devices.url_text import is_simulated, with_keys
 from station.errors import BenchError
 
-_KEYS = {"name", "latitude_deg", "axes", "rotation"}
+_KEYS = {"name", "latitude_deg", "height_m", "axes", "rotation"}
 
 
 @dataclass(frozen=True)
@@ -55,6 +56,8 @@ class Bench:
     latitude_deg: float | None = None
     axes: dict[str, Direction] = field(default_factory=dict)
     path: str = ""
+    #: Height above the WGS-84 ellipsoid (m), for the normal gravity of accelerometers.
+    height_m: float | None = None
 
     def earth_rate_deg_h(self, axis_names: Sequence[str]) -> list[float | None]:
         """Earth rate on each axis (deg/h); None where the bench gives no latitude or direction."""
@@ -73,7 +76,8 @@ class Bench:
     def as_json(self) -> str:
         """The JSON text stored in a run file."""
         axes = {k: v if isinstance(v, str) else [float(x) for x in v] for k, v in self.axes.items()}
-        return json.dumps({"name": self.name, "latitude_deg": self.latitude_deg, "axes": axes})
+        return json.dumps({"name": self.name, "latitude_deg": self.latitude_deg, "axes": axes,
+                           **({"height_m": self.height_m} if self.height_m is not None else {})})
 
     def sim_url(self, url: str) -> str:
         """A ``sim+`` device URL with the bench's ``latitude`` and ``orientation`` keys added
@@ -85,19 +89,28 @@ class Bench:
         return with_keys(url, keys, keep_given=True)
 
 
-def _checked(name: str, latitude: Any, axes: dict[str, Any], path: str) -> Bench:
-    if latitude is not None:
-        if isinstance(latitude, bool) or not isinstance(latitude, int | float) \
-                or not math.isfinite(latitude) or not -90 <= latitude <= 90:
-            raise BenchError(f"{path or 'bench'}: latitude_deg must be a number in -90 .. 90, "
-                             f"got {latitude!r}")
-        latitude = float(latitude)
+def _number_in(value: Any, key: str, what: str, low: float, high: float, path: str
+               ) -> float | None:
+    """``value`` as a float in ``low .. high`` (None stays None)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) \
+            or not math.isfinite(value) or not low <= value <= high:
+        raise BenchError(f"{path or 'bench'}: {key} must be a number{what} in {low:g} .. "
+                         f"{high:g}, got {value!r}")
+    return float(value)
+
+
+def _checked(name: str, latitude: Any, axes: dict[str, Any], path: str,
+             height: Any = None) -> Bench:
+    latitude = _number_in(latitude, "latitude_deg", "", -90, 90, path)
+    height = _number_in(height, "height_m", " of m", -1000, 10000, path)
     for axis, direction in axes.items():
         try:
             axis_direction(direction)
         except OrientationError as exc:
             raise BenchError(f"{path or 'bench'}: axis {axis!r}: {exc}") from exc
-    return Bench(str(name), latitude, dict(axes), path)
+    return Bench(str(name), latitude, dict(axes), path, height)
 
 
 def load_bench(path: str | Path) -> Bench:
@@ -132,7 +145,8 @@ def load_bench(path: str | Path) -> Bench:
                             strict=True))
         except OrientationError as exc:
             raise BenchError(f"{path}: {exc}") from exc
-    return _checked(table.get("name", path.stem), table.get("latitude_deg"), axes, str(path))
+    return _checked(table.get("name", path.stem), table.get("latitude_deg"), axes, str(path),
+                    table.get("height_m"))
 
 
 def bench_from_json(text: str) -> Bench | None:
@@ -141,7 +155,8 @@ def bench_from_json(text: str) -> Bench | None:
         return None
     try:
         doc = json.loads(text)
-        return _checked(doc.get("name", ""), doc.get("latitude_deg"), dict(doc.get("axes", {})), "")
+        return _checked(doc.get("name", ""), doc.get("latitude_deg"), dict(doc.get("axes", {})), "",
+                        doc.get("height_m"))
     except (ValueError, AttributeError, TypeError):
         return None
 

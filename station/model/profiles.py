@@ -56,7 +56,7 @@ FIGURE_SOURCES: tuple[FigureSource, ...] = get_args(FigureSource)
 #: IEEE 952 read-offs data sheets quote (the fit is graded with ``arw_fit`` etc.).
 DEFAULT_FIGURE_SOURCE: FigureSource = "read-off"
 #: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
-DUAL_FIGURES = ("arw", "bias_instability")
+DUAL_FIGURES = ("arw", "bias_instability", "accel_vrw", "accel_bias_instability")
 #: Where profile names are looked up: ``<repo>/profiles``.
 PROFILE_DIR = Path(__file__).resolve().parents[2] / "profiles"
 
@@ -71,6 +71,10 @@ UNITS: dict[str, dict[str, float]] = {
     "angle": {"urad": 1.0, "arcsec": math.pi / 180.0 / 3600.0 * 1e6, "deg": 1.0 / DEG_PER_URAD},
     "rrw": {"deg/h^1.5": 1.0, "deg/h/sqrt(h)": 1.0},
     "ramp": {"deg/h^2": 1.0, "deg/s^2": S_PER_H**2},
+    # accelerometers (SI; mg and ug of standard gravity, 9.80665 m/s^2)
+    "accel": {"ug": 1.0, "mg": 1e3, "m/s^2": 1e6 / 9.80665},
+    "vrw": {"m/s/sqrt(h)": 1.0, "m/s^2/sqrt(Hz)": 60.0, "ug/sqrt(Hz)": 60.0 * 9.80665e-6},
+    "accel_rw": {"m/s/h^1.5": 1.0, "m/s^3/sqrt(Hz)": S_PER_H**1.5},
 }
 
 
@@ -99,7 +103,20 @@ FIGURE_KINDS: dict[str, FigureKind] = {
     "bias_instability_fit": FigureKind("rate", "B bias instability (fit)"),
     "rrw": FigureKind("rrw", "K rate random walk (fit)"),
     "rate_ramp": FigureKind("ramp", "R rate ramp (fit)"),
+    # accelerometer axes (IEEE Std 1293-2018 annex C): station.evaluation.accel_grading
+    "accel_bias": FigureKind("accel", "|accel bias| (gravity removed)"),
+    "accel_vrw": FigureKind("vrw", "velocity random walk"),
+    "accel_bias_instability": FigureKind("accel", "accel bias instability"),
+    "accel_adev_min": FigureKind("accel", "accel Allan deviation minimum"),
+    "accel_vrw_fit": FigureKind("vrw", "N velocity random walk (fit)"),
+    "accel_bias_instability_fit": FigureKind("accel", "B accel bias instability (fit)"),
+    "accel_random_walk": FigureKind("accel_rw", "K acceleration random walk (fit)"),
 }
+
+
+def is_accel_figure(name: str) -> bool:
+    """Whether figure ``name`` is an accelerometer's (graded on accelerometer axes)."""
+    return name.startswith("accel_")
 #: ``bias_stability_<T>s``: std of T-second averages, any T.
 BIAS_STABILITY_RE = re.compile(r"^bias_stability_(\d+(?:\.\d+)?)s$")
 

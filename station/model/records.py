@@ -110,6 +110,8 @@ class RateRecord:
     def select(self, axis: str | int) -> RateRecord:
         """A record with only one axis, chosen by name or index."""
         if isinstance(axis, str):
+            if axis in self.accel_axis_names:
+                return self.select_accel(axis)
             if axis not in self.axis_names:
                 raise RecordFormatError(
                     f"no axis {axis!r} in {self.source or 'the record'}; axes: "
@@ -121,6 +123,16 @@ class RateRecord:
         return RateRecord(self.rate_deg_s[:, index : index + 1], self.sample_rate_hz,
                           (self.axis_names[index],), self.source, self.temperature_c,
                           self.sample_index)
+
+    def select_accel(self, name: str) -> RateRecord:
+        """A record with only the accelerometer axis ``name`` (no rate axis left)."""
+        if self.accel_m_s2 is None or name not in self.accel_axis_names:
+            raise RecordFormatError(f"no accelerometer axis {name!r} in "
+                                    f"{self.source or 'the record'}")
+        j = self.accel_axis_names.index(name)
+        return RateRecord(self.rate_deg_s[:, :0], self.sample_rate_hz, (), self.source,
+                          self.temperature_c, self.sample_index,
+                          self.accel_m_s2[:, j : j + 1], (name,))
 
     def slice_time(self, start_s: float = 0.0, stop_s: float | None = None, *,
                    index_out: Callable[[int], NDArray[np.int64]] | None = None) -> RateRecord:
@@ -142,8 +154,9 @@ class RateRecord:
         temp = None if self.temperature_c is None else self.temperature_c[k0:k1]
         index = (None if self.sample_index is None
                  else regular_or_none(self.sample_index[k0:k1], index_out))
+        accel = None if self.accel_m_s2 is None else self.accel_m_s2[k0:k1]
         return RateRecord(self.rate_deg_s[k0:k1], self.sample_rate_hz, self.axis_names,
-                          self.source, temp, index)
+                          self.source, temp, index, accel, self.accel_axis_names)
 
 
 def regular_or_none(sample_index: NDArray[np.int64],

@@ -1,5 +1,6 @@
 """The deviation curve of every axis as CSV (``station analyze --csv OUT``), in deg/h (or
-rad/s, ``--output-units rad``).
+rad/s, ``--output-units rad``); accelerometer axes in m/s^2 in a file of their own
+(``<stem>_accel.csv``, columns ending in ``_m_s2``; ``_m_s`` for ``tdev``).
 
 One row per axis and tau (long format: axes may have different tau grids), columns
 ``axis, tau_s, <kind>_deg_h, <kind>_ci_low_deg_h, <kind>_ci_high_deg_h, n_clusters`` and,
@@ -43,6 +44,8 @@ def curve_table(axes: Sequence[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
     rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit written
     label, scale = ("deg", family.factor("deg")) if angle else ("deg/h", rate)
     unit, rate_unit = _key_unit(label, family), _key_unit("deg/h", family)
+    if axes and axes[0].accel is not None:  # accelerometers: m/s^2 as analysed, SI always
+        rate, scale, unit, rate_unit = 1.0, 1.0, "m_s" if angle else "m_s2", "m_s2"
     fitted = all(c.kind == from_allan(a.allan).kind for a, c in zip(axes, shown, strict=True))
     header = [
         "axis",
@@ -71,5 +74,16 @@ def curve_table(axes: Sequence[AxisAnalysis], family: UnitFamily = DEG_FAMILY) -
 
 def write_curve_csv(axes: Sequence[AxisAnalysis], path: str | Path,
                     family: UnitFamily = DEG_FAMILY) -> Path:
-    """Write :func:`curve_table` (in ``family``) to ``path`` whole or not at all."""
-    return write_text_atomically(path, curve_table(axes, family))
+    """Write :func:`curve_table` (in ``family``) of the rate axes to ``path`` whole or not
+    at all, and of the accelerometer axes to ``<stem>_accel<suffix>`` beside it."""
+    path = Path(path)
+    rates = [a for a in axes if a.accel is None]
+    accel = [a for a in axes if a.accel is not None]
+    if accel:
+        write_text_atomically(accel_path(path), curve_table(accel, family))
+    return write_text_atomically(path, curve_table(rates, family)) if rates else path
+
+
+def accel_path(path: Path) -> Path:
+    """Where the accelerometer axes' curve goes beside ``path``."""
+    return path.with_name(f"{path.stem}_accel{path.suffix}")

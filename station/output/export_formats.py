@@ -16,9 +16,10 @@ format                 file                        read by
 =====================  ==========================  ========================================
 
 Kalibr, OpenVINS and allan_variance_ros take one value per sensor: the largest over the
-axes (allan_variance_ros' own choice), each axis listed in a comment. The station
-characterizes gyros only: the accelerometer keys those tools also need are not written,
-and the header says so (a value we did not measure would be invented).
+axes (allan_variance_ros' own choice), each axis listed in a comment. A record with
+accelerometers (``ExportContext.accel``) gets the accelerometer keys too, in SI
+(:mod:`analysis.tool_units_accel`); a gyro-only record's files leave them out and the
+header says so (a value we did not measure would be invented).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from analysis.tool_units import AxisNoise, rate_rad_s
+from analysis.tool_units_accel import AccelNoise
 from station.errors import UsageError
 
 _ACCEL_NOTE = (
@@ -46,6 +48,8 @@ class ExportContext:
     method: str = "logwls"
     rostopic: str = "/imu0"
     earth_rate_removed: bool = False
+    #: The record's accelerometer axes (empty: a gyro-only record).
+    accel: tuple[AccelNoise, ...] = ()
 
     def origin(self) -> str:
         """``<file>[, unit <id>], <method> analysis``."""
@@ -101,6 +105,36 @@ def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
     ]
 
 
+def _accel_comments(accel: Sequence[AccelNoise]) -> list[str]:
+    return [
+        f"#   {a.name}: noise density {a.noise_density_m_s2_rt_hz:.6g} m/s^2/sqrt(Hz) "
+        f"(VRW {a.vrw_m_s_rt_h:.4g} m/s/sqrt(h)); random walk {a.random_walk_m_s3_rt_hz:.6g} "
+        f"m/s^3/sqrt(Hz) (K {a.accel_random_walk_m_s_h1_5:.4g} m/s/h^1.5)"
+        for a in accel
+    ]
+
+
+def _accel_lines(ctx: ExportContext, indent: str = "") -> list[str]:
+    """The accelerometer keys of Kalibr's noise model (the largest over the axes), or the
+    comment that says the record has none."""
+    if not ctx.accel:
+        return [f"{indent}# {_ACCEL_NOTE}"]
+    nd = max(ctx.accel, key=lambda a: a.noise_density_m_s2_rt_hz)
+    rw = max(ctx.accel, key=lambda a: a.random_walk_m_s3_rt_hz)
+    return [
+        _yaml("accelerometer_noise_density", nd.noise_density_m_s2_rt_hz,
+              f"m/s^2/sqrt(Hz), continuous time (axis {nd.name})", indent),
+        _yaml("accelerometer_random_walk", rw.random_walk_m_s3_rt_hz,
+              f"m/s^3/sqrt(Hz), continuous time (axis {rw.name})", indent),
+    ]
+
+
+def _header_note(ctx: ExportContext) -> list[str]:
+    return ([f"# {_ACCEL_NOTE}"] if not ctx.accel else
+            ["# accelerometers: the largest value over the axes is written; per axis:",
+             *_accel_comments(ctx.accel)])
+
+
 def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """Kalibr's ``imu.yaml``: ``gyroscope_noise_density`` (rad/s/sqrt(Hz)),
     ``gyroscope_random_walk`` (rad/s^2/sqrt(Hz)), ``rostopic``, ``update_rate`` (Hz)."""
@@ -108,11 +142,12 @@ def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     return "\n".join(
         [
             f"# Kalibr IMU noise parameters of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
-            "# the largest value over the axes is written; per axis:",
+            *_header_note(ctx),
+            "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
             "",
             *_gyro_lines(axes),
+            *(_accel_lines(ctx) if ctx.accel else []),
             "",
             _yaml("rostopic", ctx.rostopic, "the IMU topic: check it"),
             _yaml("update_rate", rate, "Hz, the record's sample rate (for the discrete values)"),
@@ -129,13 +164,14 @@ def openvins(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         [
             "%YAML:1.0 # OpenCV FileStorage header: OpenVINS reads this file with cv::FileStorage",
             f"# OpenVINS IMU noise parameters of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
+            *_header_note(ctx),
             "# intrinsics (Tw, R_IMUtoGYRO, Tg) are not written: the station does not "
             "calibrate them",
-            "# the largest value over the axes is written; per axis:",
+            "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
             "",
             "imu0:",
+            *(_accel_lines(ctx, "  ") if ctx.accel else []),
             *_gyro_lines(axes, "  "),
             _yaml("rostopic", ctx.rostopic, "the IMU topic: check it", "  "),
             _yaml("time_offset", 0.0, "s", "  "),
@@ -153,10 +189,11 @@ def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     return "\n".join(
         [
             f"# allan_variance_ros imu.yaml of {ctx.origin()}",
-            f"# {_ACCEL_NOTE}",
-            "# per axis:",
+            *_header_note(ctx),
+            "# gyroscopes, per axis:",
             *_axis_comments(axes),
             "",
+            *(["#Accelerometer", *_accel_lines(ctx), ""] if ctx.accel else []),
             "#Gyroscope",
             *_gyro_lines(axes),
             "",
@@ -167,14 +204,18 @@ def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     )
 
 
-def _matlab_values(axes: Sequence[AxisNoise]) -> dict[str, list[float]]:
-    """gyroparams' fields in its units (rad/s/sqrt(Hz), rad/s, (rad/s) sqrt(Hz), rad/s)."""
-    missing = [a.name for a in axes if a.bias_instability_deg_h is None]
+def _need_bias_instability(missing: Sequence[str], what: str = "axis") -> None:
+    """Refuse MATLAB's parameters when an axis has no bias instability."""
     if missing:
         raise UsageError(
-            f"no bias instability for axis {', '.join(missing)}: MATLAB's "
+            f"no bias instability for {what} {', '.join(missing)}: MATLAB's "
             f"BiasInstability needs one (record longer)"
         )
+
+
+def _matlab_values(axes: Sequence[AxisNoise]) -> dict[str, list[float]]:
+    """gyroparams' fields in its units (rad/s/sqrt(Hz), rad/s, (rad/s) sqrt(Hz), rad/s)."""
+    _need_bias_instability([a.name for a in axes if a.bias_instability_deg_h is None])
     return {
         "NoiseDensity": [a.noise_density_rad_s_rt_hz for a in axes],
         "BiasInstability": [rate_rad_s(a.bias_instability_deg_h or 0.0) for a in axes],
@@ -191,10 +232,41 @@ _MATLAB_UNITS = {
 }
 
 
+def _accel_matlab_values(accel: Sequence[AccelNoise]) -> dict[str, list[float]]:
+    """accelparams' fields in its units (m/s^2/sqrt(Hz), m/s^2, (m/s^2) sqrt(Hz), m/s^2)."""
+    _need_bias_instability([a.name for a in accel if a.bias_instability_m_s2 is None],
+                           "accelerometer axis")
+    return {
+        "NoiseDensity": [a.noise_density_m_s2_rt_hz for a in accel],
+        "BiasInstability": [a.bias_instability_m_s2 or 0.0 for a in accel],
+        "RandomWalk": [a.random_walk_m_s3_rt_hz for a in accel],
+        "ConstantBias": [a.accel_bias_m_s2 for a in accel],
+    }
+
+
+_ACCEL_MATLAB_UNITS = {
+    "NoiseDensity": "(m/s^2)/sqrt(Hz)",
+    "BiasInstability": "m/s^2 (sigma_min / 0.664)",
+    "RandomWalk": "(m/s^2)*sqrt(Hz)",
+    "ConstantBias": "m/s^2 (gravity removed)",
+}
+
+
+def _matlab_call(name: str, function: str, values: dict[str, list[float]]) -> list[str]:
+    lines = [f"{name} = {function}( ..."]
+    fields = list(values)
+    for i, k in enumerate(fields):
+        v = values[k]
+        text = repr(v[0]) if len(v) == 1 else "[" + " ".join(repr(x) for x in v) + "]"
+        lines.append(f"    '{k}', {text}{', ...' if i < len(fields) - 1 else ');'}")
+    return lines
+
+
 def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """A MATLAB script that builds ``params = gyroparams(...)`` with ``NoiseDensity``,
     ``BiasInstability``, ``RandomWalk`` and ``ConstantBias``, each a scalar (one axis) or
-    a 1x3 row vector (x, y, z), in gyroparams' units."""
+    a 1x3 row vector (x, y, z), in gyroparams' units; with accelerometers also
+    ``aparams = accelparams(...)`` with the same fields in SI."""
     values = _matlab_values(axes)
     earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
     lines = [
@@ -202,12 +274,13 @@ def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         f"% axes: {', '.join(a.name for a in axes)}; units as gyroparams expects them:",
     ]
     lines += [f"%   {k}: {u}" for k, u in _MATLAB_UNITS.items()]
-    lines += [f"% ConstantBias is the record's mean rate ({earth})", "params = gyroparams( ..."]
-    fields = list(values)
-    for i, k in enumerate(fields):
-        v = values[k]
-        text = repr(v[0]) if len(v) == 1 else "[" + " ".join(repr(x) for x in v) + "]"
-        lines.append(f"    '{k}', {text}{', ...' if i < len(fields) - 1 else ');'}")
+    lines += [f"% ConstantBias is the record's mean rate ({earth})"]
+    lines += _matlab_call("params", "gyroparams", values)
+    if ctx.accel:
+        lines += [f"% accelparams of the accelerometer axes "
+                  f"{', '.join(a.name for a in ctx.accel)}; units:"]
+        lines += [f"%   {k}: {u}" for k, u in _ACCEL_MATLAB_UNITS.items()]
+        lines += _matlab_call("aparams", "accelparams", _accel_matlab_values(ctx.accel))
     return "\n".join(lines) + "\n"
 
 
@@ -221,13 +294,18 @@ def matlab_json(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         "source": ctx.origin(),
         "earth_rate_removed": ctx.earth_rate_removed,
     }
+    if ctx.accel:
+        body["accelparams"] = {**_accel_matlab_values(ctx.accel), "units": _ACCEL_MATLAB_UNITS,
+                               "axes": [a.name for a in ctx.accel]}
     return json.dumps(body, indent=2) + "\n"
 
 
 def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     """A Python module defining ``gyro_err``, gnss-ins-sim's gyro keys: ``gyro_b`` (deg/h),
     ``gyro_arw`` (deg/sqrt(h)), ``gyro_b_stability`` (deg/h) and, where a Gauss-Markov
-    term exists, ``gyro_b_corr`` (s; the Gauss-Markov sigma then is ``gyro_b_stability``)."""
+    term exists, ``gyro_b_corr`` (s; the Gauss-Markov sigma then is ``gyro_b_stability``);
+    with three accelerometer axes ``imu_err``, those and ``accel_b`` (m/s^2, gravity
+    removed), ``accel_vrw`` (m/s/sqrt(h)), ``accel_b_stability`` (m/s^2, B)."""
 
     def arr(xs: Sequence[float]) -> str:
         return (
@@ -257,10 +335,13 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             )
     earth = "Earth rate removed" if ctx.earth_rate_removed else "Earth rate NOT removed"
     lines = [
-        f"# gnss-ins-sim gyro error parameters of {ctx.origin()}",
-        "# gyroscope only: merge with your accelerometer's before use, e.g.",
-        "#   imu = imu_model.IMU(accuracy={**gyro_err, 'accel_b': ..., 'accel_vrw': ...,",
-        "#                                 'accel_b_stability': ...}, axis=6)",
+        f"# gnss-ins-sim {'IMU' if len(ctx.accel) == 3 else 'gyro'} error parameters of "
+        f"{ctx.origin()}",
+        *(["# gyroscope only: merge with your accelerometer's before use, e.g.",
+           "#   imu = imu_model.IMU(accuracy={**gyro_err, 'accel_b': ..., 'accel_vrw': ...,",
+           "#                                 'accel_b_stability': ...}, axis=6)"]
+          if len(ctx.accel) != 3 else
+          ["# gyroscopes and accelerometers: imu_model.IMU(accuracy=imu_err, axis=6)"]),
         f"# axes: {', '.join(a.name for a in axes)}",
         *(f"#   {h}" for h in how),
         "import numpy as np",
@@ -276,17 +357,31 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             f"    'gyro_b_corr': {arr(corr)},  # s (inf: no Gauss-Markov term on that axis)"
         )
     lines += ["}", ""]
+    if len(ctx.accel) == 3:
+        values = _accel_matlab_values(ctx.accel)  # the same SI figures (B checked there)
+        lines += [
+            "imu_err = {",
+            "    **gyro_err,",
+            f"    'accel_b': {arr(values['ConstantBias'])},  # m/s^2, the mean, gravity removed",
+            f"    'accel_vrw': {arr([a.vrw_m_s_rt_h for a in ctx.accel])},  # m/s/sqrt(h)",
+            f"    'accel_b_stability': {arr(values['BiasInstability'])},"
+            "  # m/s^2, B = sigma_min / 0.664",
+            "}",
+            "",
+        ]
     return "\n".join(lines)
 
 
 def json_format(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
-    """Every figure of every axis in both unit families (:meth:`AxisNoise.as_json`)."""
+    """Every figure of every gyro axis in both unit families (:meth:`AxisNoise.as_json`),
+    and of every accelerometer axis in SI (``accel_axes``, :meth:`AccelNoise.as_json`)."""
     body = {
         "source": ctx.source,
         "unit": ctx.unit,
         "method": ctx.method,
         "earth_rate_removed": ctx.earth_rate_removed,
         "axes": [a.as_json() for a in axes],
+        "accel_axes": [a.as_json() for a in ctx.accel],
     }
     return json.dumps(body, indent=2) + "\n"
 

@@ -144,6 +144,7 @@ def analyze(request: AnalyzeRequest,
         gmwm_model=request.gmwm_model,
         robust=request.robust,
     )
+    notes = loaded.notes
     if request.png is not None:
         from station.output.plots import (  # matplotlib: only when a plot is asked for
             plot_allan,
@@ -151,11 +152,17 @@ def analyze(request: AnalyzeRequest,
         )
 
         plot = plot_wavelet if gmwm else plot_allan
-        plot(axes, request.png, title=str(request.source.file), family=request.output_units)
+        drawn = [a for a in axes if a.accel is None]  # the plot is in the rate's units
+        if drawn:
+            plot(drawn, request.png, title=str(request.source.file),
+                 family=request.output_units)
+        if len(drawn) < len(axes):
+            notes += ("accelerometer axes are not drawn in the PNG (their curve is in --csv's "
+                      "<stem>_accel.csv and --json, in m/s^2)",)
     if request.csv is not None:
         from station.output.curve_csv import write_curve_csv
 
         write_curve_csv(axes, request.csv, request.output_units)
     return AnalyzeResult(
-        str(request.source.file), record, loaded.selection, tuple(axes), loaded.notes, request.png
+        str(request.source.file), record, loaded.selection, tuple(axes), notes, request.png
     )

@@ -98,10 +98,16 @@ def davar(request: DavarRequest) -> DavarAnswer:
     source = request.source
     loaded = load_record(source)
     record = loaded.record
+    if not record.axis_names:
+        raise UsageError(f"the DAVAR of accelerometer axis {', '.join(record.accel_axis_names)} "
+                         f"is not computed (rate axes only); station analyze and grade take it")
     if request.window_s * record.sample_rate_hz > record.n_samples:
         raise UsageError(f"--window-s {request.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
     notes = loaded.notes
+    if record.accel_axis_names:
+        notes += (f"accelerometer axes {', '.join(record.accel_axis_names)} are not in the "
+                  f"DAVAR (rate axes only)",)
     offset = loaded.selection.start_s
     if loaded.selection.warmup_s > 0 and offset == loaded.selection.warmup_s:
         notes += (f"the first {offset:g} s are left out (warm-up from "

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import cast
 
 from analysis.tool_units import AxisNoise
+from analysis.tool_units_accel import AccelNoise
 from station.errors import UsageError
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
@@ -76,6 +77,7 @@ class ExportResult:
     axes: tuple[AxisNoise, ...]
     text: str
     notes: tuple[str, ...] = ()
+    accel: tuple[AccelNoise, ...] = ()
 
     def as_json(self) -> dict[str, object]:
         """``{"format", "out", "axes": [AxisNoise.as_json()...], "notes"}``
@@ -84,6 +86,7 @@ class ExportResult:
             "format": self.format,
             "out": None if self.out is None else str(self.out),
             "axes": [a.as_json() for a in self.axes],
+            "accel_axes": [a.as_json() for a in self.accel],
             "notes": list(self.notes),
         }
 
@@ -131,9 +134,11 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
             f"of {record.n_samples} samples",
         )
     )
-    axes = noise_of(
+    exported = noise_of(
         record, request.method, request.gmwm_model, bench_of(request.bench, request.source.file)
     )
+    axes = [a for a in exported if a.accel is None]
+    accel = tuple(a.accel for a in exported if a.accel is not None)
     earth_removed = all(a.earth_rate_removed for a in axes)
     file, unit = str(request.source.file), request.source.unit
     context = ExportContext(
@@ -142,6 +147,7 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
         method=request.method,
         rostopic=request.rostopic,
         earth_rate_removed=earth_removed,
+        accel=accel,
     )
     out = request.out if request.out is not None else default_output(file, request.format, unit)
     text = render(request.format, [a.noise for a in axes], context, suffix=out.suffix)
@@ -158,15 +164,17 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
         )
     noise = tuple(a.noise for a in axes)
     if str(out) == "-":
-        return ExportResult(request.format, None, noise, text, tuple(notes))
+        return ExportResult(request.format, None, noise, text, tuple(notes), accel)
     write_text_atomically(out, text)
-    return ExportResult(request.format, out, noise, text, tuple(notes))
+    return ExportResult(request.format, out, noise, text, tuple(notes), accel)
 
 
 @dataclass(frozen=True)
 class _Exported:
     noise: AxisNoise
     earth_rate_removed: bool
+    #: The accelerometer figures of an accelerometer axis (None: a rate axis).
+    accel: AccelNoise | None = None
 
 
 def noise_of(
@@ -181,5 +189,8 @@ def noise_of(
                               gmwm_model=gmwm_model)
     return [
         _Exported(axis_noise(a, method), a.figures.earth_rate_removed_deg_h is not None)
+        if a.accel is None else
+        _Exported(axis_noise(a, method), True,
+                  AccelNoise.of_series(axis_noise(a, method), a.accel.accel_bias_mg))
         for a in analyses
     ]

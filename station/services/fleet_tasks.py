@@ -45,12 +45,17 @@ def error_text(exc: BaseException) -> str:
 
 
 def _empty(record: RateRecord) -> RateRecord:
-    """The record's description (rate, axes, source) without its samples."""
+    """The record's description (rate, axes, accelerometer axes, source) without its
+    samples."""
+    accel = (None if record.accel_m_s2 is None
+             else np.empty((0, len(record.accel_axis_names))))
     return RateRecord(
         np.empty((0, len(record.axis_names))),
         record.sample_rate_hz,
         record.axis_names,
         record.source,
+        accel_m_s2=accel,
+        accel_axis_names=record.accel_axis_names,
     )
 
 

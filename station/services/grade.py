@@ -31,8 +31,9 @@ class RunSource:
     ----------
     path : str or Path
         A recorder run file (``.h5``) or a CSV record (a run of one unit).
-    rate_hz, units
-        Sample rate (Hz) and rate unit of a CSV record (see :class:`RecordSource`).
+    rate_hz, units, accel_units
+        Sample rate (Hz), rate unit and accelerometer unit of a CSV record (see
+        :class:`RecordSource`).
     serial, lot, operator : str or None
         Serial number of a CSV record's unit; lot and operator of the run (override the
         run's). None: as recorded.
@@ -42,6 +43,7 @@ class RunSource:
     rate_hz: float | None = None
     units: str = "deg/s"
     serial: str | None = None
+    accel_units: str = "m/s^2"
     lot: str | None = None
     operator: str | None = None
 
@@ -103,7 +105,8 @@ def open_run_source(source: RunSource) -> RunInfo:
     UsageError
         A serial number for a run of several units.
     """
-    run = open_run(source.path, sample_rate_hz=source.rate_hz, units=source.units)
+    run = open_run(source.path, sample_rate_hz=source.rate_hz, units=source.units,
+                   accel_units=source.accel_units)
     if source.serial is not None:
         if len(run.units) != 1:
             raise UsageError(f"--serial applies to a run of one unit; {source.path} has "

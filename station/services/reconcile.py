@@ -70,7 +70,8 @@ class ReconcileAnswer:
 def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tuple[str, ...]]:
     """(label and one-axis record of each axis reconciled, notes for the operator)."""
     source = request.source
-    run_info = open_run(source.file, sample_rate_hz=source.rate_hz, units=source.units)
+    run_info = open_run(source.file, sample_rate_hz=source.rate_hz, units=source.units,
+                        accel_units=source.accel_units)
     units = run_info.units
     if source.unit is not None:
         units = tuple(u for u in units if source.unit in (u.unit_id, u.serial_number))

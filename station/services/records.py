@@ -25,6 +25,8 @@ class RecordSource:
         Sample rate of a CSV record without a time column, Hz.
     units : str
         Unit of a CSV record's rate columns (``deg/s``, ``rad/s``, ``deg/h``).
+    accel_units : str
+        Unit of a CSV record's accelerometer columns (``m/s^2``, ``g``, ``mg``).
     axis, unit : str or None
         Only this axis (column name); run files: this unit (id or serial; default the first).
     start_s, stop_s : float, float or None
@@ -39,6 +41,7 @@ class RecordSource:
     rate_hz: float | None = None
     units: str = "deg/s"
     axis: str | None = None
+    accel_units: str = "m/s^2"
     unit: str | None = None
     start_s: float = 0.0
     stop_s: float | None = None
@@ -97,7 +100,7 @@ def load_record(source: RecordSource) -> LoadedRecord:
         A negative or empty time slice.
     """
     record = read_record(source.file, sample_rate_hz=source.rate_hz, units=source.units,
-                         unit=source.unit)
+                         unit=source.unit, accel_units=source.accel_units)
     if source.axis is not None:
         record = record.select(source.axis)
     return cut_record(record, source)

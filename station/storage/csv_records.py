@@ -9,6 +9,8 @@ CSV format (the interface other commands rely on):
   several sample periods (within 1 % of a whole number of them) is a gap: the samples
   it skips are missing, and the analysis leaves them out rather than joining the two
   sides (``RateRecord.sample_index``);
+* a column named ``accel_*`` or ``acc_*`` is one accelerometer axis, in m/s^2 unless
+  ``accel_units`` says otherwise (``g``, ``mg``), read into ``RateRecord.accel_m_s2``;
 * every other column is one gyro axis, in deg/s unless ``units`` says otherwise
   (``rad/s``, ``deg/h``);
 * ``.csv.gz`` files are read directly.
@@ -36,6 +38,40 @@ from station.model.wording import plural
 #: Factor from each accepted input unit to deg/s.
 UNIT_TO_DEG_S = {"deg/s": 1.0, "rad/s": 180.0 / math.pi, "deg/h": 1.0 / 3600.0}
 TIME_COLUMNS = ("time", "time_s", "t")
+#: Standard gravity (m/s^2): the unit g.
+_G = 9.80665
+#: Factor from each accepted accelerometer input unit to m/s^2.
+UNIT_TO_M_S2 = {"m/s^2": 1.0, "g": _G, "mg": _G * 1e-3}
+#: Column-name prefixes of accelerometer axes.
+ACCEL_PREFIXES = ("accel_", "acc_")
+
+
+def is_accel_column(name: str) -> bool:
+    """Whether a CSV column (by its header name) is an accelerometer axis."""
+    return name.strip().lower().startswith(ACCEL_PREFIXES)
+
+
+def check_units(units: str, accel_units: str) -> None:
+    """Refuse a rate unit or an accelerometer unit the reader does not know, or one given
+    for the other quantity.
+
+    Raises
+    ------
+    RecordFormatError
+        One line naming the unit.
+    """
+    if units not in UNIT_TO_DEG_S:
+        kind = " is an acceleration unit" if units in UNIT_TO_M_S2 else ""
+        raise RecordFormatError(
+            f"unknown rate unit {units!r}{kind}; --units takes {', '.join(UNIT_TO_DEG_S)} "
+            f"(accel_* columns take --accel-units)"
+        )
+    if accel_units not in UNIT_TO_M_S2:
+        kind = " is a rate unit" if accel_units in UNIT_TO_DEG_S else " is not one"
+        raise RecordFormatError(
+            f"accelerometer unit {accel_units!r}{kind}; --accel-units takes "
+            f"{', '.join(UNIT_TO_M_S2)} for the accel_* columns"
+        )
 
 
 def _open_text(path: Path) -> IO[str]:
@@ -45,7 +81,8 @@ def _open_text(path: Path) -> IO[str]:
 
 
 def read_csv_record(
-    path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s"
+    path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s",
+    accel_units: str = "m/s^2",
 ) -> RateRecord:
     """Read a CSV rate record (see the module docstring for the format).
 
@@ -58,20 +95,20 @@ def read_csv_record(
         the time column when both are present.
     units : {"deg/s", "rad/s", "deg/h"}
         Unit of the rate columns; converted to deg/s.
+    accel_units : {"m/s^2", "g", "mg"}
+        Unit of the accelerometer columns (``accel_*``, ``acc_*``); converted to m/s^2.
 
     Raises
     ------
     RecordFormatError
-        Unknown unit, no header, no axis column, unparsable or non-finite values,
-        irregular time stamps, or no way to know the sample rate.
+        Unknown unit (or a rate unit for the accelerometers), a column name that says a
+        rate unit on an accelerometer axis, no header, no axis column, unparsable or
+        non-finite values, irregular time stamps, or no way to know the sample rate.
     """
     path = Path(path)
-    if units not in UNIT_TO_DEG_S:
-        raise RecordFormatError(
-            f"unknown rate unit {units!r}; use one of {', '.join(UNIT_TO_DEG_S)}"
-        )
+    check_units(units, accel_units)
     try:
-        return _read_csv(path, sample_rate_hz, units)
+        return _read_csv(path, sample_rate_hz, units, accel_units)
     except (UnicodeDecodeError, EOFError, zlib.error, gzip.BadGzipFile) as exc:
         raise RecordFormatError(f"{path}: not a text CSV record (its bytes are not UTF-8 "
                                 f"text{' compressed with gzip' if path.suffix == '.gz' else ''}"
@@ -79,7 +116,8 @@ def read_csv_record(
                                 f"(.h5)") from None
 
 
-def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecord:
+def _read_csv(path: Path, sample_rate_hz: float | None, units: str,
+              accel_units: str) -> RateRecord:
     with _open_text(path) as fh:
         header: list[str] | None = None
         header_line = 0
@@ -114,21 +152,44 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str) -> RateRecor
     temp_index = next(
         (i for i, h in enumerate(lower) if h in ("temperature_c", "temp_c", "temperature")), None
     )
-    axis_idx = [i for i in range(len(header)) if i not in (time_index, temp_index)]
+    columns = [i for i in range(len(header)) if i not in (time_index, temp_index)]
+    accel_idx = [i for i in columns if is_accel_column(header[i])]
+    axis_idx = [i for i in columns if i not in accel_idx]
+    for i in accel_idx:
+        _check_accel_name(path, header[i])
     if not axis_idx:
-        raise RecordFormatError(f"{path}: no rate column besides time/temperature")
+        raise RecordFormatError(f"{path}: no rate column besides time/temperature"
+                                f"{'/accelerometers' if accel_idx else ''}")
     fs, index = _time_grid(path, data, time_index, sample_rate_hz)
     rate = data[:, axis_idx] * UNIT_TO_DEG_S[units]
-    bad = ~np.isfinite(rate)
-    if bad.any():
-        row = int(np.argmax(bad.any(axis=1)))
-        raise RecordFormatError(
-            f"{path}: non-finite rate in data row {row + 1}; clean the file first"
-        )
+    accel = data[:, accel_idx] * UNIT_TO_M_S2[accel_units] if accel_idx else None
+    for what, values in (("rate", rate), ("acceleration", accel)):
+        bad = None if values is None else ~np.isfinite(values)
+        if bad is not None and bad.any():
+            row = int(np.argmax(bad.any(axis=1)))
+            raise RecordFormatError(
+                f"{path}: non-finite {what} in data row {row + 1}; clean the file first"
+            )
     temp = None if temp_index is None else data[:, temp_index].copy()
     return RateRecord(
-        np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp, index
+        np.ascontiguousarray(rate), fs, tuple(header[i] for i in axis_idx), str(path), temp,
+        index, None if accel is None else np.ascontiguousarray(accel),
+        tuple(header[i] for i in accel_idx),
     )
+
+
+#: Name endings that say a rate unit (``accel_x_deg_s``): a column mislabelled.
+_RATE_SUFFIXES = ("_deg_s", "_dps", "_rad_s", "_deg_h")
+
+
+def _check_accel_name(path: Path, name: str) -> None:
+    """Refuse an accelerometer column whose name says a rate unit."""
+    low = name.strip().lower()
+    if low.endswith(_RATE_SUFFIXES):
+        raise RecordFormatError(
+            f"{path}: column {name!r} is an accelerometer axis (accel_*) but its name says a "
+            f"rate unit; rename it, or give --accel-units {'|'.join(UNIT_TO_M_S2)}"
+        )
 
 
 def _data_line(path: Path, header_line: int, row: int) -> int | None:

@@ -20,7 +20,7 @@ def is_run_file(path: str | Path) -> bool:
 
 def read_record(
     path: str | Path, *, sample_rate_hz: float | None = None, units: str = "deg/s",
-    unit: str | None = None,
+    unit: str | None = None, accel_units: str = "m/s^2",
 ) -> RateRecord:
     """Read a rate record from any supported file type: CSV (plain or gzip'd) or a run file.
 
@@ -28,7 +28,7 @@ def read_record(
     ----------
     path : str or Path
         ``.csv``, ``.csv.gz``, ``.txt``, or a recorder run file (``.h5``/``.hdf5``).
-    sample_rate_hz, units
+    sample_rate_hz, units, accel_units
         For CSV records only (see :func:`read_csv_record`); a run file carries both.
     unit : str, optional
         For run files: the unit id (``unit2``) or serial number; default the first unit.
@@ -49,7 +49,8 @@ def read_record(
         raise RecordFormatError(f"{path}: --unit applies to run files (.h5) only")
     suffixes = "".join(path.suffixes[-2:]).lower()
     if suffixes.endswith(".csv") or suffixes.endswith(".csv.gz") or path.suffix.lower() == ".txt":
-        return read_csv_record(path, sample_rate_hz=sample_rate_hz, units=units)
+        return read_csv_record(path, sample_rate_hz=sample_rate_hz, units=units,
+                               accel_units=accel_units)
     raise RecordFormatError(f"{path}: unknown record type; expected .csv, .csv.gz or .h5")
 
 
@@ -59,6 +60,7 @@ def open_run(
     sample_rate_hz: float | None = None,
     units: str = "deg/s",
     only: Collection[str] | None = None,
+    accel_units: str = "m/s^2",
 ) -> RunInfo:
     """Read a run file: a recorder HDF5 file, or a CSV record (a run of one unit).
 
@@ -69,7 +71,8 @@ def open_run(
     path = Path(path)
     if is_run_file(path):
         return read_run(path, only=only, long_record=long_unit_record)
-    record = read_record(path, sample_rate_hz=sample_rate_hz, units=units)
+    record = read_record(path, sample_rate_hz=sample_rate_hz, units=units,
+                         accel_units=accel_units)
     unit = UnitRun(unit_id=path.name.split(".")[0], model="", serial_number="", record=record)
     return RunInfo(path=str(path), units=(unit,))
 

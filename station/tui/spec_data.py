@@ -20,26 +20,38 @@ from station.tui.live import Series
 
 def allan_series(axes: tuple[AxisGrade, ...]) -> tuple[Series, ...]:
     """Measured ADEV (points), fit (line), fitted terms of the first axis (dashed) and the
-    first axis's limit lines, all in deg/h against tau in s; the terms and limits are kept
-    within a decade of the measured values."""
+    first axis's limit lines, all in deg/h (an accelerometer axis: m/s^2, no limit lines)
+    against tau in s (:func:`adev_unit`); the terms and limits are kept within a decade of
+    the measured values."""
     out: list[Series] = []
     for a in axes:
         al, fit = a.analysis.allan, a.analysis.fit
-        out.append(Series(f"{a.axis} measured", al.tau_s, al.adev * S_PER_H, "points"))
+        scale = _scale(a)
+        out.append(Series(f"{a.axis} measured", al.tau_s, al.adev * scale, "points"))
         out.append(
-            Series(f"{a.axis} fitted", al.tau_s, np.sqrt(fit.model_avar(al.tau_s)) * S_PER_H)
+            Series(f"{a.axis} fitted", al.tau_s, np.sqrt(fit.model_avar(al.tau_s)) * scale)
         )
     if axes:
         first = axes[0]
         tau, fit = first.analysis.allan.tau_s, first.analysis.fit
-        measured = first.analysis.allan.adev * S_PER_H
+        measured = first.analysis.allan.adev * _scale(first)
         for term in TERMS:
-            curve = np.sqrt(fit.term_avar(term, tau)) * S_PER_H
+            curve = np.sqrt(fit.term_avar(term, tau)) * _scale(first)
             if np.any(curve > 0):
                 out.append(Series(term, tau, curve, "dashed"))
-        out += limit_series(first)
+        out += limit_series(first) if first.analysis.accel is None else []
         out = [clip_to(s, measured) for s in out]
     return tuple(out)
+
+
+def _scale(axis: AxisGrade) -> float:
+    """deg/s -> deg/h for a rate axis; 1 for an accelerometer axis (m/s^2)."""
+    return 1.0 if axis.analysis.accel is not None else S_PER_H
+
+
+def adev_unit(axis: AxisGrade) -> str:
+    """The unit :func:`allan_series` draws ``axis`` in."""
+    return "m/s^2" if axis.analysis.accel is not None else "deg/h"
 
 
 def clip_to(series: Series, measured: np.ndarray, decades: float = 1.0) -> Series:

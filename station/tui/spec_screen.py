@@ -217,7 +217,7 @@ class SpecSheetScreen(Screen[None]):
             figure_rows,
             header_fields,
         )
-        from station.tui.spec_data import allan_series
+        from station.tui.spec_data import adev_unit, allan_series
 
         graded = self.graded
         if graded is None or not self.is_mounted:
@@ -242,7 +242,9 @@ class SpecSheetScreen(Screen[None]):
                 table.add_row(Text(f"{r.label} [{r.unit}]"), number(r.value, 3),
                               number(r.limit, 3), verdict_text(r.verdict),
                               interval_text(r.ci_low, r.ci_high))
-            self.query_one("#allan-plot", SeriesPlot).series = allan_series((axis,))
+            plot = self.query_one("#allan-plot", SeriesPlot)
+            plot.y_label = f"ADEV [{adev_unit(axis)}]"
+            plot.series = allan_series((axis,))
             self._davar_of(unit, unit.axes.index(axis))
         self.query_one("#grade", Static).update(head)
         header = "\n".join(f"{k}: {v}" for k, v in header_fields(graded, unit))

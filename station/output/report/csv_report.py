@@ -81,8 +81,11 @@ def write_csv(graded: RunGrade, path: str | Path) -> Path:
                     axis.grade,
                     axis.deciding_grade,
                 ]
-                cells = []
+                cells: list[object] = []
                 for n in names:
+                    if n not in rows:  # a rate figure on an accelerometer axis, or the reverse
+                        cells += [""] * len(PER_FIGURE)
+                        continue
                     r = rows[n]
                     cells += [
                         r.unit,

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 from analysis.units import S_PER_H
+from station.evaluation.accel_axes import accel_fit_dict
 from station.evaluation.grading import RunGrade
 from station.output.json_units import in_family
 from station.output.report.common import event_summary, header_fields
@@ -30,12 +31,16 @@ def spec_sheet_json(graded: RunGrade) -> dict[str, object]:
         unit_doc["events"] = event_summary(unit.unit, graded).as_json()
         for axis in unit.axes:
             al = axis.analysis.allan
+            # an accelerometer axis: its curve in m/s^2 and its fit in accelerometer units
+            accel = axis.analysis.accel is not None
+            scale, unit_key = (1.0, "m_s2") if accel else (S_PER_H, "deg_h")
             unit_doc["axes"][axis.axis]["allan"] = {
                 "estimator": al.estimator, "confidence": al.confidence, "tau_s": al.tau_s.tolist(),
-                "adev_deg_h": (al.adev * S_PER_H).tolist(),
-                "adev_ci_low_deg_h": (al.adev_ci_low * S_PER_H).tolist(),
-                "adev_ci_high_deg_h": (al.adev_ci_high * S_PER_H).tolist()}
-            unit_doc["axes"][axis.axis]["fit"] = axis.analysis.fit.as_dict()
+                f"adev_{unit_key}": (al.adev * scale).tolist(),
+                f"adev_ci_low_{unit_key}": (al.adev_ci_low * scale).tolist(),
+                f"adev_ci_high_{unit_key}": (al.adev_ci_high * scale).tolist()}
+            fit = axis.analysis.fit.as_dict()
+            unit_doc["axes"][axis.axis]["fit"] = accel_fit_dict(fit) if accel else fit
             if axis.analysis.gmwm is not None:  # `station report --method gmwm`
                 unit_doc["axes"][axis.axis]["gmwm"] = axis.analysis.gmwm.as_json()
     return doc

@@ -35,8 +35,9 @@ TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.
 
 def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8,
                family: UnitFamily = DEG_FAMILY) -> None:
-    """Allan deviation of each axis (deg/h, or rad/s in the rad ``family``) with band, fit, term
-    lines and limit lines."""
+    """Allan deviation of each rate axis (deg/h, or rad/s in the rad ``family``) with band,
+    fit, term lines and limit lines (accelerometer axes, in m/s^2, are in the tables only)."""
+    axes = [a for a in axes if a.analysis.accel is None]
     scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     lows, highs = [], []
@@ -175,9 +176,10 @@ def allan_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
 
 
 def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
-    """The DAVAR heat maps of a unit (one per axis) as a PNG (in ``family``)."""
-    n = len(unit.axes)
+    """The DAVAR heat maps of a unit (one per rate axis) as a PNG (in ``family``)."""
+    rates = [i for i, a in enumerate(unit.axes) if a.analysis.accel is None]
+    n = len(rates)
     fig, axs = plt.subplots(1, n, figsize=(4.2 * n, 3.2), squeeze=False, layout="constrained")
-    for i in range(n):
-        draw_davar(axs[0, i], unit, i, family=family)
+    for k, i in enumerate(rates):
+        draw_davar(axs[0, k], unit, i, family=family)
     return figure_png(fig)

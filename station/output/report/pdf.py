@@ -101,10 +101,10 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
                      "dashed = limits", fontsize=8.5)
     else:
         placeholder(ax, "no noise figures: see the notes", fontsize=8)
-    n = len(unit.axes)
-    width = 0.84 / max(n, 1)
-    for i in range(n):
-        dax = fig.add_axes((0.1 + i * width, 0.105, width * 0.68, davar_h))
+    rates = [i for i, a in enumerate(unit.axes) if a.analysis.accel is None]  # maps: rates
+    width = 0.84 / max(len(rates), 1)
+    for k, i in enumerate(rates):
+        dax = fig.add_axes((0.1 + k * width, 0.105, width * 0.68, davar_h))
         draw_davar(dax, unit, i, fontsize=6.5, family=graded.output_units)
     lines = ["; ".join(sheet.events.lines(brief=True))]
     lines += sheet.analysis
@@ -170,7 +170,8 @@ def _figures_table(fig: Figure, sheet: UnitSheet, top: float) -> float:
         colors.append(["white"] * 7 + [VERDICT_COLORS[r.verdict]])
     if not rows:  # no noise figures (a sequence graded on its own figures)
         return top
-    row_h = min(0.0145, 0.40 / (len(rows) + 1))  # long tables shrink to leave room for the plots
+    # long tables (an IMU: six axes) shrink to leave room for the plots
+    row_h = min(0.0145, 0.32 / (len(rows) + 1))
     height = row_h * (len(rows) + 1)
     bottom = top - height
     ax = fig.add_axes((0.06, bottom, 0.88, height))
@@ -185,7 +186,7 @@ def _figures_table(fig: Figure, sheet: UnitSheet, top: float) -> float:
         cellLoc="center",
     )
     table.auto_set_font_size(False)
-    table.set_fontsize(7.5 if row_h >= 0.0125 else 6.5)
+    table.set_fontsize(7.5 if row_h >= 0.0125 else 6.5 if row_h >= 0.0105 else 5.5)
     for (row, _col), cell in table.get_celld().items():
         cell.set_linewidth(0.3)
         if row == 0:

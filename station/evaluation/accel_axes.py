@@ -1,0 +1,161 @@
+"""Accelerometer axes of an IMU record: analysed by the gyro's code paths in m/s^2, then
+read as accelerometer figures (:mod:`analysis.accel`), with gravity taken off the bias.
+
+The gravity on each axis comes from the bench (latitude and height: the WGS-84 normal
+gravity; the axis' direction: its up component) when the bench gives both; otherwise
+the axis whose mean is nearest 1 g is taken as the vertical, at standard gravity, and the
+note says so (docs/bench.md).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING, Literal
+
+import numpy as np
+
+from analysis.accel import (
+    STANDARD_GRAVITY_M_S2,
+    accel_figures,
+    gravity_by_axis,
+    normal_gravity_m_s2,
+    vertical_axis,
+)
+from analysis.deviations import DeviationResult
+from analysis.fit_model import COEFFICIENT_NAMES
+from analysis.units import DEG_PER_URAD, S_PER_H
+from station.model.bench import Bench
+from station.model.records import RateRecord
+
+if TYPE_CHECKING:
+    from station.evaluation.analyze import AxisAnalysis
+
+#: What an axis measures.
+Quantity = Literal["rate", "acceleration"]
+
+#: ug per "deg/h" of an m/s^2 series (the gyro figures' time factor taken off).
+_UG = 1e6 / STANDARD_GRAVITY_M_S2 / S_PER_H
+#: The fit's coefficients of an m/s^2 series: key and factor from the gyro key's value.
+ACCEL_FIT_KEYS = {
+    "Q": ("Q_m_s", DEG_PER_URAD),  # urad -> deg -> the series' unit times s: m/s
+    "N": ("N_m_s_rt_h", 1.0),
+    "B": ("B_ug", _UG),
+    "K": ("K_m_s_h1_5", 1.0),
+    "R": ("R_m_s_h2", 1.0),
+}
+
+
+def accel_record(record: RateRecord) -> RateRecord | None:
+    """The accelerometer axes of ``record`` as a record the rate analysis takes (values in
+    m/s^2 where it expects deg/s); None when the record has none."""
+    if record.accel_m_s2 is None or not record.accel_axis_names:
+        return None
+    return RateRecord(record.accel_m_s2, record.sample_rate_hz, record.accel_axis_names,
+                      record.source, record.temperature_c, record.sample_index)
+
+
+def gravity_on_axes(bench: Bench | None, names: Sequence[str], means_m_s2: Sequence[float]
+                    ) -> tuple[list[float | None], list[str]]:
+    """(gravity on each axis in m/s^2, a note per axis): from the bench when it gives the
+    latitude and the axis' direction, else the axis nearest +-1 g at standard gravity."""
+    if bench is not None and bench.latitude_deg is not None and bench.axes:
+        g = normal_gravity_m_s2(bench.latitude_deg, bench.height_m or 0.0)
+        on_axes = gravity_by_axis(g, bench.axes, names)
+        if any(v is not None for v in on_axes):
+            where = (f"latitude {bench.latitude_deg:g} deg, height {bench.height_m or 0.0:g} m"
+                     + ("" if bench.height_m is not None else " (no height_m on the bench)"))
+            notes = [f"gravity {v:+.6g} m/s^2 removed from the bias (WGS-84 normal gravity "
+                     f"{g:.6g} m/s^2 at {where}; axis {bench.direction_text(n)})"
+                     if v is not None else
+                     f"gravity not removed from the bias: the bench gives no direction for "
+                     f"axis {n!r}" for n, v in zip(names, on_axes, strict=True)]
+            return on_axes, notes
+    up = vertical_axis(means_m_s2)
+    sign = 1.0 if means_m_s2[up] >= 0 else -1.0
+    out: list[float | None] = [0.0] * len(names)
+    out[up] = sign * STANDARD_GRAVITY_M_S2
+    why = "no bench orientation and latitude (--bench FILE)"
+    notes = [f"gravity {v:+.6g} m/s^2 (standard gravity) removed from the bias: {names[up]!r} "
+             f"is nearest {sign:+.0f} g and taken as the vertical, {why}" if i == up else
+             f"no gravity removed from the bias: {names[up]!r} is taken as the vertical, {why}"
+             for i, v in enumerate(out)]
+    return out, notes
+
+
+def analyze_accel(record: RateRecord, bench: Bench | None,
+                  analyse: Callable[[RateRecord], list[AxisAnalysis]]) -> list[AxisAnalysis]:
+    """The accelerometer axes of ``record`` through ``analyse`` (the rate analysis, Earth
+    rate off), each with its :class:`analysis.accel.AccelFigures` and quantity set."""
+    accel = accel_record(record)
+    if accel is None:
+        return []
+    axes = analyse(accel)
+    means = [float(np.nanmean(a.rate_deg_s)) if a.rate_deg_s is not None
+             else a.figures.bias_deg_h / S_PER_H for a in axes]
+    gravity, notes = gravity_on_axes(bench, accel.axis_names, means)
+    out = []
+    for a, g, note in zip(axes, gravity, notes, strict=True):
+        kept = tuple(n for n in a.figures.notes if not n.startswith("Earth rate"))
+        figures = accel_figures(a.figures, a.fit, gravity_removed_m_s2=g,
+                                notes=(note, *kept))
+        out.append(replace(a, quantity="acceleration", accel=figures))
+    return out
+
+
+def accel_unit(curve: DeviationResult) -> str:
+    """The unit of an accelerometer axis' deviation: m/s^2 (m/s for an angle-like tdev)."""
+    return "m/s" if curve.unit == "angle" else "m/s^2"
+
+
+def accel_curve_keys(curve: DeviationResult) -> dict[str, list[float]]:
+    """``adev_m_s2``, ``adev_ci_low_m_s2``, ``adev_ci_high_m_s2`` (tdev: ``_m_s``): an
+    accelerometer axis' deviation and its interval under keys naming their unit."""
+    suffix = "m_s" if curve.unit == "angle" else "m_s2"
+    return {f"adev{k}_{suffix}": v.tolist() for k, v in (
+        ("", curve.deviation), ("_ci_low", curve.deviation_ci_low),
+        ("_ci_high", curve.deviation_ci_high))}
+
+
+def accel_fit_dict(fit_json: dict[str, object]) -> dict[str, object]:
+    """The ``fit`` object of an accelerometer axis: the gyro keys renamed (and scaled) to
+    the accelerometer units of :data:`ACCEL_FIT_KEYS`."""
+    out = dict(fit_json)
+    for term, (key, factor) in ACCEL_FIT_KEYS.items():
+        old = COEFFICIENT_NAMES[term]
+        for suffix in ("", "_stderr"):
+            value = out.pop(f"{old}{suffix}", None)
+            out[f"{key}{suffix}"] = (value * factor if isinstance(value, float) else value)
+    return out
+
+
+def _cell(value: float | None, digits: int = 4) -> str:
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def format_accel_table(axes: Sequence[AxisAnalysis]) -> str:
+    """A plain-text table of the accelerometer figures of ``axes`` (SI, bias in mg,
+    bias instability in ug), then each axis' notes."""
+    figs = [a.accel for a in axes if a.accel is not None]
+    rows = [
+        ("samples", [str(a.n_samples) for a in axes]),
+        ("bias, gravity removed [mg]", [_cell(f.accel_bias_mg) for f in figs]),
+        ("  gravity removed [m/s^2]", [_cell(f.gravity_removed_m_s2, 6) for f in figs]),
+        ("VRW read-off [m/s/sqrt(h)]", [_cell(f.vrw_m_s_rt_h) for f in figs]),
+        ("  as density [m/s^2/sqrt(Hz)]", [_cell(f.vrw_m_s2_rt_hz) for f in figs]),
+        ("bias instability read-off [ug]", [_cell(f.bias_instability_ug) for f in figs]),
+        ("  at tau [s]", [_cell(f.bias_instability_tau_s) for f in figs]),
+        ("fit VRW [m/s/sqrt(h)]", [_cell(f.vrw_fit_m_s_rt_h) for f in figs]),
+        ("fit bias instability [ug]", [_cell(f.bias_instability_fit_ug) for f in figs]),
+        ("fit accel. random walk [m/s/h^1.5]",
+         [_cell(f.acceleration_random_walk_m_s_h1_5) for f in figs]),
+    ]
+    width = max(len(label) for label, _ in rows)
+    col = max(14, *(len(a.name) for a in axes))
+    lines = ["accelerometers (the same Allan analysis in m/s^2)",
+             " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)]
+    lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals)
+              for label, vals in rows]
+    for a, f in zip(axes, figs, strict=True):
+        lines += [f"note ({a.name}): {n}" for n in f.notes]
+    return "\n".join(lines)
