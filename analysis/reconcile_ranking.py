@@ -33,15 +33,9 @@ TIME_SERIES_TESTED = frozenset({"sinusoid", "bias_steps", "temperature_bias"})
 CONFIRMED_SHARE = 0.5
 
 
-def allan_ranked(
-    evidence: RoundEvidence,
-    current: Comparison,
-    curve: MeasuredCurve,
-    steps: NDArray[np.float64] | None,
-    *,
-    bic_threshold: float,
-    gmwm: bool,
-) -> tuple[list[Ranked], GmwmJudgement | None]:
+def allan_ranked(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve,
+                 steps: NDArray[np.float64] | None, *, bic_threshold: float,
+                 gmwm: bool) -> tuple[list[Ranked], GmwmJudgement | None]:
     """Candidates above the threshold with their confirmation, in the order they are tried,
     and the GMWM's judgement of the close ones (None when it judged none).
 
