@@ -19,18 +19,26 @@ The workflow (:func:`reconcile`), each step reported in a :class:`ReconcileResul
    or time), which then also gives their parameters. Bias steps have the expected Allan
    curve of a rate random walk; they are a candidate only when the change-point test
    locates them, and then their curve (and every later comparison) is that of the steps
-   located, not of a random draw of steps.
+   located, not of a random draw of steps. A spectral line the full-resolution line test
+   finds (:mod:`analysis.line_test`, family-wise level 1e-3) contradicts the model even
+   where the gap does not (a sinusoid of a tenth of the white noise moves no Allan value
+   beyond its interval, but stands 30 times over the background of an hour's
+   periodogram): its sinusoid, fitted to the time series, is tried first
+   (:mod:`analysis.reconcile_ranking`), and the loop runs while the gap is significant or
+   such a line is left.
 3. **Add and re-check**: the best candidate is put into the model, the comparison is run
    again (new curve, new simulated band and null) and the effect is kept only if the gap
    shrinks significantly: ``G_after < G_before - shrink_sigmas * sd(G_null_before)``
    (3 standard deviations of the gap's simulated spread under the model before the
    change) and ``G_after < (1 - min_shrink) G_before`` (by 10 % at least: where the gap
    is far above its null, as on real records, a 2 % drop is no explanation). Otherwise
-   the next candidate is tried (at most ``max_tries`` per round). After an addition, every
-   effect added earlier is re-checked: one the model no longer needs (without it the model
-   still agrees with the data and the gap is not significantly larger) is dropped. The
-   loop repeats until the gap is no longer significant, no candidate passes, or
-   ``max_effects`` changes.
+   the next candidate is tried (at most ``max_tries`` per round). The sinusoid of a
+   spectral line needs only not to raise the gap by ``shrink_sigmas`` standard deviations
+   (its own test has rejected the model without it), and is not dropped later. After an
+   addition, every effect added earlier is re-checked: one the model no longer needs
+   (without it the model still agrees with the data and the gap is not significantly
+   larger) is dropped. The loop repeats until the gap is no longer significant and no
+   line is left, no candidate passes, or ``max_effects`` changes.
 
 A refitted term whose Allan variance comes out lower than the model's at every tau is an
 *excess* term (the model has more of it than the data show) and is reported apart from
