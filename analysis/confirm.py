@@ -54,8 +54,9 @@ from numpy.typing import NDArray
 from scipy import optimize, stats
 
 from analysis import units
-from analysis.candidates import CandidateFit
+from analysis.candidates import MIN_CYCLES, CandidateFit
 from analysis.discrepancy import Comparison, MeasuredCurve, block_means, regression_slopes
+from analysis.line_test import LineDetection, strongest_line
 from analysis.models import BiasSteps, NoiseModel, NoiseTerm, RateRamp, Sinusoid, TemperatureBias
 from analysis.simulate import simulate
 from analysis.tones import Tone, find_tones
@@ -379,6 +380,22 @@ class RoundEvidence:
         self.curve, self.comparison = curve, comparison
         self.residual = curve.rate_deg_s - _deterministic_part(comparison.model, curve, known)
         self.steps: StepEvidence = detect_steps(self.residual, curve.sample_rate_hz)
+        self.line: LineDetection | None = strongest_line(
+            self.residual, curve.sample_rate_hz, min_cycles=MIN_CYCLES
+        )
+
+    def line_sinusoid(self) -> tuple[Sinusoid, Evidence] | None:
+        """The sinusoid of the spectral line the line test detects (:mod:`analysis.line_test`,
+        L2), fitted to the time series as :func:`periodogram_peak` fits it; None when no line
+        is detected or the model has a sinusoid already."""
+        line = self.line
+        if line is None or not line.significant() or "sinusoid" in self.comparison.model:
+            return None
+        ev = periodogram_peak(self.residual, self.curve.sample_rate_hz, 1.0 / line.freq_hz)
+        if "amplitude_deg_h" not in ev.values:
+            return None
+        return Sinusoid(**ev.values), Evidence(True, f"{line.statistic}; {ev.statistic}",
+                                               ev.values, ev.stderr)
 
     def step_series(self) -> NDArray[np.float64] | None:
         """The bias the located steps make (deg/s per sample), when steps were found."""

@@ -19,18 +19,26 @@ The workflow (:func:`reconcile`), each step reported in a :class:`ReconcileResul
    or time), which then also gives their parameters. Bias steps have the expected Allan
    curve of a rate random walk; they are a candidate only when the change-point test
    locates them, and then their curve (and every later comparison) is that of the steps
-   located, not of a random draw of steps.
+   located, not of a random draw of steps. A spectral line the full-resolution line test
+   finds (:mod:`analysis.line_test`, family-wise level 1e-3) contradicts the model even
+   where the gap does not (a sinusoid of a tenth of the white noise moves no Allan value
+   beyond its interval, but stands 30 times over the background of an hour's
+   periodogram): its sinusoid, fitted to the time series, is tried first
+   (:mod:`analysis.reconcile_ranking`), and the loop runs while the gap is significant or
+   such a line is left.
 3. **Add and re-check**: the best candidate is put into the model, the comparison is run
    again (new curve, new simulated band and null) and the effect is kept only if the gap
    shrinks significantly: ``G_after < G_before - shrink_sigmas * sd(G_null_before)``
    (3 standard deviations of the gap's simulated spread under the model before the
    change) and ``G_after < (1 - min_shrink) G_before`` (by 10 % at least: where the gap
    is far above its null, as on real records, a 2 % drop is no explanation). Otherwise
-   the next candidate is tried (at most ``max_tries`` per round). After an addition, every
-   effect added earlier is re-checked: one the model no longer needs (without it the model
-   still agrees with the data and the gap is not significantly larger) is dropped. The
-   loop repeats until the gap is no longer significant, no candidate passes, or
-   ``max_effects`` changes.
+   the next candidate is tried (at most ``max_tries`` per round). The sinusoid of a
+   spectral line needs only not to raise the gap by ``shrink_sigmas`` standard deviations
+   (its own test has rejected the model without it), and is not dropped later. After an
+   addition, every effect added earlier is re-checked: one the model no longer needs
+   (without it the model still agrees with the data and the gap is not significantly
+   larger) is dropped. The loop repeats until the gap is no longer significant and no
+   line is left, no candidate passes, or ``max_effects`` changes.
 
 A refitted term whose Allan variance comes out lower than the model's at every tau is an
 *excess* term (the model has more of it than the data show) and is reported apart from
@@ -46,19 +54,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.candidates import (
-    BIC_THRESHOLD,
-    SCALE_KEYS,
-    CandidateFit,
-    change_of,
-    fit_candidates,
-    tau_range,
-)
-from analysis.confirm import (
-    Evidence,
-    RoundEvidence,
-    StepEvidence,
-)
+from analysis.candidates import BIC_THRESHOLD, SCALE_KEYS, CandidateFit, tau_range
+from analysis.confirm import Evidence, RoundEvidence, StepEvidence
 from analysis.discrepancy import (
     MODEL_FLOOR,
     Comparison,
@@ -67,16 +64,14 @@ from analysis.discrepancy import (
     compare,
     measure_curve,
 )
-from analysis.gmwm_naming import ALTERNATIVE_SCORE, Alternative, GmwmJudgement, judge, new_or_more
+from analysis.gmwm_naming import Alternative
 from analysis.models import (
     NoiseModel,
     NoiseTerm,
     term_type,
 )
+from analysis.reconcile_ranking import alternatives, ranked
 from analysis.units import rate_deg_s_to_deg_h
-
-#: What the time series says of a candidate: (term to add, evidence, reason refused).
-Confirmation = tuple[NoiseTerm | None, Evidence | None, str]
 
 
 @dataclass(frozen=True)
@@ -319,94 +314,6 @@ def _effect(
 
 
 # -------------------------------------------------------------------------------- the loop
-
-#: Candidates within this Delta BIC of the best are not told apart by the curve ("positive"
-#: evidence at most on the Kass-Raftery scale); among them the simpler goes first.
-INDISTINCT_BIC = 6.0
-#: Candidates whose time-series test singles them out (a periodogram line, located steps, a
-#: correlation with the temperature): when confirmed they are tried first. Not the rate
-#: ramp: a trend in one record is as much a random walk's as a ramp's.
-TIME_SERIES_TESTED = frozenset({"sinusoid", "bias_steps", "temperature_bias"})
-#: Share of the best Delta BIC a confirmed candidate needs to go first.
-CONFIRMED_SHARE = 0.5
-
-
-def _ranked(
-    evidence: RoundEvidence,
-    current: Comparison,
-    curve: MeasuredCurve,
-    opt: ReconcileOptions,
-    steps: NDArray[np.float64] | None,
-) -> tuple[list[tuple[CandidateFit, str, Confirmation]], GmwmJudgement | None]:
-    """Candidates above the threshold with their confirmation, in the order they are tried,
-    and the GMWM's judgement of the close ones (None when it judged none).
-
-    First the candidates the time series confirms (``TIME_SERIES_TESTED``) that explain at
-    least ``CONFIRMED_SHARE`` of the best one's Delta BIC, then those within
-    ``INDISTINCT_BIC`` of the best by their number of parameters (the curve cannot tell
-    them apart, so the simpler explanation is tried first; with ``opt.gmwm``, when the
-    GMWM can judge every one of them and they include a refit of a term the model has, the
-    GMWM's answer to "a new process or more of one the model has" first,
-    :func:`analysis.gmwm_naming.new_or_more`), then the rest; by Delta BIC within each group.
-    """
-    fits = [f for f in fit_candidates(current.model, curve, current, steps=steps)
-            if f.delta_bic >= opt.bic_threshold]
-    if not fits:
-        return [], None
-    best = fits[0].delta_bic
-    rows = []
-    for fit in fits:
-        change = change_of(fit, current.model, curve)
-        verdict = evidence.confirm(fit, change)
-        close = fit.delta_bic >= best - INDISTINCT_BIC
-        confirmed = (
-            fit.name in TIME_SERIES_TESTED and verdict[0] is not None and change != "decreased"
-        )
-        strong = fit.delta_bic >= CONFIRMED_SHARE * best
-        rank = (0, 0) if confirmed and strong else ((1, fit.n_params) if close else (2, 0))
-        rows.append((rank, -fit.delta_bic, fit, change, verdict))
-    rows.sort(key=lambda r: (r[0], r[1]))
-    judgement = None
-    close_rows = [r for r in rows if r[0][0] == 1 and r[3] != "decreased" and r[4][0] is not None]
-    if opt.gmwm and len(close_rows) >= 2:
-        judgement = judge(evidence.residual, curve.sample_rate_hz, current.model,
-                          [(r[2].name, r[2].mode) for r in close_rows])
-    # the GMWM orders the close group when it can judge every viable member and the question
-    # is a new process against more of one the model has (a Gauss-Markov process or more bias
-    # instability); between two added terms the curve's order (simplest first) stands
-    decides = (judgement is not None and all(r[2].name in judgement.scores for r in close_rows)
-               and any(r[3] != "added" for r in close_rows))
-    if decides:
-        assert judgement is not None
-        group = [r for r in rows if r[0][0] == 1]
-        ordered = new_or_more(group, lambda r: r[2].name, lambda r: r[3] == "added", judgement)
-        rows = [r for r in rows if r[0][0] == 0] + ordered + [r for r in rows if r[0][0] == 2]
-    return [(fit, change, verdict) for _, _, fit, change, verdict in rows], judgement
-
-
-def _alternatives(named: CandidateFit, ranked: list[tuple[CandidateFit, str, Confirmation]],
-                  judgement: GmwmJudgement | None) -> tuple[float, str, tuple[Alternative, ...]]:
-    """(score, criterion, alternatives) of the named candidate: the other viable explanations
-    (confirmed where they need it, not a decrease) within ``ALTERNATIVE_SCORE`` of its GMWM
-    score or above it when the GMWM judged it (the curve's order may name a random walk
-    that the GMWM scores below a Gauss-Markov process), else within ``INDISTINCT_BIC`` of
-    its Delta BIC."""
-    viable = [(fit, change) for fit, change, verdict in ranked
-              if fit.name != named.name and verdict[0] is not None and change != "decreased"]
-    if judgement is not None and named.name in judgement.scores:
-        own = judgement.scores[named.name]
-        alts = tuple(
-            Alternative(fit.name, judgement.scores[fit.name], "gmwm", change)
-            for fit, change in viable
-            if fit.name in judgement.scores
-            and judgement.scores[fit.name] > own - ALTERNATIVE_SCORE
-        )
-        return own, "gmwm", alts
-    alts = tuple(Alternative(fit.name, fit.delta_bic, "allan", change) for fit, change in viable
-                 if abs(fit.delta_bic - named.delta_bic) < INDISTINCT_BIC)
-    return named.delta_bic, "allan", alts
-
-
 def reconcile_curve(
     curve: MeasuredCurve, model: NoiseModel, *, options: ReconcileOptions | None = None,
     cache: ComparisonCache | None = None,
@@ -427,13 +334,19 @@ def reconcile_curve(
     current = first = comparison_of(model)
     changes: list[Effect] = []
     rounds: list[ReconcileRound] = []
-    while current.significant(opt.alpha) and len(changes) < opt.max_effects:
+    by_line: set[str] = set()
+    while len(changes) < opt.max_effects:
         evidence = RoundEvidence(curve, current, known)
+        significant = current.significant(opt.alpha)
         attempts: list[Attempt] = []
         accepted = None
         steps = evidence.step_series()
-        ranked, judgement = _ranked(evidence, current, curve, opt, steps)
-        for fit, change, (term, ev, refusal) in ranked:
+        order, judgement, line_fit = ranked(evidence, current, curve, steps,
+                                            significant=significant,
+                                            bic_threshold=opt.bic_threshold, gmwm=opt.gmwm)
+        if not significant and line_fit is None:
+            break
+        for fit, change, (term, ev, refusal) in order:
             if len(attempts) >= opt.max_tries:
                 break
             if term is None:
@@ -443,8 +356,7 @@ def reconcile_curve(
                 {"bias_steps": steps} if fit.name == "bias_steps" and steps is not None else None
             )
             trial = comparison_of(_apply(current.model, term, current.model.get(fit.name)), extra)
-            needed = min(current.gap - opt.shrink_sigmas * current.gap_null.std,
-                         (1.0 - opt.min_shrink) * current.gap)
+            needed = _needed(current, opt, line=fit is line_fit)
             if not trial.gap < needed:
                 attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic,
                                         f"refused: gap {current.gap:.3g} -> {trial.gap:.3g}, "
@@ -452,9 +364,11 @@ def reconcile_curve(
                 continue
             attempts.append(Attempt(fit.name, fit.mode, fit.delta_bic,
                                     f"accepted: gap {current.gap:.3g} -> {trial.gap:.3g}"))
-            score, criterion, alternatives = _alternatives(fit, ranked, judgement)
+            score, criterion, alts = alternatives(fit, order, judgement)
             accepted = (replace(_effect(fit, term, change, ev, current, trial, curve), score=score,
-                                criterion=criterion, alternatives=alternatives), trial)
+                                criterion=criterion, alternatives=alts), trial)
+            if fit is line_fit:
+                by_line.add(fit.name)
             known.update(extra or {})
             break
         rounds.append(ReconcileRound(current, tuple(attempts)))
@@ -462,7 +376,7 @@ def reconcile_curve(
             break
         effect, current = accepted
         changes.append(effect)
-        dropped = _drop_superseded(changes, current, comparison_of, opt)
+        dropped = _drop_superseded(changes, current, comparison_of, opt, keep=by_line)
         if dropped is not None:
             gone, current = dropped
             changes.remove(gone)
@@ -478,9 +392,24 @@ def reconcile_curve(
                            excess=excess, rounds=tuple(rounds), options=opt)
 
 
+def _needed(current: Comparison, opt: ReconcileOptions, *, line: bool) -> float:
+    """The gap a change must bring the model below to be kept.
+
+    A change named by the Allan curve must shrink the gap significantly (by
+    ``shrink_sigmas`` null standard deviations and by ``min_shrink`` of it); the sinusoid of
+    a spectral line (:mod:`analysis.line_test`), whose test has already rejected the model
+    without it, must only not make the curve's gap significantly larger.
+    """
+    if line:
+        return current.gap + opt.shrink_sigmas * current.gap_null.std
+    return min(current.gap - opt.shrink_sigmas * current.gap_null.std,
+               (1.0 - opt.min_shrink) * current.gap)
+
+
 def _drop_superseded(
     changes: list[Effect], current: Comparison,
-    comparison_of: Callable[[NoiseModel], Comparison], opt: ReconcileOptions
+    comparison_of: Callable[[NoiseModel], Comparison], opt: ReconcileOptions,
+    *, keep: set[str],
 ) -> tuple[Effect, Comparison] | None:
     """The re-check after an addition: an earlier added effect the model no longer needs.
 
@@ -488,9 +417,11 @@ def _drop_superseded(
     such) when the model without it agrees with the data (``p >= alpha``) and its gap is
     not significantly larger (less than ``shrink_sigmas`` null standard deviations above):
     e.g. a slow sinusoid that stood in for part of a random walk before the walk was added.
+    Terms in ``keep`` (the sinusoid of a spectral line, which the line test holds against
+    the model without it) stay.
     """
     for e in changes[:-1]:
-        if e.change != "added" or e.name not in current.model:
+        if e.change != "added" or e.name not in current.model or e.name in keep:
             continue
         trial = comparison_of(current.model.without_term(e.name))
         if (not trial.significant(opt.alpha)
