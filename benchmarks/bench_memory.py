@@ -88,6 +88,9 @@ def write_profile(path: Path, axes: tuple[str, ...], warmup_s: float) -> Path:
     text = PROFILE.read_text()
     text = re.sub(r"(?m)^axes = .*$", "axes = " + json.dumps(list(axes)), text)
     text = re.sub(r"(?m)^warmup_s = .*$", f"warmup_s = {warmup_s!r}", text)
+    # the run is a gyro's: the accelerometer figures' tables go (a profile that limits an
+    # accelerometer figure refuses a record without accelerometers)
+    text = re.sub(r"(?ms)^\[figures\.accel_[^\]]*\]\n.*?(?=^\[|\Z)", "", text)
     path.write_text(text)
     return path
 

@@ -374,6 +374,7 @@ class RecorderStatus:
         if state not in ("recording", "checked", "refused", "error"):
             raise ValueError(f"not a recorder status: state {state!r}")
         units = tuple(DeviceDescription(**{**u, "axes": tuple(u["axes"]),
+                                           "accel_axes": tuple(u.get("accel_axes", ())),
                                            "settings": tuple(map(tuple, u["settings"]))})
                       for u in doc.get("units", []))
         return cls(state, str(doc.get("file", "")),
