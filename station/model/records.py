@@ -120,7 +120,7 @@ class RateRecord:
             index = axis
         return RateRecord(self.rate_deg_s[:, index : index + 1], self.sample_rate_hz,
                           (self.axis_names[index],), self.source, self.temperature_c,
-                          self.sample_index)
+                          self.sample_index, self.accel_m_s2, self.accel_axis_names)
 
     def slice_time(self, start_s: float = 0.0, stop_s: float | None = None, *,
                    index_out: Callable[[int], NDArray[np.int64]] | None = None) -> RateRecord:
@@ -142,8 +142,9 @@ class RateRecord:
         temp = None if self.temperature_c is None else self.temperature_c[k0:k1]
         index = (None if self.sample_index is None
                  else regular_or_none(self.sample_index[k0:k1], index_out))
+        accel = None if self.accel_m_s2 is None else self.accel_m_s2[k0:k1]
         return RateRecord(self.rate_deg_s[k0:k1], self.sample_rate_hz, self.axis_names,
-                          self.source, temp, index)
+                          self.source, temp, index, accel, self.accel_axis_names)
 
 
 def regular_or_none(sample_index: NDArray[np.int64],
