@@ -392,6 +392,8 @@ def _unit_layout(units: h5py.Group, doc: Descriptor) -> None:
         "has_device_time": d.has_device_time, "has_temperature": d.has_temperature,
         "settings": json.dumps(dict(d.settings)), "start_utc": doc.start_utc,
         "time_base": doc.time_base, "time_warp": doc.time_warp})
+    if d.accel_axes:
+        g.attrs["accel_axes"] = json.dumps(list(d.accel_axes))
     rows = chunk_rows(d.sample_rate_hz)
     for key in doc.keys:
         ds = _checked_dataset(g, key.name, shape=(0, *key.shape), maxshape=(None, *key.shape),
