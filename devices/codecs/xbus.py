@@ -113,7 +113,8 @@ class XbusCodec:
         Bounds how long a false preamble can hold up resynchronization.
     accel : bool
         Decode the Acceleration item (0x4020), which every MTData2 message must then
-        carry (an MTi configured to output it); False ignores it.
+        carry (an MTi configured to output it); False (the default here; a device URL
+        turns it on unless ``accel=0``) ignores it.
     """
 
     #: An 8-bit sum lets some corrupted frames through (two flipped bits that cancel):
@@ -131,7 +132,7 @@ class XbusCodec:
     has_device_time = True
     has_temperature = True
 
-    def __init__(self, max_data_length: int = 512, *, accel: bool = True) -> None:
+    def __init__(self, max_data_length: int = 512, *, accel: bool = False) -> None:
         self.max_data_length = max_data_length
         self.n_accel_axes = 3 if accel else 0
         self.accel_range_m_s2: float | None = (

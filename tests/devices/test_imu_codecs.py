@@ -105,7 +105,7 @@ def test_kvh1750_acceleration_round_trip(accel: tuple[float, float, float]) -> N
 @FUZZ
 @given(st.tuples(*[st.floats(-156.0, 156.0, width=32)] * 3))
 def test_xbus_acceleration_item_round_trip(accel: tuple[float, float, float]) -> None:
-    codec = XbusCodec()
+    codec = XbusCodec(accel=True)
     message = codec.from_reading(Reading((1.0, 0.0, 0.0), 3, 0, 0.5, 25.0, accel))
     (back,) = codec.decode(codec.encode(message)).frames
     assert struct.unpack(">3f", parse_mtdata2(back.data)[ACCELERATION]) == accel
@@ -117,7 +117,7 @@ def test_xbus_without_acceleration_item() -> None:
     gyro_only = XbusCodec(accel=False).from_reading(Reading((1.0, 0.0, 0.0), 3))
     assert ACCELERATION not in parse_mtdata2(gyro_only.data)
     with pytest.raises(FrameError, match="usable item"):
-        XbusCodec().to_reading(gyro_only)  # an MTi configured without it: accel=0
+        XbusCodec(accel=True).to_reading(gyro_only)  # an MTi configured without it: accel=0
     got = XbusCodec(accel=False).to_reading(XbusMessage(gyro_only.mid, gyro_only.data))
     assert got is not None and got.accel_m_s2 is None
 
