@@ -498,7 +498,9 @@ class NoiseModel:
             raise ModelError("top-level 'name' and 'source' must be strings")
         terms = []
         for key, table in doc.items():
-            if key in ("name", "source"):
+            # The [accelerometer] table of an IMU's model is read by
+            # analysis.accel_noise.AccelNoiseModel, not a gyro term.
+            if key in ("name", "source", "accelerometer"):
                 continue
             kind = term_type(key)
             if not isinstance(table, Mapping):

@@ -19,6 +19,8 @@ from numpy.typing import NDArray
 DEG_PER_URAD = 1e-6 * 180.0 / math.pi
 #: seconds per hour.
 S_PER_H = 3600.0
+#: Standard gravity, m/s^2 (the unit g of accelerometer data sheets; CGPM 1901).
+STANDARD_GRAVITY_M_S2 = 9.80665
 
 
 def q_urad_to_deg(q_urad: float) -> float:

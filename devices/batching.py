@@ -81,8 +81,9 @@ class _Held:
 class BatchBuilder:
     """Accumulates readings, unwraps their counters and records gaps and link events.
 
-    It also screens each reading (the recorder's sanity checks): a rate that is not a
-    finite number, or beyond ``rate_limit_deg_s``, makes a bad sample, left out and
+    It also screens each reading (the recorder's sanity checks): a rate (or an
+    acceleration) that is not a finite number, or beyond ``rate_limit_deg_s`` (or
+    ``accel_limit_m_s2``), makes a bad sample, left out and
     counted (a ``bad_sample`` event; the counter then declares it missing). With
     ``check_continuity`` (protocols whose checksum lets some corrupted frames through:
     an 8-bit sum, a CRC-8) a reading whose counter does not follow the previous one is
@@ -102,12 +103,19 @@ class BatchBuilder:
         Hold readings whose counter jumps until the next one confirms the jump.
     rate_limit_deg_s : float or None
         Measurement range, deg/s: a larger magnitude on any axis is a bad sample.
+    n_accel_axes : int
+        Columns of the acceleration array (0: the batches carry none).
+    accel_limit_m_s2 : float or None
+        Accelerometer range, m/s^2: a larger magnitude on any axis is a bad sample.
     """
 
     def __init__(self, n_axes: int, tracker: CounterTracker, *, has_device_time: bool,
                  has_temperature: bool, check_continuity: bool = False,
-                 rate_limit_deg_s: float | None = None) -> None:
+                 rate_limit_deg_s: float | None = None, n_accel_axes: int = 0,
+                 accel_limit_m_s2: float | None = None) -> None:
         self.n_axes = n_axes
+        self.n_accel_axes = n_accel_axes
+        self.accel_limit_m_s2 = accel_limit_m_s2
         self.tracker = tracker
         self.has_device_time = has_device_time
         self.has_temperature = has_temperature
@@ -125,6 +133,7 @@ class BatchBuilder:
         self._status: list[int] = []
         self._device_time: list[float] = []
         self._temperature: list[float] = []
+        self._accel: list[tuple[float, ...]] = []
         self._gaps: list[Gap] = []
         self._events: list[DeviceEvent] = []
         self._crc_errors = 0
@@ -137,6 +146,14 @@ class BatchBuilder:
         limit = self.rate_limit_deg_s
         if limit is not None and any(abs(r) > limit for r in rates):
             return f"rate beyond the {limit:g} deg/s range"
+        if self.n_accel_axes:
+            accel = reading.accel_m_s2
+            if accel is None or len(accel) != self.n_accel_axes or \
+                    not all(math.isfinite(a) for a in accel):
+                return "acceleration not a finite number"
+            alimit = self.accel_limit_m_s2
+            if alimit is not None and any(abs(a) > alimit for a in accel):
+                return f"acceleration beyond the {alimit:g} m/s^2 range"
         return ""
 
     def add(self, reading: Reading, receive_time_s: float, sent_time_s: float | None = None,
@@ -200,6 +217,8 @@ class BatchBuilder:
                                  else reading.device_time_s)
         self._temperature.append(np.nan if reading.temperature_c is None
                                  else reading.temperature_c)
+        if self.n_accel_axes and reading.accel_m_s2 is not None:
+            self._accel.append(reading.accel_m_s2)
 
     def event(self, kind: EventKind, receive_time_s: float, count: int = 1,
               detail: str = "") -> None:
@@ -230,6 +249,8 @@ class BatchBuilder:
             temperature_c=(np.asarray(self._temperature, dtype=np.float64)
                            if self.has_temperature else None),
             gaps=tuple(self._gaps), events=tuple(self._events), crc_errors=self._crc_errors,
+            accel_m_s2=(np.asarray(self._accel, dtype=np.float64).reshape(n, self.n_accel_axes)
+                        if self.n_accel_axes else None),
         )
         self._clear()
         return batch

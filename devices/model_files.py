@@ -8,8 +8,10 @@ A model reference is a path to a ``.toml`` file or the name of a preset in
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
+from analysis.accel_noise import ACCELEROMETER_TABLE, AccelNoiseModel
 from analysis.errors import ModelError
 from analysis.models import NoiseModel
 
@@ -73,6 +75,31 @@ def load_noise_model(ref: str | Path, preset_dir: Path = PRESET_DIR) -> NoiseMod
         raise ModelError(f"{path}: not a UTF-8 text file") from exc
     try:
         return NoiseModel.from_toml(text)
+    except ModelError as exc:
+        raise ModelError(f"{path}: {exc}") from exc
+
+
+def load_accel_model(ref: str | Path, preset_dir: Path = PRESET_DIR) -> AccelNoiseModel | None:
+    """The ``[accelerometer]`` table of a model file or preset, or None without one.
+
+    Raises
+    ------
+    ModelError
+        No such file or preset, not TOML, or a bad ``[accelerometer]`` table (the message
+        starts with the file's path).
+    """
+    path = resolve_model_path(ref, preset_dir)
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise ModelError(f"{path}: not a TOML text file: {exc}") from exc
+    table = doc.get(ACCELEROMETER_TABLE)
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise ModelError(f"{path}: [accelerometer] must be a table of keys")
+    try:
+        return AccelNoiseModel.from_table(table)
     except ModelError as exc:
         raise ModelError(f"{path}: {exc}") from exc
 

@@ -22,6 +22,9 @@ GapMethod = Literal["counter", "counter+elapsed", "device_time"]
 EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
                     "bad_sample"]
 
+#: Accelerometer axis names of a three-axis IMU, in the column order of its accelerations.
+ACCEL_AXIS_NAMES: tuple[str, ...] = ("x", "y", "z")
+
 
 @dataclass(frozen=True)
 class DeviceDescription:
@@ -240,6 +243,15 @@ class RateLimited(Protocol):
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Set the range, deg/s on any axis (None: no limit)."""
+
+
+@runtime_checkable
+class AccelLimited(Protocol):
+    """An IMU source that screens its accelerations against the accelerometer range
+    (the product profile's ``accel_range_g``): beyond it, a sample is a bad sample."""
+
+    def limit_accel(self, limit_m_s2: float | None) -> None:
+        """Set the range, m/s^2 on any axis (None: the protocol's own range)."""
 
 
 @runtime_checkable

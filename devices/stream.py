@@ -15,7 +15,7 @@ from devices.errors import (
     FrameError,
 )
 from devices.gaps import CounterTracker
-from devices.protocols import DeviceDescription, SampleBatch
+from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.stream_timing import StreamTiming
 from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
@@ -82,12 +82,14 @@ class StreamRateSource:
             sample_rate_hz=sample_rate_hz, has_counter=True,
             counter_modulus=codec.counter_modulus, has_device_time=codec.has_device_time,
             has_temperature=codec.has_temperature, settings=transport.settings,
+            accel_axes=ACCEL_AXIS_NAMES[:codec.n_accel_axes],
         )
         self._builder = BatchBuilder(
             codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),
             has_device_time=codec.has_device_time, has_temperature=codec.has_temperature,
             check_continuity=getattr(codec, "weak_check", False),
-            rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None))
+            rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None),
+            n_accel_axes=codec.n_accel_axes, accel_limit_m_s2=codec.accel_range_m_s2)
         self._rest = b""
         self._connected = False
         self._ever_connected = False
@@ -247,3 +249,10 @@ class StreamRateSource:
         measurement range, from the product profile; None keeps the protocol's own)."""
         self._builder.rate_limit_deg_s = (limit_deg_s if limit_deg_s is not None
                                           else getattr(self.codec, "rate_range_deg_s", None))
+
+    def limit_accel(self, limit_m_s2: float | None) -> None:
+        """Samples whose acceleration exceeds this magnitude (m/s^2, any axis) are bad
+        samples (the accelerometer range, from the product profile; None keeps the
+        codec's own)."""
+        self._builder.accel_limit_m_s2 = (limit_m_s2 if limit_m_s2 is not None
+                                          else self.codec.accel_range_m_s2)

@@ -20,9 +20,9 @@ from devices.sim.params import BENCH_KEYS, FAULT_KEYS, FIXTURE_KEYS
 SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *BENCH_KEYS,
                       *FIXTURE_KEYS})
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
-SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram"}),
-                        "kvh1750": frozenset({"unit", "output"}),
-                        "xbus": frozenset()}
+SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram", "accel", "accel_range"}),
+                        "kvh1750": frozenset({"unit", "output", "accel"}),
+                        "xbus": frozenset({"accel"})}
 #: Keys of a hardware URL besides the protocol's own: what the adapter needs to know.
 HARDWARE_KEYS = frozenset({"rate", "model", "serial"})
 #: Keys of a python-can bus a CAN or CANopen URL may set.
@@ -64,3 +64,20 @@ def check_keys(query: dict[str, str], allowed: Iterable[str], url: str) -> None:
                 f"unknown URL key {key!r} in {url!r}{hint} (keys of this URL: "
                 f"{', '.join(known)})")
 
+
+
+def accel_switch(query: dict[str, str]) -> bool | None:
+    """The URL's ``accel`` key: True (``accel=1``), False (``accel=0``), or None when not
+    given (the protocol's default: on wherever its frames carry accelerometers).
+
+    Raises
+    ------
+    DeviceConfigurationError
+        A value other than 0 or 1.
+    """
+    text = query.get("accel")
+    if text is None:
+        return None
+    if text not in ("0", "1"):
+        raise DeviceConfigurationError(f"URL key accel={text!r} must be 0 or 1")
+    return text == "1"

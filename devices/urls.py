@@ -29,7 +29,7 @@ from devices.codecs.kvh1750 import HEADER as KVH_HEADER, Kvh1750Codec
 from devices.codecs.modbus_map import GYRO_FLOAT32_MAP, GYRO_INT32_MAP, ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
-from devices.errors import DeviceConfigurationError
+from devices.errors import CodecError, DeviceConfigurationError
 from devices.modbus import ModbusRateSource
 from devices.opened import OpenedDevice, SimulatedDevice, Simulator
 from devices.protocols import RateSource
@@ -64,6 +64,7 @@ from devices.url_query import (
     HARDWARE_KEYS,
     SERIAL_PROTOCOL_KEYS,
     SIM_KEYS,
+    accel_switch,
     check_keys,
     parse_query,
 )
@@ -128,14 +129,20 @@ SERIAL_PROTOCOLS = ("stim300", "kvh1750", "xbus")
 def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
                   ) -> tuple[StreamCodec[Any], bytes, str]:
     """(codec, sync header, default model name) of a serial protocol."""
-    if protocol == "stim300":
-        ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
-        return Stim300Codec(ident), bytes([ident]), "STIM300"
-    if protocol == "kvh1750":
-        return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
-                             rate_hz), KVH_HEADER, "DSP-1750")
-    if protocol == "xbus":
-        return XbusCodec(), bytes([PREAMBLE]), "MTi"
+    accel = accel_switch(query)
+    try:
+        if protocol == "stim300":
+            ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
+            accel_g = query_number("accel_range", query.get("accel_range", "10"), int)
+            return (Stim300Codec(ident, accel_range_g=accel_g, accel=accel), bytes([ident]),
+                    "STIM300")
+        if protocol == "kvh1750":
+            return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
+                                 rate_hz, accel=accel is not False), KVH_HEADER, "DSP-1750")
+        if protocol == "xbus":
+            return XbusCodec(accel=accel is not False), bytes([PREAMBLE]), "MTi"
+    except CodecError as exc:
+        raise DeviceConfigurationError(str(exc)) from exc
     raise DeviceConfigurationError(f"unknown serial protocol {protocol!r}; "
                                    f"known: {', '.join(SERIAL_PROTOCOLS)}")
 
@@ -144,7 +151,7 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
     protocol = query.get("protocol", "stim300")
     params = parse_sim_params(query.get("model", host), query)
     codec, header, _ = _stream_codec(protocol, query, params.rate)
-    core, clock = sim_core(params, codec.n_axes)
+    core, clock = sim_core(params, codec.n_axes, n_accel_axes=codec.n_accel_axes)
     device = PtySerialDevice(codec, core, header=header).start()
     transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
                           params.warp)

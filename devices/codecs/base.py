@@ -25,6 +25,9 @@ class Reading:
         Device time stamp, s.
     temperature_c : float or None
         Sensor temperature, degC.
+    accel_m_s2 : tuple of float or None
+        Specific force per accelerometer axis, m/s^2 (None: the frame carries none, or
+        the codec was told to leave the accelerometers out).
     """
 
     rate_deg_s: tuple[float, ...]
@@ -32,6 +35,7 @@ class Reading:
     status: int = 0
     device_time_s: float | None = None
     temperature_c: float | None = None
+    accel_m_s2: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -66,6 +70,10 @@ class StreamCodec(Protocol[F]):
     n_axes: int
     has_device_time: bool
     has_temperature: bool
+    #: Accelerometer axes each reading carries (0: gyro-only frames, or accelerometers off).
+    n_accel_axes: int
+    #: Measurement range of the accelerometers, m/s^2 (None: unknown or none).
+    accel_range_m_s2: float | None
 
     def decode(self, data: bytes) -> DecodeResult[F]:
         """Frames found in ``data``; never raises on any byte string."""

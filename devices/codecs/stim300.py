@@ -8,18 +8,23 @@ pystim300 driver's ``normal.py``, ``crc.py`` and ``scaling.py``)::
        | counter (uint8) | latency (uint16 BE, us) | CRC-32 (BE)
 
 * rate = value / 2**14 deg/s; temperature = value / 2**8 degC;
+* acceleration (output unit g) = value / 2**19 g for the +-10 g accelerometers,
+  / 2**18 g for +-30 g, / 2**16 g for +-80 g (datasheet table 5-27; pystim300
+  ``scaling.py``), converted here to m/s^2 with the standard gravity 9.80665 m/s^2;
 * CRC-32/MPEG-2 over ID..latency padded with zero bytes to a multiple of 4 (the padding
   is not transmitted).
 
 Identifiers: 0x90 rate only, 0x91/0x92/0x93 with accelerometers and/or inclinometers,
 0x94 and 0xA5-0xA7 the same with temperatures. The accelerometer and inclinometer
-clusters are carried through as raw bytes (the station records rates only).
+clusters travel in :attr:`Stim300Frame.other_clusters` as raw bytes; the accelerometer
+cluster (first of them) is decoded into :attr:`Reading.accel_m_s2` by :meth:`to_reading`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from analysis.units import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, StreamingOnPowerUp, scan_frames
 from devices.codecs.crc import crc32_mpeg2
 from devices.errors import CodecError
@@ -27,6 +32,8 @@ from devices.errors import CodecError
 RATE_LSB_PER_DEG_S = 2**14
 TEMP_LSB_PER_DEGC = 2**8
 COUNTER_MODULUS = 256
+#: Accelerometer LSB per g of each range variant (g: +-10, +-30, +-80).
+ACCEL_LSB_PER_G: dict[int, int] = {10: 2**19, 30: 2**18, 80: 2**16}
 
 # identifier -> (has accelerometer cluster, has inclinometer cluster, has temperatures)
 DATAGRAMS: dict[int, tuple[bool, bool, bool]] = {
@@ -57,7 +64,8 @@ class Stim300Frame:
     temperature_status : int
         Status byte of the gyro temperature triple.
     other_clusters : bytes
-        Accelerometer/inclinometer clusters and their temperature triples, raw.
+        Accelerometer/inclinometer clusters and their temperature triples, raw (the
+        accelerometer cluster first: 3 x int24 BE and a status byte).
     """
 
     identifier: int
@@ -88,6 +96,11 @@ def _int24(b: bytes) -> int:
     return int.from_bytes(b, "big", signed=True)
 
 
+def _clip24(value: float) -> int:
+    lim = 2**23 - 1
+    return max(-lim - 1, min(lim, round(value)))
+
+
 class Stim300Codec(StreamingOnPowerUp):
     """STIM300 datagram codec for one configured identifier.
 
@@ -95,6 +108,16 @@ class Stim300Codec(StreamingOnPowerUp):
     ----------
     identifier : int
         The datagram the unit is configured to send (default 0x94: rates + temperatures).
+    accel_range_g : {10, 30, 80}
+        The accelerometer variant (sets the LSB of the acceleration words), g.
+    accel : bool
+        Decode the accelerometers (only where the datagram carries them): False reads
+        an accelerometer datagram as a gyro-only one.
+
+    Raises
+    ------
+    CodecError
+        Unknown identifier or range, or ``accel`` asked of a datagram without them.
     """
 
     name = "stim300"
@@ -102,11 +125,23 @@ class Stim300Codec(StreamingOnPowerUp):
     n_axes = 3
     has_device_time = False
 
-    def __init__(self, identifier: int = 0x94) -> None:
+    def __init__(self, identifier: int = 0x94, *, accel_range_g: int = 10,
+                 accel: bool | None = None) -> None:
         if identifier not in DATAGRAMS:
             raise CodecError(f"unknown STIM300 datagram identifier 0x{identifier:02X}")
+        if accel_range_g not in ACCEL_LSB_PER_G:
+            raise CodecError(f"STIM300 accelerometer range must be 10, 30 or 80 g, "
+                             f"got {accel_range_g}")
+        carried = DATAGRAMS[identifier][0]
+        if accel and not carried:
+            raise CodecError(f"STIM300 datagram 0x{identifier:02X} carries no "
+                             f"accelerometers (0x91, 0x93, 0xA5 and 0xA7 do)")
         self.identifier = identifier
         self.has_temperature = DATAGRAMS[identifier][2]
+        self.n_accel_axes = 3 if carried and accel is not False else 0
+        self.accel_range_m_s2: float | None = (
+            accel_range_g * STANDARD_GRAVITY_M_S2 if self.n_accel_axes else None)
+        self._m_s2_per_lsb = STANDARD_GRAVITY_M_S2 / ACCEL_LSB_PER_G[accel_range_g]
         self._other, self._other_temp, payload = _layout(identifier)
         self.frame_length = 1 + payload + 4
 
@@ -175,26 +210,46 @@ class Stim300Codec(StreamingOnPowerUp):
         return bytes(body) + crc32_mpeg2(_crc_input(bytes(body))).to_bytes(4, "big")
 
     def to_reading(self, frame: Stim300Frame) -> Reading:
-        """Rates in deg/s (value / 2**14), temperature in degC (mean of the triple)."""
+        """Rates in deg/s (value / 2**14), temperature in degC (mean of the triple),
+        accelerations in m/s^2 (the range's LSB; status: the gyro and accelerometer
+        status bytes, the accelerometer's in bits 8-15)."""
         temperature = None
         if frame.temperature is not None:
             temperature = sum(frame.temperature) / 3 / TEMP_LSB_PER_DEGC
+        accel = None
+        status = frame.gyro_status
+        if self.n_accel_axes:
+            raw = frame.other_clusters
+            accel = tuple(_int24(raw[3 * i:3 * i + 3]) * self._m_s2_per_lsb for i in range(3))
+            status |= raw[9] << 8
         return Reading(
             rate_deg_s=tuple(g / RATE_LSB_PER_DEG_S for g in frame.gyro),
-            counter=frame.counter, status=frame.gyro_status, temperature_c=temperature,
+            counter=frame.counter, status=status, temperature_c=temperature,
+            accel_m_s2=accel,
         )
 
     def from_reading(self, reading: Reading) -> Stim300Frame:
-        """Quantize a reading to a datagram (rates rounded to 2**-14 deg/s, clipped)."""
-        lim = 2**23 - 1
-        gyro = tuple(max(-lim - 1, min(lim, round(r * RATE_LSB_PER_DEG_S)))
-                     for r in reading.rate_deg_s)
+        """Quantize a reading to a datagram (rates rounded to 2**-14 deg/s, clipped; the
+        accelerations to the range's LSB, clipped, zero when the reading has none)."""
+        gyro = tuple(_clip24(r * RATE_LSB_PER_DEG_S) for r in reading.rate_deg_s)
         temperature = None
         if self.has_temperature:
             t = round((reading.temperature_c or 0.0) * TEMP_LSB_PER_DEGC)
             temperature = (t, t, t)
+        other = bytearray(self._other + self._other_temp)
+        if DATAGRAMS[self.identifier][0]:
+            accel = reading.accel_m_s2 or (0.0, 0.0, 0.0)
+            for i, a in enumerate(accel[:3]):
+                other[3 * i:3 * i + 3] = _clip24(a / self._m_s2_per_lsb).to_bytes(
+                    3, "big", signed=True)
+            other[9] = (reading.status >> 8) & 0xFF
+            if temperature is not None:  # the accelerometers' temperature triple
+                pos = self._other
+                for i in range(3):
+                    other[pos + 2 * i:pos + 2 * i + 2] = temperature[i].to_bytes(
+                        2, "big", signed=True)
         return Stim300Frame(
-            identifier=self.identifier, gyro=gyro, gyro_status=reading.status,  # type: ignore[arg-type]
+            identifier=self.identifier, gyro=gyro, gyro_status=reading.status & 0xFF,  # type: ignore[arg-type]
             counter=reading.counter % COUNTER_MODULUS, latency_us=0, temperature=temperature,
-            other_clusters=b"\x00" * (self._other + self._other_temp),
+            other_clusters=bytes(other),
         )

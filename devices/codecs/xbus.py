@@ -13,6 +13,7 @@ station uses:
 0x1020  PacketCounter    uint16, wraps at 65536
 0x1060  SampleTimeFine   uint32, 10 kHz ticks
 0x8020  RateOfTurn       3 x float32, rad/s
+0x4020  Acceleration     3 x float32, m/s^2
 0x0810  Temperature      float32, degC
 0xE020  StatusWord       uint32
 ======  ===============  ==========================================
@@ -34,6 +35,7 @@ import math
 import struct
 from dataclasses import dataclass
 
+from analysis.units import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, scan_frames
 from devices.errors import CodecError, FrameError
 
@@ -45,6 +47,7 @@ MID_MTDATA2 = 0x36
 PACKET_COUNTER = 0x1020
 SAMPLE_TIME_FINE = 0x1060
 RATE_OF_TURN = 0x8020
+ACCELERATION = 0x4020
 TEMPERATURE = 0x0810
 STATUS_WORD = 0xE020
 SAMPLE_TIME_FINE_HZ = 10_000.0
@@ -52,7 +55,7 @@ COUNTER_MODULUS = 65536
 DEG_PER_RAD = 180.0 / math.pi
 
 _ITEM_FORMATS = {PACKET_COUNTER: ">H", SAMPLE_TIME_FINE: ">I", RATE_OF_TURN: ">3f",
-                 TEMPERATURE: ">f", STATUS_WORD: ">I"}
+                 ACCELERATION: ">3f", TEMPERATURE: ">f", STATUS_WORD: ">I"}
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,10 @@ class XbusCodec:
     max_data_length : int
         Longest data field accepted (bytes); a candidate announcing more is garbage.
         Bounds how long a false preamble can hold up resynchronization.
+    accel : bool
+        Decode the Acceleration item (0x4020), which every MTData2 message must then
+        carry (an MTi configured to output it); False (the default here; a device URL
+        turns it on unless ``accel=0``) ignores it.
     """
 
     #: An 8-bit sum lets some corrupted frames through (two flipped bits that cancel):
@@ -116,6 +123,8 @@ class XbusCodec:
     #: Measurement range of the MTi family's gyros, deg/s: a larger rate is a corrupted
     #: frame (used when no product profile gives the unit's own range).
     rate_range_deg_s = 2000.0
+    #: Measurement range of the MTi family's accelerometers, g.
+    accel_range_g = 16.0
 
     name = "xbus"
     counter_modulus = COUNTER_MODULUS
@@ -123,8 +132,11 @@ class XbusCodec:
     has_device_time = True
     has_temperature = True
 
-    def __init__(self, max_data_length: int = 512) -> None:
+    def __init__(self, max_data_length: int = 512, *, accel: bool = False) -> None:
         self.max_data_length = max_data_length
+        self.n_accel_axes = 3 if accel else 0
+        self.accel_range_m_s2: float | None = (
+            self.accel_range_g * STANDARD_GRAVITY_M_S2 if accel else None)
 
     def _length(self, data: bytes, pos: int) -> int | None:
         if pos + 4 > len(data):
@@ -171,7 +183,8 @@ class XbusCodec:
         Raises
         ------
         FrameError
-            MTData2 without RateOfTurn or PacketCounter, or an item of the wrong size.
+            MTData2 without RateOfTurn or PacketCounter (or Acceleration, when the
+            codec decodes it), or an item of the wrong size.
         """
         if frame.mid != MID_MTDATA2:
             return None
@@ -182,27 +195,31 @@ class XbusCodec:
             stf = items.get(SAMPLE_TIME_FINE)
             temp = items.get(TEMPERATURE)
             status = items.get(STATUS_WORD)
+            accel = (struct.unpack(">3f", items[ACCELERATION]) if self.n_accel_axes
+                     else None)
             return Reading(
                 rate_deg_s=tuple(r * DEG_PER_RAD for r in rate), counter=counter,
                 status=struct.unpack(">I", status)[0] if status is not None else 0,
                 device_time_s=(struct.unpack(">I", stf)[0] / SAMPLE_TIME_FINE_HZ
                                if stf is not None else None),
                 temperature_c=struct.unpack(">f", temp)[0] if temp is not None else None,
+                accel_m_s2=accel,
             )
         except (KeyError, struct.error) as exc:
             raise FrameError(f"MTData2 message without a usable item: {exc}") from exc
 
     def from_reading(self, reading: Reading) -> XbusMessage:
-        """MTData2 message with PacketCounter, SampleTimeFine, RateOfTurn, Temperature,
-        StatusWord."""
+        """MTData2 message with PacketCounter, SampleTimeFine, RateOfTurn, Acceleration
+        (when the reading has one), Temperature, StatusWord."""
         stf = round((reading.device_time_s or 0.0) * SAMPLE_TIME_FINE_HZ) % 2**32
-        values = {
+        values: dict[int, tuple[float, ...]] = {
             PACKET_COUNTER: (reading.counter % COUNTER_MODULUS,),
             SAMPLE_TIME_FINE: (stf,),
             RATE_OF_TURN: tuple(r / DEG_PER_RAD for r in reading.rate_deg_s),
-            TEMPERATURE: (reading.temperature_c or 0.0,),
-            STATUS_WORD: (reading.status,),
         }
+        if reading.accel_m_s2 is not None:
+            values[ACCELERATION] = reading.accel_m_s2
+        values |= {TEMPERATURE: (reading.temperature_c or 0.0,), STATUS_WORD: (reading.status,)}
         items = {k: struct.pack(_ITEM_FORMATS[k], *v) for k, v in values.items()}
         return XbusMessage(MID_MTDATA2, build_mtdata2(items))
 

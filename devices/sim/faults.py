@@ -369,8 +369,11 @@ class SimCore:
         self._history.extend(start, chunk.rate_deg_s)
         self.ledger.generated += n
         dt = 1.0 / self.sample_rate_hz
+        accel = chunk.accel_m_s2
         return [Reading(tuple(chunk.rate_deg_s[i].tolist()), start + i, 0, (start + i) * dt,
-                        float(chunk.temperature_c[i])) for i in range(n)]
+                        float(chunk.temperature_c[i]),
+                        None if accel is None else tuple(accel[i].tolist()))
+                for i in range(n)]
 
     @property
     def history_start(self) -> int:

@@ -6,10 +6,12 @@ import secrets
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, fields
+from functools import partial
 from typing import Any
 
 import numpy as np
 
+from analysis.accel_noise import gravity_by_axis
 from analysis.earth import earth_rate_by_axis, parse_orientation
 from analysis.power_cycle import PowerCycleModel
 from analysis.units import S_PER_H
@@ -158,8 +160,8 @@ def parse_sim_params(host_model: str, query: dict[str, str]) -> SimParams:
                      power_cycle)
 
 
-def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
-             ) -> tuple[SimCore, WarpClock]:
+def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None, *,
+             n_accel_axes: int = 0) -> tuple[SimCore, WarpClock]:
     """The simulator core of a ``sim+`` URL and its time-warped clock.
 
     It keeps counts of what it generated and lost, and the rates and lost indices of
@@ -174,6 +176,9 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
     clock : WarpClock or None
         An existing clock to share (a device run in another process gets its parent's,
         so both count simulated seconds from the same origin); a new one by default.
+    n_accel_axes : int
+        Accelerometer axes of a simulated IMU (0: a gyro): their gravity comes from the
+        bench orientation when the URL gives one, else +g on z.
     """
     clock = clock if clock is not None else WarpClock(params.warp)
     earth = None
@@ -181,9 +186,14 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
         rates = earth_rate_by_axis(params.latitude, parse_orientation(params.orientation),
                                    SIM_AXIS_NAMES[:n_axes])
         earth = [0.0 if r is None else r / S_PER_H for r in rates]
+    gravity = (gravity_by_axis(parse_orientation(params.orientation),
+                               SIM_AXIS_NAMES[:n_accel_axes]).tolist()
+               if params.orientation and n_accel_axes else None)
+    signal_source = partial(SignalSource, params.model, params.rate, n_axes=n_axes,
+                            earth_rate_deg_s=earth, n_accel_axes=n_accel_axes,
+                            gravity_m_s2=gravity)
     if not params.fixture:
-        signal = SignalSource(params.model, params.rate, n_axes=n_axes, seed=params.seed,
-                              earth_rate_deg_s=earth)
+        signal = signal_source(seed=params.seed)
         return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock
     # On a fixture, each opening of the unit (each recorded segment) draws fresh noise:
     # keyed by the seed, the switch-on count and the fixture time of the opening.
@@ -191,8 +201,7 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None
     on_count = unit.first_read(clock)
     noise_seed = int(np.random.SeedSequence(
         [params.seed or 0, on_count, time.monotonic_ns() % (1 << 32)]).generate_state(1)[0])
-    powered = PoweredSignal(SignalSource(params.model, params.rate, n_axes=n_axes,
-                                         seed=noise_seed, earth_rate_deg_s=earth), unit)
+    powered = PoweredSignal(signal_source(seed=noise_seed), unit)
     core = SimCore(powered, params.rate, clock, params.faults, history=params.history)
     powered.bind(core)
     unit.attach(core)

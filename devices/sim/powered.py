@@ -249,6 +249,7 @@ class PoweredSignal(SignalSource):
         # no SignalSource.__init__: the noise comes from ``base``, already built
         self.model = base.model
         self.n_axes = base.n_axes
+        self.accel = base.accel
         self._base = base
         self.unit = unit
         self._core: SimCore | None = None
@@ -266,4 +267,8 @@ class PoweredSignal(SignalSource):
         start = core.due_time(first)
         step = core.due_time(first + 1) - start
         bias, die = self.unit.effects(start + step * np.arange(n_samples), step)
-        return SignalChunk(chunk.rate_deg_s + bias, die)
+        accel = chunk.accel_m_s2
+        if accel is not None and self._base.accel is not None:  # at the die temperature
+            effect = self._base.accel.temperature_effect
+            accel = accel + effect(die) - effect(chunk.temperature_c)
+        return SignalChunk(chunk.rate_deg_s + bias, die, accel)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from analysis.accel_noise import AccelNoiseModel, AccelSimulator
 from analysis.errors import ModelError
 from analysis.models import (
     AngleRandomWalk,
@@ -24,7 +25,7 @@ from analysis.models import (
     RateRandomWalk,
 )
 from analysis.simulate import GyroSimulator
-from devices.model_files import load_noise_model
+from devices.model_files import load_accel_model, load_noise_model, resolve_model_path
 
 #: (ARW deg/sqrt(h), bias instability deg/h, RRW deg/h^1.5, bias deg/h) of the device
 #: names the simulated protocols use when no model file or preset has that name.
@@ -35,6 +36,20 @@ _DEVICE_MODELS: dict[str, tuple[float, float, float, float]] = {
     "GENERIC": (0.2, 1.0, 0.5, 36.0),
 }
 DEVICE_MODEL_NAMES = tuple(_DEVICE_MODELS)
+#: Accelerometers of the same device names (data-sheet-like): velocity random walk
+#: m/s/sqrt(h), bias instability micro-g, acceleration random walk m/s/h^1.5, temperature
+#: sensitivity milli-g/degC. GENERIC is also the accelerometer of a model file without an
+#: ``[accelerometer]`` table.
+_DEVICE_ACCELEROMETERS: dict[str, AccelNoiseModel] = {
+    "STIM300": AccelNoiseModel(vrw_m_s_rt_h=0.07, bias_instability_ug=50.0,
+                               accel_rw_m_s_h1_5=0.01, tempco_mg_per_c=0.05),
+    "DSP-1750": AccelNoiseModel(vrw_m_s_rt_h=0.07, bias_instability_ug=50.0,
+                                accel_rw_m_s_h1_5=0.01, tempco_mg_per_c=0.05),
+    "MTI-630": AccelNoiseModel(vrw_m_s_rt_h=0.035, bias_instability_ug=15.0,
+                               accel_rw_m_s_h1_5=0.005, tempco_mg_per_c=0.1),
+    "GENERIC": AccelNoiseModel(vrw_m_s_rt_h=0.1, bias_instability_ug=100.0,
+                               accel_rw_m_s_h1_5=0.02, tempco_mg_per_c=0.1),
+}
 #: Temperature a simulated gyro reports when its model has no temperature term, degC.
 DEFAULT_TEMPERATURE_C = 25.0
 
@@ -62,12 +77,34 @@ def noise_model(ref: str) -> NoiseModel:
         name=ref.upper(), source="devices.sim.signal device model")
 
 
+def accel_model(ref: str) -> AccelNoiseModel:
+    """The accelerometer model of a simulated IMU: the ``[accelerometer]`` table of the
+    model file or preset ``ref``, else that of the device model of that name, else the
+    generic one.
+
+    Raises
+    ------
+    ModelError
+        A model file with a bad ``[accelerometer]`` table.
+    """
+    try:
+        path = resolve_model_path(ref)
+    except ModelError:
+        path = None  # a device model's name (noise_model refuses any other)
+    found = load_accel_model(path) if path is not None else None
+    if found is not None:
+        return found
+    return _DEVICE_ACCELEROMETERS.get(ref.upper(), _DEVICE_ACCELEROMETERS["GENERIC"])
+
+
 @dataclass(frozen=True)
 class SignalChunk:
-    """Rates (deg/s, shape (n, n_axes)) and temperature (degC, shape (n,)) of n samples."""
+    """Rates (deg/s, shape (n, n_axes)) and temperature (degC, shape (n,)) of n samples,
+    and the accelerations (m/s^2, shape (n, n_accel_axes)) of an IMU (None otherwise)."""
 
     rate_deg_s: NDArray[np.float64]
     temperature_c: NDArray[np.float64]
+    accel_m_s2: NDArray[np.float64] | None = None
 
 
 class SignalSource:
@@ -86,16 +123,24 @@ class SignalSource:
     earth_rate_deg_s : sequence of float, optional
         The Earth's rotation each axis sees where the gyro sits (deg/s), added to every
         sample, as a real gyro at rest measures it (:mod:`analysis.earth`).
+    n_accel_axes : int
+        Accelerometer axes of an IMU (0: a gyro; no accelerations are drawn).
+    gravity_m_s2 : sequence of float, optional
+        Gravity each accelerometer axis sees at rest, m/s^2 (default: +g on z).
     """
 
     def __init__(self, model: str, sample_rate_hz: float, *, n_axes: int = 3,
-                 seed: int | None = None, earth_rate_deg_s: Sequence[float] | None = None) -> None:
+                 seed: int | None = None, earth_rate_deg_s: Sequence[float] | None = None,
+                 n_accel_axes: int = 0, gravity_m_s2: Sequence[float] | None = None) -> None:
         self.model = model
         self.n_axes = n_axes
         self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed)
         self._earth = (
             None if earth_rate_deg_s is None else np.asarray(earth_rate_deg_s, dtype=float)
         )
+        self.accel = (AccelSimulator(accel_model(model), sample_rate_hz, n_axes=n_accel_axes,
+                                     seed=seed, gravity_m_s2=gravity_m_s2)
+                      if n_accel_axes else None)
 
     def read(self, n_samples: int) -> SignalChunk:
         """The next ``n_samples`` samples of the signal."""
@@ -104,4 +149,6 @@ class SignalSource:
         temp = chunk.temperature_c
         if temp is None:
             temp = np.full(n_samples, DEFAULT_TEMPERATURE_C)
-        return SignalChunk(rate, np.asarray(temp, dtype=np.float64))
+        temp = np.asarray(temp, dtype=np.float64)
+        accel = None if self.accel is None else self.accel.read(n_samples, temp)
+        return SignalChunk(rate, temp, accel)

@@ -10,7 +10,9 @@ what to do (``station recover RUN``), and the watch ends with exit status 3.
 per refresh, one line each (``docs/json.md``): ``{"run", "state", "stop_utc", "stop_reason",
 "last_flush_utc", "last_flush_age_s", "recorder_gone", "advice", "units": [{"unit",
 "samples_recorded", "sample_rate_hz", "t_s", "gaps", "samples_missing_declared",
-"crc_errors", "reconnects", "newest_deg_s", "mean_1s_deg_s"}]}``.
+"crc_errors", "reconnects", "newest_deg_s", "mean_1s_deg_s", "newest_accel_m_s2"}]}``
+(``newest_accel_m_s2``: the newest acceleration per axis of an IMU, m/s^2; null for a
+gyro).
 """
 
 from __future__ import annotations
@@ -61,6 +63,8 @@ def status_json(path: Path) -> dict[str, object]:
                 "crc_errors": c.crc_errors, "reconnects": c.reconnects,
                 "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
                 "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
+                "newest_accel_m_s2": (tail.accel_m_s2[-1].tolist()
+                                      if has and tail.accel_m_s2 is not None else None),
             })
     writer = run_file_state(path)
     age = writer.flush_age_s() if state["state"] == "recording" else None

@@ -70,6 +70,11 @@ def data_keys(description: DeviceDescription) -> tuple[DataKey, ...]:
     if description.has_temperature:
         keys.append(DataKey("temperature", "float64", (), description.temperature_unit,
                             "sensor temperature as reported by the device"))
+    if description.accel_axes:
+        keys.append(DataKey("accel", "float64", (len(description.accel_axes),),
+                            description.accel_unit,
+                            "specific force per accelerometer axis, one row per rate row "
+                            "(the same datagram), columns in the order of the axes attribute"))
     return tuple(keys)
 
 
@@ -167,6 +172,8 @@ class EventBatch:
     device_time_s: NDArray[np.float64] | None = None
     temperature_c: NDArray[np.float64] | None = None
     log: tuple[LogEntry, ...] = ()
+    #: Specific force, m/s^2, shape (n, n_accel_axes); None for a gyro-only unit.
+    accel_m_s2: NDArray[np.float64] | None = None
 
     def __len__(self) -> int:
         return int(self.counter.shape[0])
@@ -183,7 +190,8 @@ class EventBatch:
         log += list(extra_log)
         log.sort(key=lambda e: e.time_s)
         return cls(unit_id, seq, batch.rate_deg_s, batch.counter, batch.receive_time_s - t0_s,
-                   batch.status, batch.device_time_s, batch.temperature_c, tuple(log))
+                   batch.status, batch.device_time_s, batch.temperature_c, tuple(log),
+                   batch.accel_m_s2)
 
     @classmethod
     def join(cls, batches: Sequence[EventBatch]) -> EventBatch:
@@ -203,7 +211,8 @@ class EventBatch:
                    np.concatenate([b.counter for b in full]),
                    np.concatenate([b.receive_time_s for b in full]),
                    np.concatenate([b.status for b in full]), cat("device_time_s"),
-                   cat("temperature_c"), tuple(e for b in batches for e in b.log))
+                   cat("temperature_c"), tuple(e for b in batches for e in b.log),
+                   cat("accel_m_s2"))
 
 
 def _gap_time_s(batch: SampleBatch, gap: Gap) -> float:

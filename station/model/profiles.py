@@ -188,6 +188,9 @@ class Profile:
     range_deg_s : float or None
         Measurement range, deg/s: the recorder takes a sample whose rate is larger on any
         axis for a bad one (a corrupted frame its checksum let through); None: no check.
+    accel_range_g : float or None
+        ``[test] accel_range_g``: accelerometer range of an IMU, g; a larger acceleration
+        on any axis is a bad sample. None: the protocol's own range.
     axes : tuple of str
         Axes to record and grade.
     duration_s, warmup_s : float
@@ -240,6 +243,7 @@ class Profile:
     path: str = ""
     sha256: str = ""
     range_deg_s: float | None = None
+    accel_range_g: float | None = None
     #: Test sequences (``[sequence.NAME]`` tables, :mod:`station.model.sequences`).
     sequences: dict[str, SequenceSpec] = field(default_factory=dict)
 
@@ -395,7 +399,7 @@ def _get(data: dict[str, Any], key: tuple[str, ...]) -> Any:
 _TOP_KEYS = {"name", "version", "model", "description", "source", "transport", "settings", "test",
              "grading", "figures", "sequence"}
 _TEST_KEYS = {"sample_rate_hz", "duration_s", "warmup_s", "axes", "fit_method", "range_deg_s",
-              "gmwm_model"}
+              "gmwm_model", "accel_range_g"}
 _GRADING_KEYS = {"rule", "confidence", "grades", "reject", "figure_source"}
 _FIGURE_KEYS = {"unit", "limits"}
 
@@ -469,6 +473,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         model=c.string(data, ("model",)),
         sample_rate_hz=c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True),
         range_deg_s=c.number(test, ("test", "range_deg_s"), positive=True, optional=True),
+        accel_range_g=c.number(test, ("test", "accel_range_g"), positive=True, optional=True),
         axes=c.strings(test, ("test", "axes")),
         duration_s=duration,
         warmup_s=warmup,

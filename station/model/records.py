@@ -122,7 +122,7 @@ class RateRecord:
             index = axis
         return RateRecord(self.rate_deg_s[:, index : index + 1], self.sample_rate_hz,
                           (self.axis_names[index],), self.source, self.temperature_c,
-                          self.sample_index)
+                          self.sample_index, self.accel_m_s2, self.accel_axis_names)
 
     def select_accel(self, name: str) -> RateRecord:
         """A record with only the accelerometer axis ``name`` (no rate axis left)."""

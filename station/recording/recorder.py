@@ -26,6 +26,7 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from analysis.units import STANDARD_GRAVITY_M_S2
 from devices.protocols import DeviceDescription
 from devices.url_text import is_simulated
 from station.errors import Problem, RecorderError, RunConfigurationError, UsageError
@@ -176,8 +177,10 @@ class Recorder:
     def _open_units(self) -> list[Problem]:
         cfg = self.config
         profile = cfg.profile
+        accel_g = profile.accel_range_g if profile is not None else None
         settings = ReadSettings(cfg.duration_s, cfg.read_timeout_s, cfg.backoff_initial_s,
-                                cfg.backoff_max_s)
+                                cfg.backoff_max_s, accel_limit_m_s2=(
+                                    None if accel_g is None else accel_g * STANDARD_GRAVITY_M_S2))
         limit = profile.range_deg_s if profile is not None else None
         self.workers = [UnitProcess(f"unit{i + 1}", url, settings, limit)
                         for i, url in enumerate(cfg.urls)]

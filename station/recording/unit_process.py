@@ -103,7 +103,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
               rate_limit_deg_s: float | None) -> None:
     """The unit's process: open the device, wait for the start, read, report the end."""
     from devices.errors import DeviceConfigurationError
-    from devices.protocols import RateLimited, Simulated
+    from devices.protocols import AccelLimited, RateLimited, Simulated
     from devices.urls import open_device
     from station.logs import configure_logging
     from station.recording.unit_worker import UnitWorker
@@ -140,6 +140,8 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
         return
     if isinstance(opened.source, RateLimited):
         opened.source.limit_rates(rate_limit_deg_s)
+    if isinstance(opened.source, AccelLimited):
+        opened.source.limit_accel(getattr(settings, "accel_limit_m_s2", None))
     worker = UnitWorker(unit_id, opened, settings, lambda doc: send("batch", doc))
     send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp))
     started = False

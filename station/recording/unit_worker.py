@@ -55,6 +55,9 @@ class ReadSettings:
         processes: fewer, larger messages).
     rate_limit_deg_s : float or None
         Measurement range (from the product profile): a larger rate is a bad sample.
+    accel_limit_m_s2 : float or None
+        Accelerometer range, m/s^2 (the profile's ``accel_range_g``; None: the
+        protocol's own): a larger acceleration is a bad sample.
     """
 
     duration_s: float
@@ -63,6 +66,7 @@ class ReadSettings:
     backoff_max_s: float = 1.0
     batch_s: float = 0.05
     rate_limit_deg_s: float | None = None
+    accel_limit_m_s2: float | None = None
 
 
 class Batcher:

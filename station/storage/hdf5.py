@@ -62,7 +62,8 @@ EVENT_UNITS = {"time_s": "s", "kind": "", "count": "1", "missing_samples": "1",
 STATE_DTYPE = np.dtype([("state", "S16"), ("stop_utc", "S32"), ("stop_reason", "S128"),
                         ("last_flush_utc", "S32")])
 #: Per-sample datasets of a unit, in the order the reader checks them.
-SAMPLE_DATASETS = ("rate", "counter", "receive_time", "status", "device_time", "temperature")
+SAMPLE_DATASETS = ("rate", "counter", "receive_time", "status", "device_time", "temperature",
+                   "accel")
 
 
 def chunk_rows(sample_rate_hz: float) -> int:
@@ -156,6 +157,9 @@ class UnitData:
     device_time_s: NDArray[np.float64] | None
     temperature_c: NDArray[np.float64] | None
     events: NDArray[np.void]
+    #: Specific force, m/s^2 (N, j), one row per rate row; None for a gyro-only unit.
+    accel_m_s2: NDArray[np.float64] | None = None
+    accel_axes: tuple[str, ...] = ()
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -195,7 +199,15 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
 
     return UnitData(unit_id, unit_attributes(g), col("rate"), col("counter"), col("receive_time"),
                     col("status"), col("device_time"), col("temperature"),
-                    committed_events(f, unit_id))
+                    committed_events(f, unit_id), col("accel"), accel_axis_names(g))
+
+
+def accel_axis_names(g: h5py.Group) -> tuple[str, ...]:
+    """The accelerometer axes of a unit group (its ``accel`` dataset's ``axes``
+    attribute); empty for a gyro-only unit."""
+    if "accel" not in g:
+        return ()
+    return tuple(json.loads(text_value(g["accel"].attrs["axes"])))
 
 
 def unit_attributes(g: h5py.Group) -> dict[str, Any]:
@@ -354,8 +366,10 @@ def gap_insertions(counter: NDArray[np.int64], receive_time_s: NDArray[np.float6
 def unit_record(unit: UnitData, source: str) -> RateRecord:
     """The unit's committed samples as a :class:`RateRecord` (deg/s), gaps on its time grid."""
     index = gap_sample_index(np.asarray(unit.counter), np.asarray(unit.receive_time_s), unit.events)
+    accel = None if unit.accel_m_s2 is None else np.asarray(unit.accel_m_s2, dtype=np.float64)
     return RateRecord(np.asarray(unit.rate_deg_s, dtype=np.float64), unit.sample_rate_hz,
-                      unit.axes, source, unit.temperature_c, index)
+                      unit.axes, source, unit.temperature_c, index, accel_m_s2=accel,
+                      accel_axis_names=unit.accel_axes)
 
 
 #: Reads one unit's record from an open run file some other way (the unit id and the

@@ -15,7 +15,9 @@ handles it as any gap and the books count it:
   along the counter from the readable rows around it (times extrapolated at the nominal
   rate at an end, a temperature held); a column of which no row reads is left out (the
   receive time then stands in as counter / nominal rate);
-* a status chunk that does not read is filled with :data:`STATUS_UNREADABLE`.
+* a status chunk that does not read is filled with :data:`STATUS_UNREADABLE`;
+* an accel chunk (an IMU's accelerations, from the rate's datagram) that does not read
+  costs its rows as a rate chunk does: they are declared a gap.
 """
 
 from __future__ import annotations
@@ -128,7 +130,8 @@ def mend_rows(columns: dict[str, NDArray[np.generic]], ok: dict[str, NDArray[np.
     other columns of those rows; declare the rest as gaps (see the module docstring).
 
     ``columns`` and ``ok`` hold the same names (``rate``, ``counter``, ``receive_time``,
-    ``status``, optionally ``device_time`` and ``temperature``), each as long as ``rate``.
+    ``status``, optionally ``device_time``, ``temperature`` and ``accel``), each as long as
+    ``rate``. An IMU's ``accel`` is mended like the rate: a row kept needs both.
     """
     counter = np.array(columns["counter"], dtype=np.int64)
     known = ok["counter"].copy()
@@ -136,10 +139,14 @@ def mend_rows(columns: dict[str, NDArray[np.generic]], ok: dict[str, NDArray[np.
     restored = _pin_counter(counter, known, None if dt is None else np.asarray(dt, np.float64),
                             ok.get("device_time"), rate_hz)
     keep = ok["rate"] & known
+    if "accel" in ok:  # an IMU's accelerations are kept or lost with their rates' rows
+        keep &= ok["accel"]
     notes = [f"{restored} counters restored from the rows around them"] if restored else []
     kept_counter = counter[keep]
     out: dict[str, NDArray[np.generic]] = {"rate": columns["rate"][keep],
                                            "counter": kept_counter}
+    if "accel" in columns:
+        out["accel"] = columns["accel"][keep]
     for name in ("receive_time", "status", "device_time", "temperature"):
         if name not in columns:
             continue

@@ -137,7 +137,8 @@ def _description(u: _Unit) -> DeviceDescription:
         axes=tuple(json.loads(a["axes"])), sample_rate_hz=float(a["sample_rate_hz"]),
         has_counter=True, counter_modulus=None if modulus < 0 else modulus,
         has_device_time="device_time" in u.data, has_temperature="temperature" in u.data,
-        settings=tuple((str(k), str(v)) for k, v in json.loads(a.get("settings", "{}")).items()))
+        settings=tuple((str(k), str(v)) for k, v in json.loads(a.get("settings", "{}")).items()),
+        accel_axes=tuple(json.loads(a.get("accel_axes", "[]"))) if "accel" in u.data else ())
 
 
 def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:

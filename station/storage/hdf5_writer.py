@@ -48,7 +48,7 @@ from station.storage.hdf5 import (
 
 _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",
                  "status": "status", "device_time": "device_time_s",
-                 "temperature": "temperature_c"}
+                 "temperature": "temperature_c", "accel": "accel_m_s2"}
 
 #: Files whose writer failed on a full disk: their HDF5 objects are kept alive so that
 #: nothing tries to flush them again at garbage collection or at exit (it would fail
@@ -392,6 +392,8 @@ def _unit_layout(units: h5py.Group, doc: Descriptor) -> None:
         "has_device_time": d.has_device_time, "has_temperature": d.has_temperature,
         "settings": json.dumps(dict(d.settings)), "start_utc": doc.start_utc,
         "time_base": doc.time_base, "time_warp": doc.time_warp})
+    if d.accel_axes:
+        g.attrs["accel_axes"] = json.dumps(list(d.accel_axes))
     rows = chunk_rows(d.sample_rate_hz)
     for key in doc.keys:
         ds = _checked_dataset(g, key.name, shape=(0, *key.shape), maxshape=(None, *key.shape),
@@ -399,6 +401,8 @@ def _unit_layout(units: h5py.Group, doc: Descriptor) -> None:
         ds.attrs.update({"units": key.unit, "description": key.description})
         if key.name == "rate":
             ds.attrs["axes"] = json.dumps(list(d.axes))
+        if key.name == "accel":
+            ds.attrs["axes"] = json.dumps(list(d.accel_axes))
     ev = _checked_dataset(g, "events", shape=(0,), maxshape=(None,), chunks=(256,),
                           dtype=EVENT_DTYPE)
     ev.attrs.update({"units": json.dumps(EVENT_UNITS),

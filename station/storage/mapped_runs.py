@@ -17,11 +17,13 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from numpy.typing import NDArray
 
 from analysis import blocks
 from station.model.records import RateRecord
 from station.storage.hdf5 import (
     _check_inside,
+    accel_axis_names,
     chosen_unit,
     committed_events,
     gap_insertions,
@@ -59,32 +61,36 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
         Damaged, or cut short under the rate.
     """
     g = f["units"][uid]
-    for name in ("committed", "rate", *(["temperature"] if "temperature" in g else [])):
+    extra = [name for name in ("temperature", "accel") if name in g]
+    for name in ("committed", "rate", *extra):
         refresh_alone(g[name])
-    n = min(
-        int(g["committed"][0]),
-        g["rate"].shape[0],
-        *([g["temperature"].shape[0]] if "temperature" in g else []),
-    )
+    n = min(int(g["committed"][0]), g["rate"].shape[0], *(g[name].shape[0] for name in extra))
     if not blocks.is_long(n):
         return None
     events = committed_events(f, uid)
     gapped = bool(np.any(events["kind"] == b"gap"))
-    columns = ["rate", *(["temperature"] if "temperature" in g else []),
-               *(["counter", "receive_time"] if gapped else [])]
+    columns = ["rate", *extra, *(["counter", "receive_time"] if gapped else [])]
     for name in columns[1:]:
         refresh_alone(g[name])
     n = min(n, *(g[name].shape[0] for name in columns))
     _check_inside(f, g, columns, 0, n)
     axes = tuple(json.loads(text_value(g.attrs["axes"])))
-    rate = scratch_array((len(axes), n))
-    for a in range(0, n, CHUNK_ROWS):
-        b = min(a + CHUNK_ROWS, n)
-        rate[:, a:b] = np.asarray(g["rate"][a:b], dtype=np.float64).T
-        blocks.release(rate)
     temperature = _column(g, "temperature", n, np.float64) if "temperature" in g else None
     index = _sample_index(g, events, n) if gapped else None
-    return RateRecord(rate.T, float(g.attrs["sample_rate_hz"]), axes, source, temperature, index)
+    accel = _matrix(g, "accel", n) if "accel" in g else None
+    return RateRecord(_matrix(g, "rate", n), float(g.attrs["sample_rate_hz"]), axes, source,
+                      temperature, index, accel_m_s2=accel, accel_axis_names=accel_axis_names(g))
+
+
+def _matrix(g: h5py.Group, name: str, n: int) -> NDArray[np.float64]:
+    """The first ``n`` rows of a 2-D float dataset (rate, accel) as float64, held in a
+    scratch memmap column-major (each column contiguous), a chunk at a time."""
+    out = scratch_array((g[name].shape[1], n))
+    for a in range(0, n, CHUNK_ROWS):
+        b = min(a + CHUNK_ROWS, n)
+        out[:, a:b] = np.asarray(g[name][a:b], dtype=np.float64).T
+        blocks.release(out)
+    return out.T
 
 
 def _column(g: h5py.Group, name: str, n: int, dtype: type) -> np.memmap:
