@@ -22,7 +22,7 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.commands import COMMAND_HELP, demo_sequence
-from station.commands.arguments import add_output_units_argument, output_family, print_json
+from station.commands.arguments import add_output_options, output_family, print_json
 from station.errors import UsageError
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
@@ -91,11 +91,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="folder for the run file and the plot (default ./station-demo)",
     )
     demo_sequence.add_arguments(p)
-    p.add_argument("--json", action="store_true",
-                   help='print {"run", "units": [{"unit", "samples_recorded", ..., "axes": '
-                        '[AXIS as station analyze]}], "true", "files"} as one JSON object '
-                        "(docs/json.md)")
-    add_output_units_argument(p)
+    add_output_options(p, json_help='print {"run", "units": [{"unit", "samples_recorded", ..., '
+                       '"axes": [AXIS as station analyze]}], "true", "files"} as one JSON object '
+                       "(docs/json.md)")
     p.set_defaults(handler=run)
 
 
