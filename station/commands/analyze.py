@@ -17,6 +17,7 @@ from station.commands.arguments import (
     record_source,
     stderr_progress,
 )
+from station.commands.conventions import hint_several_runs
 from station.commands.terminal import plural
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
@@ -77,6 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "fitted model, in deg/h (rad/s with --output-units rad); no profile or report needed",
         json_help="print one JSON object instead of a table",
     )
+    hint_several_runs(p, "analyze")
     p.set_defaults(handler=run)
 
 

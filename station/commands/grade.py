@@ -27,6 +27,7 @@ from station.commands.arguments import (
     print_json,
     print_warnings,
 )
+from station.commands.conventions import hint_several_runs
 from station.output.report.common import analysis_lines
 from station.output.report.plateau_sheet import plateau_lines
 from station.output.report.sequence_sheet import sequence_lines
@@ -84,6 +85,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("grade", help=COMMAND_HELP["grade"], description=__doc__)
     add_grading_arguments(p)
     add_output_options(p, json_help="print one JSON document instead of tables")
+    hint_several_runs(p, "grade")
     p.set_defaults(handler=run)
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_output_options, output_family, print_warnings
+from station.commands.conventions import hint_several_runs
 from station.commands.grade import add_grading_arguments, grade_request
 from station.model.sheet_header import HEADER_ENV
 from station.output.report import FORMATS
@@ -45,6 +46,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_output_options(
         p, json_help='print {"files": [{"format", "path"}], "warnings"} as one JSON object'
     )
+    hint_several_runs(p, "report")
     p.set_defaults(handler=run)
 
 

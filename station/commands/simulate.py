@@ -1,14 +1,17 @@
 """``station simulate``: write a simulated gyro run from a noise model or from two indicators.
 
-``station simulate --model MODEL.toml --duration 4h --rate 10 --seed 1 --out run.csv``
-simulates a model file or preset; ``station simulate --arw A --bias-stability B
-[--average-s 100] [--correlation-s T] ...`` simulates the white-noise-plus-Markov FOG
-derived from a data sheet's ARW (deg/sqrt(h)) and bias stability (deg/h), see
-``docs/fog-model.md``. The output is CSV (``.csv``, ``.csv.gz``: the analysis core's
-format) or a run file in the recorder's HDF5 layout (``.h5``: one unit ``sim``, sample
-counter, time, and temperature when the model has one). The run is generated and
-written chunk by chunk, so its length is not bounded by memory; a progress line goes to
-stderr for long runs.
+``station simulate --model MODEL`` simulates a model file or preset; ``station simulate
+--arw A --bias-stability B [--average-s 100] [--correlation-s T] ...`` simulates the
+white-noise-plus-Markov FOG derived from a data sheet's ARW (deg/sqrt(h)) and bias
+stability (deg/h), see ``docs/fog-model.md``. The output is CSV (``.csv``, ``.csv.gz``:
+the analysis core's format) or a run file in the recorder's HDF5 layout (``.h5``: one
+unit ``sim``, sample counter, time, and temperature when the model has one). The run is
+generated and written chunk by chunk, so its length is not bounded by memory; a progress
+line goes to stderr for long runs.
+
+Example::
+
+    station simulate --model VG951 --duration 4h --rate 10 --seed 1 --out run.csv
 """
 
 from __future__ import annotations
@@ -101,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout,
         )
         sys.stdout.write("\n")
-    else:
+    elif not args.quiet:
         print(
             f"wrote {plural(result.n_samples, 'sample')} x {plural(result.axes, 'axis')} at "
             f"{result.rate_hz:g} Hz to {result.out}",
