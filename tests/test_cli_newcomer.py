@@ -131,3 +131,17 @@ def test_simulate_quiet_prints_nothing(tmp_path: Path, capsys: pytest.CaptureFix
     assert capsys.readouterr() == ("", "") and out.is_file()
     assert main(["simulate", "--model", "VG951", "--duration", "60s", "--out", str(out)]) == 0
     assert "wrote 600 samples" in capsys.readouterr().err  # without --quiet it says so
+
+
+def test_demo_leaves_nothing_behind_unless_asked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    assert main(["demo", "--duration", "0.02", "--json"]) == 0
+    captured = capsys.readouterr()
+    files = json.loads(captured.out)["files"]
+    folder = Path(files["run"]).parent
+    assert f"removed {folder}" in captured.err  # it said where, and that it cleaned up
+    assert not folder.exists() and list(tmp_path.iterdir()) == []
+    assert main(["demo", "--duration", "0.02", "--json", "--out", "mine"]) == 0
+    files = json.loads(capsys.readouterr().out)["files"]
+    assert all(Path(f).is_file() and Path(f).parent == Path("mine") for f in files.values())
