@@ -8,6 +8,7 @@ A model reference is a path to a ``.toml`` file or the name of a preset in
 
 from __future__ import annotations
 
+import sys
 import tomllib
 from pathlib import Path
 
@@ -15,8 +16,19 @@ from analysis.accel_noise import ACCELEROMETER_TABLE, AccelNoiseModel
 from analysis.errors import ModelError
 from analysis.models import NoiseModel
 
+
+def shipped_profiles_dir() -> Path:
+    """The shipped ``profiles`` folder: the checkout's (an editable install, or running
+    from the source tree), else the one a wheel installs under
+    ``<prefix>/share/gyro-station/profiles`` (pyproject.toml's data-files)."""
+    checkout = Path(__file__).resolve().parent.parent / "profiles"
+    if checkout.is_dir():
+        return checkout
+    return Path(sys.prefix) / "share" / "gyro-station" / "profiles"
+
+
 #: Folder of the preset models.
-PRESET_DIR = Path(__file__).resolve().parent.parent / "profiles" / "models"
+PRESET_DIR = shipped_profiles_dir() / "models"
 
 
 def preset_names(preset_dir: Path = PRESET_DIR) -> list[str]:

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from analysis.deviations import DEVIATION_KINDS
@@ -12,13 +10,14 @@ from analysis.fit import FIT_METHODS
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
-    add_output_units_argument,
-    add_record_arguments,
+    add_output_options,
+    add_record_source,
     output_family,
-    print_json,
-    print_notes,
+    print_notes_or_json,
     record_source,
+    stderr_progress,
 )
+from station.commands.conventions import hint_several_runs
 from station.commands.terminal import plural
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
@@ -29,7 +28,7 @@ from station.evaluation.analyze import (
 from station.evaluation.settings import TAU_GRIDS
 
 if TYPE_CHECKING:
-    from station.services.progress import Progress
+    pass
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -39,7 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help=COMMAND_HELP["analyze"],
         description=__doc__,
     )
-    add_record_arguments(p)
+    add_record_source(p)
     p.add_argument("--estimator", choices=("overlapping", "clusters"), default=None,
                    help="Allan variance the fit and figures use (default overlapping; clusters "
                         "with --deviation adev)")
@@ -68,18 +67,18 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--robust", action="store_true",
                    help="--method gmwm: robust (Huber-type) wavelet variance, for records with "
                         "outliers")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write the plot: Allan deviation; with --method gmwm the wavelet variance "
-                        "with the GMWM and the Allan fit's curves")
     p.add_argument("--outliers", choices=OUTLIER_POLICIES, default="auto",
                    help="isolated spikes: remove them when few (auto, default), keep, or remove")
-    p.add_argument("--csv", type=Path, default=None, metavar="OUT.csv",
-                   help="write the curve: per axis and tau the deviation, its interval and the "
-                        "fitted model, in deg/h (rad/s with --output-units rad); no profile or "
-                        "report needed")
     add_bench_argument(p)
-    add_output_units_argument(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    add_output_options(
+        p,
+        png_help="write the plot: Allan deviation; with --method gmwm the wavelet variance "
+        "with the GMWM and the Allan fit's curves",
+        csv_help="write the curve: per axis and tau the deviation, its interval and the "
+        "fitted model, in deg/h (rad/s with --output-units rad); no profile or report needed",
+        json_help="print one JSON object instead of a table",
+    )
+    hint_several_runs(p, "analyze")
     p.set_defaults(handler=run)
 
 
@@ -87,20 +86,15 @@ def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
     from station.services.analyze import AnalyzeRequest, analyze
 
-    def progress(step: Progress) -> None:
-        print(f"{step.text} ...", file=sys.stderr, flush=True)
-
     result = analyze(AnalyzeRequest(record_source(args), estimator=args.estimator,
                                     deviation=args.deviation, taus=args.taus, method=args.method,
                                     terms=args.terms, select=args.select, gmwm_model=args.model,
                                     robust=args.robust, outliers=args.outliers, bench=args.bench,
                                     png=args.png, csv=args.csv,
-                                    output_units=output_family(args)), progress)
-    print_notes("analyze", result.notes)
+                                    output_units=output_family(args)),
+                     stderr_progress())
     family = output_family(args)
-    if args.json:
-        print_json(result.as_json(), family)
-    else:
+    if not print_notes_or_json("analyze", result, args):
         record, selection = result.record, result.selection
         print(f"{args.file}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz, "
               f"{plural(len(result.axes), 'axis')}")

@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Protocol
 
 from analysis.units import UNIT_FAMILIES, UnitFamily, unit_family
 from station.errors import UsageError
@@ -13,67 +15,84 @@ from station.model.durations import parse_duration
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
+    from station.services.progress import Progress
     from station.services.records import RecordSource
 
 
-def add_record_arguments(parser: argparse.ArgumentParser) -> None:
-    """The arguments every command that reads a rate record shares."""
-    parser.add_argument("file", help="rate record: CSV or CSV.gz (header row; optional time "
-                                     "column), or a run file (.h5) from station record")
-    parser.add_argument("--rate", type=float, default=None, metavar="HZ",
-                        help="sample rate in Hz (required when the file has no time column)")
-    parser.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
-                        help="unit of the rate columns (default deg/s)")
-    add_accel_units_argument(parser)
-    parser.add_argument("--axis", default=None, help="analyze only this axis (column name)")
-    add_slice_arguments(parser)
+#: The record a command reads, as ``FILE`` (analyze, davar, export) or another name.
+RECORD_FILE_HELP = ("rate record: CSV or CSV.gz (header row; optional time column), or a run "
+                    "file (.h5) from station record")
 
 
-def add_accel_units_argument(parser: argparse.ArgumentParser) -> None:
-    """``--accel-units``: the unit of a CSV record's ``accel_*`` columns (checked by the
-    reader, so that a wrong one is one line naming it)."""
-    parser.add_argument("--accel-units", default="m/s^2", metavar="UNIT",
-                        help="unit of the accel_* (acc_*) columns: m/s^2 (default), g or mg")
-
-
-def add_slice_arguments(
-    parser: argparse.ArgumentParser, *, unit_default: str = "the first"
-) -> None:
-    """``--unit``, ``--start-s``, ``--stop-s``, ``--profile``, ``--warmup-s``: which unit of a
-    run file and which part of its record (:class:`station.services.records.RecordSource`)."""
-    parser.add_argument(
+def add_record_source(
+    parser: argparse.ArgumentParser,
+    *,
+    metavar: str | None = None,
+    file_help: str = RECORD_FILE_HELP,
+    axis_help: str = "analyze only this axis (column name)",
+    unit_default: str = "the first",
+) -> argparse._ArgumentGroup:
+    """The record source every command that reads a rate record shares (analyze, davar,
+    export, reconcile): ``FILE``, its CSV format, the axis, and for run files the unit and
+    the part of its record (:class:`station.services.records.RecordSource`,
+    :func:`record_source`). One option more for all of them is one line here."""
+    group = parser.add_argument_group("record source")
+    group.add_argument("file", metavar=metavar, help=file_help)
+    add_csv_format_arguments(group)
+    group.add_argument("--axis", default=None, help=axis_help)
+    group.add_argument(
         "--unit",
         default=None,
         help=f"run files: the unit (unit1, unit2, ... or its serial number; "
         f"default {unit_default})",
     )
-    parser.add_argument(
-        "--start-s",
-        type=float,
-        default=0.0,
-        metavar="S",
-        help="analyze from S seconds after the record start (default 0)",
-    )
-    parser.add_argument(
-        "--stop-s",
-        type=float,
-        default=None,
-        metavar="S",
-        help="analyze up to S seconds after the record start (default: end)",
-    )
-    parser.add_argument(
-        "--profile",
-        default=None,
-        help="product profile whose warm-up (warmup_s) is discarded; run "
-        "files default to the profile they were recorded with",
-    )
-    parser.add_argument(
-        "--warmup-s",
-        type=float,
-        default=None,
-        metavar="S",
-        help="warm-up to discard from the start, s (overrides the profile)",
-    )
+    group.add_argument("--start-s", type=float, default=0.0, metavar="S",
+                       help="analyze from S seconds after the record start (default 0)")
+    group.add_argument("--stop-s", type=float, default=None, metavar="S",
+                       help="analyze up to S seconds after the record start (default: end)")
+    group.add_argument("--profile", default=None,
+                       help="product profile whose warm-up (warmup_s) is discarded; run "
+                       "files default to the profile they were recorded with")
+    group.add_argument("--warmup-s", type=float, default=None, metavar="S",
+                       help="warm-up to discard from the start, s (overrides the profile)")
+    return group
+
+
+def add_csv_format_arguments(group: argparse._ActionsContainer) -> None:
+    """``--rate`` and ``--units``: how a CSV record's rate columns read (a run file says)."""
+    group.add_argument("--rate", type=float, default=None, metavar="HZ",
+                       help="sample rate in Hz (required when a CSV has no time column)")
+    group.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
+                       help="unit of a CSV's rate columns (default deg/s)")
+    # checked by the reader, so that a wrong one is one line naming it
+    group.add_argument("--accel-units", default="m/s^2", metavar="UNIT",
+                       help="unit of a CSV's accel_* (acc_*) columns: m/s^2 (default), g or mg")
+
+
+def add_output_options(
+    parser: argparse.ArgumentParser,
+    *,
+    json_help: str | None,
+    png_help: str | None = None,
+    csv_help: str | None = None,
+    quiet_help: str | None = None,
+    units: bool = True,
+) -> argparse._ArgumentGroup:
+    """The output options commands share, each added where its help is given: ``--png``
+    (``args.png``), ``--csv``, ``--output-units`` (with ``units``), ``--json``,
+    ``--quiet``."""
+    group = parser.add_argument_group("output")
+    if png_help is not None:
+        group.add_argument("--png", type=Path, default=None, metavar="OUT.png", help=png_help)
+    if csv_help is not None:
+        group.add_argument("--csv", type=Path, default=None, metavar="OUT.csv", help=csv_help)
+    if units:
+        add_output_units_argument(group)
+    if json_help is not None:
+        group.add_argument("--json", action="store_true", help=json_help)
+    if quiet_help is not None:
+        group.add_argument("--quiet", action="store_true", help=quiet_help)
+    return group
 
 
 def record_source(args: argparse.Namespace) -> RecordSource:
@@ -94,7 +113,7 @@ def record_source(args: argparse.Namespace) -> RecordSource:
     )
 
 
-def add_output_units_argument(parser: argparse.ArgumentParser) -> None:
+def add_output_units_argument(parser: argparse._ActionsContainer) -> None:
     """``--output-units deg|rad``: the unit family of every figure the command prints (its
     tables, its ``--json`` keys, its files; ``docs/units.md``). ``--units`` stays the unit of a
     CSV record's columns."""
@@ -139,13 +158,16 @@ def add_bench_argument(p: argparse.ArgumentParser) -> None:
     )
 
 
-def add_database_argument(p: argparse.ArgumentParser, *, stores: bool = False) -> None:
+def add_database_argument(
+    p: argparse.ArgumentParser, *, stores: bool = False, no_store_help: str | None = None
+) -> argparse._ArgumentGroup:
     """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL; a
     command that ``stores`` gradings also takes ``--db-retry S``, how long a database that
-    is away is waited for (``args.db_retry``, s)."""
+    is away is waited for (``args.db_retry``, s), and with ``no_store_help`` ``--no-store``."""
     from station.output.results_backends import database_location
 
-    p.add_argument(
+    group = p.add_argument_group("results database")
+    group.add_argument(
         "--db",
         type=database_location,
         default=None,
@@ -156,7 +178,7 @@ def add_database_argument(p: argparse.ArgumentParser, *, stores: bool = False) -
     if stores:
         from station.output.results_backends import STORE_RETRY_S
 
-        p.add_argument(
+        group.add_argument(
             "--db-retry",
             type=_seconds_or_zero,
             default=STORE_RETRY_S,
@@ -164,6 +186,29 @@ def add_database_argument(p: argparse.ArgumentParser, *, stores: bool = False) -
             help="how long a results database that is away is tried again, with back-off, "
             f"before a grading is listed as not stored, s (default {STORE_RETRY_S:g})",
         )
+    if no_store_help is not None:
+        group.add_argument("--no-store", action="store_true", help=no_store_help)
+    return group
+
+
+def add_profile_argument(p: argparse._ActionsContainer, *, default: str) -> None:
+    """``--profile P``: the product profile to grade against (``default`` says which
+    when none is given)."""
+    p.add_argument("--profile", default=None, metavar="P",
+                   help=f"product profile: a name in profiles/ or a TOML file (default: {default})")
+
+
+def add_fog_indicators(p: argparse._ActionsContainer, *, required: bool) -> None:
+    """``--arw``, ``--bias-stability``, ``--average-s``, ``--correlation-s``: the
+    white-noise-plus-Markov FOG of a data sheet's two indicators (docs/fog-model.md)."""
+    p.add_argument("--arw", type=float, required=required, metavar="DEG_RT_H",
+                   help="angle random walk in deg/sqrt(h)")
+    p.add_argument("--bias-stability", type=float, required=required, metavar="DEG_H",
+                   help="bias stability in deg/h (1 sigma of --average-s averages)")
+    p.add_argument("--average-s", type=float, default=100.0, metavar="S",
+                   help="averaging time of the bias stability in s (default 100)")
+    p.add_argument("--correlation-s", type=float, metavar="S",
+                   help="correlation time of the Markov process in s (default: --average-s)")
 
 
 def _seconds_or_zero(text: str) -> float:
@@ -195,3 +240,33 @@ def print_warnings(command: str, warnings: tuple[str, ...]) -> None:
     """A workflow's warnings, on stderr (``station COMMAND: warning: ...``)."""
     for text in warnings:
         print(f"station {command}: warning: {text}", file=sys.stderr)
+
+
+def stderr_progress(
+    prefix: str = "", *, quiet: bool = False, terminal_only: bool = False
+) -> Callable[[Progress], None]:
+    """A progress callback that prints each step's text as ``PREFIXtext ...`` on stderr
+    (nothing with ``quiet``; with ``terminal_only`` only when stderr is a terminal)."""
+
+    def progress(step: Progress) -> None:
+        if not quiet and (not terminal_only or sys.stderr.isatty()):
+            print(f"{prefix}{step.text} ...", file=sys.stderr, flush=True)
+
+    return progress
+
+
+class _Answer(Protocol):
+    @property
+    def notes(self) -> tuple[str, ...]: ...
+
+    def as_json(self) -> object: ...
+
+
+def print_notes_or_json(command: str, answer: _Answer, args: argparse.Namespace,
+                        **dump: object) -> bool:
+    """A record-reading workflow's notes on stderr and, with ``--json``, its document in the
+    ``--output-units`` family on stdout; True when the JSON was printed (nothing else to)."""
+    print_notes(command, answer.notes)
+    if args.json:
+        print_json(answer.as_json(), output_family(args), **dump)
+    return bool(args.json)

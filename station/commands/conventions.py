@@ -50,7 +50,9 @@ class StationParser(argparse.ArgumentParser):
                 ),
                 None,
             )
-            (target or self).error(f"unrecognized arguments: {' '.join(extras)}")
+            parser = target or self
+            hint = getattr(parser, "extras_hint", "")
+            parser.error(f"unrecognized arguments: {' '.join(extras)}{hint}")
         return ns
 
     def format_help(self) -> str:
@@ -61,6 +63,15 @@ class StationParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         """One line, ``PROG: error: MESSAGE (PROG --help lists the options)``, exit status 2."""
         self.exit(2, f"{self.prog}: error: {message} ({self.prog} --help lists the options)\n")
+
+
+def hint_several_runs(parser: argparse.ArgumentParser, command: str) -> None:
+    """Arguments ``parser`` (``station COMMAND``, one run) does not take are most likely
+    more runs: its error points to ``station fleet COMMAND``, which takes many."""
+    parser.extras_hint = (  # type: ignore[attr-defined]
+        f"; station {command} takes one file: for several, station fleet {command} "
+        "FILE_OR_DIR..."
+    )
 
 
 def plain_text(text: str) -> str:

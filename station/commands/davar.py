@@ -9,7 +9,6 @@ older readers) and can draw a heat map of log ADEV (deg/h) over time and tau.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,11 +16,10 @@ import numpy as np
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
-    add_output_units_argument,
-    add_record_arguments,
+    add_output_options,
+    add_record_source,
     output_family,
-    print_json,
-    print_notes,
+    print_notes_or_json,
     record_source,
 )
 
@@ -35,16 +33,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``davar`` sub-command."""
     p = sub.add_parser("davar", help=COMMAND_HELP["davar"],
                        description=__doc__)
-    add_record_arguments(p)
+    add_record_source(p)
     p.add_argument("--window-s", type=float, required=True, metavar="W",
                    help="window length in s (the Allan curve of each window is computed)")
     p.add_argument("--step-s", type=float, default=None, metavar="S",
                    help="step between windows in s (default: a tenth of the window)")
-    p.add_argument("--png", type=Path, default=None, metavar="OUT.png",
-                   help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad) "
-                        "over time and tau")
-    add_output_units_argument(p)
-    p.add_argument("--json", action="store_true", help="print one JSON object instead of a summary")
+    add_output_options(
+        p,
+        png_help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad) over "
+        "time and tau",
+        json_help="print one JSON object instead of a summary",
+    )
     p.set_defaults(handler=run)
 
 
@@ -54,10 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
     family = output_family(args)
     answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png, family))
-    print_notes("davar", answer.notes)
-    if args.json:
-        print_json(answer.as_json(), family, allow_nan=False)
-    else:
+    if not print_notes_or_json("davar", answer, args, allow_nan=False):
         print(format_summary(answer.result, list(answer.verdicts), answer.record, family))
         if answer.png is not None:
             print(f"heat map: {answer.png}")

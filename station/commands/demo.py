@@ -11,9 +11,13 @@ the spec figures beside the true values, and writes the Allan deviation plot (PN
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import shutil
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from urllib.parse import quote
 
@@ -22,7 +26,7 @@ import numpy as np
 from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.commands import COMMAND_HELP, demo_sequence
-from station.commands.arguments import add_output_units_argument, output_family, print_json
+from station.commands.arguments import add_output_options, output_family, print_json
 from station.errors import UsageError
 from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
@@ -87,15 +91,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--out",
         type=Path,
-        default=Path("station-demo"),
-        help="folder for the run file and the plot (default ./station-demo)",
+        default=None,
+        help="folder for the run file, the record and the plot, kept there (default: a "
+        "temporary folder, removed at the end unless --keep)",
     )
+    p.add_argument("--keep", action="store_true",
+                   help="keep the temporary folder (without --out) and say where it is")
     demo_sequence.add_arguments(p)
-    p.add_argument("--json", action="store_true",
-                   help='print {"run", "units": [{"unit", "samples_recorded", ..., "axes": '
-                        '[AXIS as station analyze]}], "true", "files"} as one JSON object '
-                        "(docs/json.md)")
-    add_output_units_argument(p)
+    add_output_options(p, json_help='print {"run", "units": [{"unit", "samples_recorded", ..., '
+                       '"axes": [AXIS as station analyze]}], "true", "files"} as one JSON object '
+                       "(docs/json.md)")
     p.set_defaults(handler=run)
 
 
@@ -124,17 +129,42 @@ def record_demo_run(args: argparse.Namespace, path: Path) -> list[dict[str, obje
              "samples_sent": t.samples_sent} for t in stop.totals]
 
 
+@contextlib.contextmanager
+def demo_folder(out: Path | None, *, keep: bool) -> Iterator[Path]:
+    """``out`` (created; kept), or a new temporary folder removed at the end unless
+    ``keep``; where it is, and whether it was removed, goes to stderr."""
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        yield out
+        return
+    folder = Path(tempfile.mkdtemp(prefix="station-demo-"))
+    print(f"station demo: writing into the temporary folder {folder}", file=sys.stderr)
+    try:
+        yield folder
+    finally:
+        if keep:
+            print(f"station demo: kept {folder}", file=sys.stderr)
+        else:
+            shutil.rmtree(folder, ignore_errors=True)
+            print(f"station demo: removed {folder} (--keep keeps it; --out DIR writes there)",
+                  file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
-    """Record, analyze, print, plot."""
+    """Record, analyze, print, plot (into ``--out`` or a temporary folder)."""
+    if args.sequence and args.json:
+        raise UsageError("--json is not available with --sequence (its figures are "
+                         "printed as a table; station grade RUN --json gives them)")
+    with demo_folder(args.out, keep=args.keep) as folder:
+        return _run(argparse.Namespace(**{**vars(args), "out": folder}))
+
+
+def _run(args: argparse.Namespace) -> int:
     if args.sequence:
-        if args.json:
-            raise UsageError("--json is not available with --sequence (its figures are "
-                             "printed as a table; station grade RUN --json gives them)")
         return demo_sequence.run(args)
     from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()
-    args.out.mkdir(parents=True, exist_ok=True)
     path = args.out / "demo-run.h5"
     path.unlink(missing_ok=True)
     print(

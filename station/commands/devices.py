@@ -13,7 +13,7 @@ from dataclasses import asdict
 from types import FrameType
 
 from devices.opened import OpenedDevice, SimulatedDevice
-from devices.url_text import is_simulated
+from devices.url_text import is_simulated, url_keys, with_keys
 from devices.urls import SUPPORTED, open_device
 from station.commands import COMMAND_HELP
 from station.errors import UsageError
@@ -54,9 +54,30 @@ def run(args: argparse.Namespace) -> int:
         print(f"{p.protocol:<{width}}  {p.transport:<11}  {p.description}")
         print(f"{pad}hardware:  {p.hardware_url}")
         print(f"{pad}simulated: {p.sim_url}")
-    print("\nNames in capitals (PROFILE.toml, FILE.eds) and the port or address are yours to fill "
+        profile, url = ready_url(p.sim_url)
+        print(f"{pad}record:    station record --check --profile {profile} --unit '{url}'")
+    print("\nrecord: checks the simulated unit against a shipped profile whose rate it has "
+          "(drop --check, add --duration, to record it).")
+    print("Names in capitals (PROFILE.toml, FILE.eds) and the port or address are yours to fill "
           "in; docs/devices.md lists every key.")
     return 0
+
+
+def ready_url(sim_url: str) -> tuple[str, str]:
+    """A shipped profile and ``sim_url`` at the rate it expects (``station record --profile
+    P --unit URL`` accepts the pair): the profile the URL's host names, else one whose rate
+    the URL has, else the first shipped profile."""
+    from station.model.profiles import available_profiles, load_profile
+
+    profiles = [load_profile(name) for name in available_profiles()]
+    profiles = [p for p in profiles if p.sample_rate_hz is not None]
+    host = sim_url.split("://", 1)[1].split("?", 1)[0].split("/", 1)[0]
+    rate = url_keys(sim_url).get("rate")
+    chosen = next((p for p in profiles if p.name == host), None) or next(
+        (p for p in profiles if rate is not None and float(rate) == p.sample_rate_hz),
+        profiles[0],
+    )
+    return chosen.name, with_keys(sim_url, {"rate": f"{chosen.sample_rate_hz:g}"})
 
 
 def _unreachable_reason(opened: OpenedDevice) -> str:

@@ -16,12 +16,11 @@ from pathlib import Path
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
-    add_output_units_argument,
-    add_record_arguments,
-    output_family,
-    print_json,
-    print_notes,
+    add_output_options,
+    add_record_source,
+    print_notes_or_json,
     record_source,
+    stderr_progress,
 )
 from station.evaluation.noise_parameters import EXPORT_METHODS
 from station.output.export_formats import FORMATS
@@ -36,7 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
         allow_abbrev=False,
     )
-    add_record_arguments(p)
+    add_record_source(p)
     p.add_argument(
         "--format",
         required=True,
@@ -74,26 +73,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="kalibr, openvins, allan-variance-ros: the IMU topic written (default /imu0)",
     )
     add_bench_argument(p)
-    add_output_units_argument(p)
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help="print what was written as one JSON object (figures of every axis in "
+    add_output_options(
+        p,
+        json_help="print what was written as one JSON object (figures of every axis in "
         "both unit families; with --output-units rad in the rad family only)",
+        quiet_help="no progress line on a terminal",
     )
-    p.add_argument("--quiet", action="store_true", help="no progress line on a terminal")
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Export the noise parameters; say where they went (or print the file, or the JSON)."""
     from station.services.export import ExportRequest, export_noise
-    from station.services.progress import Progress
-
-    def progress(step: Progress) -> None:
-        if not args.quiet and sys.stderr.isatty():
-            print(f"{step.text} ...", file=sys.stderr, flush=True)
-
     result = export_noise(
         ExportRequest(
             record_source(args),
@@ -104,12 +95,11 @@ def run(args: argparse.Namespace) -> int:
             rostopic=args.rostopic,
             bench=args.bench,
         ),
-        progress,
+        stderr_progress(quiet=args.quiet, terminal_only=True),
     )
-    print_notes("export", result.notes)
-    if args.json:
-        print_json(result.as_json(), output_family(args))
-    elif result.out is None:
+    if print_notes_or_json("export", result, args):
+        return 0
+    if result.out is None:
         sys.stdout.write(result.text)
     else:
         print(f"{FORMATS[args.format].description} written to {result.out}")

@@ -30,7 +30,13 @@ from pathlib import Path
 from typing import TextIO
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_bench_argument, add_database_argument, print_warnings
+from station.commands.arguments import (
+    add_bench_argument,
+    add_database_argument,
+    add_output_options,
+    add_profile_argument,
+    print_warnings,
+)
 from station.output.report import FORMATS
 from station.output.results_backends import redacted
 from station.services.fleet import ACTIONS, LOCAL, FleetProgress, FleetRequest, FleetResult, fleet
@@ -51,12 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="RUN_OR_DIR",
         help="run files (.h5; a CSV record is a run of one unit) and directories",
     )
-    p.add_argument(
-        "--profile",
-        default=None,
-        metavar="P",
-        help="product profile: a name in profiles/ or a TOML file (default: each run's)",
-    )
+    add_profile_argument(p, default="each run's")
     p.add_argument(
         "--scheduler",
         default=LOCAL,
@@ -70,8 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="N",
         help="worker processes of the local cluster (default: one per CPU)",
     )
-    add_database_argument(p, stores=True)
-    p.add_argument("--no-store", action="store_true", help="do not store the gradings")
+    add_database_argument(p, stores=True, no_store_help="do not store the gradings")
     add_bench_argument(p)
     p.add_argument(
         "--format",
@@ -88,7 +88,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="DIR",
         help="report: directory to write into (default the current directory)",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
+    add_output_options(p, json_help="print one JSON document instead of tables", units=False)
     p.set_defaults(handler=run)
 
 

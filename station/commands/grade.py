@@ -18,18 +18,19 @@ from typing import TYPE_CHECKING
 from analysis.units import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
-    add_accel_units_argument,
     add_bench_argument,
+    add_csv_format_arguments,
     add_database_argument,
-    add_output_units_argument,
+    add_output_options,
+    add_profile_argument,
     output_family,
     print_json,
     print_warnings,
 )
+from station.commands.conventions import hint_several_runs
 from station.output.report.common import analysis_lines
 from station.output.report.plateau_sheet import plateau_lines
 from station.output.report.sequence_sheet import sequence_lines
-from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
     from station.evaluation.grading import RunGrade
@@ -39,25 +40,8 @@ if TYPE_CHECKING:
 def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     """Arguments shared by the commands that grade a run (grade, report)."""
     p.add_argument("run", help="run file: a recorder HDF5 run or a CSV record (one unit)")
-    p.add_argument(
-        "--profile",
-        default=None,
-        metavar="P",
-        help="product profile: a name in profiles/ or a TOML file (default: the run's)",
-    )
-    p.add_argument(
-        "--rate",
-        type=float,
-        default=None,
-        metavar="HZ",
-        help="sample rate of a CSV record without a time column, Hz",
-    )
-    p.add_argument(
-        "--units",
-        choices=sorted(UNIT_TO_DEG_S),
-        default="deg/s",
-        help="rate unit of a CSV record (default deg/s)",
-    )
+    add_profile_argument(p, default="the run's")
+    add_csv_format_arguments(p)
     p.add_argument(
         "--unit",
         action="append",
@@ -68,13 +52,9 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
-    add_database_argument(p, stores=True)
-    p.add_argument(
-        "--no-store", action="store_true", help="do not store the grading in the database"
-    )
+    add_database_argument(p, stores=True,
+                          no_store_help="do not store the grading in the database")
     add_bench_argument(p)
-    add_output_units_argument(p)
-    add_accel_units_argument(p)
 
 
 def grade_request(args: argparse.Namespace) -> GradeRequest:
@@ -105,7 +85,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``grade`` sub-command."""
     p = sub.add_parser("grade", help=COMMAND_HELP["grade"], description=__doc__)
     add_grading_arguments(p)
-    p.add_argument("--json", action="store_true", help="print one JSON document instead of tables")
+    add_output_options(p, json_help="print one JSON document instead of tables")
+    hint_several_runs(p, "grade")
     p.set_defaults(handler=run)
 
 

@@ -22,7 +22,8 @@ from analysis.units import S_PER_H
 from devices.model_files import load_noise_model
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
-    add_output_units_argument,
+    add_fog_indicators,
+    add_output_options,
     duration_type,
     output_family,
     print_json,
@@ -48,8 +49,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        help="sample rate of the record the grid is for (default 10)")
     curve.add_argument("--duration", type=duration_type, default=4 * 3600.0, metavar="DURATION",
                        help="record length the grid (and transient terms) are for (default 4h)")
-    add_output_units_argument(curve)
-    curve.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_output_options(curve, json_help="print JSON instead of a table")
     curve.set_defaults(handler=run)
 
     show = actions.add_parser("show", help="print a model as TOML")
@@ -57,14 +57,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     show.set_defaults(handler=run)
 
     fog = actions.add_parser("fog", help="FOG model from ARW and bias stability, as TOML")
-    fog.add_argument("--arw", type=float, required=True, metavar="DEG_RT_H",
-                     help="angle random walk in deg/sqrt(h)")
-    fog.add_argument("--bias-stability", type=float, required=True, metavar="DEG_H",
-                     help="bias stability in deg/h (1 sigma of --average-s averages)")
-    fog.add_argument("--average-s", type=float, default=100.0, metavar="S",
-                     help="averaging time of the bias stability in s (default 100)")
-    fog.add_argument("--correlation-s", type=float, metavar="S",
-                     help="correlation time of the Markov process in s (default: --average-s)")
+    add_fog_indicators(fog, required=True)
     fog.add_argument("--name", default="", help="model name (default fog-two-indicators)")
     fog.add_argument("--out", type=Path, metavar="FILE.toml", help="write here instead of printing")
     fog.set_defaults(handler=run)

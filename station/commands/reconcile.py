@@ -14,53 +14,33 @@ before and after, and the effects' contributions.
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 from analysis.reconcile import ReconcileOptions
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
-    add_accel_units_argument,
-    add_output_units_argument,
-    add_slice_arguments,
+    add_output_options,
+    add_record_source,
     output_family,
-    print_json,
-    print_notes,
+    print_notes_or_json,
     record_source,
+    stderr_progress,
 )
-from station.storage.csv_records import UNIT_TO_DEG_S
 
-if TYPE_CHECKING:
-    from station.services.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reconcile`` sub-command."""
     p = sub.add_parser("reconcile", help=COMMAND_HELP["reconcile"],
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument(
-        "file", metavar="MEASURED", help="recorded run (.h5) or rate record (CSV, CSV.gz)"
-    )
-    p.add_argument("--rate", type=float, default=None, metavar="HZ",
-                   help="sample rate in Hz (required when a CSV has no time column)")
-    p.add_argument("--units", choices=sorted(UNIT_TO_DEG_S), default="deg/s",
-                   help="unit of a CSV's rate columns (default deg/s)")
-    add_accel_units_argument(p)
+    add_record_source(p, metavar="MEASURED",
+                      file_help="recorded run (.h5) or rate record (CSV, CSV.gz)",
+                      axis_help="reconcile only this axis (column name); default every axis",
+                      unit_default="every unit")
     p.add_argument(
         "--model", required=True, metavar="MODEL.toml", help="noise model TOML file or preset name"
     )
-    p.add_argument(
-        "--axis", default=None, help="reconcile only this axis (column name); default every axis"
-    )
-    add_slice_arguments(p, unit_default="every unit")
-    p.add_argument(
-        "--png", type=Path, default=None, metavar="OUT.png", help="write the figure here"
-    )
-    add_output_units_argument(p)
-    p.add_argument(
-        "--json", action="store_true", help="print one JSON object instead of the text report"
-    )
+    add_output_options(p, png_help="write the figure here",
+                       json_help="print one JSON object instead of the text report")
     defaults = ReconcileOptions()
     p.add_argument(
         "--runs",
@@ -94,9 +74,6 @@ def run(args: argparse.Namespace) -> int:
     from station.output.reconcile_report import format_reconcile
     from station.services.reconcile import ReconcileRequest, reconcile_run
 
-    def progress(step: Progress) -> None:
-        print(f"reconcile: {step.text} ...", file=sys.stderr, flush=True)
-
     family = output_family(args)
     answer = reconcile_run(
         ReconcileRequest(
@@ -109,12 +86,9 @@ def run(args: argparse.Namespace) -> int:
             png=args.png,
             output_units=family,
         ),
-        progress,
+        stderr_progress("reconcile: "),
     )
-    print_notes("reconcile", answer.notes)
-    if args.json:
-        print_json(answer.as_json(), family)
-    else:
+    if not print_notes_or_json("reconcile", answer, args):
         print(f"{args.file} against {args.model}")
         print("\n\n".join(format_reconcile(res, label=label, family=family)
                           for label, res in answer.results))

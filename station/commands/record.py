@@ -2,8 +2,8 @@
 
 Example::
 
-    station record --profile VG951 --unit sim+serial://VG951?warp=100 \\
-        --unit sim+can://STIM300?rate=500 --duration 12h --out runs/
+    station record --profile VG951 --unit 'sim+serial://VG951?rate=10&warp=100' \\
+        --unit 'sim+can://STIM300?rate=10&warp=100' --duration 12h --out runs/
 
 Stops at the duration (on each unit's own time base), on Ctrl-C or on SIGTERM, with
 the file closed and the stop reason recorded. ``--json-summary`` ends by printing one

@@ -15,7 +15,8 @@ import sys
 from pathlib import Path
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import output_family, print_warnings
+from station.commands.arguments import add_output_options, output_family, print_warnings
+from station.commands.conventions import hint_several_runs
 from station.commands.grade import add_grading_arguments, grade_request
 from station.model.sheet_header import HEADER_ENV
 from station.output.report import FORMATS
@@ -40,10 +41,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="--method gmwm: the model, terms joined by '+' from wn, qn, gm, ar1, bi, "
                         "rw, dr (e.g. 'wn+gm+rw'), or auto: ranked by the WIC (default the "
                         "profile's gmwm_model, else auto)")
-    p.add_argument("--json", action="store_true",
-                   help='print {"files": [{"format", "path"}], "warnings"} as one JSON object')
     p.add_argument("--out", type=Path, default=Path("."), metavar="DIR",
                    help="directory to write into (created; default the current directory)")
+    add_output_options(
+        p, json_help='print {"files": [{"format", "path"}], "warnings"} as one JSON object'
+    )
+    hint_several_runs(p, "report")
     p.set_defaults(handler=run)
 
 

@@ -28,7 +28,7 @@ from analysis.units import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_database_argument,
-    add_output_units_argument,
+    add_output_options,
     output_family,
     print_json,
 )
@@ -63,9 +63,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="only gradings flagged for review (read-off and fit of a graded figure disagree)",
     )
     p.add_argument("--latest", action="store_true", help="only the newest grading of each unit")
-    p.add_argument(
-        "--csv", type=Path, default=None, metavar="OUT", help="export the listed gradings as CSV"
-    )
     what = p.add_mutually_exclusive_group()
     what.add_argument("--yield", dest="show_yield", action="store_true", help="yield per lot")
     what.add_argument(
@@ -81,9 +78,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
     p.add_argument(
-        "--png", type=Path, default=None, metavar="OUT", help="with --trend: write a PNG plot"
-    )
-    p.add_argument(
         "--html",
         type=Path,
         default=None,
@@ -97,8 +91,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="OUT",
         help="with --stats: write the statistics and their plots as a PDF",
     )
-    add_output_units_argument(p)
-    p.add_argument("--json", action="store_true", help="print one JSON document instead of a table")
+    add_output_options(
+        p,
+        png_help="with --trend: write a PNG plot",
+        csv_help="export the listed gradings as CSV",
+        json_help="print one JSON document instead of a table",
+    )
     p.set_defaults(handler=run)
 
 

@@ -1,14 +1,17 @@
 """``station simulate``: write a simulated gyro run from a noise model or from two indicators.
 
-``station simulate --model MODEL.toml --duration 4h --rate 10 --seed 1 --out run.csv``
-simulates a model file or preset; ``station simulate --arw A --bias-stability B
-[--average-s 100] [--correlation-s T] ...`` simulates the white-noise-plus-Markov FOG
-derived from a data sheet's ARW (deg/sqrt(h)) and bias stability (deg/h), see
-``docs/fog-model.md``. The output is CSV (``.csv``, ``.csv.gz``: the analysis core's
-format) or a run file in the recorder's HDF5 layout (``.h5``: one unit ``sim``, sample
-counter, time, and temperature when the model has one). The run is generated and
-written chunk by chunk, so its length is not bounded by memory; a progress line goes to
-stderr for long runs.
+``station simulate --model MODEL`` simulates a model file or preset; ``station simulate
+--arw A --bias-stability B [--average-s 100] [--correlation-s T] ...`` simulates the
+white-noise-plus-Markov FOG derived from a data sheet's ARW (deg/sqrt(h)) and bias
+stability (deg/h), see ``docs/fog-model.md``. The output is CSV (``.csv``, ``.csv.gz``:
+the analysis core's format) or a run file in the recorder's HDF5 layout (``.h5``: one
+unit ``sim``, sample counter, time, and temperature when the model has one). The run is
+generated and written chunk by chunk, so its length is not bounded by memory; a progress
+line goes to stderr for long runs.
+
+Example::
+
+    station simulate --model VG951 --duration 4h --rate 10 --seed 1 --out run.csv
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import duration_type
+from station.commands.arguments import add_fog_indicators, add_output_options, duration_type
 from station.commands.terminal import ProgressLine, plural
 
 if TYPE_CHECKING:
@@ -38,14 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     source = p.add_argument_group("what to simulate (a model, or the two indicators)")
     source.add_argument("--model", metavar="MODEL",
                         help="noise model TOML file or preset name (e.g. VG951, zhang2015-fog)")
-    source.add_argument("--arw", type=float, metavar="DEG_RT_H",
-                        help="angle random walk in deg/sqrt(h)")
-    source.add_argument("--bias-stability", type=float, metavar="DEG_H",
-                        help="bias stability in deg/h (1 sigma of --average-s averages)")
-    source.add_argument("--average-s", type=float, default=100.0, metavar="S",
-                        help="averaging time of the bias stability in s (default 100)")
-    source.add_argument("--correlation-s", type=float, metavar="S",
-                        help="correlation time of the Markov process in s (default: --average-s)")
+    add_fog_indicators(source, required=False)
     p.add_argument("--duration", type=duration_type, default=3600.0, metavar="DURATION",
                    help="run length, e.g. 4h, 30min, 600s (default 1h)")
     p.add_argument(
@@ -55,13 +51,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--seed", type=int, default=None, help="seed of the run (default: fresh entropy)"
     )
-    p.add_argument(
-        "--quiet", action="store_true", help="no progress line (it shows only on a terminal)"
-    )
-    p.add_argument(
-        "--json",
-        action="store_true",
-        help='print {"out", "n_samples", "axes", "rate_hz", "model"} as one JSON object',
+    add_output_options(
+        p,
+        json_help='print {"out", "n_samples", "axes", "rate_hz", "model"} as one JSON object',
+        quiet_help="print nothing but errors (and --json's object): no progress line, no "
+        "summary",
+        units=False,
     )
     p.add_argument(
         "--out",
@@ -109,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout,
         )
         sys.stdout.write("\n")
-    else:
+    elif not args.quiet:
         print(
             f"wrote {plural(result.n_samples, 'sample')} x {plural(result.axes, 'axis')} at "
             f"{result.rate_hz:g} Hz to {result.out}",

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from station.commands import COMMAND_HELP
-from station.commands.arguments import add_output_units_argument, output_family, print_json
+from station.commands.arguments import add_output_options, output_family, print_json
 from station.services.record import EXIT_RUN_FAULT
 from station.services.recorder_process import run_file_state
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
@@ -39,10 +39,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--interval", type=float, default=1.0, metavar="S",
                    help="refresh period, s (default 1)")
     p.add_argument("--once", action="store_true", help="print the current state and exit")
-    p.add_argument("--json", action="store_true",
-                   help="print the state as one JSON object per refresh, one line each "
-                        "(units named in the keys: docs/json.md)")
-    add_output_units_argument(p)
+    add_output_options(p, json_help="print the state as one JSON object per refresh, one line "
+                       "each (units named in the keys: docs/json.md)")
     p.set_defaults(handler=run)
 
 

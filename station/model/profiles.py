@@ -31,6 +31,7 @@ A profile is a TOML file, ``profiles/<name>.toml`` (the keys are documented in
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import re
@@ -42,6 +43,7 @@ from typing import Any, Literal, get_args
 from analysis.fit import FIT_METHODS, FitMethod
 from analysis.gmwm_models import GmwmModel, GmwmModelError
 from analysis.units import DEG_PER_URAD, S_PER_H
+from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
 from station.model.sequences import SequenceSpec, parse_sequences
@@ -57,8 +59,8 @@ FIGURE_SOURCES: tuple[FigureSource, ...] = get_args(FigureSource)
 DEFAULT_FIGURE_SOURCE: FigureSource = "read-off"
 #: Figures measured both ways; the profile's ``figure_source`` picks which one they grade.
 DUAL_FIGURES = ("arw", "bias_instability", "accel_vrw", "accel_bias_instability")
-#: Where profile names are looked up: ``<repo>/profiles``.
-PROFILE_DIR = Path(__file__).resolve().parents[2] / "profiles"
+#: Where profile names are looked up: ``<repo>/profiles``, or the installed copy of it.
+PROFILE_DIR = shipped_profiles_dir()
 
 _RAD_IN_DEG = 180.0 / math.pi
 #: Units accepted per dimension: size of one such unit in the dimension's canonical unit
@@ -574,15 +576,27 @@ def load_profile(ref: str | Path, *, search_dir: Path | None = None) -> Profile:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ProfileError(f"cannot read: {exc}", path=str(path)) from exc
-    return parse_profile(text, path=str(path))
+    profile = parse_profile(text, path=str(path))
+    url = profile.transport.get("url")
+    if not isinstance(url, str):
+        return profile
+    return dataclasses.replace(
+        profile, transport={**profile.transport, "url": anchored_model(url, path.parent)}
+    )
 
 
-def anchored_model(url: str) -> str:
-    """``url`` with a relative ``model=`` file that does not exist from here made absolute
-    against the project folder (profiles name ``profiles/models/X.toml`` from there), so
-    that a profile's simulation works from any folder."""
+def anchored_model(url: str, profile_dir: Path | None = None) -> str:
+    """``url`` with a relative ``model=`` file made absolute, so that a profile's simulation
+    works from any folder: the file relative to the profile's folder ``profile_dir``, else
+    to the folder above it (a profile in ``profiles/`` naming ``profiles/models/X.toml``),
+    else to the shipped profiles' folder (``models/X.toml``, ``profiles/models/X.toml``).
+    A model file found nowhere is left as it is (the device URL then says so)."""
     model = url_keys(url).get("model", "")
-    if not model.endswith(".toml") or Path(model).is_absolute() or Path(model).exists():
+    if not model.endswith(".toml") or Path(model).is_absolute():
         return url
-    anchored = PROFILE_DIR.parent / model
-    return with_keys(url, {"model": str(anchored)}) if anchored.exists() else url
+    bases = [] if profile_dir is None else [profile_dir, profile_dir.parent]
+    for base in (*bases, PROFILE_DIR, PROFILE_DIR.parent):
+        anchored = (base / model).resolve()
+        if anchored.is_file():
+            return with_keys(url, {"model": str(anchored)})
+    return url
