@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from devices.errors import DeviceDisconnectedError
+from devices.errors import DeviceDisconnectedError, DeviceTimeoutError
 from devices.protocols import Gap, RateSource, SampleBatch
 from devices.sim.faults import SimCore
 
@@ -22,6 +22,8 @@ class Collected:
 
     batches: list[SampleBatch] = field(default_factory=list)
     disconnects: int = 0
+    #: Reads that raised DeviceTimeoutError (the adapter's silence limit ran out).
+    timeouts: int = 0
 
     @property
     def counter(self) -> np.ndarray:
@@ -47,7 +49,8 @@ class Collected:
 
 
 def collect(source: RateSource, n_samples: int, *, deadline_s: float = 20.0) -> Collected:
-    """Read until ``n_samples`` arrived, reopening after disconnects (bounded by time)."""
+    """Read until ``n_samples`` arrived, reopening after disconnects and reading on after
+    timeouts, as the recorder does (counted; bounded by time)."""
     out = Collected()
     got = 0
     stop = time.monotonic() + deadline_s
@@ -59,6 +62,9 @@ def collect(source: RateSource, n_samples: int, *, deadline_s: float = 20.0) -> 
         except DeviceDisconnectedError:
             out.disconnects += 1
             time.sleep(0.01)
+            continue
+        except DeviceTimeoutError:
+            out.timeouts += 1
             continue
         if len(batch) or batch.events:
             out.batches.append(batch)

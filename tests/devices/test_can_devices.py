@@ -108,12 +108,17 @@ def test_a_silence_read_late_is_still_a_node_loss() -> None:
         got = collect(dev.source, 400)
         core = dev.simulator.core
         events = [e for b in got.batches for e in b.events]
-        assert [e.kind for e in events] == ["connect", "disconnect", "reconnect"], events
-        assert got.disconnects == 0 and "time stamps" in events[1].detail
-        assert events[1].receive_time_s == pytest.approx(3.5, abs=0.05)
+        # (a loaded host that starves the node's thread for 0.5 simulated s makes more)
+        assert [e.kind for e in events] == ["connect"] + ["disconnect", "reconnect"] * (
+            len(events) // 2), events
+        assert got.disconnects == 0  # none seen as it happened
         offset = device_index(got, core, 256, atol=2.0**-13)
         declared, lost = check_accounting(got, core, offset)
         assert declared == lost and len(lost) >= 190
+        outage = max(got.gaps, key=lambda g: g.missing_samples)
+        limit_s = core.due_time(outage.after_counter + offset) + 0.5  # the last frame's + 0.5
+        assert [e for e in events if e.kind == "disconnect" and "time stamps" in e.detail
+                and abs(e.receive_time_s - limit_s) < 0.02], (events, limit_s)
 
 
 def test_frames_a_held_node_sent_before_its_hold_are_not_read_across_it() -> None:

@@ -38,8 +38,10 @@ def test_round_trip_exact_samples_and_identity() -> None:
         offset = device_index(got, core, 65536, atol=1e-6)
         # No fault is injected: the node loses only what fell due while a loaded host
         # starved its thread (in its ledger; none on a quiet host): each one declared.
+        # The sample after such a loss is dropped too: its TPDO1 (no counter) cannot be
+        # told from the lost sample's; declared, and only there.
         declared, lost = check_accounting(got, core, offset)
-        assert declared == lost
+        assert declared - lost <= {i + 1 for i in lost}
         check_lost_share(got, declared)
         np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
