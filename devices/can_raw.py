@@ -20,7 +20,9 @@ class CanRateSource:
     rolling counter; a sample with a frame missing is dropped and shows as a gap.
     A node silent for ``silence_timeout_s`` (on the unit's clock: wall s for hardware,
     simulated s for a simulation) is reported lost (DeviceDisconnectedError) and
-    "reconnect" is logged when its frames come back.
+    "reconnect" is logged when its frames come back. A silence this thread did not see
+    as it happened (a loaded host read the frames before and after it in one go) shows
+    in the frames' time stamps: "disconnect" and "reconnect" are logged all the same.
 
     Parameters
     ----------
@@ -78,6 +80,8 @@ class CanRateSource:
         self._lost = False
         self._open = False
         self._last_frame_s = 0.0
+        #: Time stamp of the node's latest valid frame (clock s; None: none since open).
+        self._last_sent_s: float | None = None
         self._bus_clock = BusClock(clock, clock_scale)
         #: Frames stamped before this (clock s) are not read (see :meth:`quiet_until_now`).
         self._not_before_s = -float("inf")
@@ -90,6 +94,7 @@ class CanRateSource:
         self._open = True
         self._bus_clock.sync()
         self._last_frame_s = self.clock()
+        self._last_sent_s = None
         self._builder.event("connect", self._last_frame_s)
 
     def close(self) -> None:
@@ -107,7 +112,14 @@ class CanRateSource:
         if self._lost:
             self._lost = False
             self._builder.event("reconnect", now)
+        elif self._last_sent_s is not None and \
+                sent - self._last_sent_s > self.silence_timeout_s:
+            # Silent on the bus for longer than the limit, though not seen as it happened.
+            self._builder.event("disconnect", self._last_sent_s + self.silence_timeout_s,
+                                detail="node silent (frame time stamps)")
+            self._builder.event("reconnect", now)
         self._last_frame_s = now
+        self._last_sent_s = sent
         frames = self._pending.setdefault(values.counter, {})
         frames[arbitration_id] = values
         if set(frames) == self._ids:
@@ -148,6 +160,7 @@ class CanRateSource:
         the hold; read together, the hold would count as counter wraps. The samples of
         those frames are the recorder's leading gap, counted by the counter."""
         self._not_before_s = self.clock()
+        self._last_sent_s = None  # (the hold is no silence of the node)
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""

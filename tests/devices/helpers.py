@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from devices.errors import DeviceDisconnectedError
+from devices.errors import DeviceDisconnectedError, DeviceTimeoutError
 from devices.protocols import Gap, RateSource, SampleBatch
 from devices.sim.faults import SimCore
 
@@ -22,6 +22,8 @@ class Collected:
 
     batches: list[SampleBatch] = field(default_factory=list)
     disconnects: int = 0
+    #: Reads that raised DeviceTimeoutError (the adapter's silence limit ran out).
+    timeouts: int = 0
 
     @property
     def counter(self) -> np.ndarray:
@@ -47,7 +49,8 @@ class Collected:
 
 
 def collect(source: RateSource, n_samples: int, *, deadline_s: float = 20.0) -> Collected:
-    """Read until ``n_samples`` arrived, reopening after disconnects (bounded by time)."""
+    """Read until ``n_samples`` arrived, reopening after disconnects and reading on after
+    timeouts, as the recorder does (counted; bounded by time)."""
     out = Collected()
     got = 0
     stop = time.monotonic() + deadline_s
@@ -59,6 +62,9 @@ def collect(source: RateSource, n_samples: int, *, deadline_s: float = 20.0) -> 
         except DeviceDisconnectedError:
             out.disconnects += 1
             time.sleep(0.01)
+            continue
+        except DeviceTimeoutError:
+            out.timeouts += 1
             continue
         if len(batch) or batch.events:
             out.batches.append(batch)
@@ -89,19 +95,45 @@ def missing_indices(gaps: list[Gap], offset: int) -> set[int]:
     return {g.after_counter + offset + k + 1 for g in gaps for k in range(g.missing_samples)}
 
 
-def check_accounting(collected: Collected, core: SimCore, offset: int) -> tuple[set[int], set[int]]:
-    """Assert that received + declared missing is exactly every sample in the span.
+#: The most of a span a loaded host may lose (declared) in a round trip that injects no
+#: fault: a starved simulator thread loses what fell due meanwhile, a starved poller
+#: misses registers. A CI host lost 119 of 1635 serial samples; none on a quiet host.
+LOADED_HOST_LOSS_SHARE = 0.25
 
-    Returns ``(declared missing, lost per the simulator's ledger)`` inside the span; the
-    ledger's losses are always among the declared ones.
-    """
+
+def check_books(collected: Collected, offset: int = 0) -> set[int]:
+    """Assert the books of what an adapter returned: received + declared missing is
+    exactly every sample in the span, none twice, each gap's best count inside its
+    ``[missing_low, missing_high]``. Returns the declared missing indices (counter +
+    ``offset``). Needs no simulator: a served gyro in another process, a real one."""
     idx = collected.counter + offset
     lo, hi = int(idx[0]), int(idx[-1])
     received = set(idx.tolist())
     assert len(received) == len(idx), "a sample was returned twice"
+    for gap in collected.gaps:
+        assert gap.low <= gap.missing_samples <= gap.high, gap
     declared = missing_indices(collected.gaps, offset)
-    assert not received & declared
-    assert received | declared == set(range(lo, hi + 1))
+    assert not received & declared, "a sample declared missing was received"
+    assert received | declared == set(range(lo, hi + 1)), "a jump of the counter not declared"
+    return declared
+
+
+def check_lost_share(collected: Collected, declared: set[int],
+                     share: float = LOADED_HOST_LOSS_SHARE) -> None:
+    """Assert that at most ``share`` of the span was declared missing."""
+    span = len(collected.counter) + len(declared)
+    assert len(declared) <= share * span, f"{len(declared)} of {span} samples lost"
+
+
+def check_accounting(collected: Collected, core: SimCore, offset: int) -> tuple[set[int], set[int]]:
+    """Assert the books (:func:`check_books`) and that the simulator's ledger agrees.
+
+    Returns ``(declared missing, lost per the simulator's ledger)`` inside the span; the
+    ledger's losses are always among the declared ones.
+    """
+    declared = check_books(collected, offset)
+    idx = collected.counter + offset
+    lo, hi = int(idx[0]), int(idx[-1])
     lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
     assert lost <= declared
     return declared, lost

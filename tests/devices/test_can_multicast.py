@@ -29,6 +29,8 @@ from devices.urls import open_device
 from station.cli import main
 from tests.devices.helpers import (
     check_accounting,
+    check_books,
+    check_lost_share,
     collect,
     device_index,
     multicast_unavailable,
@@ -72,7 +74,11 @@ def test_raw_can_round_trip_across_processes() -> None:
         got = collect(dev.source, 500)
         core = sim.core
         offset = device_index(got, core, 256, atol=2 * HALF_LSB_SHARED)
-        assert np.all(np.diff(got.counter) == 1) and got.gaps == []
+        # No fault is injected: a loaded host may still starve the node's process (it
+        # loses what fell due meanwhile, in its ledger) or this one (the kernel drops
+        # datagrams a full socket cannot take): every loss declared, none invented.
+        declared, _ = check_accounting(got, core, offset)
+        check_lost_share(got, declared)
         np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=HALF_LSB_SHARED + 1e-12, rtol=0)
         assert core.sample_rate_hz == dev.source.describe().sample_rate_hz == 200.0
@@ -170,7 +176,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
             assert not isinstance(dev, Simulated)  # a real-hardware URL: nothing simulated here
             dev.source.open()
             got = collect(dev.source, 200)
-            assert np.all(np.diff(got.counter) == 1) and got.gaps == []
+            check_lost_share(got, check_books(got))  # (what a loaded host loses, declared)
             assert np.all(np.abs(got.rate) < 1.0)
             assert dev.source.describe().transport == "can"
         proc.send_signal(signal.SIGTERM)
@@ -197,9 +203,11 @@ def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
     """The opt-in hardware test is live code: run it on a served CANopen gyro."""
     proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
     try:
-        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                              "tests/devices/test_hardware.py", "--hardware-url",
-                              str(info["url"])], capture_output=True, text=True, timeout=120,
+        # One process: "-n 0" overrides the two xdist workers of the suite's addopts.
+        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0",
+                              "-p", "no:cacheprovider", "tests/devices/test_hardware.py",
+                              "--hardware-url", str(info["url"])],
+                             capture_output=True, text=True, timeout=120,
                              cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
         assert run.returncode == 0 and "1 passed" in run.stdout, run.stdout + run.stderr
     finally:

@@ -27,7 +27,7 @@ from devices.sim.faults import SimCore
 from devices.sim.signal import SignalSource
 from devices.transports.can import CanTransport
 from devices.urls import open_device
-from tests.devices.helpers import check_accounting, collect, device_index
+from tests.devices.helpers import check_accounting, check_lost_share, collect, device_index
 
 
 def test_round_trip_exact_samples_and_identity() -> None:
@@ -36,7 +36,13 @@ def test_round_trip_exact_samples_and_identity() -> None:
         got = collect(dev.source, 400)
         core = dev.simulator.core
         offset = device_index(got, core, 65536, atol=1e-6)
-        assert np.all(np.diff(got.counter) == 1) and got.gaps == []
+        # No fault is injected: the node loses only what fell due while a loaded host
+        # starved its thread (in its ledger; none on a quiet host): each one declared.
+        # The sample after such a loss is dropped too: its TPDO1 (no counter) cannot be
+        # told from the lost sample's; declared, and only there.
+        declared, lost = check_accounting(got, core, offset)
+        assert declared - lost <= {i + 1 for i in lost}
+        check_lost_share(got, declared)
         np.testing.assert_allclose(got.rate, core.history(got.counter + offset),
                                    atol=0.5e-6 + 1e-12, rtol=0)
         np.testing.assert_allclose(got.column("temperature_c"), 25.0, atol=0.005)

@@ -4,16 +4,16 @@
     pytest tests/devices --hardware-port /dev/ttyUSB0 --hardware-protocol stim300
 
 Skipped without ``--hardware-url`` or ``--hardware-port``. A static gyro on a quiet link
-must stream continuous counters, no CRC errors, no gaps, and what ``describe()`` says.
+must stream what ``describe()`` says at its nominal rate, with no CRC errors; samples the
+host loses (a loaded station drops frames a full socket cannot take) must each be
+declared, none invented (the books hold), and few.
 """
 
 from __future__ import annotations
 
-import numpy as np
-
 from devices.protocols import RateSource, Simulated
 from devices.urls import open_device
-from tests.devices.helpers import collect
+from tests.devices.helpers import check_books, check_lost_share, collect
 
 
 def test_real_gyro_streams_continuous_samples(hardware_url: str) -> None:
@@ -26,11 +26,11 @@ def test_real_gyro_streams_continuous_samples(hardware_url: str) -> None:
         n = max(200, int(5 * desc.sample_rate_hz))  # 5 s of samples
         got = collect(source, n, deadline_s=15)
         assert got.rate.shape[1] == desc.n_axes
-        assert got.crc_errors == 0 and got.gaps == []
-        assert np.all(np.diff(got.counter) == 1)
+        assert got.crc_errors == 0
+        check_lost_share(got, check_books(got))
         for batch in got.batches:
             assert (batch.temperature_c is not None) == desc.has_temperature
             assert (batch.device_time_s is not None) == desc.has_device_time
         t = got.column("receive_time_s")
-        measured_hz = (len(t) - 1) / (t[-1] - t[0])
+        measured_hz = (got.counter[-1] - got.counter[0]) / (t[-1] - t[0])
         assert abs(measured_hz / desc.sample_rate_hz - 1) < 0.1, measured_hz
