@@ -27,7 +27,6 @@ from station.commands.arguments import (
 )
 
 
-
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``reconcile`` sub-command."""
     p = sub.add_parser("reconcile", help=COMMAND_HELP["reconcile"],
