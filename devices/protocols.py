@@ -22,8 +22,10 @@ GapMethod = Literal["counter", "counter+elapsed", "device_time"]
 EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync", "timeout",
                     "bad_sample"]
 
-#: Accelerometer axis names of a three-axis IMU, in the column order of its accelerations.
-ACCEL_AXIS_NAMES: tuple[str, ...] = ("x", "y", "z")
+#: Accelerometer axis names of a three-axis IMU, in the column order of its accelerations:
+#: not the gyros' names, so that no figure keyed by axis name stands for the other half's
+#: (a CSV record's accel_* columns read the same; a bench's x, y, z match by last token).
+ACCEL_AXIS_NAMES: tuple[str, ...] = ("accel_x", "accel_y", "accel_z")
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ def _batch(unit: str, seq: int, start: int, n: int, imu: bool) -> EventBatch:
 def _write(path: Path) -> Path:
     writer = RunFileWriter(path, flush_interval_s=0.5)
     writer(RunStart("uid1", utc_now(), ("imu", "gyro"), 10.0, str(path), RunMetadata()))
-    for uid, axes in (("imu", ("x", "y", "z")), ("gyro", ())):
+    for uid, axes in (("imu", ("accel_x", "accel_y", "accel_z")), ("gyro", ())):
         d = _description(uid, axes)
         writer(Descriptor(uid, f"sim+serial://{uid}", d, data_keys(d), utc_now(),
                           "simulated device clock, warp x1", 1.0))
@@ -60,12 +60,13 @@ def test_the_accel_dataset_sits_beside_the_rate_and_reads_back(tmp_path: Path) -
         imu, gyro = f["units/imu"], f["units/gyro"]
         ds = imu["accel"]
         assert ds.shape == (400, 3) and ds.dtype == np.float64 and ds.maxshape == (None, 3)
-        assert ds.attrs["units"] == "m/s^2" and json.loads(ds.attrs["axes"]) == ["x", "y", "z"]
+        assert ds.attrs["units"] == "m/s^2"
+        assert json.loads(ds.attrs["axes"]) == ["accel_x", "accel_y", "accel_z"]
         assert ds.chunks == imu["rate"].chunks
         assert "accel" not in gyro and "accel_axes" not in gyro.attrs
     run = read_run(path)
     imu_rec, gyro_rec = (u.record for u in run.units)
-    assert imu_rec.accel_axis_names == ("x", "y", "z")
+    assert imu_rec.accel_axis_names == ("accel_x", "accel_y", "accel_z")
     assert imu_rec.accel_m_s2 is not None and imu_rec.accel_m_s2.shape == (400, 3)
     np.testing.assert_array_equal(imu_rec.accel_m_s2[:, 0], np.arange(400) * 1e-4)
     assert gyro_rec.accel_m_s2 is None and gyro_rec.accel_axis_names == ()
@@ -110,5 +111,5 @@ def test_a_recorded_simulated_stim300_run_holds_its_accelerations(tmp_path: Path
     (unit,) = read_run(next(tmp_path.glob("*.h5"))).units
     rec = unit.record
     assert rec.accel_m_s2 is not None and rec.accel_m_s2.shape == rec.rate_deg_s.shape
-    assert rec.n_samples > 1000 and rec.accel_axis_names == ("x", "y", "z")
+    assert rec.n_samples > 1000 and rec.accel_axis_names == ("accel_x", "accel_y", "accel_z")
     assert abs(rec.accel_m_s2[:, 2].mean() - G) < 0.01

@@ -110,7 +110,8 @@ class RateRecord:
     def select(self, axis: str | int) -> RateRecord:
         """A record with only one axis, chosen by name or index."""
         if isinstance(axis, str):
-            if axis in self.accel_axis_names:
+            # a rate axis first: an IMU's accelerometer axes often share the gyros' names
+            if axis not in self.axis_names and axis in self.accel_axis_names:
                 return self.select_accel(axis)
             if axis not in self.axis_names:
                 raise RecordFormatError(

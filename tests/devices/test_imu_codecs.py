@@ -160,7 +160,7 @@ def _read_for(url: str, seconds: float) -> tuple[np.ndarray | None, tuple[str, .
 ])
 def test_a_simulated_imu_delivers_gravity_on_z_within_its_noise(url: str) -> None:
     accel, axes, n = _read_for(url, 0.8)
-    assert axes == ("x", "y", "z") and accel is not None and accel.shape == (n, 3)
+    assert axes == ("accel_x", "accel_y", "accel_z") and accel is not None and accel.shape == (n, 3)
     assert n > 200
     mean, std = accel.mean(axis=0), accel.std(axis=0)
     # white noise of 0.035..0.07 m/s/sqrt(h) at 200..500 Hz: std 0.008..0.03 m/s^2
