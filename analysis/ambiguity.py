@@ -71,10 +71,8 @@ def wavelet_criterion_delta(wavelet: WaveletVariance, terms: str, other: str) ->
     record has too few scales or a model cannot be fitted."""
     try:
         ranking = select_model(wavelet, [_gmwm_model(terms), _gmwm_model(other)]).ranking
-    except (GmwmModelError, AnalysisError, np.linalg.LinAlgError, ValueError):
-        # ValueError: the optimizer refused a start (a short record whose scales hold
-        # a zero variance); the information criterion then decides alone
-        return None
+    except (GmwmModelError, AnalysisError, np.linalg.LinAlgError):
+        return None  # the information criterion then decides alone
     criteria = {r.model: r.criterion for r in ranking}
     a, b = criteria.get(_gmwm_model(terms)), criteria.get(_gmwm_model(other))
     return None if a is None or b is None else b - a

@@ -57,7 +57,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -68,6 +67,7 @@ from analysis.confidence import ONE_SIGMA, local_noise_alpha
 from analysis.errors import FitError, TooFewSamplesError
 from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm_covariance import wv_covariance
+from analysis.gmwm_fit import GmwmFit as GmwmFit  # re-exported: fits are imported from here
 from analysis.gmwm_models import GmwmModel
 from analysis.wavelet import WaveletVariance, dyadic_m
 
@@ -90,101 +90,6 @@ REJECT_P = 1e-3
 GMWM_MIN_BLOCKS = 2
 #: Five-term Allan fit letter of each GMWM term.
 ALLAN_TERM = {"qn": "Q", "wn": "N", "bi": "B", "rw": "K", "dr": "R"}
-
-
-@dataclass(frozen=True)
-class GmwmFit:
-    """A noise model fitted to a Haar wavelet variance.
-
-    Attributes
-    ----------
-    model : GmwmModel
-        The model (``model.name`` e.g. ``"wn+gm+rw"``).
-    params : ndarray
-        Internal parameters (:mod:`analysis.gmwm_models`).
-    cov : ndarray
-        Their covariance (zero rows for parameters held at a bound).
-    values, stderr, ci_low, ci_high : dict
-        Data-sheet values (keys with units, e.g. ``gm_sigma_deg_h``), standard errors and
-        interval at ``confidence``.
-    objective : float
-        J of the final weights.
-    dof : int
-        Levels minus free parameters.
-    p_value : float
-        P(chi2_dof >= J); NaN with no degree of freedom.
-    weights : str
-        ``"efficient"`` (full V), ``"diagonal"`` (its diagonal) or ``"reference"`` (the
-        V of another model, as in model selection); ``"nonparametric+floor"`` when the
-        model was rejected and refitted with the data's variances, floored (``model_error``).
-    tau_s, wv, model_wv : ndarray
-        Averaging times (s), empirical and fitted wavelet variance ((deg/s)^2).
-    sample_rate_hz : float
-    n_samples : int
-    free : tuple of bool
-        Which parameters are not held at a bound.
-    confidence : float
-    model_error : float
-        The relative floor added to the weights' variances (0: none).
-    """
-
-    model: GmwmModel
-    params: NDArray[np.float64]
-    cov: NDArray[np.float64]
-    values: dict[str, float]
-    stderr: dict[str, float]
-    ci_low: dict[str, float]
-    ci_high: dict[str, float]
-    objective: float
-    dof: int
-    p_value: float
-    weights: str
-    tau_s: NDArray[np.float64]
-    wv: NDArray[np.float64]
-    model_wv: NDArray[np.float64]
-    sample_rate_hz: float
-    n_samples: int
-    free: tuple[bool, ...]
-    confidence: float = ONE_SIGMA
-    model_error: float = 0.0
-
-    @property
-    def n_free(self) -> int:
-        """Number of free parameters."""
-        return int(sum(self.free))
-
-    def model_wv_at(self, tau_s: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Fitted model's WV ((deg/s)^2) at any ``tau_s`` (its Allan variance is twice this)."""
-        return self.model.wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
-
-    def term_wv_at(self, tau_s: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Each term's WV ((deg/s)^2), shape (n_terms, n_tau)."""
-        return self.model.term_wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
-
-    def as_json(self) -> dict[str, object]:
-        """JSON form: model, params, stderr (same keys), intervals, fit statistics, the WV
-        (``wv_deg2_s2``, ``model_wv_deg2_s2``, in (deg/s)^2; ``wv``, ``model_wv``: the same
-        values under the keys of the GMWM interface)."""
-        def clean(d: dict[str, float]) -> dict[str, float | None]:
-            return {k: (v if math.isfinite(v) else None) for k, v in d.items()}
-
-        return {
-            "model": self.model.name,
-            "params": clean(self.values),
-            "stderr": clean(self.stderr),
-            "ci_low": clean(self.ci_low),
-            "ci_high": clean(self.ci_high),
-            "confidence": self.confidence,
-            "objective": self.objective,
-            "dof": self.dof,
-            "p_value": self.p_value if math.isfinite(self.p_value) else None,
-            "weights": self.weights,
-            "wv_tau_s": self.tau_s.tolist(),
-            "wv_deg2_s2": self.wv.tolist(),
-            "model_wv_deg2_s2": self.model_wv.tolist(),
-            "wv": self.wv.tolist(),
-            "model_wv": self.model_wv.tolist(),
-        }
 
 
 # ------------------------------------------------------------------------------ the solver
@@ -229,8 +134,18 @@ class _Problem:
         return out
 
     def set_weights(self, v: NDArray[np.float64], *, diagonal: bool = False) -> str:
-        """Whitening by ``V = L L'`` (or by its diagonal, the fallback); returns which."""
-        d = np.sqrt(np.diag(v))
+        """Whitening by ``V = L L'`` (or by its diagonal, the fallback); returns which.
+
+        Raises
+        ------
+        FitError
+            ``V`` with a variance that is not positive (a model nil at some scale).
+        """
+        var = np.diag(v)
+        if not np.all(var > 0) or not np.all(np.isfinite(var)):
+            raise FitError("the weights' covariance has no positive variance at some scale "
+                           "(a model nil there): fit a model with a term at every scale")
+        d = np.sqrt(var)
         if not diagonal:
             corr = v / np.outer(d, d)
             try:
@@ -560,12 +475,18 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         raise FitError(f"weights must be 'efficient' or 'diagonal', got {weights!r}")
     model = _as_model(model)
     _check(model, wv)
+    flat = ~(np.asarray(wv.variance, dtype=float) > 0)  # the first step's weights: 1 / variance
+    if flat.any():
+        raise FitError(f"the wavelet variance is constant at {int(flat.sum())} of {flat.size} "
+                       "scales: a stuck (constant) record has no noise to fit")
     problem = _Problem(model, wv)
     problem.set_weights(np.diag(np.asarray(wv.variance, dtype=float)), diagonal=True)
     x = problem.solve()
     used, floor = "diagonal", 0.0
     for step in range(max(steps, 0)):
         v = weight_covariance(model, problem.theta(x), wv, floor)
+        if not np.all(np.diag(v) > 0):  # the fit is nil at some scale: no model-based
+            break                        # weights, the data's own (diagonal) stay
         used = problem.set_weights(v, diagonal=weights == "diagonal")
         # the last step searches afresh: the first, diagonal, weights can leave a local minimum
         # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer

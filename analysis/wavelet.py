@@ -400,13 +400,19 @@ def haar_wavelet_variance(
     holes = (
         None if missing is None else np.concatenate([np.zeros((1, k)), np.cumsum(missing, axis=0)])
     )
+    levels = len(m_values)
     for i, m in enumerate(m_values if not long else ()):
         w = haar_coefficients(theta, int(m), fs)
         share = np.ones(k)
         if holes is not None:
             bad = (holes[2 * m:] - holes[: -2 * m]) > 0
+            count = (~bad).sum(axis=0)
+            if count.min() == 0:
+                # no gap-free window this long (nor longer): the record says nothing of
+                # these levels, which end here rather than read as a wavelet variance of 0
+                levels = i
+                break
             w[bad] = 0.0
-            count = np.maximum((~bad).sum(axis=0), 1)
             n_coef[i] = int(count.min())
             share = count / w.shape[0]
         if robust:
@@ -418,6 +424,10 @@ def haar_wavelet_variance(
             wv[i] = np.einsum("ij,ij->j", w, w) / (w.shape[0] * share)
         if ci != "eta3":
             a_sum[i] = _lag_sum(w, 2 * int(m)) / share**2
+    if levels == 0:
+        raise TooFewSamplesError(f"no {2 * int(m_values[0])} consecutive samples without a gap: "
+                                 "a wavelet variance needs gap-free windows")
+    m_values, n_coef, wv, a_sum = m_values[:levels], n_coef[:levels], wv[:levels], a_sum[:levels]
     if missing is not None:
         n = int(n - missing.sum(axis=0).max())
     if ci == "eta3":

@@ -35,8 +35,8 @@ class SimControl(Protocol):
     def pause(self) -> None:
         """Hold sampling."""
 
-    def resume(self) -> None:
-        """Release the hold."""
+    def resume(self, run_for_s: float | None = None) -> None:
+        """Release the hold (ending ``run_for_s`` of its clock after it)."""
 
     def clear_faults(self) -> None:
         """Turn the injected faults off (a clean end of a run)."""
@@ -44,9 +44,6 @@ class SimControl(Protocol):
     def stop_after(self, n_samples: int | None) -> int | None:
         """Generate no sample beyond the first ``n_samples`` (the end of a run); returns
         the count it ends on."""
-
-    def stop_in(self, duration_s: float | None) -> None:
-        """Generate no sample due after ``duration_s`` clock s from now (a run's end)."""
 
 
 class Simulator(Protocol):
@@ -136,9 +133,10 @@ class SimulatedDevice(OpenedDevice):
         """Hold sampling."""
         self.core.pause()
 
-    def resume(self) -> None:
-        """Release the hold."""
-        self.core.resume()
+    def resume(self, run_for_s: float | None = None) -> None:
+        """Release the hold; with ``run_for_s``, generate nothing due more than that (s
+        of its clock) after the release."""
+        self.core.resume(run_for_s)
 
     def clear_faults(self) -> None:
         """Turn the injected faults off."""
@@ -146,13 +144,8 @@ class SimulatedDevice(OpenedDevice):
 
     def finish_after(self, n_samples: int | None) -> int | None:
         """Generate no sample beyond the first ``n_samples`` (None: go on); returns the
-        count it ends on (fewer where :meth:`finish_in`'s end comes first)."""
+        count it ends on (fewer where :meth:`resume`'s ``run_for_s`` end comes first)."""
         return self.core.stop_after(n_samples)
-
-    def finish_in(self, duration_s: float | None) -> None:
-        """Generate no sample due after ``duration_s`` of its clock from now (None: no
-        end)."""
-        self.core.stop_in(duration_s)
 
     def samples_sent(self) -> int:
         """Samples the simulated device has generated so far."""

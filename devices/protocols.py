@@ -340,8 +340,9 @@ class Simulated(Protocol):
     def pause(self) -> None:
         """Hold sampling (nothing is generated, its time line stands)."""
 
-    def resume(self) -> None:
-        """Release the hold: sampling starts (again) now."""
+    def resume(self, run_for_s: float | None = None) -> None:
+        """Release the hold: sampling starts (again) now; with ``run_for_s``, it ends
+        that long (s of its clock) after this release."""
 
     def clear_faults(self) -> None:
         """Turn the injected faults off (a clean end of a run)."""
@@ -349,11 +350,7 @@ class Simulated(Protocol):
     def finish_after(self, n_samples: int | None) -> int | None:
         """Generate no sample beyond the first ``n_samples`` (None: go on); its time line
         goes on, so that a counter sees no silence it cannot explain. Returns the count it
-        ends on: fewer where :meth:`finish_in`'s end comes first (None: no end)."""
-
-    def finish_in(self, duration_s: float | None) -> None:
-        """Generate no sample due after ``duration_s`` s of its own clock from now (None:
-        no end): a run's end on the unit's time base, whenever the host reads it."""
+        ends on: fewer where :meth:`resume`'s ``run_for_s`` end comes first (None: no end)."""
 
     def samples_sent(self) -> int:
         """Samples the simulated device has generated so far (its own count).

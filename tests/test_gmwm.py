@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from analysis.errors import FitError, TooFewSamplesError
-from analysis.gmwm import gmwm
+from analysis.gmwm import gmwm, gmwm_with_covariance
 from analysis.gmwm_covariance import wv_covariance
 from analysis.gmwm_models import GmwmModel, GmwmModelError
 from analysis.gmwm_selection import gmwm_analysis, select_model
@@ -277,3 +277,16 @@ def test_real_adis_record_rejects_wn_ar1_rw_and_the_fit_stays_near_its_plateau()
     assert fit.weights == "nonparametric+floor", fit.p_value
     assert np.max(fit.model_wv / wv.wv) < 5.0, fit.model_wv / wv.wv
     assert fit.ci_low["rw_deg_h_rt_h"] < fit.values["rw_deg_h_rt_h"] < fit.ci_high["rw_deg_h_rt_h"]
+
+
+def test_a_stuck_axis_or_a_model_nil_at_some_scale_is_a_fit_error_not_nan():
+    """A constant record has no noise to fit; weights from a model that is zero at some
+    scale cannot whiten it (before, both divided by zero and fitted NaN)."""
+    flat = haar_wavelet_variance(np.full(20_000, 0.25), FS)
+    with pytest.raises(FitError, match="no noise to fit"):
+        gmwm(flat, "wn+rw")
+    wv = haar_wavelet_variance(np.random.default_rng(7).standard_normal(20_000), FS)
+    v = np.diag(np.asarray(wv.variance))
+    v[3, 3] = 0.0
+    with pytest.raises(FitError, match="no positive variance"):
+        gmwm_with_covariance(wv, "wn", v)

@@ -174,3 +174,17 @@ def test_gaps_leave_out_every_haar_window_that_holds_a_missing_sample():
     assert wv.n_samples == 39_500 and wv.n_coefficients[0] == 39_500 - 2 * 1 + 1 - 1
     with pytest.raises(ValueError, match="non-finite"):
         haar_wavelet_variance(gapped, FS)
+
+
+def test_levels_longer_than_every_gap_free_window_are_left_out_not_read_as_zero():
+    """A gap every 3000 samples: windows of 2 m = 4096 all hold one, so the record says
+    nothing of m = 2048 and above (before, those levels read 0 (deg/s)^2)."""
+    x = np.random.default_rng(5).standard_normal(36_000)
+    x[::3000] = np.nan
+    wv = haar_wavelet_variance(x, FS, gaps=True)
+    assert wv.m[-1] == 1024 and np.all(wv.wv > 0) and np.all(wv.variance > 0)
+    assert wv.n_coefficients[-1] > 0
+    every_other = np.random.default_rng(6).standard_normal(1_000)
+    every_other[::2] = np.nan
+    with pytest.raises(TooFewSamplesError, match="without a gap"):
+        haar_wavelet_variance(every_other, FS, gaps=True)

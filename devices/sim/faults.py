@@ -222,11 +222,14 @@ class SimCore:
 
     def _release(self, reason: str, at_s: float | None = None) -> None:
         with self._hold_lock:
-            self._holds.discard(reason)
-            if not self._holds and self._paused_at is not None:
-                released = self.clock() if at_s is None else min(at_s, self.clock())
-                self._origin_s += max(0.0, released - self._paused_at)
-                self._paused_at = None
+            self._release_locked(reason, at_s)
+
+    def _release_locked(self, reason: str, at_s: float | None = None) -> None:
+        self._holds.discard(reason)
+        if not self._holds and self._paused_at is not None:
+            released = self.clock() if at_s is None else min(at_s, self.clock())
+            self._origin_s += max(0.0, released - self._paused_at)
+            self._paused_at = None
 
     @property
     def held(self) -> bool:
@@ -237,10 +240,21 @@ class SimCore:
         """Hold sampling (the operator's switch: a unit not yet recorded)."""
         self._hold("operator")
 
-    def resume(self) -> None:
+    def resume(self, run_for_s: float | None = None) -> None:
         """Release the operator's hold; sampling resumes where it stopped (the counter
-        continues without a gap) unless the device is in configuration mode."""
-        self._release("operator")
+        continues without a gap) unless the device is in configuration mode.
+
+        With ``run_for_s`` (s of its clock), nothing due more than that after the
+        release is generated: a run's end on the device's own time line, however late
+        the host reads it or runs this simulator's thread (a starved reader finds the
+        samples of the run, never the ones of the time it overran), set with the release
+        so that the latency of a second request (another process asking, a loaded host)
+        cannot lengthen the run. :meth:`stop_after` does not lift it.
+        """
+        with self._hold_lock:
+            self._release_locked("operator")
+            if run_for_s is not None:
+                self._end_s = self.clock() + run_for_s
 
     def enter_configuration(self) -> None:
         """The device's own hold (Xbus GoToConfig): no samples until measurement."""
@@ -280,7 +294,7 @@ class SimCore:
 
     def stop_after(self, n_samples: int | None) -> int | None:
         """Generate no sample beyond the first ``n_samples`` (None: no end); returns the
-        sample count it ends on (``n_samples``, or fewer where :meth:`stop_in`'s end
+        sample count it ends on (``n_samples``, or fewer where :meth:`resume`'s ``run_for_s`` end
         comes first; None: no end).
 
         A run ends on a sample index, not on a hold: the device keeps its time line (a
@@ -290,13 +304,6 @@ class SimCore:
         """
         self._last_index = n_samples
         return self._final_index()
-
-    def stop_in(self, duration_s: float | None) -> None:
-        """Generate no sample due after ``duration_s`` clock seconds from now (None: no
-        end): a run's end on the device's own time line, however late the host reads it
-        or runs this simulator's thread (a starved reader finds the samples of the run,
-        never the ones of the time it overran). :meth:`stop_after` does not lift it."""
-        self._end_s = None if duration_s is None else self.clock() + duration_s
 
     def _final_index(self) -> int | None:
         """The sample count generation stops at (None: none set)."""
@@ -330,16 +337,19 @@ class SimCore:
             samples overdue by more than ``max_lag_s`` (clock s) are generated and booked
             lost (as a device stall would lose them) rather than sent in one late burst.
         """
-        if self._holds:
-            return []
-        target = int(self.device_time() * self.sample_rate_hz)
-        final = self._final_index()
-        if final is not None:
-            target = min(target, final)
-        if max_lag_s is not None:
-            keep = max(1, int(max_lag_s * self.sample_rate_hz))
-            self._skip(target - self.ledger.generated - keep)
-        return self._generate(min(target - self.ledger.generated, limit))
+        # under the hold lock: a hold asked for meanwhile waits for this batch, and no
+        # sample is generated once it returns
+        with self._hold_lock:
+            if self._holds:
+                return []
+            target = int(self.device_time() * self.sample_rate_hz)
+            final = self._final_index()
+            if final is not None:
+                target = min(target, final)
+            if max_lag_s is not None:
+                keep = max(1, int(max_lag_s * self.sample_rate_hz))
+                self._skip(target - self.ledger.generated - keep)
+            return self._generate(min(target - self.ledger.generated, limit))
 
     def _skip(self, n: int) -> None:
         """Generate ``n`` samples and book them lost at once (no readings built)."""

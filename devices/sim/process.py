@@ -75,8 +75,7 @@ class LocalSimulator(Protocol):
 
 
 #: Operator controls and read-outs the parent may ask of the child's core.
-_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after",
-                    "stop_in"})
+_CALLS = frozenset({"pause", "resume", "history", "clear_faults", "stop_after"})
 _READS = frozenset({"ledger", "history_start", "sample_rate_hz", "held"})
 
 
@@ -163,13 +162,11 @@ class RemoteSimCore:
         end: int | None = self._ask("stop_after", n_samples)
         return end
 
-    def stop_in(self, duration_s: float | None) -> None:
-        """Generate no sample due after ``duration_s`` from now (see :meth:`SimCore.stop_in`)."""
-        self._ask("stop_in", duration_s)
 
-    def resume(self) -> None:
-        """Release the operator's hold (see :meth:`SimCore.resume`)."""
-        self._ask("resume")
+    def resume(self, run_for_s: float | None = None) -> None:
+        """Release the operator's hold, ending ``run_for_s`` after it (see
+        :meth:`SimCore.resume`)."""
+        self._ask("resume", run_for_s)
 
     @property
     def held(self) -> bool:

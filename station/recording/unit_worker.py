@@ -151,11 +151,11 @@ class UnitWorker:
             # Samples it made between being opened and being held: the leading gap's
             # count starts there (an 8-bit counter cannot say how many wraps that was).
             self._held_at = self.simulated.samples_sent()
-            self.simulated.resume()
             # it ends at the duration on its own clock, however late this process reads
             # it: a starved reader must not find (and declare lost) the samples of the
-            # time it overran
-            self.simulated.finish_in(self.settings.duration_s - self.elapsed_s())
+            # time it overran; set with the release itself, so that the latency of a
+            # second request to its process does not lengthen the run
+            self.simulated.resume(run_for_s=self.settings.duration_s - self.elapsed_s())
         self._thread.start()
 
     def join(self, timeout_s: float | None = None) -> None:

@@ -1,0 +1,67 @@
+"""The simulated device's core: a run's end set with the release of its hold, and a hold
+that no sample generated meanwhile outlives."""
+
+from __future__ import annotations
+
+import threading
+
+from devices.sim.clock import WarpClock
+from devices.sim.faults import SimCore
+from devices.sim.signal import SignalSource
+
+RATE_HZ = 50.0
+
+
+class SteppedClock(WarpClock):
+    """Simulated time set by the test (a host whose scheduling it decides)."""
+
+    def __init__(self) -> None:
+        super().__init__(1.0)
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _core(clock: WarpClock) -> SimCore:
+    return SimCore(SignalSource("STIM300", RATE_HZ, seed=3), RATE_HZ, clock)
+
+
+def test_a_run_set_with_its_release_ends_on_its_own_clock_however_late_it_is_read() -> None:
+    """Held 3 s, released for a 10 s run, read first 40 s later: 500 samples, not one
+    more (the 3 s of hold are no part of the run, the 30 s overrun is none either)."""
+    clock = SteppedClock()
+    core = _core(clock)
+    core.pause()
+    clock.now = 3.0
+    assert core.due() == []
+    core.resume(run_for_s=10.0)
+    clock.now = 43.0
+    got = [r.counter for r in core.due(limit=100_000)]
+    assert got == list(range(500))
+    assert core.due() == [] and core.ledger.generated == 500
+
+
+def test_a_hold_asked_for_during_a_batch_outlives_it() -> None:
+    """``pause`` returns once no batch is being generated: nothing is generated after it."""
+    core = _core(WarpClock(50.0))
+    stop = threading.Event()
+
+    def reader() -> None:
+        while not stop.is_set():
+            core.due()
+
+    thread = threading.Thread(target=reader, daemon=True)
+    thread.start()
+    try:
+        for _ in range(20):
+            core.pause()
+            before = core.ledger.generated
+            threading.Event().wait(0.01)
+            assert core.ledger.generated == before
+            core.resume()
+            threading.Event().wait(0.005)
+    finally:
+        stop.set()
+        thread.join()
+    assert core.ledger.generated > 0
