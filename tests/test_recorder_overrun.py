@@ -50,12 +50,14 @@ def test_a_unit_starved_past_its_end_records_its_duration_only(tmp_path: Path) -
     unit = read_run(recorder.path).units[0]
     record = unit.record
     assert record.duration_s <= DURATION_S + 1.0 / RATE_HZ, record.duration_s
-    # what the simulator made between being opened and the run's start (a loaded host
-    # takes longer to start the unit): declared as the leading gap, not part of the run
+    # what the simulator made between being opened and the first sample received (a
+    # loaded host takes longer to start the unit): the leading gap, lost, not frozen
     before = sum(e.missing_samples for e in unit.events
                  if e.kind == "gap" and "before the first sample" in e.detail)
     assert totals.samples_sent is not None
-    assert totals.samples_sent - before <= DURATION_S * RATE_HZ + 1, (totals, before)
+    # its run on its own time line: 40 s of sample periods from counter 0, however late
+    # the host ran it
+    assert totals.samples_sent <= DURATION_S * RATE_HZ, (totals, before)
     assert totals.samples_missing_declared - before <= 0.25 * DURATION_S * RATE_HZ + 2, totals
     assert_books(totals.samples_recorded, totals.samples_missing_low,
                  totals.samples_missing_declared, totals.samples_missing_high,

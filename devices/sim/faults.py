@@ -196,7 +196,7 @@ class SimCore:
         self._closers: list[Callable[[], None]] = []
         self._paused_at: float | None = None
         self._last_index: int | None = None
-        self._end_s: float | None = None
+        self._end_index: int | None = None
 
     def device_time(self) -> float:
         """Device clock, s since start (drifting by ``drift_ppm``)."""
@@ -244,8 +244,8 @@ class SimCore:
         """Release the operator's hold; sampling resumes where it stopped (the counter
         continues without a gap) unless the device is in configuration mode.
 
-        With ``run_for_s`` (s of its clock), nothing due more than that after the
-        release is generated: a run's end on the device's own time line, however late
+        With ``run_for_s`` (s of its clock), it generates ``run_for_s`` worth of sample
+        periods more and no more: a run's end on the device's own time line, however late
         the host reads it or runs this simulator's thread (a starved reader finds the
         samples of the run, never the ones of the time it overran), set with the release
         so that the latency of a second request (another process asking, a loaded host)
@@ -253,8 +253,9 @@ class SimCore:
         """
         with self._hold_lock:
             self._release_locked("operator")
-            if run_for_s is not None:
-                self._end_s = self.clock() + run_for_s
+            if run_for_s is not None:  # on its own time line: a count of sample periods
+                self._end_index = self.ledger.generated + int(round(run_for_s
+                                                                    * self.sample_rate_hz))
 
     def enter_configuration(self) -> None:
         """The device's own hold (Xbus GoToConfig): no samples until measurement."""
@@ -308,11 +309,8 @@ class SimCore:
     def _final_index(self) -> int | None:
         """The sample count generation stops at (None: none set)."""
         ends = [] if self._last_index is None else [self._last_index]
-        if self._end_s is not None:  # the samples whose periods end by then
-            scale = 1.0 + self.faults.drift_ppm * 1e-6
-            held = self.clock() - self._paused_at if self._paused_at is not None else 0.0
-            ends.append(max(0, int((self._end_s - self._origin_s - held) * scale
-                                   * self.sample_rate_hz)))
+        if self._end_index is not None:
+            ends.append(self._end_index)
         return min(ends) if ends else None
 
     def link_down(self) -> bool:

@@ -153,9 +153,11 @@ class UnitWorker:
             self._held_at = self.simulated.samples_sent()
             # it ends at the duration on its own clock, however late this process reads
             # it: a starved reader must not find (and declare lost) the samples of the
-            # time it overran; set with the release itself, so that the latency of a
-            # second request to its process does not lengthen the run
-            self.simulated.resume(run_for_s=self.settings.duration_s - self.elapsed_s())
+            # time it overran. Set with the release itself (a second request to its
+            # process would come late on a loaded host), on the record's time line: that
+            # starts at counter 0, so the samples made before the hold are part of it
+            run_s = self.settings.duration_s - self._held_at / self.description.sample_rate_hz
+            self.simulated.resume(run_for_s=max(run_s, 0.0))
         self._thread.start()
 
     def join(self, timeout_s: float | None = None) -> None:

@@ -28,10 +28,12 @@ def _core(clock: WarpClock) -> SimCore:
 
 
 def test_a_run_set_with_its_release_ends_on_its_own_clock_however_late_it_is_read() -> None:
-    """Held 3 s, released for a 10 s run, read first 40 s later: 500 samples, not one
-    more (the 3 s of hold are no part of the run, the 30 s overrun is none either)."""
+    """Held 3 s (3.5 sample periods after it was made, none generated yet), released for
+    a 10 s run, read first 40 s later: 500 samples, not one more (the hold is no part of
+    the run, nor is the 30 s overrun, nor the part period before the hold)."""
     clock = SteppedClock()
     core = _core(clock)
+    clock.now = 0.07
     core.pause()
     clock.now = 3.0
     assert core.due() == []
