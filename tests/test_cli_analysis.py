@@ -155,6 +155,8 @@ def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
                        "--output-units", "rad")
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)  # the whole stdout is one object
+    # asked with --out, it keeps every file there (unasked: test_cli_newcomer)
+    assert all(Path(f).is_file() and Path(f).parent == tmp_path for f in doc["files"].values())
     assert [u["unit"] for u in doc["units"]] == ["unit1", "unit2"]
     unit = doc["units"][0]
     assert unit["samples_recorded"] + unit["samples_missing_declared"] == unit["samples_sent"]

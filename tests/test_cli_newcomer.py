@@ -142,6 +142,4 @@ def test_demo_leaves_nothing_behind_unless_asked(tmp_path: Path, monkeypatch: py
     folder = Path(files["run"]).parent
     assert f"removed {folder}" in captured.err  # it said where, and that it cleaned up
     assert not folder.exists() and list(tmp_path.iterdir()) == []
-    assert main(["demo", "--duration", "0.02", "--json", "--out", "mine"]) == 0
-    files = json.loads(capsys.readouterr().out)["files"]
-    assert all(Path(f).is_file() and Path(f).parent == Path("mine") for f in files.values())
+    # asked (--out): test_cli_analysis.test_demo_runs_and_writes_its_files
