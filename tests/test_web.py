@@ -35,7 +35,10 @@ def _line(graded: RunGrade, directory: Path) -> Path:  # noqa: F811
         start_utc="2026-06-20T08:00:00Z",
         units=(replace(odd.run.units[0], serial_number=SCRIPT_SERIAL),)))
     odd = replace(odd, units=(replace(odd.units[0], unit=odd.run.units[0]),))
-    sheet = write_html(odd, directory / "odd.html")
+    # the run's sheets, recorded with the grading: a section per unit, another unit first
+    other = replace(odd.units[0], unit=replace(odd.run.units[0], unit_id="unit0",
+                                               serial_number="OTHER-1"))
+    sheet = write_html(replace(odd, units=(other, *odd.units)), directory / "odd.html")
     with ResultsDatabase(location) as db:
         db.store(odd)
         (row,) = db.gradings(serial=SCRIPT_SERIAL)
@@ -118,6 +121,8 @@ def test_markup_in_a_serial_lot_or_operator_is_shown_as_text(client: TestClient)
     sheet = client.get(sheet_url.group(1).replace("&amp;", "&"))
     # the sheet the station rendered, shown in a sandbox that runs no script
     assert sheet.status_code == 200 and 'class="figures"' in sheet.text
+    assert sheet.text.count('<section class="unit"') == 1 and "OTHER-1" not in sheet.text
+    assert "&lt;script&gt;" in sheet.text  # this unit's section, its serial escaped
     assert "default-src 'none'" in sheet.headers["content-security-policy"]
     assert client.get("/units/nobody").status_code == 404
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import asdict, dataclass
+from html import escape
 from pathlib import Path
 
 from scipy import stats as scipy_stats
@@ -227,6 +228,20 @@ def unit_history(where: LineFilter, serial: str) -> UnitHistory:
     return UnitHistory(serial, rows, figures, reports)
 
 
+def unit_of_sheet(html: str, run_unit: str) -> str:
+    """The page of one unit of a run's HTML spec sheets (a section per unit,
+    :func:`station.output.report.html.write_html`): its head and that unit's section; the
+    whole page when it has no section of that unit."""
+    start = html.find(f'<section class="unit" id="unit-{escape(run_unit)}"')
+    body = html.find("<body>")
+    if start < 0 or body < 0:
+        return html
+    end = html.find("</section>", start)
+    if end < 0:
+        return html
+    return f"{html[:body]}<body>\n{html[start:end + len('</section>')]}\n</body></html>\n"
+
+
 def unit_sheet_html(where: LineFilter, grading: GradingRow,
                     reports: tuple[dict[str, str], ...]) -> str:
     """The HTML spec sheet of one grading, as the station renders it: the HTML report
@@ -243,7 +258,7 @@ def unit_sheet_html(where: LineFilter, grading: GradingRow,
     """
     for r in reversed(reports):
         if r["format"] == "html" and Path(r["path"]).is_file():
-            return Path(r["path"]).read_text(encoding="utf-8")
+            return unit_of_sheet(Path(r["path"]).read_text(encoding="utf-8"), grading.run_unit)
     from station.evaluation.grading import grade_run
     from station.model.profiles import parse_profile
     from station.output.report.html import CSS, unit_section
