@@ -15,6 +15,7 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 CHROMIUM = Path(os.environ.get("STATION_CHROMIUM", "/usr/bin/chromium"))
@@ -59,27 +60,46 @@ def chromium(width: int = 1280, height: int = 900) -> Iterator[object]:
         driver.quit()
 
 
+@dataclass
+class Server:
+    """A ``station serve`` process starting on 127.0.0.1 and ``url``'s port."""
+
+    url: str
+    process: subprocess.Popen
+
+    def wait(self) -> str:
+        """The base URL, once the server accepts connections.
+
+        Raises
+        ------
+        RuntimeError
+            The server ended, or did not listen within :data:`START_TIMEOUT_S`.
+        """
+        port = int(self.url.rsplit(":", 1)[1])
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while True:
+            try:
+                with socket.create_connection(("127.0.0.1", port), timeout=0.5):
+                    return self.url
+            except OSError:
+                if self.process.poll() is not None or time.monotonic() > deadline:
+                    err = self.process.stderr.read().decode() if self.process.stderr else ""
+                    raise RuntimeError(f"station serve did not start: {err}") from None
+                time.sleep(0.05)
+
+
 @contextmanager
-def served(db: Path | str, runs: tuple[Path, ...] = ()) -> Iterator[str]:
-    """``station serve --db DB [--runs ...]`` on 127.0.0.1 and a free port, as a separate
-    process; yields its base URL and stops it at the end."""
+def served(db: Path | str, runs: tuple[Path, ...] = ()) -> Iterator[Server]:
+    """``station serve --db DB [--runs ...]`` on 127.0.0.1 and a free port, started as a
+    separate process (:meth:`Server.wait` for it: start the browser meanwhile), stopped at
+    the end."""
     port = free_port()
     command = [sys.executable, "-m", "station", "serve", "--db", str(db), "--port", str(port)]
     if runs:
         command += ["--runs", *map(str, runs)]
     process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
-        deadline = time.monotonic() + START_TIMEOUT_S
-        while True:
-            try:
-                with socket.create_connection(("127.0.0.1", port), timeout=0.5):
-                    break
-            except OSError:
-                if process.poll() is not None or time.monotonic() > deadline:
-                    err = process.stderr.read().decode() if process.stderr else ""
-                    raise RuntimeError(f"station serve did not start: {err}") from None
-                time.sleep(0.1)
-        yield f"http://127.0.0.1:{port}"
+        yield Server(f"http://127.0.0.1:{port}", process)
     finally:
         process.terminate()
         process.wait(timeout=10)

@@ -180,3 +180,14 @@ def test_a_damaged_run_file_is_listed_with_the_rest(line: Path, tmp_path: Path,
     assert "broken.h5" in page and 'data-field="samples_recorded">1200<' in page
     assert '<script src="/static/live.js"' in page
     assert "fetch(\"/api/runs\"" in client.get("/static/live.js").text
+
+
+def test_the_line_on_postgresql(graded: RunGrade, postgres_url: str,  # noqa: F811
+                                capsys) -> None:
+    location = _fill(postgres_url, graded)
+    client = TestClient(create_app(ServeConfig(location)))
+    cli = _cli_json(capsys, "results", "--stats", "--json", "--db", location, "--lot", "L2")
+    assert client.get("/api/stats", params={"lot": "L2"}).json() == cli
+    page = client.get("/", params={"lot": "L2"})
+    assert page.status_code == 200 and 'data-serial="S08"' in page.text
+    assert client.get("/figures/arw", params={"lot": "L2"}).status_code == 200

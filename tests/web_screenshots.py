@@ -55,7 +55,8 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="station-web-") as tmp:
         db = demo_database(Path(tmp), args.runs)
-        with served(db) as base, chromium(1280, 1400) as driver:
+        with served(db) as server, chromium(1280, 1400) as driver:
+            base = server.wait()
             driver.get(base + "/")
             driver.save_screenshot(str(args.out / "web-overview.png"))
             figure = driver.find_element(By.CSS_SELECTOR, "table.capability a")

@@ -23,6 +23,8 @@ without it the answer is 401.
 from __future__ import annotations
 
 import hmac
+import threading
+from collections import OrderedDict
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from importlib.resources import files
@@ -61,6 +63,8 @@ TOKEN_COOKIE = "station_token"
 CONTENT_SECURITY_POLICY = ("default-src 'self'; img-src 'self' data:; "
                            "style-src 'self' 'unsafe-inline'; script-src 'self'; "
                            "frame-ancestors 'self'; form-action 'self'")
+#: How many rendered spec sheets the server keeps (a sheet rendered afresh takes seconds).
+SHEETS_KEPT = 32
 FILTERS = ("since", "until", "model", "lot", "station", "operator")
 
 
@@ -142,6 +146,9 @@ def create_app(config: ServeConfig) -> Starlette:
                  + query({"grading": str(doc["gradings"][-1]["id"])}))
         return pages.unit_body(doc, family, sheet)
 
+    sheets: OrderedDict[tuple[int, tuple[str, ...]], str] = OrderedDict()
+    sheets_lock = threading.Lock()
+
     def sheet(request: Request) -> str:
         where = _filter(config, request)
         history = unit_history(where, request.path_params["serial"])
@@ -149,7 +156,19 @@ def create_app(config: ServeConfig) -> Starlette:
         chosen = [g for g in history.gradings if wanted is None or str(g.id) == wanted]
         if not chosen:
             raise LookupError(f"no grading {wanted} of a unit {request.path_params['serial']!r}")
-        return unit_sheet_html(where, chosen[-1], history.reports[chosen[-1].id])
+        grading, reports = chosen[-1], history.reports[chosen[-1].id]
+        # a stored grading does not change: its sheet, rendered once, is kept (a few)
+        key = (grading.id, tuple(r["path"] for r in reports))
+        with sheets_lock:
+            kept = sheets.get(key)
+        if kept is not None:
+            return kept
+        html = unit_sheet_html(where, grading, reports)
+        with sheets_lock:
+            sheets[key] = html
+            while len(sheets) > SHEETS_KEPT:
+                sheets.popitem(last=False)
+        return html
 
     async def sheet_endpoint(request: Request) -> Response:
         html = await run_in_threadpool(sheet, request)
