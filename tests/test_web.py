@@ -92,6 +92,11 @@ def test_pages_show_the_numbers_of_results_stats(client: TestClient, line: Path,
     chart = client.get("/figures/arw/chart.svg", params={"model": "TG-1"})
     assert chart.headers["content-type"] == "image/svg+xml" and "<svg" in chart.text
     assert "<svg" in client.get("/figures/arw/trend.svg").text
+    rad_page = client.get("/", params={"model": "TG-1", "units": "rad"}).text
+    rad_row = rad_page.split('<tr data-figure="arw">', 1)[1].split("</tr>", 1)[0]
+    assert float(re.findall(r'data-value="([^"]+)"', rad_row)[0]) == rad["figures"]["arw"]["mean"]
+    assert client.get("/", params={"units": "furlong"}).status_code == 400
+    assert client.get("/api/stats", params={"since": "yesterday"}).status_code == 400
     overview = client.get("/api/overview").json()
     yields = _cli_json(capsys, "results", "--yield", "--json", "--db", str(line))["yield"]
     assert {(r["lot"], r["total"], r["passed"]) for r in overview["lots"]} == {
@@ -191,3 +196,20 @@ def test_the_line_on_postgresql(graded: RunGrade, postgres_url: str,  # noqa: F8
     page = client.get("/", params={"lot": "L2"})
     assert page.status_code == 200 and 'data-serial="S08"' in page.text
     assert client.get("/figures/arw", params={"lot": "L2"}).status_code == 200
+
+
+def test_run_rules_worked_by_hand() -> None:
+    """Centre 0, sigma 1: each rule on a pattern made for it, and not on one a value short."""
+    from station.evaluation.run_rules import run_rule_flags
+
+    x = [0.0, 3.5, 0.0, 2.5, -0.5, 2.2, 0.0, 1.5, 1.2, -0.3, 1.1, 1.4]
+    flags = run_rule_flags(x, 0.0, 1.0)
+    assert flags["beyond_3_sigma"] == (1,)
+    assert flags["2_of_3_beyond_2_sigma"] == (3, 5)  # 2.5 after 3.5; 2.2 after 2.5
+    assert flags["4_of_5_beyond_1_sigma"] == (11,)  # 1.5 1.2 -0.3 1.1 1.4: one short before
+    assert flags["8_on_one_side"] == ()
+    drift = [0.1, 0.3, 0.2, 0.4, 0.1, 0.2, 0.5, 0.3, -0.2]
+    assert run_rule_flags(drift, 0.0, 1.0)["8_on_one_side"] == (7,)
+    assert run_rule_flags(drift[:7], 0.0, 1.0)["8_on_one_side"] == ()
+    assert set(run_rule_flags([float("nan")] * 9, 0.0, 1.0).values()) == {()}
+    assert run_rule_flags(x, None, None)["beyond_3_sigma"] == ()
