@@ -13,6 +13,14 @@
     const tau = curve.tau_s;
     const values = curve.adev_deg_h.flat().filter((v) => v);
     if (!tau.length || !values.length) return;
+    const g3 = (v) => Number(v.toPrecision(3)).toString();
+    const label = (name, words) => {
+      const node = svg.querySelector("text." + name);
+      if (node) node.textContent = words;
+    };
+    label("adev-max", g3(Math.max(...values)) + " deg/h");
+    label("adev-min", g3(Math.min(...values)) + " deg/h");
+    label("tau-range", "tau " + g3(Math.min(...tau)) + " to " + g3(Math.max(...tau)) + " s");
     const x0 = Math.log10(Math.min(...tau)), x1 = Math.log10(Math.max(...tau)) + 1e-9;
     const y0 = Math.log10(Math.min(...values)), y1 = Math.log10(Math.max(...values)) + 1e-9;
     curve.adev_deg_h.forEach((axis, i) => {

@@ -190,11 +190,13 @@ def _ci(x: Mapping[str, Any]) -> list[float] | None:
 
 
 def allan_svg(curve: Mapping[str, Any], width: int = 320, height: int = 200) -> str:
-    """A unit's live Allan deviation as a small log-log SVG (one polyline per axis); the
-    page's script redraws it from ``/api/runs`` the same way (``static/live.js``)."""
+    """A unit's live Allan deviation as a small log-log SVG (one polyline per axis, the
+    ranges of tau and of the deviation written in its corners); the page's script redraws
+    it from ``/api/runs`` the same way (``static/live.js``)."""
     tau = curve["tau_s"]
     lines = []
     values = [v for axis in curve["adev_deg_h"] for v in axis if v]
+    corners = {"adev-max": "", "adev-min": "", "tau-range": ""}
     if tau and values:
         from math import log10
 
@@ -207,10 +209,17 @@ def allan_svg(curve: Mapping[str, Any], width: int = 320, height: int = 200) -> 
                 for t, v in zip(tau, axis, strict=True) if v)
             lines.append(f'<polyline fill="none" stroke="{AXIS_COLORS[i % 3]}" '
                          f'points="{pts}"></polyline>')
+        corners = {"adev-max": f"{max(values):.3g} deg/h", "adev-min": f"{min(values):.3g} deg/h",
+                   "tau-range": f"tau {min(tau):.3g} to {max(tau):.3g} s"}
+    places = {"adev-max": (6, 14, "start"), "adev-min": (6, height - 8, "start"),
+              "tau-range": (width - 6, height - 8, "end")}
+    labels = "".join(
+        f'<text class="{name}" x="{x}" y="{y}" text-anchor="{anchor}" font-size="10" '
+        f'fill="#555">{text(corners[name])}</text>' for name, (x, y, anchor) in places.items())
     return (f'<svg class="allan" data-unit="{text(curve["unit"])}" width="{width}" '
             f'height="{height}" viewBox="0 0 {width} {height}">'
             f'<rect width="{width}" height="{height}" fill="#fafafa" stroke="#bbb"></rect>'
-            + "".join(lines) + "</svg>")
+            + labels + "".join(lines) + "</svg>")
 
 
 AXIS_COLORS = ("#1565c0", "#2e7d32", "#c62828")
