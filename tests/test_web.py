@@ -89,6 +89,10 @@ def test_pages_show_the_numbers_of_results_stats(client: TestClient, line: Path,
     flagged = doc["run_rules"]["beyond_3_sigma"]
     assert [doc["values"][i]["serial_number"] for i in flagged] == ["S08"]
     assert [lot["lot"] for lot in doc["lots"]] == ["L1", "L2", "L3<i>"]
+    in_rad = client.get("/api/figures/arw", params={"model": "TG-1", "units": "rad"}).json()
+    factor = rad["figures"]["arw"]["mean"] / arw["mean"]
+    assert in_rad["values"][0]["value"] == pytest.approx(doc["values"][0]["value"] * factor)
+    assert in_rad["lots"][0]["max"] == pytest.approx(doc["lots"][0]["max"] * factor)
     chart = client.get("/figures/arw/chart.svg", params={"model": "TG-1"})
     assert chart.headers["content-type"] == "image/svg+xml" and "<svg" in chart.text
     assert "<svg" in client.get("/figures/arw/trend.svg").text

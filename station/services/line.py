@@ -168,7 +168,7 @@ def line_stats(where: LineFilter) -> ProductionStats:
 def figure_json(f: FigureStats) -> dict[str, object]:
     """A figure's statistics (:meth:`FigureStats.as_json`, the keys of ``results --stats
     --json``) with its values in test order (``values``: ``{"serial_number", "lot", "axis",
-    "test_date", "value"}``), the run rules each flags (``run_rules``: rule -> indexes into
+    "test_date", "value", "unit"}``), the run rules each flags (``run_rules``: rule -> indexes into
     ``values``) and its trend over lots (``lots``: ``{"lot", "n", "mean", "min", "max"}`` in
     the order the lots were first tested; values in ``unit``)."""
     k = f.chart
@@ -181,7 +181,8 @@ def figure_json(f: FigureStats) -> dict[str, object]:
         **f.as_json(),
         "name": f.name,
         "values": [{"serial_number": v.serial_number, "lot": v.lot, "axis": v.axis,
-                    "test_date": v.test_date, "value": v.value} for v in f.values],
+                    "test_date": v.test_date, "value": v.value, "unit": f.unit}
+                   for v in f.values],
         "run_rules": {rule: list(i) for rule, i in
                       run_rule_flags(values, k.center, k.sigma).items()},
         "lots": [{"lot": lot, "n": len(xs), "mean": sum(xs) / len(xs), "min": min(xs),
