@@ -21,6 +21,7 @@ COMMAND_HELP: dict[str, str] = {
     "results": "browse the results database: list, CSV, yield, trends",
     "record": "record gyros into an HDF5 run file",
     "watch": "follow a run file while it is being recorded",
+    "serve": "the line's web page: yield, capability, control charts, unit sheets, live runs",
     "recover": "close a run file left open by a killed recorder",
     "reconcile": "model versus measurement: name the missing effects",
     "export": (

@@ -22,13 +22,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_output_options, output_family, print_json
 from station.services.record import EXIT_RUN_FAULT
-from station.services.recorder_process import run_file_state
-from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
+from station.services.run_watch import status_json
+
+__all__ = ["register", "run", "status_json", "status_lines"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,37 +41,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_output_options(p, json_help="print the state as one JSON object per refresh, one line "
                        "each (units named in the keys: docs/json.md)")
     p.set_defaults(handler=run)
-
-
-def status_json(path: Path) -> dict[str, object]:
-    """The run's state and one object per unit (rates in deg/s), from its committed data."""
-    with open_run_file(path) as f:
-        state = run_state(f)
-        units: list[dict[str, object]] = []
-        for uid in unit_ids(f):
-            c = unit_counts(f, uid)
-            rate_hz = float(f["units"][uid].attrs["sample_rate_hz"])
-            tail = read_unit(f, uid, start=max(0, c.samples_recorded - max(1, round(rate_hz))))
-            has = bool(len(tail.counter))
-            units.append({
-                "unit": uid, "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
-                "t_s": c.last_time_s, "gaps": c.gaps,
-                "samples_missing_declared": c.samples_missing_declared,
-                "crc_errors": c.crc_errors, "reconnects": c.reconnects,
-                "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
-                "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
-                "newest_accel_m_s2": (tail.accel_m_s2[-1].tolist()
-                                      if has and tail.accel_m_s2 is not None else None),
-            })
-    writer = run_file_state(path)
-    age = writer.flush_age_s() if state["state"] == "recording" else None
-    gone = writer.recorder_gone()
-    return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
-            "stop_reason": state.get("stop_reason"),
-            "last_flush_utc": state.get("last_flush_utc"),
-            "last_flush_age_s": None if age is None else round(age, 3),
-            "recorder_gone": gone, "advice": writer.gone_advice() if gone else None,
-            "units": units}
 
 
 def status_lines(path: Path) -> tuple[str, list[str]]:

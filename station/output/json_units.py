@@ -24,7 +24,7 @@ from analysis.units import FAMILY_UNITS, UnitFamily, family_unit, family_unit_of
 KEPT_IN_DEG = frozenset({"model_after"})
 #: In an object with a ``"unit"`` field, the fields that hold values in that unit.
 VALUE_FIELDS = frozenset({"value", "ci_low", "ci_high", "limit", "limits", "mean", "std",
-                          "center", "ucl", "lcl", "out_of_control"})
+                          "center", "ucl", "lcl", "out_of_control", "min", "max"})
 
 
 def _scaled(value: object, factor: float) -> object:

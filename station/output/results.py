@@ -123,11 +123,16 @@ def _equal_to(*filters: tuple[str, str | None]) -> tuple[list[str], list[object]
 
 def _grading_filter(*, model: str | None = None, lot: str | None = None, since: str | None = None,
                     until: str | None = None, verdict: str | None = None, serial: str | None = None,
-                    latest: bool = False, review: bool = False) -> tuple[str, list[object]]:
+                    latest: bool = False, review: bool = False, station: str | None = None,
+                    operator: str | None = None) -> tuple[str, list[object]]:
     """The ``WHERE`` clause (never empty) over gradings ``g`` and units ``u``, and its
     parameters (see :meth:`ResultsDatabase.gradings`)."""
     clauses, params = _equal_to(("u.model", model), ("g.lot", lot), ("g.verdict", verdict),
                                 ("u.serial_number", serial))
+    for column, value in (("station", station), ("operator", operator)):
+        if value is not None:
+            clauses.append(f"g.run_id IN (SELECT id FROM runs WHERE {column} = ?)")
+            params.append(value)
     if since:
         clauses.append("g.test_date >= ?")
         params.append(since)
@@ -254,6 +259,12 @@ class ResultsDatabase:
             return self.location
         raise ResultsDatabaseError(f"{self.name} is a PostgreSQL database, not a file")
 
+    @property
+    def errors(self) -> tuple[type[BaseException], ...]:
+        """The driver's errors a statement may raise (``sqlite3.Error``, ``psycopg.Error``):
+        a reader that must survive a server going away catches these."""
+        return self._con.errors
+
     def __enter__(self) -> ResultsDatabase:
         return self
 
@@ -343,13 +354,16 @@ class ResultsDatabase:
         serial: str | None = None,
         latest: bool = False,
         review: bool = False,
+        station: str | None = None,
+        operator: str | None = None,
     ) -> list[GradingRow]:
         """Stored gradings, oldest first, filtered; dates compare as ISO 8601 text (``until``
         includes that whole day). ``latest`` keeps only each unit's newest grading, ``review``
-        only the gradings flagged for review."""
+        only the gradings flagged for review; ``station`` and ``operator`` those of runs
+        recorded there, by them."""
         where, params = _grading_filter(
             model=model, lot=lot, since=since, until=until, verdict=verdict, serial=serial,
-            latest=latest, review=review,
+            latest=latest, review=review, station=station, operator=operator,
         )
         rows = self._con.execute(
             "SELECT g.id, g.test_date, g.graded_utc, u.model, u.serial_number, g.lot, g.grade, "
@@ -441,6 +455,15 @@ class ResultsDatabase:
             params,
         ).fetchall()
         return [TrendPoint(*row) for row in rows]
+
+    def distinct_names(self) -> dict[str, list[str]]:
+        """The models, stations and operators the database holds, sorted (what a line's
+        gradings can be filtered by)."""
+        queries = {"models": "SELECT DISTINCT model FROM units",
+                   "stations": "SELECT DISTINCT station FROM runs WHERE station IS NOT NULL",
+                   "operators": "SELECT DISTINCT operator FROM runs WHERE operator IS NOT NULL"}
+        return {key: sorted(str(row[0]) for row in self._con.execute(sql).fetchall() if row[0])
+                for key, sql in queries.items()}
 
     def figure_names(self) -> list[str]:
         """The names of the figures stored (``arw``, ``bias_instability``, ...), sorted."""

@@ -1,0 +1,111 @@
+"""Run files being recorded, read as ``station watch`` reads them: each unit's samples, gaps
+and newest rates (:func:`status_json`); every run file under some folders, a damaged one
+listed with the reason (:func:`runs_in_progress`); the Allan deviation of what a unit has
+recorded so far (:func:`live_allan`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from analysis.allan import allan_variance
+from station.errors import StationError
+from station.services.recorder_process import run_file_state
+from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
+
+#: The most samples of a unit the live Allan curve reads (the newest ones), so that a
+#: refresh stays fast on a long run.
+LIVE_ALLAN_MAX_SAMPLES = 200_000
+
+
+def status_json(path: Path) -> dict[str, object]:
+    """The run's state and one object per unit (rates in deg/s), from its committed data."""
+    with open_run_file(path) as f:
+        state = run_state(f)
+        units: list[dict[str, object]] = []
+        for uid in unit_ids(f):
+            c = unit_counts(f, uid)
+            rate_hz = float(f["units"][uid].attrs["sample_rate_hz"])
+            tail = read_unit(f, uid, start=max(0, c.samples_recorded - max(1, round(rate_hz))))
+            has = bool(len(tail.counter))
+            units.append({
+                "unit": uid, "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
+                "t_s": c.last_time_s, "gaps": c.gaps,
+                "samples_missing_declared": c.samples_missing_declared,
+                "crc_errors": c.crc_errors, "reconnects": c.reconnects,
+                "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
+                "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
+                "newest_accel_m_s2": (tail.accel_m_s2[-1].tolist()
+                                      if has and tail.accel_m_s2 is not None else None),
+            })
+    writer = run_file_state(path)
+    age = writer.flush_age_s() if state["state"] == "recording" else None
+    gone = writer.recorder_gone()
+    return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
+            "stop_reason": state.get("stop_reason"),
+            "last_flush_utc": state.get("last_flush_utc"),
+            "last_flush_age_s": None if age is None else round(age, 3),
+            "recorder_gone": gone, "advice": writer.gone_advice() if gone else None,
+            "units": units}
+
+
+def live_allan(path: Path, unit: str, *, max_samples: int = LIVE_ALLAN_MAX_SAMPLES
+               ) -> dict[str, object]:
+    """The overlapping Allan deviation of the samples ``unit`` has committed so far (the
+    newest ``max_samples``), per axis: ``{"unit", "axes", "tau_s", "adev_deg_h"}``
+    (``adev_deg_h``: one list per axis, deg/h; empty lists below 4 samples). Gaps are read
+    as the recorder wrote them: the samples received, one after the other (a live view; the
+    graded analysis declares the gaps)."""
+    with open_run_file(path) as f:
+        rate_hz = float(f["units"][unit].attrs["sample_rate_hz"])
+        n = unit_counts(f, unit).samples_recorded
+        data = read_unit(f, unit, start=max(0, n - max_samples))
+        rate = np.asarray(data.rate_deg_s, dtype=float).reshape(len(data.counter), -1)
+        names = list(data.axes)
+    rate = rate[np.all(np.isfinite(rate), axis=1)]
+    if len(rate) < 4:
+        return {"unit": unit, "axes": names, "tau_s": [], "adev_deg_h": [[] for _ in names]}
+    result = allan_variance(rate, rate_hz, taus="octave")
+    adev = np.sqrt(np.asarray(result.avar, dtype=float)).reshape(len(result.tau_s), -1) * 3600.0
+    return {"unit": unit, "axes": names, "tau_s": [float(t) for t in result.tau_s],
+            "adev_deg_h": [[float(v) if np.isfinite(v) else None for v in adev[:, i]]
+                           for i in range(adev.shape[1])]}
+
+
+@dataclass(frozen=True)
+class RunsInProgress:
+    """The run files under some folders: those read (:func:`status_json` each, with the
+    live Allan curve of every unit under ``"allan"``) and those that could not be read,
+    with the reason."""
+
+    runs: tuple[dict[str, object], ...]
+    damaged: tuple[tuple[str, str], ...]
+
+    def as_json(self) -> dict[str, object]:
+        """``{"runs": [watch's --json object + "allan": [...]], "damaged": [{"run",
+        "reason"}]}``."""
+        return {"runs": list(self.runs),
+                "damaged": [{"run": run, "reason": reason} for run, reason in self.damaged]}
+
+
+def runs_in_progress(folders: tuple[Path, ...]) -> RunsInProgress:
+    """Every ``*.h5`` run file under ``folders`` (newest first), read as ``station watch``
+    reads it; a file that cannot be read is listed as damaged with the reason, the others
+    are still read."""
+    files = sorted({p for folder in folders for p in Path(folder).glob("*.h5")},
+                   key=lambda p: (-p.stat().st_mtime, p.name))
+    runs: list[dict[str, object]] = []
+    damaged: list[tuple[str, str]] = []
+    for path in files:
+        try:
+            doc = status_json(path)
+            doc["allan"] = [live_allan(path, str(u["unit"]))
+                            for u in doc["units"]]  # type: ignore[attr-defined]
+        except (StationError, OSError, KeyError, ValueError) as exc:
+            damaged.append((str(path), str(exc).strip().splitlines()[0] if str(exc).strip()
+                            else type(exc).__name__))
+            continue
+        runs.append(doc)
+    return RunsInProgress(tuple(runs), tuple(damaged))

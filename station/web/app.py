@@ -1,0 +1,277 @@
+"""The ASGI application of ``station serve``: read-only pages and their JSON under ``/api``.
+
+Routes (every one GET or HEAD; any other method is answered 405)::
+
+    /                          line overview          /api/overview, /api/stats
+    /figures/{name}            a figure's page         /api/figures/{name}
+    /figures/{name}/chart.svg, /figures/{name}/trend.svg
+    /units/{serial}            a unit's page           /api/units/{serial}
+    /sheets/{serial}           its spec sheet (?grading=ID: that grading's)
+    /runs                      runs in progress        /api/runs
+    /static/live.js            the runs page's script
+
+Every page and document takes ``?units=deg|rad`` (``--output-units``); the overview and
+the figure pages take the filters ``since``, ``until``, ``model``, ``lot``, ``station``,
+``operator``. ``/api/stats`` is ``station results --stats --json`` of ``model``, ``lot``
+and ``since``, key for key.
+
+With a token (:class:`ServeConfig`), a request must carry it: ``Authorization: Bearer
+TOKEN``, or ``?token=TOKEN`` once (the answer sets a cookie the browser sends after);
+without it the answer is 401.
+"""
+
+from __future__ import annotations
+
+import hmac
+import threading
+from collections import OrderedDict
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.middleware import Middleware
+from starlette.middleware.base import BaseHTTPMiddleware
+from starlette.requests import Request
+from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
+from starlette.routing import Route
+
+from analysis.units import UnitFamily, unit_family
+from station.errors import UsageError
+from station.output.json_units import in_family
+from station.output.results_backends import DatabaseLocation
+from station.services.line import (
+    DatabaseUnavailableError,
+    LineFilter,
+    figure_json,
+    line_overview,
+    line_stats,
+    unit_history,
+    unit_sheet_html,
+)
+from station.services.run_watch import runs_in_progress
+from station.web import pages
+from station.web.html import page, query, segment, text
+
+#: The cookie a browser keeps the access token in.
+TOKEN_COOKIE = "station_token"
+#: What a page may load: its own scripts and images, inline styles, data: images (the
+#: spec sheet's plots); nothing from elsewhere.
+CONTENT_SECURITY_POLICY = ("default-src 'self'; img-src 'self' data:; "
+                           "style-src 'self' 'unsafe-inline'; script-src 'self'; "
+                           "frame-ancestors 'self'; form-action 'self'")
+#: How many rendered spec sheets the server keeps (a sheet rendered afresh takes seconds).
+SHEETS_KEPT = 32
+FILTERS = ("since", "until", "model", "lot", "station", "operator")
+
+
+@dataclass(frozen=True)
+class ServeConfig:
+    """What ``station serve`` shows: the results database (None: the default one), the
+    folders of run files in progress, and the access token (None: none asked for)."""
+
+    db: DatabaseLocation | None = None
+    runs: tuple[Path, ...] = ()
+    token: str | None = None
+
+
+def _family(request: Request) -> UnitFamily:
+    try:
+        return unit_family(request.query_params.get("units", "deg"))
+    except ValueError as exc:
+        raise UsageError(f"units={request.query_params.get('units')!r}: give deg or rad"
+                         ) from exc
+
+
+def _filter(config: ServeConfig, request: Request) -> LineFilter:
+    given = {k: request.query_params.get(k) or None for k in FILTERS}
+    return LineFilter(config.db, **given)
+
+
+def _here(request: Request) -> str:
+    """This page's path and query without ``units`` (the units switch adds it)."""
+    params = {k: v for k, v in request.query_params.items() if k not in ("units", "token")}
+    return request.url.path + query(params)
+
+
+Handler = Callable[[Request], Awaitable[Response]]
+
+
+def create_app(config: ServeConfig) -> Starlette:
+    """The application serving ``config``'s database and run folders (:mod:`station.web.app`)."""
+
+    def html_page(title: str, build: Callable[[Request, UnitFamily], str], *,
+                  script: str | None = None) -> Handler:
+        async def endpoint(request: Request) -> Response:
+            family = _family(request)
+            body = await run_in_threadpool(build, request, family)
+            return HTMLResponse(page(title.format(**request.path_params), body, family=family,
+                                     here=_here(request), script=script))
+        return endpoint
+
+    def api(build: Callable[[Request], object]) -> Handler:
+        async def endpoint(request: Request) -> Response:
+            family = _family(request)
+            doc = await run_in_threadpool(build, request)
+            return JSONResponse(in_family(doc, family))
+        return endpoint
+
+    def overview(request: Request, family: UnitFamily) -> str:
+        where = _filter(config, request)
+        return pages.overview_body(line_overview(where), line_stats(where).as_json(), family)
+
+    def figure(request: Request) -> dict[str, Any]:
+        name = request.path_params["name"]
+        stats = line_stats(_filter(config, request))
+        if name not in stats.figures:
+            raise LookupError(f"no graded figure {name!r} among the selected units; theirs: "
+                              f"{', '.join(stats.figures) or 'none'}")
+        return figure_json(stats.figures[name])
+
+    def figure_page(request: Request, family: UnitFamily) -> str:
+        return pages.figure_body(figure(request), _filter(config, request).__dict__, family)
+
+    def unit(request: Request) -> dict[str, Any]:
+        history = unit_history(_filter(config, request), request.path_params["serial"])
+        if not history.gradings:
+            raise LookupError(f"no grading of a unit {request.path_params['serial']!r}")
+        return history.as_json()
+
+    def unit_page(request: Request, family: UnitFamily) -> str:
+        doc = unit(request)
+        sheet = (f"/sheets/{segment(request.path_params['serial'])}"
+                 + query({"grading": str(doc["gradings"][-1]["id"])}))
+        return pages.unit_body(doc, family, sheet)
+
+    sheets: OrderedDict[tuple[int, tuple[str, ...]], str] = OrderedDict()
+    sheets_lock = threading.Lock()
+
+    def sheet(request: Request) -> str:
+        where = _filter(config, request)
+        history = unit_history(where, request.path_params["serial"])
+        wanted = request.query_params.get("grading")
+        chosen = [g for g in history.gradings if wanted is None or str(g.id) == wanted]
+        if not chosen:
+            raise LookupError(f"no grading {wanted} of a unit {request.path_params['serial']!r}")
+        grading, reports = chosen[-1], history.reports[chosen[-1].id]
+        # a stored grading does not change: its sheet, rendered once, is kept (a few)
+        key = (grading.id, tuple(r["path"] for r in reports))
+        with sheets_lock:
+            kept = sheets.get(key)
+        if kept is not None:
+            return kept
+        html = unit_sheet_html(where, grading, reports)
+        with sheets_lock:
+            sheets[key] = html
+            while len(sheets) > SHEETS_KEPT:
+                sheets.popitem(last=False)
+        return html
+
+    async def sheet_endpoint(request: Request) -> Response:
+        html = await run_in_threadpool(sheet, request)
+        # the sheet is the station's own file: shown in a sandboxed frame, no script runs
+        return HTMLResponse(html, headers={"Content-Security-Policy":
+                                           "default-src 'none'; img-src data:; "
+                                           "style-src 'unsafe-inline'; frame-ancestors 'self'"})
+
+    def svg(draw: Callable[[dict[str, Any]], str]) -> Handler:
+        async def endpoint(request: Request) -> Response:
+            doc = await run_in_threadpool(figure, request)
+            text = await run_in_threadpool(draw, doc)
+            return Response(text, media_type="image/svg+xml")
+        return endpoint
+
+    def trend(doc: dict[str, Any]) -> str:
+        from station.output.line_charts import trend_svg
+
+        return trend_svg(doc["name"], doc["unit"], doc["lots"], doc["limit"])
+
+    async def chart_endpoint(request: Request) -> Response:
+        def draw() -> str:
+            from station.output.line_charts import figure_svg
+
+            stats = line_stats(_filter(config, request))
+            name = request.path_params["name"]
+            if name not in stats.figures:
+                raise LookupError(f"no graded figure {name!r} among the selected units")
+            return figure_svg(stats.figures[name])
+
+        return Response(await run_in_threadpool(draw), media_type="image/svg+xml")
+
+    def runs(request: Request, family: UnitFamily) -> str:
+        return pages.runs_body(runs_in_progress(config.runs).as_json())
+
+    async def script(request: Request) -> Response:
+        source = files("station.web").joinpath("live.js").read_text(encoding="utf-8")
+        return Response(source, media_type="text/javascript")
+
+    routes = [
+        Route("/", html_page("Line overview", overview)),
+        Route("/api/overview", api(lambda r: line_overview(_filter(config, r)))),
+        Route("/api/stats", api(lambda r: line_stats(_filter(config, r)).as_json())),
+        Route("/figures/{name}", html_page("Figure {name}", figure_page)),
+        Route("/figures/{name}/chart.svg", chart_endpoint),
+        Route("/figures/{name}/trend.svg", svg(trend)),
+        Route("/api/figures/{name}", api(figure)),
+        Route("/units/{serial:path}", html_page("Unit {serial}", unit_page)),
+        Route("/sheets/{serial:path}", sheet_endpoint),
+        Route("/api/units/{serial:path}", api(unit)),
+        Route("/runs", html_page("Runs in progress", runs, script="/static/live.js")),
+        Route("/api/runs", api(lambda r: runs_in_progress(config.runs).as_json())),
+        Route("/static/live.js", script),
+    ]
+    middleware = [Middleware(BaseHTTPMiddleware, dispatch=_guard(config.token))]
+    return Starlette(routes=routes, middleware=middleware)
+
+
+def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response]]:
+    """The middleware: the token checked, failures answered as pages (or JSON under /api),
+    security headers on every answer."""
+
+    async def dispatch(request: Request, call_next: Handler) -> Response:
+        given = _token_of(request)
+        if token is not None and not (given and hmac.compare_digest(given, token)):
+            answer: Response = PlainTextResponse(
+                "401: this station's page needs its access token (Authorization: Bearer "
+                "TOKEN, or ?token=TOKEN)", status_code=401,
+                headers={"WWW-Authenticate": "Bearer"})
+        else:
+            try:
+                answer = await call_next(request)
+            except DatabaseUnavailableError as exc:
+                answer = _failure(request, 503, "Results database unavailable", str(exc))
+            except LookupError as exc:
+                answer = _failure(request, 404, "Not found", str(exc.args[0]))
+            except UsageError as exc:
+                answer = _failure(request, 400, "Bad request", str(exc))
+            if token is not None and request.query_params.get("token") == token:
+                answer.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="strict")
+        answer.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
+        answer.headers["X-Content-Type-Options"] = "nosniff"
+        answer.headers["Referrer-Policy"] = "no-referrer"
+        answer.headers["Cache-Control"] = "no-store"
+        return answer
+
+    return dispatch
+
+
+def _token_of(request: Request) -> str | None:
+    header = request.headers.get("authorization", "")
+    if header.lower().startswith("bearer "):
+        return header[7:].strip()
+    return request.query_params.get("token") or request.cookies.get(TOKEN_COOKIE)
+
+
+def _failure(request: Request, status: int, title: str, reason: str) -> Response:
+    """A failure as JSON (``{"error"}``) under ``/api``, else as a page; a 503 page retries
+    (meta refresh)."""
+    if request.url.path.startswith("/api/"):
+        return JSONResponse({"error": reason}, status_code=status)
+    family = unit_family("deg")
+    refresh = pages.RETRY_S if status == 503 else None
+    body = pages.unavailable_body(reason) if status == 503 else f"<p>{text(reason)}</p>"
+    return HTMLResponse(page(title, body, family=family, here=request.url.path,
+                             refresh_s=refresh), status_code=status)

@@ -1,0 +1,264 @@
+"""The pages' bodies, server-rendered from the services' JSON documents (the same numbers
+``/api/...`` gives): line overview, a figure's page, a unit's page, runs in progress, and
+the page saying the database cannot be read."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from analysis.units import UnitFamily
+from station.evaluation.capability import CAPABILITY_NOTE
+from station.web.html import interval, link, number, query, segment, table, text
+
+#: Seconds the database-unavailable page waits before it tries again.
+RETRY_S = 10.0
+#: Seconds between two polls of a runs-in-progress page.
+POLL_S = 2.0
+
+
+def _select(name: str, choices: Sequence[str], chosen: str | None) -> str:
+    options = ['<option value="">all</option>'] + [
+        f'<option value="{text(c)}"{" selected" if c == chosen else ""}>{text(c)}</option>'
+        for c in choices]
+    return f'<label>{name} <select name="{name}">{"".join(options)}</select></label>'
+
+
+def _filters_form(doc: Mapping[str, Any], family: UnitFamily) -> str:
+    f = doc["filters"]
+    dates = "".join(
+        f'<label>{name} <input type="date" name="{name}" value="{text(f[name] or "")}"></label>'
+        for name in ("since", "until"))
+    lot = f'<label>lot <input name="lot" value="{text(f["lot"] or "")}" size="10"></label>'
+    units = f'<input type="hidden" name="units" value="{family.name}">'
+    return (f'<form class="filters" method="get" action="/">{dates}'
+            f'{_select("model", doc["models"], f["model"])}{lot}'
+            f'{_select("station", doc["stations"], f["station"])}'
+            f'{_select("operator", doc["operators"], f["operator"])}{units}'
+            '<button type="submit">show</button></form>')
+
+
+def _unit_link(serial: str, family: UnitFamily) -> str:
+    return link(f"/units/{segment(serial)}{query({'units': _units(family)})}", serial,
+                data_serial=serial)
+
+
+def _units(family: UnitFamily) -> str | None:
+    return None if family.name == "deg" else family.name
+
+
+def overview_body(doc: Mapping[str, Any], stats: Mapping[str, Any], family: UnitFamily) -> str:
+    """Filters, yield per model and lot, the capability of each figure (``stats``: ``results
+    --stats --json``'s document of the filter's model, lot and first date), the newest
+    gradings."""
+    lots = [
+        f'<tr data-model="{text(r["model"])}" data-lot="{text(r["lot"])}">'
+        f'<td>{text(r["model"])}</td><td>{text(r["lot"] or "-")}</td>'
+        f'<td class="num">{r["total"]}</td><td class="num">{r["passed"]}</td>'
+        f'<td class="num">{r["failed"]}</td><td class="num">{r["indeterminate"]}</td>'
+        f'{number(100 * r["yield"], digits=3)}'
+        f'{interval([100 * v for v in r["yield_ci"]] if r["yield_ci"] else None)}'
+        f'<td>{text(", ".join(f"{g}: {n}" for g, n in r["grades"].items()))}</td></tr>'
+        for r in doc["lots"]]
+    scope = {"model": stats["model"], "lot": stats["lot"], "since": stats["since"],
+             "units": _units(family)}
+    figures = [
+        f'<tr data-figure="{text(name)}"><td>'
+        f'{link(f"/figures/{segment(name)}{query(scope)}", name)}</td>'
+        f'<td>{text(family.label(f["unit"]))}</td><td class="num">{f["n"]}</td>'
+        f'{number(f["mean"], family, f["unit"])}{number(f["std"], family, f["unit"])}'
+        f'{number(f["limit"], family, f["unit"])}{number(f["cpk"], digits=3)}'
+        f'{interval(f["cpk_ci"])}{number(f["cpk_fitted"], digits=3)}'
+        f'<td class="num">{len(f["out_of_control"])}</td></tr>'
+        for name, f in stats["figures"].items()]
+    gradings = [
+        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{text(g["test_date"])}'
+        f'</td><td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
+        f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
+        f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
+        f'<td>{"REVIEW" if g["review"] else "-"}</td></tr>'
+        for g in doc["gradings"]]
+    grade_rows = [f'<tr data-grade="{text(g)}"><td>{text(g)}</td>'
+                  f'{number(100 * share, digits=3)}</tr>' for g, share in stats["yield"].items()]
+    return "\n".join([
+        _filters_form(doc, family),
+        "<h2>Yield per model and lot</h2>",
+        table(["model", "lot", "units", "pass", "fail", "indeterminate", "yield %",
+               "95 % interval (Wilson) %", "grades"], lots, "lots"),
+        '<p class="note">The latest grading of each unit the filters select.</p>',
+        f"<h2>Capability: {stats['units']} units, profile {text(stats['profile'] or '-')}</h2>",
+        table(["grade", "share %"], grade_rows, "grades"),
+        table(["figure", "unit", "n", "mean", "std", "limit", "Ppk (upper)", "95 % CI",
+               "Ppk fitted", "out of control"], figures, "capability"),
+        f'<p class="note">Model, lot and "since" select these units (as station results '
+        f"--stats); {text(CAPABILITY_NOTE)}</p>",
+        "<h2>Last graded units</h2>",
+        table(["test date (UTC)", "serial", "model", "lot", "grade", "verdict", "profile",
+               "review"], gradings, "gradings"),
+    ])
+
+
+RULE_TEXT = {
+    "beyond_3_sigma": "beyond a control limit (3 sigma)",
+    "2_of_3_beyond_2_sigma": "2 of 3 in a row beyond 2 sigma, one side",
+    "4_of_5_beyond_1_sigma": "4 of 5 in a row beyond 1 sigma, one side",
+    "8_on_one_side": "8 in a row on one side of the centre line",
+}
+
+
+def figure_body(f: Mapping[str, Any], scope: Mapping[str, str | None],
+                family: UnitFamily) -> str:
+    """A figure's capability with intervals, its control chart and histogram, the run
+    rules' flags and its trend over lots (``f``: :func:`station.services.line.figure_json`)."""
+    u = f["unit"]
+    limits = ", ".join(f"{g} {family.value(v, u):.4g}"
+                       for g, v in zip(f["limit_grades"], f["limits"], strict=True))
+    cap = [
+        f"<tr><td>{text(family.label(u))}</td><td class=\"num\">{f['n']}</td>"
+        f"{number(f['mean'], family, u)}{number(f['std'], family, u)}<td>{text(limits)}</td>"
+        f"{number(f['cpu'], digits=3)}{number(f['cpk'], digits=3)}{interval(f['cpk_ci'])}"
+        f"{number(f['cpk_fitted'], digits=3)}{interval(f['cpk_fitted_ci'])}"
+        f"<td>{text(f['fitted_distribution'] or '-')}</td>"
+        f"{number(f['center'], family, u)}{number(f['ucl'], family, u)}"
+        f"{number(f['lcl'], family, u)}</tr>"]
+    rules = []
+    for rule, flagged in f["run_rules"].items():
+        who = ", ".join(f"{f['values'][i]['serial_number']} {f['values'][i]['axis'] or 'unit'}"
+                        for i in flagged)
+        rules.append(f'<tr data-rule="{text(rule)}"><td>{text(RULE_TEXT[rule])}</td>'
+                     f'<td class="num">{len(flagged)}</td><td>{text(who or "-")}</td></tr>')
+    charts = query({"model": scope.get("model"), "lot": scope.get("lot"),
+                    "since": scope.get("since")})
+    base = f"/figures/{segment(f['name'])}"
+    return "\n".join([
+        f"<p>Units of {text(scope.get('model') or 'all models')}, "
+        f"{text(scope.get('lot') or 'all lots')}"
+        + (f", tested since {text(scope['since'])}" if scope.get("since") else "")
+        + " (the latest grading of each unit).</p>",
+        table(["unit", "n", "mean", "std", "limits", "Cpu", "Ppk (upper)", "95 % CI",
+               "Ppk fitted", "95 % CI", "fit", "centre", "UCL", "LCL"], cap, "capability"),
+        f'<p class="note">{text(CAPABILITY_NOTE)}</p>',
+        "<h2>Control chart and histogram</h2>",
+        f'<img class="chart" id="control-chart" src="{text(base + "/chart.svg" + charts)}" '
+        f'alt="histogram against the limits and individuals control chart of '
+        f'{text(f["name"])}">',
+        '<p class="note">Values in the unit the database stores (the figure\'s deg unit).</p>',
+        "<h2>Run rules</h2>",
+        table(["rule (Western Electric)", "values flagged", "units"], rules, "run-rules"),
+        "<h2>Trend over lots</h2>",
+        f'<img class="chart" src="{text(base + "/trend.svg" + charts)}" '
+        f'alt="{text(f["name"])} per lot">',
+    ])
+
+
+def unit_body(doc: Mapping[str, Any], family: UnitFamily, sheet_url: str | None) -> str:
+    """A unit's gradings (newest first), its latest grading's figures (a test sequence's
+    too) and its spec sheet in a frame."""
+    history = [
+        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{g["id"]}</td>'
+        f'<td>{text(g["test_date"])}</td><td>{text(g["model"])}</td>'
+        f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
+        f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
+        f'<td>{text(g["run_path"])} ({text(g["run_unit"])})</td><td>{g["revision"]}</td>'
+        f'<td>{text(g["review"] or "-")}</td></tr>'
+        for g in reversed(doc["gradings"])]
+    latest = doc["gradings"][-1]
+    figures = [
+        f'<tr class="{text(x["verdict"] or "info")}" data-figure="{text(x["name"])}" '
+        f'data-axis="{text(x["axis"])}"><td>{text(x["axis"] or "sequence")}</td>'
+        f'<td>{text(x["name"])}</td><td>{text(family.label(x["unit"]))}</td>'
+        f'{number(x["value"], family, x["unit"])}'
+        f'{interval(_ci(x), family, x["unit"])}{number(x["limit"], family, x["unit"])}'
+        f'<td class="verdict">{text(x["verdict"] or "info")}</td></tr>'
+        for x in latest["figures"]]
+    sheet = (f'<p>{link(sheet_url, "open the spec sheet alone", id="sheet-link")}</p>'
+             f'<iframe class="sheet" sandbox src="{text(sheet_url)}" title="spec sheet">'
+             "</iframe>" if sheet_url else "<p>No grading to show a sheet of.</p>")
+    return "\n".join([
+        "<h2>Gradings</h2>",
+        table(["id", "test date (UTC)", "model", "lot", "grade", "verdict", "profile", "run",
+               "revision", "review"], history, "history"),
+        f"<h2>Figures of grading {latest['id']} (axis 'sequence': the test sequence's)</h2>",
+        table(["axis", "figure", "unit", "value", "interval", "limit", "verdict"], figures,
+              "figures"),
+        "<h2>Spec sheet</h2>", sheet,
+    ])
+
+
+def _ci(x: Mapping[str, Any]) -> list[float] | None:
+    return None if x["ci_low"] is None or x["ci_high"] is None else [x["ci_low"], x["ci_high"]]
+
+
+def allan_svg(curve: Mapping[str, Any], width: int = 320, height: int = 200) -> str:
+    """A unit's live Allan deviation as a small log-log SVG (one polyline per axis, the
+    ranges of tau and of the deviation written in its corners); the page's script redraws
+    it from ``/api/runs`` the same way (``static/live.js``)."""
+    tau = curve["tau_s"]
+    lines = []
+    values = [v for axis in curve["adev_deg_h"] for v in axis if v]
+    corners = {"adev-max": "", "adev-min": "", "tau-range": ""}
+    if tau and values:
+        from math import log10
+
+        x0, x1 = log10(min(tau)), log10(max(tau)) + 1e-9
+        y0, y1 = log10(min(values)), log10(max(values)) + 1e-9
+        for i, axis in enumerate(curve["adev_deg_h"]):
+            pts = " ".join(
+                f"{(log10(t) - x0) / (x1 - x0) * (width - 10) + 5:.1f},"
+                f"{height - 5 - (log10(v) - y0) / (y1 - y0) * (height - 10):.1f}"
+                for t, v in zip(tau, axis, strict=True) if v)
+            lines.append(f'<polyline fill="none" stroke="{AXIS_COLORS[i % 3]}" '
+                         f'points="{pts}"></polyline>')
+        corners = {"adev-max": f"{max(values):.3g} deg/h", "adev-min": f"{min(values):.3g} deg/h",
+                   "tau-range": f"tau {min(tau):.3g} to {max(tau):.3g} s"}
+    places = {"adev-max": (6, 14, "start"), "adev-min": (6, height - 8, "start"),
+              "tau-range": (width - 6, height - 8, "end")}
+    labels = "".join(
+        f'<text class="{name}" x="{x}" y="{y}" text-anchor="{anchor}" font-size="10" '
+        f'fill="#555">{text(corners[name])}</text>' for name, (x, y, anchor) in places.items())
+    return (f'<svg class="allan" data-unit="{text(curve["unit"])}" width="{width}" '
+            f'height="{height}" viewBox="0 0 {width} {height}">'
+            f'<rect width="{width}" height="{height}" fill="#fafafa" stroke="#bbb"></rect>'
+            + labels + "".join(lines) + "</svg>")
+
+
+AXIS_COLORS = ("#1565c0", "#2e7d32", "#c62828")
+UNIT_FIELDS = ("samples_recorded", "sample_rate_hz", "t_s", "gaps", "samples_missing_declared",
+               "crc_errors", "reconnects")
+
+
+def runs_body(doc: Mapping[str, Any]) -> str:
+    """Each run file under ``--runs``: state, per unit samples, gaps and the live Allan
+    deviation; the damaged files with the reason. The page's script keeps the numbers and
+    curves current (``data-run``, ``data-unit``, ``data-field`` name the cells)."""
+    parts = [f'<p class="note">Refreshed every {POLL_S:g} s from '
+             f'{link("/api/runs", "/api/runs")}; Allan deviation in deg/h against tau '
+             "(log-log; x blue, y green, z red).</p>"]
+    if not doc["runs"] and not doc["damaged"]:
+        parts.append("<p>No run files under the folders given to --runs.</p>")
+    for run in doc["runs"]:
+        curves = {c["unit"]: c for c in run["allan"]}
+        rows = [
+            f'<tr data-unit="{text(u["unit"])}"><td>{text(u["unit"])}</td>'
+            + "".join(f'<td class="num" data-field="{k}">{text(u[k])}</td>' for k in UNIT_FIELDS)
+            + f"<td>{allan_svg(curves[u['unit']])}</td></tr>"
+            for u in run["units"]]
+        parts.append(
+            f'<section class="run" data-run="{text(run["run"])}"><h2>{text(run["run"])}</h2>'
+            f'<p>state: <b data-field="state">{text(run["state"])}</b>, last flush '
+            f'<span data-field="last_flush_utc">{text(run["last_flush_utc"])}</span>'
+            + (f' <span class="damaged">{text(run["advice"])}</span>' if run["advice"] else "")
+            + "</p>"
+            + table(["unit", "samples", "rate Hz", "t s", "gaps", "missing", "CRC errors",
+                     "reconnects", "Allan deviation"], rows, "units") + "</section>")
+    if doc["damaged"]:
+        parts.append("<h2>Damaged run files</h2><ul class=\"damaged\">" + "".join(
+            f'<li data-run="{text(d["run"])}">{text(d["run"])}: {text(d["reason"])}</li>'
+            for d in doc["damaged"]) + "</ul>")
+    return "\n".join(parts)
+
+
+def unavailable_body(reason: str) -> str:
+    """The database cannot be read: why, and that the page tries again."""
+    return (f'<p class="damaged" id="unavailable">{text(reason)}</p>'
+            f"<p>This page tries again every {RETRY_S:g} s.</p>")
