@@ -1,0 +1,115 @@
+"""A profile's test sequence started from ``station tui`` (a detached ``station record
+--sequence`` process), followed step by step, killed (SIGKILL) mid-record, resumed from the
+list of unfinished sequences as the command resumes it, and graded: two simulated gyros on a
+simulated fixture (relays and chamber over real Modbus on 127.0.0.1), warp x200."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+from pathlib import Path
+
+from textual.widgets import DataTable, Input, Select
+
+from station.services.sequence_progress import (
+    resume_request,
+    sequence_progress,
+    unfinished_sequences,
+)
+from station.storage.sequence_files import read_sequence
+from station.tui.app import StationApp, TuiSettings
+from station.tui.sequence_screen import SequenceScreen
+from tests.test_tui import cell_texts, until
+
+PROFILE = """name = "QUICKSEQ"
+version = "1"
+model = "VG951"
+[test]
+sample_rate_hz = 5.0
+duration_s = 240.0
+warmup_s = 5.0
+axes = ["x"]
+[grading]
+confidence = 0.95
+grades = ["A", "B"]
+[figures.arw_fit]
+unit = "deg/sqrt(h)"
+limits = { A = 0.012, B = 0.025 }
+[sequence.quick]
+steps = ["set_chamber 25", "wait_stable", "repeat 1",
+         "power_on", "record 40s", "power_off", "cool_down 5s", "repeat 2"]
+bias_after_s = 20
+warmup_band_deg_h = 1.0
+warmup_average_s = 10
+stable_band_c = 0.5
+stable_hold_s = 5
+[sequence.quick.figures.turn_on_time]
+unit = "s"
+limits = { A = 15, B = 30 }
+[sequence.quick.figures.warmup_time]
+unit = "s"
+"""
+
+
+def unit_url(seed: int) -> str:
+    return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate=5&warp=200&seed={seed}"
+            f"&turn_on_s=2&turn_on_jitter_s=0.5&turn_on_bias_deg_h=10&warmup_deg_h=5"
+            f"&warmup_tau_s=10")
+
+
+def test_start_follow_kill_resume_and_figures(tmp_path: Path) -> None:
+    profiles = tmp_path / "profiles"
+    profiles.mkdir()
+    (profiles / "QUICKSEQ.toml").write_text(PROFILE, encoding="utf-8")
+    settings = TuiSettings(runs_dir=tmp_path / "runs", reports_dir=tmp_path / "reports",
+                           check_units=False, poll_s=0.1, attach=False, profiles_dir=profiles)
+    asyncio.run(_start_kill_resume(settings))
+
+
+async def _start_kill_resume(settings: TuiSettings) -> None:
+    app = StationApp(settings)
+    async with app.run_test(size=(100, 40)) as pilot:
+        await pilot.press("f7")
+        screen = app.screen
+        assert isinstance(screen, SequenceScreen)
+        screen.query_one("#seq-profile", Select).value = "QUICKSEQ"
+        await until(pilot, lambda: screen.query_one("#sequence", Select).value == "quick", 10,
+                    "the profile's sequences")
+        screen.query_one("#seq-units", Input).value = f"{unit_url(1)} {unit_url(2)}"
+        await pilot.press("f5")
+        steps = screen.query_one("#steps", DataTable)
+        # followed step by step: the chamber's set point and air, a record's progress
+        await until(pilot, lambda: screen.progress is not None
+                    and screen.progress.steps[3].state == "running", 20, "the first record")
+        rows = cell_texts(steps)
+        assert [r[3] for r in rows[:3]] == ["done"] * 3 and rows[3][3] == "running"
+        assert rows[0][5].startswith("set 25 °C, air 25") and rows[3][2] == "record 40s"
+        assert rows[3][4].endswith("of 00:00:40") and rows[6][3] == "pending"
+        process = screen.process
+        assert process is not None
+        os.killpg(process.popen.pid, signal.SIGKILL)  # killed mid-record, fixture and all
+        await until(pilot, lambda: screen.graded_path == process.path, 20, "the kill seen")
+        assert screen.progress is not None and screen.progress.state == "interrupted"
+        assert "killed" in screen.progress.message
+        # the stopped sequence is offered for resuming, with the request that started it
+        unfinished = screen.query_one("#unfinished", DataTable)
+        assert unfinished.row_count == 1
+        path = screen.progress.path
+        [run] = unfinished_sequences(settings.runs_dir)
+        request = resume_request(run, settings.runs_dir)
+        assert request.power == ("sim",) and request.chamber == "sim"
+        assert request.units == (unit_url(1), unit_url(2))
+        unfinished.focus()
+        await pilot.press("enter")
+        await until(pilot, lambda: screen.figures, 40, "the sequence's figures")
+        shown = cell_texts(screen.query_one("#figures", DataTable))
+    run = read_sequence(Path(path))
+    assert run.done and [e.kind for e in run.journal].count("resume") == 1
+    progress = sequence_progress(run)
+    assert progress.state == "done" and progress.steps_done == len(run.steps)
+    figures = {(r.unit_id, r.label): r for r in screen.figures}
+    assert {u for u, _ in figures} == {"unit1", "unit2"}
+    assert len(shown) == len(figures) and all(r[0] in ("unit1", "unit2") for r in shown)
+    turn_on = figures[("unit1", "turn-on time")]
+    assert turn_on.value is not None and turn_on.limit == 15.0 and turn_on.verdict == "pass"
