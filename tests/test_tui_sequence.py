@@ -20,23 +20,11 @@ from station.services.sequence_progress import (
 from station.storage.sequence_files import read_sequence
 from station.tui.app import StationApp, TuiSettings
 from station.tui.sequence_screen import SequenceScreen
+from tests.test_sequences import PROFILE as SEQUENCE_PROFILE, unit_url as sequence_unit_url
 from tests.test_tui import cell_texts, until
 
-PROFILE = """name = "QUICKSEQ"
-version = "1"
-model = "VG951"
-[test]
-sample_rate_hz = 5.0
-duration_s = 240.0
-warmup_s = 5.0
-axes = ["x"]
-[grading]
-confidence = 0.95
-grades = ["A", "B"]
-[figures.arw_fit]
-unit = "deg/sqrt(h)"
-limits = { A = 0.012, B = 0.025 }
-[sequence.quick]
+#: The test profile of tests/test_sequences.py with a quick sequence of its own.
+PROFILE = SEQUENCE_PROFILE.split("[sequence.")[0] + """[sequence.quick]
 steps = ["set_chamber 25", "wait_stable", "repeat 1",
          "power_on", "record 40s", "power_off", "cool_down 5s", "repeat 2"]
 bias_after_s = 20
@@ -53,15 +41,15 @@ unit = "s"
 
 
 def unit_url(seed: int) -> str:
-    return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate=5&warp=200&seed={seed}"
-            f"&turn_on_s=2&turn_on_jitter_s=0.5&turn_on_bias_deg_h=10&warmup_deg_h=5"
-            f"&warmup_tau_s=10")
+    """A simulated VG951 at 5 Hz, warp x200, with a turn-on time, bias and warm-up."""
+    return sequence_unit_url(seed, 200.0, turn_on_s=2, turn_on_jitter_s=0.5,
+                             turn_on_bias_deg_h=10, warmup_deg_h=5, warmup_tau_s=10)
 
 
 def test_start_follow_kill_resume_and_figures(tmp_path: Path) -> None:
     profiles = tmp_path / "profiles"
     profiles.mkdir()
-    (profiles / "QUICKSEQ.toml").write_text(PROFILE, encoding="utf-8")
+    (profiles / "SEQ.toml").write_text(PROFILE, encoding="utf-8")
     settings = TuiSettings(runs_dir=tmp_path / "runs", reports_dir=tmp_path / "reports",
                            check_units=False, poll_s=0.1, attach=False, profiles_dir=profiles)
     asyncio.run(_start_kill_resume(settings))
@@ -73,7 +61,7 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         await pilot.press("f7")
         screen = app.screen
         assert isinstance(screen, SequenceScreen)
-        screen.query_one("#seq-profile", Select).value = "QUICKSEQ"
+        screen.query_one("#seq-profile", Select).value = "SEQ"
         await until(pilot, lambda: screen.query_one("#sequence", Select).value == "quick", 10,
                     "the profile's sequences")
         screen.query_one("#seq-units", Input).value = f"{unit_url(1)} {unit_url(2)}"
@@ -108,8 +96,13 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
     assert run.done and [e.kind for e in run.journal].count("resume") == 1
     progress = sequence_progress(run)
     assert progress.state == "done" and progress.steps_done == len(run.steps)
-    figures = {(r.unit_id, r.label): r for r in screen.figures}
+    figures = {(u, r.label): r for u, r in screen.figures}
     assert {u for u, _ in figures} == {"unit1", "unit2"}
     assert len(shown) == len(figures) and all(r[0] in ("unit1", "unit2") for r in shown)
     turn_on = figures[("unit1", "turn-on time")]
-    assert turn_on.value is not None and turn_on.limit == 15.0 and turn_on.verdict == "pass"
+    assert turn_on.ci_low is not None and turn_on.ci_high is not None and turn_on.value
+    assert turn_on.ci_low < turn_on.value < turn_on.ci_high and turn_on.limit == 15.0
+    # two switch-ons at the profile's 99.9 %: an interval too wide to decide
+    assert turn_on.ci_high > 15.0 and turn_on.verdict == "indeterminate"
+    row = next(r for r in shown if r[:2] == ["unit1", "turn-on time"])
+    assert row[4] == "15" and row[5] == "indeterminate" and row[2].endswith(" s")

@@ -16,11 +16,10 @@ from pathlib import Path
 from typing import Literal
 from urllib.parse import parse_qsl, urlsplit
 
-from station.errors import RecordFormatError
 from station.model.sequence_runs import JournalEntry, SequenceRun
 from station.model.sequences import Step
-from station.services.sequence import SIM, SequenceRequest
-from station.storage.sequence_files import read_sequence
+from station.output.report.common import FigureRow
+from station.services.sequence import SIM, SequenceRequest, readable_sequences
 
 StepState = Literal["pending", "running", "done", "interrupted", "failed"]
 
@@ -193,14 +192,7 @@ def sequence_progress(run: SequenceRun, *, now_s: float | None = None) -> Sequen
 def unfinished_sequences(folder: Path) -> list[SequenceRun]:
     """The sequences in ``folder`` that neither finished nor failed, newest first: those
     the same request resumes (:func:`~station.services.sequence.find_unfinished`)."""
-    found = []
-    for path in sorted(folder.glob("seq-*.h5")) if folder.is_dir() else []:
-        try:
-            run = read_sequence(path)
-        except RecordFormatError:
-            continue
-        if run.state == "running":
-            found.append(run)
+    found = [run for run in readable_sequences(folder) if run.state == "running"]
     return sorted(found, key=lambda r: r.start_utc, reverse=True)
 
 
@@ -243,39 +235,11 @@ def resume_request(run: SequenceRun, out: Path) -> SequenceRequest:
                            run.operator, run.lot)
 
 
-@dataclass(frozen=True)
-class SequenceFigureRow:
-    """One graded sequence figure of one unit, as a table shows it.
-
-    Attributes
-    ----------
-    unit_id : str
-        The unit.
-    label, unit : str
-        The figure's name and unit (the profile's).
-    value, ci_low, ci_high : float or None
-        The figure and its interval (None: not measured).
-    limit : float or None
-        The limit of the grade that decided (None: no limit).
-    verdict : str
-        Its verdict against that limit ("" when none decided).
-    grade : str
-        The grade the unit's sequence figures give ("" when none is limited).
-    """
-
-    unit_id: str
-    label: str
-    unit: str
-    value: float | None
-    ci_low: float | None
-    ci_high: float | None
-    limit: float | None
-    verdict: str
-    grade: str
-
-
-def sequence_figures(path: Path) -> tuple[SequenceFigureRow, ...]:
-    """Grade a sequence file (not stored) and return each unit's sequence figures.
+def sequence_figures(path: Path) -> tuple[tuple[str, FigureRow], ...]:
+    """Grade a sequence file (not stored) and return each unit's sequence figures, as
+    ``(unit_id, row)``: each row a figure in the profile's unit with its interval, the
+    limit of the grade that decided and its verdict (None: no grade decided), and the
+    grade the unit's sequence figures give (``grade``, "" when none is limited).
 
     Raises
     ------
@@ -292,8 +256,8 @@ def sequence_figures(path: Path) -> tuple[SequenceFigureRow, ...]:
             continue
         deciding = seq.deciding_grade
         for g in seq.graded:
-            rows.append(SequenceFigureRow(
-                unit.unit.unit_id, g.spec.label, g.spec.unit, g.value, g.ci_low, g.ci_high,
-                g.spec.limits.get(deciding) if deciding else None,
-                g.verdicts.get(deciding, "pass") if deciding else "", seq.grade))
+            rows.append((unit.unit.unit_id, FigureRow(
+                "", g.spec.name, g.spec.label, g.spec.unit, g.value, g.ci_low, g.ci_high,
+                g.spec.limits.get(deciding) if deciding else None, seq.grade,
+                g.verdicts.get(deciding, "pass") if deciding else None, g.note)))
     return tuple(rows)

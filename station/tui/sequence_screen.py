@@ -22,10 +22,10 @@ from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Sta
 
 from station.errors import StationError
 from station.model.sequence_runs import SequenceRun
+from station.output.report.common import FigureRow
 from station.services.sequence import SIM, SequenceRequest
 from station.services.sequence_process import SequenceProcess, start_sequence
 from station.services.sequence_progress import (
-    SequenceFigureRow,
     SequenceProgress,
     StepProgress,
     resume_request,
@@ -64,11 +64,11 @@ def _number(value: float | None) -> str:
     return "-" if value is None else f"{value:.4g}"
 
 
-def figure_cells(row: SequenceFigureRow) -> tuple[str, ...]:
-    """One figure as the figures table shows it."""
+def figure_cells(unit_id: str, row: FigureRow) -> tuple[str, ...]:
+    """One unit's figure as the figures table shows it."""
     interval = ("-" if row.ci_low is None or row.ci_high is None
                 else f"[{row.ci_low:.3g}, {row.ci_high:.3g}]")
-    return (row.unit_id, row.label, f"{_number(row.value)} {row.unit}", interval,
+    return (unit_id, row.label, f"{_number(row.value)} {row.unit}", interval,
             _number(row.limit), row.verdict or "-")
 
 
@@ -93,7 +93,7 @@ class SequenceScreen(Screen[None]):
     ]
 
     progress: reactive[SequenceProgress | None] = reactive(None, always_update=True)
-    figures: reactive[tuple[SequenceFigureRow, ...]] = reactive((), always_update=True)
+    figures: reactive[tuple[tuple[str, FigureRow], ...]] = reactive((), always_update=True)
 
     def __init__(self, runs_dir: Path, *, profiles_dir: Path | None = None,
                  poll_s: float = 0.5) -> None:
@@ -285,13 +285,13 @@ class SequenceScreen(Screen[None]):
             status += "\ngrading the sequence..." if not self.figures else ""
         self.query_one("#seq-status", Static).update(status)
 
-    def watch_figures(self, rows: tuple[SequenceFigureRow, ...]) -> None:
+    def watch_figures(self, rows: tuple[tuple[str, FigureRow], ...]) -> None:
         """Show the sequence's figures, per unit."""
         table = self.query_one("#figures", DataTable)
         table.clear()
-        for row in rows:
-            table.add_row(*figure_cells(row))
+        for unit_id, row in rows:
+            table.add_row(*figure_cells(unit_id, row))
         if rows:
-            grades = ", ".join(sorted({f"{r.unit_id} {r.grade or '-'}" for r in rows}))
+            grades = ", ".join(sorted({f"{u} {r.grade or '-'}" for u, r in rows}))
             self.query_one("#seq-status", Static).update(
                 f"{self.progress.name if self.progress else ''}: done; grades {grades}")
