@@ -10,8 +10,11 @@ import os
 import signal
 from pathlib import Path
 
+import pytest
 from textual.widgets import DataTable, Input, Select
 
+from station.errors import UsageError
+from station.services.sequence_process import running_sequence, start_sequence
 from station.services.sequence_progress import (
     resume_request,
     sequence_progress,
@@ -76,10 +79,17 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         assert rows[3][4].endswith("of 00:00:40") and rows[6][3] == "pending"
         process = screen.process
         assert process is not None
+        # a second start of the running sequence is refused; a later TUI would follow it
+        found = running_sequence(process.path)
+        assert found is not None and found.pid == process.pid
+        request = screen.request()
+        assert request is not None
+        with pytest.raises(UsageError, match="is running"):
+            start_sequence(request)
         os.killpg(process.popen.pid, signal.SIGKILL)  # killed mid-record, fixture and all
         await until(pilot, lambda: screen.graded_path == process.path, 20, "the kill seen")
         assert screen.progress is not None and screen.progress.state == "interrupted"
-        assert "killed" in screen.progress.message
+        assert "killed" in screen.progress.message and running_sequence(process.path) is None
         # the stopped sequence is offered for resuming, with the request that started it
         unfinished = screen.query_one("#unfinished", DataTable)
         assert unfinished.row_count == 1

@@ -6,7 +6,9 @@ station.commands.record --sequence NAME ...`` detached, as :mod:`station.service
 starts a recorder, into the sequence file the command itself would write (the unfinished
 one of the same request when there is one: resumed, exactly as the command resumes it).
 Everything else is read from the sequence file (:mod:`station.services.sequence_progress`);
-:meth:`SequenceProcess.stop` sends it SIGTERM, a clean stop that leaves it resumable.
+:meth:`SequenceProcess.stop` sends it SIGTERM, a clean stop that leaves it resumable. Its
+process id is kept beside the file (``.pid``), so that a TUI opened later follows a
+sequence still running (:func:`running_sequence`) instead of resuming it a second time.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from station.errors import RecorderError
+from station.errors import RecorderError, UsageError
 from station.model.profiles import load_profile
 from station.services.recorder_process import pid_alive
 from station.services.sequence import (
@@ -46,7 +48,7 @@ def sequence_arguments(request: SequenceRequest) -> list[str]:
 
 @dataclass
 class SequenceProcess:
-    """A sequence this process started.
+    """A sequence process: one this process started, or one found running by its pid file.
 
     Attributes
     ----------
@@ -56,29 +58,29 @@ class SequenceProcess:
         Where its output goes (beside the sequence file).
     resumed : bool
         Whether it continues an unfinished sequence.
-    popen : subprocess.Popen
+    pid : int
         The process.
+    popen : subprocess.Popen or None
+        The process when this one started it (None for one found running).
     """
 
     path: Path
     log_path: Path
     resumed: bool
-    popen: subprocess.Popen[bytes] = field(repr=False)
+    pid: int
+    popen: subprocess.Popen[bytes] | None = field(default=None, repr=False)
 
     @property
     def running(self) -> bool:
-        """Whether the process still runs."""
-        return self.popen.poll() is None
-
-    def exit_code(self) -> int | None:
-        """Its exit status (0: every step ran; 1: stopped early or failed), None while it
-        runs."""
-        return self.popen.poll()
+        """Whether the process still runs (reaps it when it was ours)."""
+        if self.popen is not None:
+            return self.popen.poll() is None
+        return pid_alive(self.pid)
 
     def stop(self) -> None:
         """Ask it to stop at once (SIGTERM): the sequence stays resumable."""
-        if self.running and pid_alive(self.popen.pid):
-            os.kill(self.popen.pid, signal.SIGTERM)
+        if self.running:
+            os.kill(self.pid, signal.SIGTERM)
 
     def log_tail(self, max_chars: int = 2000) -> str:
         """The end of its output, for a person reading what happened."""
@@ -98,8 +100,8 @@ def start_sequence(request: SequenceRequest) -> SequenceProcess:
         No such profile or sequence.
     UsageError
         A request the sequence cannot run with
-        (:func:`~station.services.sequence.check_request`), or ``request.out`` holds another
-        sequence.
+        (:func:`~station.services.sequence.check_request`), ``request.out`` holds another
+        sequence, or the same sequence is running already.
     RecorderError
         The output folder cannot be created.
     """
@@ -109,6 +111,10 @@ def start_sequence(request: SequenceRequest) -> SequenceProcess:
     spec = profile.sequence(request.sequence)
     check_request(request, spec)
     existing = find_unfinished(request.out, spec.name, profile, tuple(request.units))
+    live = running_sequence(Path(existing.path)) if existing else None
+    if live is not None:
+        raise UsageError(f"{live.path.name} is running (pid {live.pid}): follow it, or stop "
+                         f"it before starting it again")
     path = Path(existing.path) if existing else sequence_path(request.out, spec.name)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -121,4 +127,23 @@ def start_sequence(request: SequenceRequest) -> SequenceProcess:
         popen = subprocess.Popen(
             [sys.executable, "-m", "station.commands.record", *args], stdin=subprocess.DEVNULL,
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True, close_fds=True)
-    return SequenceProcess(path, log_path, existing is not None, popen)
+    pid_path(path).write_text(str(popen.pid), encoding="utf-8")
+    return SequenceProcess(path, log_path, existing is not None, popen.pid, popen)
+
+
+def pid_path(path: Path) -> Path:
+    """Where a sequence started from the TUI keeps its process id (beside its file)."""
+    return path.with_suffix(".pid")
+
+
+def running_sequence(path: Path) -> SequenceProcess | None:
+    """The process that runs the sequence file ``path``, when one started by
+    :func:`start_sequence` still runs on this machine (None otherwise: ended, killed, or
+    started by the command in a terminal, which keeps no pid file)."""
+    try:
+        pid = int(pid_path(path).read_text(encoding="utf-8").strip())
+    except (OSError, ValueError):
+        return None
+    if not pid_alive(pid):
+        return None
+    return SequenceProcess(path, path.with_suffix(".log"), True, pid)

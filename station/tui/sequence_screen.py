@@ -24,7 +24,11 @@ from station.errors import StationError
 from station.model.sequence_runs import SequenceRun
 from station.output.report.common import FigureRow
 from station.services.sequence import SIM, SequenceRequest
-from station.services.sequence_process import SequenceProcess, start_sequence
+from station.services.sequence_process import (
+    SequenceProcess,
+    running_sequence,
+    start_sequence,
+)
 from station.services.sequence_progress import (
     SequenceProgress,
     StepProgress,
@@ -136,7 +140,7 @@ class SequenceScreen(Screen[None]):
         """Set up the tables and list the unfinished sequences."""
         self.title = "Test sequence"
         self.query_one("#unfinished", DataTable).add_columns("unfinished sequence", "profile",
-                                                             "units", "stopped at")
+                                                             "units", "where")
         self.query_one("#steps", DataTable).add_columns(*_STEP_COLUMNS)
         self.query_one("#figures", DataTable).add_columns(*_FIGURE_COLUMNS)
         self._list_unfinished()
@@ -178,9 +182,11 @@ class SequenceScreen(Screen[None]):
         table.clear()
         for run in self.unfinished:
             at = sequence_progress(run).current
+            where = "-" if at is None else f"step {at.index + 1}: {at.text}"
+            live = running_sequence(Path(run.path))
             table.add_row(Path(run.path).name, f"{run.profile} {run.name}",
                           str(len(run.unit_urls)),
-                          "-" if at is None else f"step {at.index + 1}: {at.text}")
+                          where if live is None else f"running (pid {live.pid}), {where}")
         table.display = bool(self.unfinished)
 
     def request(self) -> SequenceRequest | None:
@@ -206,7 +212,13 @@ class SequenceScreen(Screen[None]):
     @on(DataTable.RowSelected, "#unfinished")
     def _resume_chosen(self, event: DataTable.RowSelected) -> None:
         run = self.unfinished[event.cursor_row]
-        self.begin(resume_request(run, self.runs_dir))
+        live = running_sequence(Path(run.path))
+        if live is None:
+            self.begin(resume_request(run, self.runs_dir))
+        elif self.process is None or not self.process.running:
+            self.process, self.graded_path, self.figures = live, None, ()
+            self.notify(f"Following {Path(run.path).name}, still running (pid {live.pid}).",
+                        title="Sequence")
 
     def begin(self, request: SequenceRequest) -> None:
         """Run ``request`` (refused while a sequence this screen started runs)."""
