@@ -76,7 +76,7 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         rows = cell_texts(steps)
         assert [r[3] for r in rows[:3]] == ["done"] * 3 and rows[3][3] == "running"
         assert rows[0][5].startswith("set 25 °C, air 25") and rows[3][2] == "record 40s"
-        assert rows[3][4].endswith("of 00:00:40") and rows[6][3] == "pending"
+        assert rows[3][4].endswith("/00:00:40") and rows[6][3] == "pending"
         process = screen.process
         assert process is not None
         # a second start of the running sequence is refused; a later TUI would follow it
@@ -90,6 +90,7 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         await until(pilot, lambda: screen.graded_path == process.path, 20, "the kill seen")
         assert screen.progress is not None and screen.progress.state == "interrupted"
         assert "killed" in screen.progress.message and running_sequence(process.path) is None
+        assert not process.path.with_suffix(".pid").exists()  # an ended process' pid: gone
         # the stopped sequence is offered for resuming, with the request that started it
         unfinished = screen.query_one("#unfinished", DataTable)
         assert unfinished.row_count == 1

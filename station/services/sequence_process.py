@@ -139,11 +139,13 @@ def pid_path(path: Path) -> Path:
 def running_sequence(path: Path) -> SequenceProcess | None:
     """The process that runs the sequence file ``path``, when one started by
     :func:`start_sequence` still runs on this machine (None otherwise: ended, killed, or
-    started by the command in a terminal, which keeps no pid file)."""
+    started by the command in a terminal, which keeps no pid file). The pid file of a
+    process that ended is removed (its number could name another process later)."""
     try:
         pid = int(pid_path(path).read_text(encoding="utf-8").strip())
     except (OSError, ValueError):
         return None
     if not pid_alive(pid):
+        pid_path(path).unlink(missing_ok=True)
         return None
     return SequenceProcess(path, path.with_suffix(".log"), True, pid)

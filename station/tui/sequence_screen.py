@@ -47,12 +47,12 @@ _NO_CHOICE = "(choose)"
 
 
 def progress_text(step: StepProgress) -> str:
-    """``"45% 13:30 of 30:00"``, ``"done"``, ``"-"``: how far a step has run."""
+    """``"45% 00:13:30/00:30:00"``, ``"done"``, ``"-"``: how far a step has run."""
     share = step.fraction
     if step.state == "pending":
         return "-"
     if step.duration_s:
-        return f"{100 * (share or 0.0):3.0f}% {hms(step.done_s)} of {hms(step.duration_s)}"
+        return f"{100 * (share or 0.0):3.0f}% {hms(step.done_s)}/{hms(step.duration_s)}"
     return "done" if step.state == "done" else hms(step.done_s)
 
 
