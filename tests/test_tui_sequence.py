@@ -24,7 +24,7 @@ from station.storage.sequence_files import read_sequence
 from station.tui.app import StationApp, TuiSettings
 from station.tui.sequence_screen import SequenceScreen
 from tests.test_sequences import PROFILE as SEQUENCE_PROFILE, unit_url as sequence_unit_url
-from tests.test_tui import cell_texts, until
+from tests.test_tui import cell_texts, notifications, until
 
 #: The test profile of tests/test_sequences.py with a quick sequence of its own.
 PROFILE = SEQUENCE_PROFILE.split("[sequence.")[0] + """[sequence.quick]
@@ -60,13 +60,16 @@ def test_start_follow_kill_resume_and_figures(tmp_path: Path) -> None:
 
 async def _start_kill_resume(settings: TuiSettings) -> None:
     app = StationApp(settings)
-    async with app.run_test(size=(100, 40)) as pilot:
+    async with app.run_test(size=(100, 40), notifications=True) as pilot:
         await pilot.press("f7")
         screen = app.screen
         assert isinstance(screen, SequenceScreen)
         screen.query_one("#seq-profile", Select).value = "SEQ"
         await until(pilot, lambda: screen.query_one("#sequence", Select).value == "quick", 10,
                     "the profile's sequences")
+        await pilot.press("f5")  # no unit yet: refused with what to do, nothing started
+        await until(pilot, lambda: "no unit" in notifications(app), 5, "the refusal")
+        assert screen.process is None
         screen.query_one("#seq-units", Input).value = f"{unit_url(1)} {unit_url(2)}"
         await pilot.press("f5")
         steps = screen.query_one("#steps", DataTable)

@@ -77,6 +77,12 @@ class SequenceProcess:
             return self.popen.poll() is None
         return pid_alive(self.pid)
 
+    def exit_code(self) -> int | None:
+        """Its exit status when this process started it and it ended (0: every step ran;
+        1: it stopped early or failed, the journal says why; 2: the command refused its
+        arguments, the log says why); None otherwise."""
+        return None if self.popen is None else self.popen.poll()
+
     def stop(self) -> None:
         """Ask it to stop at once (SIGTERM): the sequence stays resumable."""
         if self.running:

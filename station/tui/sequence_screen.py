@@ -256,6 +256,8 @@ class SequenceScreen(Screen[None]):
             self._list_unfinished()
             if run.done:
                 self._grade(process.path)
+            elif process.exit_code() == 2:  # refused before it ran: the log says why
+                self._failed(f"The sequence did not start: {process.log_tail(400).strip()}")
 
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, path: Path) -> None:
