@@ -30,6 +30,8 @@ from station.services.fleet import (
     run_files,
 )
 from tests.fleet_runs import write_run
+from tests.test_gmwm_report import gm_unit  # noqa: F401 - the GMWM record, a module fixture
+from tests.test_gmwm_views import keyed  # noqa: F401 - with a profile that asks for it
 from tests.test_grading import profile_text, write_profile
 
 GOOD = 2  # runs of two units each
@@ -164,6 +166,27 @@ def test_fleet_report_writes_files_from_the_driver(runs, scheduler, tmp_path: Pa
         rows = results.gradings()
         assert len(rows) == 2
         assert sorted(r["format"] for r in results.reports(rows[0].id)) == ["csv", "json"]
+
+
+def test_fleet_report_lists_the_gmwm_terms(keyed, scheduler, tmp_path: Path) -> None:  # noqa: F811
+    """Where the profile asks for the GMWM, the fleet's report carries it as ``station
+    report`` does: in ``--json`` (``"gmwm"`` per axis), the sheets, and the text lines."""
+    from station.commands.fleet import format_fleet
+
+    record, profile, doc = keyed
+    g = doc["units"][0]["axes"]["x"]["gmwm"]
+    result = fleet(FleetRequest("report", (str(record),), profile=str(profile),
+                                scheduler=scheduler, store=False, formats=("json",),
+                                out=tmp_path))
+    carried = result.as_json()["runs"][0]["units"][0]["axes"]["x"]["gmwm"]  # type: ignore[index]
+    assert carried["model"] == g["model"] and carried["params"] == pytest.approx(g["params"])
+    sheet = json.loads((tmp_path / "gm_TEST.json").read_text())
+    assert sheet["units"][0]["axes"]["x"]["gmwm"]["params"] == pytest.approx(g["params"])
+    text = format_fleet(result, None)
+    assert f"GMWM x: model {g['model']}" in text and "p-value" in text
+    line = next(ln for ln in text.splitlines() if "Gauss-Markov correlation time" in ln)
+    assert f"{g['params']['gm_tau_s']:.4g} s [" in line
+    assert "white noise" in text and "(Allan: " in text and "ARW read-off" in text
 
 
 def test_fleet_analyze_is_station_analyze_unit_by_unit(runs, scheduler, capsys) -> None:

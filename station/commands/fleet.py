@@ -9,6 +9,9 @@ a SLURM cluster with dask-jobqueue). Directories are searched for ``.h5`` run fi
   ``{"tasks", "failed": [{"file", "unit", "error"}], "runs": [...]}``, each run the document
   ``station grade RUN --json`` prints;
 * ``report``: graded and stored the same way, and each run's spec sheets written into ``--out``;
+  where the profile asks for the GMWM (``[test] gmwm_model``) each axis' GMWM terms are
+  listed under its unit (value, unit, interval, beside the Allan figure of the same term;
+  the model and its J-test p-value), as the sheets and ``--json`` (``"gmwm"``) carry them;
 * ``analyze``: every unit analysed as ``station analyze FILE --unit U`` does.
 
 A failed task (a corrupt file, a bad profile, a run too short) is listed with its reason,
@@ -37,6 +40,7 @@ from station.commands.arguments import (
     add_profile_argument,
     print_warnings,
 )
+from station.evaluation.grading import UnitGrade
 from station.output.report import FORMATS
 from station.output.results_backends import redacted
 from station.services.fleet import ACTIONS, LOCAL, FleetProgress, FleetRequest, FleetResult, fleet
@@ -168,6 +172,20 @@ class ProgressBar:
             self.stream.flush()
 
 
+def gmwm_lines(unit: UnitGrade) -> list[str]:
+    """A unit's GMWM, indented under its line: per axis the model and its J test, then each
+    term with its unit and interval beside the Allan figure of the same term (none when
+    the unit was not analysed with the GMWM)."""
+    from station.output.report.gmwm_terms import fitted_axes, gmwm_rows, gmwm_summary
+
+    lines = []
+    for axis in fitted_axes(unit):
+        lines.append(f"    GMWM {gmwm_summary(axis)}")
+        lines += [f"      {r.text()}" + (f"  (Allan: {r.allan})" if r.allan else "")
+                  for r in gmwm_rows(axis)]
+    return lines
+
+
 def format_fleet(result: FleetResult, database: str | None) -> str:
     """Plain-text summary: one line per unit (grade, or the analysis' first figures), the
     failures, and the totals."""
@@ -179,6 +197,7 @@ def format_fleet(result: FleetResult, database: str | None) -> str:
                 f"{graded.run.path}  {u.unit.unit_id}  {u.unit.serial_number or '-'}  "
                 f"{graded.profile.ref}  GRADE {u.grade}{flag}"
             )
+            lines += gmwm_lines(u)
     for doc in result.analyses:
         selection = doc.get("selection", {})
         unit = selection.get("unit") if isinstance(selection, dict) else ""

@@ -52,3 +52,11 @@ def run_with_gmwm(graded: RunGrade, model: str, *, robust: bool = False) -> RunG
     every unit; the grades are unchanged."""
     return replace(graded, units=tuple(unit_with_gmwm(u, model, robust=robust)
                                        for u in graded.units))
+
+
+def run_with_profile_gmwm(graded: RunGrade) -> RunGrade:
+    """``graded`` with the GMWM its profile asks for (``[test] gmwm_model``), unchanged when
+    the profile asks for none: how a view that grades a run itself (the TUI's spec
+    screen, ``station fleet report``) shows the GMWM a report of it would carry."""
+    model = graded.profile.gmwm_model
+    return graded if model is None else run_with_gmwm(graded, model)

@@ -164,6 +164,9 @@ class AxisGrade:
                if accel is None else {"gravity_removed_m_s2": accel.gravity_removed_m_s2}),
             "gaps": self.analysis.gaps.as_json(),
             "outliers": self.analysis.outliers.as_json(),
+            # the GMWM beside the Allan figures, where the run was analysed with it
+            **({"gmwm": self.analysis.gmwm.as_json()} if self.analysis.gmwm is not None
+               else {}),
         }
 
 

@@ -1,4 +1,5 @@
-"""The producer's statistics drawn: a self-contained HTML page and a PDF.
+"""The producer's statistics drawn: a self-contained HTML page, and the plots the PDF
+report (:mod:`station.output.production_pdf`) shares with it.
 
 Per graded figure, two plots side by side: the histogram of the units' values with every
 grade's limit drawn as a vertical line, and the individuals control chart (values in test
@@ -10,15 +11,16 @@ from __future__ import annotations
 
 import base64
 import io
-import textwrap
 from html import escape
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from station.evaluation.capability import CAPABILITY_NOTE
+from station.model.wording import plural
 from station.output.report.common import fmt
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
     from station.output.production_stats import FigureStats, ProductionStats
@@ -35,7 +37,8 @@ td.low { background: #f5c2c2; } img { max-width: 100%; }
 """
 
 
-def _title(stats: ProductionStats) -> str:
+def selection_text(stats: ProductionStats) -> str:
+    """``"model TG-1, all lots, tested since 2026-06-01"``: what the statistics cover."""
     r = stats
     parts = [
         f"model {r.model}" if r.model else "all models",
@@ -43,7 +46,11 @@ def _title(stats: ProductionStats) -> str:
     ]
     if r.since:
         parts.append(f"tested since {r.since}")
-    return f"Production statistics: {', '.join(parts)} ({stats.units} units)"
+    return ", ".join(parts)
+
+
+def _title(stats: ProductionStats) -> str:
+    return f"Production statistics: {selection_text(stats)} ({plural(stats.units, 'unit')})"
 
 
 def figure_plot(f: FigureStats) -> Figure:
@@ -52,6 +59,13 @@ def figure_plot(f: FigureStats) -> Figure:
 
     fig = Figure(figsize=(10, 3.6), layout="constrained")
     hist, chart = fig.subplots(1, 2, width_ratios=(1, 1.6))
+    draw_figure(hist, chart, f)
+    return fig
+
+
+def draw_figure(hist: Axes, chart: Axes, f: FigureStats) -> None:
+    """Draw a figure's histogram against its limits on ``hist`` and its individuals control
+    chart on ``chart``."""
     x = [v.value for v in f.values if v.value is not None]
     if x:
         hist.hist(x, bins=min(30, max(5, len(x) // 3)), color="#90a4ae", edgecolor="#37474f")
@@ -97,7 +111,6 @@ def figure_plot(f: FigureStats) -> Figure:
     )
     chart.legend(fontsize=7)
     chart.grid(True, alpha=0.3)
-    return fig
 
 
 def _png(fig: Figure) -> bytes:
@@ -106,7 +119,7 @@ def _png(fig: Figure) -> bytes:
     return buf.getvalue()
 
 
-def _rows(stats: ProductionStats) -> list[list[str]]:
+def capability_rows(stats: ProductionStats) -> list[list[str]]:
     return [
         [
             name,
@@ -116,9 +129,9 @@ def _rows(stats: ProductionStats) -> list[list[str]]:
             fmt(f.capability.std),
             fmt(f.capability.limit),
             fmt(f.capability.cpk, 3),
-            _interval(f.capability.cpk_ci),
+            interval_text(f.capability.cpk_ci),
             fmt(fitted.cpk if fitted is not None else None, 3),
-            _interval(fitted.cpk_ci if fitted is not None else None),
+            interval_text(fitted.cpk_ci if fitted is not None else None),
             fitted.distribution if fitted is not None else "-",
             str(len(f.chart.out_of_control)),
         ]
@@ -127,7 +140,7 @@ def _rows(stats: ProductionStats) -> list[list[str]]:
     ]
 
 
-def _interval(ci: tuple[float, float] | None) -> str:
+def interval_text(ci: tuple[float, float] | None) -> str:
     return "-" if ci is None else f"[{ci[0]:.3g}, {ci[1]:.3g}]"
 
 
@@ -155,7 +168,7 @@ def write_stats_html(stats: ProductionStats, path: Path) -> Path:
         + "".join(f"<th>{h}</th>" for h in CAPABILITY_HEADER)
         + "</tr>"
     )
-    for row in _rows(stats):
+    for row in capability_rows(stats):
         low = stats.figures[row[0]].capability.cpk
         cls = " class='num low'" if low is not None and low < 1.33 else " class='num'"
         parts.append(
@@ -184,30 +197,4 @@ def write_stats_html(stats: ProductionStats, path: Path) -> Path:
     parts.append("</ul></body></html>")
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(parts), encoding="utf-8")
-    return path
-
-
-def write_stats_pdf(stats: ProductionStats, path: Path) -> Path:
-    """The statistics as a PDF: a summary page (yield, capability, review), then a page per
-    figure."""
-    from matplotlib.backends.backend_pdf import PdfPages
-    from matplotlib.figure import Figure
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with PdfPages(path) as pdf:
-        page = Figure(figsize=(11.7, 8.3))
-        text = [_title(stats), f"profile {stats.profile or '-'}", "", "yield per grade:"]
-        text += [
-            f"  {g:<16} {n:>5} units  {100 * n / stats.units:5.1f} %"
-            for g, n in stats.grades.items()
-        ]
-        text += ["", "  ".join(f"{h:>10}" for h in CAPABILITY_HEADER)]
-        text += ["  ".join(f"{c:>10}" for c in row) for row in _rows(stats)]
-        text += textwrap.wrap(CAPABILITY_NOTE, 150)
-        text += ["", f"units flagged for review: {len(stats.review)}"]
-        text += [f"  {u.serial_number}: {'; '.join(u.reasons)}"[:150] for u in stats.review[:25]]
-        page.text(0.04, 0.96, "\n".join(text), va="top", family="monospace", fontsize=8)
-        pdf.savefig(page)
-        for f in stats.figures.values():
-            pdf.savefig(figure_plot(f))
     return path

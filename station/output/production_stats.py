@@ -115,6 +115,18 @@ class ProductionStats:
     figures: dict[str, FigureStats] = field(default_factory=dict)
     review: tuple[ReviewUnit, ...] = ()
     profile: str = ""
+    #: Per lot ("" for units of no lot), the units per grade (the order of ``grades``).
+    lots: dict[str, dict[str, int]] = field(default_factory=dict)
+    #: The profile's grades that are sold (best first; empty when its text was not stored).
+    sold: tuple[str, ...] = ()
+
+    def lot_yield(self, lot: str) -> float | None:
+        """Share of the lot's units (0..1) in a sold grade (None: the grades are not known)."""
+        counts = self.lots.get(lot, {})
+        n = sum(counts.values())
+        if not self.sold or not n:
+            return None
+        return sum(counts.get(g, 0) for g in self.sold) / n
 
     @property
     def yield_by_grade(self) -> dict[str, float]:
@@ -133,22 +145,25 @@ class ProductionStats:
             "lot": self.lot,
             "since": self.since,
             "profile": self.profile,
+            "lots": {lot: dict(counts) for lot, counts in self.lots.items()},
+            "lot_yield": {lot: self.lot_yield(lot) for lot in self.lots},
         }
 
 
 def _limits(
     db: ResultsDatabase, rows: list[GradingRow]
-) -> tuple[str, dict[str, dict[str, float]], tuple[str, ...]]:
-    """(profile, limits per figure, grades best first) of the newest grading's profile."""
+) -> tuple[str, dict[str, dict[str, float]], tuple[str, ...], tuple[str, ...]]:
+    """(profile, limits per figure, grades best first, the sold grades) of the newest
+    grading's profile."""
     if not rows:
-        return "", {}, ()
+        return "", {}, (), ()
     ref, text = db.profile_text(rows[-1].id)
     if not text:
-        return ref, {}, ()
+        return ref, {}, (), ()
     try:
         profile = parse_profile(text, path=ref)
     except ProfileError:
-        return ref, {}, ()
+        return ref, {}, (), ()
     figures = [(f.name, f.limits) for f in profile.figures if f.graded]
     # a test sequence's figures (a name in two sequences: the first sequence's limits)
     figures += [(f.name, f.limits) for seq in reversed(profile.sequences.values())
@@ -157,6 +172,7 @@ def _limits(
         ref,
         {name: {g: limits[g] for g in profile.grades if g in limits} for name, limits in figures},
         (*profile.grades, "indeterminate", profile.reject),
+        profile.grades,
     )
 
 
@@ -171,11 +187,15 @@ def compute_stats(
     ``since`` (ISO 8601 test date) select."""
     rows = db.gradings(model=model, lot=lot, since=since, latest=True)
     values = db.figure_values(model=model, lot=lot, since=since)
-    profile, limits, order = _limits(db, rows)
+    profile, limits, order, sold = _limits(db, rows)
     counts = Counter(r.grade for r in rows)
     grades = {g: counts[g] for g in order if counts[g]} | {
         g: n for g, n in counts.items() if g not in order
     }
+    lots: dict[str, dict[str, int]] = {}
+    for name in sorted({r.lot for r in rows}):
+        in_lot = Counter(r.grade for r in rows if r.lot == name)
+        lots[name] = {g: in_lot[g] for g in grades if in_lot[g]}
     by_name: dict[str, list[FigureValue]] = {}
     for v in values:
         by_name.setdefault(v.name, []).append(v)
@@ -196,7 +216,8 @@ def compute_stats(
             individuals_chart(x),
         )
     return ProductionStats(
-        model, lot, since, len(rows), grades, figures, _review(rows, figures), profile
+        model, lot, since, len(rows), grades, figures, _review(rows, figures), profile, lots,
+        sold,
     )
 
 

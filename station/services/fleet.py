@@ -414,7 +414,8 @@ class _Driver:
                     "unit", (file, unit), analyze_task, file, unit, self.request.profile, bench
                 )
             else:
-                self.submit("unit", (file, unit), grade_task, file, unit, self.profile, self.bench)
+                self.submit("unit", (file, unit), grade_task, file, unit, self.profile,
+                            self.bench, self.request.action == "report")
 
     def _on_unit(self, key: tuple[str, str], outcome: UnitOutcome | None, error: str) -> None:
         file, unit = key

@@ -19,6 +19,7 @@ import numpy as np
 from analysis.errors import AnalysisError
 from devices.errors import DeviceError
 from station.errors import StationError
+from station.evaluation.gmwm_run import run_with_profile_gmwm
 from station.evaluation.grading import (
     RunGrade,
     UnitGrade,
@@ -137,13 +138,17 @@ def _profile_of(run: RunInfo, profile: Profile | None) -> tuple[Profile, tuple[s
     return loaded, (note,) if note else ()
 
 
-def grade_task(path: str, unit: str, profile: Profile | None, bench: Bench | None) -> UnitOutcome:
+def grade_task(path: str, unit: str, profile: Profile | None, bench: Bench | None,
+               gmwm: bool = False) -> UnitOutcome:
     """Grade one unit of a run file exactly as ``station grade`` grades it (the given
-    profile, else the run's; the given bench, else the run's)."""
+    profile, else the run's; the given bench, else the run's); with ``gmwm``, add the
+    GMWM the profile asks for (``[test] gmwm_model``) as ``station report`` does."""
     try:
         run = read_unit_run(path, unit)
         used, warnings = _profile_of(run, profile)
         graded = grade_run(run, used, bench=bench)
+        if gmwm:  # on the samples, before they are dropped
+            graded = run_with_profile_gmwm(graded)
         return UnitOutcome(
             path,
             unit,

@@ -71,7 +71,8 @@ def production_stats(request: StatsRequest) -> StatsAnswer:
         stats = compute_stats(db, model=request.model, lot=request.lot, since=request.since)
     html = pdf = None
     if request.html is not None or request.pdf is not None:
-        from station.output.production_report import write_stats_html, write_stats_pdf
+        from station.output.production_pdf import write_stats_pdf
+        from station.output.production_report import write_stats_html
 
         html = write_stats_html(stats, request.html) if request.html is not None else None
         pdf = write_stats_pdf(stats, request.pdf) if request.pdf is not None else None

@@ -183,16 +183,22 @@ def find_unfinished(out: Path, name: str, profile: Profile, units: tuple[str, ..
             raise UsageError(f"{out} holds sequence {run.name} of profile {run.profile} for "
                              f"other units: choose another --out")
         return run
+    found = [run for run in readable_sequences(out)
+             if not run.done and run.state != "failed" and run.name == name
+             and run.profile == profile.name and run.unit_urls == units]
+    return max(found, key=lambda r: r.start_utc) if found else None
+
+
+def readable_sequences(folder: Path) -> list[SequenceRun]:
+    """The sequence files (``seq-*.h5``) of ``folder`` that can be read, in name order
+    (none when it is no folder)."""
     found = []
-    for path in sorted(out.glob("seq-*.h5")) if out.is_dir() else []:
+    for path in sorted(folder.glob("seq-*.h5")) if folder.is_dir() else []:
         try:
-            run = read_sequence(path)
+            found.append(read_sequence(path))
         except RecordFormatError:
             continue
-        if not run.done and run.state != "failed" and run.name == name and \
-                run.profile == profile.name and run.unit_urls == units:
-            found.append(run)
-    return max(found, key=lambda r: r.start_utc) if found else None
+    return found
 
 
 @dataclass

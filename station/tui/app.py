@@ -2,6 +2,7 @@
 
 Screens, one concept each: :class:`~station.tui.setup_screen.SetupScreen` (the base),
 :class:`~station.tui.live_screen.LiveScreen`, :class:`~station.tui.spec_screen.SpecSheetScreen`,
+:class:`~station.tui.sequence_screen.SequenceScreen`,
 :class:`~station.tui.browse_screens.RunsScreen` and
 :class:`~station.tui.browse_screens.ResultsScreen`. Screens post messages up; the app
 starts recorders (detached processes, :mod:`station.services.recorder_process`) and
@@ -34,6 +35,7 @@ from station.services.recorder_process import (
 from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
 from station.tui.live_screen import LiveScreen
 from station.tui.messages import explain, for_the_form
+from station.tui.sequence_screen import SequenceScreen
 from station.tui.setup_screen import SetupScreen
 from station.tui.spec_screen import SpecSheetScreen
 
@@ -61,6 +63,10 @@ SpecSheetScreen #profile { width: 24; }
 #exported { width: 1fr; padding: 1 1 0 1; }
 #verdict { width: 22; }
 #yield { height: auto; padding: 0 1; }
+#seq-status { height: auto; padding: 0 1; }
+SequenceScreen #unfinished { height: auto; max-height: 5; }
+SequenceScreen #steps { height: 1fr; }
+SequenceScreen #figures { height: auto; max-height: 10; }
 ConfirmScreen { align: center middle; }
 #dialog { width: 70; height: 8; border: thick $error; background: $surface; padding: 0 1; }
 #question { width: 1fr; padding: 1 0; }
@@ -90,6 +96,8 @@ class TuiSettings:
         Time between reads of a live run file, s.
     attach : bool
         At start, attach to a run in progress found in ``runs_dir``.
+    profiles_dir : Path or None
+        Folder of the profiles the sequence screen offers (None: the shipped ones).
     """
 
     runs_dir: Path = Path("runs")
@@ -99,6 +107,7 @@ class TuiSettings:
     check_units: bool = True
     poll_s: float = 1.0
     attach: bool = True
+    profiles_dir: Path | None = None
 
 
 def crash_log_path(runs_dir: Path) -> Path:
@@ -155,6 +164,7 @@ class StationApp(App[None]):
         Binding("f2", "new_run", "New run"),
         Binding("f3", "results", "Results"),
         Binding("f4", "runs", "Runs"),
+        Binding("f7", "sequence", "Sequence"),
         Binding("ctrl+q", "quit", "Quit", priority=True),
     ]
 
@@ -228,6 +238,12 @@ class StationApp(App[None]):
     def action_runs(self) -> None:
         """The run files of the runs folder."""
         self.push_screen(RunsScreen(self.settings.runs_dir))
+
+    def action_sequence(self) -> None:
+        """The test sequence screen: start, follow or resume a profile's sequence."""
+        self.push_screen(SequenceScreen(self.settings.runs_dir,
+                                        profiles_dir=self.settings.profiles_dir,
+                                        poll_s=self.settings.poll_s))
 
     def open_spec_sheet(self, path: Path, *, profile: str | None = None,
                         unit: str | None = None) -> None:

@@ -21,6 +21,7 @@ from textual.widgets import (
     TabbedContent,
     TabPane,
 )
+from textual.widgets.select import InvalidSelectValueError
 from textual.worker import get_current_worker
 
 from station.evaluation.grading import RunGrade, UnitGrade
@@ -121,6 +122,7 @@ class SpecSheetScreen(Screen[None]):
     # -- grading (worker) --------------------------------------------------------------
     @work(thread=True, exclusive=True, group="grade", exit_on_error=False)
     def _grade(self, profile_ref: str | None) -> None:
+        from station.evaluation.gmwm_run import run_with_profile_gmwm
         from station.services.grade import GradeRequest, NoProfileError, RunSource, grade
 
         request = GradeRequest(RunSource(self.path), profile=profile_ref,
@@ -142,7 +144,13 @@ class SpecSheetScreen(Screen[None]):
         for note in result.warnings:
             self.app.call_from_thread(self.notify, note, title="Profile changed",
                                       severity="warning", timeout=20)
-        self.app.call_from_thread(setattr, self, "graded", result.graded)
+        try:  # the GMWM the profile asks for, as its report would carry it
+            graded = run_with_profile_gmwm(result.graded)
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            self.app.call_from_thread(self.notify, explain(exc, "fitting the GMWM"),
+                                      severity="warning", timeout=20)
+            graded = result.graded
+        self.app.call_from_thread(setattr, self, "graded", graded)
         if self.db_path is not None:
             self._store(result.graded, self.db_path)
 
@@ -177,7 +185,10 @@ class SpecSheetScreen(Screen[None]):
         select = self.query_one("#profile", Select)
         if select.value != graded.profile.name:
             with select.prevent(Select.Changed):
-                select.value = graded.profile.name
+                try:
+                    select.value = graded.profile.name
+                except InvalidSelectValueError:  # a profile file outside profiles/
+                    select.clear()
         index = 0
         for i, u in enumerate(graded.units):
             if self.first_unit in (u.unit.unit_id, u.unit.serial_number):
@@ -217,6 +228,7 @@ class SpecSheetScreen(Screen[None]):
             figure_rows,
             header_fields,
         )
+        from station.output.report.gmwm_terms import gmwm_rows, gmwm_summary
         from station.tui.spec_data import adev_unit, allan_series
 
         graded = self.graded
@@ -242,6 +254,11 @@ class SpecSheetScreen(Screen[None]):
                 table.add_row(Text(f"{r.label} [{r.unit}]"), number(r.value, 3),
                               number(r.limit, 3), verdict_text(r.verdict),
                               interval_text(r.ci_low, r.ci_high))
+            for g in gmwm_rows(axis):  # beside the Allan read-offs, where analysed with it
+                table.add_row(Text(f"GMWM {g.term} [{g.unit}]"), number(g.value, 3), "-",
+                              Text("info"), interval_text(g.ci_low, g.ci_high))
+            if axis.analysis.gmwm is not None:
+                head.append_text(Text(f"\nGMWM {gmwm_summary(axis)}"))
             plot = self.query_one("#allan-plot", SeriesPlot)
             plot.y_label = f"ADEV [{adev_unit(axis)}]"
             plot.series = allan_series((axis,))

@@ -8,14 +8,13 @@ bias-instability read-offs, the fitted Q, K and R; a Gauss-Markov term has none)
 line with the selected model, its J test and the ranking's runner-up, and a plot of the
 empirical Haar wavelet variance with its interval, the GMWM model's WV and the Allan
 fit's model as a WV (AVAR / 2). :func:`gmwm_page` is the PDF page, :func:`gmwm_section`
-the HTML table (:func:`gmwm_png` the plot under it).
+the HTML table (:func:`gmwm_png` the plot under it); the rows themselves come from
+:mod:`station.output.report.gmwm_terms`.
 """
 
 from __future__ import annotations
 
-import math
 import textwrap
-from dataclasses import dataclass
 from html import escape
 
 import matplotlib
@@ -25,111 +24,24 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.transforms import Bbox  # noqa: E402
 
-from analysis.gmwm_models import KINDS  # noqa: E402
-from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
+from station.evaluation.grading import UnitGrade  # noqa: E402
 from station.output.plots import draw_wavelet  # noqa: E402
 from station.output.report.common import fmt  # noqa: E402
+from station.output.report.gmwm_terms import (  # noqa: E402
+    fitted_axes,
+    gmwm_rows,
+    gmwm_summary,
+    has_gmwm,
+)
 from station.output.report.panels import figure_png  # noqa: E402
 
-#: Unit of a GMWM key's suffix (longest first: ``deg_h_rt_h`` before ``deg_h``).
-KEY_UNITS = (("deg_h_rt_h", "deg/h/sqrt(h)"), ("deg_rt_h", "deg/sqrt(h)"), ("deg_h2", "deg/h^2"),
-             ("sigma_deg_h", "deg/h"), ("deg_h", "deg/h"), ("tau_s", "s"), ("urad", "urad"),
-             ("phi", "1"))
-#: What a shape parameter is called, by its key's suffix.
-SHAPE_NAMES = {"tau_s": "correlation time", "phi": "coefficient phi"}
-
-
-@dataclass(frozen=True)
-class GmwmRow:
-    """One GMWM parameter of one axis, with the Allan figure of the same term (``allan``:
-    its value in ``unit`` and where it comes from, "" when the Allan fit has none)."""
-
-    axis: str
-    key: str
-    term: str
-    unit: str
-    value: float | None
-    stderr: float | None
-    allan: str
-
-
-def _finite(x: float | None) -> float | None:
-    return x if x is not None and math.isfinite(x) else None
-
-
-def _unit_of(key: str) -> str:
-    return next((unit for suffix, unit in KEY_UNITS if key.endswith(suffix)), "")
-
-
-def _term_of(key: str) -> str:
-    label = key.split("_", 1)[0]
-    kind = KINDS[label.rstrip("0123456789")]
-    number = label[len(kind.code):]
-    shape = next((name for suffix, name in SHAPE_NAMES.items() if key.endswith(suffix)), "")
-    what = shape or ("sigma" if kind.has_shape else "")
-    return " ".join(p for p in (kind.title, number, what) if p)
-
-
-def _allan_of(axis: AxisGrade, key: str) -> str:
-    """The Allan figure of the term ``key`` names, in the key's unit."""
-    a = axis.analysis
-    figs, fit = a.figures, a.fit
-    code = key.split("_", 1)[0]
-    if code == "wn" and figs.arw_deg_rt_h is not None:
-        return f"{fmt(figs.arw_deg_rt_h)} (ARW read-off)"
-    if code == "bi" and figs.bias_instability_deg_h is not None:
-        return f"{fmt(figs.bias_instability_deg_h)} (B read-off)"
-    term = {"wn": "N", "qn": "Q", "rw": "K", "dr": "R", "bi": "B"}.get(code)
-    if term is None or fit.values.get(term) is None:
-        return ""
-    return f"{fmt(fit.values[term])} (fit {term}, {fit.method})"
-
-
-def gmwm_rows(axis: AxisGrade) -> list[GmwmRow]:
-    """The GMWM parameters of ``axis`` (none when it has no GMWM)."""
-    g = axis.analysis.gmwm
-    if g is None:
-        return []
-    best = g.best
-    return [GmwmRow(axis.axis, key, _term_of(key), _unit_of(key), _finite(value),
-                    _finite(best.stderr.get(key)), _allan_of(axis, key))
-            for key, value in best.values.items()]
-
-
-def gmwm_summary(axis: AxisGrade) -> str:
-    """One line: the model, how it was chosen, its J test and the ranking's runner-up."""
-    g = axis.analysis.gmwm
-    if g is None:
-        return f"{axis.axis}: no GMWM"
-    best = g.best
-    chosen = (f"selected by the WIC among {len(g.ranking)} candidates" if len(g.ranking) > 1
-              else "given")
-    p = "-" if not math.isfinite(best.p_value) else f"{best.p_value:.2g}"
-    text = (f"{axis.axis}: model {best.model.name} ({chosen}); J = {best.objective:.3g} on "
-            f"{best.dof} dof, p-value {p}")
-    runner = g.runner_up
-    if runner is not None:
-        text += (f"; runner-up {runner.model} (WIC +"
-                 f"{runner.criterion - g.ranking[0].criterion:.3g})")
-    if best.model_error > 0:
-        text += f"; weights floored at {best.model_error:.0%} model error (J rejects the model)"
-    return text
-
-
-def has_gmwm(unit: UnitGrade) -> bool:
-    """Whether any axis of ``unit`` carries a GMWM result."""
-    return any(a.analysis.gmwm is not None for a in unit.axes)
-
-
-def _fitted(unit: UnitGrade) -> list[AxisGrade]:
-    return [a for a in unit.axes if a.analysis.gmwm is not None]
-
+__all__ = ["gmwm_page", "gmwm_png", "gmwm_section", "has_gmwm"]
 
 def gmwm_page(unit: UnitGrade, title: str, size_in: tuple[float, float]) -> Figure:
     """The PDF page of a unit's GMWM: the table, the model lines and a plot per axis."""
     fig = plt.figure(figsize=size_in)
     fig.text(0.06, 0.972, f"{title}: GMWM noise model", fontsize=14, weight="bold", va="top")
-    axes = _fitted(unit)
+    axes = fitted_axes(unit)
     rows = [r for a in axes for r in gmwm_rows(a)]
     cells = [[r.axis, r.term, r.unit, fmt(r.value), fmt(r.stderr), r.allan or "-"] for r in rows]
     row_h = min(0.016, 0.30 / (len(rows) + 1))
@@ -165,7 +77,7 @@ def gmwm_page(unit: UnitGrade, title: str, size_in: tuple[float, float]) -> Figu
 
 def gmwm_png(unit: UnitGrade) -> bytes:
     """The wavelet-variance plot of every fitted axis of ``unit`` as a PNG."""
-    axes = _fitted(unit)
+    axes = fitted_axes(unit)
     fig, panels = plt.subplots(len(axes), 1, figsize=(8, 4.2 * len(axes)), squeeze=False,
                                layout="constrained")
     for ax, a in zip(panels[:, 0], axes, strict=True):
@@ -180,7 +92,7 @@ def gmwm_section(unit: UnitGrade) -> str:
     parts = ["<h2>GMWM noise model</h2>",
              '<table class="gmwm"><tr><th>axis</th><th>GMWM term</th><th>unit</th>'
              "<th>value</th><th>std. error</th><th>Allan figure, same term</th></tr>"]
-    axes = _fitted(unit)
+    axes = fitted_axes(unit)
     for r in (r for a in axes for r in gmwm_rows(a)):
         parts.append(
             f'<tr data-axis="{escape(r.axis)}" data-key="{escape(r.key)}" '
