@@ -140,7 +140,7 @@ def test_stats_drawn_as_html_and_pdf(line_file: str, tmp_path: Path, capsys) -> 
         main(["results", "--stats", "--db", line_db, "--html", str(html), "--pdf", str(pdf)]) == 0
     )
     text = capsys.readouterr().out
-    assert "arw" in text and "1 units flagged for review" in text and "S08" in text
+    assert "arw" in text and "1 unit flagged for review" in text and "S08" in text
     page = html.read_text()
     assert page.count("data:image/png;base64,") == 2 and "data-figure='arw'" in page
     from pypdf import PdfReader

@@ -35,6 +35,7 @@ from station.commands.arguments import (
 from station.errors import UsageError
 from station.evaluation.capability import CAPABILITY_NOTE
 from station.model.kinds import Verdict
+from station.model.wording import plural
 from station.output.results_backends import redacted
 
 if TYPE_CHECKING:
@@ -238,7 +239,7 @@ def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str
               "Ppk fitted", "95 % CI", "fit", "out of control"]
     lines.append(_table(header, body))
     lines.append(CAPABILITY_NOTE)
-    lines.append(f"{len(stats.review)} units flagged for review")
+    lines.append(f"{plural(len(stats.review), 'unit')} flagged for review")
     lines += [
         f"  {u.serial_number} ({u.lot or '-'}, {u.test_date}): {reason}"
         for u in stats.review
