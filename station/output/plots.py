@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from analysis.davar import DavarResult  # noqa: E402
 from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
+from analysis.units import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S2, UnitFamily  # noqa: E402
 from analysis.warmup import WarmupVerdict  # noqa: E402
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
@@ -37,6 +37,37 @@ TERM_LABELS = {"Q": "quantization", "N": "angle random walk", "B": "bias instabi
 BAND_HEADROOM = 10.0
 
 
+#: Units an accelerometer axis' deviation may be drawn in: factor from m/s^2 (a time
+#: deviation, m/s, is drawn in m/s whatever the unit).
+ACCEL_PLOT_UNITS = {"m/s^2": 1.0, "mg": 1e3 / STANDARD_GRAVITY_M_S2,
+                    "ug": 1e6 / STANDARD_GRAVITY_M_S2}
+
+
+def drawn_unit(axis: AxisAnalysis, family: UnitFamily, accel_unit: str = "m/s^2"
+               ) -> tuple[str, float, float]:
+    """(unit label, factor of the shown deviation, factor of the Allan deviation and its fit
+    lines) of ``axis``: deg/h (or rad/s in the rad ``family``) for a rate axis, deg (rad) for
+    its time deviation; ``accel_unit`` of :data:`ACCEL_PLOT_UNITS` for an accelerometer axis,
+    m/s for its time deviation.
+
+    Raises
+    ------
+    ValueError
+        ``accel_unit`` not one of :data:`ACCEL_PLOT_UNITS`.
+    """
+    if accel_unit not in ACCEL_PLOT_UNITS:
+        raise ValueError(f"accelerometer plot unit must be one of "
+                         f"{', '.join(ACCEL_PLOT_UNITS)}, got {accel_unit!r}")
+    angle = axis.shown.unit == "angle"
+    if axis.accel is not None:
+        factor = ACCEL_PLOT_UNITS[accel_unit]
+        return ("m/s", 1.0, factor) if angle else (accel_unit, factor, factor)
+    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit drawn
+    if angle:
+        return family.label("deg"), family.factor("deg"), rate
+    return family.label("deg/h"), rate, rate
+
+
 def y_range(low: np.ndarray, values: np.ndarray, high: np.ndarray) -> tuple[float, float]:
     """A log y-range that shows every value and interval, capped :data:`BAND_HEADROOM` above."""
     top = float(np.max(values))
@@ -44,9 +75,10 @@ def y_range(low: np.ndarray, values: np.ndarray, high: np.ndarray) -> tuple[floa
 
 
 def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
-               family: UnitFamily = DEG_FAMILY) -> Path:
+               family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Path:
     """:func:`allan_figure` into a PNG at ``path``."""
-    return _save(allan_figure(axes, title=title, family=family), Path(path))
+    return _save(allan_figure(axes, title=title, family=family, accel_unit=accel_unit),
+                 Path(path))
 
 
 def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
@@ -58,21 +90,30 @@ def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
 
 
 def allan_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> Figure:
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Figure:
     """The deviation of each axis with its confidence band and, on the Allan deviation (deg/h,
-    or rad/s in the rad ``family``), the fitted term lines.
+    or rad/s in the rad ``family``; accelerometer axes in ``accel_unit``: m/s^2, mg or ug),
+    the fitted term lines.
 
     When another deviation than the fit's Allan deviation was chosen, that deviation is
     drawn with its band, the Allan deviation as a thin line, and the fit lines on it (they
-    are the Allan variance's terms); a time deviation (an angle, deg or rad) is drawn alone.
+    are the Allan variance's terms); a time deviation (an angle, deg or rad; m/s for an
+    accelerometer) is drawn alone.
+
+    Raises
+    ------
+    ValueError
+        Rate and accelerometer axes mixed in one figure (their units differ), or an
+        unknown ``accel_unit``.
     """
+    if len({a.accel is None for a in axes}) > 1:
+        raise ValueError("rate and accelerometer axes go in separate Allan plots "
+                         "(deg/h and m/s^2): pass one kind at a time")
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     curve0 = axes[0].shown
     angle = curve0.unit == "angle"
-    unit = "deg" if angle else "deg/h"
-    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit drawn
-    scale = family.factor("deg") if angle else rate
+    unit, scale, rate = drawn_unit(axes[0], family, accel_unit)
     own = curve0.kind == from_allan(axes[0].allan).kind
     label = DEVIATION_LABELS[curve0.kind]
     lows, values, highs = [], [], []
@@ -116,7 +157,7 @@ def allan_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
                 ax.annotate(term, (tau[j], curve[j]), color=c, fontsize=8)
     ax.set_ylim(*y_range(np.concatenate(lows), np.concatenate(values), np.concatenate(highs)))
     ax.set_xlabel("averaging time tau [s]")
-    ax.set_ylabel(f"{label} [{family.label(unit)}]")
+    ax.set_ylabel(f"{label} [{unit}]")
     ax.grid(True, which="both", alpha=0.3)
     default = f"{label}, {curve0.confidence:.3g} band" + (
         "" if angle else ", fitted noise terms (dotted)"
