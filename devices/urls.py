@@ -24,9 +24,21 @@ from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
 from devices.codecs.base import StreamCodec
-from devices.codecs.can_frame import PER_AXIS_LAYOUT, SHARED_LAYOUT, CanFrameLayout
+from devices.codecs.can_frame import (
+    PER_AXIS_IMU_LAYOUT,
+    PER_AXIS_LAYOUT,
+    SHARED_IMU_LAYOUT,
+    SHARED_LAYOUT,
+    CanFrameLayout,
+)
 from devices.codecs.kvh1750 import HEADER as KVH_HEADER, Kvh1750Codec
-from devices.codecs.modbus_map import GYRO_FLOAT32_MAP, GYRO_INT32_MAP, ModbusRegisterMap
+from devices.codecs.modbus_map import (
+    GYRO_FLOAT32_MAP,
+    GYRO_INT32_MAP,
+    IMU_FLOAT32_MAP,
+    IMU_INT32_MAP,
+    ModbusRegisterMap,
+)
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.errors import CodecError, DeviceConfigurationError
@@ -185,44 +197,65 @@ def _profile_table(name: str, key: str) -> dict[str, Any]:
                                        f"no [{key}] table in such a file ({exc})") from exc
 
 
-def can_layout(name: str) -> CanFrameLayout:
-    """A frame layout by name (``shared``, ``per_axis``) or from a profile TOML's ``[can]``.
+def can_layout(name: str, accel: bool | None = None) -> CanFrameLayout:
+    """A frame layout by name (``shared``, ``per_axis``; an IMU's ``shared_imu``,
+    ``per_axis_imu``) or from a profile TOML's ``[can]``.
+
+    ``accel`` is the URL's ``accel`` key (:func:`accel_switch`): False reads an IMU's
+    layout as a gyro's, True refuses a layout without accelerometers, None takes the
+    layout as it is.
 
     Raises
     ------
     DeviceConfigurationError
-        Unknown name, unreadable file, or a file without a valid ``[can]`` table.
+        Unknown name, unreadable file, a file without a valid ``[can]`` table, or
+        ``accel=1`` with a layout that carries no accelerometers.
     """
-    builtin = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT}
+    builtin = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT,
+               "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT}
     if name in builtin:
-        return builtin[name]
-    try:
-        return CanFrameLayout.from_table(_profile_table(name, "can"))
-    except ValueError as exc:
-        raise DeviceConfigurationError(f"CAN layout {name!r}: {exc}") from exc
+        layout = builtin[name]
+    else:
+        try:
+            layout = CanFrameLayout.from_table(_profile_table(name, "can"))
+        except ValueError as exc:
+            raise DeviceConfigurationError(f"CAN layout {name!r}: {exc}") from exc
+    if accel and not layout.accel:
+        raise DeviceConfigurationError(
+            f"accel=1: CAN layout {name!r} carries no accelerometers (layout=shared_imu, "
+            f"per_axis_imu or a [[can.accel]] table do)")
+    return layout.without_accel() if accel is False else layout
 
 
-def register_map(name: str) -> ModbusRegisterMap:
-    """A register map by name (``int32``, ``float32``) or from a profile's ``[modbus]``.
+def register_map(name: str, accel: bool | None = None) -> ModbusRegisterMap:
+    """A register map by name (``int32``, ``float32``; an IMU's ``int32_imu``,
+    ``float32_imu``) or from a profile's ``[modbus]``; ``accel`` as :func:`can_layout`.
 
     Raises
     ------
     DeviceConfigurationError
-        Unknown name or bad table.
+        Unknown name, bad table, or ``accel=1`` with a map without accelerometers.
     """
-    builtin = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP}
+    builtin = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP,
+               "int32_imu": IMU_INT32_MAP, "float32_imu": IMU_FLOAT32_MAP}
     if name in builtin:
-        return builtin[name]
-    try:
-        return ModbusRegisterMap.from_table(_profile_table(name, "modbus"))
-    except ValueError as exc:
-        raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
+        regs = builtin[name]
+    else:
+        try:
+            regs = ModbusRegisterMap.from_table(_profile_table(name, "modbus"))
+        except ValueError as exc:
+            raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
+    if accel and not regs.accel:
+        raise DeviceConfigurationError(
+            f"accel=1: Modbus map {name!r} carries no accelerometers (map=int32_imu, "
+            f"float32_imu or a [[modbus.accel]] table do)")
+    return regs.without_accel() if accel is False else regs
 
 
 def _start_can_broadcast(params: SimParams, layout: CanFrameLayout, bus: MulticastChannel,
                          clock: WarpClock) -> CanBroadcastDevice:
     """Run in a simulator process: a raw-CAN gyro on a ``udp_multicast`` bus."""
-    core, _ = sim_core(params, len(layout.axes), clock)
+    core, _ = sim_core(params, len(layout.axes), clock, n_accel_axes=layout.n_accel_axes)
     return CanBroadcastDevice(bus.transport(), layout, core).start()
 
 
@@ -275,7 +308,7 @@ def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
 
 
 def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
-    layout = can_layout(query.get("layout", "shared"))
+    layout = can_layout(query.get("layout", "shared"), accel_switch(query))
     params = parse_sim_params(query.get("model", host), query)
     simulator: Simulator
     multicast = _sim_bus(query) == "udp_multicast"
@@ -288,7 +321,7 @@ def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
                               port=str(bus.port))
     else:
         reach = None
-        core, clock = sim_core(params, len(layout.axes))
+        core, clock = sim_core(params, len(layout.axes), n_accel_axes=layout.n_accel_axes)
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         simulator = CanBroadcastDevice(
             CanTransport("virtual", channel, preserve_timestamps=True), layout, core,
@@ -307,7 +340,7 @@ def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 
 
 def _open_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
-    layout = can_layout(query.get("layout", "shared"))
+    layout = can_layout(query.get("layout", "shared"), accel_switch(query))
     rate = query_number("rate", query.get("rate", "1000"), float)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
                              loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
@@ -366,7 +399,7 @@ def _open_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 def _modbus_setup(query: dict[str, str]) -> tuple[ModbusRegisterMap, float]:
     """(register map, oversampling factor) of a Modbus URL."""
     _no_capture(query, "Modbus (pymodbus drives the link itself)")
-    return (register_map(query.get("map", "int32")),
+    return (register_map(query.get("map", "int32"), accel_switch(query)),
             query_number("oversample", query.get("oversample", "2"), float))
 
 
@@ -374,7 +407,7 @@ def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool
                      ) -> OpenedDevice:
     regs, oversample = _modbus_setup(query)
     params = parse_sim_params(query.get("model", host), query)
-    core, clock = sim_core(params, len(regs.axes))
+    core, clock = sim_core(params, len(regs.axes), n_accel_axes=regs.n_accel_axes)
     server = ModbusGyroServer(regs, core, rtu=rtu).start()
     transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
                  else ModbusTransport("tcp", "127.0.0.1", port=server.port))
@@ -435,7 +468,8 @@ def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
                                   serial_number=name, sample_rate_hz=rate, clock=unit_clock,
                                   clock_scale=warp)
     elif isinstance(transport, ReplayCanTransport) and parts.scheme == "can":
-        source = CanRateSource(transport, can_layout(keys.get("layout", "shared")),
+        source = CanRateSource(transport, can_layout(keys.get("layout", "shared"),
+                                                     accel_switch(keys)),
                                model=keys.get("model", "CAN gyro"), serial_number=name,
                                sample_rate_hz=rate, clock=unit_clock, clock_scale=warp)
     else:
@@ -501,13 +535,13 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
         return base | own | {"protocol", "capture"} | (set() if simulate else {"baud"})
     if transport == "can":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS
-        return base | bus | {"layout", "capture"}
+        return base | bus | {"layout", "capture", "accel"}
     if transport == "canopen":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS | {"eds"}
         return base | bus | {"node", "tpdo", "capture"}
     if transport in ("modbus+tcp", "modbus+rtu"):
         link = {"unit", "port" if transport == "modbus+tcp" else "baud"}
-        return base | {"map", "oversample", "capture"} | (set() if simulate else link)
+        return base | {"map", "oversample", "capture", "accel"} | (set() if simulate else link)
     return frozenset({"realtime"})  # replay://FILE
 
 

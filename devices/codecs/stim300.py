@@ -14,8 +14,7 @@ pystim300 driver's ``normal.py``, ``crc.py`` and ``scaling.py``)::
   Checked again against a second public reader, geirhovland/stim300 ``stim300_read.py``
   ("Acc X,Y,Z ... Assumes range 10g --> 2^19 = 524288"), whose README's sample datagram
   of a unit at rest reads z = 1.0138 g with that divisor (2**20 would halve it to 0.51 g,
-  so 2**-20 g is not the +-10 g LSB); the driver's incremental-velocity output, which this
-  codec does not decode, has other divisors;
+  so 2**-20 g is not the +-10 g LSB);
 * CRC-32/MPEG-2 over ID..latency padded with zero bytes to a multiple of 4 (the padding
   is not transmitted).
 
