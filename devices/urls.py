@@ -259,10 +259,10 @@ def _start_can_broadcast(params: SimParams, layout: CanFrameLayout, bus: Multica
     return CanBroadcastDevice(bus.transport(), layout, core).start()
 
 
-def _start_canopen_node(params: SimParams, node_id: int, bus: MulticastChannel,
+def _start_canopen_node(params: SimParams, node_id: int, accel: bool, bus: MulticastChannel,
                         clock: WarpClock) -> CanopenGyroNode:
-    """Run in a simulator process: a CANopen gyro node on a ``udp_multicast`` bus."""
-    core, _ = sim_core(params, 3, clock)
+    """Run in a simulator process: a CANopen gyro (or IMU) node on a ``udp_multicast`` bus."""
+    core, _ = sim_core(params, 3, clock, n_accel_axes=3 if accel else 0)
     return CanopenGyroNode(bus.transport(), core, node_id=node_id,
                            serial_number=params.seed or 1).start()
 
@@ -361,10 +361,11 @@ def _canopen_node(path: str, query: dict[str, str]) -> tuple[int, bool]:
 
 def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     node_id, sync = _canopen_node(path, query)
+    accel = bool(accel_switch(query))  # (the node's TPDO3/4 are off until mapped: accel=1)
     params = parse_sim_params(query.get("model", host), query)
     simulator: Simulator
     if _sim_bus(query) == "udp_multicast":
-        simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
+        simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id, accel,
                                                    describe=f"CANopen node {node_id}",
                                                    loopback=_loopback_only(query))
         transport = bus.transport()
@@ -372,14 +373,14 @@ def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevi
                               interface="udp_multicast", port=str(bus.port))
     else:
         reach = None
-        core, clock = sim_core(params, 3)
+        core, clock = sim_core(params, 3, n_accel_axes=3 if accel else 0)
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         simulator = CanopenGyroNode(CanTransport("virtual", channel), core,
                                     node_id=node_id, serial_number=params.seed or 1).start()
         transport = CanTransport("virtual", channel)
     source = CanopenRateSource(transport, node_id, GYRO_EDS, sample_rate_hz=params.rate,
                                model=_unit_model(host, params), clock=clock,
-                               clock_scale=params.warp, sync=sync)
+                               clock_scale=params.warp, sync=sync, accel=accel)
     return SimulatedDevice(source, hardware_url=reach, simulator=simulator)
 
 
@@ -390,7 +391,7 @@ def _open_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     rate = query_number("rate", query.get("rate", "100"), float)
     source = CanopenRateSource(transport, node_id, query.get("eds", str(GYRO_EDS)),
                                sample_rate_hz=rate, model=query.get("model", "CANopen gyro"),
-                               sync=sync)
+                               sync=sync, accel=bool(accel_switch(query)))
     return OpenedDevice(source)
 
 
@@ -538,7 +539,7 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
         return base | bus | {"layout", "capture", "accel"}
     if transport == "canopen":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS | {"eds"}
-        return base | bus | {"node", "tpdo", "capture"}
+        return base | bus | {"node", "tpdo", "capture", "accel"}
     if transport in ("modbus+tcp", "modbus+rtu"):
         link = {"unit", "port" if transport == "modbus+tcp" else "baud"}
         return base | {"map", "oversample", "capture", "accel"} | (set() if simulate else link)

@@ -192,16 +192,20 @@ def heat_map(ax: Axes, t: np.ndarray, tau_s: np.ndarray, values: np.ndarray) -> 
 
 
 def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict],
-               record: RateRecord, family: UnitFamily = DEG_FAMILY) -> Path:
+               record: RateRecord, family: UnitFamily = DEG_FAMILY, *,
+               accel: bool = False) -> Path:
     """:func:`davar_figure` into a PNG at ``path``."""
-    return _save(davar_figure(result, verdicts, record, family), Path(path), dpi=110)
+    return _save(davar_figure(result, verdicts, record, family, accel=accel), Path(path),
+                 dpi=110)
 
 
 def davar_figure(result: DavarResult, verdicts: Sequence[WarmupVerdict], record: RateRecord,
-                 family: UnitFamily = DEG_FAMILY) -> Figure:
+                 family: UnitFamily = DEG_FAMILY, *, accel: bool = False) -> Figure:
     """Heat map per axis: time on x, log tau on y, log10 ADEV (deg/h, or rad/s in the rad
-    ``family``) as colour."""
-    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
+    ``family``; m/s^2 for accelerometer axes, ``accel``: ``record`` holds their m/s^2 in
+    the rate's place) as colour."""
+    scale = 1.0 if accel else S_PER_H * family.factor("deg/h")  # the series -> the unit drawn
+    unit = "m/s^2" if accel else family.label("deg/h")
     n_axes = len(record.axis_names)
     fig, axs = plt.subplots(n_axes, 1, figsize=(9, 2.8 * n_axes + 0.6), squeeze=False,
                             sharex=True, constrained_layout=True)
@@ -217,7 +221,7 @@ def davar_figure(result: DavarResult, verdicts: Sequence[WarmupVerdict], record:
             ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
                        label=f"warm-up end {verdict.warmup_end_s:g} s")
             ax.legend(loc="upper right", fontsize=8)
-        fig.colorbar(mesh, ax=ax, label=f"log10 ADEV ({family.label('deg/h')})")
+        fig.colorbar(mesh, ax=ax, label=f"log10 ADEV ({unit})")
     axs[-1, 0].set_xlabel("window centre time since start (s)")
     return fig
 

@@ -337,7 +337,9 @@ def write_csv_record(
         accel = np.asarray(accel_m_s2, dtype=float).reshape(rate.shape[0], -1)
         accel_names = list(accel_axis_names)
         if len(accel_names) != accel.shape[1]:
-            accel_names = [f"accel_{i}" for i in range(accel.shape[1])]
+            accel_names = ([f"accel_{c}" for c in "xyz"[: accel.shape[1]]]
+                           if accel.shape[1] <= 3 else
+                           [f"accel_{i}" for i in range(accel.shape[1])])
         columns.extend(accel.T)
         header.extend(n if is_accel_column(n) else f"accel_{n}" for n in accel_names)
     if temperature_c is not None:

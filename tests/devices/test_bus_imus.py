@@ -75,3 +75,13 @@ def test_layouts_and_maps_round_trip_an_imu_reading() -> None:
         decoded = regs.decode(regs.encode(reading))
         np.testing.assert_allclose(decoded.accel_m_s2, reading.accel_m_s2, atol=1e-6)
         assert regs.without_accel().decode(regs.encode(reading)).accel_m_s2 is None
+
+
+@pytest.mark.parametrize("tpdo", ["event", "sync"])
+def test_canopen_imu_maps_tpdo3_and_4_and_sends_the_generated_accelerations(tpdo: str
+                                                                            ) -> None:
+    got, sent = _accelerations(
+        f"sim+canopen://STIM300/5?accel=1&tpdo={tpdo}&rate=50&warp=2&history=100000&seed=4",
+        65536, 100, rate_atol=1e-6)
+    np.testing.assert_allclose(got, sent, atol=0.5e-6 + 1e-12, rtol=0)  # 0x200A: 1e-6 m/s^2
+    assert got[:, 2].mean() == pytest.approx(G, abs=0.05)
