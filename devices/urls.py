@@ -511,15 +511,18 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       "serial:///dev/ttyUSB0?protocol=xbus&rate=400"),
     SupportedProtocol("can", "can", "sim+can://VG951?layout=shared&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "raw CAN broadcast, configurable layout, CRC-8 SAE J1850 + counter",
+                      "raw CAN broadcast, configurable layout (an IMU: layout=shared_imu), "
+                      "CRC-8 SAE J1850 + counter",
                       "can://can0?interface=socketcan&layout=PROFILE.toml&rate=1000"),
     SupportedProtocol("canopen", "canopen", "sim+canopen://VG951/5?"
                       + _SIM_QUERY.format(rate=100, warp=4),
-                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2, heartbeat",
+                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2 (an IMU: accel=1 "
+                      "maps TPDO3/4), heartbeat",
                       "canopen://can0/5?rate=100&eds=FILE.eds"),
     SupportedProtocol("modbus", "modbus+tcp", "sim+modbus+tcp://VG951?map=int32&"
                       + _SIM_QUERY.format(rate=50, warp=4),
-                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32)",
+                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32; an IMU: "
+                      "map=int32_imu)",
                       "modbus+tcp://10.0.0.7:502/1?map=int32&rate=100"),
     SupportedProtocol("modbus", "modbus+rtu", "sim+modbus+rtu://VG951?map=float32&"
                       + _SIM_QUERY.format(rate=20, warp=2),
