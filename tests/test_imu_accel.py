@@ -224,6 +224,8 @@ def test_spec_sheets_draw_the_accelerometers_in_the_profiles_unit(imu_csv: Path,
     run = RunSource(imu_csv, rate_hz=100.0, accel_units="g")
     files = dict(report(ReportRequest(GradeRequest(run, str(profile), store=False),
                                       formats=("pdf", "html"), out_dir=tmp_path)).files)
-    assert "Allan deviation of the accelerometers" in files["html"].read_text()
+    html = files["html"].read_text()
+    assert "Allan deviation of the accelerometers" in html
+    assert "DAVAR heat map per accelerometer axis" in html
     pdf = files["pdf"].read_bytes()
     assert pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") >= 2  # sheet + accel page

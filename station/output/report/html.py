@@ -101,11 +101,13 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
                           "Allan deviation with confidence band, fitted terms and limits"))
         parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
         if has_accel(unit):
+            accel_unit = accel_plot_unit(graded.profile)
             parts.append("<h2>Allan deviation of the accelerometers</h2>")
-            parts.append(_img(allan_png(unit, quantity="acceleration",
-                                        accel_unit=accel_plot_unit(graded.profile)),
+            parts.append(_img(allan_png(unit, quantity="acceleration", accel_unit=accel_unit),
                               "Allan deviation of the accelerometers with confidence band "
                               "and fitted terms"))
+            parts.append(_img(davar_png(unit, quantity="acceleration", accel_unit=accel_unit),
+                              "DAVAR heat map per accelerometer axis"))
         parts.append("<h2>Dynamic Allan deviation</h2>")
         parts.append(_img(davar_png(unit, graded.output_units), "DAVAR heat map per axis"))
     else:

@@ -130,9 +130,10 @@ def draw_davar(
     fontsize: float = 8,
     settings: AnalysisSettings | None = None,
     family: UnitFamily = DEG_FAMILY,
+    accel_unit: str = "m/s^2",
 ) -> bool:
-    """Heat map of log10 dynamic Allan deviation (deg/h, or rad/s in the rad ``family``) of one
-    axis over time and tau.
+    """Heat map of log10 dynamic Allan deviation (deg/h, or rad/s in the rad ``family``; an
+    accelerometer axis in ``accel_unit``: m/s^2, mg or ug) of one axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
     marked. Returns False (and writes why into the panel) when the record is too short.
@@ -148,12 +149,17 @@ def draw_davar(
         return False
     hours = unit.unit.record.duration_s > 3 * 3600
     scale, unit_name = (3600.0, "h") if hours else (60.0, "min")
-    log_adev = np.log10(np.maximum(family.array(grid.adev_deg_h, "deg/h"), np.finfo(float).tiny))
+    if axis.analysis.accel is not None:  # the grid holds its m/s^2 in the rate's place
+        adev = grid.adev_deg_h / S_PER_H * ACCEL_PLOT_UNITS[accel_unit]
+        drawn_unit = accel_unit
+    else:
+        adev, drawn_unit = family.array(grid.adev_deg_h, "deg/h"), family.label("deg/h")
+    log_adev = np.log10(np.maximum(adev, np.finfo(float).tiny))
     mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
     if grid.warmup_s:
         ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
     ax.set_title(
-        f"DAVAR {axis.axis}: log10 ADEV [{family.label('deg/h')}], window {grid.window_s:.0f} s",
+        f"DAVAR {axis.axis}: log10 ADEV [{drawn_unit}], window {grid.window_s:.0f} s",
         fontsize=fontsize,
     )
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
@@ -209,14 +215,22 @@ ALLAN_TITLES: dict[str, str] = {
 
 def has_accel(unit: UnitGrade) -> bool:
     """Whether a unit has accelerometer axes (its sheet draws their Allan deviation too)."""
-    return any(a.analysis.accel is not None for a in unit.axes)
+    return bool(quantity_axes(unit, "acceleration"))
 
 
-def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
-    """The DAVAR heat maps of a unit (one per rate axis) as a PNG (in ``family``)."""
-    rates = [i for i, a in enumerate(unit.axes) if a.analysis.accel is None]
-    n = len(rates)
+def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY, *,
+              quantity: Quantity = "rate", accel_unit: str = "m/s^2") -> bytes:
+    """The DAVAR heat maps of a unit (one per rate axis, in ``family``; or one per
+    accelerometer axis, in ``accel_unit``) as a PNG."""
+    shown = quantity_axes(unit, quantity)
+    n = len(shown)
     fig, axs = plt.subplots(1, n, figsize=(4.2 * n, 3.2), squeeze=False, layout="constrained")
-    for k, i in enumerate(rates):
-        draw_davar(axs[0, k], unit, i, family=family)
+    for k, i in enumerate(shown):
+        draw_davar(axs[0, k], unit, i, family=family, accel_unit=accel_unit)
     return figure_png(fig)
+
+
+def quantity_axes(unit: UnitGrade, quantity: Quantity) -> list[int]:
+    """Indices of a unit's rate axes, or of its accelerometer axes."""
+    return [i for i, a in enumerate(unit.axes)
+            if (a.analysis.accel is not None) == (quantity == "acceleration")]

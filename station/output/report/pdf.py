@@ -37,6 +37,7 @@ from station.output.report.panels import (  # noqa: E402
     draw_davar,
     has_accel,
     placeholder,
+    quantity_axes,
 )
 from station.output.report.plateau_sheet import (  # noqa: E402
     draw_plateaus,
@@ -294,10 +295,15 @@ def accel_page(graded: RunGrade, unit: UnitGrade, title: str) -> Figure:
     (:func:`accel_plot_unit`); their figures and limits are in the sheet's table."""
     fig = plt.figure(figsize=A4_IN)
     fig.text(0.06, 0.972, f"{title}: accelerometers", fontsize=12, weight="bold", va="top")
+    accel_unit = accel_plot_unit(graded.profile)
     ax = fig.add_axes((0.1, 0.5, 0.84, 0.42))
-    draw_allan(ax, unit.axes, fontsize=8, quantity="acceleration",
-               accel_unit=accel_plot_unit(graded.profile))
+    draw_allan(ax, unit.axes, fontsize=8, quantity="acceleration", accel_unit=accel_unit)
     ax.set_title(ALLAN_TITLES["acceleration"], fontsize=9)
+    shown = quantity_axes(unit, "acceleration")
+    width = 0.84 / max(len(shown), 1)
+    for k, i in enumerate(shown):
+        dax = fig.add_axes((0.1 + k * width, DAVAR_BOTTOM + 0.1, width * 0.68, 0.18))
+        draw_davar(dax, unit, i, fontsize=6.5, accel_unit=accel_unit)
     return fig
 
 
