@@ -165,9 +165,16 @@ def analyze(request: AnalyzeRequest,
                  family=request.output_units)
         if accel and not gmwm:
             png = accel_png_path(request.png) if drawn else request.png
-            plot_allan(accel, png, title=f"{request.source.file}: accelerometers")
+            accel_unit = "m/s^2"
+            if request.source.profile is not None:  # in the unit it grades them in
+                from station.model.profiles import load_profile
+                from station.output.report.panels import accel_plot_unit
+
+                accel_unit = accel_plot_unit(load_profile(request.source.profile))
+            plot_allan(accel, png, title=f"{request.source.file}: accelerometers",
+                       accel_unit=accel_unit)
             if drawn:
-                notes += (f"accelerometer axes are drawn in m/s^2 in {png}",)
+                notes += (f"accelerometer axes are drawn in {accel_unit} in {png}",)
         elif accel:
             notes += ("accelerometer axes are not drawn in the wavelet PNG (their curve is in "
                       "--csv's <stem>_accel.csv and --json, in m/s^2)",)
