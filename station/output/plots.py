@@ -274,10 +274,10 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
 
 
 def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> None:
-    """One axis' Haar wavelet variance ((deg/h)^2, or (rad/s)^2 in the rad ``family``) with
-    its interval, the GMWM model (solid, its terms dotted) and the Allan fit's curve as a
-    wavelet variance (dashed, AVAR / 2).
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> None:
+    """One axis' Haar wavelet variance ((deg/h)^2, or (rad/s)^2 in the rad ``family``; an
+    accelerometer axis in ``accel_unit`` squared) with its interval, the GMWM model (solid,
+    its terms dotted) and the Allan fit's curve as a wavelet variance (dashed, AVAR / 2).
 
     Raises
     ------
@@ -287,7 +287,11 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
     g = a.gmwm
     if g is None:
         raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
-    k2 = (S_PER_H * family.factor("deg/h")) ** 2  # (deg/s)^2 -> the unit drawn
+    if a.accel is not None:  # its series is in m/s^2
+        k, unit = ACCEL_PLOT_UNITS[accel_unit], accel_unit
+    else:
+        k, unit = S_PER_H * family.factor("deg/h"), family.label("deg/h")
+    k2 = k**2  # the series' unit squared -> the unit drawn
     w, fit = g.wavelet, g.best
     tau = w.tau_s
     ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
@@ -305,7 +309,7 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
               label=f"Allan fit ({a.fit.method}) as AVAR/2")
     ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
     ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
-    ax.set_ylabel(f"Haar wavelet variance [({family.label('deg/h')})^2]", fontsize=fontsize + 1)
+    ax.set_ylabel(f"Haar wavelet variance [({unit})^2]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(f"{title} {a.name}".strip(), fontsize=fontsize + 1)
@@ -313,17 +317,18 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
 
 
 def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> Path:
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Path:
     """:func:`wavelet_figure` into a PNG at ``path``."""
-    return _save(wavelet_figure(axes, title=title, family=family), Path(path))
+    return _save(wavelet_figure(axes, title=title, family=family, accel_unit=accel_unit),
+                 Path(path))
 
 
 def wavelet_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
-                   family: UnitFamily = DEG_FAMILY) -> Figure:
-    """:func:`draw_wavelet` of each axis, one panel each."""
+                   family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Figure:
+    """:func:`draw_wavelet` of each axis, one panel each (each in its own unit)."""
     n = len(axes)
     fig, panels = plt.subplots(n, 1, figsize=(8, 4.6 * n), dpi=110, squeeze=False)
     for ax, a in zip(panels[:, 0], axes, strict=True):
-        draw_wavelet(ax, a, title=title, family=family)
+        draw_wavelet(ax, a, title=title, family=family, accel_unit=accel_unit)
     fig.tight_layout()
     return fig

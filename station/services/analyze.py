@@ -163,7 +163,7 @@ def analyze(request: AnalyzeRequest,
         if drawn:
             plot(drawn, request.png, title=str(request.source.file),
                  family=request.output_units)
-        if accel and not gmwm:
+        if accel:
             png = accel_png_path(request.png) if drawn else request.png
             accel_unit = "m/s^2"
             if request.source.profile is not None:  # in the unit it grades them in
@@ -171,13 +171,10 @@ def analyze(request: AnalyzeRequest,
                 from station.output.report.panels import accel_plot_unit
 
                 accel_unit = accel_plot_unit(load_profile(request.source.profile))
-            plot_allan(accel, png, title=f"{request.source.file}: accelerometers",
-                       accel_unit=accel_unit)
+            plot(accel, png, title=f"{request.source.file}: accelerometers",
+                 accel_unit=accel_unit)
             if drawn:
                 notes += (f"accelerometer axes are drawn in {accel_unit} in {png}",)
-        elif accel:
-            notes += ("accelerometer axes are not drawn in the wavelet PNG (their curve is in "
-                      "--csv's <stem>_accel.csv and --json, in m/s^2)",)
     if request.csv is not None:
         from station.output.curve_csv import write_curve_csv
 
