@@ -13,8 +13,8 @@ import pytest
 
 from analysis.units import STANDARD_GRAVITY_M_S2
 from station.cli import main
-from station.evaluation.analyze import analyze_record
-from station.output.plots import allan_figure
+from station.evaluation.analyze import analyze_rates, analyze_record
+from station.output.plots import allan_figure, wavelet_figure
 from station.storage.csv_records import read_csv_record, write_csv_record
 
 RATE_HZ = 10.0
@@ -33,9 +33,10 @@ def imu_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_the_allan_plot_draws_accelerometers_in_their_own_units(imu_csv: Path) -> None:
-    axes = analyze_record(read_csv_record(imu_csv))
-    accel = [a for a in axes if a.accel is not None]
-    assert [a.name for a in accel] == ["accel_x", "accel_y", "accel_z"]
+    record = read_csv_record(imu_csv)
+    assert record.accel_axis_names == ("accel_x", "accel_y", "accel_z")
+    accel = analyze_record(record.select("accel_x"))
+    assert [(a.name, a.accel is not None) for a in accel] == [("accel_x", True)]
     for unit, factor in (("m/s^2", 1.0), ("mg", 1e3 / STANDARD_GRAVITY_M_S2)):
         fig = allan_figure(accel[:1], accel_unit=unit)
         ax = fig.axes[0]
@@ -43,7 +44,15 @@ def test_the_allan_plot_draws_accelerometers_in_their_own_units(imu_csv: Path) -
         first = ax.lines[0].get_ydata()[0]  # the deviation at the shortest tau
         assert first == pytest.approx(VRW_M_S2_PER_SAMPLE * factor, rel=0.1)
     with pytest.raises(ValueError, match="separate Allan plots"):
-        allan_figure([axes[0], accel[0]])
+        allan_figure([*analyze_rates(record.select("x")), accel[0]])
+
+
+def test_the_wavelet_plot_draws_an_accelerometer_in_its_unit_squared(imu_csv: Path) -> None:
+    (gmwm,) = analyze_record(read_csv_record(imu_csv).select("accel_x"), method="gmwm")
+    ax = wavelet_figure([gmwm], accel_unit="ug").axes[0]
+    assert ax.get_ylabel().endswith("[(ug)^2]")
+    assert ax.lines[0].get_ydata()[0] == pytest.approx(
+        (VRW_M_S2_PER_SAMPLE * 1e6 / STANDARD_GRAVITY_M_S2) ** 2 / 2, rel=0.3)  # WV = AVAR/2
 
 
 def test_analyze_png_writes_the_accelerometers_beside_the_rates(imu_csv: Path,
