@@ -5,7 +5,8 @@ switch applied."""
 from __future__ import annotations
 
 import tomllib
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import Any, Protocol, Self, TypeVar
 
 from devices.codecs.can_frame import (
     PER_AXIS_IMU_LAYOUT,
@@ -33,6 +34,44 @@ def _profile_table(name: str, key: str) -> dict[str, Any]:
                                        f"no [{key}] table in such a file ({exc})") from exc
 
 
+class _Layout(Protocol):
+    """What a CAN layout and a Modbus map share here: their accelerometer fields."""
+
+    @property
+    def accel(self) -> tuple[object, ...]: ...
+
+    def without_accel(self) -> Self: ...
+
+
+L = TypeVar("L", bound=_Layout)
+
+#: Built-in CAN layouts by name: a gyro's, and an IMU's (with accelerometers).
+CAN_LAYOUTS: dict[str, CanFrameLayout] = {
+    "shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT,
+    "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT}
+#: Built-in Modbus register maps by name: a gyro's, and an IMU's.
+MODBUS_MAPS: dict[str, ModbusRegisterMap] = {
+    "int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP,
+    "int32_imu": IMU_INT32_MAP, "float32_imu": IMU_FLOAT32_MAP}
+
+
+def _named(name: str, builtin: Mapping[str, L], parse: Callable[[Mapping[str, Any]], L],
+           key: str, what: str, accel: bool | None, imu_hint: str) -> L:
+    """A built-in layout by name, else the ``[key]`` table of the profile file ``name``;
+    ``accel`` applied (see :func:`can_layout`)."""
+    if name in builtin:
+        layout = builtin[name]
+    else:
+        try:
+            layout = parse(_profile_table(name, key))
+        except ValueError as exc:
+            raise DeviceConfigurationError(f"{what} {name!r}: {exc}") from exc
+    if accel and not layout.accel:
+        raise DeviceConfigurationError(
+            f"accel=1: {what} {name!r} carries no accelerometers ({imu_hint} do)")
+    return layout.without_accel() if accel is False else layout
+
+
 def can_layout(name: str, accel: bool | None = None) -> CanFrameLayout:
     """A frame layout by name (``shared``, ``per_axis``; an IMU's ``shared_imu``,
     ``per_axis_imu``) or from a profile TOML's ``[can]``.
@@ -47,20 +86,8 @@ def can_layout(name: str, accel: bool | None = None) -> CanFrameLayout:
         Unknown name, unreadable file, a file without a valid ``[can]`` table, or
         ``accel=1`` with a layout that carries no accelerometers.
     """
-    builtin = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT,
-               "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT}
-    if name in builtin:
-        layout = builtin[name]
-    else:
-        try:
-            layout = CanFrameLayout.from_table(_profile_table(name, "can"))
-        except ValueError as exc:
-            raise DeviceConfigurationError(f"CAN layout {name!r}: {exc}") from exc
-    if accel and not layout.accel:
-        raise DeviceConfigurationError(
-            f"accel=1: CAN layout {name!r} carries no accelerometers (layout=shared_imu, "
-            f"per_axis_imu or a [[can.accel]] table do)")
-    return layout.without_accel() if accel is False else layout
+    return _named(name, CAN_LAYOUTS, CanFrameLayout.from_table, "can", "CAN layout", accel,
+                  "layout=shared_imu, per_axis_imu or a [[can.accel]] table")
 
 
 def register_map(name: str, accel: bool | None = None) -> ModbusRegisterMap:
@@ -72,17 +99,5 @@ def register_map(name: str, accel: bool | None = None) -> ModbusRegisterMap:
     DeviceConfigurationError
         Unknown name, bad table, or ``accel=1`` with a map without accelerometers.
     """
-    builtin = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP,
-               "int32_imu": IMU_INT32_MAP, "float32_imu": IMU_FLOAT32_MAP}
-    if name in builtin:
-        regs = builtin[name]
-    else:
-        try:
-            regs = ModbusRegisterMap.from_table(_profile_table(name, "modbus"))
-        except ValueError as exc:
-            raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
-    if accel and not regs.accel:
-        raise DeviceConfigurationError(
-            f"accel=1: Modbus map {name!r} carries no accelerometers (map=int32_imu, "
-            f"float32_imu or a [[modbus.accel]] table do)")
-    return regs.without_accel() if accel is False else regs
+    return _named(name, MODBUS_MAPS, ModbusRegisterMap.from_table, "modbus", "Modbus map",
+                  accel, "map=int32_imu, float32_imu or a [[modbus.accel]] table")
