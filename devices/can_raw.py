@@ -1,4 +1,5 @@
-"""Adapter for gyros that broadcast rates in periodic raw CAN frames."""
+"""Adapter for gyros (and IMUs) that broadcast rates (and accelerations) in periodic raw
+CAN frames."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from devices.batching import BatchBuilder, BusClock
 from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
 from devices.errors import CodecError, CrcError, DeviceDisconnectedError
 from devices.gaps import CounterTracker
-from devices.protocols import DeviceDescription, SampleBatch
+from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.transports.can import CanLink
 
 
@@ -68,13 +69,15 @@ class CanRateSource:
             model=model, serial_number=serial_number, protocol="can", transport="can",
             axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
             has_counter=True, counter_modulus=layout.counter_modulus, has_device_time=False,
-            has_temperature=has_temp, settings=transport.settings)
+            has_temperature=has_temp, settings=transport.settings,
+            accel_axes=ACCEL_AXIS_NAMES[:layout.n_accel_axes])
         self._builder = BatchBuilder(
             len(layout.axes), CounterTracker(layout.counter_modulus, sample_rate_hz,
                                              timing_uncertainty_s=max_latency_s),
             has_device_time=False, has_temperature=has_temp,
             # (a 4-bit counter goes round too often for its order to say anything)
-            check_continuity=layout.counter_modulus >= 64)
+            check_continuity=layout.counter_modulus >= 64,
+            n_accel_axes=layout.n_accel_axes, accel_limit_m_s2=layout.accel_range_m_s2)
         self._ids = set(layout.arbitration_ids)
         self._pending: dict[int, dict[int, CanFrameValues]] = {}
         self._lost = False
@@ -165,3 +168,9 @@ class CanRateSource:
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
         self._builder.rate_limit_deg_s = limit_deg_s
+
+    def limit_accel(self, limit_m_s2: float | None) -> None:
+        """Samples whose acceleration exceeds this magnitude (m/s^2, any axis) are bad
+        samples (None: the layout's own range)."""
+        self._builder.accel_limit_m_s2 = (limit_m_s2 if limit_m_s2 is not None
+                                          else self.layout.accel_range_m_s2)

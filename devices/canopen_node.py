@@ -1,4 +1,4 @@
-"""Adapter for a CANopen rate gyro: SDO configuration, NMT start, TPDO reception,
+"""Adapter for a CANopen rate gyro (or IMU): SDO configuration, NMT start, TPDO reception,
 heartbeat supervision (canopen's ``RemoteNode`` over an injected python-can bus)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from devices.batching import BatchBuilder, BusClock
 from devices.codecs.base import Reading
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
-from devices.protocols import DeviceDescription, SampleBatch
+from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.transports.can import CanTransport
 
 COUNTER_MODULUS = 65536
@@ -22,6 +22,12 @@ COUNTER_MODULUS = 65536
 TPDO_MAPPING: tuple[tuple[int, tuple[int, ...]], ...] = (
     (1, (0x2000, 0x2001)),            # rate X, rate Y
     (2, (0x2002, 0x2005, 0x2004)),    # rate Z, sample counter, temperature
+)
+#: (TPDO number, mapped objects) of an IMU's accelerometers, mapped with ``accel``: each
+#: sample's TPDO3 and TPDO4 come before its TPDO2 (which closes the sample).
+ACCEL_TPDO_MAPPING: tuple[tuple[int, tuple[int, ...]], ...] = (
+    (3, (0x2007, 0x2008)),            # accel X, accel Y
+    (4, (0x2009,)),                   # accel Z
 )
 
 
@@ -58,14 +64,18 @@ class CanopenRateSource:
     sync : bool
         Synchronous TPDOs (transmission type 1) driven by a SYNC producer the adapter
         runs at the sample rate, instead of event-timer TPDOs (type 254).
+    accel : bool
+        An IMU: also map TPDO3/TPDO4 (:data:`ACCEL_TPDO_MAPPING`, accelerations times the
+        Accel scale 0x200A in m/s^2 per LSB); a sample then needs all four TPDOs.
     """
 
     def __init__(self, transport: CanTransport, node_id: int, eds: str | Path, *,
                  sample_rate_hz: float, model: str = "CANopen gyro", heartbeat_ms: int = 50,
                  heartbeat_timeout_s: float | None = None,
                  clock: Callable[[], float] = time.monotonic, clock_scale: float = 1.0,
-                 sync: bool = False) -> None:
+                 sync: bool = False, accel: bool = False) -> None:
         self.transport = transport
+        self.accel = accel
         self.node_id = node_id
         self.eds = str(eds)
         self.sample_rate_hz = sample_rate_hz
@@ -79,8 +89,10 @@ class CanopenRateSource:
         self.node: canopen.RemoteNode | None = None
         self._serial = "unknown"
         self._scale = 1.0
+        self._accel_scale = 1.0
         self._queue: queue.SimpleQueue[tuple[int, tuple[int, ...], float]] = queue.SimpleQueue()
-        self._tpdo1_since: list[tuple[int, ...]] = []
+        #: TPDO1 (and an IMU's TPDO3, TPDO4) values since the last TPDO2, by TPDO number.
+        self._since: dict[int, list[tuple[int, ...]]] = {1: [], 3: [], 4: []}
         self._last_counter: int | None = None
         self._last_heartbeat = 0.0
         self._lost = False
@@ -90,7 +102,12 @@ class CanopenRateSource:
         self._builder = BatchBuilder(
             3, CounterTracker(COUNTER_MODULUS, sample_rate_hz,
                               timing_uncertainty_s=0.05 * clock_scale),
-            has_device_time=False, has_temperature=True)
+            has_device_time=False, has_temperature=True, n_accel_axes=3 if accel else 0)
+
+    @property
+    def mapping(self) -> tuple[tuple[int, tuple[int, ...]], ...]:
+        """The TPDOs this adapter maps: a gyro's two, and an IMU's accelerometer two."""
+        return TPDO_MAPPING + (ACCEL_TPDO_MAPPING if self.accel else ())
 
     def describe(self) -> DeviceDescription:
         return DeviceDescription(
@@ -99,7 +116,8 @@ class CanopenRateSource:
             has_counter=True, counter_modulus=COUNTER_MODULUS, has_device_time=False,
             has_temperature=True,
             settings=(*self.transport.settings, ("node_id", str(self.node_id)),
-                      ("eds", Path(self.eds).name)))
+                      ("eds", Path(self.eds).name)),
+            accel_axes=ACCEL_AXIS_NAMES if self.accel else ())
 
     # -- connection --------------------------------------------------------------------
     def open(self) -> None:
@@ -148,8 +166,10 @@ class CanopenRateSource:
         node.sdo[0x2006].raw = round(self.sample_rate_hz)
         self._scale = float(node.sdo[0x2003].raw)
         self._serial = str(node.sdo[0x1018][4].raw)
+        if self.accel:
+            self._accel_scale = float(node.sdo[0x200A].raw)
         node.tpdo.read()
-        for number, objects in TPDO_MAPPING:
+        for number, objects in self.mapping:
             pdo = node.tpdo[number]
             pdo.clear()
             for index in objects:
@@ -158,7 +178,7 @@ class CanopenRateSource:
             pdo.event_timer = 0 if self.sync else max(1, round(1000.0 / self.sample_rate_hz))
             pdo.enabled = True
         node.tpdo.save()
-        for number, _ in TPDO_MAPPING:
+        for number, _ in self.mapping:
             node.tpdo[number].add_callback(self._on_tpdo)
 
     def close(self) -> None:
@@ -173,7 +193,7 @@ class CanopenRateSource:
         self._last_heartbeat = time.monotonic()
 
     def _on_tpdo(self, pdo: canopen.pdo.PdoMap) -> None:
-        number = 1 if pdo.cob_id == 0x180 + self.node_id else 2
+        number = ((pdo.cob_id or 0) - self.node_id) // 0x100  # 0x180 + node: TPDO1 .. 0x480: 4
         self._queue.put((number, tuple(int(v.raw) for v in pdo.map), pdo.timestamp or 0.0))
 
     # -- reading -------------------------------------------------------------------------
@@ -214,20 +234,31 @@ class CanopenRateSource:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
         self._builder.rate_limit_deg_s = limit_deg_s
 
+    def limit_accel(self, limit_m_s2: float | None) -> None:
+        """Samples whose acceleration exceeds this magnitude (m/s^2, any axis) are bad
+        samples (the product profile's accelerometer range; None: no limit)."""
+        self._builder.accel_limit_m_s2 = limit_m_s2
+
     def _take(self, number: int, values: tuple[int, ...], stamp: float) -> None:
-        if number == 1:
-            self._tpdo1_since.append(values)
+        if number != 2:
+            self._since.setdefault(number, []).append(values)
             return
         z, counter, temp = values
-        since, self._tpdo1_since = self._tpdo1_since, []
+        since, self._since = self._since, {1: [], 3: [], 4: []}
         advance = (
             1 if self._last_counter is None else (counter - self._last_counter) % COUNTER_MODULUS
         )
         self._last_counter = counter
-        if not since or len(since) != advance:
+        needed = (1, 3, 4) if self.accel else (1,)
+        if any(len(since[n]) != advance for n in needed):
             return  # ambiguous or incomplete sample: dropped, counted as a gap
-        first = since[-1]
+        first = since[1][-1]
+        accel = None
+        if self.accel:
+            a = self._accel_scale
+            accel = (since[3][-1][0] * a, since[3][-1][1] * a, since[4][-1][0] * a)
         now = self.clock()
         sent = self._bus_clock(stamp)
         self._builder.add(Reading((first[0] * self._scale, first[1] * self._scale,
-                                   z * self._scale), counter, 0, None, temp / 100.0), now, sent)
+                                   z * self._scale), counter, 0, None, temp / 100.0, accel),
+                          now, sent)

@@ -10,7 +10,7 @@ from devices.batching import BatchBuilder
 from devices.codecs.modbus_map import ModbusRegisterMap, RegisterField
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
-from devices.protocols import DeviceDescription, SampleBatch
+from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.transports.modbus import ModbusTransport
 
 
@@ -61,13 +61,15 @@ class ModbusRateSource:
             sample_rate_hz=sample_rate_hz, has_counter=True,
             counter_modulus=register_map.counter_modulus, has_device_time=False,
             has_temperature=has_temp,
-            settings=(*transport.settings, ("device_id", str(device_id))))
+            settings=(*transport.settings, ("device_id", str(device_id))),
+            accel_axes=ACCEL_AXIS_NAMES[:register_map.n_accel_axes])
         # A poll sees a sample up to one poll period after the device produced it.
         self._builder = BatchBuilder(
             len(register_map.axes), CounterTracker(
                 register_map.counter_modulus, sample_rate_hz,
                 timing_uncertainty_s=(self._poll_wall_s + 0.05) * clock_scale),
-            has_device_time=False, has_temperature=has_temp)
+            has_device_time=False, has_temperature=has_temp,
+            n_accel_axes=register_map.n_accel_axes)
         self._last_counter: int | None = None
         self._connected = False
         self._ever = False
@@ -122,6 +124,11 @@ class ModbusRateSource:
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""
         self._builder.rate_limit_deg_s = limit_deg_s
+
+    def limit_accel(self, limit_m_s2: float | None) -> None:
+        """Samples whose acceleration exceeds this magnitude (m/s^2, any axis) are bad
+        samples (the product profile's accelerometer range; None: no limit)."""
+        self._builder.accel_limit_m_s2 = limit_m_s2
 
 
 class ModbusEnvironmentChannel:

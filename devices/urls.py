@@ -12,7 +12,6 @@ the noise model; the query keys of every simulation are those of :class:`SimPara
 
 from __future__ import annotations
 
-import tomllib
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,12 +20,13 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 
+from devices.bus_layouts import can_layout, register_map
 from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
 from devices.codecs.base import StreamCodec
-from devices.codecs.can_frame import PER_AXIS_LAYOUT, SHARED_LAYOUT, CanFrameLayout
+from devices.codecs.can_frame import CanFrameLayout
 from devices.codecs.kvh1750 import HEADER as KVH_HEADER, Kvh1750Codec
-from devices.codecs.modbus_map import GYRO_FLOAT32_MAP, GYRO_INT32_MAP, ModbusRegisterMap
+from devices.codecs.modbus_map import ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.errors import CodecError, DeviceConfigurationError
@@ -176,60 +176,17 @@ def _open_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 
 # -- raw CAN -------------------------------------------------------------------------
 
-def _profile_table(name: str, key: str) -> dict[str, Any]:
-    try:
-        with open(name, "rb") as fh:
-            return dict(tomllib.load(fh)[key])
-    except (OSError, KeyError, tomllib.TOMLDecodeError) as exc:
-        raise DeviceConfigurationError(f"{key} layout {name!r}: not a built-in name, and "
-                                       f"no [{key}] table in such a file ({exc})") from exc
-
-
-def can_layout(name: str) -> CanFrameLayout:
-    """A frame layout by name (``shared``, ``per_axis``) or from a profile TOML's ``[can]``.
-
-    Raises
-    ------
-    DeviceConfigurationError
-        Unknown name, unreadable file, or a file without a valid ``[can]`` table.
-    """
-    builtin = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT}
-    if name in builtin:
-        return builtin[name]
-    try:
-        return CanFrameLayout.from_table(_profile_table(name, "can"))
-    except ValueError as exc:
-        raise DeviceConfigurationError(f"CAN layout {name!r}: {exc}") from exc
-
-
-def register_map(name: str) -> ModbusRegisterMap:
-    """A register map by name (``int32``, ``float32``) or from a profile's ``[modbus]``.
-
-    Raises
-    ------
-    DeviceConfigurationError
-        Unknown name or bad table.
-    """
-    builtin = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP}
-    if name in builtin:
-        return builtin[name]
-    try:
-        return ModbusRegisterMap.from_table(_profile_table(name, "modbus"))
-    except ValueError as exc:
-        raise DeviceConfigurationError(f"Modbus map {name!r}: {exc}") from exc
-
-
 def _start_can_broadcast(params: SimParams, layout: CanFrameLayout, bus: MulticastChannel,
                          clock: WarpClock) -> CanBroadcastDevice:
     """Run in a simulator process: a raw-CAN gyro on a ``udp_multicast`` bus."""
-    core, _ = sim_core(params, len(layout.axes), clock)
+    core, _ = sim_core(params, len(layout.axes), clock, n_accel_axes=layout.n_accel_axes)
     return CanBroadcastDevice(bus.transport(), layout, core).start()
 
 
-def _start_canopen_node(params: SimParams, node_id: int, bus: MulticastChannel,
+def _start_canopen_node(params: SimParams, node_id: int, accel: bool, bus: MulticastChannel,
                         clock: WarpClock) -> CanopenGyroNode:
-    """Run in a simulator process: a CANopen gyro node on a ``udp_multicast`` bus."""
-    core, _ = sim_core(params, 3, clock)
+    """Run in a simulator process: a CANopen gyro (or IMU) node on a ``udp_multicast`` bus."""
+    core, _ = sim_core(params, 3, clock, n_accel_axes=3 if accel else 0)
     return CanopenGyroNode(bus.transport(), core, node_id=node_id,
                            serial_number=params.seed or 1).start()
 
@@ -275,7 +232,7 @@ def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
 
 
 def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
-    layout = can_layout(query.get("layout", "shared"))
+    layout = can_layout(query.get("layout", "shared"), accel_switch(query))
     params = parse_sim_params(query.get("model", host), query)
     simulator: Simulator
     multicast = _sim_bus(query) == "udp_multicast"
@@ -288,7 +245,7 @@ def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
                               port=str(bus.port))
     else:
         reach = None
-        core, clock = sim_core(params, len(layout.axes))
+        core, clock = sim_core(params, len(layout.axes), n_accel_axes=layout.n_accel_axes)
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         simulator = CanBroadcastDevice(
             CanTransport("virtual", channel, preserve_timestamps=True), layout, core,
@@ -307,7 +264,7 @@ def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 
 
 def _open_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
-    layout = can_layout(query.get("layout", "shared"))
+    layout = can_layout(query.get("layout", "shared"), accel_switch(query))
     rate = query_number("rate", query.get("rate", "1000"), float)
     transport = CanTransport(query.get("interface", "socketcan"), host or path.strip("/"),
                              loopback_only=_loopback_only(query), **_can_bus_kwargs(query))
@@ -328,10 +285,11 @@ def _canopen_node(path: str, query: dict[str, str]) -> tuple[int, bool]:
 
 def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     node_id, sync = _canopen_node(path, query)
+    accel = bool(accel_switch(query))  # (the node's TPDO3/4 are off until mapped: accel=1)
     params = parse_sim_params(query.get("model", host), query)
     simulator: Simulator
     if _sim_bus(query) == "udp_multicast":
-        simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id,
+        simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id, accel,
                                                    describe=f"CANopen node {node_id}",
                                                    loopback=_loopback_only(query))
         transport = bus.transport()
@@ -339,14 +297,14 @@ def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevi
                               interface="udp_multicast", port=str(bus.port))
     else:
         reach = None
-        core, clock = sim_core(params, 3)
+        core, clock = sim_core(params, 3, n_accel_axes=3 if accel else 0)
         channel = f"gyro-sim-{uuid.uuid4().hex[:12]}"
         simulator = CanopenGyroNode(CanTransport("virtual", channel), core,
                                     node_id=node_id, serial_number=params.seed or 1).start()
         transport = CanTransport("virtual", channel)
     source = CanopenRateSource(transport, node_id, GYRO_EDS, sample_rate_hz=params.rate,
                                model=_unit_model(host, params), clock=clock,
-                               clock_scale=params.warp, sync=sync)
+                               clock_scale=params.warp, sync=sync, accel=accel)
     return SimulatedDevice(source, hardware_url=reach, simulator=simulator)
 
 
@@ -357,7 +315,7 @@ def _open_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     rate = query_number("rate", query.get("rate", "100"), float)
     source = CanopenRateSource(transport, node_id, query.get("eds", str(GYRO_EDS)),
                                sample_rate_hz=rate, model=query.get("model", "CANopen gyro"),
-                               sync=sync)
+                               sync=sync, accel=bool(accel_switch(query)))
     return OpenedDevice(source)
 
 
@@ -366,7 +324,7 @@ def _open_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
 def _modbus_setup(query: dict[str, str]) -> tuple[ModbusRegisterMap, float]:
     """(register map, oversampling factor) of a Modbus URL."""
     _no_capture(query, "Modbus (pymodbus drives the link itself)")
-    return (register_map(query.get("map", "int32")),
+    return (register_map(query.get("map", "int32"), accel_switch(query)),
             query_number("oversample", query.get("oversample", "2"), float))
 
 
@@ -374,7 +332,7 @@ def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool
                      ) -> OpenedDevice:
     regs, oversample = _modbus_setup(query)
     params = parse_sim_params(query.get("model", host), query)
-    core, clock = sim_core(params, len(regs.axes))
+    core, clock = sim_core(params, len(regs.axes), n_accel_axes=regs.n_accel_axes)
     server = ModbusGyroServer(regs, core, rtu=rtu).start()
     transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
                  else ModbusTransport("tcp", "127.0.0.1", port=server.port))
@@ -435,7 +393,8 @@ def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
                                   serial_number=name, sample_rate_hz=rate, clock=unit_clock,
                                   clock_scale=warp)
     elif isinstance(transport, ReplayCanTransport) and parts.scheme == "can":
-        source = CanRateSource(transport, can_layout(keys.get("layout", "shared")),
+        source = CanRateSource(transport, can_layout(keys.get("layout", "shared"),
+                                                     accel_switch(keys)),
                                model=keys.get("model", "CAN gyro"), serial_number=name,
                                sample_rate_hz=rate, clock=unit_clock, clock_scale=warp)
     else:
@@ -476,15 +435,18 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       "serial:///dev/ttyUSB0?protocol=xbus&rate=400"),
     SupportedProtocol("can", "can", "sim+can://VG951?layout=shared&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "raw CAN broadcast, configurable layout, CRC-8 SAE J1850 + counter",
+                      "raw CAN broadcast, configurable layout (an IMU: layout=shared_imu), "
+                      "CRC-8 SAE J1850 + counter",
                       "can://can0?interface=socketcan&layout=PROFILE.toml&rate=1000"),
     SupportedProtocol("canopen", "canopen", "sim+canopen://VG951/5?"
                       + _SIM_QUERY.format(rate=100, warp=4),
-                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2, heartbeat",
+                      "CANopen node (shipped EDS): SDO setup, NMT, TPDO1/2 (an IMU: accel=1 "
+                      "maps TPDO3/4), heartbeat",
                       "canopen://can0/5?rate=100&eds=FILE.eds"),
     SupportedProtocol("modbus", "modbus+tcp", "sim+modbus+tcp://VG951?map=int32&"
                       + _SIM_QUERY.format(rate=50, warp=4),
-                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32)",
+                      "register-map gyro polled over Modbus TCP (INT32/FLOAT32; an IMU: "
+                      "map=int32_imu)",
                       "modbus+tcp://10.0.0.7:502/1?map=int32&rate=100"),
     SupportedProtocol("modbus", "modbus+rtu", "sim+modbus+rtu://VG951?map=float32&"
                       + _SIM_QUERY.format(rate=20, warp=2),
@@ -501,13 +463,13 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
         return base | own | {"protocol", "capture"} | (set() if simulate else {"baud"})
     if transport == "can":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS
-        return base | bus | {"layout", "capture"}
+        return base | bus | {"layout", "capture", "accel"}
     if transport == "canopen":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS | {"eds"}
-        return base | bus | {"node", "tpdo", "capture"}
+        return base | bus | {"node", "tpdo", "capture", "accel"}
     if transport in ("modbus+tcp", "modbus+rtu"):
         link = {"unit", "port" if transport == "modbus+tcp" else "baud"}
-        return base | {"map", "oversample", "capture"} | (set() if simulate else link)
+        return base | {"map", "oversample", "capture", "accel"} | (set() if simulate else link)
     return frozenset({"realtime"})  # replay://FILE
 
 

@@ -14,7 +14,8 @@ from analysis.noise import flicker_rate_noise, white_rate_noise
 from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from station.cli import main
 from station.evaluation.reproduce import reproduce_lv2015
-from station.storage.csv_records import write_csv_record
+from station.storage.csv_records import read_csv_record, write_csv_record
+from station.storage.hdf5 import read_run_record
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
@@ -164,7 +165,18 @@ def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
     assert axis["figures"]["arw_rad_s_rt_hz"] > 0 and "adev_rad_s" in axis and "adev" not in axis
     assert doc["true"]["N_rad_s_rt_hz"] == pytest.approx(7.636e-3 * np.pi / 180 / 60)
     assert (tmp_path / "demo-allan.png").stat().st_size > 10_000
-    assert main(["analyze", str(tmp_path / "demo-record.csv.gz"), "--json"]) == 0
+    # both halves: the accelerometers' figures (SI whatever --output-units) beside the gyros'
+    accel = {a["name"]: a for a in unit["axes"] if a["quantity"] == "acceleration"}
+    assert sorted(accel) == ["accel_x", "accel_y", "accel_z"]
+    true_vrw = doc["true"]["accel"]["vrw_m_s_rt_h"]
+    assert accel["accel_x"]["figures"]["vrw_m_s_rt_h"] == pytest.approx(true_vrw, rel=0.2)
+    assert (tmp_path / "demo-allan-accel.png").stat().st_size > 10_000
+    assert doc["files"]["accel_png"] == str(tmp_path / "demo-allan-accel.png")
+    csv_record = read_csv_record(tmp_path / "demo-record.csv.gz")  # both halves, read back
+    run_record = read_run_record(doc["run"], "unit1")
+    assert csv_record.accel_axis_names == ("accel_x", "accel_y", "accel_z")
+    assert csv_record.accel_m_s2 is not None and run_record.accel_m_s2 is not None
+    np.testing.assert_allclose(csv_record.accel_m_s2, run_record.accel_m_s2, rtol=1e-12)
     capsys.readouterr()
     assert main(["demo", "--sequence", "--json", "--out", str(tmp_path)]) == 2
     assert "--json is not available with --sequence" in capsys.readouterr().err

@@ -45,8 +45,9 @@ def test_json_interface(record_csv: Path, rate: np.ndarray) -> None:
     out = json.loads(proc.stdout)
     assert list(out) == ["axes"]
     x, y = out["axes"]
-    assert set(x) == {"name", "t_s", "tau_s", "adev", "adev_deg_s", "adev_deg_h", "warmup_end_s",
-                      "stationary"}
+    assert set(x) == {"name", "quantity", "t_s", "tau_s", "adev", "adev_deg_s", "adev_deg_h",
+                      "warmup_end_s", "stationary"}
+    assert x["quantity"] == "rate"
     assert x["adev_deg_s"] == x["adev"]  # the old key stays, in deg/s
     np.testing.assert_allclose(np.array(x["adev_deg_h"]), 3600 * np.array(x["adev"]), rtol=1e-12)
     assert (x["name"], y["name"]) == ("x", "y")

@@ -205,3 +205,27 @@ def test_bench_gravity_is_normal_gravity_on_the_up_component(tmp_path: Path) -> 
     path.write_text('latitude_deg = 45.0\nheight_m = 1e6\n[axes]\nz = "up"\n')
     with pytest.raises(BenchError, match="height_m"):
         load_bench(path)
+
+
+def test_spec_sheets_draw_the_accelerometers_in_the_profiles_unit(imu_csv: Path,
+                                                                   tmp_path: Path) -> None:
+    """The PDF gains a page with the accelerometers' Allan deviation, the HTML a section,
+    both in the mg the ADIS16405 profile gives its accelerometer Allan minimum in."""
+    from station.model.profiles import parse_profile
+    from station.output.report.panels import accel_plot_unit
+    from station.services.grade import GradeRequest, RunSource
+    from station.services.report import ReportRequest, report
+
+    profile = tmp_path / "adis.toml"
+    text = (Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml").read_text()
+    profile.write_text(text.replace("warmup_s = 300.0", "warmup_s = 0.0")
+                       .replace('axes = ["x", "y", "z"]', 'axes = ["z"]'))
+    assert accel_plot_unit(parse_profile(profile.read_text())) == "mg"
+    run = RunSource(imu_csv, rate_hz=100.0, accel_units="g")
+    files = dict(report(ReportRequest(GradeRequest(run, str(profile), store=False),
+                                      formats=("pdf", "html"), out_dir=tmp_path)).files)
+    html = files["html"].read_text()
+    assert "Allan deviation of the accelerometers" in html
+    assert "DAVAR heat map per accelerometer axis" in html
+    pdf = files["pdf"].read_bytes()
+    assert pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") >= 2  # sheet + accel page

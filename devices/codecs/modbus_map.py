@@ -12,7 +12,7 @@ import math
 import operator
 import struct
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, SupportsIndex
 
 from devices.codecs.base import Reading
@@ -114,16 +114,29 @@ class ModbusRegisterMap:
         Temperature, degC per LSB.
     status : RegisterField or None
         Status word (0 = good).
+    accel : tuple of RegisterField
+        Acceleration per accelerometer axis of an IMU, m/s^2 per LSB in ``scale`` (empty:
+        a gyro, or accelerometers left out).
     """
 
     axes: tuple[RegisterField, ...]
     counter: RegisterField
     temperature: RegisterField | None = None
     status: RegisterField | None = None
+    accel: tuple[RegisterField, ...] = ()
 
     def fields(self) -> list[RegisterField]:
-        return [f for f in (*self.axes, self.counter, self.temperature, self.status)
-                if f is not None]
+        return [f for f in (*self.axes, self.counter, self.temperature, self.status,
+                            *self.accel) if f is not None]
+
+    @property
+    def n_accel_axes(self) -> int:
+        """Accelerometer axes each sample carries (0: a gyro's map)."""
+        return len(self.accel)
+
+    def without_accel(self) -> ModbusRegisterMap:
+        """The same map read as a gyro's (its accelerometer registers not read)."""
+        return replace(self, accel=())
 
     @property
     def counter_modulus(self) -> int:
@@ -160,7 +173,8 @@ class ModbusRegisterMap:
             rate_deg_s=tuple(value(a) for a in self.axes),
             counter=int(value(self.counter)),
             status=0 if self.status is None else int(value(self.status)),
-            temperature_c=None if self.temperature is None else value(self.temperature))
+            temperature_c=None if self.temperature is None else value(self.temperature),
+            accel_m_s2=tuple(value(a) for a in self.accel) if self.accel else None)
 
     def encode(self, reading: Reading) -> list[int]:
         """Register block (at :attr:`span`) holding ``reading``."""
@@ -176,6 +190,9 @@ class ModbusRegisterMap:
         put(self.counter, reading.counter % self.counter_modulus)
         put(self.temperature, reading.temperature_c or 0.0)
         put(self.status, reading.status)
+        for f, a in zip(self.accel, reading.accel_m_s2 or (0.0,) * len(self.accel),
+                        strict=True):
+            put(f, a)
         return block
 
     @classmethod
@@ -194,7 +211,8 @@ class ModbusRegisterMap:
             return cls(axes=tuple(RegisterField(**a) for a in table["axes"]),
                        counter=RegisterField(**table["counter"]),
                        temperature=field(table.get("temperature")),
-                       status=field(table.get("status")))
+                       status=field(table.get("status")),
+                       accel=tuple(RegisterField(**a) for a in table.get("accel", ())))
         except (KeyError, TypeError) as exc:
             raise CodecError(f"bad Modbus register table: {exc}") from exc
 
@@ -211,3 +229,13 @@ GYRO_FLOAT32_MAP = ModbusRegisterMap(
     axes=tuple(RegisterField(100 + 2 * i, "float32", 1.0, "little") for i in range(3)),
     counter=RegisterField(106, "uint32", 1.0, "little"),
     temperature=RegisterField(108, "float32", 1.0, "little"))
+
+#: IMU: :data:`GYRO_INT32_MAP` and acceleration X, Y, Z as INT32 (high word first) at
+#: 1e-6 m/s^2 from register 9 (range +-2147 m/s^2).
+IMU_INT32_MAP = replace(GYRO_INT32_MAP,
+                        accel=tuple(RegisterField(9 + 2 * i, "int32", 1e-6) for i in range(3)))
+
+#: IMU: :data:`GYRO_FLOAT32_MAP` and acceleration X, Y, Z as FLOAT32 m/s^2, low word first
+#: (CDAB), from register 110.
+IMU_FLOAT32_MAP = replace(GYRO_FLOAT32_MAP, accel=tuple(
+    RegisterField(110 + 2 * i, "float32", 1.0, "little") for i in range(3)))

@@ -10,7 +10,11 @@ pystim300 driver's ``normal.py``, ``crc.py`` and ``scaling.py``)::
 * rate = value / 2**14 deg/s; temperature = value / 2**8 degC;
 * acceleration (output unit g) = value / 2**19 g for the +-10 g accelerometers,
   / 2**18 g for +-30 g, / 2**16 g for +-80 g (datasheet table 5-27; pystim300
-  ``scaling.py``), converted here to m/s^2 with the standard gravity 9.80665 m/s^2;
+  ``scaling.py``), converted here to m/s^2 with the standard gravity 9.80665 m/s^2.
+  Checked again against a second public reader, geirhovland/stim300 ``stim300_read.py``
+  ("Acc X,Y,Z ... Assumes range 10g --> 2^19 = 524288"), whose README's sample datagram
+  of a unit at rest reads z = 1.0138 g with that divisor (2**20 would halve it to 0.51 g,
+  so 2**-20 g is not the +-10 g LSB);
 * CRC-32/MPEG-2 over ID..latency padded with zero bytes to a multiple of 4 (the padding
   is not transmitted).
 

@@ -1,11 +1,14 @@
-"""A simulated CANopen rate gyro: a canopen ``LocalNode`` built from the shipped EDS.
+"""A simulated CANopen rate gyro (or IMU): a canopen ``LocalNode`` built from the shipped
+EDS.
 
 The node answers SDO, follows NMT, sends heartbeats (0x1017) and, when OPERATIONAL,
 transmits TPDO1 (rate X, Y) and TPDO2 (rate Z, sample counter, temperature) for each
-sample, with whatever mapping the master wrote over SDO: on its own schedule when the
-TPDOs are event-driven (transmission type 254/255), or one sample per SYNC (0x80) when
-they are synchronous (transmission type 1..240). A disconnect unplugs it: no
-heartbeat, no PDO, while it keeps sampling (its counter runs on).
+sample (an IMU whose master enabled TPDO3 and TPDO4 sends its accelerations X, Y and Z
+in them first, at the Accel scale 0x200A), with whatever mapping the master wrote over
+SDO: on its own schedule when the TPDOs are event-driven (transmission type 254/255), or
+one sample per SYNC (0x80) when they are synchronous (transmission type 1..240). A
+disconnect unplugs it: no heartbeat, no PDO, while it keeps sampling (its counter runs
+on).
 
 canopen pitfall: a LocalNode's PDO payload is the PDO map's own copy; values are set
 through ``node.tpdo[n][name].raw``, writing the SDO object would not change what is sent.
@@ -62,6 +65,7 @@ class CanopenGyroNode(DeviceLoop):
         self._remap = threading.Event()
         self._syncs: queue.SimpleQueue[float] = queue.SimpleQueue()
         self._scale = float(self._entry(0x2003).raw)
+        self._accel_scale = float(self._entry(0x200A).raw)
 
     def _entry(self, index: int, subindex: int | None = None) -> SdoVariable:
         """The node's own object-dictionary variable at ``index`` (and ``subindex``)."""
@@ -73,7 +77,7 @@ class CanopenGyroNode(DeviceLoop):
         return entry
 
     def _on_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
-        if 0x1800 <= index <= 0x1A01:
+        if 0x1800 <= index <= 0x1A03:
             self._remap.set()
         if index == 0x2006:
             self._remap.set()
@@ -169,5 +173,8 @@ class CanopenGyroNode(DeviceLoop):
                           "Rate Z": round(r.rate_deg_s[2] / self._scale),
                           "Sample counter": r.counter % 65536,
                           "Temperature": round((r.temperature_c or 0.0) * 100)}
-                self._send(r.counter, values, 1)
-                self._send(r.counter, values, 2)
+                if r.accel_m_s2 is not None:
+                    values |= {f"Accel {c}": round(a / self._accel_scale)
+                               for c, a in zip("XYZ", r.accel_m_s2, strict=True)}
+                for tpdo in (1, 3, 4, 2):  # TPDO2, with the counter, closes the sample
+                    self._send(r.counter, values, tpdo)

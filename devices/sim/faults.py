@@ -20,7 +20,7 @@ import numpy as np
 
 from devices.codecs.base import Reading
 from devices.sim.clock import WarpClock
-from devices.sim.signal import SignalSource
+from devices.sim.signal import SignalChunk, SignalSource
 
 
 @dataclass(frozen=True)
@@ -189,6 +189,8 @@ class SimCore:
         self.faults = faults or FaultConfig()
         self.ledger = Ledger(window=history)
         self._history = RateHistory(history, signal.n_axes)
+        n_accel = 0 if signal.accel is None else signal.accel.n_axes
+        self._accel_history = RateHistory(history, n_accel) if n_accel else None
         self._rng = np.random.default_rng(self.faults.seed)
         self._origin_s = clock()
         self._holds: set[str] = set()
@@ -354,7 +356,7 @@ class SimCore:
         if n <= 0:
             return
         start = self.ledger.generated
-        self._history.extend(start, self.signal.read(n).rate_deg_s)
+        self._keep(start, self.signal.read(n))
         self.ledger.generated += n
         self.ledger.lost_in_outage += n
         if self.ledger.window:
@@ -374,7 +376,7 @@ class SimCore:
             return []
         chunk = self.signal.read(n)
         start = self.ledger.generated
-        self._history.extend(start, chunk.rate_deg_s)
+        self._keep(start, chunk)
         self.ledger.generated += n
         dt = 1.0 / self.sample_rate_hz
         accel = chunk.accel_m_s2
@@ -382,6 +384,28 @@ class SimCore:
                         float(chunk.temperature_c[i]),
                         None if accel is None else tuple(accel[i].tolist()))
                 for i in range(n)]
+
+    def _keep(self, start: int, chunk: SignalChunk) -> None:
+        """Book the rates (and an IMU's accelerations) of samples ``start``... in the
+        history windows."""
+        self._history.extend(start, chunk.rate_deg_s)
+        if self._accel_history is not None and chunk.accel_m_s2 is not None:
+            self._accel_history.extend(start, chunk.accel_m_s2)
+
+    def accel_history(self, indices: np.ndarray | int | None = None) -> np.ndarray:
+        """Accelerations generated (m/s^2) of the given sample indices, or every kept one,
+        of a simulated IMU (the window of :meth:`history`).
+
+        Raises
+        ------
+        IndexError
+            An index outside the kept window.
+        ValueError
+            A gyro's core: it draws no accelerations.
+        """
+        if self._accel_history is None:
+            raise ValueError("this simulated unit draws no accelerations (a gyro, or accel=0)")
+        return self._accel_history.rates(indices)
 
     @property
     def history_start(self) -> int:

@@ -72,8 +72,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_bench_argument(p)
     add_output_options(
         p,
-        png_help="write the plot: Allan deviation; with --method gmwm the wavelet variance "
-        "with the GMWM and the Allan fit's curves",
+        png_help="write the plot: Allan deviation (accelerometer axes beside it in "
+        "<stem>_accel.png, in m/s^2, or the --profile's mg or ug); with --method gmwm the "
+        "wavelet variance with the GMWM and the Allan fit's curves",
         csv_help="write the curve: per axis and tau the deviation, its interval and the "
         "fitted model, in deg/h (rad/s with --output-units rad); no profile or report needed",
         json_help="print one JSON object instead of a table",

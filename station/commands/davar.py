@@ -40,7 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="step between windows in s (default: a tenth of the window)")
     add_output_options(
         p,
-        png_help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad) over "
+        png_help="write a heat map of log10 ADEV (deg/h; rad/s with --output-units rad; "
+        "m/s^2 for accelerometer axes, --axis accel_x) over "
         "time and tau",
         json_help="print one JSON object instead of a summary",
     )
@@ -54,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     family = output_family(args)
     answer = davar(DavarRequest(record_source(args), args.window_s, args.step_s, args.png, family))
     if not print_notes_or_json("davar", answer, args, allow_nan=False):
-        print(format_summary(answer.result, list(answer.verdicts), answer.record, family))
+        print(format_summary(answer.result, list(answer.verdicts), answer.record, family,
+                             accel=answer.quantity == "acceleration"))
         if answer.png is not None:
             print(f"heat map: {answer.png}")
     return 0
@@ -72,9 +74,11 @@ def _verdict_text(verdict: WarmupVerdict) -> str:
 
 
 def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: RateRecord,
-                   family: UnitFamily = DEG_FAMILY) -> str:
-    """Human-readable summary: windows, taus, ADEV spread over time (in ``family``) per axis,
-    verdicts."""
+                   family: UnitFamily = DEG_FAMILY, *, accel: bool = False) -> str:
+    """Human-readable summary: windows, taus, ADEV spread over time (in ``family``; m/s^2
+    for accelerometer axes, ``accel``) per axis, verdicts."""
+    factor, unit = (1.0, "m/s^2") if accel else (S_PER_H * family.factor("deg/h"),
+                                                  family.label("deg/h"))
     lines = [
         f"{record.source}: {record.n_samples} samples at {record.sample_rate_hz:g} Hz "
         f"({record.duration_s:g} s)",
@@ -85,12 +89,12 @@ def format_summary(result: DavarResult, verdicts: list[WarmupVerdict], record: R
     ]
     picks = sorted({0, len(result.tau_s) // 2, len(result.tau_s) - 1})
     for i, (name, verdict) in enumerate(zip(record.axis_names, verdicts, strict=True)):
-        adev = result.axis(i).adev * S_PER_H * family.factor("deg/h")
+        adev = result.axis(i).adev * factor
         lines.append(f"axis {name}:")
         for k in picks:
             col = adev[:, k]
             lines.append(f"  ADEV at tau {result.tau_s[k]:>9.4g} s: min {col.min():.4g}  "
                          f"median {np.median(col):.4g}  max {col.max():.4g} "
-                         f"{family.label('deg/h')} over time")
+                         f"{unit} over time")
         lines.append(f"  {_verdict_text(verdict)}")
     return "\n".join(lines)

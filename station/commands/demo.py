@@ -1,10 +1,13 @@
-"""``station demo``: the main job on simulated gyros, start to finish, in under a minute.
+"""``station demo``: the main job on simulated IMUs, start to finish, in under a minute.
 
-Records a time-warped run of two simulated tactical-grade gyros (the VG951 noise model
-of Lv 2015 table 3) over their real transports (two Xsens Xbus streams, each on its own
-pseudo-terminal, a real tty for pyserial) into an HDF5 run file, exactly as
-``station record`` would, then analyzes each unit as ``station analyze`` would, prints
-the spec figures beside the true values, and writes the Allan deviation plot (PNG).
+Records a time-warped run of two simulated IMUs (tactical-grade gyros of the VG951 noise
+model of Lv 2015 table 3, beside three accelerometers each, with gravity on z) over their
+real transports (two Xsens Xbus streams, each on its own pseudo-terminal, a real tty for
+pyserial) into an HDF5 run file, exactly as ``station record`` would, then analyzes each
+unit as ``station analyze`` would, prints the spec figures of both halves (gyros, then
+accelerometers: velocity random walk, bias instability, acceleration random walk) beside
+the true values, and writes the record (CSV, both halves) and the Allan deviation plots
+(PNG: the gyros in deg/h, the accelerometers in m/s^2).
 ``--json`` prints what it found as one JSON object instead (``docs/json.md``).
 """
 
@@ -61,6 +64,17 @@ def demo_model() -> str:
 
     path = PROFILE_DIR / "models" / "VG951.toml"
     return str(path) if path.is_file() else "VG951"
+
+
+def demo_accel_true() -> dict[str, float]:
+    """The accelerometer truths of the simulated units (their model's ``[accelerometer]``
+    table, else the generic accelerometer): ``vrw_m_s_rt_h`` (m/s/sqrt(h)),
+    ``bias_instability_ug`` (ug), ``accel_rw_m_s_h1_5`` (m/s/h^1.5)."""
+    from devices.sim.signal import accel_model
+
+    model = accel_model(demo_model())
+    return {"vrw_m_s_rt_h": model.vrw_m_s_rt_h, "bias_instability_ug": model.bias_instability_ug,
+            "accel_rw_m_s_h1_5": model.accel_rw_m_s_h1_5}
 
 
 def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
@@ -168,12 +182,14 @@ def _run(args: argparse.Namespace) -> int:
     path = args.out / "demo-run.h5"
     path.unlink(missing_ok=True)
     print(
-        f"recording {args.duration:g} h (simulated, time-warped) of two 3-axis VG951 gyros at "
+        f"recording {args.duration:g} h (simulated, time-warped) of two IMUs (3-axis VG951 "
+        f"gyros, 3 accelerometers) at "
         f"{args.rate:g} Hz over two Xbus serial links into {path} ...",
         file=sys.stderr,
     )
     totals = {t["unit"]: t for t in record_demo_run(args, path)}
     plotted: list[AxisAnalysis] = []
+    plotted_accel: list[AxisAnalysis] = []
     family = output_family(args)
     for unit in ("unit1", "unit2"):
         record = read_run_record(path, unit)
@@ -184,20 +200,29 @@ def _run(args: argparse.Namespace) -> int:
             print(f"{unit} ({record.source})")
             print(format_analysis(axes, family))
         plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
+        plotted_accel.extend(dataclasses.replace(a, name=f"{unit} {a.name}")
+                             for a in axes if a.accel is not None and a.name == "accel_x")
         if unit == "unit1":
             csv_path = write_csv_record(
                 args.out / "demo-record.csv.gz",
                 record.rate_deg_s,
                 record.sample_rate_hz,
                 axis_names=record.axis_names,
-                comment=f"station demo, {record.source}, deg/s",
+                comment=f"station demo, {record.source}, gyros deg/s, accelerometers m/s^2",
                 temperature_c=record.temperature_c,
+                accel_m_s2=record.accel_m_s2,
+                accel_axis_names=record.accel_axis_names,
             )
     true = {"Q": ("urad", "Q_urad"), "N": ("deg/sqrt(h)", "N_deg_rt_h"), "B": ("deg/h", "B_deg_h")}
     if not args.json:
         print(f"\ntrue values (model {Path(demo_model()).name}): " + ", ".join(
             f"{term} {family.value(DEMO_TRUE[term], unit):.4g} {family.label(unit)}"
             for term, (unit, _) in true.items()))
+        accel_true = demo_accel_true()
+        print("true accelerometer values: velocity random walk "
+              f"{accel_true['vrw_m_s_rt_h']:.4g} m/s/sqrt(h), bias instability "
+              f"{accel_true['bias_instability_ug']:.4g} ug, acceleration random walk "
+              f"{accel_true['accel_rw_m_s_h1_5']:.4g} m/s/h^1.5")
     from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
 
     png_path = plot_allan(
@@ -205,13 +230,19 @@ def _run(args: argparse.Namespace) -> int:
         args.out / "demo-allan.png",
         title="station demo: two simulated VG951 gyros, axis x",
     )
+    files = {"run": str(path), "record": str(csv_path), "png": str(png_path)}
+    if plotted_accel:
+        files["accel_png"] = str(plot_allan(
+            plotted_accel, args.out / "demo-allan-accel.png",
+            title="station demo: the two simulated units' accelerometers, axis accel_x"))
     if args.json:
         print_json({"run": str(path), "model": demo_model(), "units": list(totals.values()),
                     "true": {key: DEMO_TRUE[term] for term, (_, key) in true.items()}
-                    | {"bias_deg_h": DEMO_BIAS_DEG_H},
-                    "files": {"run": str(path), "record": str(csv_path), "png": str(png_path)}},
+                    | {"bias_deg_h": DEMO_BIAS_DEG_H, "accel": demo_accel_true()},
+                    "files": files},
                    family)
         return 0
-    print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and {png_path}")
+    print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and "
+          + " and ".join(v for k, v in files.items() if k.endswith("png")))
     print(f"done in {time.monotonic() - t0:.1f} s")
     return 0

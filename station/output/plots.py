@@ -16,7 +16,7 @@ import numpy as np  # noqa: E402
 from analysis.davar import DavarResult  # noqa: E402
 from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
+from analysis.units import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S2, UnitFamily  # noqa: E402
 from analysis.warmup import WarmupVerdict  # noqa: E402
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
@@ -37,6 +37,37 @@ TERM_LABELS = {"Q": "quantization", "N": "angle random walk", "B": "bias instabi
 BAND_HEADROOM = 10.0
 
 
+#: Units an accelerometer axis' deviation may be drawn in: factor from m/s^2 (a time
+#: deviation, m/s, is drawn in m/s whatever the unit).
+ACCEL_PLOT_UNITS = {"m/s^2": 1.0, "mg": 1e3 / STANDARD_GRAVITY_M_S2,
+                    "ug": 1e6 / STANDARD_GRAVITY_M_S2}
+
+
+def drawn_unit(axis: AxisAnalysis, family: UnitFamily, accel_unit: str = "m/s^2"
+               ) -> tuple[str, float, float]:
+    """(unit label, factor of the shown deviation, factor of the Allan deviation and its fit
+    lines) of ``axis``: deg/h (or rad/s in the rad ``family``) for a rate axis, deg (rad) for
+    its time deviation; ``accel_unit`` of :data:`ACCEL_PLOT_UNITS` for an accelerometer axis,
+    m/s for its time deviation.
+
+    Raises
+    ------
+    ValueError
+        ``accel_unit`` not one of :data:`ACCEL_PLOT_UNITS`.
+    """
+    if accel_unit not in ACCEL_PLOT_UNITS:
+        raise ValueError(f"accelerometer plot unit must be one of "
+                         f"{', '.join(ACCEL_PLOT_UNITS)}, got {accel_unit!r}")
+    angle = axis.shown.unit == "angle"
+    if axis.accel is not None:
+        factor = ACCEL_PLOT_UNITS[accel_unit]
+        return ("m/s", 1.0, factor) if angle else (accel_unit, factor, factor)
+    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit drawn
+    if angle:
+        return family.label("deg"), family.factor("deg"), rate
+    return family.label("deg/h"), rate, rate
+
+
 def y_range(low: np.ndarray, values: np.ndarray, high: np.ndarray) -> tuple[float, float]:
     """A log y-range that shows every value and interval, capped :data:`BAND_HEADROOM` above."""
     top = float(np.max(values))
@@ -44,9 +75,10 @@ def y_range(low: np.ndarray, values: np.ndarray, high: np.ndarray) -> tuple[floa
 
 
 def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
-               family: UnitFamily = DEG_FAMILY) -> Path:
+               family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Path:
     """:func:`allan_figure` into a PNG at ``path``."""
-    return _save(allan_figure(axes, title=title, family=family), Path(path))
+    return _save(allan_figure(axes, title=title, family=family, accel_unit=accel_unit),
+                 Path(path))
 
 
 def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
@@ -58,21 +90,30 @@ def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
 
 
 def allan_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> Figure:
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Figure:
     """The deviation of each axis with its confidence band and, on the Allan deviation (deg/h,
-    or rad/s in the rad ``family``), the fitted term lines.
+    or rad/s in the rad ``family``; accelerometer axes in ``accel_unit``: m/s^2, mg or ug),
+    the fitted term lines.
 
     When another deviation than the fit's Allan deviation was chosen, that deviation is
     drawn with its band, the Allan deviation as a thin line, and the fit lines on it (they
-    are the Allan variance's terms); a time deviation (an angle, deg or rad) is drawn alone.
+    are the Allan variance's terms); a time deviation (an angle, deg or rad; m/s for an
+    accelerometer) is drawn alone.
+
+    Raises
+    ------
+    ValueError
+        Rate and accelerometer axes mixed in one figure (their units differ), or an
+        unknown ``accel_unit``.
     """
+    if len({a.accel is None for a in axes}) > 1:
+        raise ValueError("rate and accelerometer axes go in separate Allan plots "
+                         "(deg/h and m/s^2): pass one kind at a time")
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=110)
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     curve0 = axes[0].shown
     angle = curve0.unit == "angle"
-    unit = "deg" if angle else "deg/h"
-    rate = S_PER_H * family.factor("deg/h")  # deg/s -> the rate unit drawn
-    scale = family.factor("deg") if angle else rate
+    unit, scale, rate = drawn_unit(axes[0], family, accel_unit)
     own = curve0.kind == from_allan(axes[0].allan).kind
     label = DEVIATION_LABELS[curve0.kind]
     lows, values, highs = [], [], []
@@ -116,7 +157,7 @@ def allan_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
                 ax.annotate(term, (tau[j], curve[j]), color=c, fontsize=8)
     ax.set_ylim(*y_range(np.concatenate(lows), np.concatenate(values), np.concatenate(highs)))
     ax.set_xlabel("averaging time tau [s]")
-    ax.set_ylabel(f"{label} [{family.label(unit)}]")
+    ax.set_ylabel(f"{label} [{unit}]")
     ax.grid(True, which="both", alpha=0.3)
     default = f"{label}, {curve0.confidence:.3g} band" + (
         "" if angle else ", fitted noise terms (dotted)"
@@ -151,16 +192,20 @@ def heat_map(ax: Axes, t: np.ndarray, tau_s: np.ndarray, values: np.ndarray) -> 
 
 
 def plot_davar(path: Path, result: DavarResult, verdicts: Sequence[WarmupVerdict],
-               record: RateRecord, family: UnitFamily = DEG_FAMILY) -> Path:
+               record: RateRecord, family: UnitFamily = DEG_FAMILY, *,
+               accel: bool = False) -> Path:
     """:func:`davar_figure` into a PNG at ``path``."""
-    return _save(davar_figure(result, verdicts, record, family), Path(path), dpi=110)
+    return _save(davar_figure(result, verdicts, record, family, accel=accel), Path(path),
+                 dpi=110)
 
 
 def davar_figure(result: DavarResult, verdicts: Sequence[WarmupVerdict], record: RateRecord,
-                 family: UnitFamily = DEG_FAMILY) -> Figure:
+                 family: UnitFamily = DEG_FAMILY, *, accel: bool = False) -> Figure:
     """Heat map per axis: time on x, log tau on y, log10 ADEV (deg/h, or rad/s in the rad
-    ``family``) as colour."""
-    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
+    ``family``; m/s^2 for accelerometer axes, ``accel``: ``record`` holds their m/s^2 in
+    the rate's place) as colour."""
+    scale = 1.0 if accel else S_PER_H * family.factor("deg/h")  # the series -> the unit drawn
+    unit = "m/s^2" if accel else family.label("deg/h")
     n_axes = len(record.axis_names)
     fig, axs = plt.subplots(n_axes, 1, figsize=(9, 2.8 * n_axes + 0.6), squeeze=False,
                             sharex=True, constrained_layout=True)
@@ -176,7 +221,7 @@ def davar_figure(result: DavarResult, verdicts: Sequence[WarmupVerdict], record:
             ax.axvline(verdict.warmup_end_s, color="w", ls="--", lw=1.2,
                        label=f"warm-up end {verdict.warmup_end_s:g} s")
             ax.legend(loc="upper right", fontsize=8)
-        fig.colorbar(mesh, ax=ax, label=f"log10 ADEV ({family.label('deg/h')})")
+        fig.colorbar(mesh, ax=ax, label=f"log10 ADEV ({unit})")
     axs[-1, 0].set_xlabel("window centre time since start (s)")
     return fig
 
@@ -229,10 +274,10 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
 
 
 def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> None:
-    """One axis' Haar wavelet variance ((deg/h)^2, or (rad/s)^2 in the rad ``family``) with
-    its interval, the GMWM model (solid, its terms dotted) and the Allan fit's curve as a
-    wavelet variance (dashed, AVAR / 2).
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> None:
+    """One axis' Haar wavelet variance ((deg/h)^2, or (rad/s)^2 in the rad ``family``; an
+    accelerometer axis in ``accel_unit`` squared) with its interval, the GMWM model (solid,
+    its terms dotted) and the Allan fit's curve as a wavelet variance (dashed, AVAR / 2).
 
     Raises
     ------
@@ -242,7 +287,11 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
     g = a.gmwm
     if g is None:
         raise ValueError(f"axis {a.name} has no GMWM result; analyze with method='gmwm'")
-    k2 = (S_PER_H * family.factor("deg/h")) ** 2  # (deg/s)^2 -> the unit drawn
+    if a.accel is not None:  # its series is in m/s^2
+        k, unit = ACCEL_PLOT_UNITS[accel_unit], accel_unit
+    else:
+        k, unit = S_PER_H * family.factor("deg/h"), family.label("deg/h")
+    k2 = k**2  # the series' unit squared -> the unit drawn
     w, fit = g.wavelet, g.best
     tau = w.tau_s
     ax.fill_between(tau, w.ci_low * k2, w.ci_high * k2, color="k", alpha=0.15, lw=0)
@@ -260,7 +309,7 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
               label=f"Allan fit ({a.fit.method}) as AVAR/2")
     ax.set_ylim(float(np.min(w.ci_low)) * k2 / 10, float(np.max(w.ci_high)) * k2 * 3)
     ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
-    ax.set_ylabel(f"Haar wavelet variance [({family.label('deg/h')})^2]", fontsize=fontsize + 1)
+    ax.set_ylabel(f"Haar wavelet variance [({unit})^2]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
     ax.set_title(f"{title} {a.name}".strip(), fontsize=fontsize + 1)
@@ -268,17 +317,18 @@ def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str =
 
 
 def plot_wavelet(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "",
-                 family: UnitFamily = DEG_FAMILY) -> Path:
+                 family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Path:
     """:func:`wavelet_figure` into a PNG at ``path``."""
-    return _save(wavelet_figure(axes, title=title, family=family), Path(path))
+    return _save(wavelet_figure(axes, title=title, family=family, accel_unit=accel_unit),
+                 Path(path))
 
 
 def wavelet_figure(axes: Sequence[AxisAnalysis], *, title: str = "",
-                   family: UnitFamily = DEG_FAMILY) -> Figure:
-    """:func:`draw_wavelet` of each axis, one panel each."""
+                   family: UnitFamily = DEG_FAMILY, accel_unit: str = "m/s^2") -> Figure:
+    """:func:`draw_wavelet` of each axis, one panel each (each in its own unit)."""
     n = len(axes)
     fig, panels = plt.subplots(n, 1, figsize=(8, 4.6 * n), dpi=110, squeeze=False)
     for ax, a in zip(panels[:, 0], axes, strict=True):
-        draw_wavelet(ax, a, title=title, family=family)
+        draw_wavelet(ax, a, title=title, family=family, accel_unit=accel_unit)
     fig.tight_layout()
     return fig

@@ -99,6 +99,12 @@ class AnalyzeResult:
                 "selection": asdict(self.selection)}
 
 
+def accel_png_path(png: Path) -> Path:
+    """Where the accelerometers' Allan plot goes beside the rate axes' ``png``:
+    ``<stem>_accel.png``."""
+    return png.with_name(f"{png.stem}_accel{png.suffix}")
+
+
 def analyze(request: AnalyzeRequest,
             progress: ProgressSink = ignore_progress) -> AnalyzeResult:
     """Read the selected record and analyse every axis (:func:`analyze_record`); draw the
@@ -152,13 +158,23 @@ def analyze(request: AnalyzeRequest,
         )
 
         plot = plot_wavelet if gmwm else plot_allan
-        drawn = [a for a in axes if a.accel is None]  # the plot is in the rate's units
+        drawn = [a for a in axes if a.accel is None]  # a plot is in one kind's units
+        accel = [a for a in axes if a.accel is not None]
         if drawn:
             plot(drawn, request.png, title=str(request.source.file),
                  family=request.output_units)
-        if len(drawn) < len(axes):
-            notes += ("accelerometer axes are not drawn in the PNG (their curve is in --csv's "
-                      "<stem>_accel.csv and --json, in m/s^2)",)
+        if accel:
+            png = accel_png_path(request.png) if drawn else request.png
+            accel_unit = "m/s^2"
+            if request.source.profile is not None:  # in the unit it grades them in
+                from station.model.profiles import load_profile
+                from station.output.report.panels import accel_plot_unit
+
+                accel_unit = accel_plot_unit(load_profile(request.source.profile))
+            plot(accel, png, title=f"{request.source.file}: accelerometers",
+                 accel_unit=accel_unit)
+            if drawn:
+                notes += (f"accelerometer axes are drawn in {accel_unit} in {png}",)
     if request.csv is not None:
         from station.output.curve_csv import write_curve_csv
 

@@ -16,6 +16,7 @@ from analysis.partial_clusters import MAX_MISSING_SHARE
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
 from analysis.warmup import WarmupVerdict, detect_warmup
 from station.errors import UsageError
+from station.evaluation.accel_axes import Quantity, accel_record
 from station.model.records import RateRecord
 from station.services.records import RecordSource, load_record
 from station.storage.scratch import scratch_array
@@ -40,27 +41,36 @@ class DavarRequest:
 
 @dataclass(frozen=True)
 class DavarAnswer:
-    """The DAVAR of every axis, each axis' warm-up verdict, the heat map written (if asked)."""
+    """The DAVAR of every axis, each axis' warm-up verdict, the heat map written (if asked).
+
+    ``quantity`` says what the axes measure: ``"rate"`` (``record`` in deg/s), or
+    ``"acceleration"`` (accelerometer axes asked for alone: ``record`` holds their m/s^2
+    in the rate's place, and the DAVAR is in m/s^2)."""
 
     record: RateRecord
     result: DavarResult
     verdicts: tuple[WarmupVerdict, ...]
     png: Path | None = None
     notes: tuple[str, ...] = field(default=())
+    quantity: Quantity = "rate"
 
     def as_json(self) -> dict[str, object]:
-        """``{"axes": [{"name", "t_s", "tau_s", "adev_deg_h", "adev_deg_s", "adev",
-        "warmup_end_s", "stationary"}]}``: window centres (s), taus (s), ADEV per window and
-        tau (null in a window that holds a recorded gap; ``adev`` is ``adev_deg_s``, the key
-        older readers know), the verdict."""
+        """``{"axes": [{"name", "quantity", "t_s", "tau_s", "adev_deg_h", "adev_deg_s",
+        "adev", "warmup_end_s", "stationary"}]}``: window centres (s), taus (s), ADEV per
+        window and tau (null in a window that holds a recorded gap; ``adev`` is
+        ``adev_deg_s``, the key older readers know), the verdict. An accelerometer axis
+        has ``adev_m_s2`` (m/s^2) in place of the three ADEV keys."""
         axes = []
         for i, (name, verdict) in enumerate(zip(self.record.axis_names, self.verdicts,
                                                 strict=True)):
             one = self.result.axis(i)
             adev = [[None if math.isnan(v) else v for v in row] for row in one.adev.tolist()]
-            adev_deg_h = [[None if v is None else v * S_PER_H for v in row] for row in adev]
-            axes.append({"name": name, "t_s": one.t_s.tolist(), "tau_s": one.tau_s.tolist(),
-                         "adev_deg_h": adev_deg_h, "adev_deg_s": adev, "adev": adev,
+            curves: dict[str, object] = {"adev_m_s2": adev}
+            if self.quantity == "rate":
+                curves = {"adev_deg_h": [[None if v is None else v * S_PER_H for v in row]
+                                         for row in adev], "adev_deg_s": adev, "adev": adev}
+            axes.append({"name": name, "quantity": self.quantity, "t_s": one.t_s.tolist(),
+                         "tau_s": one.tau_s.tolist(), **curves,
                          "warmup_end_s": verdict.warmup_end_s,
                          "stationary": bool(verdict.stationary)})
         return {"axes": axes}
@@ -98,16 +108,21 @@ def davar(request: DavarRequest) -> DavarAnswer:
     source = request.source
     loaded = load_record(source)
     record = loaded.record
-    if not record.axis_names:
-        raise UsageError(f"the DAVAR of accelerometer axis {', '.join(record.accel_axis_names)} "
-                         f"is not computed (rate axes only); station analyze and grade take it")
+    quantity: Quantity = "rate"
+    notes = loaded.notes
+    if not record.axis_names:  # accelerometer axes asked for alone (--axis accel_x)
+        accel = accel_record(record)
+        if accel is None:
+            raise UsageError(f"{source.file}: no axis to compute the DAVAR of")
+        record, quantity = accel, "acceleration"
+        notes += ("accelerometer axes: the DAVAR is in m/s^2",)
+    elif record.accel_axis_names:
+        notes += (f"accelerometer axes {', '.join(record.accel_axis_names)} are not in this "
+                  f"DAVAR (the rate axes'): --axis {record.accel_axis_names[0]} gives theirs, "
+                  f"in m/s^2",)
     if request.window_s * record.sample_rate_hz > record.n_samples:
         raise UsageError(f"--window-s {request.window_s:g} is longer than the record "
                          f"({record.duration_s:g} s)")
-    notes = loaded.notes
-    if record.accel_axis_names:
-        notes += (f"accelerometer axes {', '.join(record.accel_axis_names)} are not in the "
-                  f"DAVAR (rate axes only)",)
     offset = loaded.selection.start_s
     if loaded.selection.warmup_s > 0 and offset == loaded.selection.warmup_s:
         notes += (f"the first {offset:g} s are left out (warm-up from "
@@ -133,5 +148,6 @@ def davar(request: DavarRequest) -> DavarAnswer:
     if request.png is not None:
         from station.output.plots import plot_davar  # matplotlib: only for a heat map
 
-        plot_davar(request.png, result, verdicts, record, request.output_units)
-    return DavarAnswer(record, result, verdicts, request.png, notes)
+        plot_davar(request.png, result, verdicts, record, request.output_units,
+                   accel=quantity == "acceleration")
+    return DavarAnswer(record, result, verdicts, request.png, notes, quantity)

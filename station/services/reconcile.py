@@ -84,6 +84,11 @@ def _axes(request: ReconcileRequest) -> tuple[list[tuple[str, RateRecord]], tupl
         record = unit.record
         names = [source.axis] if source.axis is not None else list(record.axis_names)
         if source.axis is not None and source.axis not in record.axis_names:
+            if source.axis in record.accel_axis_names:
+                raise UsageError(
+                    f"accelerometer axis {source.axis!r}: reconcile compares a rate axis with "
+                    f"a gyro noise model; give a rate axis ({', '.join(record.axis_names)}), "
+                    f"or station analyze --axis {source.axis} for its Allan curve in m/s^2")
             if several_units:
                 continue
             record.select(source.axis)  # raises with the list of axes

@@ -312,11 +312,16 @@ def write_csv_record(
     comment: str = "",
     temperature_c: NDArray[np.float64] | None = None,
     sample_index: NDArray[np.int64] | None = None,
+    accel_m_s2: NDArray[np.float64] | None = None,
+    accel_axis_names: Sequence[str] = (),
 ) -> Path:
     """Write a rate record as CSV (``time`` in s, one column per axis in deg/s); gzip if ``.gz``.
 
     ``sample_index`` (grid index of each row, see :class:`RateRecord`) writes the times
-    of a record with gaps, so that reading it back finds them.
+    of a record with gaps, so that reading it back finds them. ``accel_m_s2`` (shape
+    (N, j), m/s^2) adds one column per accelerometer axis after the rates, named by
+    ``accel_axis_names`` (each given an ``accel_`` prefix where it has none, so that
+    reading it back finds an accelerometer axis, in m/s^2).
     """
     path = Path(path)
     rate = np.asarray(rate_deg_s, dtype=float)
@@ -328,6 +333,15 @@ def write_csv_record(
     grid = np.arange(rate.shape[0]) if sample_index is None else np.asarray(sample_index)
     columns = [grid / sample_rate_hz, *rate.T]
     header = ["time", *names]
+    if accel_m_s2 is not None:
+        accel = np.asarray(accel_m_s2, dtype=float).reshape(rate.shape[0], -1)
+        accel_names = list(accel_axis_names)
+        if len(accel_names) != accel.shape[1]:
+            accel_names = ([f"accel_{c}" for c in "xyz"[: accel.shape[1]]]
+                           if accel.shape[1] <= 3 else
+                           [f"accel_{i}" for i in range(accel.shape[1])])
+        columns.extend(accel.T)
+        header.extend(n if is_accel_column(n) else f"accel_{n}" for n in accel_names)
     if temperature_c is not None:
         columns.append(np.asarray(temperature_c, dtype=float))
         header.append("temperature_c")

@@ -8,7 +8,9 @@ from hypothesis import given, settings, strategies as st
 
 from devices.codecs.base import Reading
 from devices.codecs.can_frame import (
+    PER_AXIS_IMU_LAYOUT,
     PER_AXIS_LAYOUT,
+    SHARED_IMU_LAYOUT,
     SHARED_LAYOUT,
     CanFrameLayout,
     CanFrameValues,
@@ -19,7 +21,8 @@ from devices.errors import CodecError, CrcError, FrameError
 from devices.sim.signal import SignalSource
 
 FUZZ = settings(max_examples=100, deadline=None)
-LAYOUTS = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT}
+LAYOUTS = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT,
+           "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT}
 
 
 def frame_values(layout: CanFrameLayout) -> st.SearchStrategy[CanFrameValues]:

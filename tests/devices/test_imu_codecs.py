@@ -44,6 +44,23 @@ def test_stim300_golden_accelerometer_datagram() -> None:
         pytest.approx((8 * G, -4 * G, 16 * G))
 
 
+def test_stim300_accelerometer_scale_reads_a_unit_at_rest_as_1_g() -> None:
+    """Provenance: a public STIM300 reader (geirhovland/stim300, README) printed a +-10 g
+    unit at rest as Acc X, Y, Z = -0.011890411376953125, -0.016986846923828125,
+    1.0138282775878906 g with words / 2**19: the words -6234, -8906, 531538. At 2**-20 g
+    per LSB they would read 0.51 g on the vertical."""
+    words = (-6234, -8906, 531538)
+    body = (bytes([0x91]) + bytes(9) + b"\x00" + b"".join(w.to_bytes(3, "big", signed=True)
+                                                          for w in words) + b"\x00"
+            + bytes([1]) + (500).to_bytes(2, "big"))
+    wire = body + crc32_mpeg2(body + b"\x00" * (-len(body) % 4)).to_bytes(4, "big")
+    codec = Stim300Codec(0x91)
+    (frame,) = codec.decode(wire).frames
+    accel_g = np.array(codec.to_reading(frame).accel_m_s2) / G
+    np.testing.assert_allclose(accel_g, (-0.011890411376953125, -0.016986846923828125,
+                                         1.0138282775878906), rtol=1e-15)
+
+
 @pytest.mark.parametrize("ident", [0x91, 0x93, 0xA5, 0xA7])
 @FUZZ
 @given(data=st.data())

@@ -21,6 +21,8 @@ from devices.codecs.base import Reading
 from devices.codecs.modbus_map import (
     GYRO_FLOAT32_MAP,
     GYRO_INT32_MAP,
+    IMU_FLOAT32_MAP,
+    IMU_INT32_MAP,
     ModbusRegisterMap,
     RegisterField,
 )
@@ -32,7 +34,8 @@ from devices.urls import open_device
 from tests.devices.helpers import check_accounting, collect, device_index
 
 FUZZ = settings(max_examples=100, deadline=None)
-MAPS = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP}
+MAPS = {"int32": GYRO_INT32_MAP, "float32": GYRO_FLOAT32_MAP, "int32_imu": IMU_INT32_MAP,
+        "float32_imu": IMU_FLOAT32_MAP}
 
 
 def test_word_orders_golden() -> None:
@@ -52,7 +55,8 @@ def test_registers_decode_then_encode_is_identity(name: str) -> None:
     @given(st.lists(st.integers(0, 0xFFFF), min_size=count, max_size=count))
     def check(registers: list[int]) -> None:
         reading = regs_map.decode(registers)
-        if not all(map(math.isfinite, reading.rate_deg_s + (reading.temperature_c or 0.0,))):
+        if not all(map(math.isfinite, reading.rate_deg_s + (reading.temperature_c or 0.0,)
+                       + (reading.accel_m_s2 or ()))):
             return  # NaN/inf payloads have no unique encoding
         # Registers not covered by a field (gaps in the block) encode as 0.
         covered = {a - regs_map.span[0] for f in regs_map.fields()

@@ -23,7 +23,7 @@ from station.output.report.common import (
     unit_sheet,
 )
 from station.output.report.gmwm_sheet import gmwm_png, gmwm_section, has_gmwm
-from station.output.report.panels import allan_png, davar_png
+from station.output.report.panels import accel_plot_unit, allan_png, davar_png, has_accel
 from station.output.report.plateau_sheet import plateau_cells, plateau_headings, plateau_png
 from station.output.report.sequence_sheet import sequence_png, sequence_rows
 
@@ -100,6 +100,14 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         parts.append(_img(allan_png(unit, graded.output_units),
                           "Allan deviation with confidence band, fitted terms and limits"))
         parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
+        if has_accel(unit):
+            accel_unit = accel_plot_unit(graded.profile)
+            parts.append("<h2>Allan deviation of the accelerometers</h2>")
+            parts.append(_img(allan_png(unit, quantity="acceleration", accel_unit=accel_unit),
+                              "Allan deviation of the accelerometers with confidence band "
+                              "and fitted terms"))
+            parts.append(_img(davar_png(unit, quantity="acceleration", accel_unit=accel_unit),
+                              "DAVAR heat map per accelerometer axis"))
         parts.append("<h2>Dynamic Allan deviation</h2>")
         parts.append(_img(davar_png(unit, graded.output_units), "DAVAR heat map per axis"))
     else:

@@ -1,7 +1,9 @@
 """The plots of a spec sheet, drawn into matplotlib axes the format writers place.
 
 * :func:`draw_allan`: Allan deviation (deg/h) per axis with its confidence band, the fitted
-  noise terms as their slope lines, and the profile's ARW and bias-instability limits;
+  noise terms as their slope lines, and the profile's ARW and bias-instability limits; of
+  the accelerometer axes, in their own unit (:func:`accel_plot_unit`: m/s^2, or the mg or
+  ug the profile gives its accelerometer figures in);
 * :func:`draw_davar`: the dynamic Allan deviation heat map of one axis
   (:func:`station.evaluation.davar_map.davar_grid`, the grid the TUI draws too), warm-up
   discarded marked;
@@ -24,21 +26,40 @@ from matplotlib.figure import Figure  # noqa: E402
 from analysis.errors import AnalysisError  # noqa: E402
 from analysis.fit import TERMS  # noqa: E402
 from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
+from station.evaluation.accel_axes import Quantity  # noqa: E402
 from station.evaluation.davar_map import davar_grid  # noqa: E402
 from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
 from station.evaluation.limits import limit_lines  # noqa: E402
 from station.evaluation.settings import AnalysisSettings  # noqa: E402
-from station.output.plots import heat_map  # noqa: E402
+from station.model.profiles import Profile  # noqa: E402
+from station.output.plots import ACCEL_PLOT_UNITS, heat_map  # noqa: E402
 
 TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
 
 
+def accel_plot_unit(profile: Profile | None) -> str:
+    """The unit an accelerometer Allan deviation is drawn in: that of the profile's
+    accelerometer Allan-minimum, bias-instability or bias figure where it is mg or ug (or
+    m/s^2), else m/s^2."""
+    if profile is not None:
+        by_name = {f.name: f for f in profile.figures}
+        for name in ("accel_adev_min", "accel_bias_instability", "accel_bias"):
+            spec = by_name.get(name)
+            if spec is not None and spec.unit in ACCEL_PLOT_UNITS:
+                return spec.unit
+    return "m/s^2"
+
+
 def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8,
-               family: UnitFamily = DEG_FAMILY) -> None:
+               family: UnitFamily = DEG_FAMILY, quantity: Quantity = "rate",
+               accel_unit: str = "m/s^2") -> None:
     """Allan deviation of each rate axis (deg/h, or rad/s in the rad ``family``) with band,
-    fit, term lines and limit lines (accelerometer axes, in m/s^2, are in the tables only)."""
-    axes = [a for a in axes if a.analysis.accel is None]
-    scale = S_PER_H * family.factor("deg/h")  # deg/s -> the unit drawn
+    fit, term lines and limit lines; with ``quantity="acceleration"``, of each accelerometer
+    axis instead, in ``accel_unit`` (m/s^2, mg or ug; its limits are in the table)."""
+    accel = quantity == "acceleration"
+    axes = [a for a in axes if (a.analysis.accel is not None) == accel]
+    # the series (deg/s, or m/s^2) -> the unit drawn
+    scale = ACCEL_PLOT_UNITS[accel_unit] if accel else S_PER_H * family.factor("deg/h")
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     lows, highs = [], []
     for i, a in enumerate(axes):
@@ -70,11 +91,13 @@ def draw_allan(ax: Axes, axes: Sequence[AxisGrade], *, fontsize: float = 8,
         highs.append(
             min(float(np.max(al.adev_ci_high)) * 2.5, float(np.max(al.adev)) * 10) * scale
         )
-    if axes:
+    if axes and not accel:
         _draw_limits(ax, axes[0], fontsize, family)
+    if axes:
         ax.set_ylim(min(lows) / 4, max(highs))
     ax.set_xlabel("averaging time tau [s]", fontsize=fontsize + 1)
-    ax.set_ylabel(f"Allan deviation [{family.label('deg/h')}]", fontsize=fontsize + 1)
+    unit = accel_unit if accel else family.label("deg/h")
+    ax.set_ylabel(f"Allan deviation [{unit}]", fontsize=fontsize + 1)
     ax.tick_params(labelsize=fontsize)
     ax.grid(True, which="both", alpha=0.3)
     # lower left: the curves fall from the upper left, and the long-tau end on the right is
@@ -107,9 +130,10 @@ def draw_davar(
     fontsize: float = 8,
     settings: AnalysisSettings | None = None,
     family: UnitFamily = DEG_FAMILY,
+    accel_unit: str = "m/s^2",
 ) -> bool:
-    """Heat map of log10 dynamic Allan deviation (deg/h, or rad/s in the rad ``family``) of one
-    axis over time and tau.
+    """Heat map of log10 dynamic Allan deviation (deg/h, or rad/s in the rad ``family``; an
+    accelerometer axis in ``accel_unit``: m/s^2, mg or ug) of one axis over time and tau.
 
     The whole record is used (the warm-up is what it shows); the discarded warm-up is
     marked. Returns False (and writes why into the panel) when the record is too short.
@@ -125,12 +149,17 @@ def draw_davar(
         return False
     hours = unit.unit.record.duration_s > 3 * 3600
     scale, unit_name = (3600.0, "h") if hours else (60.0, "min")
-    log_adev = np.log10(np.maximum(family.array(grid.adev_deg_h, "deg/h"), np.finfo(float).tiny))
+    if axis.analysis.accel is not None:  # the grid holds its m/s^2 in the rate's place
+        adev = grid.adev_deg_h / S_PER_H * ACCEL_PLOT_UNITS[accel_unit]
+        drawn_unit = accel_unit
+    else:
+        adev, drawn_unit = family.array(grid.adev_deg_h, "deg/h"), family.label("deg/h")
+    log_adev = np.log10(np.maximum(adev, np.finfo(float).tiny))
     mesh = heat_map(ax, grid.t_s / scale, grid.tau_s, log_adev)
     if grid.warmup_s:
         ax.axvline(grid.warmup_s / scale, color="w", ls="--", lw=1)
     ax.set_title(
-        f"DAVAR {axis.axis}: log10 ADEV [{family.label('deg/h')}], window {grid.window_s:.0f} s",
+        f"DAVAR {axis.axis}: log10 ADEV [{drawn_unit}], window {grid.window_s:.0f} s",
         fontsize=fontsize,
     )
     ax.set_xlabel(f"window centre [{unit_name}]", fontsize=fontsize)
@@ -165,21 +194,43 @@ def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
     return buffer.getvalue()
 
 
-def allan_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
-    """The Allan panel of a unit as a PNG (in ``family``)."""
+def allan_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY, *,
+              quantity: Quantity = "rate", accel_unit: str = "m/s^2") -> bytes:
+    """The Allan panel of a unit's rate axes (in ``family``), or of its accelerometer axes
+    (in ``accel_unit``), as a PNG."""
     fig, ax = plt.subplots(figsize=(8, 5), layout="constrained")
-    draw_allan(ax, unit.axes, fontsize=9, family=family)
-    ax.set_title(
-        "Allan deviation, confidence band, fitted terms (dotted), limits (dashed)", fontsize=10
-    )
+    draw_allan(ax, unit.axes, fontsize=9, family=family, quantity=quantity,
+               accel_unit=accel_unit)
+    ax.set_title(ALLAN_TITLES[quantity], fontsize=10)
     return figure_png(fig)
 
 
-def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> bytes:
-    """The DAVAR heat maps of a unit (one per rate axis) as a PNG (in ``family``)."""
-    rates = [i for i, a in enumerate(unit.axes) if a.analysis.accel is None]
-    n = len(rates)
+#: Titles of the Allan panels of the rate axes and of the accelerometer axes.
+ALLAN_TITLES: dict[str, str] = {
+    "rate": "Allan deviation, confidence band, fitted terms (dotted), limits (dashed)",
+    "acceleration": "Accelerometers: Allan deviation, confidence band, fitted terms (dotted); "
+                    "limits in the table",
+}
+
+
+def has_accel(unit: UnitGrade) -> bool:
+    """Whether a unit has accelerometer axes (its sheet draws their Allan deviation too)."""
+    return bool(quantity_axes(unit, "acceleration"))
+
+
+def davar_png(unit: UnitGrade, family: UnitFamily = DEG_FAMILY, *,
+              quantity: Quantity = "rate", accel_unit: str = "m/s^2") -> bytes:
+    """The DAVAR heat maps of a unit (one per rate axis, in ``family``; or one per
+    accelerometer axis, in ``accel_unit``) as a PNG."""
+    shown = quantity_axes(unit, quantity)
+    n = len(shown)
     fig, axs = plt.subplots(1, n, figsize=(4.2 * n, 3.2), squeeze=False, layout="constrained")
-    for k, i in enumerate(rates):
-        draw_davar(axs[0, k], unit, i, family=family)
+    for k, i in enumerate(shown):
+        draw_davar(axs[0, k], unit, i, family=family, accel_unit=accel_unit)
     return figure_png(fig)
+
+
+def quantity_axes(unit: UnitGrade, quantity: Quantity) -> list[int]:
+    """Indices of a unit's rate axes, or of its accelerometer axes."""
+    return [i for i, a in enumerate(unit.axes)
+            if (a.analysis.accel is not None) == (quantity == "acceleration")]

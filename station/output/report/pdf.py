@@ -30,7 +30,15 @@ from station.output.report.common import (  # noqa: E402
     unit_sheet,
 )
 from station.output.report.gmwm_sheet import gmwm_page, has_gmwm  # noqa: E402
-from station.output.report.panels import draw_allan, draw_davar, placeholder  # noqa: E402
+from station.output.report.panels import (  # noqa: E402
+    ALLAN_TITLES,
+    accel_plot_unit,
+    draw_allan,
+    draw_davar,
+    has_accel,
+    placeholder,
+    quantity_axes,
+)
 from station.output.report.plateau_sheet import (  # noqa: E402
     draw_plateaus,
     plateau_cells,
@@ -282,6 +290,23 @@ def plateau_page(seq: UnitSequence, unit_id: str) -> Figure:
     return fig
 
 
+def accel_page(graded: RunGrade, unit: UnitGrade, title: str) -> Figure:
+    """The page of a unit's accelerometers: their Allan deviation in their own unit
+    (:func:`accel_plot_unit`); their figures and limits are in the sheet's table."""
+    fig = plt.figure(figsize=A4_IN)
+    fig.text(0.06, 0.972, f"{title}: accelerometers", fontsize=12, weight="bold", va="top")
+    accel_unit = accel_plot_unit(graded.profile)
+    ax = fig.add_axes((0.1, 0.5, 0.84, 0.42))
+    draw_allan(ax, unit.axes, fontsize=8, quantity="acceleration", accel_unit=accel_unit)
+    ax.set_title(ALLAN_TITLES["acceleration"], fontsize=9)
+    shown = quantity_axes(unit, "acceleration")
+    width = 0.84 / max(len(shown), 1)
+    for k, i in enumerate(shown):
+        dax = fig.add_axes((0.1 + k * width, DAVAR_BOTTOM + 0.1, width * 0.68, 0.18))
+        draw_davar(dax, unit, i, fontsize=6.5, accel_unit=accel_unit)
+    return fig
+
+
 def notes_page(title: str, lines: list[str]) -> Figure:
     """A page of the notes a unit's sheet had no room for."""
     fig = plt.figure(figsize=A4_IN)
@@ -309,6 +334,10 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
             _, rest = foot_lines(graded, sheet)
             if rest:
                 fig = notes_page(sheet.title, rest)
+                pdf.savefig(fig)
+                plt.close(fig)
+            if has_accel(unit):  # the accelerometers' Allan deviation, in their own unit
+                fig = accel_page(graded, unit, sheet.title)
                 pdf.savefig(fig)
                 plt.close(fig)
             if has_gmwm(unit):  # the GMWM page follows the unit's sheet
