@@ -146,9 +146,11 @@ def resolve_ambiguity(
     # Printed: the reading with K (a dropped K is the figure a walk's realisation buys),
     # except where the selection read the walk as a bias instability alone and the GMWM's
     # criterion (the full covariance of the wavelet variance, which weighs the last
-    # octaves as little as they hold) prefers that: a flat Allan curve over the last
-    # octaves is a bias instability's, and a record of one is not to print a walk.
-    if wic is not None and wic >= 0 and "R" not in chosen:
+    # octaves as little as they hold) tells that reading apart, beyond the margin: a flat
+    # Allan curve over the last octaves is a bias instability's, and a record of one is
+    # not to print a walk. Within the margin neither criterion tells them apart, and the
+    # sign of a difference inside it is the realisation's, not the sensor's.
+    if wic is not None and wic > margin and "R" not in chosen:
         note = (f"{why}. Printed: the reading without K, which the GMWM prefers; the reading "
                 f"with K is listed as an alternative, and a verdict takes the reading safe "
                 f"for its limit")
