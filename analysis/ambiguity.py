@@ -19,8 +19,10 @@ unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN`:
 
 Where the selected reading left K out and a reading with K is not ruled out, the reading
 with K is the one printed (a realised walk holds the ramp-like rise and the slow wander a
-separate R or B would claim), and the selected one becomes its alternative. Where the
-selected reading kept K, readings that trade it for R or B within the margin of the
+separate R or B would claim), and the selected one becomes its alternative; a reading of
+the walk as a bias instability alone is printed instead only where the GMWM's criterion
+prefers it by more than the margin (a preference inside it is the realisation's). Where
+the selected reading kept K, readings that trade it for R or B within the margin of the
 information criterion are listed as alternatives. Every alternative carries its values
 and standard errors, so that a verdict can take the reading that is safe for a limit.
 """
