@@ -19,10 +19,8 @@ unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN`:
 
 Where the selected reading left K out and a reading with K is not ruled out, the reading
 with K is the one printed (a realised walk holds the ramp-like rise and the slow wander a
-separate R or B would claim), and the selected one becomes its alternative; a reading of
-the walk as a bias instability alone is printed instead only where the GMWM's criterion
-prefers it by more than the margin (a preference inside it is the realisation's). Where
-the selected reading kept K, readings that trade it for R or B within the margin of the
+separate R or B would claim), and the selected one becomes its alternative. Where the
+selected reading kept K, readings that trade it for R or B within the margin of the
 information criterion are listed as alternatives. Every alternative carries its values
 and standard errors, so that a verdict can take the reading that is safe for a limit.
 """
@@ -148,11 +146,9 @@ def resolve_ambiguity(
     # Printed: the reading with K (a dropped K is the figure a walk's realisation buys),
     # except where the selection read the walk as a bias instability alone and the GMWM's
     # criterion (the full covariance of the wavelet variance, which weighs the last
-    # octaves as little as they hold) tells that reading apart, beyond the margin: a flat
-    # Allan curve over the last octaves is a bias instability's, and a record of one is
-    # not to print a walk. Within the margin neither criterion tells them apart, and the
-    # sign of a difference inside it is the realisation's, not the sensor's.
-    if wic is not None and wic > margin and "R" not in chosen:
+    # octaves as little as they hold) prefers that: a flat Allan curve over the last
+    # octaves is a bias instability's, and a record of one is not to print a walk.
+    if wic is not None and wic >= 0 and "R" not in chosen:
         note = (f"{why}. Printed: the reading without K, which the GMWM prefers; the reading "
                 f"with K is listed as an alternative, and a verdict takes the reading safe "
                 f"for its limit")
