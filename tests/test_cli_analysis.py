@@ -152,7 +152,7 @@ def test_reproduce_cli_json(tmp_path: Path) -> None:
 def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
     """``station demo --json`` (in the rad family), then ``station watch --once --json`` of its
     run file (one demo run: the recording takes most of this test's time)."""
-    proc = run_station("demo", "--duration", "0.25", "--out", str(tmp_path), "--json",
+    proc = run_station("demo", "--duration", "0.125", "--out", str(tmp_path), "--json",
                        "--output-units", "rad")
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)  # the whole stdout is one object
