@@ -229,3 +229,58 @@ def test_spec_sheets_draw_the_accelerometers_in_the_profiles_unit(imu_csv: Path,
     assert "DAVAR heat map per accelerometer axis" in html
     pdf = files["pdf"].read_bytes()
     assert pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") >= 2  # sheet + accel page
+
+
+def test_an_accelerometer_spike_is_said_in_m_s2(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """A 0.5 m/s^2 spike on accel_x: its size is in m/s^2 in the JSON and the notes (it was
+    printed as m/s^2 x 3600 'deg/h')."""
+    rng = np.random.default_rng(30)
+    n = 6000
+    gyro = rng.normal(0.0, 0.01, n)
+    accel = rng.normal(0.0, 0.002, n)
+    accel[3000] += 0.5
+    path = tmp_path / "imu.csv"
+    rows = "\n".join(f"{i / 100:.2f},{g:.6f},{a:.6f}" for i, (g, a) in
+                     enumerate(zip(gyro, accel, strict=True)))
+    path.write_text("time,gyro_x,accel_x\n" + rows + "\n")
+    assert main(["analyze", str(path), "--json"]) == 0
+    axes = {a["name"]: a for a in json.loads(capsys.readouterr().out)["axes"]}
+    out = axes["accel_x"]["outliers"]
+    assert out["count"] == 1 and "size_deg_h" not in out["spikes"][0]
+    assert out["spikes"][0]["size_m_s2"] == pytest.approx(0.5, abs=0.02)
+    notes = " ".join(axes["accel_x"]["figures"]["notes"])
+    assert "m/s^2 at 30" in notes and "deg/h" not in notes.split("spikes:")[1]
+
+
+def test_an_accelerometers_gmwm_terms_are_in_its_own_units(tmp_path: Path) -> None:
+    """White noise of 0.002 m/s^2 per sample at 100 Hz: the GMWM's white-noise term on the
+    sheets is the velocity random walk, 0.012 m/s/sqrt(h) (it was labelled deg/sqrt(h))."""
+    from station.evaluation.gmwm_run import run_with_gmwm
+    from station.output.report.gmwm_terms import gmwm_rows
+    from station.services.grade import GradeRequest, RunSource, grade
+    from tests.test_grading import profile_text, write_profile
+
+    rng = np.random.default_rng(31)
+    n = 20_000
+    rows = "\n".join(f"{i / 100:.2f},{g:.6f},{a:.6f}" for i, (g, a) in
+                     enumerate(zip(rng.normal(0, 0.01, n), rng.normal(0, 0.002, n),
+                                   strict=True)))
+    path = tmp_path / "imu.csv"
+    path.write_text("time,x,accel_x\n" + rows + "\n")
+    figures = """
+[figures.arw]
+unit = "deg/sqrt(h)"
+limits = { A = 1.0, B = 2.0 }
+[figures.accel_vrw]
+unit = "m/s/sqrt(h)"
+limits = { A = 1.0, B = 2.0 }
+"""
+    profile = write_profile(tmp_path, profile_text(warmup_s=0.0, figures=figures))
+    graded = grade(GradeRequest(RunSource(path), profile=str(profile), store=False)).graded
+    axes = {a.axis: a for a in run_with_gmwm(graded, "wn").units[0].axes}
+    [gyro] = gmwm_rows(axes["x"])
+    [accel] = gmwm_rows(axes["accel_x"])
+    assert gyro.unit == "deg/sqrt(h)" and accel.unit == "m/s/sqrt(h)"
+    assert accel.value == pytest.approx(0.002 / math.sqrt(100.0) * 60.0, rel=0.05)
+    assert accel.ci_low is not None and accel.ci_low < accel.value < (accel.ci_high or 0.0)

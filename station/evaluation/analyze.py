@@ -99,6 +99,8 @@ class OutlierReport:
     removed: bool = False
     rule: str = "not looked for"
     times_s: tuple[float, ...] = ()
+    #: An accelerometer axis' spikes are in m/s^2 (a rate axis': deg/s, shown in deg/h).
+    quantity: Quantity = "rate"
 
     @property
     def count(self) -> int:
@@ -106,18 +108,24 @@ class OutlierReport:
         return 0 if self.detection is None else len(self.detection.spikes)
 
     def as_json(self) -> dict[str, object]:
-        """The ``outliers`` object of ``station analyze --json`` (sizes in deg/h)."""
+        """The ``outliers`` object of ``station analyze --json`` (sizes in deg/h; an
+        accelerometer axis': m/s^2, keys ``scale_m_s2``, ``size_m_s2``)."""
         d = self.detection
         out: dict[str, object] = {"count": self.count, "removed": self.removed, "rule": self.rule}
         if d is not None:
+            key, factor = self._size_key()
             out.update({
                 "samples": d.count, "share": d.share, "threshold_z": d.threshold_z,
-                "false_alarm": d.false_alarm, "scale_deg_h": d.scale * S_PER_H,
-                "spikes": [{"time_s": t, "n_samples": sp.n_samples, "size_deg_h": sp.size * S_PER_H,
+                "false_alarm": d.false_alarm, f"scale_{key}": d.scale * factor,
+                "spikes": [{"time_s": t, "n_samples": sp.n_samples, f"size_{key}": sp.size * factor,
                             "z": sp.z} for t, sp in zip(self.times_s, d.spikes[:SPIKES_LISTED],
                                                         strict=False)],
                 "listed": min(self.count, SPIKES_LISTED)})
         return out
+
+    def _size_key(self) -> tuple[str, float]:
+        """(unit in a key, factor from the samples' unit) of a spike's size."""
+        return ("m_s2", 1.0) if self.quantity == "acceleration" else ("deg_h", S_PER_H)
 
     def text(self) -> str:
         """One line for tables."""
@@ -133,11 +141,13 @@ class OutlierReport:
         if d is None or not self.count:
             return ""
         largest = max(d.spikes, key=lambda sp: abs(sp.size))
+        key, factor = self._size_key()
+        unit = "m/s^2" if key == "m_s2" else "deg/h"
         what = ("removed, each replaced by the line between its neighbours" if self.removed
                 else "kept in the analysis")
         return (
             f"{self.count} spike(s) ({d.count} samples beyond {d.threshold_z:.2f} sigma; largest "
-            f"{largest.size * S_PER_H:+.4g} deg/h at {self.times_s[d.spikes.index(largest)]:.6g} "
+            f"{largest.size * factor:+.4g} {unit} at {self.times_s[d.spikes.index(largest)]:.6g} "
             "s) "
             f"{what}: {self.rule}"
         )
@@ -236,7 +246,8 @@ class AxisAnalysis:
 
 
 def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: float,
-            policy: OutlierPolicy) -> tuple[NDArray[np.float64], OutlierReport]:
+            policy: OutlierPolicy, quantity: Quantity = "rate"
+            ) -> tuple[NDArray[np.float64], OutlierReport]:
     """(the present samples to analyse, the report) of one axis under ``policy``."""
     if policy not in OUTLIER_POLICIES:
         raise ValueError(
@@ -244,7 +255,8 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
         )
     if len(x) < min_samples():
         return x, OutlierReport(
-            rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}"
+            rule=f"not looked for: {len(x)} samples, fewer than {min_samples()}",
+            quantity=quantity,
         )
     detection = detect_spikes(x)
     times = tuple(
@@ -257,7 +269,7 @@ def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: flo
     rule = detection.rule_text()
     if detection.count and policy != "auto":
         rule += f" (--outliers {policy})"
-    report = OutlierReport(detection, remove, rule, times)
+    report = OutlierReport(detection, remove, rule, times, quantity)
     return (_replaced(x, detection, positions) if remove else x), report
 
 
@@ -318,7 +330,8 @@ def analyze_record(record: RateRecord, *, bench: Bench | None = None,
     no Earth rate; gravity off the bias). ``options`` are :func:`analyze_rates`'."""
     rates = analyze_rates(record, bench=bench, **options) if record.axis_names else []
     return rates + analyze_accel(record, bench,
-                                 lambda accel: analyze_rates(accel, bench=None, **options))
+                                 lambda accel: analyze_rates(accel, bench=None,
+                                                             quantity="acceleration", **options))
 
 
 def analyze_rates(
@@ -334,8 +347,10 @@ def analyze_rates(
     select: bool | None = None,
     gmwm_model: str = "auto",
     robust: bool = False,
+    quantity: Quantity = "rate",
 ) -> list[AxisAnalysis]:
-    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s).
+    """Allan variance, tones, fit and spec figures of every axis of ``record`` (rates in deg/s;
+    with ``quantity="acceleration"``, accelerations in m/s^2: the spikes are said in m/s^2).
 
     ``method="gmwm"`` adds the GMWM (``gmwm_model``: a model string or ``"auto"``
     selection; ``robust``: the robust wavelet variance) beside the default Allan fit, on
@@ -386,7 +401,8 @@ def analyze_rates(
     earth = (bench or Bench()).earth_rate_deg_h(record.axis_names)
     cleaned, reports = [], []
     for i in range(len(record.axis_names)):
-        x, report = _spikes(record.rate_deg_s[:, i], record.sample_index, fs, outliers)
+        x, report = _spikes(record.rate_deg_s[:, i], record.sample_index, fs, outliers,
+                            quantity)
         cleaned.append(x)
         reports.append(report)
     joint = None

@@ -13,7 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from analysis.accel import STANDARD_GRAVITY_M_S2
 from analysis.gmwm_models import KINDS
+from analysis.units import S_PER_H
 from station.evaluation.grading import AxisGrade, UnitGrade
 from station.output.report.common import fmt
 
@@ -21,6 +23,16 @@ from station.output.report.common import fmt
 KEY_UNITS = (("deg_h_rt_h", "deg/h/sqrt(h)"), ("deg_rt_h", "deg/sqrt(h)"), ("deg_h2", "deg/h^2"),
              ("sigma_deg_h", "deg/h"), ("deg_h", "deg/h"), ("tau_s", "s"), ("urad", "urad"),
              ("phi", "1"))
+#: An accelerometer axis' GMWM (fitted to m/s^2 where a rate axis' is in deg/s): the unit
+#: and the factor from the key's value, by the key's suffix (the deg/h family's s and h
+#: carried over: N in m/s/sqrt(h), K in m/s/h^1.5, R in m/s/h^2; B and a Gauss-Markov's
+#: sigma from "deg/h" (m/s^2 x 3600) to ug; Q from urad to m/s).
+ACCEL_KEY_UNITS = (("deg_h_rt_h", "m/s/h^1.5", 1.0), ("deg_rt_h", "m/s/sqrt(h)", 1.0),
+                   ("deg_h2", "m/s/h^2", 1.0),
+                   ("sigma_deg_h", "ug", 1.0 / (S_PER_H * STANDARD_GRAVITY_M_S2 * 1e-6)),
+                   ("deg_h", "ug", 1.0 / (S_PER_H * STANDARD_GRAVITY_M_S2 * 1e-6)),
+                   ("tau_s", "s", 1.0), ("urad", "m/s", 1.0 / (math.pi / 180.0 * 1e6)),
+                   ("phi", "1", 1.0))
 #: What a shape parameter is called, by its key's suffix.
 SHAPE_NAMES = {"tau_s": "correlation time", "phi": "coefficient phi"}
 
@@ -92,15 +104,30 @@ def _allan_of(axis: AxisGrade, key: str) -> str:
 
 
 def gmwm_rows(axis: AxisGrade) -> list[GmwmRow]:
-    """The GMWM parameters of ``axis`` (none when it has no GMWM)."""
+    """The GMWM parameters of ``axis`` (none when it has no GMWM); an accelerometer axis'
+    in its own units (:data:`ACCEL_KEY_UNITS`), its Allan figures being in its own table."""
     g = axis.analysis.gmwm
     if g is None:
         return []
     best = g.best
-    return [GmwmRow(axis.axis, key, _term_of(key), _unit_of(key), _finite(value),
-                    _finite(best.stderr.get(key)), _allan_of(axis, key),
-                    _finite(best.ci_low.get(key)), _finite(best.ci_high.get(key)))
-            for key, value in best.values.items()]
+    if axis.analysis.quantity != "acceleration":
+        return [GmwmRow(axis.axis, key, _term_of(key), _unit_of(key), _finite(value),
+                        _finite(best.stderr.get(key)), _allan_of(axis, key),
+                        _finite(best.ci_low.get(key)), _finite(best.ci_high.get(key)))
+                for key, value in best.values.items()]
+    rows = []
+    for key, value in best.values.items():
+        unit, k = next(((u, f) for suffix, u, f in ACCEL_KEY_UNITS if key.endswith(suffix)),
+                       ("", 1.0))
+
+        def scaled(x: float | None, k: float = k) -> float | None:
+            x = _finite(x)
+            return None if x is None else x * k
+
+        rows.append(GmwmRow(axis.axis, key, _term_of(key), unit, scaled(value),
+                            scaled(best.stderr.get(key)), "", scaled(best.ci_low.get(key)),
+                            scaled(best.ci_high.get(key))))
+    return rows
 
 
 def gmwm_summary(axis: AxisGrade) -> str:
