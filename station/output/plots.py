@@ -20,7 +20,7 @@ from analysis.units import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S2, UnitFamil
 from analysis.warmup import WarmupVerdict  # noqa: E402
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
-from station.output.report.common import VERDICT_COLORS  # noqa: E402
+from station.output.colors import VERDICT_COLORS  # noqa: E402
 from station.output.results import TrendPoint  # noqa: E402
 
 if TYPE_CHECKING:

@@ -23,9 +23,6 @@ from station.model.kinds import Verdict
 from station.model.runs import UnitRun
 from station.model.sheet_header import station_name
 
-#: Verdict -> colour (reports, plots); None is an informational figure.
-VERDICT_COLORS: dict[Verdict | None, str] = {"pass": "#c8ecc8", "fail": "#f5c2c2",
-                                             "indeterminate": "#fbe7a9", None: "#ffffff"}
 #: How many individual events a report lists before it only counts them.
 MAX_EVENTS_LISTED = 12
 

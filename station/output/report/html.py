@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from station.evaluation.grading import RunGrade, UnitGrade
+from station.output.colors import VERDICT_COLORS
 from station.output.report.common import (
     LIMIT_LINE_NOTE,
-    VERDICT_COLORS,
     fmt,
     fmt_interval,
     unit_sheet,

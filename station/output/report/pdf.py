@@ -21,9 +21,9 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.transforms import Bbox  # noqa: E402
 
 from station.evaluation.grading import RunGrade, UnitGrade  # noqa: E402
+from station.output.colors import VERDICT_COLORS  # noqa: E402
 from station.output.report.common import (  # noqa: E402
     LIMIT_LINE_NOTE,
-    VERDICT_COLORS,
     UnitSheet,
     fmt,
     fmt_interval,
