@@ -8,6 +8,7 @@ record analysed in one piece.
 
 from __future__ import annotations
 
+import importlib
 import re
 import subprocess
 import sys
@@ -87,7 +88,7 @@ def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
         monkeypatch.setattr(
             "analysis.kernels._pick",
             lambda b, w, _b=backend: (
-                None if _b == "numpy" else __import__("analysis.kernels_numba").kernels_numba
+                None if _b == "numpy" else importlib.import_module("analysis.kernels_numba")
             ),
         )
         got = overlapping_allan_variance(mm, 100.0, angle_out=angle)
