@@ -154,9 +154,10 @@ class UnitWorker:
             # it ends at the duration on its own clock, however late this process reads
             # it: a starved reader must not find (and declare lost) the samples of the
             # time it overran. Set with the release itself (a second request to its
-            # process would come late on a loaded host), on the record's time line: that
-            # starts at counter 0, so the samples made before the hold are part of it
-            run_s = self.settings.duration_s - self._held_at / self.description.sample_rate_hz
+            # process would come late on a loaded host); its time line is this reader's
+            # from the release on (the gaps' wrap counts are bounded by that timing), so
+            # the few samples a loaded host let out before the hold come on top
+            run_s = self.settings.duration_s - self.elapsed_s()
             self.simulated.resume(run_for_s=max(run_s, 0.0))
         self._thread.start()
 
