@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from analysis.ambiguity import AMBIGUITY_MARGIN
-from analysis.models import AngleRandomWalk, NoiseModel, RateRandomWalk
+from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel, RateRandomWalk
 from analysis.simulate import simulate
 from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval
@@ -102,3 +102,20 @@ def test_safe_verdict_passes_or_fails_only_on_agreement():
     r = Reading("NR", 0.0, 0.0, 1.5)
     assert r.as_json(0.5) == {"terms": "NR", "value": 0.0, "ci_low": 0.0, "ci_high": 3.0}
     assert np.isfinite(r.high or np.nan)
+
+
+def test_a_bias_instability_reading_stands_where_the_gmwm_prefers_it_and_k_is_named():
+    # N 0.1 + B 0.3: the selection reads N+B with N+K within its margin (+3.2), the GMWM's
+    # wavelet criterion prefers N+B (+5.3): N+B is printed, N+K listed with its K
+    model = NoiseModel((AngleRandomWalk(N_deg_rt_h=0.1), BiasInstability(B_deg_h=0.3)))
+    rate = simulate(model, 6 * 3600.0, 10.0, seed=900).rate_deg_s
+    fit = analyze_record(RateRecord(rate, 10.0, ("x",)))[0].fit
+    assert fit.terms == "NB" and (fit.values["B"] or 0.0) > 0
+    assert [a.fit.terms for a in fit.alternatives] == ["NK"]
+    walk = fit.alternatives[0]
+    assert 0 < walk.criterion_delta <= AMBIGUITY_MARGIN
+    assert walk.wavelet_criterion_delta is not None and walk.wavelet_criterion_delta > 0
+    assert (walk.fit.values["K"] or 0.0) > 0 and walk.fit.values["B"] == 0.0
+    # a K limit below the walk reading's K cannot pass on the N+B reading's K of 0
+    others = alternative_readings(fit, "K", 1.0)
+    assert others and others[0].value == walk.fit.values["K"]
