@@ -88,6 +88,9 @@ def main() -> None:
                 continue
             seconds.append(time.perf_counter() - start)
             crit = {r.model: r.criterion for r in ranking}
+            if markov not in crit or flicker not in crit:  # more parameters than scales
+                verdicts["not fitted"] += 1
+                continue
             delta = crit[markov] - crit[flicker]  # > 0: the bias instability is preferred
             verdicts["within the margin" if abs(delta) <= AMBIGUITY_MARGIN
                      else "B preferred" if delta > 0 else "GM preferred"] += 1
