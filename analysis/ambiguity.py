@@ -23,6 +23,10 @@ separate R or B would claim), and the selected one becomes its alternative. Wher
 selected reading kept K, readings that trade it for R or B within the margin of the
 information criterion are listed as alternatives. Every alternative carries its values
 and standard errors, so that a verdict can take the reading that is safe for a limit.
+
+Where the printed reading holds B or K, a slow Gauss-Markov process in its place is held
+against it on the GMWM's criterion (:mod:`analysis.bias_or_markov`) and listed as an
+alternative where the record allows it.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from numpy.typing import NDArray
 
 from analysis import blocks
 from analysis.allan import AllanResult
+from analysis.bias_or_markov import GMWM_TERM, MARKOV_LOOKALIKES, gmwm_model, markov_alternative
 from analysis.errors import AnalysisError, FitError
 from analysis.fit import TERMS, Alternative, NoiseCoefficients, fit_term_set
 from analysis.gmwm_models import GmwmModelError
@@ -46,8 +51,8 @@ from analysis.wavelet import WaveletVariance, haar_wavelet_variance
 AMBIGUITY_MARGIN = 4.0
 #: Terms a rate random walk's realisation may be read as.
 WALK_LOOKALIKES = "BR"
-#: The GMWM term of each IEEE term.
-GMWM_TERM = {"Q": "qn", "N": "wn", "B": "bi", "K": "rw", "R": "dr"}
+__all__ = ["AMBIGUITY_MARGIN", "GMWM_TERM", "WALK_LOOKALIKES", "resolve_ambiguity",
+           "resolve_for_rate", "wavelet_criterion_delta"]
 
 
 def _with_walk(terms: str, candidates: str) -> list[str]:
@@ -61,20 +66,16 @@ def _with_walk(terms: str, candidates: str) -> list[str]:
     return out
 
 
-def _gmwm_model(terms: str) -> str:
-    return "+".join(GMWM_TERM[t] for t in terms)
-
-
 def wavelet_criterion_delta(wavelet: WaveletVariance, terms: str, other: str) -> float | None:
     """WIC of the GMWM model of ``other`` minus that of ``terms``, both fitted with the
     weights of the larger (:func:`analysis.gmwm_selection.select_model`); None where the
     record has too few scales or a model cannot be fitted."""
     try:
-        ranking = select_model(wavelet, [_gmwm_model(terms), _gmwm_model(other)]).ranking
+        ranking = select_model(wavelet, [gmwm_model(terms), gmwm_model(other)]).ranking
     except (GmwmModelError, AnalysisError, np.linalg.LinAlgError):
         return None  # the information criterion then decides alone
     criteria = {r.model: r.criterion for r in ranking}
-    a, b = criteria.get(_gmwm_model(terms)), criteria.get(_gmwm_model(other))
+    a, b = criteria.get(gmwm_model(terms)), criteria.get(gmwm_model(other))
     return None if a is None or b is None else b - a
 
 
@@ -108,6 +109,20 @@ def resolve_ambiguity(
     NoiseCoefficients
         The printed reading, its ``alternatives`` filled (unchanged when unambiguous).
     """
+    printed = _resolve_walk(result, fit, wavelet, exclude_tau_s, margin)
+    if fit.method != "logwls" or wavelet is None:
+        return printed
+    markov = markov_alternative(wavelet, printed, margin=margin)
+    if markov is None:
+        return printed
+    return replace(printed, alternatives=(*printed.alternatives, markov))
+
+
+def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletVariance | None,
+                  exclude_tau_s: tuple[tuple[float, float], ...],
+                  margin: float) -> NoiseCoefficients:
+    """The walk against its lookalikes (:func:`resolve_ambiguity`, less the Gauss-Markov
+    reading)."""
     crit, chosen, cand = fit.criteria, fit.terms, fit.candidate_terms
     if fit.method != "logwls" or "K" not in cand or not crit or chosen not in crit:
         return fit
@@ -197,14 +212,17 @@ def resolve_for_rate(
     angle_out: NDArray[np.float64] | None = None,
 ) -> NoiseCoefficients:
     """:func:`resolve_ambiguity` with the wavelet variance of ``rate_deg_s`` (deg/s, NaN
-    where missing when ``gaps``), computed only where the GMWM criterion is needed (K a
-    candidate the selection left out). A long record with gaps (:func:`analysis.blocks.is_long`)
-    has no block-wise wavelet variance: there the information criterion decides alone, so
-    that the memory a grading needs stays flat in the record's length."""
+    where missing when ``gaps``), computed only where a GMWM criterion is needed (K a
+    candidate the selection left out, or B or K in the selected terms). A long record with
+    gaps (:func:`analysis.blocks.is_long`) has no block-wise wavelet variance: there the
+    information criterion decides alone, so that the memory a grading needs stays flat in
+    the record's length."""
     wavelet = None
     if gaps and blocks.is_long(len(rate_deg_s)):
         return resolve_ambiguity(result, fit, None, exclude_tau_s=exclude_tau_s)
-    if fit.method == "logwls" and "K" in fit.candidate_terms and "K" not in fit.terms:
+    walk_check = "K" in fit.candidate_terms and "K" not in fit.terms
+    if fit.method == "logwls" and (walk_check
+                                   or any(t in fit.terms for t in MARKOV_LOOKALIKES)):
         try:
             wavelet = haar_wavelet_variance(rate_deg_s, sample_rate_hz, gaps=gaps,
                                             angle_out=angle_out)

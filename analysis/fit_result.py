@@ -9,7 +9,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from analysis.curves import FLICKER_AVAR_FACTOR, gauss_markov_avar
 from analysis.fit_model import COEFFICIENT_NAMES, TAU_POWER, TERMS
+
+
+def _peak_adev_per_sigma() -> float:
+    """The largest Allan deviation of a Gauss-Markov process per its sigma (0.617, at
+    about 1.89 correlation times; IEEE Std 952-1997, Annex C)."""
+    x = np.logspace(-0.5, 1.0, 4001)
+    return float(np.sqrt(gauss_markov_avar(x, 1.0, 1.0).max()))
+
+
+#: The bias instability whose Allan floor equals a Gauss-Markov process' Allan peak, per
+#: the process' sigma: 0.617 / 0.664 = 0.929 (the factor the B read-off divides by).
+GM_B_EQUIVALENT = _peak_adev_per_sigma() / float(np.sqrt(FLICKER_AVAR_FACTOR))
 
 
 @dataclass(frozen=True)
@@ -104,6 +117,44 @@ class NoiseCoefficients:
         return out
 
 
+def _pm(err: float | None) -> str:
+    return "" if err is None else f" +- {err:.2g}"
+
+
+@dataclass(frozen=True)
+class GaussMarkovReading:
+    """A first-order Gauss-Markov process read from the record by the GMWM in place of a
+    bias instability or a rate random walk (:mod:`analysis.bias_or_markov`).
+
+    Attributes
+    ----------
+    sigma_deg_h, sigma_stderr_deg_h : float
+        The process' stationary standard deviation (deg/h) and its standard error (None
+        where the GMWM has none, e.g. a parameter held at a bound).
+    tau_s, tau_stderr_s : float
+        Its correlation time (s) and standard error (None likewise).
+    """
+
+    sigma_deg_h: float
+    sigma_stderr_deg_h: float | None
+    tau_s: float
+    tau_stderr_s: float | None
+
+    @property
+    def bias_instability_deg_h(self) -> float:
+        """The B (deg/h) a bias instability would need for an Allan floor as high as this
+        process' Allan peak: ``sigma * GM_B_EQUIVALENT``. Both figures then describe the
+        same largest wander of adjacent averages, so a B limit judges them alike."""
+        return self.sigma_deg_h * GM_B_EQUIVALENT
+
+    @property
+    def bias_instability_stderr_deg_h(self) -> float | None:
+        """Standard error (deg/h) of :attr:`bias_instability_deg_h` (None where sigma has
+        none)."""
+        err = self.sigma_stderr_deg_h
+        return None if err is None else err * GM_B_EQUIVALENT
+
+
 @dataclass(frozen=True)
 class Alternative:
     """Another reading of the record, as good by its criteria as the one printed.
@@ -112,16 +163,26 @@ class Alternative:
     ----------
     fit : NoiseCoefficients
         The reading: its terms, values and standard errors (data-sheet units).
-    criterion_delta : float
+    criterion_delta : float or None
         Its ``logwls`` information criterion minus the printed reading's (negative: the
-        term selection preferred it).
+        term selection preferred it); None where not computed (a Gauss-Markov reading,
+        which the ``logwls`` terms cannot hold).
     wavelet_criterion_delta : float or None
         The same for the GMWM's wavelet information criterion; None where not computed.
+    gauss_markov : GaussMarkovReading or None
+        The Gauss-Markov process this reading holds in place of the printed reading's
+        bias instability or rate random walk (whose value it leaves None); None otherwise.
     """
 
     fit: NoiseCoefficients
-    criterion_delta: float
+    criterion_delta: float | None
     wavelet_criterion_delta: float | None = None
+    gauss_markov: GaussMarkovReading | None = None
+
+    @property
+    def terms(self) -> str:
+        """The reading's terms, ``+GM`` appended where it holds a Gauss-Markov process."""
+        return self.fit.terms + ("+GM" if self.gauss_markov is not None else "")
 
     def describe(self) -> str:
         """One line: the terms and the values of the terms that differ from zero."""
@@ -130,15 +191,28 @@ class Alternative:
             v, s = self.fit.values[t], self.fit.stderr[t]
             if v is not None and v > 0:
                 shown.append(f"{t} {v:.3g}" + (f" +- {s:.2g}" if s is not None else ""))
-        return f"terms {self.fit.terms}: {', '.join(shown) or 'none above zero'}"
+        gm = self.gauss_markov
+        if gm is not None:
+            shown.append(f"GM sigma {gm.sigma_deg_h:.3g}{_pm(gm.sigma_stderr_deg_h)} deg/h, "
+                         f"tau {gm.tau_s:.3g}{_pm(gm.tau_stderr_s)} s")
+        return f"terms {self.terms}: {', '.join(shown) or 'none above zero'}"
 
     def as_dict(self) -> dict[str, object]:
-        """JSON form: ``terms``, ``values`` and ``stderr`` by coefficient name,
-        ``criterion_delta``, ``wavelet_criterion_delta``."""
+        """JSON form: ``terms``, ``values`` and ``stderr`` by coefficient name (with
+        ``GM_sigma_deg_h`` and ``GM_tau_s`` where the reading holds a Gauss-Markov
+        process), ``criterion_delta``, ``wavelet_criterion_delta``."""
+        values: dict[str, float | None] = {COEFFICIENT_NAMES[t]: self.fit.values[t]
+                                           for t in TERMS}
+        stderr: dict[str, float | None] = {COEFFICIENT_NAMES[t]: self.fit.stderr[t]
+                                           for t in TERMS}
+        gm = self.gauss_markov
+        if gm is not None:
+            values |= {"GM_sigma_deg_h": gm.sigma_deg_h, "GM_tau_s": gm.tau_s}
+            stderr |= {"GM_sigma_deg_h": gm.sigma_stderr_deg_h, "GM_tau_s": gm.tau_stderr_s}
         return {
-            "terms": self.fit.terms,
-            "values": {COEFFICIENT_NAMES[t]: self.fit.values[t] for t in TERMS},
-            "stderr": {COEFFICIENT_NAMES[t]: self.fit.stderr[t] for t in TERMS},
+            "terms": self.terms,
+            "values": values,
+            "stderr": stderr,
             "criterion_delta": self.criterion_delta,
             "wavelet_criterion_delta": self.wavelet_criterion_delta,
         }

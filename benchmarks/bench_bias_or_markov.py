@@ -11,10 +11,14 @@ readings the selection kept, how many records put the two models within
 :data:`analysis.ambiguity.AMBIGUITY_MARGIN` of each other (the record cannot tell them
 apart), how many prefer each beyond it, and the seconds the ranking takes per axis (what
 carrying the Gauss-Markov reading beside every bias-instability reading would add to an
-analysis).
+analysis). Then what the sheet now does (:mod:`analysis.bias_or_markov`): in how many
+records the printed reading lists a Gauss-Markov alternative (``terms`` ending in ``+GM``),
+split by whether the printed reading holds B, K or neither, and the median seconds of the
+whole analysis per axis.
 
     python -m benchmarks.bench_bias_or_markov            # seeds 28900-28909, 1 h and 6 h
     python -m benchmarks.bench_bias_or_markov --seeds 20 --first 29500
+    python -m benchmarks.bench_bias_or_markov --seeds 10 --first 31000   # fresh seeds
 """
 
 from __future__ import annotations
@@ -60,11 +64,17 @@ def main() -> None:
     for name, terms, hours in CASES:
         readings: Counter[str] = Counter()
         verdicts: Counter[str] = Counter()
-        seconds = []
+        listed: Counter[str] = Counter()
+        seconds, analysis_s = [], []
         for seed in range(args.first, args.first + args.seeds):
             rate = simulate(NoiseModel(terms), hours * 3600.0, RATE_HZ, seed=seed).rate_deg_s
+            start = time.perf_counter()
             fit = analyze_record(RateRecord(rate, RATE_HZ, ("x",)))[0].fit
+            analysis_s.append(time.perf_counter() - start)
             readings[fit.terms] += 1
+            holds = "B" if "B" in fit.terms else "K" if "K" in fit.terms else "neither"
+            has_gm = any(a.gauss_markov is not None for a in fit.alternatives)
+            listed[f"{holds}: {'GM listed' if has_gm else 'no GM'}"] += 1
             # the reading's model with a bias instability, and with a Gauss-Markov in its place
             base = "".join(t for t in fit.terms if t != "B") + "B"
             flicker = _gmwm_model("".join(t for t in "QNBKR" if t in base))
@@ -78,11 +88,18 @@ def main() -> None:
                 continue
             seconds.append(time.perf_counter() - start)
             crit = {r.model: r.criterion for r in ranking}
+            if markov not in crit or flicker not in crit:  # more parameters than scales
+                verdicts["not fitted"] += 1
+                continue
             delta = crit[markov] - crit[flicker]  # > 0: the bias instability is preferred
             verdicts["within the margin" if abs(delta) <= AMBIGUITY_MARGIN
                      else "B preferred" if delta > 0 else "GM preferred"] += 1
         print(f"{name:<20} readings {dict(readings)}; B against GM: {dict(verdicts)}; "
               f"ranking {np.median(seconds):.2f} s per axis (median)", flush=True)
+        gm_total = sum(n for k, n in listed.items() if k.endswith("GM listed"))
+        print(f"{'':<20} sheet: GM alternative listed in {gm_total} of {args.seeds} "
+              f"(printed reading holds {dict(sorted(listed.items()))}); analysis "
+              f"{np.median(analysis_s):.2f} s per axis (median)", flush=True)
 
 
 if __name__ == "__main__":

@@ -111,7 +111,8 @@ def test_a_bias_instability_reading_stands_where_the_gmwm_prefers_it_and_k_is_na
     rate = simulate(model, 6 * 3600.0, 10.0, seed=900).rate_deg_s
     fit = analyze_record(RateRecord(rate, 10.0, ("x",)))[0].fit
     assert fit.terms == "NB" and (fit.values["B"] or 0.0) > 0
-    assert [a.fit.terms for a in fit.alternatives] == ["NK"]
+    # (a slow Gauss-Markov reading may be listed too: tests/test_bias_or_markov.py)
+    assert [a.terms for a in fit.alternatives if a.gauss_markov is None] == ["NK"]
     walk = fit.alternatives[0]
     assert 0 < walk.criterion_delta <= AMBIGUITY_MARGIN
     assert walk.wavelet_criterion_delta is not None and walk.wavelet_criterion_delta > 0

@@ -50,7 +50,7 @@ def _safe_rrw(axis: AxisAnalysis) -> tuple[float, str]:
     for alt in fit.alternatives:
         other, _ = _rrw(alt.fit.values.get("K"), alt.fit.stderr.get("K"), "")
         if other > k:
-            k, k_from = other, f"fit ({fit.method}, reading {alt.fit.terms})"
+            k, k_from = other, f"fit ({fit.method}, reading {alt.terms})"
     allowed = "; ".join(alt.describe() for alt in fit.alternatives)
     return k, (f"{k_from}; ambiguous: the record also allows {allowed} (printed terms "
                f"{fit.terms}); the larger K of the readings is written")

@@ -1,7 +1,8 @@
 """The other readings of an ambiguous fitted figure, and the verdict safe for a limit.
 
 Where the record cannot tell two term sets apart (:mod:`analysis.ambiguity`: a rate
-random walk against a ramp or a bias instability), the fit carries the other readings
+random walk against a ramp or a bias instability, a bias instability or a walk against a
+slow Gauss-Markov process), the fit carries the other readings
 beside the one printed. A fitted figure then has several values, each with its interval;
 a limit is passed only when every reading passes it, failed only when every reading fails
 it, and indeterminate otherwise: never a pass bought by the zero of a term one reading
@@ -58,12 +59,20 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
     out = []
     for alt in fit.alternatives:
         value, err = alt.fit.values[term], alt.fit.stderr[term]
+        gm = alt.gauss_markov
+        if term == "B" and gm is not None:
+            # A Gauss-Markov reading's B: the bias instability whose Allan floor is as high
+            # as the process' Allan peak (0.617 sigma near 1.89 T; B = 0.929 sigma). Both
+            # then promise the same largest wander of adjacent averages, which is what a B
+            # limit bounds; sigma / 0.664 would charge the process an Allan deviation it
+            # never reaches. The verdict takes the larger reading (safe_verdict).
+            value, err = gm.bias_instability_deg_h, gm.bias_instability_stderr_deg_h
         if value is None or (printed is not None and math.isclose(value, printed)):
             continue
         if err is None or not math.isfinite(err):
-            out.append(Reading(alt.fit.terms, value, None, None))
+            out.append(Reading(alt.terms, value, None, None))
         else:
-            out.append(Reading(alt.fit.terms, value, max(value - z * err, 0.0), value + z * err))
+            out.append(Reading(alt.terms, value, max(value - z * err, 0.0), value + z * err))
     return tuple(out)
 
 
