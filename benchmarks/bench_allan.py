@@ -27,15 +27,15 @@ from collections.abc import Callable
 import allantools
 import numpy as np
 
-from analysis import kernels
-from analysis.allan import (
+from analysis.allan import kernels
+from analysis.allan.estimators import (
     cluster_allan_variance,
     cumulative_angle,
     log_m,
     overlapping_allan_variance,
     overlapping_sums,
 )
-from analysis.davar import davar_plain, davar_recursive, dynamic_allan_variance
+from analysis.davar.estimators import davar_plain, davar_recursive, dynamic_allan_variance
 
 #: Zhang 2015, table 3: MATLAB times (s) of DAVAR, fast DAVAR, improved fast DAVAR on a
 #: Core 2 Duo at 3 GHz (other hardware: compare ratios between methods, not seconds).

@@ -1,14 +1,14 @@
 """The figures a spec sheet prints where the record cannot tell a rate random walk from a
 ramp or a bias instability (issue 28): N 0.1 deg/sqrt(h) + K 1.0 deg/h^1.5, 10 Hz, 6 h.
 
-Each record comes from the station's streaming simulator (:mod:`analysis.simulate`, as
+Each record comes from the station's streaming simulator (:mod:`analysis.models.simulation`, as
 ``station simulate`` writes it) and is analysed as ``station analyze --json`` does
 (:func:`station.evaluation.analyze.analyze_record`). Printed per estimator, over the seeds:
 K's mean, how many of the ``value +- stderr`` intervals hold the truth, the mean standard
 error over the spread between seeds (1 when honest), how often K is 0; and N's.
 
 * ``sheet``: the figure the sheet prints (``fit`` of the analysis: the reading with K where
-  the record cannot tell it from a ramp or a bias instability, :mod:`analysis.ambiguity`);
+  the record cannot tell it from a ramp or a bias instability, :mod:`analysis.figures.ambiguity`);
 * ``selected``: the term selection's reading alone (what the sheet printed before);
 * ``gmwm wn+rw``: the GMWM in the true model form (``--method gmwm --model wn+rw``).
 
@@ -28,9 +28,9 @@ import time
 
 import numpy as np
 
-from analysis.gmwm_selection import gmwm_analysis
-from analysis.models import AngleRandomWalk, NoiseModel, RateRandomWalk
-from analysis.simulate import simulate
+from analysis.gmwm.selection import gmwm_analysis
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, NoiseModel, RateRandomWalk
 from station.evaluation.analyze import analyze_record
 from station.model.records import RateRecord
 

@@ -3,15 +3,15 @@ asking costs (issue 28, item 1: "B against a slow Gauss-Markov").
 
 Records of white noise plus either a bias instability (flicker) or a Gauss-Markov process
 whose correlation time is a sizeable part of the record, from the station's simulator
-(:mod:`analysis.simulate`). Each is read as ``station analyze`` reads it (the ``logwls``
+(:mod:`analysis.models.simulation`). Each is read as ``station analyze`` reads it (the ``logwls``
 reading, :func:`station.evaluation.analyze.analyze_record`), and the GMWM's wavelet
-information criterion (:func:`analysis.gmwm_selection.select_model`) ranks the model of
+information criterion (:func:`analysis.gmwm.selection.select_model`) ranks the model of
 that reading with ``bi`` against the same with ``gm`` in its place. Printed per case: the
 readings the selection kept, how many records put the two models within
-:data:`analysis.ambiguity.AMBIGUITY_MARGIN` of each other (the record cannot tell them
+:data:`analysis.figures.ambiguity.AMBIGUITY_MARGIN` of each other (the record cannot tell them
 apart), how many prefer each beyond it, and the seconds the ranking takes per axis (what
 carrying the Gauss-Markov reading beside every bias-instability reading would add to an
-analysis). Then what the sheet now does (:mod:`analysis.bias_or_markov`): in how many
+analysis). Then what the sheet now does (:mod:`analysis.figures.bias_or_markov`): in how many
 records the printed reading lists a Gauss-Markov alternative (``terms`` ending in ``+GM``),
 split by whether the printed reading holds B, K or neither, and the median seconds of the
 whole analysis per axis.
@@ -29,12 +29,12 @@ from collections import Counter
 
 import numpy as np
 
-from analysis.ambiguity import AMBIGUITY_MARGIN, GMWM_TERM
 from analysis.errors import AnalysisError
-from analysis.gmwm_selection import select_model
-from analysis.models import AngleRandomWalk, BiasInstability, GaussMarkov, NoiseModel
-from analysis.simulate import simulate
-from analysis.wavelet import haar_wavelet_variance
+from analysis.figures.ambiguity import AMBIGUITY_MARGIN, GMWM_TERM
+from analysis.gmwm.selection import select_model
+from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, BiasInstability, GaussMarkov, NoiseModel
 from station.evaluation.analyze import analyze_record
 from station.model.records import RateRecord
 

@@ -5,7 +5,7 @@
 
 Three parts, each printing ratios measured side by side in this run:
 
-* cost: each deviation of ``analysis.deviations`` on one record of N samples (default
+* cost: each deviation of ``analysis.allan.deviations`` on one record of N samples (default
   1e6, white rate plus a little rate random walk), its default log grid, with intervals;
   seconds and the ratio to the overlapping Allan deviation's time;
 * coverage: the share of (seed, tau) cells whose +-1 sigma interval holds the true
@@ -24,9 +24,9 @@ import time
 
 import numpy as np
 
-from analysis.confidence import difference_edf_grid
-from analysis.deviations import DEVIATION_KINDS, deviation
-from analysis.noise import white_rate_noise
+from analysis.allan.confidence import difference_edf_grid
+from analysis.allan.deviations import DEVIATION_KINDS, deviation
+from analysis.models.noise import white_rate_noise
 
 
 def cost(n: int) -> None:

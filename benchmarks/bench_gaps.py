@@ -4,14 +4,14 @@
     python benchmarks/bench_gaps.py             # 20 seeds
 
 The polled Modbus unit of issue 28: one hour, 6.8 % of the samples lost in runs of 1 to 3
-(:func:`analysis.simulate.polled_loss`). At 18 Hz that is about 2200 gaps, the count the
+(:func:`analysis.models.simulation.polled_loss`). At 18 Hz that is about 2200 gaps, the count the
 unit showed (2169). Each seed simulates one hour of white rate noise (ARW 0.15 deg/rt h),
 flicker (bias instability 3 deg/h) and rate random walk (K = 5 deg/h^1.5), analyses the
-unbroken record and the same record with the gaps (:func:`analysis.partial_clusters`, as
+unbroken record and the same record with the gaps (:func:`analysis.allan.partial_clusters`, as
 ``station analyze`` and ``station grade`` do) and prints, per figure, the median ratio
 gapped / unbroken and the share of seeds whose unbroken value lies inside the gapped
 figure's 95 % interval (ADEV at 1, 10, 100, 1000 s; bias stability 10 s and 100 s; the
-fitted N, B, K with their standard errors). The strict rule (:mod:`analysis.gaps`, no
+fitted N, B, K with their standard errors). The strict rule (:mod:`analysis.allan.gaps`, no
 average straddles a gap) is shown beside: its longest tau and whether it has a 100 s bias
 stability at all.
 """
@@ -24,12 +24,12 @@ import time
 import numpy as np
 from scipy import stats
 
-from analysis.figures import bias_stability
-from analysis.gaps import gap_allan_variance, gap_summary
-from analysis.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
-from analysis.partial_clusters import partial_allan_variance, white_level
-from analysis.simulate import polled_loss
-from analysis.units import S_PER_H
+from analysis.allan.gaps import gap_allan_variance, gap_summary
+from analysis.allan.partial_clusters import partial_allan_variance, white_level
+from analysis.figures.spec import bias_stability
+from analysis.models.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
+from analysis.models.simulation import polled_loss
+from analysis.units.conversions import S_PER_H
 from station.evaluation.analyze import analyze_record
 from station.model.records import RateRecord
 

@@ -40,14 +40,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize, special
 
-from analysis.allan import AllanResult, cluster_allan_variance, overlapping_allan_variance
-from analysis.fit import DEFAULT_MODEL_ERROR, fit_noise_terms, log_tau_share
-from analysis.gmwm import gmwm
-from analysis.gmwm_models import GmwmModel
-from analysis.gmwm_selection import gmwm_analysis
-from analysis.models import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandomWalk
-from analysis.simulate import simulate
-from analysis.wavelet import haar_wavelet_variance
+from analysis.allan.estimators import (
+    AllanResult,
+    cluster_allan_variance,
+    overlapping_allan_variance,
+)
+from analysis.fit.least_squares import DEFAULT_MODEL_ERROR, fit_noise_terms, log_tau_share
+from analysis.gmwm.estimator import gmwm
+from analysis.gmwm.models import GmwmModel
+from analysis.gmwm.selection import gmwm_analysis
+from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandomWalk
 from station.evaluation.reproduce import PAPER_GYROS, SAMPLE_RATE_HZ, simulate_paper_gyro
 
 GM_RATE_HZ, GM_HOURS = 100.0, 6.0
@@ -62,7 +66,7 @@ class Case:
     name: str
     model: str
     truth: dict[str, float]
-    kind: str  # "gm" (analysis.simulate, 6 h at 100 Hz) or a paper gyro's index
+    kind: str  # "gm" (analysis.models.simulation, 6 h at 100 Hz) or a paper gyro's index
 
 
 def gm_case(sigma_deg_h: float) -> Case:

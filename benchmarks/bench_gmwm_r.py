@@ -44,10 +44,10 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.gmwm import GMWM_MIN_BLOCKS, gmwm, gmwm_with_covariance
-from analysis.gmwm_models import GmwmModel
-from analysis.units import S_PER_H
-from analysis.wavelet import haar_wavelet_variance
+from analysis.gmwm.estimator import GMWM_MIN_BLOCKS, gmwm, gmwm_with_covariance
+from analysis.gmwm.models import GmwmModel
+from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.units.conversions import S_PER_H
 from station.storage.runs import read_record
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"

@@ -31,10 +31,10 @@ import math
 import numpy as np
 from scipy import signal
 
-from analysis.gmwm import GMWM_MIN_BLOCKS, gmwm, gmwm_with_covariance
-from analysis.gmwm_models import GmwmModel
-from analysis.units import S_PER_H
-from analysis.wavelet import haar_wavelet_variance
+from analysis.gmwm.estimator import GMWM_MIN_BLOCKS, gmwm, gmwm_with_covariance
+from analysis.gmwm.models import GmwmModel
+from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.units.conversions import S_PER_H
 from benchmarks.bench_gmwm_r import MODEL, RECORD, r_values, run_r
 from station.storage.runs import read_record
 

@@ -16,7 +16,7 @@ FILE --model mems-typical --json --runs 5 --axis x``); grade and report use a pr
 beside the run: ADIS16405's figures and limits on the run's axes, its warm-up cut to a
 tenth of the run. ``--keep FILE`` keeps the run file (and reuses it when it exists);
 ``--long-samples N`` makes records longer than N samples count as long (the block-wise
-path, :mod:`analysis.blocks`), so a short run exercises it. ``--compare`` (every
+path, :mod:`analysis.allan.blocks`), so a short run exercises it. ``--compare`` (every
 command but report) runs the command a second time with every record read in one piece and appends
 ``max_rel_diff=...``: the largest relative difference between the numbers of the two
 JSON documents.
@@ -69,7 +69,7 @@ atexit.register(_hwm)
 """
 
 CHILD = HWM + """
-import analysis.blocks as blocks
+import analysis.allan.blocks as blocks
 LONG = {long!r}
 if LONG is not None:
     blocks.LONG_SAMPLES = LONG

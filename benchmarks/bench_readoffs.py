@@ -26,28 +26,28 @@ import time
 
 import numpy as np
 
-from analysis.allan import AllanResult, overlapping_allan_variance
-from analysis.noise import (
-    flicker_rate_noise,
-    random_walk_rate_noise,
-    white_angle_noise,
-    white_rate_noise,
-)
-from analysis.readoffs import (
+from analysis.allan.estimators import AllanResult, overlapping_allan_variance
+from analysis.figures.readoffs import (
     ARW_SLOPE_TOLERANCE,
     arw_readoff,
     bias_instability_readoff,
     local_adev_slope,
 )
-from analysis.tones import find_tones
-from analysis.units import (
+from analysis.figures.tones import find_tones
+from analysis.figures.zones import fit_outside_zones
+from analysis.models.noise import (
+    flicker_rate_noise,
+    random_walk_rate_noise,
+    white_angle_noise,
+    white_rate_noise,
+)
+from analysis.units.conversions import (
     arw_deg_rt_h_to_deg_rt_s,
     q_deg_to_urad,
     q_urad_to_deg,
     rate_deg_h_to_deg_s,
     rrw_deg_h_1_5_to_deg_s_1_5,
 )
-from analysis.zones import fit_outside_zones
 
 
 def first_slope_stretch(result: AllanResult) -> float:

@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from analysis.discrepancy import ComparisonCache
+from analysis.reconcile.discrepancy import ComparisonCache
 from tests.test_reconcile import (
     BASE,
     HIDDEN,

@@ -1,10 +1,10 @@
 """How often reconcile names a hidden effect, on records from a generator independent of the
 station's.
 
-The station's simulator (:mod:`analysis.simulate`) makes every sample the exact mean of a
+The station's simulator (:mod:`analysis.models.simulation`) makes every sample the exact mean of a
 continuous process, and reconcile's Monte Carlo band comes from the same simulator. Here
 the records come from textbook point-sampled recursions written in this file instead:
-white noise, flicker noise by Kasdin's filter (:func:`analysis.noise.flicker_rate_noise`),
+white noise, flicker noise by Kasdin's filter (:func:`analysis.models.noise.flicker_rate_noise`),
 a discrete AR(1) for the Gauss-Markov process (``phi = exp(-dt/T)``), a cumulative sum for
 the rate random walk, a sampled sine and more Kasdin flicker noise for a bias instability
 larger than the model's (the Gauss-Markov process' rival explanation). The base model and
@@ -30,10 +30,10 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from scipy import signal
 
-from analysis.discrepancy import ComparisonCache
-from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
-from analysis.noise import flicker_rate_noise
-from analysis.reconcile import ReconcileOptions, reconcile
+from analysis.models.noise import flicker_rate_noise
+from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel
+from analysis.reconcile.discrepancy import ComparisonCache
+from analysis.reconcile.loop import ReconcileOptions, reconcile
 
 FS_HZ, DURATION_S = 10.0, 3600.0
 N_SAMPLES = int(FS_HZ * DURATION_S)

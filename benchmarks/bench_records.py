@@ -26,16 +26,16 @@ import time
 import allantools
 import numpy as np
 
-from analysis.allan import allan_variance
-from analysis.models import (
+from analysis.allan.outliers import FALSE_ALARM, detect_spikes
+from analysis.allan.variance import allan_variance
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     NoiseModel,
     Quantization,
     RateRandomWalk,
 )
-from analysis.outliers import FALSE_ALARM, detect_spikes
-from analysis.simulate import simulate
 
 FS_HZ = 100.0
 MODELS = {

@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import kernels
-from analysis.allan import cumulative_angle, log_m
-from analysis.davar import dynamic_allan_variance
+from analysis.allan import kernels
+from analysis.allan.estimators import cumulative_angle, log_m
+from analysis.davar.estimators import dynamic_allan_variance
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))

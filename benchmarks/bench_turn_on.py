@@ -15,9 +15,14 @@ import math
 
 import numpy as np
 
-from analysis.power_cycle import PowerCycleModel
-from analysis.turn_on import cycle_bias, sliding_means, turn_on_repeatability, warmup_curve
-from analysis.units import S_PER_H
+from analysis.models.power_cycle import PowerCycleModel
+from analysis.sequences.turn_on import (
+    cycle_bias,
+    sliding_means,
+    turn_on_repeatability,
+    warmup_curve,
+)
+from analysis.units.conversions import S_PER_H
 
 #: (amplitude deg/h, tau s, average s, rate Hz, record s, noise of an average / band)
 CASES = ((20.0, 60.0, 10.0, 10.0, 600.0, 0.1), (20.0, 60.0, 10.0, 10.0, 600.0, 0.2),

@@ -28,8 +28,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from analysis.allan import log_m, overlapping_allan_variance
-from analysis.fit import (
+from analysis.allan.estimators import log_m, overlapping_allan_variance
+from analysis.fit.least_squares import (
     BETA_FACTOR,
     COEFFICIENT_NAMES,
     TERMS,
@@ -37,8 +37,9 @@ from analysis.fit import (
     fit_noise_terms,
     theoretical_avar,
 )
-from analysis.fit_uncertainty import value_covariance
-from analysis.models import (
+from analysis.fit.uncertainty import value_covariance
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     NoiseModel,
@@ -46,7 +47,6 @@ from analysis.models import (
     RateRamp,
     RateRandomWalk,
 )
-from analysis.simulate import simulate
 
 TERM_CLASS = {"Q": Quantization, "N": AngleRandomWalk, "B": BiasInstability, "K": RateRandomWalk,
               "R": RateRamp}

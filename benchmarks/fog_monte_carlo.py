@@ -11,13 +11,13 @@ from __future__ import annotations
 import argparse
 import time
 
-from analysis.fog import (
+from analysis.models.fog import (
     bias_stability_statistics,
     fog_from_indicators,
     measure_arw,
     measure_bias_stability,
 )
-from analysis.simulate import GyroSimulator
+from analysis.models.simulation import GyroSimulator
 
 #: (label, ARW deg/sqrt(h), bias stability deg/h, averaging s, T s or None, Hz, record s)
 CONDITIONS = [

@@ -14,7 +14,7 @@ import tracemalloc
 
 import numpy as np
 
-from analysis.simulate import GyroSimulator
+from analysis.models.simulation import GyroSimulator
 from devices.model_files import load_noise_model
 
 

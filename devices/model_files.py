@@ -12,9 +12,9 @@ import sys
 import tomllib
 from pathlib import Path
 
-from analysis.accel_noise import ACCELEROMETER_TABLE, AccelNoiseModel
 from analysis.errors import ModelError
-from analysis.models import NoiseModel
+from analysis.models.accel_noise import ACCELEROMETER_TABLE, AccelNoiseModel
+from analysis.models.terms import NoiseModel
 
 
 def shipped_profiles_dir() -> Path:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.noise import flicker_rate_noise, white_rate_noise
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
+from analysis.models.noise import flicker_rate_noise, white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from devices.protocols import DeviceDescription
 from station.model.documents import Descriptor, EventBatch, RunStart, RunStop, data_keys
 from station.model.profiles import load_profile

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.units import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from station.cli import main
 from station.evaluation.analyze import analyze_rates, analyze_record
 from station.output.plots import allan_figure, wavelet_figure

@@ -7,9 +7,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from analysis.allan import (
+from analysis.allan.estimators import (
     all_m,
-    allan_variance,
     analysis_log_m,
     cluster_allan_variance,
     log_m,
@@ -17,13 +16,14 @@ from analysis.allan import (
     octave_m,
     overlapping_allan_variance,
 )
+from analysis.allan.variance import allan_variance
 from analysis.errors import (
     InvalidSampleRateError,
     InvalidTauError,
     NonFiniteSamplesError,
     TooFewSamplesError,
 )
-from analysis.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
+from analysis.models.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
 
 
 def nbs14_1000() -> np.ndarray:

@@ -1,4 +1,4 @@
-"""The Allan kernels of analysis.kernels: numpy fallback, compiled kernel and reference agree.
+"""The Allan kernels of analysis.allan.kernels: numpy fallback, compiled kernel and reference agree.
 
 The reference is the plainest possible formula; the fallback is what runs without numba;
 the compiled kernel runs only where numba is installed (skipped otherwise). allantools'
@@ -13,8 +13,8 @@ import allantools
 import numpy as np
 import pytest
 
-from analysis import kernels
-from analysis.allan import cumulative_angle, overlapping_allan_variance
+from analysis.allan import kernels
+from analysis.allan.estimators import cumulative_angle, overlapping_allan_variance
 
 needs_numba = pytest.mark.skipif(not kernels.have_compiled(), reason="numba is not installed")
 
@@ -126,7 +126,7 @@ def test_compiled_kernels_from_several_threads_under_numbas_workqueue_layer() ->
     script = textwrap.dedent("""
         import threading
         import numpy as np
-        from analysis import kernels
+        from analysis.allan import kernels
         theta = np.cumsum(np.random.default_rng(1).normal(size=(200_001, 1)), axis=0)
         m = np.unique(np.logspace(0, 4.5, 60).astype(np.int64))
         want = kernels.overlapping_sums(theta, m, backend="numpy")
@@ -184,8 +184,8 @@ def test_auto_picks_by_the_work_alone() -> None:
     script = textwrap.dedent("""
         import sys
         import numpy as np
-        from analysis import kernels
-        from analysis.allan import overlapping_allan_variance
+        from analysis.allan import kernels
+        from analysis.allan.estimators import overlapping_allan_variance
         first = overlapping_allan_variance(np.random.default_rng(1).normal(size=100_000), 100.0)
         cold = "numba" in sys.modules
         theta = np.cumsum(np.random.default_rng(2).normal(size=(1001, 1)), axis=0)

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.ambiguity import AMBIGUITY_MARGIN
-from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel, RateRandomWalk
-from analysis.simulate import simulate
+from analysis.figures.ambiguity import AMBIGUITY_MARGIN
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel, RateRandomWalk
 from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval
 from station.evaluation.grading import grade_figure

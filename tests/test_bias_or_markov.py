@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.ambiguity import AMBIGUITY_MARGIN
-from analysis.curves import FLICKER_AVAR_FACTOR, gauss_markov_avar
-from analysis.fit_result import GM_B_EQUIVALENT
-from analysis.models import AngleRandomWalk, BiasInstability, GaussMarkov, NoiseModel
-from analysis.simulate import simulate
+from analysis.allan.curves import FLICKER_AVAR_FACTOR, gauss_markov_avar
+from analysis.figures.ambiguity import AMBIGUITY_MARGIN
+from analysis.fit.result import GM_B_EQUIVALENT
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, BiasInstability, GaussMarkov, NoiseModel
 from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval
 from station.evaluation.grading import grade_figure

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.noise import flicker_rate_noise, white_rate_noise
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
+from analysis.models.noise import flicker_rate_noise, white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from station.cli import main
 from station.evaluation.reproduce import reproduce_lv2015
 from station.storage.csv_records import read_csv_record, write_csv_record

@@ -14,9 +14,9 @@ from urllib.parse import urlsplit
 import numpy as np
 import pytest
 
-from analysis.discrepancy import measure_curve
 from analysis.errors import FitError
-from analysis.fit import check_terms
+from analysis.fit.least_squares import check_terms
+from analysis.reconcile.discrepancy import measure_curve
 from devices.url_query import check_keys, parse_query
 from devices.urls import SUPPORTED, _allowed_keys
 from station.cli import build_parser, main

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis import kernels
-from analysis.allan import chi2_interval, overlapping_allan_variance
-from analysis.davar import (
+from analysis.allan import kernels
+from analysis.allan.estimators import chi2_interval, overlapping_allan_variance
+from analysis.davar.estimators import (
     DavarResult,
     davar_plain,
     davar_recursive,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from matplotlib import image
 
-from analysis.davar import dynamic_allan_variance
+from analysis.davar.estimators import dynamic_allan_variance
 from station.cli import main
 from station.storage.csv_records import write_csv_record
 

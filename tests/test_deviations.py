@@ -1,4 +1,4 @@
-"""The Allan family (analysis.deviations): against allantools, against Stable32's PHASE.DAT
+"""The Allan family (analysis.allan.deviations): against allantools, against Stable32's PHASE.DAT
 outputs, by property, and the coverage of their intervals on white rate noise."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import allantools
 import numpy as np
 import pytest
 
-from analysis.deviations import DEVIATION_KINDS, deviation
+from analysis.allan.deviations import DEVIATION_KINDS, deviation
+from analysis.allan.theo1 import theo1_sums
 from analysis.errors import InvalidTauError, TooFewSamplesError
-from analysis.noise import white_rate_noise
-from analysis.theo1 import theo1_sums
+from analysis.models.noise import white_rate_noise
 from tests.allantools_reference import STABLE32_KINDS, read_phase, read_stable32
 
 ALLANTOOLS = {"oadev": allantools.oadev, "adev": allantools.adev, "mdev": allantools.mdev,

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.earth import (
+from analysis.units.conversions import S_PER_H
+from analysis.units.earth import (
     EARTH_RATE_DEG_H,
     OrientationError,
     axis_direction,
@@ -19,7 +20,6 @@ from analysis.earth import (
     format_orientation,
     parse_orientation,
 )
-from analysis.units import S_PER_H
 from devices.errors import DeviceConfigurationError
 from devices.sim.params import parse_sim_params, sim_core
 from station.cli import main

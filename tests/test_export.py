@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from analysis.noise import white_rate_noise
-from analysis.tool_units import (
+from analysis.figures.tool_units import (
     AxisNoise,
     GaussMarkovBias,
     allan_floor,
@@ -29,7 +28,8 @@ from analysis.tool_units import (
     rate_rad_s,
     rrw_deg_h_1_5_from_random_walk,
 )
-from analysis.units import arw_deg_rt_h_to_deg_rt_s
+from analysis.models.noise import white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s
 from station.cli import main
 from station.errors import UsageError
 from station.model.records import RateRecord

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
-from analysis.figures import bias_stability
-from analysis.noise import flicker_rate_noise, white_rate_noise
-from analysis.readoffs import arw_readoff, bias_instability_readoff
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
+from analysis.allan.estimators import overlapping_allan_variance
+from analysis.figures.readoffs import arw_readoff, bias_instability_readoff
+from analysis.figures.spec import bias_stability
+from analysis.models.noise import flicker_rate_noise, white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 
 
 def test_bias_stability_of_white_noise_follows_the_averaging_time() -> None:

@@ -7,9 +7,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from analysis.allan import cluster_allan_variance, log_m, overlapping_allan_variance
+from analysis.allan.estimators import cluster_allan_variance, log_m, overlapping_allan_variance
 from analysis.errors import FitError
-from analysis.fit import FIT_METHODS, fit_noise_terms, log_tau_share, theoretical_avar
+from analysis.fit.least_squares import FIT_METHODS, fit_noise_terms, log_tau_share, theoretical_avar
 
 TRUE = {"Q": 0.5, "N": 0.01, "B": 0.2, "K": 0.05, "R": 0.3}
 

@@ -12,9 +12,10 @@ import math
 
 import numpy as np
 
-from analysis.allan import overlapping_allan_variance
-from analysis.fit import COEFFICIENT_NAMES, TERMS, fit_noise_terms
-from analysis.models import (
+from analysis.allan.estimators import overlapping_allan_variance
+from analysis.fit.least_squares import COEFFICIENT_NAMES, TERMS, fit_noise_terms
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     NoiseModel,
@@ -22,7 +23,6 @@ from analysis.models import (
     RateRamp,
     RateRandomWalk,
 )
-from analysis.simulate import simulate
 
 TERM_CLASS = {"Q": Quantization, "N": AngleRandomWalk, "B": BiasInstability, "K": RateRandomWalk,
               "R": RateRamp}

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from analysis.allan import cluster_allan_variance, overlapping_allan_variance
-from analysis.allan_covariance import covariance_basis
-from analysis.confidence import allan_edf
-from analysis.fit import fit_every_method, fit_noise_terms
-from analysis.noise import random_walk_rate_noise, white_angle_noise, white_rate_noise
+from analysis.allan.confidence import allan_edf
+from analysis.allan.covariance import covariance_basis
+from analysis.allan.estimators import cluster_allan_variance, overlapping_allan_variance
+from analysis.fit.least_squares import fit_every_method, fit_noise_terms
+from analysis.models.noise import random_walk_rate_noise, white_angle_noise, white_rate_noise
 
 M = np.array([1, 2, 3, 8, 32, 100, 256, 700])
 

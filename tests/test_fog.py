@@ -9,15 +9,15 @@ import pytest
 from scipy import integrate
 
 from analysis.errors import ModelError, TooFewSamplesError
-from analysis.fog import (
+from analysis.models.fog import (
     averaged_variance_factor,
     bias_stability_statistics,
     fog_from_indicators,
     measure_arw,
     measure_bias_stability,
 )
-from analysis.models import NoiseModel
-from analysis.simulate import GyroSimulator
+from analysis.models.simulation import GyroSimulator
+from analysis.models.terms import NoiseModel
 
 
 def test_averaged_variance_factor_is_the_double_integral_of_the_correlation():

@@ -9,11 +9,11 @@ import json
 import numpy as np
 import pytest
 
-from analysis import kernels
-from analysis.allan import allan_variance
+from analysis.allan import kernels
+from analysis.allan.gaps import gap_summary
+from analysis.allan.partial_clusters import partial_allan_variance
+from analysis.allan.variance import allan_variance
 from analysis.errors import NonFiniteSamplesError, TooFewSamplesError
-from analysis.gaps import gap_summary
-from analysis.partial_clusters import partial_allan_variance
 
 
 def _brute_overlapping(y: np.ndarray, m: int, fs: float) -> tuple[float, int]:

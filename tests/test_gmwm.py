@@ -1,6 +1,6 @@
 """GMWM: the covariance of the wavelet variances, the estimator, its errors and model selection.
 
-Simulated records come from :mod:`analysis.simulate` with parameters set here; the
+Simulated records come from :mod:`analysis.models.simulation` with parameters set here; the
 estimator sees only the rate. Tolerances are stated per check (Monte Carlo spreads from
 ``benchmarks/bench_gmwm.py``).
 """
@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from analysis.errors import FitError, TooFewSamplesError
-from analysis.gmwm import gmwm, gmwm_with_covariance
-from analysis.gmwm_covariance import wv_covariance
-from analysis.gmwm_models import GmwmModel, GmwmModelError
-from analysis.gmwm_selection import gmwm_analysis, select_model
-from analysis.models import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandomWalk
-from analysis.simulate import simulate
-from analysis.wavelet import haar_wavelet_variance
+from analysis.gmwm.covariance import wv_covariance
+from analysis.gmwm.estimator import gmwm, gmwm_with_covariance
+from analysis.gmwm.models import GmwmModel, GmwmModelError
+from analysis.gmwm.selection import gmwm_analysis, select_model
+from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, GaussMarkov, NoiseModel, RateRandomWalk
 from station.cli import main
 from station.storage.csv_records import write_csv_record
 
@@ -246,7 +246,7 @@ def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
 
 
 def test_a_model_the_record_rejects_gets_floored_weights_and_follows_the_data():
-    from analysis.models import BiasInstability
+    from analysis.models.terms import BiasInstability
 
     flicker = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=1.0), BiasInstability(B_deg_h=30.0)))
     wv = haar_wavelet_variance(rate_of(flicker, 12, 200_000), FS)

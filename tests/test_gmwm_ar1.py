@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis.gmwm import gmwm
-from analysis.gmwm_models import KINDS, GmwmModel
-from analysis.wavelet import haar_wavelet_variance
+from analysis.gmwm.estimator import gmwm
+from analysis.gmwm.models import KINDS, GmwmModel
+from analysis.gmwm.wavelet import haar_wavelet_variance
 from station.cli import main
 from station.storage.csv_records import write_csv_record
 
@@ -95,7 +95,7 @@ def test_bad_model_strings_are_one_line_and_exit_2(short_record: Path, model: st
 
 
 def test_every_level_the_record_holds_is_a_gmwm_scale():
-    from analysis.gmwm_selection import gmwm_analysis
+    from analysis.gmwm.selection import gmwm_analysis
 
     n = 5000
     sel = gmwm_analysis(ar1_record(5, n), FS, model="wn+rw")

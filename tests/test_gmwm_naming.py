@@ -20,12 +20,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis import gmwm_naming
-from analysis.discrepancy import ComparisonCache
-from analysis.gmwm_naming import GmwmJudgement, judge, new_or_more
-from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
-from analysis.noise import flicker_rate_noise
-from analysis.reconcile import ReconcileOptions, reconcile
+from analysis.models.noise import flicker_rate_noise
+from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel
+from analysis.reconcile import gmwm_naming
+from analysis.reconcile.discrepancy import ComparisonCache
+from analysis.reconcile.gmwm_naming import GmwmJudgement, judge, new_or_more
+from analysis.reconcile.loop import ReconcileOptions, reconcile
 from station.cli import main
 from station.output.reconcile_report import format_reconcile
 from station.storage.csv_records import write_csv_record

@@ -9,8 +9,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s, rrw_deg_h_1_5_to_deg_s_1_5
+from analysis.models.noise import flicker_rate_noise, random_walk_rate_noise, white_rate_noise
+from analysis.units.conversions import (
+    arw_deg_rt_h_to_deg_rt_s,
+    rate_deg_h_to_deg_s,
+    rrw_deg_h_1_5_to_deg_s_1_5,
+)
 from station.cli import main
 from station.errors import ProfileError
 from station.evaluation.decision import GradingError, assign_grade, decide, match_axes

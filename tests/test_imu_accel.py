@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import yaml
 
-from analysis.accel import STANDARD_GRAVITY_M_S2, normal_gravity_m_s2, vertical_axis
+from analysis.figures.accel import STANDARD_GRAVITY_M_S2, normal_gravity_m_s2, vertical_axis
 from station.cli import main
 from station.errors import BenchError, RecordFormatError
 from station.services.export import ExportRequest, export_noise

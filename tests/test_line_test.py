@@ -1,7 +1,8 @@
-"""The spectral line test (:mod:`analysis.line_test`) and the faint sinusoid it lets reconcile name.
+"""The spectral line test (:mod:`analysis.reconcile.line_test`) and the faint sinusoid it lets
+reconcile name.
 
 The records are 1 h at 10 Hz of white noise plus flicker noise (the base model of
-``tests/test_reconcile.py``) from :mod:`analysis.simulate`; the faint sinusoid's amplitude
+``tests/test_reconcile.py``) from :mod:`analysis.models.simulation`; the faint sinusoid's amplitude
 and period are drawn here: 0.06-0.09 of the white noise's standard deviation (a variance
 ratio of 0.002-0.004, far below what moves the Allan curve), periods 10-60 s.
 """
@@ -13,12 +14,12 @@ import math
 import numpy as np
 import pytest
 
-from analysis.candidates import MIN_CYCLES
-from analysis.discrepancy import ComparisonCache
-from analysis.line_test import LINE_ALPHA, strongest_line
-from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel
-from analysis.reconcile import reconcile
-from analysis.simulate import simulate
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel
+from analysis.reconcile.candidates import MIN_CYCLES
+from analysis.reconcile.discrepancy import ComparisonCache
+from analysis.reconcile.line_test import LINE_ALPHA, strongest_line
+from analysis.reconcile.loop import reconcile
 
 FS_HZ, DURATION_S = 10.0, 3600.0
 BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)))

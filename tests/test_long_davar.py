@@ -2,7 +2,7 @@
 paths, a memmap's pages handed back.
 
 As in ``test_long_records.py``, the block-wise paths start above
-:data:`analysis.blocks.LONG_SAMPLES`; the tests lower it (and the block size) so that a
+:data:`analysis.allan.blocks.LONG_SAMPLES`; the tests lower it (and the block size) so that a
 short record takes them.
 """
 
@@ -17,11 +17,11 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from analysis import blocks
-from analysis.davar import dynamic_allan_variance, plan_davar
-from analysis.davar_long import dynamic_allan_variance_long, group_span
-from analysis.discrepancy import block_means
+from analysis.allan import blocks
+from analysis.davar.estimators import dynamic_allan_variance, plan_davar
+from analysis.davar.long import dynamic_allan_variance_long, group_span
 from analysis.errors import NonFiniteSamplesError
+from analysis.reconcile.discrepancy import block_means
 from station.services.davar import DavarRequest, davar
 from station.services.records import RecordSource
 

@@ -1,7 +1,7 @@
 """Long records in bounded memory: the block-wise paths give today's numbers, a memmap's
 pages are handed back, and ``station analyze`` of a long run file stays flat.
 
-The block-wise paths start above :data:`analysis.blocks.LONG_SAMPLES`; the tests lower
+The block-wise paths start above :data:`analysis.allan.blocks.LONG_SAMPLES`; the tests lower
 it (and the block size) so that a short record takes them, and compare with the same
 record analysed in one piece.
 """
@@ -19,15 +19,19 @@ from typing import TypeVar
 import numpy as np
 import pytest
 
-from analysis import blocks
-from analysis.allan import cluster_allan_variance, cumulative_angle, overlapping_allan_variance
-from analysis.deviations import deviation
-from analysis.figures import bias_stability
-from analysis.gaps import gap_allan_variance, gap_summary_of_index
-from analysis.noise_id import b1_ratio, lag1_alpha
-from analysis.outliers import detect_spikes, replace_flagged, replace_spikes
-from analysis.tones import find_tones
-from analysis.wavelet import haar_wavelet_variance
+from analysis.allan import blocks
+from analysis.allan.deviations import deviation
+from analysis.allan.estimators import (
+    cluster_allan_variance,
+    cumulative_angle,
+    overlapping_allan_variance,
+)
+from analysis.allan.gaps import gap_allan_variance, gap_summary_of_index
+from analysis.allan.noise_id import b1_ratio, lag1_alpha
+from analysis.allan.outliers import detect_spikes, replace_flagged, replace_spikes
+from analysis.figures.spec import bias_stability
+from analysis.figures.tones import find_tones
+from analysis.gmwm.wavelet import haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
 T = TypeVar("T")
@@ -86,9 +90,9 @@ def test_block_wise_analysis_of_a_memmap_gives_the_numbers_of_one_piece(
     np.testing.assert_array_equal(cumulative_angle(mm, 100.0, out=angle), whole_angle)
     for backend in ("numpy", "numba"):
         monkeypatch.setattr(
-            "analysis.kernels._pick",
+            "analysis.allan.kernels._pick",
             lambda b, w, _b=backend: (
-                None if _b == "numpy" else importlib.import_module("analysis.kernels_numba")
+                None if _b == "numpy" else importlib.import_module("analysis.allan.kernels_numba")
             ),
         )
         got = overlapping_allan_variance(mm, 100.0, angle_out=angle)

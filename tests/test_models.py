@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
-from analysis.curves import deterministic_avar, gauss_markov_avar, sinusoid_avar
+from analysis.allan.curves import deterministic_avar, gauss_markov_avar, sinusoid_avar
+from analysis.allan.estimators import overlapping_allan_variance
 from analysis.errors import InvalidTauError, ModelError
-from analysis.models import (
+from analysis.models.terms import (
     TERM_NAMES,
     AngleRandomWalk,
     Bias,

@@ -11,22 +11,22 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from analysis.allan import allan_variance
-from analysis.models import (
+from analysis.allan.outliers import (
+    MAX_REMOVED_SHARE,
+    detect_spikes,
+    replace_spikes,
+    spike_threshold,
+)
+from analysis.allan.variance import allan_variance
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     NoiseModel,
     Quantization,
     RateRandomWalk,
 )
-from analysis.outliers import (
-    MAX_REMOVED_SHARE,
-    detect_spikes,
-    replace_spikes,
-    spike_threshold,
-)
-from analysis.simulate import simulate
-from analysis.units import S_PER_H
+from analysis.units.conversions import S_PER_H
 from station.cli import main
 from station.evaluation.analyze import analyze_record
 from station.evaluation.grading import grade_run

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from pypdf import PdfReader
 
-from analysis import tool_units
-from analysis.units import (
+from analysis.figures import tool_units
+from analysis.units.conversions import (
     FAMILY_UNITS,
     RAD_FAMILY,
     family_unit,

@@ -7,17 +7,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.allan import allan_variance
-from analysis.errors import TooFewSamplesError
-from analysis.figures import bias_stability
-from analysis.gaps import gap_allan_variance, gap_summary
-from analysis.partial_clusters import (
+from analysis.allan.gaps import gap_allan_variance, gap_summary
+from analysis.allan.partial_clusters import (
     MAX_MISSING_SHARE,
     partial_allan_variance,
     partial_means,
     white_level,
 )
-from analysis.simulate import polled_loss
+from analysis.allan.variance import allan_variance
+from analysis.errors import TooFewSamplesError
+from analysis.figures.spec import bias_stability
+from analysis.models.simulation import polled_loss
 from station.evaluation.grading import grade_run
 from station.model.profiles import load_profile
 from station.storage.csv_records import write_csv_record

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
+from analysis.models.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.errors import ProfileError, StationError
 from station.evaluation.grading import grade_run
 from station.model.profiles import (

@@ -8,23 +8,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
-from analysis.fit import fit_noise_terms
-from analysis.noise import (
+from analysis.allan.estimators import overlapping_allan_variance
+from analysis.figures.readoffs import ReadOff, arw_readoff, bias_instability_readoff
+from analysis.figures.zones import fit_outside_zones
+from analysis.fit.least_squares import fit_noise_terms
+from analysis.models.noise import (
     flicker_rate_noise,
     random_walk_rate_noise,
     white_angle_noise,
     white_rate_noise,
 )
-from analysis.readoffs import ReadOff, arw_readoff, bias_instability_readoff
-from analysis.units import (
+from analysis.units.conversions import (
     arw_deg_rt_h_to_deg_rt_s,
     q_deg_to_urad,
     q_urad_to_deg,
     rate_deg_h_to_deg_s,
     rrw_deg_h_1_5_to_deg_s_1_5,
 )
-from analysis.zones import fit_outside_zones
 from station.evaluation.analyze import analyze_record
 from station.storage.csv_records import read_csv_record
 

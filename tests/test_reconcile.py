@@ -1,6 +1,6 @@
 """Model versus measurement (issue 9): hidden effects named, negative controls, excess terms.
 
-The measured data come from :mod:`analysis.simulate` with the base model plus effects whose
+The measured data come from :mod:`analysis.models.simulation` with the base model plus effects whose
 parameters are drawn here from a generator the workflow never sees; the workflow is given
 only the rate (and the temperature channel when the run has one) and the base model.
 
@@ -25,15 +25,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.discrepancy import (
-    ComparisonCache,
-    GapNull,
-    gap_statistic,
-    measure_curve,
-    ranges_outside,
-)
 from analysis.errors import ReconcileError
-from analysis.models import (
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     BiasSteps,
@@ -44,8 +38,14 @@ from analysis.models import (
     Sinusoid,
     TemperatureBias,
 )
-from analysis.reconcile import ReconcileResult, reconcile
-from analysis.simulate import simulate
+from analysis.reconcile.discrepancy import (
+    ComparisonCache,
+    GapNull,
+    gap_statistic,
+    measure_curve,
+    ranges_outside,
+)
+from analysis.reconcile.loop import ReconcileResult, reconcile
 from station.storage.csv_records import read_csv_record
 
 FS_HZ = 10.0

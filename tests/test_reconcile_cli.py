@@ -8,8 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from analysis.models import AngleRandomWalk, BiasInstability, NoiseModel, Sinusoid
-from analysis.simulate import simulate
+from analysis.models.simulation import simulate
+from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel, Sinusoid
 from devices.model_files import save_noise_model
 from station import cli
 from station.storage.csv_records import write_csv_record
@@ -106,7 +106,7 @@ def test_text_report_and_figure_in_rad(files, capsys, monkeypatch):
     """``--output-units rad``: the effect's parameters are the deg report's (of the same
     result) times the family's factors, under rad-named keys; the figure, read as it is saved,
     draws the Allan deviation in rad/s; the model's TOML stays in a model file's units."""
-    from analysis.units import RAD_FAMILY, S_PER_H
+    from analysis.units.conversions import RAD_FAMILY, S_PER_H
     from station.output import plots, reconcile_report
 
     figures, kept = [], []
@@ -149,7 +149,7 @@ def test_text_report_and_figure_in_rad(files, capsys, monkeypatch):
 
 
 def test_evidence_numbers_in_rad():
-    from analysis.units import RAD_FAMILY
+    from analysis.units.conversions import RAD_FAMILY
     from station.output.reconcile_report import _in_family_text
 
     text = "change-point test: 2 step(s) ({3} blocks of 60 s): +0.52 deg/h at 300 s, -1e+02 deg/h"

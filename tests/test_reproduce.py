@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
+from analysis.allan.estimators import overlapping_allan_variance
 from station.evaluation.reproduce import Lv2015Setup, simulate_paper_gyro
 
 #: B only (Q and N far below it), deg/h; 0.664 B is the Allan plateau or the Markov peak.

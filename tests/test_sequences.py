@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.cycle_stats import summarize_cycles
-from analysis.models import AngleRandomWalk
-from analysis.power_cycle import PowerCycleModel
-from analysis.readoffs import BIAS_INSTABILITY_FACTOR, bias_instability_readoff
-from analysis.units import S_PER_H
+from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR, bias_instability_readoff
+from analysis.models.power_cycle import PowerCycleModel
+from analysis.models.terms import AngleRandomWalk
+from analysis.sequences.cycle_stats import summarize_cycles
+from analysis.units.conversions import S_PER_H
 from devices.model_files import load_noise_model
 from devices.sim.powered import turn_on_draw
 from station.evaluation.grading import RunGrade

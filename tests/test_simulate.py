@@ -9,10 +9,12 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
-from analysis.curves import FLICKER_AVAR_FACTOR
+from analysis.allan.curves import FLICKER_AVAR_FACTOR
+from analysis.allan.estimators import overlapping_allan_variance
 from analysis.errors import InvalidSampleRateError
-from analysis.models import (
+from analysis.models.noise import flicker_bank, flicker_rate_noise
+from analysis.models.simulation import GyroSimulator, SimulatedChunk, simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     Bias,
     BiasInstability,
@@ -25,8 +27,6 @@ from analysis.models import (
     Sinusoid,
     TemperatureBias,
 )
-from analysis.noise import flicker_bank, flicker_rate_noise
-from analysis.simulate import GyroSimulator, SimulatedChunk, simulate
 from devices.model_files import load_noise_model
 
 FS = 10.0

@@ -11,9 +11,9 @@ import sys
 import numpy as np
 import pytest
 
-from analysis.allan import log_m
-from analysis.fog import fog_from_indicators
-from analysis.simulate import GyroSimulator
+from analysis.allan.estimators import log_m
+from analysis.models.fog import fog_from_indicators
+from analysis.models.simulation import GyroSimulator
 from devices.model_files import load_noise_model
 from station import cli
 from station.commands.arguments import duration_type

@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.confidence import chi2_interval, difference_edf_grid
-from analysis.deviations import deviation, total_edf
-from analysis.noise_id import MIN_ACF_POINTS
+from analysis.allan.confidence import chi2_interval, difference_edf_grid
+from analysis.allan.deviations import deviation, total_edf
+from analysis.allan.noise_id import MIN_ACF_POINTS
 from tests.allantools_reference import STABLE32_KINDS, read_phase, read_stable32
 
 GPS = ("gps", "gps_1pps_phase_data.txt.gz",

@@ -5,16 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.allan import overlapping_allan_variance
-from analysis.curves import sinusoid_avar
-from analysis.noise import (
+from analysis.allan.curves import sinusoid_avar
+from analysis.allan.estimators import overlapping_allan_variance
+from analysis.figures.tones import find_tones, tones_avar, welch_segment
+from analysis.models.noise import (
     flicker_rate_noise,
     random_walk_rate_noise,
     white_angle_noise,
     white_rate_noise,
 )
-from analysis.tones import find_tones, tones_avar, welch_segment
-from analysis.units import (
+from analysis.units.conversions import (
     arw_deg_rt_h_to_deg_rt_s,
     q_urad_to_deg,
     rate_deg_h_to_deg_s,

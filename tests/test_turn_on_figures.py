@@ -1,6 +1,7 @@
 """Sequence figures in analysis: per-cycle summaries, turn-on repeatability, warm-up time,
-bias temperature sensitivity and hysteresis, against set truths (analysis.cycle_stats,
-analysis.turn_on, analysis.temperature_sensitivity, analysis.power_cycle)."""
+bias temperature sensitivity and hysteresis, against set truths (analysis.sequences.cycle_stats,
+analysis.sequences.turn_on, analysis.sequences.temperature_sensitivity,
+analysis.models.power_cycle)."""
 
 from __future__ import annotations
 
@@ -9,18 +10,18 @@ import math
 import numpy as np
 import pytest
 
-from analysis.cycle_stats import std_interval, summarize_cycles
 from analysis.errors import TooFewSamplesError
-from analysis.power_cycle import PowerCycleModel, ThermalModel, first_order_step
-from analysis.temperature_sensitivity import (
+from analysis.models.power_cycle import PowerCycleModel, ThermalModel, first_order_step
+from analysis.sequences.cycle_stats import std_interval, summarize_cycles
+from analysis.sequences.temperature_sensitivity import (
     TemperaturePoint,
     fit_temperature_sensitivity,
     hysteresis,
     plateau_point,
     ramp_points,
 )
-from analysis.turn_on import CycleBias, cycle_bias, turn_on_repeatability, warmup_curve
-from analysis.units import S_PER_H
+from analysis.sequences.turn_on import CycleBias, cycle_bias, turn_on_repeatability, warmup_curve
+from analysis.units.conversions import S_PER_H
 
 FS = 5.0
 

@@ -1,13 +1,13 @@
-"""Warm-up detector and stationarity verdict on simulated runs (analysis.warmup)."""
+"""Warm-up detector and stationarity verdict on simulated runs (analysis.davar.warmup)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from analysis.davar import dynamic_allan_variance
-from analysis.noise import flicker_rate_noise
-from analysis.warmup import detect_warmup
+from analysis.davar.estimators import dynamic_allan_variance
+from analysis.davar.warmup import detect_warmup
+from analysis.models.noise import flicker_rate_noise
 
 FS = 1.0
 N = 20_000

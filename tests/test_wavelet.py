@@ -1,7 +1,7 @@
 """Haar wavelet variance: the Allan relation, each term's closed form by Monte Carlo, intervals,
 robustness.
 
-Monte Carlo records come from :mod:`analysis.simulate` (every sample the mean rate over its
+Monte Carlo records come from :mod:`analysis.models.simulation` (every sample the mean rate over its
 period, the convention of the closed forms) except the AR(1) term, which is point-sampled
 by a recursion written here; each check states its number of runs and its tolerance, set
 at about four standard errors of the Monte Carlo mean.
@@ -15,10 +15,16 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from analysis.allan import overlapping_allan_variance
+from analysis.allan.estimators import overlapping_allan_variance
 from analysis.errors import TooFewSamplesError
-from analysis.gmwm_models import KINDS, GmwmModel
-from analysis.models import (
+from analysis.gmwm.models import KINDS, GmwmModel
+from analysis.gmwm.wavelet import (
+    haar_wavelet_variance,
+    huber_constant,
+    huber_efficiency,
+)
+from analysis.models.simulation import simulate
+from analysis.models.terms import (
     AngleRandomWalk,
     BiasInstability,
     GaussMarkov,
@@ -26,12 +32,6 @@ from analysis.models import (
     Quantization,
     RateRamp,
     RateRandomWalk,
-)
-from analysis.simulate import simulate
-from analysis.wavelet import (
-    haar_wavelet_variance,
-    huber_constant,
-    huber_efficiency,
 )
 
 FS = 10.0

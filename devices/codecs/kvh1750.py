@@ -18,7 +18,7 @@ import struct
 from dataclasses import dataclass
 from typing import Literal
 
-from analysis.units import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, StreamingOnPowerUp, scan_frames
 from devices.codecs.crc import crc32_mpeg2
 from devices.errors import CodecError

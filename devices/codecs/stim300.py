@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from analysis.units import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, StreamingOnPowerUp, scan_frames
 from devices.codecs.crc import crc32_mpeg2
 from devices.errors import CodecError

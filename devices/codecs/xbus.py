@@ -35,7 +35,7 @@ import math
 import struct
 from dataclasses import dataclass
 
-from analysis.units import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, scan_frames
 from devices.errors import CodecError, FrameError
 

@@ -13,7 +13,7 @@ would (:mod:`devices.fixture` opens it by its URLs):
   what a simulated gyro wired to output ``k`` (URL key ``fixture=127.0.0.1:PORT/k``)
   reads to know when its supply came on and its die temperature, which follows the air
   through the unit's own lag and rises while powered
-  (:class:`analysis.power_cycle.ThermalModel`).
+  (:class:`analysis.models.power_cycle.ThermalModel`).
 
 Its time runs ``warp`` times faster than the wall clock, like the simulated gyros wired
 to it; every value is advanced exactly to the moment of each request.
@@ -30,7 +30,7 @@ from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from analysis.power_cycle import ThermalModel, first_order_step
+from analysis.models.power_cycle import ThermalModel, first_order_step
 from devices.codecs.fixture_map import (
     SIM_WIRING,
     SIM_WIRING_DEVICE_ID,

@@ -11,10 +11,10 @@ from typing import Any
 
 import numpy as np
 
-from analysis.accel_noise import gravity_by_axis
-from analysis.earth import earth_rate_by_axis, parse_orientation
-from analysis.power_cycle import PowerCycleModel
-from analysis.units import S_PER_H
+from analysis.models.accel_noise import gravity_by_axis
+from analysis.models.power_cycle import PowerCycleModel
+from analysis.units.conversions import S_PER_H
+from analysis.units.earth import earth_rate_by_axis, parse_orientation
 from devices.errors import DeviceConfigurationError
 from devices.sim.clock import WarpClock
 from devices.sim.faults import FaultConfig, SimCore
@@ -29,7 +29,7 @@ FAULT_KEYS: tuple[str, ...] = tuple(
 #: (``orientation=x:up,y:north,z:east``); the simulator then adds the Earth's rotation.
 BENCH_KEYS: tuple[str, ...] = ("latitude", "orientation")
 #: A simulated gyro on a simulated fixture (``fixture=HOST:PORT/OUTPUT``) and its turn-on,
-#: warm-up and temperature behaviour (:class:`analysis.power_cycle.PowerCycleModel`'s
+#: warm-up and temperature behaviour (:class:`analysis.models.power_cycle.PowerCycleModel`'s
 #: attributes, by these URL keys).
 POWER_CYCLE_KEYS: dict[str, str] = {
     "turn_on_s": "turn_on_s", "turn_on_jitter_s": "turn_on_jitter_s",

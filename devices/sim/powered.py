@@ -6,7 +6,7 @@ the fixture's simulation wiring (over Modbus, :data:`~devices.codecs.fixture_map
 and holds the unit's sampling (:meth:`SimCore.power_off`) while its output is off and,
 after each switch-on, for the turn-on time drawn for that switch-on; then it samples.
 Every sample gets, on top of the noise model's signal
-(:class:`analysis.power_cycle.PowerCycleModel`):
+(:class:`analysis.models.power_cycle.PowerCycleModel`):
 
 * the turn-on bias drawn for the current switch-on (the draw is keyed by the seed and the
   fixture's switch-on count, so a unit opened again during the same switch-on, as each
@@ -27,8 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from analysis.power_cycle import PowerCycleModel, TurnOn
-from analysis.units import S_PER_H
+from analysis.models.power_cycle import PowerCycleModel, TurnOn
+from analysis.units.conversions import S_PER_H
 from devices.codecs.fixture_map import SIM_WIRING, SIM_WIRING_DEVICE_ID, OutletState
 from devices.errors import DeviceConfigurationError, DeviceError
 from devices.sim.clock import WarpClock

@@ -1,6 +1,6 @@
 """The rate signal a simulated gyro outputs, drawn from a noise model.
 
-One class wraps :class:`analysis.simulate.GyroSimulator` so that every simulated device
+One class wraps :class:`analysis.models.simulation.GyroSimulator` so that every simulated device
 draws its signal the same way. The model is whatever
 :func:`devices.model_files.load_noise_model` resolves (a TOML path or a preset of
 ``profiles/models``: ``VG951``, ``SRS2000``, ...); the protocol's own device names
@@ -15,16 +15,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.accel_noise import AccelNoiseModel, AccelSimulator
 from analysis.errors import ModelError
-from analysis.models import (
+from analysis.models.accel_noise import AccelNoiseModel, AccelSimulator
+from analysis.models.simulation import GyroSimulator
+from analysis.models.terms import (
     AngleRandomWalk,
     Bias,
     BiasInstability,
     NoiseModel,
     RateRandomWalk,
 )
-from analysis.simulate import GyroSimulator
 from devices.model_files import load_accel_model, load_noise_model, resolve_model_path
 
 #: (ARW deg/sqrt(h), bias instability deg/h, RRW deg/h^1.5, bias deg/h) of the device
@@ -122,7 +122,7 @@ class SignalSource:
         Seed; the same seed gives the same samples.
     earth_rate_deg_s : sequence of float, optional
         The Earth's rotation each axis sees where the gyro sits (deg/s), added to every
-        sample, as a real gyro at rest measures it (:mod:`analysis.earth`).
+        sample, as a real gyro at rest measures it (:mod:`analysis.units.earth`).
     n_accel_axes : int
         Accelerometer axes of an IMU (0: a gyro; no accelerations are drawn).
     gravity_m_s2 : sequence of float, optional

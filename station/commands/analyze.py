@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from analysis.deviations import DEVIATION_KINDS
-from analysis.fit import FIT_METHODS
+from analysis.allan.deviations import DEVIATION_KINDS
+from analysis.fit.least_squares import FIT_METHODS
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
 
-from analysis.units import UNIT_FAMILIES, UnitFamily, unit_family
+from analysis.units.conversions import UNIT_FAMILIES, UnitFamily, unit_family
 from station.errors import UsageError
 from station.model.durations import parse_duration
 from station.storage.csv_records import UNIT_TO_DEG_S

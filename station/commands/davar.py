@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_output_options,
@@ -24,8 +24,8 @@ from station.commands.arguments import (
 )
 
 if TYPE_CHECKING:
-    from analysis.davar import DavarResult
-    from analysis.warmup import WarmupVerdict
+    from analysis.davar.estimators import DavarResult
+    from analysis.davar.warmup import WarmupVerdict
     from station.model.records import RateRecord
 
 

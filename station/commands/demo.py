@@ -26,8 +26,8 @@ from urllib.parse import quote
 
 import numpy as np
 
-from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
+from analysis.models.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 from station.commands import COMMAND_HELP, demo_sequence
 from station.commands.arguments import add_output_options, output_family, print_json
 from station.errors import UsageError

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.cycle_stats import summarize_cycles
-from analysis.power_cycle import PowerCycleModel
+from analysis.models.power_cycle import PowerCycleModel
+from analysis.sequences.cycle_stats import summarize_cycles
 from devices.sim.powered import turn_on_draw
 
 #: The simulated units' turn-on behaviour (their truths).

@@ -15,7 +15,7 @@ import argparse
 import sys
 from typing import TYPE_CHECKING
 
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from analysis.units import S_PER_H
+from analysis.units.conversions import S_PER_H
 from devices.model_files import load_noise_model
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (

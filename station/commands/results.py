@@ -24,7 +24,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, get_args
 
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_database_argument,

@@ -1,5 +1,5 @@
 """Accelerometer axes of an IMU record: analysed by the gyro's code paths in m/s^2, then
-read as accelerometer figures (:mod:`analysis.accel`), with gravity taken off the bias.
+read as accelerometer figures (:mod:`analysis.figures.accel`), with gravity taken off the bias.
 
 The gravity on each axis comes from the bench (latitude and height: the WGS-84 normal
 gravity; the axis' direction: its up component) when the bench gives both; otherwise
@@ -15,16 +15,16 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from analysis.accel import (
+from analysis.allan.deviations import DeviationResult
+from analysis.figures.accel import (
     STANDARD_GRAVITY_M_S2,
     accel_figures,
     gravity_by_axis,
     normal_gravity_m_s2,
     vertical_axis,
 )
-from analysis.deviations import DeviationResult
-from analysis.fit_model import COEFFICIENT_NAMES
-from analysis.units import DEG_PER_URAD, S_PER_H
+from analysis.fit.model import COEFFICIENT_NAMES
+from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from station.model.bench import Bench
 from station.model.records import RateRecord
 
@@ -86,7 +86,7 @@ def gravity_on_axes(bench: Bench | None, names: Sequence[str], means_m_s2: Seque
 def analyze_accel(record: RateRecord, bench: Bench | None,
                   analyse: Callable[[RateRecord], list[AxisAnalysis]]) -> list[AxisAnalysis]:
     """The accelerometer axes of ``record`` through ``analyse`` (the rate analysis, Earth
-    rate off), each with its :class:`analysis.accel.AccelFigures` and quantity set."""
+    rate off), each with its :class:`analysis.figures.accel.AccelFigures` and quantity set."""
     accel = accel_record(record)
     if accel is None:
         return []

@@ -10,8 +10,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from analysis.accel import STANDARD_GRAVITY_M_S2
-from analysis.units import S_PER_H
+from analysis.figures.accel import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import S_PER_H
 from station.evaluation.analyze import AxisAnalysis
 from station.evaluation.decision import GradingError, match_axes
 from station.evaluation.figure_intervals import Interval, bias_interval, figure_interval

@@ -12,39 +12,39 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis import blocks
-from analysis.accel import AccelFigures
-from analysis.allan import (
-    AllanResult,
-    Estimator,
-    allan_variance,
-    analysis_log_m,
-    cluster_allan_variance,
-    overlapping_allan_variance,
-)
-from analysis.ambiguity import resolve_for_rate
-from analysis.deviations import (
+from analysis.allan import blocks
+from analysis.allan.deviations import (
     DEVIATION_LABELS,
     DeviationKind,
     DeviationResult,
     deviation,
     from_allan,
 )
-from analysis.figures import SpecFigures, spec_figures
-from analysis.fit import FitMethod, NoiseCoefficients
-from analysis.gaps import gap_allan_variance, gap_summary_of_index
-from analysis.gmwm_selection import GmwmSelection, gmwm_analysis
-from analysis.outliers import (
+from analysis.allan.estimators import (
+    AllanResult,
+    Estimator,
+    analysis_log_m,
+    cluster_allan_variance,
+    overlapping_allan_variance,
+)
+from analysis.allan.gaps import gap_allan_variance, gap_summary_of_index
+from analysis.allan.outliers import (
     SpikeDetection,
     detect_spikes,
     min_samples,
     replace_flagged,
     replace_spikes,
 )
-from analysis.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
-from analysis.tones import Tone, find_tones
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
-from analysis.zones import TauZone, fit_outside_zones
+from analysis.allan.partial_clusters import MAX_MISSING_SHARE, partial_allan_variance
+from analysis.allan.variance import allan_variance
+from analysis.figures.accel import AccelFigures
+from analysis.figures.ambiguity import resolve_for_rate
+from analysis.figures.spec import SpecFigures, spec_figures
+from analysis.figures.tones import Tone, find_tones
+from analysis.figures.zones import TauZone, fit_outside_zones
+from analysis.fit.least_squares import FitMethod, NoiseCoefficients
+from analysis.gmwm.selection import GmwmSelection, gmwm_analysis
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from station.errors import UsageError
 from station.evaluation.accel_axes import (
     Quantity,
@@ -64,7 +64,7 @@ DEFAULT_METHOD: FitMethod = "logwls"
 GMWM_METHOD: Literal["gmwm"] = "gmwm"
 #: What ``method`` may name: an Allan fit method, or the GMWM beside the default one.
 AnalysisMethod = FitMethod | Literal["gmwm"]
-#: What to do with isolated spikes: remove them when the rule of :mod:`analysis.outliers`
+#: What to do with isolated spikes: remove them when the rule of :mod:`analysis.allan.outliers`
 #: says they are few (default), always keep them, or remove whatever is flagged.
 OutlierPolicy = Literal["auto", "keep", "remove"]
 OUTLIER_POLICIES: tuple[str, ...] = ("auto", "keep", "remove")
@@ -293,7 +293,7 @@ def _allan(grid_rate: NDArray[np.float64], fs: float, gapped: bool, estimator: E
         if estimator == "clusters":
             return cluster_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
         return overlapping_allan_variance(grid_rate, fs, taus=taus, angle_out=angle)
-    if gapped:  # short gaps: partial clusters kept (analysis.partial_clusters)
+    if gapped:  # short gaps: partial clusters kept (analysis.allan.partial_clusters)
         return partial_allan_variance(grid_rate, fs, estimator=estimator, taus=taus)
     return allan_variance(grid_rate, fs, estimator=estimator, taus=taus)
 
@@ -358,14 +358,14 @@ def analyze_rates(
 
     Samples missing in gaps (``record.sample_index``) stay missing: an Allan cluster or a
     bias-stability average is kept when at most a tenth of it is missing, as the mean of
-    its present samples with its edf reduced (:mod:`analysis.partial_clusters`; a long
-    record, over :data:`analysis.blocks.LONG_SAMPLES`, keeps only averages that straddle no
-    gap, :mod:`analysis.gaps`). Isolated spikes
-    are looked for on every axis and removed under ``outliers`` (:mod:`analysis.outliers`).
+    its present samples with its edf reduced (:mod:`analysis.allan.partial_clusters`; a long
+    record, over :data:`analysis.allan.blocks.LONG_SAMPLES`, keeps only averages that straddle no
+    gap, :mod:`analysis.allan.gaps`). Isolated spikes
+    are looked for on every axis and removed under ``outliers`` (:mod:`analysis.allan.outliers`).
     The bias is reported with the Earth-rate projection of ``bench`` removed when it
     gives the axis' latitude and direction. Tones are looked for in every axis
-    (:mod:`analysis.tones`); the fit and the read-offs leave out the tau zones a tone or an
-    output filter distorts (:func:`analysis.zones.fit_outside_zones`).
+    (:mod:`analysis.figures.tones`); the fit and the read-offs leave out the tau zones a tone or an
+    output filter distorts (:func:`analysis.figures.zones.fit_outside_zones`).
 
     ``taus="log"`` is :func:`analysis.allan.analysis_log_m` (eq. 20's spacing continued to
     the longest tau with two clusters; a record with gaps keeps the gap-aware estimator's

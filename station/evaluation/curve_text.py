@@ -7,8 +7,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.deviations import DEVIATION_LABELS
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.allan.deviations import DEVIATION_LABELS
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 
 if TYPE_CHECKING:
     from station.evaluation.analyze import AxisAnalysis

@@ -12,12 +12,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import blocks
-from analysis.allan import log_m
-from analysis.davar import dynamic_allan_variance, plan_davar
-from analysis.davar_long import dynamic_allan_variance_long, group_span
+from analysis.allan import blocks
+from analysis.allan.estimators import log_m
+from analysis.davar.estimators import dynamic_allan_variance, plan_davar
+from analysis.davar.long import dynamic_allan_variance_long, group_span
 from analysis.errors import InvalidWindowError, TooFewSamplesError
-from analysis.units import S_PER_H
+from analysis.units.conversions import S_PER_H
 from station.evaluation.accel_axes import accel_record
 from station.evaluation.grading import UnitGrade
 from station.evaluation.settings import AnalysisSettings

@@ -11,13 +11,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from analysis import blocks
-from analysis.confidence import chi2_interval
-from analysis.figures import bias_stability
-from analysis.fit import NoiseCoefficients
-from analysis.partial_clusters import white_level
-from analysis.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
-from analysis.units import S_PER_H
+from analysis.allan import blocks
+from analysis.allan.confidence import chi2_interval
+from analysis.allan.partial_clusters import white_level
+from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
+from analysis.figures.spec import bias_stability
+from analysis.fit.least_squares import NoiseCoefficients
+from analysis.units.conversions import S_PER_H
 from station.evaluation.analyze import AxisAnalysis
 from station.evaluation.readings import FIT_TERM as _FIT_TERM
 from station.model.profiles import DEFAULT_FIGURE_SOURCE, bias_stability_average_s
@@ -50,7 +50,7 @@ def _chi2_scaled(value: float, edf: float, confidence: float) -> tuple[float, fl
 def bias_interval(x: np.ndarray, confidence: float) -> Interval:
     """``|mean|`` (deg/h) of the present samples of a rate record (deg/s; NaN where a
     sample is missing) with its batch-means interval. A long record (a memmap) is read a
-    block at a time (:mod:`analysis.blocks`): the same numbers, bit for bit where it has
+    block at a time (:mod:`analysis.allan.blocks`): the same numbers, bit for bit where it has
     no gap."""
     if blocks.is_long(len(x)):
         mean = blocks.nan_mean(x) * S_PER_H

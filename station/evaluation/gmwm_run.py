@@ -2,7 +2,7 @@
 
 Grading stays on the Allan variance (the profile's figures, its fit method); this adds,
 beside it, each axis' Haar wavelet variance and its GMWM fit
-(:func:`analysis.gmwm_selection.gmwm_analysis`) on the very samples the figures came
+(:func:`analysis.gmwm.selection.gmwm_analysis`) on the very samples the figures came
 from: warm-up discarded, spikes removed as the rule said, no Haar window across a gap.
 Whether a sheet carries it is the report service's choice (:mod:`station.services.report`).
 """
@@ -24,7 +24,7 @@ def axis_with_gmwm(axis: AxisGrade, model: str, *, robust: bool = False) -> Axis
     AnalysisError
         A record too short for the model, a fit that fails.
     """
-    from analysis.gmwm_selection import gmwm_analysis  # scipy's optimiser: only when asked
+    from analysis.gmwm.selection import gmwm_analysis  # scipy's optimiser: only when asked
 
     a = axis.analysis
     if a.rate_deg_s is None:

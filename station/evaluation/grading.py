@@ -9,7 +9,7 @@ profile names with a two-sided interval at the profile's confidence level:
 ``bias_stability_<T>s``
     std of T-second averages; chi-square interval with ``n_averages - 1`` dof.
 ``arw``, ``bias_instability``, ``adev_min``
-    read-offs of the Allan deviation (IEEE 952 Annex C, :mod:`analysis.readoffs`);
+    read-offs of the Allan deviation (IEEE 952 Annex C, :mod:`analysis.figures.readoffs`);
     chi-square interval with the edf of the Allan values they are read from. With the
     profile's ``[grading] figure_source = "fit"``, ``arw`` and ``bias_instability`` are the
     fitted N and B instead (``adev_min`` is always read off).
@@ -35,9 +35,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from analysis.figures import review_notes
-from analysis.readoffs import arw_readoff, bias_instability_readoff
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.figures.readoffs import arw_readoff, bias_instability_readoff
+from analysis.figures.spec import review_notes
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from station.errors import RecordFormatError
 from station.evaluation.accel_grading import (
     accel_columns,

@@ -15,8 +15,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.readoffs import BIAS_INSTABILITY_FACTOR
-from analysis.units import S_PER_H
+from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR
+from analysis.units.conversions import S_PER_H
 from station.evaluation.grading import AxisGrade
 
 #: ARW figures (deg/sqrt(h)): drawn as N / sqrt(tau).

@@ -1,6 +1,6 @@
 """Long records kept out of memory while they are evaluated.
 
-A long record (:func:`analysis.blocks.is_long`) read from a run file lives in scratch
+A long record (:func:`analysis.allan.blocks.is_long`) read from a run file lives in scratch
 memmaps (:mod:`station.storage.mapped_runs`); what the evaluation derives from it whole
 (the columns a profile grades, ...) stays a view of them or goes to scratch memmaps too,
 written a block at a time.
@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis import blocks
+from analysis.allan import blocks
 from station.storage.scratch import scratch_array
 
 

@@ -10,7 +10,7 @@ per axis):
 * rate random walk K: the fit's K, or the GMWM's random walk; a K the record does not
   resolve (fitted to zero) is its 1-sigma upper bound, and the source says so, because a
   filter given no bias random walk at all trusts its bias estimate for ever; where the
-  record allows other readings (:mod:`analysis.ambiguity`), the largest K of them, the
+  record allows other readings (:mod:`analysis.figures.ambiguity`), the largest K of them, the
   source naming the alternatives;
 * Gauss-Markov terms: the GMWM's ``gm`` terms (``gmwm``), none otherwise.
 """
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 
-from analysis.tool_units import AxisNoise, GaussMarkovBias
+from analysis.figures.tool_units import AxisNoise, GaussMarkovBias
 from station.errors import UsageError
 from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, AxisAnalysis
 
@@ -42,7 +42,7 @@ def _rrw(value: float | None, stderr: float | None, what: str) -> tuple[float, s
 
 def _safe_rrw(axis: AxisAnalysis) -> tuple[float, str]:
     """K from the fit, the largest over its readings where the record allows several
-    (:mod:`analysis.ambiguity`), its source naming the alternatives the record allowed."""
+    (:mod:`analysis.figures.ambiguity`), its source naming the alternatives the record allowed."""
     fit = axis.fit
     k, k_from = _rrw(fit.values.get("K"), fit.stderr.get("K"), f"fit ({fit.method})")
     if not fit.alternatives:

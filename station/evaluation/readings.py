@@ -1,6 +1,6 @@
 """The other readings of an ambiguous fitted figure, and the verdict safe for a limit.
 
-Where the record cannot tell two term sets apart (:mod:`analysis.ambiguity`: a rate
+Where the record cannot tell two term sets apart (:mod:`analysis.figures.ambiguity`: a rate
 random walk against a ramp or a bias instability, a bias instability or a walk against a
 slow Gauss-Markov process), the fit carries the other readings
 beside the one printed. A fitted figure then has several values, each with its interval;
@@ -15,7 +15,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from analysis.fit import NoiseCoefficients
+from analysis.fit.least_squares import NoiseCoefficients
 from station.model.kinds import INDETERMINATE, Verdict
 
 #: The fitted term of each fit figure of a profile.

@@ -23,13 +23,14 @@ from typing import Any, Literal
 import numpy as np
 from scipy import signal
 
-from analysis.allan import Estimator, allan_variance
-from analysis.curves import gauss_markov_avar
-from analysis.fit import FIT_METHODS, fit_every_method
-from analysis.models import BiasInstability, NoiseModel
-from analysis.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
-from analysis.simulate import simulate
-from analysis.units import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
+from analysis.allan.curves import gauss_markov_avar
+from analysis.allan.estimators import Estimator
+from analysis.allan.variance import allan_variance
+from analysis.fit.least_squares import FIT_METHODS, fit_every_method
+from analysis.models.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
+from analysis.models.simulation import simulate
+from analysis.models.terms import BiasInstability, NoiseModel
+from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
 
 SAMPLE_RATE_HZ = 10.0
 DURATION_S = 4 * 3600.0
@@ -53,7 +54,7 @@ class Lv2015Setup:
     bias_noise : {"flicker", "markov", "bank"}
         B as Kasdin flicker noise, as one first-order Gauss-Markov process whose Allan
         deviation peaks at 0.664 B (``markov_correlation_s``), or as the station's bank of
-        Gauss-Markov processes (:func:`analysis.noise.flicker_bank`).
+        Gauss-Markov processes (:func:`analysis.models.noise.flicker_bank`).
     markov_correlation_s : float
         Correlation time of the single Gauss-Markov process (s).
     """

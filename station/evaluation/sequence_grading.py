@@ -6,18 +6,18 @@ unit and each axis the profile grades:
 ``turn_on_repeatability``
     standard deviation of the per-switch-on mean biases, each after ``bias_after_s`` from
     power-on; chi-square interval on ``N - 1`` degrees of freedom
-    (:func:`analysis.turn_on.turn_on_repeatability`).
+    (:func:`analysis.sequences.turn_on.turn_on_repeatability`).
 ``turn_on_time``
     switch-on to the first valid sample, per switch-on the recorder heard; the mean with
     its Student-t interval, the spread and the largest.
 ``warmup_time``
     switch-on to the time the bias trend enters ``+- warmup_band_deg_h`` of the settled
-    bias for good (:func:`analysis.turn_on.warmup_curve`), per switch-on; mean, interval,
-    spread. The DAVAR warm-up detector (:func:`analysis.warmup.detect_warmup`) is run on
+    bias for good (:func:`analysis.sequences.turn_on.warmup_curve`), per switch-on; mean, interval,
+    spread. The DAVAR warm-up detector (:func:`analysis.davar.warmup.detect_warmup`) is run on
     the same record: when the noise settles later than the bias, a note says so.
 ``temperature_coefficient``
     the slope of bias on temperature (linear weighted fit; a quadratic too with four
-    points or more), from plateaus or ramps (:mod:`analysis.temperature_sensitivity`);
+    points or more), from plateaus or ramps (:mod:`analysis.sequences.temperature_sensitivity`);
     graded on its magnitude.
 ``hysteresis``
     the largest up-minus-down bias difference at a common temperature.
@@ -36,10 +36,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from analysis.cycle_stats import CycleSummary, summarize_cycles
-from analysis.davar import dynamic_allan_variance
+from analysis.davar.estimators import dynamic_allan_variance
+from analysis.davar.warmup import detect_warmup
 from analysis.errors import AnalysisError
-from analysis.temperature_sensitivity import (
+from analysis.sequences.cycle_stats import CycleSummary, summarize_cycles
+from analysis.sequences.temperature_sensitivity import (
     Hysteresis,
     TemperatureFit,
     TemperaturePoint,
@@ -48,7 +49,7 @@ from analysis.temperature_sensitivity import (
     plateau_point,
     ramp_points,
 )
-from analysis.turn_on import (
+from analysis.sequences.turn_on import (
     CycleBias,
     Repeatability,
     WarmupCurve,
@@ -56,7 +57,6 @@ from analysis.turn_on import (
     turn_on_repeatability,
     warmup_curve,
 )
-from analysis.warmup import detect_warmup
 from station.evaluation.decision import assign_grade, decide, match_axes
 from station.evaluation.sequence_cycles import SegmentView, unit_segments
 from station.evaluation.sequence_plateaus import Plateau, plateau_analyses, temperature_span_c

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import AllanResult
+from analysis.allan.estimators import AllanResult
 from analysis.errors import AnalysisError
-from analysis.temperature_sensitivity import plateau_point
+from analysis.sequences.temperature_sensitivity import plateau_point
 from station.errors import RecordFormatError
 from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval, figure_interval

@@ -20,7 +20,7 @@ axes x, y, z in east-north-up axes. Axis names match record columns as profiles 
 ``bench``, JSON) and hands it to simulated units (which then add the Earth's rotation);
 ``station analyze``, ``grade`` and ``report`` read it from the run file, or from
 ``--bench FILE`` (which wins) for any record. The bias figures are then reported with the
-Earth-rate projection on each axis removed (:mod:`analysis.earth`).
+Earth-rate projection on each axis removed (:mod:`analysis.units.earth`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from analysis.earth import (
+from analysis.units.earth import (
     Direction,
     OrientationError,
     axis_direction,

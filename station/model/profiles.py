@@ -40,9 +40,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from analysis.fit import FIT_METHODS, FitMethod
-from analysis.gmwm_models import GmwmModel, GmwmModelError
-from analysis.units import DEG_PER_URAD, S_PER_H
+from analysis.fit.least_squares import FIT_METHODS, FitMethod
+from analysis.gmwm.models import GmwmModel, GmwmModelError
+from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis import blocks
+from analysis.allan import blocks
 from station.errors import RecordFormatError
 
 
@@ -164,7 +164,7 @@ def regular_or_none(sample_index: NDArray[np.int64],
                     out: Callable[[int], NDArray[np.int64]] | None = None
                     ) -> NDArray[np.int64] | None:
     """Grid indices made to start at 0, or None when they have no gap (a contiguous record).
-    A long index (:func:`analysis.blocks.is_long`) is read a block at a time and, shifted,
+    A long index (:func:`analysis.allan.blocks.is_long`) is read a block at a time and, shifted,
     written to ``out(len)`` when ``out`` is given.
 
     Raises

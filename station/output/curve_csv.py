@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.deviations import from_allan
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily, family_unit
+from analysis.allan.deviations import from_allan
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily, family_unit
 from station.evaluation.analyze import AxisAnalysis
 from station.storage.atomic_files import write_text_atomically
 

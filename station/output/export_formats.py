@@ -1,7 +1,7 @@
 """The file formats of ``station export``: each tool's own keys, units and layout.
 
-Every writer takes the per-axis :class:`analysis.tool_units.AxisNoise` and returns the
-file's text; the conversions are :mod:`analysis.tool_units`' and ``docs/units.md`` lists
+Every writer takes the per-axis :class:`analysis.figures.tool_units.AxisNoise` and returns the
+file's text; the conversions are :mod:`analysis.figures.tool_units`' and ``docs/units.md`` lists
 them. Every number carries its unit in a comment or a key.
 
 =====================  ==========================  ========================================
@@ -18,7 +18,7 @@ format                 file                        read by
 Kalibr, OpenVINS and allan_variance_ros take one value per sensor: the largest over the
 axes (allan_variance_ros' own choice), each axis listed in a comment. A record with
 accelerometers (``ExportContext.accel``) gets the accelerometer keys too, in SI
-(:mod:`analysis.tool_units_accel`); a gyro-only record's files leave them out and the
+(:mod:`analysis.figures.tool_units_accel`); a gyro-only record's files leave them out and the
 header says so (a value we did not measure would be invented).
 """
 
@@ -29,8 +29,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from analysis.tool_units import AxisNoise, rate_rad_s
-from analysis.tool_units_accel import AccelNoise
+from analysis.figures.tool_units import AxisNoise, rate_rad_s
+from analysis.figures.tool_units_accel import AccelNoise
 from station.errors import UsageError
 
 _ACCEL_NOTE = (

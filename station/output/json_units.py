@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from analysis.units import FAMILY_UNITS, UnitFamily, family_unit, family_unit_of_key
+from analysis.units.conversions import FAMILY_UNITS, UnitFamily, family_unit, family_unit_of_key
 
 #: Keys whose value is kept as it is: ``model_after`` is a noise model's TOML tables, in the
 #: units a model file is read in.

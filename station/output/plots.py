@@ -13,11 +13,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from analysis.davar import DavarResult  # noqa: E402
-from analysis.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
-from analysis.fit import TERMS  # noqa: E402
-from analysis.units import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S2, UnitFamily  # noqa: E402
-from analysis.warmup import WarmupVerdict  # noqa: E402
+from analysis.allan.deviations import DEVIATION_LABELS, from_allan  # noqa: E402
+from analysis.davar.estimators import DavarResult  # noqa: E402
+from analysis.davar.warmup import WarmupVerdict  # noqa: E402
+from analysis.fit.least_squares import TERMS  # noqa: E402
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S2, UnitFamily  # noqa: E402
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
 from station.output.colors import VERDICT_COLORS  # noqa: E402

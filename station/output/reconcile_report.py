@@ -23,10 +23,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-from analysis.confidence import ONE_SIGMA, chi2_interval  # noqa: E402
-from analysis.discrepancy import Comparison  # noqa: E402
-from analysis.reconcile import Effect, ReconcileResult, term_avar  # noqa: E402
-from analysis.units import (  # noqa: E402
+from analysis.allan.confidence import ONE_SIGMA, chi2_interval  # noqa: E402
+from analysis.reconcile.discrepancy import Comparison  # noqa: E402
+from analysis.reconcile.loop import Effect, ReconcileResult, term_avar  # noqa: E402
+from analysis.units.conversions import (  # noqa: E402
     DEG_FAMILY,
     FAMILY_UNITS,
     S_PER_H,

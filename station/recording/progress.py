@@ -48,7 +48,7 @@ class BlockAverager:
         n = len(self.means)
         if n < 2 * tau_s + 1:
             return None
-        from analysis.allan import allan_variance  # scipy: loaded once a value is due
+        from analysis.allan.variance import allan_variance  # scipy: loaded once a value is due
 
         result = allan_variance(np.asarray(self.means), 1.0, taus=np.array([tau_s]))
         return float(result.adev[0]) * DEG_S_TO_DEG_H

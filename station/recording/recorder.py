@@ -26,7 +26,7 @@ from multiprocessing.connection import wait
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from analysis.units import STANDARD_GRAVITY_M_S2
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.protocols import DeviceDescription
 from devices.url_text import is_simulated
 from station.errors import Problem, RecorderError, RunConfigurationError, UsageError

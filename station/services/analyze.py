@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from analysis.allan import Estimator
-from analysis.deviations import DeviationKind
-from analysis.fit import check_terms
-from analysis.gmwm_models import GmwmModel
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.allan.deviations import DeviationKind
+from analysis.allan.estimators import Estimator
+from analysis.fit.least_squares import check_terms
+from analysis.gmwm.models import GmwmModel
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from station.errors import UsageError
 from station.evaluation.analyze import (
     DEFAULT_METHOD,
@@ -38,7 +38,7 @@ class AnalyzeRequest:
         Allan variance of the fit and figures (None: overlapping, or clusters when the
         deviation shown is ``adev``).
     deviation : str or None
-        The deviation shown and listed (:data:`analysis.deviations.DEVIATION_KINDS`;
+        The deviation shown and listed (:data:`analysis.allan.deviations.DEVIATION_KINDS`;
         None: the estimator's Allan deviation).
     taus : {"log", "octave", "all"}
         Tau grid.
@@ -127,7 +127,10 @@ def analyze(request: AnalyzeRequest,
     loaded = load_record(request.source)
     record = loaded.record
     if gmwm and request.gmwm_model.strip().lower() != "auto":
-        from analysis.gmwm import check_model_scales, gmwm_levels  # scipy: only when asked
+        from analysis.gmwm.estimator import (  # scipy: only when asked
+            check_model_scales,
+            gmwm_levels,
+        )
 
         n = record.n_samples  # a model the record's scales cannot identify fails before the fit
         check_model_scales(GmwmModel.parse(request.gmwm_model), gmwm_levels(n), n)

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import blocks
-from analysis.allan import Missing
-from analysis.davar import DavarResult, dynamic_allan_variance, plan_davar
-from analysis.davar_long import dynamic_allan_variance_long, group_span
-from analysis.partial_clusters import MAX_MISSING_SHARE
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
-from analysis.warmup import WarmupVerdict, detect_warmup
+from analysis.allan import blocks
+from analysis.allan.estimators import Missing
+from analysis.allan.partial_clusters import MAX_MISSING_SHARE
+from analysis.davar.estimators import DavarResult, dynamic_allan_variance, plan_davar
+from analysis.davar.long import dynamic_allan_variance_long, group_span
+from analysis.davar.warmup import WarmupVerdict, detect_warmup
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily
 from station.errors import UsageError
 from station.evaluation.accel_axes import Quantity, accel_record
 from station.model.records import RateRecord
@@ -78,7 +78,7 @@ class DavarAnswer:
 
 def _davar_of(record: RateRecord, request: DavarRequest) -> DavarResult:
     """The DAVAR of every axis of the record; a long one a group of windows of one axis at
-    a time, the angle in a scratch memmap (bounded memory, :mod:`analysis.davar_long`)."""
+    a time, the angle in a scratch memmap (bounded memory, :mod:`analysis.davar.long`)."""
     missing: Missing = "gap" if record.missing_samples else "raise"
     if not blocks.is_long(record.span_samples):
         return dynamic_allan_variance(record.on_time_grid(), record.sample_rate_hz,

@@ -3,7 +3,7 @@
 One typed request, one function (:func:`export_noise`): the selected record is read
 (:func:`station.services.records.load_record`), its axes are analysed as ``station
 analyze`` does (:func:`station.evaluation.analyze.analyze_record`), each axis' figures are
-gathered into an :class:`analysis.tool_units.AxisNoise`
+gathered into an :class:`analysis.figures.tool_units.AxisNoise`
 (:func:`station.evaluation.noise_parameters.axis_noise`, whose docstring says which figure
 feeds which parameter), and the chosen format (:mod:`station.output.export_formats`) is
 written through a temporary file and a rename, so that a failure leaves no partial file.
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
 
-from analysis.tool_units import AxisNoise
-from analysis.tool_units_accel import AccelNoise
+from analysis.figures.tool_units import AxisNoise
+from analysis.figures.tool_units_accel import AccelNoise
 from station.errors import UsageError
 from station.evaluation.analyze import (
     DEFAULT_METHOD,

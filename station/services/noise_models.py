@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import resolve_m
-from analysis.fog import fog_from_indicators
-from analysis.models import NoiseModel
-from analysis.simulate import n_samples_of
-from analysis.units import S_PER_H
+from analysis.allan.estimators import resolve_m
+from analysis.models.fog import fog_from_indicators
+from analysis.models.simulation import n_samples_of
+from analysis.models.terms import NoiseModel
+from analysis.units.conversions import S_PER_H
 from devices.model_files import load_noise_model, save_noise_model
 from station.errors import UsageError
 

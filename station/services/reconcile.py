@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from analysis.discrepancy import ComparisonCache
-from analysis.reconcile import ReconcileOptions, ReconcileResult, reconcile
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.reconcile.discrepancy import ComparisonCache
+from analysis.reconcile.loop import ReconcileOptions, ReconcileResult, reconcile
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from devices.model_files import load_noise_model
 from station.errors import UsageError
 from station.model.records import RateRecord

@@ -7,8 +7,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
-from analysis.gmwm_models import GmwmModel
-from analysis.units import DEG_FAMILY, UnitFamily
+from analysis.gmwm.models import GmwmModel
+from analysis.units.conversions import DEG_FAMILY, UnitFamily
 from station.errors import UsageError
 from station.evaluation.gmwm_run import run_with_gmwm
 from station.evaluation.grading import RunGrade

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.allan import allan_variance
+from analysis.allan.variance import allan_variance
 from station.errors import StationError
 from station.services.recorder_process import run_file_state
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
-from analysis.power_cycle import ThermalModel
+from analysis.models.power_cycle import ThermalModel
 from devices.errors import DeviceError
 from devices.fixture import ModbusChamber, ModbusPowerSwitch, open_chamber, open_power_switch
 from devices.sim.clock import WarpClock

@@ -16,9 +16,9 @@ from typing import Literal
 
 import numpy as np
 
-from analysis.fog import fog_from_indicators
-from analysis.models import NoiseModel
-from analysis.simulate import GyroSimulator, SimulatedChunk, n_samples_of
+from analysis.models.fog import fog_from_indicators
+from analysis.models.simulation import GyroSimulator, SimulatedChunk, n_samples_of
+from analysis.models.terms import NoiseModel
 from devices.model_files import load_noise_model
 from devices.protocols import DeviceDescription
 from station.errors import UsageError

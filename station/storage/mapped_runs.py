@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis import blocks
+from analysis.allan import blocks
 from station.model.records import RateRecord
 from station.storage.hdf5 import (
     _check_inside,

@@ -3,7 +3,7 @@
 A 24 h run at 1 kHz holds 691 MB per axis in float64. The analysis of such a run keeps
 its rate and cumulative angle in numpy memmaps of files in the temporary directory
 (``TMPDIR``, which should be on a disk, not in memory): the analysis reads them a block
-at a time and hands their pages back (:mod:`analysis.blocks`), so the process's memory
+at a time and hands their pages back (:mod:`analysis.allan.blocks`), so the process's memory
 stays bounded. Each file is unlinked as soon as it is mapped, so nothing is left behind
 however the process ends; its space is reserved up front, so a full disk is a one-line
 error, not a crash while writing.

@@ -132,7 +132,7 @@ def live_adev(means: NDArray[np.float64], tau0_s: float) -> tuple[NDArray[np.flo
     ``tau0_s`` each; empty until there are at least 3 blocks."""
     if len(means) < 3:
         return np.empty(0), np.empty(0)
-    from analysis.allan import allan_variance  # scipy: loaded once a plot is due
+    from analysis.allan.variance import allan_variance  # scipy: loaded once a plot is due
 
     result = allan_variance(means, 1.0 / tau0_s, taus="octave")
     keep = np.isfinite(result.adev) & (result.adev > 0)

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from analysis.fit import TERMS
-from analysis.units import S_PER_H
+from analysis.fit.least_squares import TERMS
+from analysis.units.conversions import S_PER_H
 from station.evaluation.grading import AxisGrade
 from station.evaluation.limits import limit_lines
 from station.tui.live import Series

@@ -39,7 +39,7 @@ from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
 from starlette.routing import Route
 
-from analysis.units import UnitFamily, unit_family
+from analysis.units.conversions import UnitFamily, unit_family
 from station.errors import UsageError
 from station.output.json_units import in_family
 from station.output.results_backends import DatabaseLocation

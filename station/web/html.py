@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 from html import escape
 from urllib.parse import quote, urlencode
 
-from analysis.units import UnitFamily
+from analysis.units.conversions import UnitFamily
 
 STYLE = """
 body { font-family: sans-serif; font-size: 11pt; margin: 0 2em 2em; color: #222; }

@@ -7,7 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from analysis.units import UnitFamily
+from analysis.units.conversions import UnitFamily
 from station.evaluation.capability import CAPABILITY_NOTE
 from station.web.html import interval, link, number, query, segment, table, text
 

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from hypothesis import example, given, settings, strategies as st
 
-from analysis.power_cycle import ThermalModel
-from analysis.units import S_PER_H
+from analysis.models.power_cycle import ThermalModel
+from analysis.units.conversions import S_PER_H
 from devices.codecs.fixture_map import SIM_WIRING, ChamberMap, OutletState, RelayMap
 from devices.errors import CodecError, DeviceConfigurationError, DeviceProtocolError
 from devices.fixture import open_chamber, open_power_switch

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from analysis.accel_noise import AccelNoiseModel, gravity_by_axis
-from analysis.earth import parse_orientation
 from analysis.errors import ModelError
-from analysis.units import STANDARD_GRAVITY_M_S2 as G
+from analysis.models.accel_noise import AccelNoiseModel, gravity_by_axis
+from analysis.units.conversions import STANDARD_GRAVITY_M_S2 as G
+from analysis.units.earth import parse_orientation
 from devices.codecs.base import Reading
 from devices.codecs.crc import crc32_mpeg2
 from devices.codecs.kvh1750 import Kvh1750Codec

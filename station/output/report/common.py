@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis import blocks
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily
+from analysis.allan import blocks
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily
 from station.evaluation.grading import AxisGrade, RunGrade, UnitGrade
 from station.model.kinds import Verdict
 from station.model.runs import UnitRun

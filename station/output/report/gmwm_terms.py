@@ -13,9 +13,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from analysis.accel import STANDARD_GRAVITY_M_S2
-from analysis.gmwm_models import KINDS
-from analysis.units import S_PER_H
+from analysis.figures.accel import STANDARD_GRAVITY_M_S2
+from analysis.gmwm.models import KINDS
+from analysis.units.conversions import S_PER_H
 from station.evaluation.grading import AxisGrade, UnitGrade
 from station.output.report.common import fmt
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from analysis.units import S_PER_H
+from analysis.units.conversions import S_PER_H
 from station.evaluation.accel_axes import accel_fit_dict
 from station.evaluation.grading import RunGrade
 from station.output.json_units import in_family

@@ -24,8 +24,8 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from analysis.errors import AnalysisError  # noqa: E402
-from analysis.fit import TERMS  # noqa: E402
-from analysis.units import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
+from analysis.fit.least_squares import TERMS  # noqa: E402
+from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily  # noqa: E402
 from station.evaluation.accel_axes import Quantity  # noqa: E402
 from station.evaluation.davar_map import davar_grid  # noqa: E402
 from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 
-from analysis.units import S_PER_H  # noqa: E402
+from analysis.units.conversions import S_PER_H  # noqa: E402
 from station.evaluation.sequence_plateaus import Plateau  # noqa: E402
 from station.output.report.common import fmt, fmt_interval  # noqa: E402
 from station.output.report.panels import figure_png, placeholder  # noqa: E402

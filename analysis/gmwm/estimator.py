@@ -2,14 +2,14 @@
 
 The estimator (Guerrier, Skaloud, Stebler and Victoria-Feser, JASA 108 (2013) 776, eq. 5)
 minimizes the weighted distance between the empirical wavelet variance ``nu_hat``
-(:mod:`analysis.wavelet`) and the model's ``nu(theta)`` (:mod:`analysis.gmwm_models`):
+(:mod:`analysis.gmwm.wavelet`) and the model's ``nu(theta)`` (:mod:`analysis.gmwm.models`):
 
     theta_hat = argmin (nu_hat - nu(theta))' Omega (nu_hat - nu(theta))                 (M1)
 
 **Weights.** ``Omega = V^-1``, ``V`` the covariance of ``nu_hat``, makes the estimator
 efficient among these (the efficient GMWM, eq. 7 there). ``V`` is estimated in two steps:
 first the diagonal of the nonparametric variances of ``nu_hat`` (Percival-Walden, from
-the data alone), then the full ``V`` of :mod:`analysis.gmwm_covariance` at the first
+the data alone), then the full ``V`` of :mod:`analysis.gmwm.covariance` at the first
 estimate, and once more at the second (``steps``). When that matrix cannot be factored
 (or with ``weights="diagonal"``), its diagonal is used: the diagonal fallback.
 
@@ -34,7 +34,7 @@ of ``REFINED_STARTS`` basins (an octave apart) and the Allan start under ``v >= 
 ``dt / 64 <= T <= N dt``: a correlation time far below one sample period is reachable (an
 AR(1)'s ``phi = exp(-dt / T)`` from ``e^-64``, i.e. towards 0, up to the record's length;
 the closed forms hold for every ``phi`` in (0, 1)), and the grid starts two octaves below
-``dt``. The wavelet variance of :func:`analysis.gmwm_selection.gmwm_analysis` has every
+``dt``. The wavelet variance of :func:`analysis.gmwm.selection.gmwm_analysis` has every
 level the record holds (``GMWM_MIN_BLOCKS``: ``floor(log2 N)`` scales, as the reference
 implementation). Each re-weighting starts from the previous solution;
 the last one also from the grid and the Allan fit again, since the first step's weights
@@ -50,7 +50,7 @@ units (delta method); intervals are ``exp(log x +- z se/x)`` for positive values
 Hansen's over-identification statistic, chi-square with ``levels - free parameters``
 degrees of freedom when the model holds.
 
-Model selection among candidate models is :mod:`analysis.gmwm_selection`.
+Model selection among candidate models is :mod:`analysis.gmwm.selection`.
 """
 
 from __future__ import annotations
@@ -62,14 +62,14 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import linalg, optimize, stats
 
-from analysis.allan import AllanResult
-from analysis.confidence import ONE_SIGMA, local_noise_alpha
+from analysis.allan.confidence import ONE_SIGMA, local_noise_alpha
+from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError, TooFewSamplesError
-from analysis.fit import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
-from analysis.gmwm_covariance import wv_covariance
-from analysis.gmwm_fit import GmwmFit as GmwmFit  # re-exported: fits are imported from here
-from analysis.gmwm_models import GmwmModel
-from analysis.wavelet import WaveletVariance, dyadic_m
+from analysis.fit.least_squares import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
+from analysis.gmwm.covariance import wv_covariance
+from analysis.gmwm.models import GmwmModel
+from analysis.gmwm.result import GmwmFit as GmwmFit  # re-exported: fits are imported from here
+from analysis.gmwm.wavelet import WaveletVariance, dyadic_m
 
 #: Correlation-time grid points per octave for one, two, three or more shaped terms.
 GRID_PER_OCTAVE = {1: 4, 2: 2, 3: 1}
@@ -86,7 +86,8 @@ MAX_CONDITION = 1e13
 #: A model whose J test gives a p-value below this gets the model-error floor in its weights.
 REJECT_P = 1e-3
 #: Scales of the GMWM: every level the record holds, ``2 m <= N`` (``floor(log2 N)`` levels, the
-#: reference implementation's rule; :func:`analysis.wavelet.dyadic_m` with this ``min_blocks``).
+#: reference implementation's rule; :func:`analysis.gmwm.wavelet.dyadic_m` with this
+# ``min_blocks``).
 GMWM_MIN_BLOCKS = 2
 #: Five-term Allan fit letter of each GMWM term.
 ALLAN_TERM = {"qn": "Q", "wn": "N", "bi": "B", "rw": "K", "dr": "R"}
@@ -444,9 +445,9 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
     ----------
     wv : WaveletVariance
         Empirical wavelet variance of one axis (deg/s)^2
-        (:func:`analysis.wavelet.haar_wavelet_variance`).
+        (:func:`analysis.gmwm.wavelet.haar_wavelet_variance`).
     model : GmwmModel or str
-        E.g. ``"wn+gm+rw"`` (:mod:`analysis.gmwm_models`).
+        E.g. ``"wn+gm+rw"`` (:mod:`analysis.gmwm.models`).
     weights : {"efficient", "diagonal"}
         ``V^-1`` of the model-based covariance (falling back to its diagonal when it is
         ill-conditioned), or its diagonal from the start.
@@ -504,7 +505,7 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
 def weight_covariance(model: GmwmModel, params: NDArray[np.float64], wv: WaveletVariance,
                       model_error: float = 0.0) -> NDArray[np.float64]:
     """``V`` ((deg/s)^4) of the weights of a fit: the model-based covariance of the WV
-    (:mod:`analysis.gmwm_covariance`) at ``params`` for a model that holds
+    (:mod:`analysis.gmwm.covariance`) at ``params`` for a model that holds
     (``model_error == 0``); for a rejected one (``model_error > 0``, the relative floor) the
     nonparametric variances of ``wv`` (diagonal) plus ``(model_error nu_hat)^2``."""
     if model_error > 0:

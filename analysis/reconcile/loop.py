@@ -3,28 +3,28 @@ effect, add it and show the gap shrink (issue 9).
 
 The workflow (:func:`reconcile`), each step reported in a :class:`ReconcileResult`:
 
-1. **Compare** (:mod:`analysis.discrepancy`): the measured overlapping Allan variance on a
+1. **Compare** (:mod:`analysis.reconcile.discrepancy`): the measured overlapping Allan variance on a
    log grid against the model's theoretical curve and a Monte Carlo band of the model
    simulated on the same length, rate and grid. The gap statistic G (eq. G2 there: the
    octave-weighted mean square of the standardized log-ratio, about 1 when the model
    holds) and its p-value under the simulated null say whether they disagree; the tau
    ranges where the curve leaves the band say where. The model *disagrees significantly*
    when ``p < alpha`` (default 0.01).
-2. **Name** (:mod:`analysis.candidates`): every term of the simulation library is fitted
+2. **Name** (:mod:`analysis.reconcile.candidates`): every term of the simulation library is fitted
    to the curve with the rest of the model held (added if the model lacks it, refitted
    if it has it), and scored by Delta BIC (eq. C2 there, ``n`` = octaves of the grid).
    Candidates below ``bic_threshold`` (10) are not considered. The sinusoid, bias steps,
    temperature-driven bias and rate ramp must also be confirmed by the time series
-   (:mod:`analysis.confirm`: periodogram peak, change points, regression on temperature
+   (:mod:`analysis.reconcile.confirm`: periodogram peak, change points, regression on temperature
    or time), which then also gives their parameters. Bias steps have the expected Allan
    curve of a rate random walk; they are a candidate only when the change-point test
    locates them, and then their curve (and every later comparison) is that of the steps
    located, not of a random draw of steps. A spectral line the full-resolution line test
-   finds (:mod:`analysis.line_test`, family-wise level 1e-3) contradicts the model even
+   finds (:mod:`analysis.reconcile.line_test`, family-wise level 1e-3) contradicts the model even
    where the gap does not (a sinusoid of a tenth of the white noise moves no Allan value
    beyond its interval, but stands 30 times over the background of an hour's
    periodogram): its sinusoid, fitted to the time series, is tried first
-   (:mod:`analysis.reconcile_ranking`), and the loop runs while the gap is significant or
+   (:mod:`analysis.reconcile.ranking`), and the loop runs while the gap is significant or
    such a line is left.
 3. **Add and re-check**: the best candidate is put into the model, the comparison is run
    again (new curve, new simulated band and null) and the effect is kept only if the gap
@@ -54,9 +54,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.candidates import BIC_THRESHOLD, SCALE_KEYS, CandidateFit, tau_range
-from analysis.confirm import Evidence, RoundEvidence, StepEvidence
-from analysis.discrepancy import (
+from analysis.models.terms import (
+    NoiseModel,
+    NoiseTerm,
+    term_type,
+)
+from analysis.reconcile.candidates import BIC_THRESHOLD, SCALE_KEYS, CandidateFit, tau_range
+from analysis.reconcile.confirm import Evidence, RoundEvidence, StepEvidence
+from analysis.reconcile.discrepancy import (
     MODEL_FLOOR,
     Comparison,
     ComparisonCache,
@@ -64,14 +69,9 @@ from analysis.discrepancy import (
     compare,
     measure_curve,
 )
-from analysis.gmwm_naming import Alternative
-from analysis.models import (
-    NoiseModel,
-    NoiseTerm,
-    term_type,
-)
-from analysis.reconcile_ranking import alternatives, ranked
-from analysis.units import rate_deg_s_to_deg_h
+from analysis.reconcile.gmwm_naming import Alternative
+from analysis.reconcile.ranking import alternatives, ranked
+from analysis.units.conversions import rate_deg_s_to_deg_h
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ class ReconcileOptions:
         Least relative drop of the gap an effect must bring, besides ``shrink_sigmas``.
     gmwm : bool
         Let the GMWM order the candidates the Allan curve cannot tell apart
-        (:mod:`analysis.gmwm_naming`); False keeps the Allan curve's order alone.
+        (:mod:`analysis.reconcile.gmwm_naming`); False keeps the Allan curve's order alone.
     """
 
     runs: int = 20
@@ -142,8 +142,8 @@ class Effect:
     events : tuple of (float, float)
         For bias steps: (time in s, size in deg/h) of each step located.
     score, criterion : float, str
-        What named it: the GMWM's N1 score (``"gmwm"``, :mod:`analysis.gmwm_naming`) or the
-        Allan curve's Delta BIC (``"allan"``).
+        What named it: the GMWM's N1 score (``"gmwm"``, :mod:`analysis.reconcile.gmwm_naming`) or
+        the Allan curve's Delta BIC (``"allan"``).
     alternatives : tuple of Alternative
         Other explanations within ``ALTERNATIVE_SCORE`` of it or above it (GMWM), or within
         ``INDISTINCT_BIC`` of it (Allan curve), with their scores.
@@ -397,7 +397,7 @@ def _needed(current: Comparison, opt: ReconcileOptions, *, line: bool) -> float:
 
     A change named by the Allan curve must shrink the gap significantly (by
     ``shrink_sigmas`` null standard deviations and by ``min_shrink`` of it); the sinusoid of
-    a spectral line (:mod:`analysis.line_test`), whose test has already rejected the model
+    a spectral line (:mod:`analysis.reconcile.line_test`), whose test has already rejected the model
     without it, must only not make the curve's gap significantly larger.
     """
     if line:

@@ -7,7 +7,7 @@ properties give the base units the analysis works in (deg, s, deg/s).
 
 Every term has its theoretical Allan variance ``avar(tau_s)`` in (deg/s)^2 (closed forms:
 Lv et al. 2015 eq. 3 and Zhang et al. 2015 eq. 7-11 for the five IEEE terms, IEEE Std
-952-1997 Annex C for the Gauss-Markov and sinusoidal terms, :mod:`analysis.curves` and the
+952-1997 Annex C for the Gauss-Markov and sinusoidal terms, :mod:`analysis.allan.curves` and the
 docstrings for the rest); the model's curve is the sum (Zhang 2015 eq. 12), which assumes
 the terms are independent.
 
@@ -28,8 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import units
-from analysis.curves import (
+from analysis.allan.curves import (
     FLICKER_AVAR_FACTOR,
     as_tau,
     deterministic_avar,
@@ -37,6 +36,7 @@ from analysis.curves import (
     sinusoid_avar,
 )
 from analysis.errors import ModelError
+from analysis.units import conversions as units
 
 
 def _key(unit: str, *, minimum: str = "any", default: float | None = None, doc: str = "") -> Any:
@@ -499,7 +499,7 @@ class NoiseModel:
         terms = []
         for key, table in doc.items():
             # The [accelerometer] table of an IMU's model is read by
-            # analysis.accel_noise.AccelNoiseModel, not a gyro term.
+            # analysis.models.accel_noise.AccelNoiseModel, not a gyro term.
             if key in ("name", "source", "accelerometer"):
                 continue
             kind = term_type(key)

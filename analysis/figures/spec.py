@@ -1,6 +1,6 @@
 """Spec-sheet figures of a static gyro run: bias, bias stability, read-offs, fit, and review.
 
-Every figure carries its unit in its name. The read-offs (:mod:`analysis.readoffs`)
+Every figure carries its unit in its name. The read-offs (:mod:`analysis.figures.readoffs`)
 follow IEEE Std 952-1997, Annex C; each has an interval from the edf of the Allan values
 it was read from. The angle random walk and the bias instability are each measured twice,
 read off the curve and fitted (:mod:`analysis.fit`); when the two disagree by more than
@@ -18,25 +18,25 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
-from analysis import blocks
-from analysis.allan import AllanResult, as_samples, check_sample_rate, chi2_interval
-from analysis.fit import NoiseCoefficients, log_tau_share
-from analysis.fog import measure_bias_stability
-from analysis.partial_clusters import (
+from analysis.allan import blocks
+from analysis.allan.estimators import AllanResult, as_samples, check_sample_rate, chi2_interval
+from analysis.allan.partial_clusters import (
     MAX_MISSING_SHARE,
     corrected_mean_variance,
     partial_means,
     white_level,
 )
-from analysis.readoffs import (
+from analysis.figures.readoffs import (
     BIAS_INSTABILITY_FACTOR,
     ReadOff,
     arw_readoff,
     bias_instability_readoff,
     white_share,
 )
-from analysis.units import S_PER_H
-from analysis.zones import TauZone
+from analysis.figures.zones import TauZone
+from analysis.fit.least_squares import NoiseCoefficients, log_tau_share
+from analysis.models.fog import measure_bias_stability
+from analysis.units.conversions import S_PER_H
 
 #: Confidence level at which read-off and fit are compared for ``review``.
 REVIEW_CONFIDENCE = 0.95
@@ -54,7 +54,7 @@ class BiasStability:
     most FOG data sheets. ``ci_low_deg_h``/``ci_high_deg_h`` is the +-1 sigma chi-square
     interval with ``edf`` degrees of freedom: ``n_averages - 1`` (exact for independent
     averages), reduced by the share of samples missing from partial averages
-    (:mod:`analysis.partial_clusters`; ``missing_share`` of the kept averages' samples).
+    (:mod:`analysis.allan.partial_clusters`; ``missing_share`` of the kept averages' samples).
     """
 
     average_s: float
@@ -75,8 +75,8 @@ def bias_stability(
     NaN marks a missing sample (a record with gaps on its time grid): an average missing
     at most ``max_missing_share`` of its samples is the mean of the present ones, its
     white-noise excess removed with ``white_level`` (``N^2`` in (deg/s)^2 s,
-    :func:`analysis.partial_clusters.white_level`) and the edf reduced for what is missing;
-    one missing more is left out (:mod:`analysis.partial_clusters`; a long record, a
+    :func:`analysis.allan.partial_clusters.white_level`) and the edf reduced for what is missing;
+    one missing more is left out (:mod:`analysis.allan.partial_clusters`; a long record, a
     memmap, keeps only complete averages). Returns a value of ``None`` when the record
     holds fewer than 3 kept averages.
     """
@@ -356,7 +356,8 @@ def spec_figures(
     result : AllanResult
         The axis' Allan variance (1-D).
     fit : NoiseCoefficients
-        The axis' five-term fit (made without ``zones``: :func:`analysis.zones.fit_outside_zones`).
+        The axis' five-term fit (made without ``zones``:
+        :func:`analysis.figures.zones.fit_outside_zones`).
     zones : tuple of TauZone
         Tau ranges the five-term model does not describe; no read-off is taken there.
     """

@@ -1,6 +1,6 @@
 """Least-squares fits of the five IEEE noise terms to an Allan variance curve.
 
-The model is Lv et al. 2015, eq. 3 (:mod:`analysis.fit_model`)::
+The model is Lv et al. 2015, eq. 3 (:mod:`analysis.fit.model`)::
 
     avar(tau) = 3 Q^2 / tau^2 + N^2 / tau + (0.664 B)^2 + K^2 tau / 3 + R^2 tau^2 / 2
 
@@ -19,13 +19,13 @@ Methods (``method=``):
     the same J-weighted system solved under ``beta >= 0`` (scipy's NNLS), so that no
     variance term comes out negative;
 ``logwls``
-    least squares on ``log avar`` under ``beta >= 0`` (:mod:`analysis.fit_log`), over the
-    subset of terms the data resolve (:mod:`analysis.fit_select`).
+    least squares on ``log avar`` under ``beta >= 0`` (:mod:`analysis.fit.log`), over the
+    subset of terms the data resolve (:mod:`analysis.fit.selection`).
 
 Coefficients are returned in data-sheet units (urad, deg/sqrt(h), deg/h, deg/h^1.5,
 deg/h^2). Every standard error is the sandwich ``P C P^T`` of the fit's linear response
 ``P`` with the covariance ``C`` of the Allan values under the fitted model
-(:mod:`analysis.fit_uncertainty`), propagated to the coefficient by the delta method:
+(:mod:`analysis.fit.uncertainty`), propagated to the coefficient by the delta method:
 the formula errors ``s^2 (X^T X)^-1`` of eq. 7 and 14 assume independent values and are
 10-1000x too small on a grid of correlated ones, so they are never reported.
 """
@@ -40,10 +40,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import optimize
 
-from analysis.allan import AllanResult
+from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError
-from analysis.fit_log import LogData, fit_log, log_data, log_tau_share
-from analysis.fit_model import (
+from analysis.fit.log import LogData, fit_log, log_data, log_tau_share
+from analysis.fit.model import (
     BETA_FACTOR,
     COEFFICIENT_NAMES,
     TAU_POWER,
@@ -53,9 +53,9 @@ from analysis.fit_model import (
     full_beta,
     theoretical_avar,
 )
-from analysis.fit_result import Alternative, NoiseCoefficients
-from analysis.fit_select import select_terms
-from analysis.fit_uncertainty import LinearizedFit, value_covariance
+from analysis.fit.result import Alternative, NoiseCoefficients
+from analysis.fit.selection import select_terms
+from analysis.fit.uncertainty import LinearizedFit, value_covariance
 
 __all__ = [
     "BETA_FACTOR",
@@ -171,9 +171,9 @@ def fit_noise_terms(
         short-tau values of a long real record decide every term.
     exclude_tau_s : tuple of (float, float)
         Closed tau ranges (s) left out of the fit: where the curve holds something the
-        five terms do not describe (a tone, an output filter; see :mod:`analysis.zones`).
+        five terms do not describe (a tone, an output filter; see :mod:`analysis.figures.zones`).
     select : bool, optional
-        Keep only the terms the data resolve (:mod:`analysis.fit_select`); the others
+        Keep only the terms the data resolve (:mod:`analysis.fit.selection`); the others
         come back as 0 with a 1-sigma bound. Default: on for ``logwls``, off for the
         paper's methods, which fit every term asked for.
 

@@ -13,9 +13,10 @@ numbers (the tests hold them to 1e-9 relative):
 * :func:`davar_plain` recomputes every window from its samples (a reference for tests);
 * :func:`davar_recursive` slides the window one sample at a time with eq. 17-19;
 * :func:`dynamic_allan_variance` (what everything else calls) takes every window sum in
-  O(1) from block prefix and suffix sums of ``Delta_m^2`` (:func:`analysis.kernels.window_sums`),
-  streaming the record through in blocks so memory stays bounded however long it is
-  (:func:`dynamic_allan_variance_stream`, :func:`dynamic_allan_variance_slices`).
+  O(1) from block prefix and suffix sums of ``Delta_m^2``
+  (:func:`analysis.allan.kernels.window_sums`), streaming the record through in blocks so memory
+  stays bounded however long it is (:func:`dynamic_allan_variance_stream`,
+  :func:`dynamic_allan_variance_slices`).
 
 Each cell gets a chi-square confidence interval with the equivalent degrees of freedom of
 the overlapping estimator over ``Nw`` samples for the noise type seen at that tau
@@ -31,8 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import kernels
-from analysis.allan import (
+from analysis.allan import kernels
+from analysis.allan.estimators import (
     ONE_SIGMA,
     AllanDeviationMixin,
     InputKind,
@@ -46,9 +47,9 @@ from analysis.allan import (
     overlapping_edf,
     resolve_m,
 )
+from analysis.allan.kernels import Backend
+from analysis.allan.partial_clusters import partial_windows
 from analysis.errors import InvalidWindowError, TooFewSamplesError
-from analysis.kernels import Backend
-from analysis.partial_clusters import partial_windows
 
 
 @dataclass(frozen=True)
@@ -375,7 +376,7 @@ def dynamic_allan_variance(
 ) -> DavarResult:
     """Dynamic Allan variance of a record in memory (Zhang 2015, eq. 6), the fast way.
 
-    Every window sum of ``Delta_m^2`` is O(1) (:func:`analysis.kernels.window_sums`), so
+    Every window sum of ``Delta_m^2`` is O(1) (:func:`analysis.allan.kernels.window_sums`), so
     the work is O(N) per tau whatever the window and the step.
 
     Parameters
@@ -403,7 +404,7 @@ def dynamic_allan_variance(
     missing : {"raise", "gap"}
         ``"gap"`` reads NaN samples as missing ones on the record's time grid (a gap of a
         recorded run): a window missing at most a tenth of an axis' samples gets partial
-        clusters there, its edf reduced (:func:`analysis.partial_clusters.partial_windows`),
+        clusters there, its edf reduced (:func:`analysis.allan.partial_clusters.partial_windows`),
         one missing more gets NaN, every other window is exact, and window times stay true
         time. The default refuses NaN
         (:class:`NonFiniteSamplesError`).

@@ -20,8 +20,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis import blocks, kernels, long_sums
-from analysis.confidence import (  # re-exported: part of this module's API
+from analysis.allan import blocks, kernels, long_sums
+from analysis.allan.confidence import (  # re-exported: part of this module's API
     ONE_SIGMA as ONE_SIGMA,
     allan_edf_grid as allan_edf_grid,
     chi2_interval as chi2_interval,
@@ -29,13 +29,13 @@ from analysis.confidence import (  # re-exported: part of this module's API
     local_noise_alpha as local_noise_alpha,
     overlapping_edf as overlapping_edf,
 )
+from analysis.allan.noise_id import identify_noise
 from analysis.errors import (
     InvalidSampleRateError,
     InvalidTauError,
     NonFiniteSamplesError,
     TooFewSamplesError,
 )
-from analysis.noise_id import identify_noise
 
 Estimator = Literal["overlapping", "clusters"]
 InputKind = Literal["rate", "angle_increment"]
@@ -99,7 +99,7 @@ class AllanResult(AllanDeviationMixin):
     noise_alpha : ndarray of int, same shape as ``avar``
         Dominant noise type behind each interval, as the rate-noise exponent (2 white
         angle, 1 flicker angle, 0 white rate, -1 flicker rate, -2 rate random walk), from
-        :func:`analysis.noise_id.identify_noise`.
+        :func:`analysis.allan.noise_id.identify_noise`.
     """
 
     tau_s: NDArray[np.float64]
@@ -179,7 +179,7 @@ def _non_finite_error(arr: NDArray[np.float64], offset: int = 0) -> NonFiniteSam
 def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
     """Return samples as a 2-D float64 array (N x k), refusing NaN and inf with their position.
 
-    A long float64 array (:func:`analysis.blocks.is_long`, e.g. a memmap) is checked a
+    A long float64 array (:func:`analysis.allan.blocks.is_long`, e.g. a memmap) is checked a
     block at a time and returned as a view, not copied.
 
     Raises
@@ -218,7 +218,7 @@ def cumulative_angle(
     samples : array_like, shape (N,) or (N, k)
         Rate in (unit)/s, or angle increments in (unit) per sample when
         ``input_kind="angle_increment"``. A long record (a memmap) is read a block at a
-        time (:mod:`analysis.blocks`).
+        time (:mod:`analysis.allan.blocks`).
     sample_rate_hz : float
         Sample rate in Hz.
     input_kind : {"rate", "angle_increment"}
@@ -393,7 +393,7 @@ def overlapping_sums(
 
     ``theta`` is (N + 1) x k; the sum runs over the ``N + 1 - 2m`` available ``n``.
     Returns an (n_m, k) array. One streaming pass over ``theta`` per m: the compiled
-    kernel of :mod:`analysis.kernels` when numba is installed, else cache-blocked numpy.
+    kernel of :mod:`analysis.allan.kernels` when numba is installed, else cache-blocked numpy.
     """
     return kernels.overlapping_sums(theta, m_values)
 
@@ -499,11 +499,11 @@ def overlapping_allan_variance(
         What the samples are.
     confidence : float
         Two-sided level of the chi-square interval (default +-1 sigma). The edf is
-        computed (:mod:`analysis.confidence`) for the noise type identified at each tau
-        (:mod:`analysis.noise_id`).
+        computed (:mod:`analysis.allan.confidence`) for the noise type identified at each tau
+        (:mod:`analysis.allan.noise_id`).
     angle_out : ndarray, shape (N + 1, k), optional
         Where to keep the cumulative angle: a memmap for a record too long for memory
-        (a long record is read a block at a time throughout, :mod:`analysis.blocks`).
+        (a long record is read a block at a time throughout, :mod:`analysis.allan.blocks`).
 
     Returns
     -------
@@ -539,8 +539,8 @@ def cluster_allan_variance(
 
     The N samples are cut into ``J = floor(N/m)`` clusters of m samples; the variance is
     ``sum_k (mean_{k+1} - mean_k)^2 / (2 (J - 1))``. The confidence interval's edf is
-    computed (:mod:`analysis.confidence`) for the noise type identified at each tau
-    (:mod:`analysis.noise_id`); eq. 8's
+    computed (:mod:`analysis.allan.confidence`) for the noise type identified at each tau
+    (:mod:`analysis.allan.noise_id`); eq. 8's
     ``1/sqrt(2(J-1))`` (``relative_error``) assumes ``J - 1`` independent differences,
     which adjacent cluster differences are not (white rate noise: edf about 2(J-1)/3).
 
@@ -555,35 +555,3 @@ def cluster_allan_variance(
     sums = cluster_sums(theta, m)
     return _finish(sums, m, theta, estimator="clusters", fs=fs, squeeze=np.ndim(samples) == 1,
                    confidence=confidence)
-
-
-def allan_variance(
-    samples: ArrayLike,
-    sample_rate_hz: float,
-    *,
-    estimator: Estimator = "overlapping",
-    taus: TauGrid | ArrayLike = "log",
-    input_kind: InputKind = "rate",
-    confidence: float = ONE_SIGMA,
-    missing: Missing = "raise",
-) -> AllanResult:
-    """Allan variance with the named estimator (``"overlapping"`` or ``"clusters"``).
-
-    ``missing="gap"`` reads NaN samples as missing ones on the record's time grid: no
-    difference straddles them (:func:`analysis.gaps.gap_allan_variance`); the default
-    refuses them (:class:`NonFiniteSamplesError`).
-    """
-    if missing == "gap":
-        from analysis.gaps import gap_allan_variance  # analysis.gaps builds on this module
-
-        return gap_allan_variance(samples, sample_rate_hz, estimator=estimator, taus=taus,
-                                  input_kind=input_kind, confidence=confidence)
-    if missing != "raise":
-        raise ValueError(f"missing must be 'raise' or 'gap', got {missing!r}")
-    if estimator == "overlapping":
-        return overlapping_allan_variance(samples, sample_rate_hz, taus=taus,
-                                          input_kind=input_kind, confidence=confidence)
-    if estimator == "clusters":
-        return cluster_allan_variance(samples, sample_rate_hz, taus=taus, input_kind=input_kind,
-                                      confidence=confidence)
-    raise ValueError(f"estimator must be 'overlapping' or 'clusters', got {estimator!r}")

@@ -1,0 +1,183 @@
+"""Compiled (numba) kernels behind :mod:`analysis.allan.kernels`; imported only when numba is
+installed.
+
+Same results as the numpy kernels there, to rounding. Compiled on first use and cached
+on disk by numba (``cache=True``). Callers pass checked, contiguous float64/int64 arrays.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+#: Terms per partial sum of a long reduction (bounds its rounding error).
+_BLOCK = 1 << 12
+
+
+@numba.njit(parallel=True, cache=True)
+def oadev_sums(
+    theta_t: NDArray[np.float64], m_values: NDArray[np.int64], out: NDArray[np.float64]
+) -> None:
+    """``out[i, c] = oadev_one(theta_t[c], m_values[i])``, the (m, axis) pairs spread over cores."""
+    n_axes = theta_t.shape[0]
+    for job in numba.prange(m_values.shape[0] * n_axes):
+        i = job // n_axes
+        c = job % n_axes
+        out[i, c] = oadev_one(theta_t[c], m_values[i])
+
+
+@numba.njit(parallel=True, cache=True)
+def oadev_stretch_sums(
+    theta_t: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    stops: NDArray[np.int64],
+    out: NDArray[np.float64],
+) -> None:
+    """``out[i, c]``: sum of ``Delta_m(k)^2`` over the k whose ``2m`` samples lie in one stretch.
+
+    Stretch j holds samples ``starts[j] .. stops[j] - 1`` of the concatenated record, so
+    its terms are ``k = starts[j] .. stops[j] - 2m``; each is a span of :func:`_span_sum`.
+    """
+    n_axes = theta_t.shape[0]
+    for job in numba.prange(m_values.shape[0] * n_axes):
+        i = job // n_axes
+        c = job % n_axes
+        m = m_values[i]
+        total = 0.0
+        for j in range(starts.shape[0]):
+            hi = stops[j] + 1 - 2 * m
+            if hi > starts[j]:
+                total += _span_sum(theta_t[c], m, starts[j], hi)
+        out[i, c] = total
+
+
+@numba.njit(parallel=True, cache=True)
+def window_sums(
+    theta: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    window: int,
+    out: NDArray[np.float64],
+) -> None:
+    """``out[i, j]``: sum of ``Delta_m(k)^2`` over the ``window + 1 - 2m`` terms from ``starts[j]``.
+
+    ``out`` is (n_m, n_windows), so each m writes one contiguous row. The scheme of the
+    numpy kernel, fused: the terms are cut into blocks of one window's
+    length ``L``; within each block a prefix sum and a suffix sum restart at its edges, so a
+    window (which spans at most two blocks) is one block's suffix plus the next block's
+    prefix: no subtraction of large running sums (the float64 trap of Zhang 2015, eq. 17),
+    and each partial sum holds at most L positive terms. One m per job.
+    """
+    n_starts = starts.shape[0]
+    for i in numba.prange(m_values.shape[0]):
+        m = m_values[i]
+        n_terms = window + 1 - 2 * m
+        lo = (starts[0] // n_terms) * n_terms
+        size = starts[n_starts - 1] + n_terms - lo
+        d = np.empty(size)
+        for idx in range(size):
+            k = lo + idx
+            x = theta[k + 2 * m] - 2.0 * theta[k + m] + theta[k]
+            d[idx] = x * x
+        prefix = np.empty(size + 1)  # sum of the block's terms before idx
+        suffix = np.empty(size)  # sum of the block's terms from idx on
+        acc = 0.0
+        for block in range(0, size, n_terms):
+            end = min(block + n_terms, size)
+            acc = 0.0
+            for idx in range(block, end):
+                prefix[idx] = acc
+                acc += d[idx]
+            back = 0.0
+            for idx in range(end - 1, block - 1, -1):
+                back += d[idx]
+                suffix[idx] = back
+        prefix[size] = acc if size % n_terms != 0 else 0.0
+        row = out[i]  # out is (n_m, n_windows): one contiguous row per m
+        for j in range(n_starts):
+            r = starts[j] - lo
+            row[j] = suffix[r] + prefix[r + n_terms]
+
+
+@numba.njit(fastmath={"reassoc", "contract"})
+def _span_sum(theta: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
+    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1`` (vectorized, in blocks)."""
+    total = 0.0
+    for start in range(lo, hi, _BLOCK):
+        stop = min(start + _BLOCK, hi)
+        a, b, c = (
+            theta[start + 2 * m : stop + 2 * m],
+            theta[start + m : stop + m],
+            theta[start:stop],
+        )
+        part = 0.0
+        for n in range(stop - start):
+            d = a[n] - 2.0 * b[n] + c[n]
+            part += d * d
+        total += part
+    return total
+
+
+@numba.njit(cache=True)
+def span_sum(th: NDArray[np.float64], m: int, lo: int, hi: int) -> float:
+    """Sum of ``Delta_m(k)^2`` over ``k = lo .. hi - 1``, on one core: one block of a
+    memory-mapped record for one m (three streams through ``th``, handed back block by
+    block). One core: thousands of parallel launches cost more than they gain on a
+    loaded machine."""
+    return _span_sum(th, m, lo, hi)
+
+
+@numba.njit(cache=True)
+def oadev_one(th: NDArray[np.float64], m: int) -> float:
+    """Sum of ``(th[n+2m] - 2 th[n+m] + th[n])^2`` over ``n = 0 .. len(th) - 1 - 2m``."""
+    return _span_sum(th, m, 0, th.shape[0] - 2 * m)
+
+
+@numba.njit(parallel=True, cache=True)
+def window_sums_segments(
+    theta: NDArray[np.float64],
+    m_values: NDArray[np.int64],
+    starts: NDArray[np.int64],
+    window: int,
+    out: NDArray[np.float64],
+) -> None:
+    """As :func:`window_sums`, for steps that are not much shorter than the window.
+
+    The window starts and ends cut the terms into segments; each segment is summed once
+    (a vectorized loop) and each window adds up its few segments: no subtraction at all,
+    and about one pass over the terms per m whatever the step.
+    """
+    n_starts = starts.shape[0]
+    for i in numba.prange(m_values.shape[0]):
+        m = m_values[i]
+        n_terms = window + 1 - 2 * m
+        cuts = np.empty(2 * n_starts, np.int64)  # sorted union of starts and window ends
+        a = 0
+        b = 0
+        n_cuts = 0
+        while a < n_starts or b < n_starts:
+            if b >= n_starts or (a < n_starts and starts[a] <= starts[b] + n_terms):
+                v = starts[a]
+                a += 1
+            else:
+                v = starts[b] + n_terms
+                b += 1
+            if n_cuts == 0 or cuts[n_cuts - 1] != v:
+                cuts[n_cuts] = v
+                n_cuts += 1
+        segments = np.empty(n_cuts - 1)
+        for q in range(n_cuts - 1):
+            segments[q] = _span_sum(theta, m, cuts[q], cuts[q + 1])
+        q = 0
+        for j in range(n_starts):
+            while cuts[q] != starts[j]:
+                q += 1
+            end = starts[j] + n_terms
+            total = 0.0
+            r = q
+            while cuts[r] != end:
+                total += segments[r]
+                r += 1
+            out[j, i] = total
