@@ -427,8 +427,7 @@ def analyze_rates(
                                        select=select)
         fit = resolve_for_rate(axis, fit, grid_rate, fs, gaps=gapped,
                                exclude_tau_s=tuple((z.tau_low_s, z.tau_high_s) for z in zones),
-                               angle_out=angle_buffer(grid_rate) if "K" not in fit.terms
-                               else None)
+                               angle_out=angle_buffer(grid_rate))
         earth_deg_h = earth[i]
         analysed = grid_rate if earth_deg_h is None else _minus(grid_rate, earth_deg_h / S_PER_H)
         figures = spec_figures(analysed, fs, axis, fit, zones=zones)
