@@ -79,6 +79,12 @@ def _unit_of(key: str) -> str:
     return next((unit for suffix, unit in KEY_UNITS if key.endswith(suffix)), "")
 
 
+def _accel_unit_of(key: str) -> tuple[str, float]:
+    """(unit, factor from the key's value) of an accelerometer axis' GMWM key."""
+    return next(((unit, k) for suffix, unit, k in ACCEL_KEY_UNITS if key.endswith(suffix)),
+                ("", 1.0))
+
+
 def _term_of(key: str) -> str:
     label = key.split("_", 1)[0]
     kind = KINDS[label.rstrip("0123456789")]
@@ -110,23 +116,18 @@ def gmwm_rows(axis: AxisGrade) -> list[GmwmRow]:
     if g is None:
         return []
     best = g.best
-    if axis.analysis.quantity != "acceleration":
-        return [GmwmRow(axis.axis, key, _term_of(key), _unit_of(key), _finite(value),
-                        _finite(best.stderr.get(key)), _allan_of(axis, key),
-                        _finite(best.ci_low.get(key)), _finite(best.ci_high.get(key)))
-                for key, value in best.values.items()]
+    accel = axis.analysis.quantity == "acceleration"
     rows = []
     for key, value in best.values.items():
-        unit, k = next(((u, f) for suffix, u, f in ACCEL_KEY_UNITS if key.endswith(suffix)),
-                       ("", 1.0))
+        unit, k = _accel_unit_of(key) if accel else (_unit_of(key), 1.0)
 
         def scaled(x: float | None, k: float = k) -> float | None:
             x = _finite(x)
             return None if x is None else x * k
 
         rows.append(GmwmRow(axis.axis, key, _term_of(key), unit, scaled(value),
-                            scaled(best.stderr.get(key)), "", scaled(best.ci_low.get(key)),
-                            scaled(best.ci_high.get(key))))
+                            scaled(best.stderr.get(key)), "" if accel else _allan_of(axis, key),
+                            scaled(best.ci_low.get(key)), scaled(best.ci_high.get(key))))
     return rows
 
 
