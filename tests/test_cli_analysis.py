@@ -76,6 +76,7 @@ def test_analyze_json_interface(record_csv: Path) -> None:
     assert figures["review"] == [] and axis["tones"] == [] and axis["excluded_taus"] == []
 
 
+@pytest.mark.slow
 def test_analyze_options_and_table(record_csv: Path, capsys) -> None:
     assert (
         main(
@@ -121,6 +122,7 @@ def test_analyze_errors_are_one_line_messages(tmp_path: Path, capsys) -> None:
     assert "no such file" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_reproduce_small_run_keeps_the_papers_ordering_and_json_shape() -> None:
     # the gyro whose finding is checked (the three gyros' table: test_reproduce_cli_json)
     table = reproduce_lv2015(runs=4, seed=3, workers=1, gyros=("SRS2000",))
@@ -137,6 +139,7 @@ def test_reproduce_small_run_keeps_the_papers_ordering_and_json_shape() -> None:
             assert key in srs["ols"][term]
 
 
+@pytest.mark.slow
 def test_reproduce_cli_json(tmp_path: Path) -> None:
     proc = run_station(
         "reproduce", "lv2015", "--runs", "2", "--seed", "5", "--workers", "2", "--json"
@@ -149,6 +152,7 @@ def test_reproduce_cli_json(tmp_path: Path) -> None:
         assert {m["method"] for m in gyro["methods"]} >= {"ols", "wls", "logwls"}
 
 
+@pytest.mark.slow
 def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
     """``station demo --json`` (in the rad family), then ``station watch --once --json`` of its
     run file (one demo run: the recording takes most of this test's time)."""
@@ -201,6 +205,7 @@ def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
 @pytest.mark.skipif(
     not REAL_DATA.exists(), reason="../shared/real-data is not beside this checkout"
 )
+@pytest.mark.slow
 def test_real_adis16405_record_is_analyzed(capsys) -> None:
     path = REAL_DATA / "adis16405_imu1_gyro_deg_s_100hz.csv.gz"
     assert main(["analyze", str(path), "--rate", "100", "--axis", "gyro_z", "--json"]) == 0

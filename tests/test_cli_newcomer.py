@@ -133,6 +133,7 @@ def test_simulate_quiet_prints_nothing(tmp_path: Path, capsys: pytest.CaptureFix
     assert "wrote 600 samples" in capsys.readouterr().err  # without --quiet it says so
 
 
+@pytest.mark.slow
 def test_demo_leaves_nothing_behind_unless_asked(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.chdir(tmp_path)

@@ -102,6 +102,7 @@ def outcomes(tmp_path_factory: pytest.TempPathFactory) -> list:
     return results
 
 
+@pytest.mark.slow
 def test_every_reader_answers_a_damaged_file_within_seconds(outcomes) -> None:
     slow = [o for o in outcomes if o.seconds > 5.0]
     assert not slow, slow

@@ -137,6 +137,7 @@ def test_a_simulated_unit_on_a_bench_measures_the_earth_rate(tmp_path: Path) -> 
         parse_sim_params(str(model), {"latitude": "45"})
 
 
+@pytest.mark.slow
 def test_a_navigation_grade_unit_comes_back_with_its_bias(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from analysis.allan.estimators import overlapping_allan_variance
 from analysis.fit.least_squares import COEFFICIENT_NAMES, TERMS, fit_noise_terms
@@ -43,6 +44,7 @@ def _record(true: dict[str, float], hours: float, fs: float, seed: int) -> np.nd
     return simulate(model, hours * 3600.0, fs, seed=seed).rate_deg_s[:, 0]
 
 
+@pytest.mark.slow
 def test_selected_fit_recovers_the_true_terms_with_honest_errors() -> None:
     z_scores, invented, absent, right_model, fits = [], 0, 0, 0, 0
     for true, hours, fs, to_two_clusters in CASES:

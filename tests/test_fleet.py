@@ -79,6 +79,7 @@ def _worker_settings() -> dict[str, object]:
     return settings
 
 
+@pytest.mark.slow
 def test_local_workers_keep_mallocs_own_threshold_and_no_profiler(scheduler) -> None:
     """The local workers start without Dask's MALLOC_TRIM_THRESHOLD_ (it makes every large
     array a fresh mmap: 8 % more CPU per unit graded) and without its sampling profiler,
@@ -100,6 +101,7 @@ def _without_time(doc: dict) -> dict:
     return {k: v for k, v in doc.items() if k != "graded_utc"}
 
 
+@pytest.mark.slow
 def test_fleet_grade_is_station_grade_file_by_file(runs, scheduler, tmp_path: Path, capsys) -> None:
     folder, _ = runs
     db = tmp_path / "fleet.sqlite"
@@ -241,6 +243,7 @@ def _exit_worker(tries: str) -> None:
     os._exit(9)  # what the kernel's OOM killer does to a worker, from inside
 
 
+@pytest.mark.slow
 def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
     runs, tmp_path: Path
 ) -> None:
@@ -278,6 +281,7 @@ def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
         client.wait_for_workers(2, timeout=60)  # the nannies start fresh workers
 
 
+@pytest.mark.slow
 def test_postgresql_stopped_mid_fleet_then_run_again_stores_one_row_per_run(
     scheduler, postgres_server, postgres_url: str, tmp_path: Path, capsys
 ) -> None:

@@ -154,6 +154,7 @@ def run_station(*args: str) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_analyze_gmwm_json_interface(gm_record: Path, tmp_path: Path, capsys):
     png = tmp_path / "wv.png"
     proc = run_station(
@@ -225,6 +226,7 @@ def test_analyze_gmwm_table_and_bad_options(gm_record: Path, capsys):
 
 @pytest.mark.skipif(not (REAL_DATA / "mtig_cont_imu1_gyro_x_100hz.csv.gz").exists(),
                     reason="real records not available (../shared/real-data)")
+@pytest.mark.slow
 def test_real_mtig_record_selects_a_gauss_markov_of_a_few_seconds():
     from station.storage.runs import read_record
 

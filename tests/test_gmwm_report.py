@@ -51,6 +51,7 @@ class _Gmwm(HTMLParser):
             self.alts.append(a["alt"] + " " + a["src"][:22])
 
 
+@pytest.mark.slow
 def test_pdf_sheet_has_the_gmwm_terms_beside_the_allan_read_offs(reports: Path) -> None:
     doc = json.loads((reports / "gm_TEST.json").read_text())
     axis = doc["units"][0]["axes"]["x"]

@@ -310,6 +310,7 @@ def test_real_adis16405_record_against_mems_profile(tmp_path: Path) -> None:
     assert any(17.0 < t.freq_hz < 21.0 for t in axis.analysis.tones)
 
 
+@pytest.mark.slow
 def test_the_runs_own_profile_is_its_file_and_a_change_is_said(tmp_path: Path, capsys) -> None:
     """A run recorded with a line's own profile file is graded with that file; edited
     since, the grade says so; gone, the profile of that name in profiles/ is used and the

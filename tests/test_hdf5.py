@@ -180,6 +180,7 @@ def full_disk_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple]
 
 
 @pytest.mark.parametrize("name", ["reserve", "no reserve"])
+@pytest.mark.slow
 def test_a_full_disk_stops_the_run_with_its_data_intact_and_the_reason_recorded(
         full_disk_runs: dict[str, tuple], name: str) -> None:
     code, stdout, stderr, path, url, before, stop_after_s, limit = full_disk_runs[name]

@@ -92,6 +92,7 @@ def _oadev_at(x: np.ndarray, fs: float, tau_s: float) -> float:
 
 
 @real
+@pytest.mark.slow
 def test_imu_csv_gives_six_axes_and_kalibr_in_each_tools_units(imu_csv: Path) -> None:
     rec = read_csv_record(imu_csv, sample_rate_hz=100.0, accel_units="g")
     assert rec.accel_m_s2 is not None
@@ -165,6 +166,7 @@ def test_accel_limit_on_gyro_only_record_is_one_line_exit_2(
     assert "\n" not in err and "accel_vrw" in err and "no accelerometer" in err
 
 
+@pytest.mark.slow
 def test_matlab_accelparams_of_white_accelerometer_noise(tmp_path: Path) -> None:
     """White acceleration noise of density q (m/s^2/sqrt(Hz)) on a unit lying flat (z up,
     +1 g plus a 2 mg bias): accelparams' NoiseDensity is q and its ConstantBias the 2 mg
@@ -207,6 +209,7 @@ def test_bench_gravity_is_normal_gravity_on_the_up_component(tmp_path: Path) -> 
         load_bench(path)
 
 
+@pytest.mark.slow
 def test_spec_sheets_draw_the_accelerometers_in_the_profiles_unit(imu_csv: Path,
                                                                    tmp_path: Path) -> None:
     """The PDF gains a page with the accelerometers' Allan deviation, the HTML a section,

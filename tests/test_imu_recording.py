@@ -98,6 +98,7 @@ def test_a_salvage_keeps_the_accel_rows_of_the_rates_it_keeps(tmp_path: Path) ->
     assert rec["gyro"].accel_m_s2 is None
 
 
+@pytest.mark.slow
 def test_a_recorded_simulated_stim300_run_holds_its_accelerations(tmp_path: Path) -> None:
     url = "sim+serial://STIM300?protocol=stim300&datagram=0xA5&rate=200&warp=10&seed=5"
     proc = start_recorder("--unit", url, "--duration", "10s", "--out", str(tmp_path), "--quiet")

@@ -55,6 +55,7 @@ def test_a_faint_line_is_found_at_its_frequency(seed):
     assert abs(found.freq_hz - 1.0 / period) <= 0.25 / DURATION_S + 1e-12, (found, period)
 
 
+@pytest.mark.slow
 def test_reconcile_names_a_faint_sinusoid_by_its_spectral_line():
     cache = ComparisonCache()
     for seed in (7301, 7302):

@@ -134,6 +134,7 @@ def record_csv(tmp_path_factory) -> Path:
     return make_record(tmp_path_factory.mktemp("units") / "unit.csv", n=9_000, seed=5, n_axes=2)
 
 
+@pytest.mark.slow
 def test_analyze_in_deg_and_rad_convert_exactly(record_csv: Path, capsys) -> None:
     assert main(["analyze", str(record_csv), "--json"]) == 0
     deg = json.loads(capsys.readouterr().out)
@@ -193,6 +194,7 @@ def test_spec_sheet_in_rad(graded: RunGrade, tmp_path: Path) -> None:
     assert "deg/sqrt(h)" not in text and "deg/h" not in text
 
 
+@pytest.mark.slow
 def test_grade_and_report_commands_take_output_units(record_csv: Path, graded: RunGrade,
                                                      tmp_path: Path, capsys) -> None:
     profile = graded.profile.path

@@ -36,6 +36,7 @@ ADIS_RECORD = (
 )
 
 
+@pytest.mark.slow
 def test_strong_quantization_is_not_read_as_white_noise() -> None:
     """White angle noise as large as the white rate noise at tau = 1 s (Q = 84 urad, N = 0.5
     deg/sqrt(h), 1 h at 100 Hz), 5 seeds. The slope passes -1/2 while quantization still
@@ -60,6 +61,7 @@ def test_strong_quantization_is_not_read_as_white_noise() -> None:
     assert covered >= 4
 
 
+@pytest.mark.slow
 def test_arw_interval_covers_the_truth_at_its_level() -> None:
     """+-1 sigma interval of the read-off on white noise (4000 s at 10 Hz), 40 seeds: the
     edf counts the correlation of neighbouring taus (without it: 50 % coverage)."""
@@ -75,6 +77,7 @@ def test_arw_interval_covers_the_truth_at_its_level() -> None:
     assert 0.5 <= hits / 40 <= 0.88
 
 
+@pytest.mark.slow
 def test_the_minimum_is_read_off_a_smoothed_curve_not_the_lowest_point() -> None:
     """White + flicker + random walk (5.5 h at 10 Hz), taus out to 2 clusters, 12 seeds: the
     raw minimum / 0.664 is 15-20 % below the true curve's, the smoothed one within a few %."""
@@ -118,6 +121,7 @@ def adis() -> dict:
     return {a.name: a for a in analyze_record(read_csv_record(ADIS_RECORD, sample_rate_hz=100.0))}
 
 
+@pytest.mark.slow
 def test_adis16405_read_offs_sit_on_the_half_slope_line_at_one_second(adis) -> None:
     """Every axis: the read-off within 10 % of the -1/2 line through tau = 1 s, and within
     15 % of the fit; the z axis' 20 Hz tone no longer lifts it (it read 3.10 deg/sqrt(h))."""

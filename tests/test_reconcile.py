@@ -275,6 +275,7 @@ ADIS_RECORD = (Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
 
 @pytest.mark.skipif(not ADIS_RECORD.exists(), reason=f"real data not present: {ADIS_RECORD}")
+@pytest.mark.slow
 def test_the_adis16405_z_tone_is_named_a_sinusoid_near_nyquist():
     """The real ADIS16405 z axis (first 1000 s, to keep the test short) against its data-sheet
     model (ARW 2.0 deg/sqrt(h) plus a 25.8 deg/h, 100 s Gauss-Markov term, as `station model

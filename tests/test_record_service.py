@@ -33,6 +33,7 @@ def test_status_document_round_trip(tmp_path: Path) -> None:
     assert read_status(path) == status and not list(tmp_path.glob(".*tmp"))
 
 
+@pytest.mark.slow
 def test_a_detached_recorder_says_why_it_refused_the_run(tmp_path: Path) -> None:
     process = start_recording(RecordRequest((BAD,), "1min", tmp_path / "runs"))
     with pytest.raises(RecorderStartError) as refused:

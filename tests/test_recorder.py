@@ -68,6 +68,7 @@ def _capture_main(argv: list[str]) -> str:
 
 
 @pytest.mark.parametrize("which", ["done", "term"])
+@pytest.mark.slow
 def test_json_summary_accounts_for_every_sample_the_simulators_sent(two_runs, which) -> None:
     code, out, err, path = two_runs[which]
     assert code == 0, err

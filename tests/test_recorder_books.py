@@ -73,6 +73,7 @@ def books(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFacto
 
 
 @pytest.mark.parametrize("name", UNITS)
+@pytest.mark.slow
 def test_sent_lies_within_the_books_of_every_unit(books: dict, name: str) -> None:
     t, gaps, low, high, _ = books[name]
     assert t.samples_missing_declared > 0  # the faults happened

@@ -55,6 +55,7 @@ def faulty_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Recorder, obje
     return recorder, stop
 
 
+@pytest.mark.slow
 def test_every_unit_accounts_for_every_sample_it_sent(faulty_run) -> None:
     recorder, stop = faulty_run
     assert stop.reason == "duration"

@@ -92,6 +92,7 @@ def killed_runs(tmp_path_factory: pytest.TempPathFactory) -> list[tuple[Path, fl
 
 
 @pytest.mark.parametrize("case", range(len(KILL_AFTER_S)))
+@pytest.mark.slow
 def test_killed_recorder_leaves_a_readable_file_intact_to_its_last_flush(
         killed_runs: list[tuple[Path, float, str]], case: int) -> None:
     path, killed_at, url = killed_runs[case]

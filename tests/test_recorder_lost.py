@@ -116,6 +116,7 @@ def faults() -> Iterator[dict[str, tuple]]:
                     proc.communicate()
 
 
+@pytest.mark.slow
 def test_a_removed_output_folder_stops_the_run_saying_what_was_lost(faults) -> None:
     code, _, stderr, path, _, _ = faults["folder removed"]
     assert code == EXIT_RUN_FAULT, stderr

@@ -113,6 +113,7 @@ def overloaded(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
 
 
 @pytest.mark.parametrize("name", UNITS)
+@pytest.mark.slow
 def test_books_hold_on_an_overloaded_host(overloaded: dict, name: str) -> None:
     t = overloaded[name]
     assert t.samples_recorded > 0 and t.samples_missing_declared > 0  # it ran, it lost

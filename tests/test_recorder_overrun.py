@@ -15,6 +15,8 @@ import signal
 import threading
 from pathlib import Path
 
+import pytest
+
 from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import read_run
 from tests.test_recorder_helpers import assert_books
@@ -29,6 +31,7 @@ PRE_HOLD = 5
 URL = f"sim+serial://MTI-630?protocol=xbus&rate={RATE_HZ:g}&warp={WARP:g}&seed=3"
 
 
+@pytest.mark.slow
 def test_a_unit_starved_past_its_end_records_its_duration_only(tmp_path: Path) -> None:
     """Frozen from 30 s to about 70 s of its clock: the record ends by 40 s, the simulator
     sent no more than 40 s of samples, and the books balance: what it sent is what was

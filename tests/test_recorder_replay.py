@@ -41,6 +41,7 @@ def recorded_and_replayed(tmp_path_factory: pytest.TempPathFactory) -> tuple[Pat
     return live.path, replay.path
 
 
+@pytest.mark.slow
 def test_replayed_run_has_the_same_samples_and_gaps(recorded_and_replayed) -> None:
     live_path, replay_path = recorded_and_replayed
     live, replay = read_run(live_path), read_run(replay_path)

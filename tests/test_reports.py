@@ -191,6 +191,7 @@ def test_report_command_writes_every_format(tmp_path: Path, capsys) -> None:
     assert "no event log" in PdfReader(out / "bench_TEST.pdf").pages[0].extract_text()
 
 
+@pytest.mark.slow
 def test_report_of_a_recorded_hdf5_run(tmp_path: Path) -> None:
     """A run the recorder wrote (two simulated CRG20 units, one dropping frames), graded with the
     shipped CRG20 profile and reported: one page per unit, header and events from the file."""

@@ -126,6 +126,7 @@ def test_a_serial_another_unit_has_is_refused(location, setup) -> None:  # noqa:
         assert latest["SIM-1"] == retest and len(latest) == 2
 
 
+@pytest.mark.slow
 def test_store_queue_waits_for_the_server_with_back_off(
     setup, postgres_server: PostgresServer, postgres_url: str  # noqa: F811
 ) -> None:

@@ -25,6 +25,7 @@ from tests.sequence_kill import (
 )
 
 
+@pytest.mark.slow
 def test_a_sequence_killed_mid_plateau_resumes_from_its_settle(tmp_path: Path) -> None:
     """Killed halfway through the 40 degC plateau's record: one switch-on the profile asked
     for (no turn-on repeatability, as uninterrupted), four temperature points at the four

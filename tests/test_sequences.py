@@ -132,6 +132,7 @@ def turn_on_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[SequenceRu
     return run, grade(GradeRequest(RunSource(run.path), store=False)).graded
 
 
+@pytest.mark.slow
 def test_turn_on_figures_come_back_within_their_intervals(
         turn_on_graded: tuple[SequenceRun, RunGrade]) -> None:
     """Two units (two seeds), five switch-ons: the turn-on repeatability covers the
@@ -224,6 +225,7 @@ def temperature_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Sequen
     return run, grade(GradeRequest(RunSource(run.path), store=False)).graded
 
 
+@pytest.mark.slow
 def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
         temperature_graded: tuple[SequenceRun, RunGrade], tmp_path: Path) -> None:
     """The temperature test: the linear coefficient's interval covers each unit's truth,
@@ -316,6 +318,7 @@ def _record(args: list[str]) -> subprocess.Popen[str]:
                             cwd=Path(__file__).resolve().parents[1])
 
 
+@pytest.mark.slow
 def test_a_killed_sequence_resumes_at_its_step(profile: Path, tmp_path: Path) -> None:
     """``station record --sequence`` killed (SIGKILL) during its first recording: the same
     command resumes it at that step, keeps the killed segment (closed, marked

@@ -161,6 +161,7 @@ def test_poller_reads_a_growing_file_incrementally(tmp_path: Path) -> None:
 
 # -- the app --------------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_spec_sheet_of_a_stored_run_and_its_export(stored_run: Path, tmp_path: Path) -> None:
     asyncio.run(_spec_sheet_of_a_stored_run(stored_run, tmp_path))
 
@@ -220,6 +221,7 @@ async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
         assert "0 gradings" in screen_text(app)
 
 
+@pytest.mark.slow
 def test_setup_screen_checks_each_unit_and_refuses_a_bad_one(tmp_path: Path) -> None:
     asyncio.run(_setup_checks(tmp_path))
 
@@ -308,6 +310,7 @@ def test_an_unexpected_error_goes_to_a_log_not_the_screen(tmp_path: Path) -> Non
     assert str(log) in app.crash_message and "reattach" in app.crash_message
 
 
+@pytest.mark.slow
 def test_a_run_the_recorder_refuses_is_a_notification_with_the_fix(tmp_path: Path) -> None:
     async def start_a_bad_unit() -> None:
         app = StationApp(settings(tmp_path, check_units=False))

@@ -184,6 +184,7 @@ def test_ticks() -> None:
 
 # -- the DAVAR tab ----------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_davar_tab_draws_the_heat_map_at_80x24(tmp_path: Path) -> None:
     asyncio.run(_davar_tab(write_run(tmp_path / "runs" / "run-davar.h5"), tmp_path))
 

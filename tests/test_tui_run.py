@@ -39,6 +39,7 @@ def started() -> Iterator[list[RecorderProcess]]:
             p.popen.wait(10)
 
 
+@pytest.mark.slow
 def test_start_reattach_progress_stop_spec_sheet_export(tmp_path: Path,
                                                          started: list[RecorderProcess]) -> None:
     settings = TuiSettings(runs_dir=tmp_path / "runs", reports_dir=tmp_path / "reports",

@@ -49,6 +49,7 @@ def unit_url(seed: int) -> str:
                              turn_on_bias_deg_h=10, warmup_deg_h=5, warmup_tau_s=10)
 
 
+@pytest.mark.slow
 def test_start_follow_kill_resume_and_figures(tmp_path: Path) -> None:
     profiles = tmp_path / "profiles"
     profiles.mkdir()

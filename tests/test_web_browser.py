@@ -44,6 +44,7 @@ def _wait_for_run_file(runs: Path, process: subprocess.Popen) -> None:
         time.sleep(0.1)
 
 
+@pytest.mark.slow
 def test_overview_unit_sheet_and_a_live_run(graded: RunGrade, tmp_path: Path,  # noqa: F811
                                             recording: tuple[Path, subprocess.Popen]) -> None:
     runs, recorder = recording

@@ -41,6 +41,7 @@ def test_round_trip_exact_samples(layout: str) -> None:
 
 
 @pytest.mark.parametrize("layout", LAYOUTS)
+@pytest.mark.slow
 def test_faults_are_exact_gaps_and_node_loss_reconnects(layout: str) -> None:
     modulus, half_lsb = LAYOUTS[layout]
     url = (f"sim+can://STIM300?layout={layout}&rate=500&warp=5&history=100000&seed=6&drop=0.02"

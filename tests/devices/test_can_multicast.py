@@ -65,6 +65,7 @@ def _wait_gone(pid: int, timeout_s: float = 10.0) -> bool:
     return False
 
 
+@pytest.mark.slow
 def test_raw_can_round_trip_across_processes() -> None:
     url = f"sim+can://STIM300?{MULTICAST}&layout=shared&rate=200&warp=2&history=100000&seed=5"
     with open_device(url) as dev:
@@ -87,6 +88,7 @@ def test_raw_can_round_trip_across_processes() -> None:
     assert pid is not None and _wait_gone(pid)
 
 
+@pytest.mark.slow
 def test_raw_can_faults_across_processes_are_exact_gaps() -> None:
     url = (f"sim+can://STIM300?{MULTICAST}&layout=shared&rate=200&warp=4&history=100000"
            "&seed=6&drop=0.03&corrupt=0.02&disconnect_every_s=2&disconnect_for_s=3")
@@ -101,6 +103,7 @@ def test_raw_can_faults_across_processes_are_exact_gaps() -> None:
         assert {"disconnect", "reconnect"} <= set(got.event_kinds())
 
 
+@pytest.mark.slow
 def test_canopen_sync_node_across_processes() -> None:
     """SDO set-up, NMT start and SYNC-paced TPDOs between two processes."""
     url = (f"sim+canopen://STIM300/6?{MULTICAST}&tpdo=sync&rate=50&warp=2&history=100000"
@@ -117,6 +120,7 @@ def test_canopen_sync_node_across_processes() -> None:
         assert dev.source.describe().serial_number == "13"  # read over SDO from 0x1018:4
 
 
+@pytest.mark.slow
 def test_canopen_node_power_loss_is_reported() -> None:
     """SIGKILL of the node's process: its heartbeat stops, the adapter says so."""
     url = f"sim+canopen://STIM300/7?{MULTICAST}&rate=50&warp=1&seed=3"
@@ -165,6 +169,7 @@ def test_a_node_that_cannot_start_is_a_clear_error() -> None:
         open_device("sim+can://VG951?interface=socketcan")
 
 
+@pytest.mark.slow
 def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
     """``station devices serve`` in one process, a hardware ``can://`` URL in this one."""
     proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
@@ -199,6 +204,7 @@ def test_serve_refuses_what_another_process_cannot_reach(
         assert why in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
     """The opt-in hardware test is live code: run it on a served CANopen gyro."""
     proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)

@@ -97,6 +97,7 @@ def test_sync_driven_tpdos_one_sample_per_sync(busy: bool) -> None:
                                    atol=0.5e-6 + 1e-12, rtol=0)
 
 
+@pytest.mark.slow
 def test_lost_pdos_and_unplugged_node_are_gaps_and_reconnect() -> None:
     url = ("sim+canopen://STIM300/7?rate=100&warp=4&history=100000&seed=12&drop=0.02&corrupt=0.01"
            "&disconnect_every_s=3&disconnect_for_s=2")

@@ -102,6 +102,7 @@ def test_bad_maps_and_blocks_are_rejected() -> None:
 
 @pytest.mark.parametrize(("name", "transport"), [("int32", "tcp"), ("float32", "tcp"),
                                                ("int32", "rtu")])
+@pytest.mark.slow
 def test_polled_gyro_round_trip(name: str, transport: str) -> None:
     # Polling at 4 x the sample rate: a sample is missed only if a poll is 12 ms late.
     url = f"sim+modbus+{transport}://STIM300?map={name}&rate=20&warp=4&oversample=4&history=100000&seed=8"
@@ -125,6 +126,7 @@ def test_polled_gyro_round_trip(name: str, transport: str) -> None:
 
 
 @pytest.mark.parametrize("transport", ["tcp", "rtu"])
+@pytest.mark.slow
 def test_server_outage_is_reported_reconnected_and_counted(transport: str) -> None:
     url = (f"sim+modbus+{transport}://STIM300?rate=20&warp=10&history=100000&seed=9&drop=0.05"
            "&disconnect_every_s=4&disconnect_for_s=3")

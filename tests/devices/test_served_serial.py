@@ -24,6 +24,7 @@ from tests.devices.helpers import serve
 
 
 @pytest.mark.parametrize("protocol", SERIAL_PROTOCOLS)
+@pytest.mark.slow
 def test_a_served_serial_gyro_records_through_its_printed_url(tmp_path: Path,
                                                               protocol: str) -> None:
     rate = 10  # the profile's (VG951)

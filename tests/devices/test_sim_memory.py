@@ -28,6 +28,7 @@ def _run(core, n_chunks: int) -> None:
 
 
 @pytest.mark.parametrize("history", [0, 2000])
+@pytest.mark.slow
 def test_a_long_simulation_keeps_memory_bounded(history: int) -> None:
     # warp 1e9: any wall time is years of device time, so due() always has CHUNK ready
     params = parse_sim_params("STIM300", {"rate": "2000", "warp": "1e9", "seed": "3",
