@@ -3,8 +3,9 @@
 A temperature test steps the chamber (``set_chamber T``, ``wait_stable``, ``record D`` per
 set point, IEEE Std 952-1997 and IEEE Std 1431-2004's drift rate temperature sensitivity
 test at stabilized temperatures). Beside the bias against temperature, each plateau's
-record tells how the noise changes with temperature: it is analysed as any record is
-(:func:`station.evaluation.analyze.analyze_record` with the profile's fit method), and its
+record tells how the noise changes with temperature: its rate axis is analysed as any
+record's is (:func:`station.evaluation.analyze.analyze_rates` with the profile's fit method;
+the accelerometer axes the record carries are not a plateau's figures), and its
 ARW and bias instability are read off with their intervals as grading reads them
 (:func:`station.evaluation.figure_intervals.figure_interval`: IEEE Std 952-1997 Annex C read-offs,
 chi-square intervals on the edf of the Allan values, or the fitted N and B when the
@@ -29,7 +30,7 @@ from analysis.allan.estimators import AllanResult
 from analysis.errors import AnalysisError
 from analysis.sequences.temperature_sensitivity import plateau_point
 from station.errors import RecordFormatError
-from station.evaluation.analyze import analyze_record
+from station.evaluation.analyze import analyze_rates
 from station.evaluation.figure_intervals import Interval, figure_interval
 from station.evaluation.sequence_cycles import SegmentView
 from station.model.profiles import Profile
@@ -130,7 +131,9 @@ def _plateau(view: SegmentView, axis: str, column: int, set_point_c: float,
     fs = record.sample_rate_hz
     missing = Interval(None, None, None)
     try:
-        analysis = analyze_record(record, method=profile.fit_method)[0]
+        # the rate axis only: analysing the accelerometer axes too (analyze_record) cost four
+        # times as much and was thrown away
+        [analysis] = analyze_rates(record, method=profile.fit_method)
     except (AnalysisError, ValueError) as exc:
         return Plateau(axis, set_point_c, point.temperature_c, point.bias_deg_h, missing,
                        missing, record.span_samples / fs, view.segment.file, view.step.index,

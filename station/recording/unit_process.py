@@ -46,7 +46,7 @@ from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 Command = Literal["start", "stop", "close"]
 Report = Literal["opened", "started", "batch", "done", "error"]
 #: Modules the fork server imports once, so that each unit starts without importing them.
-PRELOAD = ["station.recording.unit_worker"]
+PRELOAD = ["station.recording.unit_worker", "devices.urls"]
 
 
 @dataclass(frozen=True)
