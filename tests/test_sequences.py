@@ -218,7 +218,9 @@ def temperature_graded(tmp_path_factory: pytest.TempPathFactory) -> tuple[Sequen
     units = tuple(unit_url(s, 200.0, tempco=c) for s, c in TEMPERATURE_UNITS)
     request = SequenceRequest("temperature", str(path), units, power=("sim",),
                               chamber="sim", out=tmp_path / "runs", chamber_log_s=10.0,
-                              fixture=SimFixtureSettings(chamber_tau_s=15.0, unit_tau_s=10.0,
+                              # a chamber and dies quick enough that each settle is 45 s
+                              # of the sequence, not 70 (x200: 0.6 s of wall time in all)
+                              fixture=SimFixtureSettings(chamber_tau_s=8.0, unit_tau_s=5.0,
                                                          self_heating_c=SELF_HEATING_C))
     with prepare_sequence(request) as prepared:
         run = prepared.execute()
