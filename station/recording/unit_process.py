@@ -147,7 +147,9 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     started = False
     while not worker.done.is_set():
         try:
-            if not conn.poll(0.1):
+            # (the worker ends on its own at the duration: look at that often, or each
+            # record ends up to this long late)
+            if not conn.poll(0.02):
                 continue
             kind, _ = conn.recv()
         except (EOFError, OSError):
