@@ -30,6 +30,10 @@ FAULTY_UNITS = (
     "sim+modbus+tcp://STIM300?rate=10&warp=10&seed=9&drop=0.03&disconnect_every_s=15"
     "&disconnect_for_s=3",
 )
+#: The run that reaches its duration, simulated s (3 s of wall time at warp 10; its
+#: Modbus outage from 15 s to 18 s lies inside it; 0.97 ** 300 = 1e-4: each unit drops
+#: frames).
+DONE_S = 30.0
 
 
 @pytest.fixture(scope="module")
@@ -38,8 +42,8 @@ def two_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[int, s
     live ``station watch``; (exit code, stdout, stderr or watch output, file) of each."""
     args = [a for url in FAULTY_UNITS for a in ("--unit", url)]
     done_dir, term_dir = tmp_path_factory.mktemp("done"), tmp_path_factory.mktemp("term")
-    done = start_recorder(*args, "--duration", "40s", "--out", str(done_dir), "--json-summary",
-                          "--quiet", "--operator", "tester", "--lot", "L7")
+    done = start_recorder(*args, "--duration", f"{DONE_S:g}s", "--out", str(done_dir),
+                          "--json-summary", "--quiet", "--operator", "tester", "--lot", "L7")
     term = start_recorder(*args, "--duration", "12h", "--out", str(term_dir), "--json-summary",
                           "--quiet")
     try:
@@ -74,7 +78,7 @@ def test_json_summary_accounts_for_every_sample_the_simulators_sent(two_runs, wh
     assert code == 0, err
     objs = summaries(out)  # exactly the keys of the issue, one object per unit
     assert [o["unit"] for o in objs] == list(FAULTY_UNITS)
-    # every unit drops 3% of its frames: over a 40 s run (400 frames) each one shows gaps;
+    # every unit drops 3% of its frames: over a 30 s run (300 frames) each one shows gaps;
     # the SIGTERM run stops after about 50-120 frames, where one unit may by chance have
     # none (0.97**114 = 3%), so there the faults are counted over the three units
     assert sum(o["gaps"] for o in objs) > 0
@@ -101,10 +105,10 @@ def test_a_run_that_reached_its_duration_is_complete_and_closed(two_runs) -> Non
     for unit, obj in zip(run.units, summaries(out), strict=True):
         assert unit.record.n_samples == obj["samples_recorded"]
         # recorded + declared missing samples span the unit's run, in simulated seconds:
-        # 40 s, and on a loaded host the time it took to end on a sample index after them
+        # its duration, and on a loaded host the time it took to end on a sample index after
         span_s = (unit.record.n_samples + unit.missing_samples) / unit.record.sample_rate_hz
         ended_s = max(e.time_s for e in unit.events if e.kind == "end")
-        assert ended_s >= 40.0 and span_s == pytest.approx(ended_s, rel=0.1)
+        assert ended_s >= DONE_S and span_s == pytest.approx(ended_s, rel=0.1)
 
 
 def test_sigterm_stops_cleanly_and_records_why(two_runs) -> None:

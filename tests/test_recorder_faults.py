@@ -5,7 +5,7 @@ raw-CAN node on python-can's virtual bus, a Modbus TCP server on 127.0.0.1, a CA
 node in another process on python-can's udp_multicast bus) record
 together, time-warped, while their simulators drop, corrupt and garble frames and go
 away for 1 s to 1 min (the pty closes, the CAN node falls silent, the Modbus server shuts
-down). The 60 s and 40 s outages are longer than the 8-bit and 7-bit counters can count
+down). The 60 s and 56 s outages are longer than the 8-bit and 7-bit counters can count
 alone: their gaps must be counted with the elapsed time and say so.
 """
 
@@ -18,25 +18,29 @@ from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import open_run_file, read_run, read_unit
 from tests.devices.helpers import multicast_unavailable
 
-WARP = 8
+WARP = 16
 CANOPEN_BUS = "virtual" if multicast_unavailable() else "udp_multicast"
 #: name -> (device URL, sample rate Hz, the outage it suffers, simulated s). Rates are low
-#: so that half a counter period (12.8 s on both wrapping counters) is over 1.5 s of wall
-#: time: a loaded machine's stalls must not alias into counter wraps.
+#: so that half a counter period (25.6 s at 5 Hz on the 8-bit STIM300 counter, 25.6 s at
+#: 2.5 Hz on the 7-bit KVH one) is over 1.5 s of wall time: a loaded machine's stalls must
+#: not alias into counter wraps. (Every unit sends as many samples per wall second as at
+#: warp 8 with twice the rate, and its drop/corrupt/garbage odds are doubled beside the
+#: halved rate: as many faults per run, in half the wall time.) The STIM300's 60 s and
+#: the KVH's 56 s outages hold 300 and 140 samples: over a period of their counters.
 UNITS = {
-    "stim300": (f"sim+serial://STIM300?protocol=stim300&rate=10&warp={WARP}&seed=1"
-                "&disconnect_every_s=10&disconnect_for_s=60&drop=0.01&corrupt=0.01"
-                "&garbage=0.01", 10.0, 60.0),
-    "kvh1750": (f"sim+serial://DSP-1750?protocol=kvh1750&rate=5&warp={WARP}&seed=2"
-                "&disconnect_every_s=15&disconnect_for_s=40&drop=0.02", 5.0, 40.0),
-    "can": (f"sim+can://STIM300?rate=20&warp={WARP}&seed=3&disconnect_every_s=15"
-            "&disconnect_for_s=1&drop=0.01&corrupt=0.01", 20.0, 1.0),
-    "modbus": (f"sim+modbus+tcp://STIM300?rate=10&warp={WARP}&seed=4&disconnect_every_s=30"
-               "&disconnect_for_s=5&drop=0.02", 10.0, 5.0),
+    "stim300": (f"sim+serial://STIM300?protocol=stim300&rate=5&warp={WARP}&seed=1"
+                "&disconnect_every_s=10&disconnect_for_s=60&drop=0.02&corrupt=0.02"
+                "&garbage=0.02", 5.0, 60.0),
+    "kvh1750": (f"sim+serial://DSP-1750?protocol=kvh1750&rate=2.5&warp={WARP}&seed=2"
+                "&disconnect_every_s=12&disconnect_for_s=56&drop=0.04", 2.5, 56.0),
+    "can": (f"sim+can://STIM300?rate=10&warp={WARP}&seed=3&disconnect_every_s=15"
+            "&disconnect_for_s=1&drop=0.02&corrupt=0.02", 10.0, 1.0),
+    "modbus": (f"sim+modbus+tcp://STIM300?rate=5&warp={WARP}&seed=4&disconnect_every_s=30"
+               "&disconnect_for_s=5&drop=0.04", 5.0, 5.0),
     # a CANopen node in a process of its own, on python-can's udp_multicast bus (on a
     # host without multicast, in this process on the virtual bus)
-    "canopen": (f"sim+canopen://STIM300/5?interface={CANOPEN_BUS}&rate=10&warp={WARP}"
-                "&seed=5&disconnect_every_s=20&disconnect_for_s=10&drop=0.01", 10.0, 10.0),
+    "canopen": (f"sim+canopen://STIM300/5?interface={CANOPEN_BUS}&rate=5&warp={WARP}"
+                "&seed=5&disconnect_every_s=20&disconnect_for_s=10&drop=0.02", 5.0, 10.0),
 }
 DURATION_S = 80.0
 
@@ -97,7 +101,7 @@ def test_other_units_keep_recording_while_one_is_disconnected(faulty_run) -> Non
     # the STIM300 is away from 10 s to 70 s (its own time base) ...
     t_stim = stim.receive_time_s
     assert not np.any((t_stim > 15.0) & (t_stim < 65.0))
-    # ... while the CAN unit (20 Hz, 1 s outages every 15 s) records through it
+    # ... while the CAN unit (10 Hz, 1 s outages every 15 s) records through it
     t_can = can.receive_time_s
     during = int(np.count_nonzero((t_can > 15.0) & (t_can < 65.0)))
-    assert during > 0.8 * 20 * 50.0, during
+    assert during > 0.8 * UNITS["can"][1] * 50.0, during

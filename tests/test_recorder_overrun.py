@@ -1,8 +1,8 @@
 """A unit whose process the host starves across the end of its run (issue 29, item 3).
 
 A time-warped simulated unit (x20) is frozen (SIGSTOP: its reader and its simulator) from
-three quarters of its run to well past its end. A run ends at its duration on the unit's
-own time base: the simulator generates no sample due after it, so the record does not run
+three quarters of its run to half its run past its end. A run ends at its duration on the
+unit's own time base: the simulator generates no sample due after it, so the record does not run
 on by the time the host overran (a 300 s step had run to ~510 s of device time), and the
 samples declared missing are the ones it generated and lost while frozen inside the run,
 never the ones of the time after it (1257 and 2095 had been declared against 0).
@@ -33,9 +33,10 @@ URL = f"sim+serial://MTI-630?protocol=xbus&rate={RATE_HZ:g}&warp={WARP:g}&seed=3
 
 @pytest.mark.slow
 def test_a_unit_starved_past_its_end_records_its_duration_only(tmp_path: Path) -> None:
-    """Frozen from 30 s to about 70 s of its clock: the record ends by 40 s, the simulator
-    sent no more than 40 s of samples, and the books balance: what it sent is what was
-    recorded plus what was declared missing (at most the 10 s frozen inside the run)."""
+    """Frozen from 30 s to about 60 s of its clock: the record ends by 40 s, the simulator
+    sent no more than 40 s of samples (an overrun into the 20 s frozen past its end would
+    add up to 400), and the books balance: what it sent is what was recorded plus what
+    was declared missing (at most the 10 s frozen inside the run)."""
     recorder = Recorder(RunConfig((URL,), DURATION_S, tmp_path / "r.h5"))
     recorder.prepare()
     worker = recorder.workers[0]
@@ -45,7 +46,7 @@ def test_a_unit_starved_past_its_end_records_its_duration_only(tmp_path: Path) -
         threading.Event().wait(0.75 * DURATION_S / WARP)
         os.kill(worker.pid, signal.SIGSTOP)  # type: ignore[arg-type]
         try:
-            threading.Event().wait(2.0)  # 40 s of its clock: 30 s past its end
+            threading.Event().wait(1.5)  # 30 s of its clock: 20 s past its end
         finally:
             os.kill(worker.pid, signal.SIGCONT)  # type: ignore[arg-type]
 

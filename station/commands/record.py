@@ -40,11 +40,13 @@ def main(argv: list[str] | None = None) -> int:
     commands' imports (how a TUI or a test starts a recorder process)."""
     from station.errors import StationError
     from station.logs import configure_logging
+    from station.recording.unit_process import start_unit_server
 
     configure_logging()
     parser = argparse.ArgumentParser(prog="station record")
     register(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(["record", *(sys.argv[1:] if argv is None else argv)])
+    start_unit_server()  # (its imports overlap the recorder's)
     try:
         return run(args)
     except StationError as exc:

@@ -97,6 +97,19 @@ def _context() -> Any:
     return ctx
 
 
+def start_unit_server() -> None:
+    """Start the server process the units fork from, now: it imports the device code
+    while this process goes on importing the recorder's (a recorder's units open about
+    as much sooner as those imports take). Nothing to do where units are spawned."""
+    ctx = _context()
+    if ctx.get_start_method() != "forkserver":
+        return
+    from multiprocessing import forkserver
+
+    with _main_left_alone():
+        forkserver.ensure_running()
+
+
 # -- the unit's process -------------------------------------------------------------
 
 def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
