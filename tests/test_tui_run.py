@@ -42,8 +42,11 @@ def started() -> Iterator[list[RecorderProcess]]:
 @pytest.mark.slow
 def test_start_reattach_progress_stop_spec_sheet_export(tmp_path: Path,
                                                          started: list[RecorderProcess]) -> None:
+    # the product's poll interval: polling every 0.25 s kept the app so busy (a file read,
+    # an Allan deviation and a redraw each time) that every Pilot key press waited out
+    # Textual's 1-s idle wait, and the run grew longer (more to grade) meanwhile
     settings = TuiSettings(runs_dir=tmp_path / "runs", reports_dir=tmp_path / "reports",
-                           db_path=tmp_path / "results.sqlite", check_units=False, poll_s=0.25)
+                           db_path=tmp_path / "results.sqlite", check_units=False, poll_s=1.0)
     path = asyncio.run(_start_and_quit(settings, started))
     assert pid_alive(started[0].pid)  # closing the TUI left the recorder recording
     asyncio.run(_reattach_stop_and_grade(settings, path))
@@ -98,6 +101,7 @@ async def _reattach_stop_and_grade(settings: TuiSettings, path: Path) -> None:
         live = app.screen
         assert isinstance(live, LiveScreen) and live.path == path and live.process is None
         assert "Reattached" in notifications(app)
+        app.clear_notifications()  # its toast covers the footer's keys for 10 s
         await until(
             pilot,
             lambda: live.snapshot is not None and live.snapshot.fraction > 0.1,
