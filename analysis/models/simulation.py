@@ -37,7 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
 from analysis.allan.estimators import check_sample_rate
 from analysis.models.noise import MarkovBank, SampledBank, flicker_bank, sample_bank
@@ -125,6 +124,35 @@ class _WhiteRate(_TermStream):
         return self.std * self.rng.standard_normal((n, self.n_axes))
 
 
+#: Longest block :func:`_ar1` runs in Python; a longer one goes to scipy's ``lfilter``.
+_SHORT_BLOCK = 256
+
+
+def _ar1(a: float, e: NDArray[np.float64], x_prev: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows ``x_k = a x_{k-1} + e_k`` of a block, from ``x_{-1} = x_prev`` (one per axis).
+
+    The same arithmetic as ``scipy.signal.lfilter([1], [1, -a], e, axis=0, zi=a * x_prev)``,
+    bit for bit. A live simulator's batches are short: there a Python loop beats
+    ``lfilter``'s call overhead and spares a simulator process the import of
+    :mod:`scipy.signal` (over a second); long blocks go to ``lfilter``.
+    """
+    if e.shape[0] > _SHORT_BLOCK:
+        from scipy import signal
+
+        x, _ = signal.lfilter([1.0], [1.0, -a], e, axis=0, zi=a * x_prev[None, :])
+        return np.asarray(x, dtype=np.float64)
+    out = np.empty_like(e)
+    for axis, (column, prev) in enumerate(zip(e.T.tolist(), x_prev.tolist(), strict=True)):
+        z = a * prev
+        rows = []
+        for value in column:
+            y = z + value
+            rows.append(y)
+            z = a * y
+        out[:, axis] = rows
+    return out
+
+
 class _Bank(_TermStream):
     """Sample means of a Gauss-Markov bank (flicker, Gauss-Markov, rate random walk)."""
 
@@ -143,7 +171,7 @@ class _Bank(_TermStream):
             return out
         for i, a in enumerate(self.p.a):
             e1 = self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
-            x_next, _ = signal.lfilter([1.0], [1.0, -a], e1, axis=0, zi=a * self.state[i][None, :])
+            x_next = _ar1(float(a), e1, self.state[i])
             out[:1] += self.p.c[i] * self.state[i]
             out[1:] += self.p.c[i] * x_next[:-1]
             out += self.p.g[i] * e1

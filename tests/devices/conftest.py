@@ -27,6 +27,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hardware-protocol", default="stim300",
                     help="protocol of the serial gyro (stim300, kvh1750, xbus)")
     group.addoption("--hardware-baud", default=921600, type=int, help="serial line rate")
+    group.addoption("--hardware-seconds", default=5.0, type=float,
+                    help="how long the streaming check reads the gyro, s (at least 200 samples)")
 
 
 @pytest.fixture
@@ -41,6 +43,12 @@ def hardware_url(request: pytest.FixtureRequest) -> str:
         url = (f"serial://{port}?protocol={request.config.getoption('--hardware-protocol')}"
                f"&baud={request.config.getoption('--hardware-baud')}")
     return str(url)
+
+
+@pytest.fixture
+def hardware_seconds(request: pytest.FixtureRequest) -> float:
+    """How long the streaming check reads the real gyro (``--hardware-seconds``), s."""
+    return float(request.config.getoption("--hardware-seconds"))
 
 
 @pytest.fixture(autouse=True)

@@ -206,13 +206,14 @@ def test_serve_refuses_what_another_process_cannot_reach(
 
 @pytest.mark.slow
 def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
-    """The opt-in hardware test is live code: run it on a served CANopen gyro."""
-    proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
+    """The opt-in hardware test is live code: run it on a served CANopen gyro (for 1 s:
+    its 200 samples at 200 Hz, the check's least, where a bench reads 5 s)."""
+    proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=200&seed=9", 60)
     try:
         # One process: "-n 0" overrides the two xdist workers of the suite's addopts.
         run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0",
                               "-p", "no:cacheprovider", "tests/devices/test_hardware.py",
-                              "--hardware-url", str(info["url"])],
+                              "--hardware-url", str(info["url"]), "--hardware-seconds", "1"],
                              capture_output=True, text=True, timeout=120,
                              cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
         assert run.returncode == 0 and "1 passed" in run.stdout, run.stdout + run.stderr
