@@ -172,7 +172,7 @@ def test_a_node_that_cannot_start_is_a_clear_error() -> None:
 @pytest.mark.slow
 def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
     """``station devices serve`` in one process, a hardware ``can://`` URL in this one."""
-    proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
+    proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=200&seed=4", 60)
     try:
         url = str(info["url"])
         assert info["pid"] not in (None, proc.pid, os.getpid())  # the node's own process
@@ -180,7 +180,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
         with open_device(url) as dev:
             assert not isinstance(dev, Simulated)  # a real-hardware URL: nothing simulated here
             dev.source.open()
-            got = collect(dev.source, 200)
+            got = collect(dev.source, 200)  # 1 s at 200 Hz
             check_lost_share(got, check_books(got))  # (what a loaded host loses, declared)
             assert np.all(np.abs(got.rate) < 1.0)
             assert dev.source.describe().transport == "can"
