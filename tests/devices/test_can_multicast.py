@@ -210,8 +210,10 @@ def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
     its 200 samples at 200 Hz, the check's least, where a bench reads 5 s)."""
     proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=200&seed=9", 60)
     try:
-        # One process: "-n 0" overrides the two xdist workers of the suite's addopts.
-        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0",
+        # One process, without the suite's addopts (two xdist workers) and the plugins
+        # the check does not use (xdist, hypothesis, anyio: 4 s of a 6 s start).
+        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-o", "addopts=",
+                              "-p", "no:xdist", "-p", "no:hypothesispytest", "-p", "no:anyio",
                               "-p", "no:cacheprovider", "tests/devices/test_hardware.py",
                               "--hardware-url", str(info["url"]), "--hardware-seconds", "1"],
                              capture_output=True, text=True, timeout=120,
