@@ -3,7 +3,8 @@
 ``--hardware-url URL`` (any device URL: serial, CAN, CANopen, Modbus) or
 ``--hardware-port PORT`` with ``--hardware-protocol NAME`` (a serial gyro, e.g.
 ``--hardware-port /dev/ttyUSB0 --hardware-protocol stim300``) runs the opt-in tests
-against a real gyro; without them those tests are skipped. pytest reads options only from the
+against a real gyro (``--hardware-seconds S``: how long, 5 s by default); without them
+those tests are skipped. pytest reads options only from the
 conftests of the paths
 it starts from, so name this folder: ``pytest tests/devices --hardware-port ...``.
 """
