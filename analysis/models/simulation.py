@@ -124,32 +124,36 @@ class _WhiteRate(_TermStream):
         return self.std * self.rng.standard_normal((n, self.n_axes))
 
 
-#: Longest block :func:`_ar1` runs in Python; a longer one goes to scipy's ``lfilter``.
-_SHORT_BLOCK = 256
+#: Longest block :func:`_ar1` runs step by step; a longer one goes to scipy's ``lfilter``.
+_SHORT_BLOCK = 4096
 
 
-def _ar1(a: float, e: NDArray[np.float64], x_prev: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Rows ``x_k = a x_{k-1} + e_k`` of a block, from ``x_{-1} = x_prev`` (one per axis).
+def _ar1(a: NDArray[np.float64], e: NDArray[np.float64],
+         x_prev: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows ``x_k = a x_{k-1} + e_k`` of a block of every pole of a bank at once.
 
-    The same arithmetic as ``scipy.signal.lfilter([1], [1, -a], e, axis=0, zi=a * x_prev)``,
-    bit for bit. A live simulator's batches are short: there a Python loop beats
-    ``lfilter``'s call overhead and spares a simulator process the import of
-    :mod:`scipy.signal` (over a second); long blocks go to ``lfilter``.
+    ``e`` is shaped (n, n_poles, n_axes), ``a`` (n_poles,) and ``x_prev`` (the state
+    ``x_{-1}``) (n_poles, n_axes). Each pole's result is that of
+    ``scipy.signal.lfilter([1], [1, -a], e, axis=0, zi=a * x_prev)``, bit for bit (the same
+    two roundings per step). A live simulator's batches are short: there one step for all
+    poles and axes beats a ``lfilter`` call per pole, and spares a simulator process the
+    import of :mod:`scipy.signal` (over a second); long blocks go to ``lfilter``.
     """
-    if e.shape[0] > _SHORT_BLOCK:
+    n, n_poles = e.shape[0], e.shape[1]
+    if n > _SHORT_BLOCK:
         from scipy import signal
 
-        x, _ = signal.lfilter([1.0], [1.0, -a], e, axis=0, zi=a * x_prev[None, :])
-        return np.asarray(x, dtype=np.float64)
+        return np.stack([
+            np.asarray(signal.lfilter([1.0], [1.0, -a[i]], e[:, i], axis=0,
+                                      zi=a[i] * x_prev[i][None, :])[0], dtype=np.float64)
+            for i in range(n_poles)], axis=1)
+    column = a[:, None]
     out = np.empty_like(e)
-    for axis, (column, prev) in enumerate(zip(e.T.tolist(), x_prev.tolist(), strict=True)):
-        z = a * prev
-        rows = []
-        for value in column:
-            y = z + value
-            rows.append(y)
-            z = a * y
-        out[:, axis] = rows
+    z = column * x_prev
+    for k in range(n):
+        y = z + e[k]
+        out[k] = y
+        z = column * y
     return out
 
 
@@ -169,13 +173,15 @@ class _Bank(_TermStream):
         out = self.p.shared * self.rngs[-1].standard_normal((n, self.n_axes))
         if n == 0:
             return out
-        for i, a in enumerate(self.p.a):
-            e1 = self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
-            x_next = _ar1(float(a), e1, self.state[i])
+        n_poles = len(self.p.a)
+        e = np.stack([self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
+                      for i in range(n_poles)], axis=1)
+        x = _ar1(np.asarray(self.p.a, dtype=np.float64), e, self.state)
+        for i in range(n_poles):
             out[:1] += self.p.c[i] * self.state[i]
-            out[1:] += self.p.c[i] * x_next[:-1]
-            out += self.p.g[i] * e1
-            self.state[i] = x_next[-1]
+            out[1:] += self.p.c[i] * x[:-1, i]
+            out += self.p.g[i] * e[:, i]
+        self.state = x[-1].copy()
         return out
 
 
