@@ -16,6 +16,7 @@ from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.transports.can import CanTransport
+from devices.transports.canopen import canopen_network
 
 COUNTER_MODULUS = 65536
 #: (TPDO number, mapped objects) the adapter writes over SDO.
@@ -131,8 +132,7 @@ class CanopenRateSource:
             The node refused an SDO transfer.
         """
         self.transport.open()
-        self.network = canopen.Network(self.transport.bus)
-        self.network.connect()
+        self.network = canopen_network(self.transport)
         node = canopen.RemoteNode(self.node_id, self.eds)
         self.network.add_node(node)
         self.node = node

@@ -36,13 +36,16 @@ The noise type per tau comes from :mod:`analysis.allan.noise_id` (lag-1 autocorr
 Stable32) for the estimators of a whole record; :func:`local_noise_alpha` reads it off the
 local slope of an Allan curve where only the curve is at hand (DAVAR windows), and cannot
 tell flicker from white angle noise (both have slope -2).
+
+scipy is imported where it is used: a simulated device's process imports this module
+(through :mod:`analysis.allan.estimators`) and never needs scipy, whose import would cost
+its start most of a second.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, special, stats
 
 #: Confidence level of a +-1 sigma interval of a normal variable.
 ONE_SIGMA = 0.6826894921370859
@@ -91,6 +94,8 @@ def local_noise_alpha(
         # the log-log slope of a sum of power laws never decreases with tau; the slopes
         # read off the noisy long-tau end are made to obey that, weighted by cluster count
         weights = np.maximum(np.asarray(n_samples // np.asarray(m), dtype=float), 1.0)
+        from scipy import optimize  # scipy on first use: see the module's note on imports
+
         for c in range(loga.shape[1]):
             mu[:, c] = optimize.isotonic_regression(mu[:, c], weights=weights).x
     alpha = np.select([mu <= -1.5, mu <= -0.5, mu <= 0.5], [2, 0, -1], default=-2)
@@ -155,6 +160,8 @@ def _filter_taps(order: int, modified: bool) -> tuple[NDArray[np.int64], NDArray
     averaged over m first (the box's own autocorrelation is the second difference of W)."""
     half = order + 1 if modified else order
     q = np.arange(-half, half + 1)
+    from scipy import special  # on first use (see the module's note)
+
     return q, (-1.0) ** np.abs(q) * special.comb(2 * half, half + q)
 
 
@@ -340,6 +347,8 @@ def chi2_interval(
     e = np.asarray(edf, dtype=float)
     # the quantiles depend on edf only; grids of every m repeat edf values many times
     unique, inverse = np.unique(e, return_inverse=True)
+    from scipy import stats  # on first use (see the module's note)
+
     upper = stats.chi2.ppf(0.5 + confidence / 2, unique)[inverse].reshape(e.shape)
     lower = stats.chi2.ppf(0.5 - confidence / 2, unique)[inverse].reshape(e.shape)
     return v * e / upper, v * e / lower

@@ -143,10 +143,13 @@ class AccelSimulator:
         own derived from it, so the same seed gives the same samples.
     gravity_m_s2 : sequence of float, optional
         Gravity each axis sees (m/s^2); default +9.80665 on the last axis (z up).
+    short_reads : bool
+        Read a few samples at a time (see :class:`GyroSimulator`).
     """
 
     def __init__(self, model: AccelNoiseModel, sample_rate_hz: float, *, n_axes: int = 3,
-                 seed: int | None = None, gravity_m_s2: Sequence[float] | None = None) -> None:
+                 seed: int | None = None, gravity_m_s2: Sequence[float] | None = None,
+                 short_reads: bool = False) -> None:
         if gravity_m_s2 is None:
             gravity_m_s2 = [0.0] * (n_axes - 1) + [STANDARD_GRAVITY_M_S2]
         if len(gravity_m_s2) != n_axes:
@@ -157,7 +160,7 @@ class AccelSimulator:
         stream_seed = (None if seed is None else
                        int(np.random.SeedSequence([seed, _ACCEL_STREAM]).generate_state(1)[0]))
         self._sim = GyroSimulator(model.as_noise_model(), sample_rate_hz, n_axes=n_axes,
-                                  seed=stream_seed)
+                                  seed=stream_seed, short_reads=short_reads)
 
     def temperature_effect(self, temperature_c: NDArray[np.float64]) -> NDArray[np.float64]:
         """Bias from the temperature sensitivity (m/s^2, shape (n, 1)) at each sample's

@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal
 
 from analysis.allan.curves import as_tau, gauss_markov_avar
 from analysis.allan.estimators import check_sample_rate
@@ -90,6 +89,8 @@ def flicker_rate_noise(
     shape = _shape(n_samples, n_axes)
     white = b_deg_s * rng.standard_normal(shape)
     h = kasdin_coefficients(1.0, n_samples)
+    from scipy import signal  # here: a simulator process never needs it (a second's import)
+
     if white.ndim == 1:
         return np.asarray(signal.fftconvolve(white, h)[:n_samples], dtype=np.float64)
     return np.asarray(signal.fftconvolve(white, h[:, None], axes=0)[:n_samples], dtype=np.float64)

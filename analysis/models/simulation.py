@@ -32,12 +32,11 @@ from __future__ import annotations
 
 import math
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import signal
 
 from analysis.allan.estimators import check_sample_rate
 from analysis.models.noise import MarkovBank, SampledBank, flicker_bank, sample_bank
@@ -125,11 +124,47 @@ class _WhiteRate(_TermStream):
         return self.std * self.rng.standard_normal((n, self.n_axes))
 
 
+#: Longest read a bank in ``short_reads`` mode steps through in numpy (see :class:`_Bank`).
+_SHORT_BLOCK = 4096
+
+
+def _lfilter() -> Callable[..., tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """scipy's ``signal.lfilter``, imported on first use (the import takes over a second)."""
+    from scipy import signal
+
+    return signal.lfilter  # type: ignore[no-any-return]
+
+
+def _ar1_steps(a: NDArray[np.float64], e: NDArray[np.float64],
+               x_prev: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rows ``x_k = a x_{k-1} + e_k`` of a block, every pole of a bank at once.
+
+    ``e`` is shaped (n, n_poles, n_axes), ``a`` (n_poles,) and ``x_prev`` (the state
+    ``x_{-1}``) (n_poles, n_axes). Each pole's result is that of
+    ``lfilter([1], [1, -a], e, axis=0, zi=a * x_prev)``, bit for bit (the same two roundings
+    per step).
+    """
+    column = a[:, None]
+    out = np.empty_like(e)
+    z = column * x_prev
+    for k in range(e.shape[0]):
+        y = z + e[k]
+        out[k] = y
+        z = column * y
+    return out
+
+
 class _Bank(_TermStream):
     """Sample means of a Gauss-Markov bank (flicker, Gauss-Markov, rate random walk)."""
 
-    def __init__(self, bank: MarkovBank, fs: float, n_axes: int, rng: np.random.Generator) -> None:
+    def __init__(self, bank: MarkovBank, fs: float, n_axes: int, rng: np.random.Generator,
+                 short_reads: bool) -> None:
         self.p: SampledBank = sample_bank(bank, fs)
+        # Short reads (a simulated device's few samples at a time) step all poles at once
+        # in numpy, faster there than an lfilter call per pole, and never import scipy;
+        # long reads filter pole by pole (a chunk's memory per pole).
+        self.short_reads = short_reads
+        self._filter = None if short_reads else _lfilter()
         self.n_axes = n_axes
         n_poles = len(self.p.a)
         self.rngs = rng.spawn(n_poles + 1)
@@ -141,9 +176,22 @@ class _Bank(_TermStream):
         out = self.p.shared * self.rngs[-1].standard_normal((n, self.n_axes))
         if n == 0:
             return out
+        if self.short_reads and n <= _SHORT_BLOCK:
+            n_poles = len(self.p.a)
+            e = np.stack([self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
+                          for i in range(n_poles)], axis=1)
+            x = _ar1_steps(np.asarray(self.p.a, dtype=np.float64), e, self.state)
+            for i in range(n_poles):
+                out[:1] += self.p.c[i] * self.state[i]
+                out[1:] += self.p.c[i] * x[:-1, i]
+                out += self.p.g[i] * e[:, i]
+            self.state = x[-1].copy()
+            return out
+        if self._filter is None:
+            self._filter = _lfilter()
         for i, a in enumerate(self.p.a):
             e1 = self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
-            x_next, _ = signal.lfilter([1.0], [1.0, -a], e1, axis=0, zi=a * self.state[i][None, :])
+            x_next, _ = self._filter([1.0], [1.0, -a], e1, axis=0, zi=a * self.state[i][None, :])
             out[:1] += self.p.c[i] * self.state[i]
             out[1:] += self.p.c[i] * x_next[:-1]
             out += self.p.g[i] * e1
@@ -228,19 +276,20 @@ class _Steps(_TermStream):
 
 
 def _stream_for(term: NoiseTerm, fs: float, n_axes: int, rng: np.random.Generator,
-                flicker_floor_hz: float) -> _TermStream:
+                flicker_floor_hz: float, short_reads: bool) -> _TermStream:
     if isinstance(term, Quantization):
         return _WhiteAngle(term.q_deg, fs, n_axes, rng)
     if isinstance(term, AngleRandomWalk):
         return _WhiteRate(term.n_deg_rt_s * math.sqrt(fs), n_axes, rng)
     if isinstance(term, BiasInstability):
-        return _Bank(flicker_bank(term.b_deg_s, fs, floor_hz=flicker_floor_hz), fs, n_axes, rng)
+        return _Bank(flicker_bank(term.b_deg_s, fs, floor_hz=flicker_floor_hz), fs, n_axes, rng,
+                     short_reads)
     if isinstance(term, GaussMarkov):
         bank = MarkovBank(np.array([term.sigma_deg_s]), np.array([term.tau_s]))
-        return _Bank(bank, fs, n_axes, rng)
+        return _Bank(bank, fs, n_axes, rng, short_reads)
     if isinstance(term, RateRandomWalk):
         bank = MarkovBank(np.zeros(0), np.zeros(0), walk_k=term.k_deg_s_1_5)
-        return _Bank(bank, fs, n_axes, rng)
+        return _Bank(bank, fs, n_axes, rng, short_reads)
     if isinstance(term, BiasSteps):
         return _Steps(term, fs, n_axes, rng)
     return _Deterministic(term, fs, n_axes)
@@ -272,6 +321,11 @@ class GyroSimulator:
     flicker_floor_hz : float
         Lowest corner of the bias-instability bank in Hz; the plateau holds for
         ``tau <= 0.01 / flicker_floor_hz``.
+    short_reads : bool
+        True where the run is read a few samples at a time (a simulated device): reads of
+        up to 4096 samples then step the Gauss-Markov recursions in numpy and never import
+        :mod:`scipy.signal` (over a second at a device's start). The samples are the same
+        bit for bit either way.
 
     Raises
     ------
@@ -295,6 +349,7 @@ class GyroSimulator:
     def __init__(
         self, model: NoiseModel, sample_rate_hz: float, *, n_axes: int = 1,
         seed: int | None = None, flicker_floor_hz: float = FLICKER_FLOOR_HZ,
+        short_reads: bool = False,
     ) -> None:
         if not isinstance(model, NoiseModel):
             raise TypeError(f"model must be a NoiseModel, got {type(model).__name__}")
@@ -308,7 +363,7 @@ class GyroSimulator:
         root = np.random.SeedSequence(seed)
         self._streams = [
             _stream_for(term, self.sample_rate_hz, self.n_axes, term_generator(root, term.name),
-                        flicker_floor_hz)
+                        flicker_floor_hz, short_reads)
             for term in model.terms
         ]
         self._temperature = next(

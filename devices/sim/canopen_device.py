@@ -28,6 +28,7 @@ from devices.codecs.base import Reading
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
 from devices.transports.can import CanTransport
+from devices.transports.canopen import canopen_network
 
 #: The EDS shipped with the project.
 GYRO_EDS = Path(__file__).resolve().parent.parent / "eds" / "gyro.eds"
@@ -91,8 +92,7 @@ class CanopenGyroNode(DeviceLoop):
     def start(self) -> CanopenGyroNode:
         """Connect, boot (boot-up message, PRE-OPERATIONAL) and start the device thread."""
         self.transport.open()
-        self.network = canopen.Network(self.transport.bus)
-        self.network.connect()
+        self.network = canopen_network(self.transport)
         self.network.add_node(self.node)
         self.network.subscribe(0x80, self._on_sync)
         self.node.tpdo.read(from_od=True)

@@ -134,12 +134,14 @@ class SignalSource:
                  n_accel_axes: int = 0, gravity_m_s2: Sequence[float] | None = None) -> None:
         self.model = model
         self.n_axes = n_axes
-        self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed)
+        # a device reads a few samples at a time: short_reads spares it scipy's import
+        self._sim = GyroSimulator(noise_model(model), sample_rate_hz, n_axes=n_axes, seed=seed,
+                                  short_reads=True)
         self._earth = (
             None if earth_rate_deg_s is None else np.asarray(earth_rate_deg_s, dtype=float)
         )
         self.accel = (AccelSimulator(accel_model(model), sample_rate_hz, n_axes=n_accel_axes,
-                                     seed=seed, gravity_m_s2=gravity_m_s2)
+                                     seed=seed, gravity_m_s2=gravity_m_s2, short_reads=True)
                       if n_accel_axes else None)
 
     def read(self, n_samples: int) -> SignalChunk:

@@ -3,7 +3,8 @@
 ``--hardware-url URL`` (any device URL: serial, CAN, CANopen, Modbus) or
 ``--hardware-port PORT`` with ``--hardware-protocol NAME`` (a serial gyro, e.g.
 ``--hardware-port /dev/ttyUSB0 --hardware-protocol stim300``) runs the opt-in tests
-against a real gyro; without them those tests are skipped. pytest reads options only from the
+against a real gyro (``--hardware-seconds S``: how long, 5 s by default); without them
+those tests are skipped. pytest reads options only from the
 conftests of the paths
 it starts from, so name this folder: ``pytest tests/devices --hardware-port ...``.
 """
@@ -27,6 +28,8 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hardware-protocol", default="stim300",
                     help="protocol of the serial gyro (stim300, kvh1750, xbus)")
     group.addoption("--hardware-baud", default=921600, type=int, help="serial line rate")
+    group.addoption("--hardware-seconds", default=5.0, type=float,
+                    help="how long the streaming check reads the gyro, s (at least 200 samples)")
 
 
 @pytest.fixture
@@ -41,6 +44,12 @@ def hardware_url(request: pytest.FixtureRequest) -> str:
         url = (f"serial://{port}?protocol={request.config.getoption('--hardware-protocol')}"
                f"&baud={request.config.getoption('--hardware-baud')}")
     return str(url)
+
+
+@pytest.fixture
+def hardware_seconds(request: pytest.FixtureRequest) -> float:
+    """How long the streaming check reads the real gyro (``--hardware-seconds``), s."""
+    return float(request.config.getoption("--hardware-seconds"))
 
 
 @pytest.fixture(autouse=True)

@@ -172,7 +172,7 @@ def test_a_node_that_cannot_start_is_a_clear_error() -> None:
 @pytest.mark.slow
 def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
     """``station devices serve`` in one process, a hardware ``can://`` URL in this one."""
-    proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=100&seed=4", 60)
+    proc, info = serve(f"sim+can://VG951?{MULTICAST}&layout=shared&rate=200&seed=4", 60)
     try:
         url = str(info["url"])
         assert info["pid"] not in (None, proc.pid, os.getpid())  # the node's own process
@@ -180,7 +180,7 @@ def test_served_gyro_is_recorded_by_a_hardware_url() -> None:
         with open_device(url) as dev:
             assert not isinstance(dev, Simulated)  # a real-hardware URL: nothing simulated here
             dev.source.open()
-            got = collect(dev.source, 200)
+            got = collect(dev.source, 200)  # 1 s at 200 Hz
             check_lost_share(got, check_books(got))  # (what a loaded host loses, declared)
             assert np.all(np.abs(got.rate) < 1.0)
             assert dev.source.describe().transport == "can"
@@ -206,13 +206,16 @@ def test_serve_refuses_what_another_process_cannot_reach(
 
 @pytest.mark.slow
 def test_opt_in_hardware_check_passes_on_a_served_gyro() -> None:
-    """The opt-in hardware test is live code: run it on a served CANopen gyro."""
-    proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=100&seed=9", 60)
+    """The opt-in hardware test is live code: run it on a served CANopen gyro (for 1 s:
+    its 200 samples at 200 Hz, the check's least, where a bench reads 5 s)."""
+    proc, info = serve(f"sim+canopen://VG951/5?{MULTICAST}&rate=200&seed=9", 60)
     try:
-        # One process: "-n 0" overrides the two xdist workers of the suite's addopts.
-        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0",
+        # One process, without the suite's addopts (two xdist workers) and the plugins
+        # the check does not use (xdist, hypothesis, anyio: 4 s of a 6 s start).
+        run = subprocess.run([sys.executable, "-m", "pytest", "-q", "-o", "addopts=",
+                              "-p", "no:xdist", "-p", "no:hypothesispytest", "-p", "no:anyio",
                               "-p", "no:cacheprovider", "tests/devices/test_hardware.py",
-                              "--hardware-url", str(info["url"])],
+                              "--hardware-url", str(info["url"]), "--hardware-seconds", "1"],
                              capture_output=True, text=True, timeout=120,
                              cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
         assert run.returncode == 0 and "1 passed" in run.stdout, run.stdout + run.stderr

@@ -16,14 +16,14 @@ from devices.urls import open_device
 from tests.devices.helpers import check_books, check_lost_share, collect
 
 
-def test_real_gyro_streams_continuous_samples(hardware_url: str) -> None:
+def test_real_gyro_streams_continuous_samples(hardware_url: str, hardware_seconds: float) -> None:
     with open_device(hardware_url) as dev:
         assert not isinstance(dev, Simulated), "pass a hardware URL, not a sim+ URL"
         source = dev.source
         assert isinstance(source, RateSource)
         source.open()
         desc = source.describe()
-        n = max(200, int(5 * desc.sample_rate_hz))  # 5 s of samples
+        n = max(200, int(hardware_seconds * desc.sample_rate_hz))  # 5 s of samples by default
         got = collect(source, n, deadline_s=15)
         assert got.rate.shape[1] == desc.n_axes
         assert got.crc_errors == 0

@@ -37,7 +37,7 @@ def test_round_trip_exact_samples(protocol: str, atol: float, rtol: float) -> No
     url = f"sim+serial://STIM300?protocol={protocol}&rate=500&warp=2&history=100000&seed=4"
     with open_device(url) as dev:
         dev.source.open()
-        got = collect(dev.source, 1500)
+        got = collect(dev.source, 1000)  # 1 s: 4 to 8 wraps of the 8- and 7-bit counters
         core = dev.simulator.core
         offset = device_index(got, core, MODULUS[protocol])
         idx = got.counter + offset
@@ -68,12 +68,14 @@ def test_drops_corruption_and_garbage_are_exact_gaps(protocol: str) -> None:
            "&drop=0.02&corrupt=0.02&garbage=0.05")
     with open_device(url) as dev:
         dev.source.open()
-        got = collect(dev.source, 2000)
+        got = collect(dev.source, 1200)
         core = dev.simulator.core
         offset = device_index(got, core, MODULUS[protocol])
         lo, hi = int(got.counter[0]) + offset, int(got.counter[-1]) + offset
         lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
-        assert len(lost) > 40  # the faults really happened
+        # the faults really happened: 4 % of 1200 samples dropped or corrupted, about 50
+        # (a garbled frame may cost one more); 25 is over 3 standard deviations below
+        assert len(lost) > 25
         assert missing_indices(got.gaps, offset) == lost
         assert len(got.counter) + len(lost) == hi - lo + 1
         # every received sample is the generated one
