@@ -79,6 +79,18 @@ def test_chunks_join_without_seams_whatever_the_cut():
     )
 
 
+def test_a_devices_short_reads_give_the_samples_of_scipys_filter_bit_for_bit():
+    """A simulated device's simulator (``short_reads``: the Gauss-Markov recursions stepped
+    in numpy for reads up to 4096 samples) gives the samples of the offline one (scipy's
+    lfilter pole by pole) exactly, over reads of every size, one past the limit included."""
+    cuts = [1, 0, 57, 4096, 4097, 3, 1200]
+    offline = _read_in_pieces(GyroSimulator(EVERYTHING, FS, n_axes=3, seed=4), cuts)
+    device = _read_in_pieces(GyroSimulator(EVERYTHING, FS, n_axes=3, seed=4, short_reads=True),
+                             cuts)
+    np.testing.assert_array_equal(device.rate_deg_s, offline.rate_deg_s)
+    np.testing.assert_array_equal(device.temperature_c, offline.temperature_c)
+
+
 def test_a_seed_reproduces_a_run_and_terms_keep_their_draws_when_others_are_added():
     base = NoiseModel(
         terms=(AngleRandomWalk(N_deg_rt_h=1.0), GaussMarkov(sigma_deg_h=5.0, tau_s=3.0))
