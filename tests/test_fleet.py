@@ -245,15 +245,18 @@ def _exit_worker(tries: str) -> None:
 
 @pytest.mark.slow
 def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
-    runs, tmp_path: Path
+    runs, scheduler, tmp_path: Path
 ) -> None:
     """A worker killed while it grades (the OOM killer, an operator) costs its tasks one
     retry on a fresh worker and nothing else: every run graded as without the kill. A task
-    whose worker dies on every try is reported as such, once it has had a second worker."""
+    whose worker dies on every try is reported as such, once it has had a second worker.
+    On the module's cluster: its nannies start fresh workers for the tests after this one."""
+    from distributed import Client
+
     folder, _ = runs
     files = tuple(str(folder / f"run{k}.h5") for k in range(GOOD))
-    with cluster_client(LOCAL, 2) as client:
-        request = FleetRequest("grade", files, scheduler=client.scheduler.address, store=False)
+    with Client(scheduler) as client:
+        request = FleetRequest("grade", files, scheduler=scheduler, store=False)
         unharmed = fleet(request)
         killed: list[str] = []
 
