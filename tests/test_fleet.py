@@ -35,6 +35,10 @@ from tests.test_gmwm_views import keyed  # noqa: F401 - with a profile that asks
 from tests.test_grading import profile_text, write_profile
 
 GOOD = 2  # runs of two units each
+#: Length of the good runs, s: 2,000 samples at 10 Hz, the profile's 1,000 after its 10 s
+#: warm-up twice over (the fleet's numbers are compared with station grade's, not with
+#: truths; a longer run only took longer to grade)
+RUN_S = 200.0
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +51,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         write_run(
             folder / f"run{k}.h5",
             units=2,
-            duration_s=600.0,
+            duration_s=RUN_S,
             seed=k + 1,
             profile=profile,
             lot=f"L{k % 2}",
@@ -294,7 +298,8 @@ def test_postgresql_stopped_mid_fleet_then_run_again_stores_one_row_per_run(
     within --db-retry loses nothing."""
     profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
     files = [str(write_run(tmp_path / f"r{k}.h5", units=1, seed=20 + k, profile=profile,
-                           start_utc=f"2026-05-0{k + 1}T08:00:00Z")) for k in range(6)]
+                           duration_s=RUN_S, start_utc=f"2026-05-0{k + 1}T08:00:00Z"))
+             for k in range(6)]
     stopped: list[int] = []
 
     def stop_after_two(p: FleetProgress) -> None:
