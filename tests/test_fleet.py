@@ -35,6 +35,10 @@ from tests.test_gmwm_views import keyed  # noqa: F401 - with a profile that asks
 from tests.test_grading import profile_text, write_profile
 
 GOOD = 2  # runs of two units each
+#: Length of the good runs, s: 2,000 samples at 10 Hz, the profile's 1,000 after its 10 s
+#: warm-up twice over (the fleet's numbers are compared with station grade's, not with
+#: truths; a longer run only took longer to grade)
+RUN_S = 200.0
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +51,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
         write_run(
             folder / f"run{k}.h5",
             units=2,
-            duration_s=600.0,
+            duration_s=RUN_S,
             seed=k + 1,
             profile=profile,
             lot=f"L{k % 2}",
@@ -245,15 +249,18 @@ def _exit_worker(tries: str) -> None:
 
 @pytest.mark.slow
 def test_a_killed_worker_loses_no_unit_and_a_task_that_kills_twice_is_listed(
-    runs, tmp_path: Path
+    runs, scheduler, tmp_path: Path
 ) -> None:
     """A worker killed while it grades (the OOM killer, an operator) costs its tasks one
     retry on a fresh worker and nothing else: every run graded as without the kill. A task
-    whose worker dies on every try is reported as such, once it has had a second worker."""
+    whose worker dies on every try is reported as such, once it has had a second worker.
+    On the module's cluster: its nannies start fresh workers for the tests after this one."""
+    from distributed import Client
+
     folder, _ = runs
     files = tuple(str(folder / f"run{k}.h5") for k in range(GOOD))
-    with cluster_client(LOCAL, 2) as client:
-        request = FleetRequest("grade", files, scheduler=client.scheduler.address, store=False)
+    with Client(scheduler) as client:
+        request = FleetRequest("grade", files, scheduler=scheduler, store=False)
         unharmed = fleet(request)
         killed: list[str] = []
 
@@ -291,7 +298,8 @@ def test_postgresql_stopped_mid_fleet_then_run_again_stores_one_row_per_run(
     within --db-retry loses nothing."""
     profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
     files = [str(write_run(tmp_path / f"r{k}.h5", units=1, seed=20 + k, profile=profile,
-                           start_utc=f"2026-05-0{k + 1}T08:00:00Z")) for k in range(6)]
+                           duration_s=RUN_S, start_utc=f"2026-05-0{k + 1}T08:00:00Z"))
+             for k in range(6)]
     stopped: list[int] = []
 
     def stop_after_two(p: FleetProgress) -> None:

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -148,30 +146,13 @@ def gm_record(tmp_path_factory) -> Path:
     )
 
 
-def run_station(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(
-        [sys.executable, "-m", "station.cli", *args], capture_output=True, text=True, timeout=300
-    )
-
-
 @pytest.mark.slow
 def test_analyze_gmwm_json_interface(gm_record: Path, tmp_path: Path, capsys):
     png = tmp_path / "wv.png"
-    proc = run_station(
-        "analyze",
-        str(gm_record),
-        "--method",
-        "gmwm",
-        "--model",
-        "auto",
-        "--axis",
-        "y",
-        "--json",
-        "--png",
-        str(png),
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout)
+    # in-process: the command as a process (its exit status, its stdout) is test_cli_startup's
+    assert main(["analyze", str(gm_record), "--method", "gmwm", "--model", "auto", "--axis", "y",
+                 "--json", "--png", str(png)]) == 0
+    out = json.loads(capsys.readouterr().out)  # the whole stdout is one object
     assert [a["name"] for a in out["axes"]] == ["y"]
     for axis in out["axes"]:
         assert axis["fit"]["method"] == "logwls"  # the Allan fit and read-offs stay beside it

@@ -11,6 +11,7 @@ from __future__ import annotations
 import gzip
 import json
 import math
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +35,9 @@ real = pytest.mark.skipif(not (GYRO.exists() and ACCEL.exists()),
 
 
 def _rows(path: Path) -> list[str]:
-    with gzip.open(path, "rt") as fh:
-        lines = [line.strip() for line in fh if not line.startswith("#")]
-        return lines[: ROWS + 1]
+    with gzip.open(path, "rt") as fh:  # the header and ROWS rows, not the whole file
+        return [line.strip() for line in islice((x for x in fh if not x.startswith("#")),
+                                                ROWS + 1)]
 
 
 @pytest.fixture(scope="module")

@@ -41,6 +41,8 @@ DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}
 DEMO_BIAS_DEG_H = 3.6
 #: Wall-clock time the recording of one simulated hour takes, s (the time warp follows).
 DEMO_WALL_S_PER_H = 40.0
+#: The shortest recording, wall s (a demo shorter than 90 simulated s slows its warp to it).
+DEMO_MIN_WALL_S = 1.0
 
 
 def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) -> RateRecord:
@@ -79,8 +81,9 @@ def demo_accel_true() -> dict[str, float]:
 
 def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
     """Device URLs of the two simulated units, warped to record ``duration_s`` (s) in about
-    5..20 s of wall time (half an hour in 20 s: warp 90)."""
-    wall_s = min(max(duration_s / 3600.0 * DEMO_WALL_S_PER_H, 5.0), 20.0)
+    1..20 s of wall time (half an hour in 20 s: warp 90; a short demo at the same warp, not
+    slowed to fill a fixed wall time)."""
+    wall_s = min(max(duration_s / 3600.0 * DEMO_WALL_S_PER_H, DEMO_MIN_WALL_S), 20.0)
     warp = max(1.0, duration_s / wall_s)
     query = f"model={quote(demo_model())}&rate={rate_hz:g}&warp={warp:g}"
     return (f"sim+serial://VG951?protocol=xbus&{query}&seed={seed}",
