@@ -16,11 +16,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     while the other has nothing left, so the long files start first and the short ones
     fill in behind them. The order within a file is kept.
     """
+    def path(item: pytest.Item) -> str:
+        return item.nodeid.split("::")[0]
+
     slow: dict[str, int] = {}
     for item in items:
-        slow.setdefault(item.nodeid.split("::")[0], 0)
-        if item.get_closest_marker("slow") is not None:
-            slow[item.nodeid.split("::")[0]] += 1
-    rank = {path: i for i, path in enumerate(slow)}
-    items.sort(key=lambda item: (-slow[item.nodeid.split("::")[0]],
-                                 rank[item.nodeid.split("::")[0]]))
+        slow[path(item)] = slow.get(path(item), 0) + (item.get_closest_marker("slow") is not None)
+    rank = {p: i for i, p in enumerate(slow)}
+    items.sort(key=lambda item: (-slow[path(item)], rank[path(item)]))

@@ -182,21 +182,25 @@ class _Bank(_TermStream):
                           for i in range(n_poles)], axis=1)
             x = _ar1_steps(np.asarray(self.p.a, dtype=np.float64), e, self.state)
             for i in range(n_poles):
-                out[:1] += self.p.c[i] * self.state[i]
-                out[1:] += self.p.c[i] * x[:-1, i]
-                out += self.p.g[i] * e[:, i]
-            self.state = x[-1].copy()
+                self._add_pole(out, i, e[:, i], x[:, i])
             return out
         if self._filter is None:
             self._filter = _lfilter()
         for i, a in enumerate(self.p.a):
             e1 = self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
             x_next, _ = self._filter([1.0], [1.0, -a], e1, axis=0, zi=a * self.state[i][None, :])
-            out[:1] += self.p.c[i] * self.state[i]
-            out[1:] += self.p.c[i] * x_next[:-1]
-            out += self.p.g[i] * e1
-            self.state[i] = x_next[-1]
+            self._add_pole(out, i, e1, x_next)
         return out
+
+    def _add_pole(self, out: NDArray[np.float64], i: int, e: NDArray[np.float64],
+                  x: NDArray[np.float64]) -> None:
+        """Add pole ``i``'s share of the sample means to ``out`` (both reads' paths): its
+        state before the read, its states ``x`` and innovations ``e`` over the read
+        ((n, n_axes) each); keep its last state for the next read."""
+        out[:1] += self.p.c[i] * self.state[i]
+        out[1:] += self.p.c[i] * x[:-1]
+        out += self.p.g[i] * e
+        self.state[i] = x[-1]
 
 
 class _Deterministic(_TermStream):
