@@ -7,9 +7,11 @@ Each record comes from the station's streaming simulator (:mod:`analysis.models.
 K's mean, how many of the ``value +- stderr`` intervals hold the truth, the mean standard
 error over the spread between seeds (1 when honest), how often K is 0; and N's.
 
-* ``sheet``: the figure the sheet prints (``fit`` of the analysis: the reading with K where
-  the record cannot tell it from a ramp or a bias instability, :mod:`analysis.figures.ambiguity`);
-* ``selected``: the term selection's reading alone (what the sheet printed before);
+* ``sheet``: the figure the spec sheet prints (``station grade``, its PDF, HTML and JSON):
+  of the readings the record allows (:mod:`analysis.figures.ambiguity`), the largest fit of
+  K (:func:`station.evaluation.readings.largest_reading`), with that reading's error;
+* ``printed``: the K of the printed reading (``fit.values`` of ``station analyze --json``);
+* ``selected``: the term selection's reading alone;
 * ``gmwm wn+rw``: the GMWM in the true model form (``--method gmwm --model wn+rw``).
 
     python -m benchmarks.bench_ambiguity            # seeds 28000-28019 (no test uses them)
@@ -28,10 +30,12 @@ import time
 
 import numpy as np
 
+from analysis.fit.least_squares import NoiseCoefficients
 from analysis.gmwm.selection import gmwm_analysis
 from analysis.models.simulation import simulate
 from analysis.models.terms import AngleRandomWalk, NoiseModel, RateRandomWalk
 from station.evaluation.analyze import analyze_record
+from station.evaluation.readings import Reading, alternative_readings, largest_reading
 from station.model.records import RateRecord
 
 TRUE_N, TRUE_K, HOURS, RATE_HZ = 0.1, 1.0, 6.0, 10.0
@@ -49,6 +53,16 @@ def _row(name: str, values: list[float], errors: list[float], truth: float) -> s
 Rows = dict[str, tuple[list[float], list[float]]]
 
 
+def sheet_figure(fit: NoiseCoefficients, term: str) -> tuple[float, float]:
+    """The value and 1-sigma error the spec sheet prints for ``term`` (as
+    :func:`station.evaluation.grading.grade_figure` chooses it at one sigma)."""
+    value, err = fit.values[term] or 0.0, fit.stderr[term] or 0.0
+    printed = Reading(fit.terms, value, max(value - err, 0.0), value + err)
+    shown, _ = largest_reading(printed, alternative_readings(fit, term, 1.0), term)
+    v = shown.value or 0.0
+    return v, (shown.high - v) if shown.high is not None else float("nan")
+
+
 def _run_set(model: NoiseModel, first: int, count: int) -> Rows:
     """Simulate and analyse seeds ``first`` .. ``first + count - 1``; print one line each."""
     got: Rows = {}
@@ -60,14 +74,18 @@ def _run_set(model: NoiseModel, first: int, count: int) -> Rows:
         fit = axis.fit
         # the selection's reading: the alternative it preferred, where the sheet took K's
         selected = next((a.fit for a in fit.alternatives
-                         if a.criterion_delta <= 0 and "K" not in a.fit.terms), fit)
+                         if a.gauss_markov is None and a.criterion_delta is not None
+                         and a.criterion_delta <= 0 and "K" not in a.fit.terms), fit)
         ambiguous += bool(fit.alternatives)
         g = gmwm_analysis(rate[:, 0], RATE_HZ, model="wn+rw").best
+        sheet_k, sheet_n = sheet_figure(fit, "K"), sheet_figure(fit, "N")
         for name, value, err in (
-            ("sheet K", fit.values["K"], fit.stderr["K"]),
+            ("sheet K", *sheet_k),
+            ("printed K", fit.values["K"], fit.stderr["K"]),
             ("selected K", selected.values["K"], selected.stderr["K"]),
             ("gmwm wn+rw K", g.values["rw_deg_h_rt_h"], g.stderr["rw_deg_h_rt_h"]),
-            ("sheet N", fit.values["N"], fit.stderr["N"]),
+            ("sheet N", *sheet_n),
+            ("printed N", fit.values["N"], fit.stderr["N"]),
             ("selected N", selected.values["N"], selected.stderr["N"]),
             ("gmwm wn+rw N", g.values["wn_deg_rt_h"], g.stderr["wn_deg_rt_h"]),
         ):
@@ -75,7 +93,8 @@ def _run_set(model: NoiseModel, first: int, count: int) -> Rows:
             values.append(float(value or 0.0))
             errors.append(float(err) if err is not None else float("nan"))
         print(f"seed {seed}: terms {fit.terms}, K {fit.values['K']:.3g} +- "
-              f"{fit.stderr['K'] or float('nan'):.2g}; alternatives "
+              f"{fit.stderr['K'] or float('nan'):.2g}, sheet K {sheet_k[0]:.3g} +- "
+              f"{sheet_k[1]:.2g}; alternatives "
               f"{[a.fit.terms for a in fit.alternatives]}", flush=True)
     print(f"\nN {TRUE_N} deg/sqrt(h) + K {TRUE_K} deg/h^1.5, {HOURS:g} h at {RATE_HZ:g} Hz, "
           f"seeds {first}-{first + count - 1}, "

@@ -19,7 +19,12 @@ from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval
 from station.evaluation.grading import grade_figure
 from station.evaluation.noise_parameters import axis_noise
-from station.evaluation.readings import Reading, alternative_readings, safe_verdict
+from station.evaluation.readings import (
+    Reading,
+    alternative_readings,
+    largest_reading,
+    safe_verdict,
+)
 from station.model.profiles import parse_profile
 from station.model.records import RateRecord
 
@@ -105,10 +110,10 @@ def test_safe_verdict_passes_or_fails_only_on_agreement():
 
 
 def test_a_bias_instability_reading_stands_where_the_gmwm_prefers_it_and_k_is_named():
-    # N 0.1 + B 0.3: the selection reads N+B with N+K within its margin (+3.2), the GMWM's
-    # wavelet criterion prefers N+B (+5.3): N+B is printed, N+K listed with its K
+    # N 0.1 + B 0.3: the selection reads N+B with N+K within its margin (+0.8), the GMWM's
+    # wavelet criterion prefers N+B (+2.7): N+B is printed, N+K listed with its K
     model = NoiseModel((AngleRandomWalk(N_deg_rt_h=0.1), BiasInstability(B_deg_h=0.3)))
-    rate = simulate(model, 6 * 3600.0, 10.0, seed=900).rate_deg_s
+    rate = simulate(model, 6 * 3600.0, 10.0, seed=903).rate_deg_s
     fit = analyze_record(RateRecord(rate, 10.0, ("x",)))[0].fit
     assert fit.terms == "NB" and (fit.values["B"] or 0.0) > 0
     # (a slow Gauss-Markov reading may be listed too: tests/test_bias_or_markov.py)
@@ -120,3 +125,24 @@ def test_a_bias_instability_reading_stands_where_the_gmwm_prefers_it_and_k_is_na
     # a K limit below the walk reading's K cannot pass on the N+B reading's K of 0
     others = alternative_readings(fit, "K", 1.0)
     assert others and others[0].value == walk.fit.values["K"]
+    # the sheet prints the walk reading's K (the largest fit of K), not the 0 of the
+    # reading that dropped it, which it lists; the B figure keeps the N+B reading's B
+    k0, k_err = fit.values["K"] or 0.0, fit.stderr["K"] or 0.0
+    profile, spec = _rrw_profile(10.0)
+    sheet = grade_figure(spec, Interval(k0, 0.0, k0 + k_err), profile, others, fit.terms)
+    assert sheet.value == pytest.approx(walk.fit.values["K"]) and sheet.terms == "NK"
+    assert [r.terms for r in sheet.alternatives] == ["NB"]
+    assert sheet.as_json("datasheet")["terms"] == "NK" and "largest" in sheet.note
+
+
+def test_the_sheet_prints_the_largest_fit_of_the_term_itself():
+    printed = Reading("NB", 0.30, 0.25, 0.35)
+    walk = Reading("NK", 0.0, 0.0, 0.12)  # the walk reading drops B: listed, not printed
+    markov = Reading("N", 0.45, 0.30, 0.60)  # a Gauss-Markov process' equivalent B
+    shown, others = largest_reading(printed, (walk, markov), "B")
+    assert shown is printed and others == (walk, markov)
+    bigger = Reading("NBK", 0.40, 0.30, 0.50)
+    shown, others = largest_reading(printed, (walk, bigger), "B")
+    assert shown is bigger and others == (printed, walk)
+    # a record read one way only prints that reading
+    assert largest_reading(printed, (), "B") == (printed, ())

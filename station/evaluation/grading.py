@@ -58,6 +58,7 @@ from station.evaluation.readings import (
     Reading,
     alternative_readings,
     fit_term,
+    largest_reading,
     readings_note,
     safe_verdict,
 )
@@ -83,7 +84,8 @@ class FigureResult:
 
     ``verdicts`` maps each grade that limits this figure to its verdict; ``alternatives``
     are the other readings an ambiguous fit allows (canonical unit), which the verdicts hold
-    for too (:mod:`station.evaluation.readings`).
+    for too (:mod:`station.evaluation.readings`); ``terms`` those of the fitted reading the
+    value comes from ("" for a figure that is no fitted term).
     """
 
     spec: FigureSpec
@@ -93,6 +95,7 @@ class FigureResult:
     verdicts: dict[str, Verdict]
     note: str = ""
     alternatives: tuple[Reading, ...] = ()
+    terms: str = ""
 
     @property
     def name(self) -> str:
@@ -118,6 +121,7 @@ class FigureResult:
             "verdicts": dict(self.verdicts),
             "note": self.note,
             "alternatives": [r.as_json(self.spec.unit_factor) for r in self.alternatives],
+            "terms": self.terms,
         }
 
 
@@ -261,22 +265,30 @@ class RunGrade:
 
 
 def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
-                 alternatives: tuple[Reading, ...] = ()) -> FigureResult:
+                 alternatives: tuple[Reading, ...] = (), terms: str = "") -> FigureResult:
     """Convert a canonical interval to the spec's unit and decide it at every limited grade,
-    safely over the ``alternatives`` (other readings, canonical unit) when there are any."""
+    safely over the ``alternatives`` (other readings, canonical unit) when there are any.
+
+    ``terms`` are those of the reading ``interval`` comes from. Where the record allows
+    several readings, the figure prints the largest fit of its term
+    (:func:`station.evaluation.readings.largest_reading`: the one safe for an upper limit
+    and for an error budget), the others listed beside it."""
     factor = spec.unit_factor
 
     def conv(v: float | None) -> float | None:
         return None if v is None or not math.isfinite(v) else v / factor
 
-    value, low, high = conv(interval.value), conv(interval.low), conv(interval.high)
-    readings = [(value, low, high), *((conv(r.value), conv(r.low), conv(r.high))
-                                      for r in alternatives)]
+    printed = Reading(terms, interval.value, interval.low, interval.high)
+    term = fit_term(spec.name, profile.figure_source) or ""
+    shown, others = largest_reading(printed, alternatives, term)
+    readings = [(conv(r.value), conv(r.low), conv(r.high)) for r in (shown, *others)]
     verdicts = {g: safe_verdict([decide(*r, limit, profile.rule) for r in readings])
                 for g, limit in spec.limits.items()}
-    note = "; ".join(t for t in (interval.note, readings_note(alternatives, spec.unit, factor))
-                     if t)
-    return FigureResult(spec, value, low, high, verdicts, note, alternatives)
+    own = interval.note if shown is printed else (
+        f"the largest of the readings the record allows is printed (terms {shown.terms})")
+    note = "; ".join(t for t in (own, readings_note(others, spec.unit, factor)) if t)
+    value, low, high = readings[0]
+    return FigureResult(spec, value, low, high, verdicts, note, others, shown.terms)
 
 
 # --- runs ----------------------------------------------------------------------------------
@@ -370,6 +382,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
                 profile,
                 () if is_accel or (term := fit_term(spec.name, source)) is None
                 else alternative_readings(analysis.fit, term, z),
+                "" if is_accel or fit_term(spec.name, source) is None else analysis.fit.terms,
             )
             for spec in figures_for(profile, analysis)
         )

@@ -76,6 +76,25 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
     return tuple(out)
 
 
+def largest_reading(printed: Reading, others: Sequence[Reading], term: str
+                    ) -> tuple[Reading, tuple[Reading, ...]]:
+    """The reading a sheet prints of a figure the record reads several ways, and the others.
+
+    The largest value among the readings that fit the term ``term`` itself: of two
+    readings a record cannot tell apart, the larger is the one an upper limit and an error
+    budget are safe with (a term one reading drops comes back as 0 there, a figure the
+    realisation bought). A reading that drops the term, or reads it as a Gauss-Markov
+    process' equivalent, is listed and judged but not printed: it is no fit of the term.
+    Without such readings, ``printed`` itself."""
+    readings = (printed, *others)
+    fitted = [i for i, r in enumerate(readings) if term and term in r.terms
+              and r.value is not None and math.isfinite(r.value)]
+    if not others or not fitted:
+        return printed, tuple(others)
+    i = max(fitted, key=lambda j: (readings[j].value, -j))
+    return readings[i], tuple(r for j, r in enumerate(readings) if j != i)
+
+
 def safe_verdict(verdicts: Sequence[Verdict]) -> Verdict:
     """One verdict from those of every reading: pass when all pass, fail when all fail,
     indeterminate otherwise."""

@@ -122,8 +122,8 @@ def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str
 
 def ambiguity_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str]:
     """One line per fitted figure whose record allows other readings: the printed value
-    and the others with their intervals (values in ``family``); the sheets and the TUI
-    show them."""
+    (the largest reading) and the others with their intervals (values in ``family``); the
+    sheets and the TUI show them."""
     out = []
     for a in unit.axes:
         for f in a.figures:
@@ -136,9 +136,9 @@ def ambiguity_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[st
                 f"{_num(family.value(_over(r.high, f.spec.unit_factor), f.spec.unit))}] "
                 f"(terms {r.terms})" for r in f.alternatives if r.value is not None)
             out.append(
-                f"AMBIGUOUS {a.axis} {f.spec.label}: printed "
+                f"AMBIGUOUS {a.axis} {f.spec.label}: printed the largest reading, "
                 f"{_num(family.value(f.value, f.spec.unit))} {unit_text} (terms "
-                f"{a.analysis.fit.terms}); the record also allows {others}; verdict "
+                f"{f.terms or a.analysis.fit.terms}); the record also allows {others}; verdict "
                 f"{f.verdicts.get(a.deciding_grade, 'not limited')}, safe for every reading")
     return out
 
