@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.figures.ambiguity import AMBIGUITY_MARGIN
+from analysis.figures.ambiguity import AMBIGUITY_MARGIN, RAMP_MARGIN
 from analysis.models.simulation import simulate
 from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel, RateRandomWalk
 from station.evaluation.analyze import analyze_record
@@ -146,3 +146,24 @@ def test_the_sheet_prints_the_largest_fit_of_the_term_itself():
     assert shown is bigger and others == (printed, walk)
     # a record read one way only prints that reading
     assert largest_reading(printed, (), "B") == (printed, ())
+
+
+def test_a_ramp_the_selection_prefers_by_less_than_the_ramp_margin_keeps_the_walk():
+    # a walk read as a ramp: the selection's criterion prefers N+R by 4.9, the GMWM's by
+    # 12 (its drift term claims a precision one record cannot check); N+R is printed, N+K
+    # listed, and the sheet prints the walk reading's K, not the ramp reading's 0
+    model = NoiseModel((AngleRandomWalk(N_deg_rt_h=0.1), RateRandomWalk(K_deg_h_1_5=1.0)))
+    rate = simulate(model, 6 * 3600.0, 10.0, seed=718).rate_deg_s
+    fit = analyze_record(RateRecord(rate, 10.0, ("x",)))[0].fit
+    assert fit.terms == "NR"
+    walk = next(a for a in fit.alternatives if a.gauss_markov is None)
+    assert walk.terms == "NK" and (walk.fit.values["K"] or 0.0) > 0.3
+    assert AMBIGUITY_MARGIN < walk.criterion_delta <= RAMP_MARGIN
+    assert walk.wavelet_criterion_delta is not None
+    assert walk.wavelet_criterion_delta > AMBIGUITY_MARGIN
+    assert any("information criterion prefers" in n for n in fit.notes)
+    profile, spec = _rrw_profile(10.0)
+    k_bound = fit.stderr["K"] or 0.0
+    sheet = grade_figure(spec, Interval(0.0, 0.0, k_bound), profile,
+                         alternative_readings(fit, "K", 1.0), fit.terms)
+    assert sheet.value == pytest.approx(walk.fit.values["K"]) and sheet.terms == "NK"

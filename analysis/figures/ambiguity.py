@@ -10,7 +10,8 @@ records, its mean 0.58).
 
 A reading that exchanges the rate random walk with the ramp or the bias instability is
 therefore held against the selected one by two criteria, and the record counts as
-unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN`:
+unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN` (a walk
+against a ramp: when the selection's criterion puts it within :data:`RAMP_MARGIN`):
 
 * the selection's own information criterion (log Allan values with their covariance);
 * the wavelet information criterion of the GMWM (:mod:`analysis.gmwm.selection`) of the
@@ -19,7 +20,11 @@ unable to tell them apart when either puts it within :data:`AMBIGUITY_MARGIN`:
 
 Where the selected reading left K out and a reading with K is not ruled out, the reading
 with K is the one printed (a realised walk holds the ramp-like rise and the slow wander a
-separate R or B would claim), and the selected one becomes its alternative. Where the
+separate R or B would claim), and the selected one becomes its alternative; the selected
+one stays printed, the reading with K its alternative, where the GMWM prefers a bias
+instability alone or only the ramp's wider margin keeps the walk. A spec sheet prints the
+largest fit of each term among the readings either way
+(:func:`station.evaluation.readings.largest_reading`). Where the
 selected reading kept K, readings that trade it for R or B within the margin of the
 information criterion are listed as alternatives. Every alternative carries its values
 and standard errors, so that a verdict can take the reading that is safe for a limit.
@@ -54,9 +59,17 @@ from analysis.gmwm.wavelet import WaveletVariance, haar_wavelet_variance
 #: Criterion units (-2 log-likelihood) within which two readings count as the same: about
 #: one term's penalty of the selection (log n, n about 40-60 values), twice the GMWM's.
 AMBIGUITY_MARGIN = 4.0
+#: Criterion units past which the selection's criterion alone rules a walk out against a
+#: ramp, or a ramp against a walk: "essentially no support" for the other model (Burnham
+#: and Anderson, Model Selection and Multimodel Inference, 2nd ed., sec. 2.6). A ramp is
+#: deterministic: one record cannot check the precision a fit of it claims, so the GMWM's
+#: wavelet criterion (whose covariance is the data's, not the model's) does not rule a walk
+#: out against it (on 13 of 542 walks of the issue's case it preferred the ramp by 8-81
+#: where the selection's criterion put the two 4-9 apart, and the sheet printed K = 0).
+RAMP_MARGIN = 10.0
 #: Terms a rate random walk's realisation may be read as.
 WALK_LOOKALIKES = "BR"
-__all__ = ["AMBIGUITY_MARGIN", "GMWM_TERM", "WALK_LOOKALIKES", "resolve_ambiguity",
+__all__ = ["AMBIGUITY_MARGIN", "GMWM_TERM", "RAMP_MARGIN", "WALK_LOOKALIKES", "resolve_ambiguity",
            "resolve_for_rate", "wavelet_criterion_delta"]
 
 
@@ -143,7 +156,8 @@ def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletV
                   for s in (chosen.replace("K", t), chosen.replace("K", "") + t)]
         alternatives = []
         for terms in dict.fromkeys("".join(t for t in TERMS if t in s) for s in rivals):
-            if terms in crit and crit[terms] - crit[chosen] <= margin:
+            within = max(margin, RAMP_MARGIN) if "R" in terms and "R" not in chosen else margin
+            if terms in crit and crit[terms] - crit[chosen] <= within:
                 other = refit(terms)
                 if other is not None:
                     alternatives.append(Alternative(other, crit[terms] - crit[chosen]))
@@ -154,7 +168,10 @@ def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletV
     walk = min(walks, key=lambda s: crit[s])
     delta = crit[walk] - crit[chosen]
     wic = None if wavelet is None else wavelet_criterion_delta(wavelet, chosen, walk)
-    if delta > margin and (wic is None or wic > margin):
+    within = delta <= margin or (wic is not None and wic <= margin)
+    # a ramp traded: not ruled out while the selection's criterion alone allows the walk
+    ramp = "R" in chosen and "R" not in walk and delta <= max(margin, RAMP_MARGIN)
+    if not (within or ramp):
         return fit
     other = refit(walk)
     if other is None or not (other.values["K"] or 0.0) > 0:
@@ -167,9 +184,13 @@ def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletV
     # except where the selection read the walk as a bias instability alone and the GMWM's
     # criterion (the full covariance of the wavelet variance, which weighs the last
     # octaves as little as they hold) prefers that: a flat Allan curve over the last
-    # octaves is a bias instability's, and a record of one is not to print a walk.
-    if wic is not None and wic >= 0 and "R" not in chosen:
-        note = (f"{why}. Printed: the reading without K, which the GMWM prefers; the reading "
+    # octaves is a bias instability's, and a record of one is not to print a walk; and
+    # except where only the ramp's wider margin keeps the walk (the selection prefers the
+    # ramp by more than the margin). The sheet prints the larger K of the readings either
+    # way (station.evaluation.readings.largest_reading).
+    if not within or (wic is not None and wic >= 0 and "R" not in chosen):
+        which = "the GMWM prefers" if within else "the information criterion prefers"
+        note = (f"{why}. Printed: the reading without K, which {which}; the reading "
                 f"with K is listed as an alternative, and a verdict takes the reading safe "
                 f"for its limit")
         walk_alt = Alternative(other, delta, wic)
