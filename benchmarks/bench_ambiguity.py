@@ -21,7 +21,7 @@ error over the spread between seeds (1 when honest), how often K is 0; and N's.
 
 With several sets, each set's rows are printed, then the rows pooled over all seeds and how
 many sets meet the issue's goals for K: a set of 20 holds an honest 1-sigma interval's
-truth 11-18 times in about 88 % of sets (binomial, p = 0.68), so the pooled coverage and
+truth 11-18 times in about 92 % of sets (binomial, p = 0.68), so the pooled coverage and
 se/spread, and the share of sets meeting the goals, are the figures to judge by.
 """
 

@@ -5,8 +5,8 @@ record has an Allan curve that rises like a rate random walk below T, bends over
 1.89 T and falls slowly after: over the octaves a few hours hold, it is flattened into a
 bias instability's floor or read as a walk. ``benchmarks/bench_bias_or_markov.py``
 measured it: on N + B and N + GM records the GMWM's wavelet information criterion puts
-the two models within :data:`analysis.figures.ambiguity.AMBIGUITY_MARGIN` in 29 of 40, and where
-it decides, it is wrong in 4 of 11; slow Gauss-Markov records are printed ``N+K`` in 15 of
+the two models within :data:`analysis.figures.ambiguity.AMBIGUITY_MARGIN` in 30 of 40, and where
+it decides, it is wrong in 4 of 10; slow Gauss-Markov records are printed ``N+K`` in 16 of
 20.
 
 So where the printed reading holds B (or, without B, K), the GMWM ranks that reading's
