@@ -87,7 +87,8 @@ def largest_reading(printed: Reading, others: Sequence[Reading], term: str
     process' equivalent, is listed and judged but not printed: it is no fit of the term.
     Without such readings, ``printed`` itself."""
     readings = (printed, *others)
-    fitted = [i for i, r in enumerate(readings) if term and term in r.terms
+    # the fitted terms of a reading; a Gauss-Markov reading's ("N+GM") end before the "+"
+    fitted = [i for i, r in enumerate(readings) if term and term in r.terms.split("+")[0]
               and r.value is not None and math.isfinite(r.value)]
     if not others or not fitted:
         return printed, tuple(others)
