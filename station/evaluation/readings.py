@@ -26,12 +26,15 @@ FIT_TERM = {"quantization": "Q", "arw_fit": "N", "bias_instability_fit": "B", "r
 @dataclass(frozen=True)
 class Reading:
     """One alternative reading of a fitted figure (canonical unit), with the terms of its
-    model and its interval ``value +- z stderr`` clipped at 0 (None where unknown)."""
+    model and its interval ``value +- z stderr`` clipped at 0 (None where unknown).
+    ``equivalent``: the value is a Gauss-Markov process' equivalent of the term, not a fit
+    of it."""
 
     terms: str
     value: float | None
     low: float | None
     high: float | None
+    equivalent: bool = False
 
     def as_json(self, factor: float = 1.0) -> dict[str, object]:
         """``{"terms", "value", "ci_low", "ci_high"}`` in the unit ``factor`` converts to."""
@@ -60,7 +63,9 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
     for alt in fit.alternatives:
         value, err = alt.fit.values[term], alt.fit.stderr[term]
         gm = alt.gauss_markov
+        equivalent = False
         if term == "B" and gm is not None:
+            equivalent = True
             # A Gauss-Markov reading's B: the bias instability whose Allan floor is as high
             # as the process' Allan peak (0.617 sigma near 1.89 T; B = 0.929 sigma). Both
             # then promise the same largest wander of adjacent averages, which is what a B
@@ -70,9 +75,10 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
         if value is None or (printed is not None and math.isclose(value, printed)):
             continue
         if err is None or not math.isfinite(err):
-            out.append(Reading(alt.terms, value, None, None))
+            out.append(Reading(alt.terms, value, None, None, equivalent))
         else:
-            out.append(Reading(alt.terms, value, max(value - z * err, 0.0), value + z * err))
+            out.append(Reading(alt.terms, value, max(value - z * err, 0.0), value + z * err,
+                               equivalent))
     return tuple(out)
 
 
@@ -87,9 +93,8 @@ def largest_reading(printed: Reading, others: Sequence[Reading], term: str
     process' equivalent, is listed and judged but not printed: it is no fit of the term.
     Without such readings, ``printed`` itself."""
     readings = (printed, *others)
-    # the fitted terms of a reading; a Gauss-Markov reading's ("N+GM") end before the "+"
     fitted = [i for i, r in enumerate(readings) if term and term in r.terms.split("+")[0]
-              and r.value is not None and math.isfinite(r.value)]
+              and not r.equivalent and r.value is not None and math.isfinite(r.value)]
     if not others or not fitted:
         return printed, tuple(others)
     i = max(fitted, key=lambda j: (readings[j].value, -j))
