@@ -156,8 +156,8 @@ def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletV
                   for s in (chosen.replace("K", t), chosen.replace("K", "") + t)]
         alternatives = []
         for terms in dict.fromkeys("".join(t for t in TERMS if t in s) for s in rivals):
-            within = max(margin, RAMP_MARGIN) if "R" in terms and "R" not in chosen else margin
-            if terms in crit and crit[terms] - crit[chosen] <= within:
+            allowed = max(margin, RAMP_MARGIN) if "R" in terms and "R" not in chosen else margin
+            if terms in crit and crit[terms] - crit[chosen] <= allowed:
                 other = refit(terms)
                 if other is not None:
                     alternatives.append(Alternative(other, crit[terms] - crit[chosen]))

@@ -269,8 +269,8 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
     """Convert a canonical interval to the spec's unit and decide it at every limited grade,
     safely over the ``alternatives`` (other readings, canonical unit) when there are any.
 
-    ``terms`` are those of the reading ``interval`` comes from. Where the record allows
-    several readings, the figure prints the largest fit of its term
+    ``terms`` are those of the fit ``interval`` comes from (kept for a fitted figure only).
+    Where the record allows several readings, the figure prints the largest fit of its term
     (:func:`station.evaluation.readings.largest_reading`: the one safe for an upper limit
     and for an error budget), the others listed beside it."""
     factor = spec.unit_factor
@@ -278,8 +278,8 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
     def conv(v: float | None) -> float | None:
         return None if v is None or not math.isfinite(v) else v / factor
 
-    printed = Reading(terms, interval.value, interval.low, interval.high)
     term = fit_term(spec.name, profile.figure_source) or ""
+    printed = Reading(terms if term else "", interval.value, interval.low, interval.high)
     shown, others = largest_reading(printed, alternatives, term)
     readings = [(conv(r.value), conv(r.low), conv(r.high)) for r in (shown, *others)]
     verdicts = {g: safe_verdict([decide(*r, limit, profile.rule) for r in readings])
@@ -382,7 +382,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
                 profile,
                 () if is_accel or (term := fit_term(spec.name, source)) is None
                 else alternative_readings(analysis.fit, term, z),
-                "" if is_accel or fit_term(spec.name, source) is None else analysis.fit.terms,
+                "" if is_accel else analysis.fit.terms,
             )
             for spec in figures_for(profile, analysis)
         )

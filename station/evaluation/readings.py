@@ -93,7 +93,7 @@ def largest_reading(printed: Reading, others: Sequence[Reading], term: str
     process' equivalent, is listed and judged but not printed: it is no fit of the term.
     Without such readings, ``printed`` itself."""
     readings = (printed, *others)
-    fitted = [i for i, r in enumerate(readings) if term and term in r.terms.split("+")[0]
+    fitted = [i for i, r in enumerate(readings) if term and term in r.terms
               and not r.equivalent and r.value is not None and math.isfinite(r.value)]
     if not others or not fitted:
         return printed, tuple(others)
