@@ -72,7 +72,9 @@ def test_json_document_to_rad_family() -> None:
     doc = {"tau_s": [1.0, 2.0], "adev": [1.0], "adev_deg_h": [3600.0], "adev_deg_s": [1.0],
            "fit": {"terms": "NK", "N_deg_rt_h_stderr": 60.0},
            "arw": {"label": "ARW", "unit": "deg/sqrt(h)", "value": 60.0, "limits": {"A": 120.0},
-                   "verdict": "pass"},
+                   "verdict": "pass", "terms": "NK",
+                   "alternatives": [{"terms": "NR", "value": 0.0, "ci_low": 0.0,
+                                     "ci_high": 60.0}]},
            "deviation_unit": "deg/s", "model_after": {"arw_deg_rt_h": 1.0}}
     out = to_rad_family(doc)
     assert isinstance(out, dict)
@@ -81,6 +83,10 @@ def test_json_document_to_rad_family() -> None:
     assert out["fit"] == {"terms": "NK", "N_rad_s_rt_hz_stderr": pytest.approx(math.pi / 180)}
     assert out["arw"]["unit"] == "rad/s/sqrt(Hz)" and out["arw"]["verdict"] == "pass"
     assert out["arw"]["limits"]["A"] == pytest.approx(2 * math.pi / 180)
+    # the figure's other readings are in its unit too
+    assert out["arw"]["alternatives"] == [{"terms": "NR", "value": 0.0, "ci_low": 0.0,
+                                           "ci_high": pytest.approx(math.pi / 180)}]
+    assert out["arw"]["terms"] == "NK"
     assert out["deviation_unit"] == "rad/s"
     assert out["model_after"] == {"arw_deg_rt_h": 1.0}  # a model file's tables, as read
 

@@ -6,7 +6,8 @@ an object with a ``"unit"`` field (a graded figure, a trend point, a production 
 :func:`to_rad_family` rewrites such a document once, by those names, with the factors of
 :data:`analysis.units.FAMILY_UNITS`: ``bias_deg_h`` becomes ``bias_rad_s``,
 ``N_deg_rt_h_stderr`` becomes ``N_rad_s_rt_hz_stderr``, a figure ``{"unit": "deg/h", "value":
-...}`` becomes ``{"unit": "rad/s", "value": ...}``. The older keys without a unit
+...}`` becomes ``{"unit": "rad/s", "value": ...}``, the readings under its ``alternatives``
+with it. The older keys without a unit
 (``adev``, in deg/s, beside ``adev_deg_h``; ``terms`` beside ``terms_deg_h``) are left out
 of a rad document where their unit-named twin is in the same object, which carries the
 values; a key in another unit (``tau_s``, ``sample_rate_hz``) and a key named in
@@ -75,6 +76,11 @@ def to_rad_family(doc: object) -> object:
             out[key] = unit.rad_label
         elif unit is not None and key in VALUE_FIELDS:
             out[key] = _scaled(value, unit.rad_per_deg)
+        elif unit is not None and key == "alternatives" and isinstance(value, list):
+            # a graded figure's other readings: in the figure's unit
+            out[key] = [{k: _scaled(v, unit.rad_per_deg) if k in VALUE_FIELDS else v
+                         for k, v in r.items()} if isinstance(r, Mapping) else r
+                        for r in value]
         elif key.endswith("unit") and isinstance(value, str):
             named = family_unit(value)
             out[key] = value if named is None else named.rad_label
