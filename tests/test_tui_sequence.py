@@ -44,8 +44,13 @@ unit = "s"
 
 
 def unit_url(seed: int) -> str:
-    """A simulated VG951 at 5 Hz, warp x200, with a turn-on time, bias and warm-up."""
-    return sequence_unit_url(seed, 200.0, turn_on_s=2, turn_on_jitter_s=0.5,
+    """A simulated VG951 at 5 Hz, warp x200, with a turn-on time, bias and warm-up.
+
+    The switch-ons' jitter is wide enough that the two the test grades differ by about 2 s:
+    a turn-on time is timed to a few tenths of a second on a loaded machine at x200 (1 ms of
+    wall time is 0.2 s), and with 0.5 s of jitter the two once came out 0.07 s apart, an
+    interval narrow enough to pass class B."""
+    return sequence_unit_url(seed, 200.0, turn_on_s=6, turn_on_jitter_s=2.5,
                              turn_on_bias_deg_h=10, warmup_deg_h=5, warmup_tau_s=10)
 
 
