@@ -18,7 +18,9 @@ class CanRateSource:
     """A rate source from an injected CAN transport and a frame layout.
 
     Frames of one sample (one per arbitration ID of the layout) are matched by their
-    rolling counter; a sample with a frame missing is dropped and shows as a gap.
+    rolling counter and their time stamps (within half a counter period of each other,
+    so that frames a whole number of wraps apart never make one sample); a sample with a
+    frame missing is dropped and shows as a gap.
     A node silent for ``silence_timeout_s`` (on the unit's clock: wall s for hardware,
     simulated s for a simulation) is reported lost (DeviceDisconnectedError) and
     "reconnect" is logged when its frames come back. A silence this thread did not see
@@ -79,7 +81,12 @@ class CanRateSource:
             check_continuity=layout.counter_modulus >= 64,
             n_accel_axes=layout.n_accel_axes, accel_limit_m_s2=layout.accel_range_m_s2)
         self._ids = set(layout.arbitration_ids)
-        self._pending: dict[int, dict[int, CanFrameValues]] = {}
+        #: Incomplete samples by counter: the time stamp of their first frame (clock s)
+        #: and their frames by arbitration ID.
+        self._pending: dict[int, tuple[float, dict[int, CanFrameValues]]] = {}
+        #: The farthest apart (clock s) two frames of one sample may be stamped: half a
+        #: counter period, so that frames a wrap apart never join.
+        self._join_s = layout.counter_modulus / sample_rate_hz / 2.0
         self._lost = False
         self._open = False
         self._last_frame_s = 0.0
@@ -123,7 +130,16 @@ class CanRateSource:
             self._builder.event("reconnect", now)
         self._last_frame_s = now
         self._last_sent_s = sent
-        frames = self._pending.setdefault(values.counter, {})
+        pending = self._pending.get(values.counter)
+        if pending is not None and abs(sent - pending[0]) > self._join_s:
+            # The counter came round again (an outage of whole wraps, a dropped frame on
+            # each side of it): that older sample can no longer complete, and its frames
+            # must not complete this one with another sample's values.
+            del self._pending[values.counter]
+            pending = None
+        if pending is None:
+            pending = self._pending[values.counter] = (sent, {})
+        frames = pending[1]
         frames[arbitration_id] = values
         if set(frames) == self._ids:
             # Older incomplete samples can no longer complete: their loss shows as a gap.

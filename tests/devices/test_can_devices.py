@@ -9,9 +9,15 @@ lost and picked up again with the outage counted exactly.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
+from devices.can_raw import CanRateSource
+from devices.codecs.base import Reading
+from devices.codecs.can_frame import PER_AXIS_LAYOUT
+from devices.transports.can import CanTransport
 from devices.urls import open_device
 from tests.devices.helpers import check_accounting, check_lost_share, collect, device_index
 
@@ -127,8 +133,6 @@ def test_frames_a_held_node_sent_before_its_hold_are_not_read_across_it() -> Non
     the hold took effect carry times before it, and its counter goes on after it without
     a gap: read together, the hold (here 4 simulated s, 2000 samples) would be counted as
     counter wraps. From ``quiet_until_now`` on they are not read."""
-    import time
-
     with open_device("sim+can://STIM300?rate=500&warp=4&seed=1") as dev:
         source, core = dev.source, dev.simulator.core
         source.open()
@@ -141,3 +145,41 @@ def test_frames_a_held_node_sent_before_its_hold_are_not_read_across_it() -> Non
     gaps = [g for b in got.batches for g in b.gaps]
     assert not [g for g in gaps if g.missing_high > 20], gaps
     assert got.counter[0] > 0  # the samples before the hold are not the run's
+
+
+def test_frames_a_whole_number_of_wraps_apart_never_make_one_sample() -> None:
+    """A 4-bit counter (a frame per axis) at 500 Hz comes round every 32 ms. A sample whose
+    Y frame is lost just before a 4 s outage (2000 samples, 125 wraps) and the sample with
+    the same counter just after it, whose X frame is lost, must not make one sample of the
+    first's X and the second's Y and Z: both are gaps. On the real python-can virtual bus,
+    with the frames' time stamps as the node gave them."""
+    layout, rate_hz, channel = PER_AXIS_LAYOUT, 500.0, "wraps-apart"
+    node = CanTransport("virtual", channel, preserve_timestamps=True)
+    source = CanRateSource(CanTransport("virtual", channel), layout, model="STIM300",
+                           serial_number="T-1", sample_rate_hz=rate_hz, silence_timeout_s=10.0)
+    source.open()
+    node.open()
+    t0 = time.time() - 5.0  # stamped in the past: the whole story is on the bus at once
+
+    def send(index: int, axes: str = "xyz") -> None:
+        reading = Reading((0.001 * index, -0.001 * index, 0.5), index % 16, temperature_c=25.0)
+        for axis, frame in zip("xyz", layout.from_reading(reading), strict=True):
+            if axis in axes:
+                node.send(frame.arbitration_id, layout.encode(frame), t0 + index / rate_hz)
+
+    try:
+        for i in range(480, 494):
+            send(i)
+        send(494, "xz")  # Y lost, then the node is silent for 2000 samples
+        send(2494, "yz")  # X lost: the same counter as 494
+        for i in range(2495, 2510):
+            send(i)
+        got = collect(source, 29)
+    finally:
+        node.close()
+        source.close()
+    assert len(got.counter) == 29  # 480..493 and 2495..2509: no sample made of two
+    rate = got.rate
+    np.testing.assert_allclose(rate[14:, 0], 0.001 * np.arange(2495, 2510), atol=1e-6)
+    [gap] = got.gaps
+    assert gap.missing_samples == 2001 and gap.low == gap.high == 2001  # 494..2494
