@@ -17,12 +17,12 @@ from station.evaluation.grading import grade_run
 from station.model.profiles import (
     PROFILE_DIR,
     available_profiles,
-    key_lines,
     load_profile,
     parse_profile,
 )
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
+from station.model.toml_lines import key_lines
 from tests.test_grading import profile_text
 
 SHIPPED = ("SRS2000", "VG951", "CRG20", "ADIS16405")

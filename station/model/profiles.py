@@ -47,6 +47,7 @@ from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
 from station.model.sequences import SequenceSpec, parse_sequences
+from station.model.toml_lines import key_lines
 
 DecisionRule = Literal["strict", "guard-banded", "simple"]
 DECISION_RULES: tuple[DecisionRule, ...] = get_args(DecisionRule)
@@ -274,35 +275,6 @@ class Profile:
     def ref(self) -> str:
         """``name@version``: how reports and the database name this profile."""
         return f"{self.name}@{self.version}"
-
-
-# --- locating keys in the source text ---------------------------------------------------------
-
-_HEADER_RE = re.compile(r"^\s*\[\[?\s*([^\]]+?)\s*\]\]?\s*(#.*)?$")
-_KEY_RE = re.compile(r"^\s*([A-Za-z0-9_\-\"'. ]+?)\s*=")
-
-
-def _split_key(text: str) -> tuple[str, ...]:
-    return tuple(part.strip().strip("\"'") for part in text.split("."))
-
-
-def key_lines(text: str) -> dict[tuple[str, ...], int]:
-    """1-based line of every table header and ``key =`` line, by dotted key path.
-
-    Keys inside inline tables resolve to the line of the inline table (see :func:`_line_of`).
-    """
-    lines: dict[tuple[str, ...], int] = {}
-    table: tuple[str, ...] = ()
-    for number, raw in enumerate(text.splitlines(), start=1):
-        header = _HEADER_RE.match(raw)
-        if header and "=" not in raw.split("#")[0].split("]")[0]:
-            table = _split_key(header.group(1))
-            lines.setdefault(table, number)
-            continue
-        key = _KEY_RE.match(raw)
-        if key:
-            lines.setdefault(table + _split_key(key.group(1)), number)
-    return lines
 
 
 class _Checker:
