@@ -20,7 +20,10 @@ class Reading:
     counter : int
         Device sample counter as sent (wrapping).
     status : int
-        Device status flags (0 = good).
+        Validity by the protocol's own status bits: 0 where the device says the sample
+        is good, non-zero where it flags the sample (or a part of it) as not valid. The
+        sense is the same for every protocol (docs/hdf5-layout.md), whatever the sense of
+        the device's own word.
     device_time_s : float or None
         Device time stamp, s.
     temperature_c : float or None
@@ -28,6 +31,8 @@ class Reading:
     accel_m_s2 : tuple of float or None
         Specific force per accelerometer axis, m/s^2 (None: the frame carries none, or
         the codec was told to leave the accelerometers out).
+    device_status : int or None
+        The device's status word exactly as sent (None: the protocol carries none).
     """
 
     rate_deg_s: tuple[float, ...]
@@ -36,6 +41,7 @@ class Reading:
     device_time_s: float | None = None
     temperature_c: float | None = None
     accel_m_s2: tuple[float, ...] | None = None
+    device_status: int | None = None
 
 
 @dataclass(frozen=True)
