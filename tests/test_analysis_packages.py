@@ -1,10 +1,9 @@
-"""analysis/ in packages by concern: the old module paths still import,
-with a DeprecationWarning naming the new path, and re-export the same objects; the top-level
-package offers the main entry points without importing them up front."""
+"""analysis/ in packages by concern, with no module left at its top that only re-exports a
+package's names; the top-level package offers the main entry points without importing them up
+front."""
 
 from __future__ import annotations
 
-import ast
 import importlib
 import subprocess
 import sys
@@ -16,41 +15,16 @@ import pytest
 import analysis
 
 ANALYSIS = Path(analysis.__file__).parent
-#: the old flat modules kept as thin re-exports (every module of analysis/ but these)
-COMPAT = sorted(p.stem for p in ANALYSIS.glob("*.py")
-                if p.stem not in {"__init__", "errors", "moved", "lazy"})
 
 
-def _moved_to(name: str) -> str:
-    """The new module a compatibility module names in its ``warn_moved`` call."""
-    tree = ast.parse((ANALYSIS / f"{name}.py").read_text())
-    call = next(n for n in ast.walk(tree) if isinstance(n, ast.Call)
-                and getattr(n.func, "id", "") == "warn_moved")
-    return call.args[1].value  # type: ignore[attr-defined]
-
-
-def test_there_are_compatibility_modules() -> None:
-    assert {"fit_log", "gmwm_models", "blocks", "simulate"} <= set(COMPAT)
-
-
-@pytest.mark.parametrize("name", COMPAT)
-def test_an_old_module_path_still_imports_and_warns(name: str) -> None:
-    new = importlib.import_module(_moved_to(name))
-    sys.modules.pop(f"analysis.{name}", None)
-    with pytest.warns(DeprecationWarning, match=rf"analysis\.{name} moved to {new.__name__}"):
-        old = importlib.import_module(f"analysis.{name}")
-    public = [n for n in vars(new) if not n.startswith("_")
-              and getattr(vars(new)[n], "__module__", None) == new.__name__]
-    assert public and all(getattr(old, n) is getattr(new, n) for n in public)
-
-
-def test_the_warning_points_at_the_importer() -> None:
-    sys.modules.pop("analysis.fit_log", None)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        from analysis.fit_log import fit_log  # noqa: F401
-    moved = [w for w in caught if issubclass(w.category, DeprecationWarning)]
-    assert [Path(w.filename).name for w in moved] == [Path(__file__).name]
+def test_the_top_of_analysis_holds_its_packages_and_no_moved_modules() -> None:
+    """No module at the top of analysis/ only re-exports a package's names (the layout
+    map in docs/architecture.md): the top holds the package's own few modules."""
+    top = sorted(p.stem for p in ANALYSIS.glob("*.py"))
+    assert top == ["__init__", "errors", "lazy"]
+    for old in ("fit_log", "gmwm_models", "blocks", "simulate", "accel", "moved"):
+        with pytest.raises(ModuleNotFoundError):
+            importlib.import_module(f"analysis.{old}")
 
 
 def test_a_module_that_became_a_package_keeps_its_names_without_a_warning() -> None:
