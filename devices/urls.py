@@ -436,7 +436,7 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       + _SIM_QUERY.format(rate=500, warp=5),
                       "KVH DSP-1750 formats A, B, C (36, 40, 38 bytes; format=, tempunits=), "
                       "CRC-32",
-                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=deg&output=rate&rate=1000"),
+                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=rad&output=delta&format=A&tempunits=C&rate=1000"),
     SupportedProtocol("xbus", "serial", "sim+serial://MTI-630?protocol=xbus&"
                       + _SIM_QUERY.format(rate=400, warp=5),
                       "Xsens MTi Xbus MTData2, 8-bit checksum",

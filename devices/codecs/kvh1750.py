@@ -149,7 +149,7 @@ def _parse(raw: bytes) -> Kvh1750Frame | None:
     else:
         temp, status, seq = fields[7:]
         stamp = 0
-    return Kvh1750Frame(gyro, accel, status, seq, temp, fmt, stamp)  # type: ignore[arg-type]
+    return Kvh1750Frame(gyro, accel, status, seq, temp, fmt, stamp)
 
 
 class Kvh1750Codec(StreamingOnPowerUp):
