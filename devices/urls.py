@@ -140,7 +140,8 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
         if protocol == "kvh1750":
             return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
                                  rate_hz, accel=accel is not False,
-                                 message_format=query.get("format", "A").upper(),  # type: ignore[arg-type]
+                                 message_format=query["format"].upper() if "format" in query  # type: ignore[arg-type]
+                                 else None,
                                  tempunits=query.get("tempunits", "C").upper()),  # type: ignore[arg-type]
                     KVH_SYNC, "DSP-1750")
         if protocol == "xbus":
@@ -156,8 +157,8 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
     params = parse_sim_params(query.get("model", host), query)
     codec, header, _ = _stream_codec(protocol, query, params.rate)
     core, clock = sim_core(params, codec.n_axes, n_accel_axes=codec.n_accel_axes)
-    message = (KvhMessageWriter(codec.message_format, codec.tempunits, codec.angle_unit,
-                                codec.output, params.rate)
+    message = (KvhMessageWriter(codec.message_format or "A", codec.tempunits,
+                                codec.angle_unit, codec.output, params.rate)
                if isinstance(codec, Kvh1750Codec) else None)
     device = PtySerialDevice(codec, core, header=header, message=message).start()
     transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
@@ -436,7 +437,7 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       + _SIM_QUERY.format(rate=500, warp=5),
                       "KVH DSP-1750 formats A, B, C (36, 40, 38 bytes; format=, tempunits=), "
                       "CRC-32",
-                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=rad&output=delta&format=A&tempunits=C&rate=1000"),
+                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=rad&output=delta&tempunits=C&rate=1000"),
     SupportedProtocol("xbus", "serial", "sim+serial://MTI-630?protocol=xbus&"
                       + _SIM_QUERY.format(rate=400, warp=5),
                       "Xsens MTi Xbus MTData2, 8-bit checksum",

@@ -27,10 +27,11 @@ manual's appendix C, section 5). Byte numbers as the tables count them (from 1):
 * CRC (Table 5-9): CRC-32, polynomial 0x04C11DB7, initial 0xFFFFFFFF, not reflected, no
   final XOR (CRC-32/MPEG-2) over every byte before it.
 
-The decoder finds messages of all three formats by their headers; a codec is set to the
-format the unit sends (``message_format``: the description, with or without a device
-time, follows it), and a message of another format is refused by name
-(:class:`~devices.errors.DeviceProtocolError`), never read as the wrong layout.
+The decoder finds messages of all three formats by their headers, so the layout is never
+in doubt. A codec told the unit's format (``message_format``) describes it (a device time
+with format B) and refuses a message of another format by name
+(:class:`~devices.errors.DeviceProtocolError`); one told nothing reads all three, and
+describes no device time (a format-B time stamp still helps count gaps).
 """
 
 from __future__ import annotations
@@ -166,8 +167,9 @@ class Kvh1750Codec(StreamingOnPowerUp):
     accel : bool
         Decode the accelerometer words (every message carries them); their valid bits
         then count in :attr:`Reading.status`.
-    message_format : {"A", "B", "C"}
-        The format the unit sends (A: its default).
+    message_format : {"A", "B", "C"} or None
+        The format the unit is set to send (A is its default), or None: whichever
+        arrives (no device time described).
     tempunits : {"C", "F", "0.01C", "0.01F"}
         The unit's temperature setting: degC, degF, or hundredths of either.
 
@@ -185,11 +187,11 @@ class Kvh1750Codec(StreamingOnPowerUp):
 
     def __init__(self, angle_unit: Literal["deg", "rad"] = "deg",
                  output: Literal["rate", "delta"] = "rate", sample_rate_hz: float = 1000.0,
-                 *, accel: bool = True, message_format: MessageFormat = "A",
+                 *, accel: bool = True, message_format: MessageFormat | None = None,
                  tempunits: TempUnits = "C") -> None:
         if angle_unit not in ("deg", "rad") or output not in ("rate", "delta"):
             raise CodecError(f"unsupported KVH configuration {angle_unit!r}/{output!r}")
-        if message_format not in MESSAGE_FORMATS:
+        if message_format is not None and message_format not in MESSAGE_FORMATS:
             raise CodecError(f"KVH format={message_format!r} must be A, B or C (the message "
                              f"the unit sends: header 0xFE81FF55, 56 or 57)")
         if tempunits not in TEMP_UNITS:
@@ -200,10 +202,9 @@ class Kvh1750Codec(StreamingOnPowerUp):
         self.angle_unit = angle_unit
         self.output = output
         self.sample_rate_hz = sample_rate_hz
-        self.message_format: MessageFormat = message_format
+        self.message_format: MessageFormat | None = message_format
         self.tempunits: TempUnits = tempunits
         self.has_device_time = message_format == "B"
-        self.frame_length = FRAME_LENGTHS[message_format]
         deg = 1.0 if angle_unit == "deg" else 180.0 / math.pi
         self._to_deg_s = deg * (sample_rate_hz if output == "delta" else 1.0)
         self.n_accel_axes = 3 if accel else 0
@@ -253,11 +254,11 @@ class Kvh1750Codec(StreamingOnPowerUp):
         Raises
         ------
         DeviceProtocolError
-            A message of another format than the codec's: the unit is set otherwise
-            than the URL says.
+            A message of another format than the codec was told: the unit is set
+            otherwise than the URL says.
         """
         fmt = frame.message_format
-        if fmt != self.message_format:
+        if self.message_format is not None and fmt != self.message_format:
             raise DeviceProtocolError(
                 f"kvh1750: the unit sends format {fmt} messages (header 0x"
                 f"{HEADERS[fmt].hex().upper()}) but the URL says format="
@@ -278,12 +279,12 @@ class Kvh1750Codec(StreamingOnPowerUp):
         )
 
     def from_reading(self, reading: Reading) -> Kvh1750Frame:
-        """Frame of the codec's format for a reading: rates to float32 in the configured
-        unit, accelerations to float32 g (1 g up z when the reading has none), the
-        temperature in the TEMPUNITS unit (rounded to the INT16 in formats A and B; format
-        C sends 0 in the magnetic-field slots), the status bits of the reading's status
-        cleared, the device time in us (format B, modulo 2^32)."""
-        fmt = self.message_format
+        """Frame of the codec's format (A when it was told none) for a reading: rates to
+        float32 in the configured unit, accelerations to float32 g (1 g up z when the
+        reading has none), the temperature in the TEMPUNITS unit (rounded to the INT16 in
+        formats A and B; format C sends 0 in the magnetic-field slots), the status bits of
+        the reading's status cleared, the device time in us (format B, modulo 2^32)."""
+        fmt = self.message_format or "A"
         gyro = tuple(_f32(r / self._to_deg_s) for r in reading.rate_deg_s)
         accel = (tuple(_f32(a / STANDARD_GRAVITY_M_S2) for a in reading.accel_m_s2)
                  if reading.accel_m_s2 is not None else (0.0, 0.0, 1.0))

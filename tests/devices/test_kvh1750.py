@@ -132,11 +132,13 @@ def test_format_b_time_stamp_and_format_c_slots() -> None:
     assert tuple(f.temperature for f in frames[1:]) == pytest.approx(BENCH_MAGNETIC_FIELD_GAUSS)
 
 
-def test_a_message_of_another_format_is_refused_by_name() -> None:
-    wire = KvhMessageWriter("B", "C", "deg", "rate", 100.0)(Reading((0.0,) * 3, 1))
+def test_the_format_comes_from_the_header_and_a_format_the_url_denies_is_refused() -> None:
+    wire = KvhMessageWriter("B", "C", "deg", "rate", 100.0)(Reading((0.0,) * 3, 1, 0, 2.5))
     (frame,) = Kvh1750Codec().decode(wire).frames  # found, CRC checked
+    # told no format: read by its header (the time stamp still there for the gap count)
+    assert Kvh1750Codec().to_reading(frame).device_time_s == 2.5
     with pytest.raises(DeviceProtocolError, match="sends format B.*give format=B"):
-        Kvh1750Codec().to_reading(frame)
+        Kvh1750Codec(message_format="A").to_reading(frame)
 
 
 @pytest.mark.parametrize(("query", "named"), [
