@@ -21,9 +21,10 @@ manual's appendix C, section 5). Byte numbers as the tables count them (from 1):
   TEMPUNITS setting says; the message does not say which, so the station is told
   (``tempunits=``). Format C sends the temperature as SPFP in the same unit (the note
   under Table 5-7: its 1/100 setting adds precision), in the messages whose sequence
-  number is a multiple of 4; the other three carry the magnetic field X, Y, Z (Table 5-7,
-  in the order OpenDLV's opendlv-device-imu-kvhp1775 reads it), which the station does
-  not record.
+  number is a multiple of 4; the other three carry the magnetic field X, Y, Z (Table 5-7;
+  the order as RISE-Maritime's Keelson KVH connector, after OpenDLV's
+  opendlv-device-imu-kvhp1775, reads it: the copy of the table consulted was not legible),
+  which the station does not record.
 * CRC (Table 5-9): CRC-32, polynomial 0x04C11DB7, initial 0xFFFFFFFF, not reflected, no
   final XOR (CRC-32/MPEG-2) over every byte before it.
 
