@@ -21,7 +21,7 @@ SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *
                       *FIXTURE_KEYS})
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
 SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram", "accel", "accel_range"}),
-                        "kvh1750": frozenset({"unit", "output", "accel"}),
+                        "kvh1750": frozenset({"unit", "output", "accel", "format", "tempunits"}),
                         "xbus": frozenset({"accel"})}
 #: Keys of a hardware URL besides the protocol's own: what the adapter needs to know.
 HARDWARE_KEYS = frozenset({"rate", "model", "serial"})

@@ -25,7 +25,7 @@ from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
 from devices.codecs.base import StreamCodec
 from devices.codecs.can_frame import CanFrameLayout
-from devices.codecs.kvh1750 import HEADER as KVH_HEADER, Kvh1750Codec
+from devices.codecs.kvh1750 import SYNC as KVH_SYNC, Kvh1750Codec
 from devices.codecs.modbus_map import ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
@@ -43,6 +43,7 @@ from devices.replay import (
 from devices.sim.can_device import CanBroadcastDevice, broadcast_latency_s
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
+from devices.sim.kvh_unit import KvhMessageWriter
 from devices.sim.modbus_server import ModbusGyroServer
 from devices.sim.params import (
     BENCH_KEYS,
@@ -138,7 +139,11 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
                     "STIM300")
         if protocol == "kvh1750":
             return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
-                                 rate_hz, accel=accel is not False), KVH_HEADER, "DSP-1750")
+                                 rate_hz, accel=accel is not False,
+                                 message_format=query["format"].upper() if "format" in query  # type: ignore[arg-type]
+                                 else None,
+                                 tempunits=query.get("tempunits", "C").upper()),  # type: ignore[arg-type]
+                    KVH_SYNC, "DSP-1750")
         if protocol == "xbus":
             return XbusCodec(accel=accel is not False), bytes([PREAMBLE]), "MTi"
     except CodecError as exc:
@@ -152,7 +157,10 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
     params = parse_sim_params(query.get("model", host), query)
     codec, header, _ = _stream_codec(protocol, query, params.rate)
     core, clock = sim_core(params, codec.n_axes, n_accel_axes=codec.n_accel_axes)
-    device = PtySerialDevice(codec, core, header=header).start()
+    message = (KvhMessageWriter(codec.message_format or "A", codec.tempunits,
+                                codec.angle_unit, codec.output, params.rate)
+               if isinstance(codec, Kvh1750Codec) else None)
+    device = PtySerialDevice(codec, core, header=header, message=message).start()
     transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
                           params.warp)
     source = StreamRateSource(transport, codec, model=_unit_model(host, params),
@@ -427,8 +435,9 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       "serial:///dev/ttyUSB0?protocol=stim300&datagram=0x94&baud=921600&rate=2000"),
     SupportedProtocol("kvh1750", "serial", "sim+serial://DSP-1750?protocol=kvh1750&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "KVH DSP-1750 format A, 36 bytes, CRC-32",
-                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=deg&output=rate&rate=1000"),
+                      "KVH DSP-1750 formats A, B, C (36, 40, 38 bytes; format=, tempunits=), "
+                      "CRC-32",
+                      "serial:///dev/ttyUSB0?protocol=kvh1750&unit=rad&output=delta&tempunits=C&rate=1000"),
     SupportedProtocol("xbus", "serial", "sim+serial://MTI-630?protocol=xbus&"
                       + _SIM_QUERY.format(rate=400, warp=5),
                       "Xsens MTi Xbus MTData2, 8-bit checksum",

@@ -13,6 +13,7 @@ import errno
 import os
 import tempfile
 import tty
+from collections.abc import Callable
 from typing import Any
 
 from devices.codecs.base import Reading, StreamCodec
@@ -27,6 +28,10 @@ class PtySerialDevice(DeviceLoop):
     ----------
     codec : StreamCodec
         The protocol (its encoder makes the bytes; its decoder reads host commands).
+    message : callable or None
+        Reading -> the bytes the unit sends, in place of the codec's encoder: a unit's
+        messages laid out from the manufacturer's document on their own
+        (:class:`devices.sim.kvh_unit.KvhMessageWriter`).
     core : SimCore
         Signal, schedule, faults and ledger.
     header : bytes
@@ -41,9 +46,11 @@ class PtySerialDevice(DeviceLoop):
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
-                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05) -> None:
+                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
+                 message: Callable[[Reading], bytes] | None = None) -> None:
         super().__init__()
         self.codec = codec
+        self.message = message or (lambda reading: codec.encode(codec.from_reading(reading)))
         self.core = core
         self.header = header
         self.poll_s = poll_s
@@ -146,8 +153,7 @@ class PtySerialDevice(DeviceLoop):
         core, frames = self.core, []
         for reading in readings:
             before = core.ledger.delivered
-            wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
-                             reading.counter, header=self.header)
+            wire = core.wire(self.message(reading), reading.counter, header=self.header)
             frames.append((wire, reading.counter, core.ledger.delivered > before))
         return frames
 

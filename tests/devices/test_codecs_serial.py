@@ -1,6 +1,7 @@
 """Pure serial codecs: golden bytes from the data sheets, and hypothesis fuzzing.
 
-Properties proved for STIM300 (three identifiers), KVH DSP-1750 and Xsens Xbus:
+Properties proved for STIM300 (three identifiers), KVH DSP-1750 (formats A, B, C) and
+Xsens Xbus:
 encode/decode is an exact round trip; any byte string decodes without raising and
 every frame returned was present with a valid CRC; frames are all recovered after
 garbage; a frame with one flipped bit is never returned; truncation keeps the partial
@@ -37,11 +38,15 @@ def stim_frames(codec: Stim300Codec) -> st.SearchStrategy[Stim300Frame]:
         other_clusters=st.binary(min_size=n_other, max_size=n_other))
 
 
-def kvh_frames() -> st.SearchStrategy[Kvh1750Frame]:
+def kvh_frames(message_format: str = "A") -> st.SearchStrategy[Kvh1750Frame]:
     f32 = st.floats(width=32, allow_nan=False)
     return st.builds(Kvh1750Frame, gyro=st.tuples(f32, f32, f32),
                      accel_g=st.tuples(f32, f32, f32), status=st.integers(0, 255),
-                     sequence=st.integers(0, 127), temperature_c=st.integers(-32768, 32767))
+                     sequence=st.integers(0, 127),
+                     temperature=f32 if message_format == "C" else st.integers(-32768, 32767),
+                     message_format=st.just(message_format),
+                     timestamp_us=st.integers(0, 2**32 - 1) if message_format == "B"
+                     else st.just(0))
 
 
 def xbus_frames() -> st.SearchStrategy[XbusMessage]:
@@ -53,6 +58,8 @@ CASES = {
     "stim300-0x94": (Stim300Codec(0x94), stim_frames(Stim300Codec(0x94))),
     "stim300-0xA7": (Stim300Codec(0xA7), stim_frames(Stim300Codec(0xA7))),
     "kvh1750": (Kvh1750Codec(), kvh_frames()),
+    "kvh1750-B": (Kvh1750Codec(message_format="B"), kvh_frames("B")),
+    "kvh1750-C": (Kvh1750Codec(message_format="C"), kvh_frames("C")),
     "xbus": (XbusCodec(), xbus_frames()),
 }
 # Junk that cannot start an Xbus frame: an 8-bit sum checksum accepts 1 in 256 junk
@@ -121,7 +128,7 @@ def test_stim300_golden_with_temperature() -> None:
 
 def test_kvh1750_golden() -> None:
     body = struct.pack(">4s6fBBh", bytes.fromhex("FE81FF55"), 0.5, -1.0, 2.0, 0, 0, 1,
-                       0x07, 99, 31)
+                       0x77, 99, 31)
     wire = body + crc32_mpeg2(body).to_bytes(4, "big")
     assert len(wire) == 36
     codec = Kvh1750Codec(angle_unit="deg", output="delta", sample_rate_hz=1000.0)
@@ -151,6 +158,8 @@ def test_encoders_reject_out_of_range(case: str) -> None:
     codec, _ = CASES[case]
     bad = {
         "kvh1750": Kvh1750Frame((0.0,) * 3, (0.0,) * 3, 0, 128, 0),
+        "kvh1750-B": Kvh1750Frame((0.0,) * 3, (0.0,) * 3, 0, 1, 0, "B", 2**32),
+        "kvh1750-C": Kvh1750Frame((0.0,) * 3, (0.0,) * 3, 0, 1, 0.0, "D"),  # type: ignore[arg-type]
         "xbus": XbusMessage(256, b""),
     }.get(case, Stim300Frame(codec.identifier if isinstance(codec, Stim300Codec) else 0,
                              (2**23, 0, 0), 0, 0, 0))

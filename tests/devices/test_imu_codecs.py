@@ -103,7 +103,7 @@ def test_gyro_only_datagrams_keep_decoding_without_accelerations() -> None:
 
 def test_kvh1750_accelerations_in_g_become_m_s2() -> None:
     body = struct.pack(">4s6fBBh", bytes.fromhex("FE81FF55"), 0, 0, 0, 0.5, -1.0, 1.0,
-                       0x07, 3, 30)
+                       0x77, 3, 30)
     wire = body + crc32_mpeg2(body).to_bytes(4, "big")
     (frame,) = Kvh1750Codec().decode(wire).frames
     assert Kvh1750Codec().to_reading(frame).accel_m_s2 == (0.5 * G, -G, G)
