@@ -18,6 +18,7 @@ from typing import Any
 from devices.codecs.base import Reading, StreamCodec
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
+from devices.sim.mti import MtiMessages
 
 
 class PtySerialDevice(DeviceLoop):
@@ -38,12 +39,17 @@ class PtySerialDevice(DeviceLoop):
         period) are booked lost instead of sent late (see :meth:`SimCore.due`), and so
         are frames the port cannot take when they are due: a real gyro sends on time,
         whatever the host does.
+    mti : MtiMessages or None
+        An Xsens MTi's messages, written from the protocol document instead of by the
+        codec's encoder (and its GNSS-only messages between the samples).
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
-                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05) -> None:
+                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
+                 mti: MtiMessages | None = None) -> None:
         super().__init__()
         self.codec = codec
+        self.mti = mti
         self.core = core
         self.header = header
         self.poll_s = poll_s
@@ -146,9 +152,13 @@ class PtySerialDevice(DeviceLoop):
         core, frames = self.core, []
         for reading in readings:
             before = core.ledger.delivered
-            wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
-                             reading.counter, header=self.header)
+            message = (self.codec.encode(self.codec.from_reading(reading)) if self.mti is None
+                       else self.mti.imu(reading))
+            wire = core.wire(message, reading.counter, header=self.header)
             frames.append((wire, reading.counter, core.ledger.delivered > before))
+            gnss = b"" if self.mti is None else self.mti.gnss_after(reading)
+            if gnss:  # no sample: never booked, sent as a reply is (index -1)
+                frames.append((gnss, -1, False))
         return frames
 
     def _write(self, frames: list[tuple[bytes, int, bool]]) -> None:

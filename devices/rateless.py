@@ -1,0 +1,96 @@
+"""Messages a device counts that carry no sample (an Xsens MTi-G's GNSS PVT messages).
+
+An MTi's PacketCounter counts every MTData2 message it sends, and an MTi-G-710 sends its
+GNSS PVT data at 4 Hz in messages of their own, with no rate of turn (the real captures
+in ``../shared/real-captures/xsens-mtig710/``: one such message in 26). Taken as it
+comes, the counter steps by 2 across each of them, which reads as a lost sample.
+:class:`RatelessMessages` counts those messages and takes each sample's counter less
+the steps they used, so that the station's counter counts samples: a step over such a
+message is no gap, while a lost sample still shows. A codec opts in with a
+``rateless_counter(frame)`` method (the counter of a frame that carries no sample).
+
+Limit: a message of this kind lost with the samples around it (an outage) is counted
+as one more missing sample, and the later counters stay one lower (no gap is hidden).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+from devices.codecs.base import Reading
+from devices.errors import NoRateError
+
+
+class RatelessMessages:
+    """Counter steps used by messages that carry no sample, and the refusal of a stream
+    that never carries one.
+
+    Parameters
+    ----------
+    codec : StreamCodec
+        Its ``rateless_counter(frame)`` (if it has one) gives the counter of such a frame.
+    modulus : int
+        The counter's wrap.
+    """
+
+    #: Messages with a counter and no sample, in a row and before the first sample,
+    #: after which the stream is refused (an MTi-G-710 sends at most a few between two
+    #: samples: its GNSS messages come at 4 Hz).
+    refuse_after = 16
+
+    def __init__(self, codec: Any, modulus: int) -> None:
+        self.codec = codec
+        self.modulus = modulus
+        self._counter_of = getattr(codec, "rateless_counter", None)
+        #: Counter steps such messages used so far (modulo the wrap).
+        self.skipped = 0
+        #: Such messages since the last sample.
+        self.in_a_row = 0
+        self._had_sample = False
+        self._last_raw: int | None = None
+
+    def skip(self, frame: object) -> None:
+        """A frame that made no reading: if it carries a counter, its step is no sample.
+
+        Raises
+        ------
+        NoRateError
+            :attr:`refuse_after` such messages in a row and no sample yet.
+        """
+        raw = None if self._counter_of is None else self._counter_of(frame)
+        if raw is None or raw == self._last_raw:  # no counter, or the same message again
+            return
+        self._last_raw = raw
+        self.skipped = (self.skipped + 1) % self.modulus
+        self.in_a_row += 1
+        if not self._had_sample and self.in_a_row >= self.refuse_after:
+            self.refuse()
+
+    def refuse_if_rateless(self) -> None:
+        """Refuse a stream whose messages so far carried counters and never a sample
+        (called when the adapter's silence limit runs out).
+
+        Raises
+        ------
+        NoRateError
+            Such messages came, and no sample.
+        """
+        if not self._had_sample and self.in_a_row:
+            self.refuse()
+
+    def refuse(self) -> None:
+        """Raise the refusal, naming the item the codec needs."""
+        item = getattr(self.codec, "rate_item", "a rate")
+        hint = getattr(self.codec, "rate_item_hint", "")
+        raise NoRateError(f"{self.codec.name}: {self.in_a_row} messages in a row carry no "
+                          f"{item}, and none did yet" + (f": {hint}" if hint else ""))
+
+    def sample(self, reading: Reading) -> Reading:
+        """The reading with its counter less the steps rateless messages used."""
+        self._last_raw = reading.counter
+        self._had_sample = True
+        self.in_a_row = 0
+        if not self.skipped:
+            return reading
+        return replace(reading, counter=(reading.counter - self.skipped) % self.modulus)
