@@ -74,9 +74,13 @@ class MtiMessages:
 
     Notes
     -----
-    The unit's counter for sample ``i`` is ``i`` plus the GNSS messages before it (one
-    after each sample at which ``floor(i * gnss_hz / sample_rate_hz)`` steps): the same
-    for a sample sent or lost, as the unit counts what it sends, not what arrives.
+    The unit's counter for sample ``i`` is ``i`` plus the GNSS messages before it
+    (``floor(i * gnss_hz / sample_rate_hz)``; the k-th comes after the sample at which
+    that count reaches k + 1), whether the sample is sent or lost, as a unit counts what
+    it sends. A GNSS message whose sample this simulator did not send (a starved device
+    thread, an outage) goes out before the next sample it sends: a real unit would have
+    sent it on time, and the station would have counted it lost with the samples; sent
+    late it keeps the simulator's books and the station's exact.
     """
 
     def __init__(self, sample_rate_hz: float, *, gnss_hz: float = 0.0, accel: bool = False,
@@ -90,6 +94,7 @@ class MtiMessages:
         self.rate_id = _RATE_OF_TURN_HR_F32 if high_rate else _RATE_OF_TURN_F32
         self.accel_id = _ACCELERATION_HR_F32 if high_rate else _ACCELERATION_F32
         self.healthy_word = HEALTHY_WORD_GNSS if gnss_hz else HEALTHY_WORD
+        self._gnss_sent = 0
 
     def gnss_before(self, index: int) -> int:
         """GNSS messages the unit sent before sample ``index``."""
@@ -115,17 +120,27 @@ class MtiMessages:
         data += _item(_TEMPERATURE_F32, struct.pack(">f", reading.temperature_c or 0.0))
         return _message(data)
 
-    def gnss_after(self, reading: Reading) -> bytes:
-        """The GNSS message the unit sends after this sample, or ``b""`` (PVT content
-        left zero: the station reads none of it)."""
-        index = reading.counter
-        if self.gnss_before(index + 1) == self.gnss_before(index):
-            return b""
-        counter = (self.packet_counter(index) + 1) % 65536
-        # half a period after the sample, as the MTi-G-710's GNSS messages fall between
-        # two IMU messages on its SampleTimeFine
-        ticks = round(((reading.device_time_s or 0.0) + 0.5 / self.sample_rate_hz)
-                      * _TICKS_PER_S) % 2**32
+    def gnss_due(self, reading: Reading) -> bytes:
+        """The GNSS messages the unit sends before this sample and has not sent yet
+        (normally the one after the previous sample, or ``b""``); PVT content left zero:
+        the station reads none of it."""
+        due = self.gnss_before(reading.counter)
+        out = b"".join(self._gnss_message(k) for k in range(self._gnss_sent, due))
+        self._gnss_sent = max(self._gnss_sent, due)
+        return out
+
+    def _gnss_message(self, k: int) -> bytes:
+        """The k-th GNSS message (from 0): after sample ``s``, the first at which
+        :meth:`gnss_before` of the next sample reaches k + 1."""
+        s = max(0, math.ceil((k + 1) * self.sample_rate_hz / self.gnss_hz) - 1)
+        while self.gnss_before(s + 1) < k + 1:
+            s += 1
+        while s > 0 and self.gnss_before(s) >= k + 1:
+            s -= 1
+        counter = (s + k + 1) % 65536
+        # half a period after sample s, as the MTi-G-710's GNSS messages fall between two
+        # IMU messages on its SampleTimeFine
+        ticks = round((s + 0.5) / self.sample_rate_hz * _TICKS_PER_S) % 2**32
         return _message(_item(_GNSS_PVT_DATA, bytes(_GNSS_PVT_BYTES))
                         + _item(_UTC_TIME, bytes(12))
                         + _item(_SAMPLE_TIME_FINE, struct.pack(">I", ticks))

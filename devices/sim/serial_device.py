@@ -151,14 +151,16 @@ class PtySerialDevice(DeviceLoop):
         (bytes, sample index, booked delivered) each, for :meth:`_write`."""
         core, frames = self.core, []
         for reading in readings:
+            if self.mti is None:
+                message = self.codec.encode(self.codec.from_reading(reading))
+            else:
+                message = self.mti.imu(reading)
+                gnss = self.mti.gnss_due(reading)
+                if gnss:  # no sample: never booked, sent as a reply is (index -1)
+                    frames.append((gnss, -1, False))
             before = core.ledger.delivered
-            message = (self.codec.encode(self.codec.from_reading(reading)) if self.mti is None
-                       else self.mti.imu(reading))
             wire = core.wire(message, reading.counter, header=self.header)
             frames.append((wire, reading.counter, core.ledger.delivered > before))
-            gnss = b"" if self.mti is None else self.mti.gnss_after(reading)
-            if gnss:  # no sample: never booked, sent as a reply is (index -1)
-                frames.append((gnss, -1, False))
         return frames
 
     def _write(self, frames: list[tuple[bytes, int, bool]]) -> None:

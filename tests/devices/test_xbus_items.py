@@ -14,6 +14,7 @@ import pytest
 from devices.codecs.base import Reading
 from devices.codecs.xbus import XbusCodec, XbusMessage
 from devices.errors import FrameError
+from devices.rateless import RatelessMessages
 from devices.sim.mti import HEALTHY_WORD, HEALTHY_WORD_GNSS, MtiMessages
 from devices.urls import open_device
 from tests.devices.helpers import Collected
@@ -137,7 +138,7 @@ def test_the_simulated_mti_messages_follow_the_document() -> None:
     mti = MtiMessages(100.0, gnss_hz=4.0)
     codec = XbusCodec()
     samples = [Reading((1.0, -2.0, 3.0), i, 0, i / 100.0, 25.0) for i in range(60)]
-    wire = b"".join(mti.imu(r) + mti.gnss_after(r) for r in samples)
+    wire = b"".join(mti.gnss_due(r) + mti.imu(r) for r in samples)
     frames = codec.decode(wire).frames
     assert len(frames) == 62
     counters = [codec.rateless_counter(f) for f in frames]
@@ -162,3 +163,23 @@ def test_a_simulated_mti_g_streams_without_false_gaps() -> None:
     np.testing.assert_array_equal(got.counter, np.arange(len(got.counter)))
     assert got.gaps == []
     assert not np.any(np.concatenate([b.status for b in got.batches]))
+
+
+def test_samples_the_simulator_did_not_send_keep_the_counts_exact() -> None:
+    """Samples 21-39 not sent (a starved device thread): the GNSS message due after
+    sample 24 goes before sample 40, and the station's counters (less the steps of the
+    GNSS messages) show exactly the 19 missing samples."""
+    mti = MtiMessages(100.0, gnss_hz=4.0)
+    codec = XbusCodec()
+    sent = [*range(21), *range(40, 61)]
+    wire = b"".join(mti.gnss_due(r) + mti.imu(r)
+                    for r in (Reading((0.0, 0.0, 0.0), i, 0, i / 100.0) for i in sent))
+    rateless = RatelessMessages(codec, codec.counter_modulus)
+    counters = []
+    for frame in codec.decode(wire).frames:
+        reading = codec.to_reading(frame)
+        if reading is None:
+            rateless.skip(frame)
+        else:
+            counters.append(rateless.sample(reading).counter)
+    assert counters == sent and rateless.skipped == 2
