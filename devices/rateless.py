@@ -9,6 +9,12 @@ the steps they used, so that the station's counter counts samples: a step over s
 message is no gap, while a lost sample still shows. A codec opts in with a
 ``rateless_counter(frame)`` method (the counter of a frame that carries no sample).
 
+A sample's message corrupted so that it reads as one without a rate (an 8-bit sum lets
+about 1 in 20 of the corruptions it misses through that way) would hide a lost sample:
+where the device times say more samples passed than the counters (less those steps)
+do, the messages taken for rateless ones since the last sample were samples, as many
+as the difference, and their steps count as lost samples again.
+
 Limit: a message of this kind lost with the samples around it (an outage) is counted
 as one more missing sample, and the later counters stay one lower (no gap is hidden).
 """
@@ -32,6 +38,9 @@ class RatelessMessages:
         Its ``rateless_counter(frame)`` (if it has one) gives the counter of such a frame.
     modulus : int
         The counter's wrap.
+    sample_rate_hz : float or None
+        Nominal sample rate, Hz: with the readings' device times, it finds the rateless
+        messages that were corrupted samples (None: not checked).
     """
 
     #: Messages with a counter and no sample, in a row and before the first sample,
@@ -39,9 +48,11 @@ class RatelessMessages:
     #: samples: its GNSS messages come at 4 Hz).
     refuse_after = 16
 
-    def __init__(self, codec: Any, modulus: int) -> None:
+    def __init__(self, codec: Any, modulus: int, sample_rate_hz: float | None = None) -> None:
         self.codec = codec
         self.modulus = modulus
+        self.sample_rate_hz = sample_rate_hz
+        self._last_sample: tuple[int, float] | None = None  # (counter as taken, device s)
         self._counter_of = getattr(codec, "rateless_counter", None)
         #: Counter steps such messages used so far (modulo the wrap).
         self.skipped = 0
@@ -90,7 +101,24 @@ class RatelessMessages:
         """The reading with its counter less the steps rateless messages used."""
         self._last_raw = reading.counter
         self._had_sample = True
+        counter = (reading.counter - self.skipped) % self.modulus
+        undo = self._were_samples(counter, reading.device_time_s)
+        if undo:
+            self.skipped = (self.skipped - undo) % self.modulus
+            counter = (reading.counter - self.skipped) % self.modulus
         self.in_a_row = 0
-        if not self.skipped:
-            return reading
-        return replace(reading, counter=(reading.counter - self.skipped) % self.modulus)
+        if reading.device_time_s is not None:
+            self._last_sample = (counter, reading.device_time_s)
+        return reading if counter == reading.counter else replace(reading, counter=counter)
+
+    def _were_samples(self, counter: int, device_time_s: float | None) -> int:
+        """How many of the rateless messages since the last sample were samples: the
+        device times' count of sample periods less the counter step, where that is
+        1..(rateless messages since) (else 0: nothing to mend, or not explained)."""
+        if not self.in_a_row or self._last_sample is None or device_time_s is None \
+                or not self.sample_rate_hz:
+            return 0
+        last_counter, last_time_s = self._last_sample
+        periods = round((device_time_s - last_time_s) * self.sample_rate_hz)
+        short = periods - (counter - last_counter) % self.modulus
+        return short if 0 < short <= self.in_a_row else 0

@@ -92,7 +92,7 @@ class StreamRateSource:
             rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None),
             n_accel_axes=codec.n_accel_axes, accel_limit_m_s2=codec.accel_range_m_s2)
         # Counter steps of messages that carry no sample (an MTi-G's GNSS messages).
-        self._rateless = RatelessMessages(codec, codec.counter_modulus)
+        self._rateless = RatelessMessages(codec, codec.counter_modulus, sample_rate_hz)
         self._rest = b""
         self._connected = False
         self._ever_connected = False

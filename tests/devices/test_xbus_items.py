@@ -183,3 +183,30 @@ def test_samples_the_simulator_did_not_send_keep_the_counts_exact() -> None:
         else:
             counters.append(rateless.sample(reading).counter)
     assert counters == sent and rateless.skipped == 2
+
+
+def test_a_sample_corrupted_into_a_rateless_message_still_counts_as_lost() -> None:
+    """Sample 10's RateOfTurn identifier damaged (0x8020 -> 0x8030, the checksum made to
+    fit, as two cancelling bit flips leave it): the message reads as one without a rate,
+    yet the device times of samples 9 and 11 say two periods passed: sample 10 is lost,
+    not hidden."""
+    mti = MtiMessages(100.0)
+    codec = XbusCodec()
+    wire = []
+    for i in range(21):
+        message = mti.imu(Reading((0.0, 0.0, 0.0), i, 0, i / 100.0))
+        if i == 10:
+            body = message[1:-1].replace(bytes.fromhex("80200c"), bytes.fromhex("80300c"))
+            message = b"\xfa" + body + bytes([(-sum(body)) & 0xFF])
+        wire.append(message)
+    for sample_rate_hz, expected in ((100.0, [*range(10), *range(11, 21)]),
+                                     (None, list(range(20)))):  # unchecked: hidden
+        rateless = RatelessMessages(codec, codec.counter_modulus, sample_rate_hz)
+        counters = []
+        for frame in codec.decode(b"".join(wire)).frames:
+            reading = codec.to_reading(frame)
+            if reading is None:
+                rateless.skip(frame)
+            else:
+                counters.append(rateless.sample(reading).counter)
+        assert counters == expected
