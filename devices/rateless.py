@@ -10,13 +10,13 @@ message is no gap, while a lost sample still shows. A codec opts in with a
 ``rateless_counter(frame)`` method (the counter of a frame that carries no sample).
 
 A sample's message corrupted so that it reads as one without a rate (an 8-bit sum lets
-about 1 in 20 of the corruptions it misses through that way) would hide a lost sample:
-where the device times say more samples passed than the counters (less those steps)
-do, the messages taken for rateless ones since the last sample were samples, as many
-as the difference, and their steps count as lost samples again.
+some corruptions through) would hide a lost sample: where the device times say more
+samples passed than the counters (less those steps) do, the messages taken for rateless
+ones since the last sample were samples, as many as the difference, and their steps
+count as lost samples again.
 
 Limit: a message of this kind lost with the samples around it (an outage) is counted
-as one more missing sample, and the later counters stay one lower (no gap is hidden).
+as one more missing sample, and the later counters are one higher (no gap is hidden).
 """
 
 from __future__ import annotations
