@@ -42,3 +42,8 @@ class DeviceProtocolError(DeviceError):
 class ExposedBusWarning(UserWarning):
     """A simulated or served bus opened beyond this host (``bind=all``): anyone on the
     network can send it frames."""
+
+
+class NoRateError(DeviceConfigurationError):
+    """The device streams, but no message carries the rate the station reads (an Xsens
+    MTi not configured to output its RateOfTurn): retrying cannot help."""

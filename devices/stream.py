@@ -16,6 +16,7 @@ from devices.errors import (
 )
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.rateless import RatelessMessages
 from devices.stream_timing import StreamTiming
 from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
@@ -90,6 +91,8 @@ class StreamRateSource:
             check_continuity=getattr(codec, "weak_check", False),
             rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None),
             n_accel_axes=codec.n_accel_axes, accel_limit_m_s2=codec.accel_range_m_s2)
+        # Counter steps of messages that carry no sample (an MTi-G's GNSS messages).
+        self._rateless = RatelessMessages(codec, codec.counter_modulus, sample_rate_hz)
         self._rest = b""
         self._connected = False
         self._ever_connected = False
@@ -211,7 +214,11 @@ class StreamRateSource:
                 self._builder.event("resync", now, 1, str(exc))
                 continue
             if reading is not None:
-                readings.append(reading)
+                readings.append(self._rateless.sample(reading))
+            else:
+                # A message the device counted that holds no sample (an MTi-G's GNSS
+                # PVT message): its counter step is no lost sample (devices/rateless.py).
+                self._rateless.skip(frame)
         # Whole counter wraps can hide only in a proven silence (StreamTiming); while
         # bytes keep coming the counter counts alone. The send-time bounds say whether
         # the count is certain.
@@ -235,6 +242,7 @@ class StreamRateSource:
             self._last_frame_s = now
         if now - self._last_frame_s > self.silence_timeout_s:
             self._last_frame_s = now
+            self._rateless.refuse_if_rateless()
             raise DeviceTimeoutError(f"{self.codec.name}: no valid frame for "
                                      f"{self.silence_timeout_s} s")
         return self._builder.take(now)

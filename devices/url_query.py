@@ -22,7 +22,9 @@ SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
 SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram", "accel", "accel_range"}),
                         "kvh1750": frozenset({"unit", "output", "accel", "format", "tempunits"}),
-                        "xbus": frozenset({"accel"})}
+                        "xbus": frozenset({"accel", "hr"})}
+#: Keys of a simulated serial protocol only (``gnss``: Hz of an MTi-G's GNSS messages).
+SIM_SERIAL_PROTOCOL_KEYS = {"xbus": frozenset({"gnss"})}
 #: Keys of a hardware URL besides the protocol's own: what the adapter needs to know.
 HARDWARE_KEYS = frozenset({"rate", "model", "serial"})
 #: Keys of a python-can bus a CAN or CANopen URL may set.

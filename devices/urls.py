@@ -45,6 +45,7 @@ from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
 from devices.sim.kvh_unit import KvhMessageWriter
 from devices.sim.modbus_server import ModbusGyroServer
+from devices.sim.mti import MtiMessages
 from devices.sim.params import (
     BENCH_KEYS,
     FAULT_KEYS,
@@ -65,6 +66,7 @@ from devices.url_query import (
     HARDWARE_KEYS,
     SERIAL_PROTOCOL_KEYS,
     SIM_KEYS,
+    SIM_SERIAL_PROTOCOL_KEYS,
     accel_switch,
     check_keys,
     parse_query,
@@ -73,7 +75,8 @@ from devices.url_query import (
 #: URL keys that say how to run a simulation or record a session, not how to talk to the
 #: device: a hardware URL of a served simulation and a capture's replay URL drop them.
 _NOT_PROTOCOL_KEYS = frozenset({"model", "warp", "seed", "history", "interface", "capture",
-                                *FAULT_KEYS, *BENCH_KEYS, *FIXTURE_KEYS})
+                                *FAULT_KEYS, *BENCH_KEYS, *FIXTURE_KEYS,
+                                *SIM_SERIAL_PROTOCOL_KEYS["xbus"]})
 
 
 def _protocol_query(query: dict[str, str], **keys: str) -> str:
@@ -145,11 +148,26 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
                                  tempunits=query.get("tempunits", "C").upper()),  # type: ignore[arg-type]
                     KVH_SYNC, "DSP-1750")
         if protocol == "xbus":
-            return XbusCodec(accel=accel is not False), bytes([PREAMBLE]), "MTi"
+            return (XbusCodec(accel=accel is not False, high_rate=_switch(query, "hr")),
+                    bytes([PREAMBLE]), "MTi")
     except CodecError as exc:
         raise DeviceConfigurationError(str(exc)) from exc
     raise DeviceConfigurationError(f"unknown serial protocol {protocol!r}; "
                                    f"known: {', '.join(SERIAL_PROTOCOLS)}")
+
+
+def _switch(query: dict[str, str], key: str) -> bool:
+    """A 0/1 URL key (absent: 0).
+
+    Raises
+    ------
+    DeviceConfigurationError
+        A value other than 0 or 1.
+    """
+    text = query.get(key, "0")
+    if text not in ("0", "1"):
+        raise DeviceConfigurationError(f"URL key {key}={text!r} must be 0 or 1")
+    return text == "1"
 
 
 def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
@@ -160,7 +178,15 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
     message = (KvhMessageWriter(codec.message_format or "A", codec.tempunits,
                                 codec.angle_unit, codec.output, params.rate)
                if isinstance(codec, Kvh1750Codec) else None)
-    device = PtySerialDevice(codec, core, header=header, message=message).start()
+    mti = None
+    if isinstance(codec, XbusCodec):  # an MTi's messages, from the protocol document
+        gnss_hz = query_number("gnss", query.get("gnss", "0"), float)
+        try:
+            mti = MtiMessages(params.rate, gnss_hz=gnss_hz, accel=bool(codec.n_accel_axes),
+                              high_rate=codec.high_rate)
+        except ValueError as exc:
+            raise DeviceConfigurationError(f"URL key gnss: {exc}") from exc
+    device = PtySerialDevice(codec, core, header=header, message=message, mti=mti).start()
     transport = _captured(SerialTransport(device.port), "serial", query, params.rate,
                           params.warp)
     source = StreamRateSource(transport, codec, model=_unit_model(host, params),
@@ -468,7 +494,10 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
     """The query keys a URL of ``transport`` takes (a simulation's, or hardware's)."""
     base = SIM_KEYS if simulate else HARDWARE_KEYS
     if transport == "serial":
-        own = SERIAL_PROTOCOL_KEYS.get(query.get("protocol", "stim300"), frozenset())
+        protocol = query.get("protocol", "stim300")
+        own = SERIAL_PROTOCOL_KEYS.get(protocol, frozenset())
+        if simulate:
+            own |= SIM_SERIAL_PROTOCOL_KEYS.get(protocol, frozenset())
         return base | own | {"protocol", "capture"} | (set() if simulate else {"baud"})
     if transport == "can":
         bus = {"interface", "bind"} if simulate else CAN_BUS_KEYS

@@ -6,17 +6,24 @@ Message (Xsens "MT Low Level Communication Protocol")::
     extended:      FA | FF | MID | FF | LEN_H LEN_L | data | CS
 
 The checksum makes the byte sum of BID..CS zero modulo 256. MTData2 (MID 0x36) data is
-a sequence of items ``data id (uint16 BE) | size (uint8) | value``; the ones a gyro
-station uses:
+a sequence of items ``data id (uint16 BE) | size (uint8) | value``; the identifiers,
+their precision and coordinate-system bits, the fixed-point formats and the StatusWord
+bits are in :mod:`devices.codecs.xbus_items` (docs/devices.md, "Xsens MTi (Xbus)"). The
+ones a gyro station uses, in any of the four precisions:
 
 ======  ===============  ==========================================
-0x1020  PacketCounter    uint16, wraps at 65536
+0x1020  PacketCounter    uint16, wraps at 65536; counts every message
 0x1060  SampleTimeFine   uint32, 10 kHz ticks
-0x8020  RateOfTurn       3 x float32, rad/s
-0x4020  Acceleration     3 x float32, m/s^2
-0x0810  Temperature      float32, degC
-0xE020  StatusWord       uint32
+0x8020  RateOfTurn       3 values, rad/s (0x8040 RateOfTurnHR with ``high_rate``)
+0x4020  Acceleration     3 values, m/s^2 (0x4040 AccelerationHR with ``high_rate``)
+0x0810  Temperature      1 value, degC
+0xE020  StatusWord       uint32, bits 1 where good (0xE010 StatusByte: its bits 0-7)
 ======  ===============  ==========================================
+
+An MTi sends other outputs in MTData2 messages of their own (an MTi-G-710's GNSS PVT
+data at 4 Hz): such a message carries no rate of turn, yet the PacketCounter counts
+it. :meth:`XbusCodec.to_reading` gives None for it and :meth:`XbusCodec.rateless_counter`
+its counter, so that the adapter does not take its counter step for a lost sample.
 
 GoToConfig (0x30) / GoToMeasurement (0x10) are acknowledged by MID + 1.
 
@@ -37,25 +44,44 @@ from dataclasses import dataclass
 
 from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, scan_frames
+from devices.codecs.xbus_items import (
+    ACCEL_CLIPPING,
+    ACCELERATION,
+    ACCELERATION_HR,
+    FILTER_VALID,
+    FLOAT32,
+    GYRO_CLIPPING,
+    PACKET_COUNTER,
+    RATE_OF_TURN,
+    RATE_OF_TURN_HR,
+    SAMPLE_TIME_FINE,
+    SELFTEST_PASSED,
+    STATUS_BYTE,
+    STATUS_WORD,
+    TEMPERATURE,
+    DataId,
+    decode_values,
+    status_byte_flags,
+    status_word_flags,
+)
 from devices.errors import CodecError, FrameError
+
+__all__ = ["ACCELERATION", "ACCELERATION_HR", "PACKET_COUNTER", "RATE_OF_TURN",
+           "RATE_OF_TURN_HR", "SAMPLE_TIME_FINE", "STATUS_BYTE", "STATUS_WORD",
+           "TEMPERATURE", "XbusCodec", "XbusMessage", "build_mtdata2", "checksum",
+           "parse_mtdata2"]
 
 PREAMBLE = 0xFA
 BUS_ID = 0xFF
 MID_GOTO_CONFIG = 0x30
 MID_GOTO_MEASUREMENT = 0x10
 MID_MTDATA2 = 0x36
-PACKET_COUNTER = 0x1020
-SAMPLE_TIME_FINE = 0x1060
-RATE_OF_TURN = 0x8020
-ACCELERATION = 0x4020
-TEMPERATURE = 0x0810
-STATUS_WORD = 0xE020
 SAMPLE_TIME_FINE_HZ = 10_000.0
 COUNTER_MODULUS = 65536
 DEG_PER_RAD = 180.0 / math.pi
-
-_ITEM_FORMATS = {PACKET_COUNTER: ">H", SAMPLE_TIME_FINE: ">I", RATE_OF_TURN: ">3f",
-                 ACCELERATION: ">3f", TEMPERATURE: ">f", STATUS_WORD: ">I"}
+#: StatusWord :meth:`XbusCodec.from_reading` sends for a good sample: self-test passed,
+#: filter valid.
+HEALTHY_STATUS_WORD = SELFTEST_PASSED | FILTER_VALID
 
 
 @dataclass(frozen=True)
@@ -112,9 +138,14 @@ class XbusCodec:
         Longest data field accepted (bytes); a candidate announcing more is garbage.
         Bounds how long a false preamble can hold up resynchronization.
     accel : bool
-        Decode the Acceleration item (0x4020), which every MTData2 message must then
-        carry (an MTi configured to output it); False (the default here; a device URL
-        turns it on unless ``accel=0``) ignores it.
+        Decode the Acceleration item (0x4020, any precision), which every MTData2
+        message with a rate of turn must then carry (an MTi configured to output it);
+        False (the default here; a device URL turns it on unless ``accel=0``) ignores it.
+    high_rate : bool
+        Take the rates from RateOfTurnHR (0x8040) and the accelerations from
+        AccelerationHR (0x4040) instead (URL ``hr=1``): the MTi sends them in messages
+        of their own, at their own rate. A message with the other kind only carries no
+        sample of this stream.
     """
 
     #: An 8-bit sum lets some corrupted frames through (two flipped bits that cancel):
@@ -132,11 +163,22 @@ class XbusCodec:
     has_device_time = True
     has_temperature = True
 
-    def __init__(self, max_data_length: int = 512, *, accel: bool = False) -> None:
+    def __init__(self, max_data_length: int = 512, *, accel: bool = False,
+                 high_rate: bool = False) -> None:
         self.max_data_length = max_data_length
         self.n_accel_axes = 3 if accel else 0
         self.accel_range_m_s2: float | None = (
             self.accel_range_g * STANDARD_GRAVITY_M_S2 if accel else None)
+        self.high_rate = high_rate
+        self.rate_type = RATE_OF_TURN_HR if high_rate else RATE_OF_TURN
+        self.accel_type = ACCELERATION_HR if high_rate else ACCELERATION
+        #: The item a message needs to make a sample, as a refusal names it.
+        self.rate_item = ("RateOfTurnHR (0x8040)" if high_rate else "RateOfTurn (0x8020)")
+        #: What to change where a stream carries none (the adapter's refusal).
+        self.rate_item_hint = ("configure the MTi to output RateOfTurnHR, or leave hr=1 "
+                               "out of the URL for RateOfTurn" if high_rate else
+                               "configure the MTi to output RateOfTurn, or give hr=1 in "
+                               "the URL for RateOfTurnHR")
 
     def _length(self, data: bytes, pos: int) -> int | None:
         if pos + 4 > len(data):
@@ -178,49 +220,92 @@ class XbusCodec:
         return bytes([PREAMBLE]) + body + bytes([checksum(body)])
 
     def to_reading(self, frame: XbusMessage) -> Reading | None:
-        """Reading of an MTData2 message (None for any other message).
+        """Reading of an MTData2 message with a rate of turn (None for any other message,
+        and for an MTData2 message of other outputs: see :meth:`rateless_counter`).
+
+        The values are read in the precision their identifiers give (float32, FP12.20,
+        FP16.32, float64); ``status`` from the StatusWord or StatusByte bits
+        (:func:`~devices.codecs.xbus_items.status_word_flags`), ``device_status`` the
+        word (or byte) as sent.
 
         Raises
         ------
         FrameError
-            MTData2 without RateOfTurn or PacketCounter (or Acceleration, when the
-            codec decodes it), or an item of the wrong size.
+            A rate of turn without PacketCounter (or without Acceleration, when the codec
+            decodes it), or an item of the wrong size.
         """
         if frame.mid != MID_MTDATA2:
             return None
-        items = parse_mtdata2(frame.data)
+        items = _items_by_type(frame.data)
+        if self.rate_type not in items:
+            return None
         try:
-            rate = struct.unpack(">3f", items[RATE_OF_TURN])
-            (counter,) = struct.unpack(">H", items[PACKET_COUNTER])
-            stf = items.get(SAMPLE_TIME_FINE)
-            temp = items.get(TEMPERATURE)
-            status = items.get(STATUS_WORD)
-            accel = (struct.unpack(">3f", items[ACCELERATION]) if self.n_accel_axes
-                     else None)
-            return Reading(
-                rate_deg_s=tuple(r * DEG_PER_RAD for r in rate), counter=counter,
-                status=struct.unpack(">I", status)[0] if status is not None else 0,
-                device_time_s=(struct.unpack(">I", stf)[0] / SAMPLE_TIME_FINE_HZ
-                               if stf is not None else None),
-                temperature_c=struct.unpack(">f", temp)[0] if temp is not None else None,
-                accel_m_s2=accel,
-            )
-        except (KeyError, struct.error) as exc:
-            raise FrameError(f"MTData2 message without a usable item: {exc}") from exc
+            rate_id, rate_value = items[self.rate_type]
+            rate = decode_values(rate_value, rate_id.precision, 3, rate_id.name())
+            counter = _uint(items[PACKET_COUNTER][1], 2, "PacketCounter")
+            accel = None
+            if self.n_accel_axes:
+                accel_id, accel_value = items[self.accel_type]
+                accel = decode_values(accel_value, accel_id.precision, 3, accel_id.name())
+        except KeyError as exc:
+            raise FrameError(f"MTData2 message without a usable item: 0x{exc.args[0]:04X}"
+                             ) from exc
+        stf = items.get(SAMPLE_TIME_FINE)
+        temp = items.get(TEMPERATURE)
+        status, device_status = self._status(items)
+        return Reading(
+            rate_deg_s=tuple(r * DEG_PER_RAD for r in rate), counter=counter,
+            status=status,
+            device_time_s=(_uint(stf[1], 4, "SampleTimeFine") / SAMPLE_TIME_FINE_HZ
+                           if stf is not None else None),
+            temperature_c=(decode_values(temp[1], temp[0].precision, 1, temp[0].name())[0]
+                           if temp is not None else None),
+            accel_m_s2=accel, device_status=device_status)
+
+    def _status(self, items: dict[int, tuple[DataId, bytes]]) -> tuple[int, int | None]:
+        """(station status, device word as sent) from StatusWord, else StatusByte."""
+        if STATUS_WORD in items:
+            word = _uint(items[STATUS_WORD][1], 4, "StatusWord")
+            return status_word_flags(word, accel=bool(self.n_accel_axes)), word
+        if STATUS_BYTE in items:
+            byte = _uint(items[STATUS_BYTE][1], 1, "StatusByte")
+            return status_byte_flags(byte), byte
+        return 0, None
+
+    def rateless_counter(self, frame: XbusMessage) -> int | None:
+        """PacketCounter of an MTData2 message that carries no rate of turn (an MTi-G's
+        GNSS PVT message): the device counted it, yet it holds no sample. None for any
+        other message (one with a rate of turn, one without a usable counter)."""
+        if frame.mid != MID_MTDATA2:
+            return None
+        try:
+            items = _items_by_type(frame.data)
+            if self.rate_type in items or PACKET_COUNTER not in items:
+                return None
+            return _uint(items[PACKET_COUNTER][1], 2, "PacketCounter")
+        except FrameError:
+            return None
 
     def from_reading(self, reading: Reading) -> XbusMessage:
         """MTData2 message with PacketCounter, SampleTimeFine, RateOfTurn, Acceleration
-        (when the reading has one), Temperature, StatusWord."""
+        (when the reading has one), Temperature (float32) and StatusWord: the reading's
+        ``device_status`` if it has one, else :data:`HEALTHY_STATUS_WORD` with the
+        self-test bit cleared and the clipping bits set where ``status`` flags them."""
         stf = round((reading.device_time_s or 0.0) * SAMPLE_TIME_FINE_HZ) % 2**32
-        values: dict[int, tuple[float, ...]] = {
-            PACKET_COUNTER: (reading.counter % COUNTER_MODULUS,),
-            SAMPLE_TIME_FINE: (stf,),
-            RATE_OF_TURN: tuple(r / DEG_PER_RAD for r in reading.rate_deg_s),
+        word = reading.device_status
+        if word is None:
+            flags = reading.status & (SELFTEST_PASSED | GYRO_CLIPPING | ACCEL_CLIPPING)
+            word = (HEALTHY_STATUS_WORD ^ (flags & SELFTEST_PASSED)) | (flags & ~SELFTEST_PASSED)
+        items = {
+            PACKET_COUNTER: struct.pack(">H", reading.counter % COUNTER_MODULUS),
+            SAMPLE_TIME_FINE: struct.pack(">I", stf),
+            self.rate_type | FLOAT32: struct.pack(
+                ">3f", *(r / DEG_PER_RAD for r in reading.rate_deg_s)),
         }
         if reading.accel_m_s2 is not None:
-            values[ACCELERATION] = reading.accel_m_s2
-        values |= {TEMPERATURE: (reading.temperature_c or 0.0,), STATUS_WORD: (reading.status,)}
-        items = {k: struct.pack(_ITEM_FORMATS[k], *v) for k, v in values.items()}
+            items[self.accel_type | FLOAT32] = struct.pack(">3f", *reading.accel_m_s2)
+        items[TEMPERATURE | FLOAT32] = struct.pack(">f", reading.temperature_c or 0.0)
+        items[STATUS_WORD] = struct.pack(">I", word & 0xFFFFFFFF)
         return XbusMessage(MID_MTDATA2, build_mtdata2(items))
 
     def greeting(self) -> bytes:
@@ -237,3 +322,33 @@ class XbusCodec:
         if frame.mid in (MID_GOTO_CONFIG, MID_GOTO_MEASUREMENT):
             return XbusMessage(frame.mid + 1, b""), frame.mid == MID_GOTO_MEASUREMENT
         return None
+
+
+def _items_by_type(data: bytes) -> dict[int, tuple[DataId, bytes]]:
+    """MTData2 items by data type (identifier less its coordinate-system and precision
+    bits), each with its identifier's fields; the first of a type counts.
+
+    Raises
+    ------
+    FrameError
+        An item runs past the end of the data.
+    """
+    out: dict[int, tuple[DataId, bytes]] = {}
+    for identifier, value in parse_mtdata2(data).items():
+        data_id = DataId.of(identifier)
+        out.setdefault(data_id.data_type, (data_id, value))
+    return out
+
+
+def _uint(value: bytes, size: int, what: str) -> int:
+    """A big-endian unsigned item of ``size`` bytes.
+
+    Raises
+    ------
+    FrameError
+        The item is not ``size`` bytes long.
+    """
+    if len(value) != size:
+        raise FrameError(f"MTData2 item {what} of {len(value)} bytes, not {size}: "
+                         f"not a usable item")
+    return int.from_bytes(value, "big")

@@ -19,6 +19,7 @@ from typing import Any
 from devices.codecs.base import Reading, StreamCodec
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
+from devices.sim.mti import MtiMessages
 
 
 class PtySerialDevice(DeviceLoop):
@@ -43,14 +44,19 @@ class PtySerialDevice(DeviceLoop):
         period) are booked lost instead of sent late (see :meth:`SimCore.due`), and so
         are frames the port cannot take when they are due: a real gyro sends on time,
         whatever the host does.
+    mti : MtiMessages or None
+        An Xsens MTi's messages, written from the protocol document instead of by the
+        codec's encoder (and its GNSS-only messages between the samples).
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
                  poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
-                 message: Callable[[Reading], bytes] | None = None) -> None:
+                 message: Callable[[Reading], bytes] | None = None,
+                 mti: MtiMessages | None = None) -> None:
         super().__init__()
         self.codec = codec
         self.message = message or (lambda reading: codec.encode(codec.from_reading(reading)))
+        self.mti = mti
         self.core = core
         self.header = header
         self.poll_s = poll_s
@@ -152,8 +158,15 @@ class PtySerialDevice(DeviceLoop):
         (bytes, sample index, booked delivered) each, for :meth:`_write`."""
         core, frames = self.core, []
         for reading in readings:
+            if self.mti is None:
+                message = self.message(reading)
+            else:
+                message = self.mti.imu(reading)
+                gnss = self.mti.gnss_due(reading)
+                if gnss:  # no sample: never booked, sent as a reply is (index -1)
+                    frames.append((gnss, -1, False))
             before = core.ledger.delivered
-            wire = core.wire(self.message(reading), reading.counter, header=self.header)
+            wire = core.wire(message, reading.counter, header=self.header)
             frames.append((wire, reading.counter, core.ledger.delivered > before))
         return frames
 

@@ -286,10 +286,14 @@ class Recorder:
 
     def _await_first_samples(self) -> list[Problem]:
         self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
-        return [Problem(f"no sample within {self.config.answer_timeout_s:g} s: check the "
-                        f"protocol and rate in the URL, and that the device is streaming"
-                        + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
-                for w in self.workers if not w.answered.is_set()]
+        return [Problem(
+            # a unit that ended on an error before its first sample says why (a device
+            # configured without the output the protocol needs: devices.errors.NoRateError)
+            f"ended before its first sample: {w.error}" if w.done and w.error else
+            f"no sample within {self.config.answer_timeout_s:g} s: check the "
+            f"protocol and rate in the URL, and that the device is streaming"
+            + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
+            for w in self.workers if not w.answered.is_set()]
 
     def _abort(self) -> None:
         for w in self.workers:

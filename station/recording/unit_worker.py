@@ -25,7 +25,7 @@ from functools import partial
 
 import numpy as np
 
-from devices.errors import DeviceError, DeviceTimeoutError
+from devices.errors import DeviceError, DeviceTimeoutError, NoRateError
 from devices.gaps import RATE_TOLERANCE
 from devices.opened import OpenedDevice
 from devices.protocols import DeviceDescription, HeldQuiet, SampleBatch, Simulated
@@ -227,6 +227,8 @@ class UnitWorker:
         except EndOfReplayError:
             self.source_ended = True
             return 0, backoff_s
+        except NoRateError:
+            raise  # a device configured without the rate output: no retry mends it
         except DeviceError as exc:
             # Disconnected, or no acknowledgement on reconnect: the adapter logs the
             # disconnect itself; wait and let the next read reopen the link.
