@@ -7,17 +7,18 @@ A layout may protect its frames as AUTOSAR E2E Profile 1 does (:mod:`devices.cod
 a 4-bit alive counter 0..14 and the Profile 1 CRC over the DataID and every other data
 byte), carry a plain rolling counter (8 bits, or 4 bits running 0..15), or neither
 (``crc = "none"``, ``counter_bits = 0``). Layouts load from a TOML table
-(:func:`devices.codecs.can_layout_table.layout_from_table`).
+(:meth:`CanFrameLayout.from_table`).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any, Literal
 
 from devices.codecs.base import Reading
+from devices.codecs.can_layout_table import layout_options
+from devices.codecs.can_signals import CanBitField, CanFrameValues, CanSignal
 from devices.codecs.e2e_p01 import (
     ALIVE_COUNTER_BITS,
     ALIVE_COUNTER_MODULUS,
@@ -28,133 +29,6 @@ from devices.codecs.e2e_p01 import (
 from devices.errors import CodecError, CrcError, FrameError
 
 CrcKind = Literal["e2e_p01", "none"]
-
-
-@dataclass(frozen=True)
-class CanSignal:
-    """One value in a frame: physical value = raw * ``scale`` + ``offset``.
-
-    Attributes
-    ----------
-    arbitration_id : int
-        CAN identifier of the frame carrying it.
-    start_byte, length : int
-        Byte offset and width (1..4 bytes).
-    signed : bool
-        Two's complement when true.
-    byte_order : {"big", "little"}
-        Byte order on the wire.
-    scale : float
-        Physical unit per LSB (deg/s for rates, m/s^2 for accelerations, degC for
-        temperature).
-    offset : float
-        Physical value of raw 0, in the same unit (an offset-binary signal: the Bosch
-        MM7.10 sends a rate as uint16 x 0.005 - 163.84 deg/s).
-    """
-
-    arbitration_id: int
-    start_byte: int
-    length: int
-    signed: bool = True
-    byte_order: Literal["big", "little"] = "big"
-    scale: float = 1.0
-    offset: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.byte_order not in ("big", "little"):
-            raise CodecError(f"byte_order must be \"big\" or \"little\", not "
-                             f"{self.byte_order!r}")
-        if not (math.isfinite(self.scale) and self.scale != 0.0 and math.isfinite(self.offset)):
-            raise CodecError(f"scale must be finite and non-zero, offset finite: {self}")
-
-    def extract(self, data: bytes) -> int:
-        """The raw value in ``data``."""
-        return int.from_bytes(data[self.start_byte:self.start_byte + self.length],
-                              self.byte_order, signed=self.signed)
-
-    def insert(self, buf: bytearray, raw: int) -> None:
-        """Write the raw value into ``buf``."""
-        try:
-            buf[self.start_byte:self.start_byte + self.length] = raw.to_bytes(
-                self.length, self.byte_order, signed=self.signed)
-        except OverflowError as exc:
-            raise CodecError(f"value {raw} does not fit {self.length} bytes") from exc
-
-    def raw_range(self) -> tuple[int, int]:
-        """The smallest and largest raw value."""
-        bits = 8 * self.length
-        return ((-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if self.signed
-                else (0, (1 << bits) - 1))
-
-    def physical(self, raw: int) -> float:
-        """Physical value of a raw value."""
-        return raw * self.scale + self.offset
-
-    def quantize(self, value: float) -> int:
-        """Nearest raw value of ``value`` (physical units), clipped to the width."""
-        lo, hi = self.raw_range()
-        return max(lo, min(hi, round((value - self.offset) / self.scale)))
-
-    def symmetric_range(self) -> float:
-        """Largest magnitude M with -M..M inside the signal's range (where the range
-        holds no sign change: the largest magnitude in it), physical units."""
-        a, b = sorted(self.physical(r) for r in self.raw_range())
-        return min(-a, b) if a < 0.0 < b else max(abs(a), abs(b))
-
-    def bits_used(self) -> set[int]:
-        """Bits of the frame it occupies (bit 8 k + i is bit i of byte k)."""
-        return set(range(8 * self.start_byte, 8 * (self.start_byte + self.length)))
-
-
-@dataclass(frozen=True)
-class CanBitField:
-    """A status field: ``bits`` bits from ``start_bit`` of a frame, least significant
-    first (bit 8 k + i is bit i of byte k, the numbering of a DBC file's little-endian
-    signals).
-
-    Attributes
-    ----------
-    arbitration_id : int
-        CAN identifier of the frame carrying it.
-    start_bit, bits : int
-        Position of its least significant bit, and width (1..32).
-    invalid_mask : int
-        The bits of the field that, set, say the sample is not valid (default: any).
-    """
-
-    arbitration_id: int
-    start_bit: int
-    bits: int
-    invalid_mask: int = -1
-
-    @property
-    def mask(self) -> int:
-        """All ones over the field's width."""
-        return (1 << self.bits) - 1
-
-    def extract(self, data: bytes) -> int:
-        """The field's value in ``data``."""
-        return (int.from_bytes(data, "little") >> self.start_bit) & self.mask
-
-    def insert(self, buf: bytearray, raw: int) -> None:
-        """Write the field's value into ``buf``."""
-        if not 0 <= raw <= self.mask:
-            raise CodecError(f"status value {raw} does not fit {self.bits} bits")
-        word = int.from_bytes(buf, "little") & ~(self.mask << self.start_bit)
-        buf[:] = (word | raw << self.start_bit).to_bytes(len(buf), "little")
-
-    def bits_used(self) -> set[int]:
-        """Bits of the frame it occupies."""
-        return set(range(self.start_bit, self.start_bit + self.bits))
-
-
-@dataclass(frozen=True)
-class CanFrameValues:
-    """The raw contents of one verified frame (counter 0 where the layout has none)."""
-
-    arbitration_id: int
-    counter: int
-    raw: tuple[tuple[str, int], ...]
 
 
 @dataclass(frozen=True)
@@ -421,17 +295,21 @@ class CanFrameLayout:
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> CanFrameLayout:
-        """Layout from a TOML ``[can]`` table (see
-        :func:`devices.codecs.can_layout_table.layout_from_table`).
+        """Layout from a TOML ``[can]`` table (keys and defaults:
+        :mod:`devices.codecs.can_layout_table`).
 
         Raises
         ------
         CodecError
-            Missing, unknown or malformed keys.
+            A missing, unknown or mistyped key, or a layout that does not fit together (a
+            field overlapping another, the counter or the CRC; a counter wrap its width
+            cannot hold), named in the message.
         """
-        from devices.codecs.can_layout_table import layout_from_table
-
-        return layout_from_table(table)
+        options = layout_options(table)
+        try:
+            return cls(**options)
+        except TypeError as exc:
+            raise CodecError(f"bad CAN layout table: {exc}") from exc
 
 
 #: LSB of the shared layout's rates, deg/s (2^-13 = 1.22e-4 deg/s = 0.44 deg/h; range

@@ -7,7 +7,7 @@ A user describes their own unit in such a table, in a layout file or in a profil
     dlc = 8                   # data bytes per frame
     crc = "e2e_p01"           # AUTOSAR E2E Profile 1 CRC, or "none"
     crc_byte = 7
-    data_id = 0x0181          # Profile 1 DataID (0..0xFFFF)
+    data_id = 0               # Profile 1 DataID (0..0xFFFF)
     data_id_mode = "both"     # "both", "low", "alt" or "nibble"
     counter_byte = 6
     counter_bits = 8          # 4 (a nibble), 8, or 0: no counter
@@ -36,7 +36,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from devices.codecs.can_frame import CanBitField, CanFrameLayout, CanSignal
+from devices.codecs.can_signals import CanBitField, CanSignal
 from devices.errors import CodecError
 
 _INT_KEYS = ("counter_byte", "counter_bits", "counter_modulus", "crc_byte", "data_id", "dlc")
@@ -81,8 +81,9 @@ def _signals(table: Mapping[str, Any], key: str) -> tuple[CanSignal, ...]:
                  for i, t in enumerate(entries))
 
 
-def layout_from_table(table: Mapping[str, Any]) -> CanFrameLayout:
-    """The layout a ``[can]`` table describes (keys and defaults: the module's docstring).
+def layout_options(table: Mapping[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of :class:`~devices.codecs.can_frame.CanFrameLayout` a
+    ``[can]`` table gives (keys and defaults: the module's docstring).
 
     Parameters
     ----------
@@ -91,14 +92,13 @@ def layout_from_table(table: Mapping[str, Any]) -> CanFrameLayout:
 
     Returns
     -------
-    CanFrameLayout
+    dict
+        ``axes``, ``accel``, ``temperature``, ``status`` and the table's scalar keys.
 
     Raises
     ------
     CodecError
-        A missing, unknown or mistyped key, or a layout that does not fit together (a
-        field overlapping another, the counter or the CRC; a counter wrap its width
-        cannot hold), named in the message.
+        A missing, unknown or mistyped key, named in the message.
     """
     unknown = sorted(set(table) - {*_INT_KEYS, *_TEXT_KEYS, *_TABLE_KEYS})
     if unknown:
@@ -112,15 +112,11 @@ def layout_from_table(table: Mapping[str, Any]) -> CanFrameLayout:
     status = table.get("status", ())
     if not isinstance(status, list | tuple):
         raise CodecError("can.status: expected an array of tables ([[can.status]])")
-    try:
-        return CanFrameLayout(
-            axes=_signals(table, "axes"), accel=_signals(table, "accel"),
-            temperature=None if temp is None else CanSignal(
-                **_entry("can.temperature", temp, _SIGNAL_KEYS, "signal")),
-            status=tuple(CanBitField(**_entry(f"can.status[{i}]", t, _STATUS_KEYS, "status"))
-                         for i, t in enumerate(status)),
-            **options)
-    except (TypeError, ValueError) as exc:
-        if isinstance(exc, CodecError):
-            raise
-        raise CodecError(f"bad CAN layout table: {exc}") from exc
+    options["axes"] = _signals(table, "axes")
+    options["accel"] = _signals(table, "accel")
+    options["temperature"] = None if temp is None else CanSignal(
+        **_entry("can.temperature", temp, _SIGNAL_KEYS, "signal"))
+    options["status"] = tuple(
+        CanBitField(**_entry(f"can.status[{i}]", t, _STATUS_KEYS, "status"))
+        for i, t in enumerate(status))
+    return options
