@@ -28,6 +28,12 @@ from devices.codecs.e2e_p01 import (
 )
 from devices.errors import CodecError, CrcError, FrameError
 
+#: The layout and its parts (the signals and frame values re-exported from
+#: :mod:`devices.codecs.can_signals`), and the built-in layouts.
+__all__ = ["CanBitField", "CanFrameLayout", "CanFrameValues", "CanSignal", "CrcKind",
+           "PER_AXIS_IMU_LAYOUT", "PER_AXIS_LAYOUT", "SHARED_ACCEL_LSB_M_S2",
+           "SHARED_IMU_LAYOUT", "SHARED_LAYOUT", "SHARED_RATE_LSB_DEG_S"]
+
 CrcKind = Literal["e2e_p01", "none"]
 
 
