@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any, Literal
 
 from devices.codecs.base import Reading
@@ -161,10 +162,16 @@ class CanFrameLayout:
         return self.crc == "e2e_p01" and self.counter_bits == ALIVE_COUNTER_BITS and \
             self.counter_modulus == ALIVE_COUNTER_MODULUS
 
-    @property
+    @cached_property
     def arbitration_ids(self) -> tuple[int, ...]:
         """Identifiers of the frames that make one sample, sorted."""
         return tuple(sorted({s.arbitration_id for s in self.fields().values()}))
+
+    @cached_property
+    def _fields_by_frame(self) -> dict[int, tuple[tuple[str, CanSignal | CanBitField], ...]]:
+        """The fields of each frame, by arbitration ID."""
+        return {aid: tuple((n, f) for n, f in self.fields().items() if f.arbitration_id == aid)
+                for aid in self.arbitration_ids}
 
     @property
     def n_accel_axes(self) -> int:
@@ -212,7 +219,8 @@ class CanFrameLayout:
             The frame fails its check: the CRC, a counter value the counter never takes
             (15 in Profile 1's), or a DataID nibble that is not the layout's.
         """
-        if arbitration_id not in self.arbitration_ids or len(data) != self.dlc:
+        fields = self._fields_by_frame.get(arbitration_id)
+        if fields is None or len(data) != self.dlc:
             raise FrameError(f"frame 0x{arbitration_id:X} with {len(data)} bytes is not "
                              "in the layout")
         counter = 0
@@ -227,8 +235,7 @@ class CanFrameLayout:
                 raise CrcError(f"DataID nibble mismatch in frame 0x{arbitration_id:X}")
             if self._crc(data, counter) != data[self.crc_byte]:
                 raise CrcError(f"E2E Profile 1 CRC mismatch in frame 0x{arbitration_id:X}")
-        raw = tuple((name, item.extract(data)) for name, item in self.fields().items()
-                    if item.arbitration_id == arbitration_id)
+        raw = tuple((name, item.extract(data)) for name, item in fields)
         return CanFrameValues(arbitration_id, counter, raw)
 
     @property

@@ -21,7 +21,7 @@ from devices.can_raw import CanRateSource
 from devices.codecs.can_frame import PER_AXIS_LAYOUT, CanFrameLayout, CanFrameValues, CanSignal
 from devices.errors import CrcError
 from devices.sim.can_device import CanBroadcastDevice
-from devices.sim.e2e_p01_protect import crc_calculate_crc8
+from devices.sim.e2e_p01_protect import Profile1Protector, crc_calculate_crc8
 from devices.sim.params import parse_sim_params, sim_core
 from devices.transports.can import CanTransport
 from tests.devices.e2e_reference import p01_reference_crc
@@ -71,6 +71,23 @@ def test_every_data_id_mode_as_autosar_e2e_computes_it(mode: str, frames: tuple[
     for counter, hex_frame in enumerate(frames):
         assert layout.encode(zero_frame(counter)).hex() == hex_frame
         assert layout.decode(0x123, bytes.fromhex(hex_frame)).counter == counter
+
+
+@pytest.mark.parametrize(("mode", "frames"), [
+    ("both", ("cc00000000000000", "9101000000000000")),
+    ("low", ("ce00000000000000", "9301000000000000")),
+    ("alt", ("ce00000000000000", "0201000000000000")),
+    ("nibble", ("2a10000000000000", "7711000000000000")),
+])
+def test_the_simulated_nodes_protection_writes_autosar_e2es_frames(
+        mode: str, frames: tuple[str, str]) -> None:
+    """The simulated node's E2E_P01Protect (not the codec) on the same frames: sample 15
+    and 16 carry counters 0 and 1 (the counter wraps at 15)."""
+    protector = Profile1Protector(0x123, mode, crc_byte=0, counter_byte=1, counter_shift=0)
+    for index, hex_frame in zip((15, 16), frames, strict=True):
+        data = bytearray(8)
+        protector.protect(data, index, counter=-1)  # (its own counter: the index mod 15)
+        assert data.hex() == hex_frame
 
 
 @pytest.mark.parametrize(("mode", "frame"), [
