@@ -75,6 +75,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from devices.codecs.can_frame import PER_AXIS_LAYOUT
 from devices.urls import open_device
 from station.cli import main as station_main
 from station.commands.watch import status_json
@@ -445,7 +446,7 @@ def can_wraps_trial(case: Case, tmp: Path, rng: random.Random) -> None:
         dev.source.open()
         got = collect(dev.source, 1800, deadline_s=30)
         core = dev.simulator.core
-        offset = device_index(got, core, 16, atol=1e-6)
+        offset = device_index(got, core, PER_AXIS_LAYOUT.counter_modulus, atol=1e-6)
         try:
             declared, lost = check_accounting(got, core, offset)
         except AssertionError as exc:

@@ -1,11 +1,14 @@
 """The frame layouts and register maps a bus URL names: built-in ones (a gyro's and an
-IMU's) or a profile TOML's ``[can]`` / ``[modbus]`` table, with the URL's ``accel``
+IMU's), a TOML file's ``[can]`` / ``[modbus]`` table (a profile, or a layout file beside
+it), or a shipped layout file (``profiles/layouts/NAME.toml``), with the URL's ``accel``
 switch applied."""
 
 from __future__ import annotations
 
+import os
 import tomllib
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any, Protocol, Self, TypeVar
 
 from devices.codecs.can_frame import (
@@ -23,6 +26,7 @@ from devices.codecs.modbus_map import (
     ModbusRegisterMap,
 )
 from devices.errors import DeviceConfigurationError
+from devices.model_files import shipped_profiles_dir
 
 
 def _profile_table(name: str, key: str) -> dict[str, Any]:
@@ -72,9 +76,16 @@ def _named(name: str, builtin: Mapping[str, L], parse: Callable[[Mapping[str, An
     return layout.without_accel() if accel is False else layout
 
 
+def shipped_can_layout(name: str) -> Path | None:
+    """The shipped layout file ``profiles/layouts/NAME.toml`` (None: there is none)."""
+    path = shipped_profiles_dir() / "layouts" / f"{name}.toml"
+    return path if "/" not in name and path.is_file() else None
+
+
 def can_layout(name: str, accel: bool | None = None) -> CanFrameLayout:
     """A frame layout by name (``shared``, ``per_axis``; an IMU's ``shared_imu``,
-    ``per_axis_imu``) or from a profile TOML's ``[can]``.
+    ``per_axis_imu``), from the ``[can]`` table of a TOML file (a profile, or a layout
+    file), or a shipped layout file by its name (``MM7.10``: ``profiles/layouts/MM7.10.toml``).
 
     ``accel`` is the URL's ``accel`` key (:func:`devices.url_query.accel_switch`): False
     reads an IMU's layout as a gyro's, True refuses a layout without accelerometers, None
@@ -86,7 +97,9 @@ def can_layout(name: str, accel: bool | None = None) -> CanFrameLayout:
         Unknown name, unreadable file, a file without a valid ``[can]`` table, or
         ``accel=1`` with a layout that carries no accelerometers.
     """
-    return _named(name, CAN_LAYOUTS, CanFrameLayout.from_table, "can", "CAN layout", accel,
+    shipped = None if name in CAN_LAYOUTS or os.path.exists(name) else shipped_can_layout(name)
+    return _named(name if shipped is None else str(shipped), CAN_LAYOUTS,
+                  CanFrameLayout.from_table, "can", "CAN layout", accel,
                   "layout=shared_imu, per_axis_imu or a [[can.accel]] table")
 
 

@@ -19,8 +19,12 @@ class CanRateSource:
 
     Frames of one sample (one per arbitration ID of the layout) are matched by their
     rolling counter and their time stamps (within half a counter period of each other,
-    so that frames a whole number of wraps apart never make one sample); a sample with a
-    frame missing is dropped and shows as a gap.
+    so that frames a whole number of wraps apart never make one sample: 7.5 samples with
+    Profile 1's counter 0..14, half a sample with no counter); a sample with a frame
+    missing is dropped and shows as a gap. A layout without a counter counts lost
+    samples from the frames' time stamps alone (elapsed time x nominal rate: a gap is
+    uncertain where the timing allows more than one count, ``missing_low`` <
+    ``missing_high``).
     A node silent for ``silence_timeout_s`` (on the unit's clock: wall s for hardware,
     simulated s for a simulation) is reported lost (DeviceDisconnectedError) and
     "reconnect" is logged when its frames come back. A silence this thread did not see
@@ -51,9 +55,10 @@ class CanRateSource:
 
     Notes
     -----
-    CRC-8 lets about one corrupted frame in 256 through: a counter that breaks the
-    sequence is held until the next frame shows whether it was a gap or a corrupted
-    counter (:class:`~devices.batching.BatchBuilder`).
+    A frame whose E2E check fails (CRC, a counter value outside its range) is a
+    "crc_error" event. CRC-8 lets about one corrupted frame in 256 through: a counter
+    that breaks the sequence is held until the next frame shows whether it was a gap or
+    a corrupted counter (:class:`~devices.batching.BatchBuilder`).
     """
 
     def __init__(self, transport: CanLink, layout: CanFrameLayout, *, model: str,
@@ -70,12 +75,17 @@ class CanRateSource:
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol="can", transport="can",
             axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
-            has_counter=True, counter_modulus=layout.counter_modulus, has_device_time=False,
-            has_temperature=has_temp, settings=transport.settings,
+            has_counter=layout.has_counter, counter_modulus=layout.counter_modulus,
+            has_device_time=False, has_temperature=has_temp, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:layout.n_accel_axes])
+        # Without a counter (modulus 1) the time stamps alone count: the node is taken to
+        # keep its schedule to a quarter of a sample period (as a 4-bit counter's count
+        # needs it to a quarter of the counter's period).
+        uncertainty_s = (max_latency_s if layout.has_counter
+                         else min(max_latency_s, 0.25 / sample_rate_hz))
         self._builder = BatchBuilder(
             len(layout.axes), CounterTracker(layout.counter_modulus, sample_rate_hz,
-                                             timing_uncertainty_s=max_latency_s),
+                                             timing_uncertainty_s=uncertainty_s),
             has_device_time=False, has_temperature=has_temp,
             # (a 4-bit counter goes round too often for its order to say anything)
             check_continuity=layout.counter_modulus >= 64,

@@ -52,8 +52,10 @@ class CounterTracker:
 
     def __init__(self, modulus: int, sample_rate_hz: float, *,
                  timing_uncertainty_s: float = 0.0) -> None:
-        if modulus < 2 or not sample_rate_hz > 0 or timing_uncertainty_s < 0:
-            raise ValueError("modulus must be >= 2, sample_rate_hz > 0 and "
+        # (modulus 1: a unit that sends no counter; every step is then counted from the
+        # elapsed time alone, raw CAN layouts without a counter)
+        if modulus < 1 or not sample_rate_hz > 0 or timing_uncertainty_s < 0:
+            raise ValueError("modulus must be >= 1, sample_rate_hz > 0 and "
                              "timing_uncertainty_s >= 0")
         self.modulus = modulus
         self.sample_rate_hz = sample_rate_hz

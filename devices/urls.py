@@ -470,8 +470,8 @@ SUPPORTED: tuple[SupportedProtocol, ...] = (
                       "serial:///dev/ttyUSB0?protocol=xbus&rate=400"),
     SupportedProtocol("can", "can", "sim+can://VG951?layout=shared&"
                       + _SIM_QUERY.format(rate=500, warp=5),
-                      "raw CAN broadcast, configurable layout (an IMU: layout=shared_imu), "
-                      "CRC-8 SAE J1850 + counter",
+                      "raw CAN broadcast, configurable layout (an IMU: layout=shared_imu; "
+                      "a unit's own: a layout file), AUTOSAR E2E Profile 1 CRC + counter",
                       "can://can0?interface=socketcan&layout=PROFILE.toml&rate=1000"),
     SupportedProtocol("canopen", "canopen", "sim+canopen://VG951/5?"
                       + _SIM_QUERY.format(rate=100, warp=4),

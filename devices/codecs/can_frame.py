@@ -1,99 +1,76 @@
 """Raw CAN frame layout of a gyro or IMU that broadcasts its rates (pure codec).
 
 A :class:`CanFrameLayout` says where each value sits: arbitration ID (one per axis or
-one shared), byte offset, width, signedness, byte order and scale; an IMU's layout also
-places its accelerations (m/s^2 per LSB). Every frame of the
-layout carries end-to-end protection as in AUTOSAR E2E profile 1: a rolling counter in
-the low bits of ``counter_byte`` and a CRC-8/SAE-J1850 in ``crc_byte`` computed over the
-``data_id`` (low byte, then high byte) and every other data byte. Layouts load from a
-profile's TOML table (:meth:`CanFrameLayout.from_table`).
+one shared), byte offset, width, signedness, byte order, scale and offset; an IMU's
+layout also places its accelerations (m/s^2), a unit's status bits are bit fields.
+A layout may protect its frames as AUTOSAR E2E Profile 1 does (:mod:`devices.codecs.e2e_p01`:
+a 4-bit alive counter 0..14 and the Profile 1 CRC over the DataID and every other data
+byte), carry a plain rolling counter (8 bits, or 4 bits running 0..15), or neither
+(``crc = "none"``, ``counter_bits = 0``). Layouts load from a TOML table
+(:meth:`CanFrameLayout.from_table`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any, Literal
 
 from devices.codecs.base import Reading
-from devices.codecs.crc import crc8_sae_j1850
+from devices.codecs.can_layout_table import layout_options
+from devices.codecs.can_signals import CanBitField, CanFrameValues, CanSignal
+from devices.codecs.e2e_p01 import (
+    ALIVE_COUNTER_BITS,
+    ALIVE_COUNTER_MODULUS,
+    DATA_ID_MODES,
+    DataIdMode,
+    p01_crc,
+)
 from devices.errors import CodecError, CrcError, FrameError
 
+#: The layout and its parts (the signals and frame values re-exported from
+#: :mod:`devices.codecs.can_signals`), and the built-in layouts.
+__all__ = ["CanBitField", "CanFrameLayout", "CanFrameValues", "CanSignal", "CrcKind",
+           "PER_AXIS_IMU_LAYOUT", "PER_AXIS_LAYOUT", "SHARED_ACCEL_LSB_M_S2",
+           "SHARED_IMU_LAYOUT", "SHARED_LAYOUT", "SHARED_RATE_LSB_DEG_S"]
 
-@dataclass(frozen=True)
-class CanSignal:
-    """One value in a frame.
-
-    Attributes
-    ----------
-    arbitration_id : int
-        CAN identifier of the frame carrying it.
-    start_byte, length : int
-        Byte offset and width (1..4 bytes).
-    signed : bool
-        Two's complement when true.
-    byte_order : {"big", "little"}
-        Byte order on the wire.
-    scale : float
-        Physical unit per LSB (deg/s for rates, m/s^2 for accelerations, degC for
-        temperature).
-    """
-
-    arbitration_id: int
-    start_byte: int
-    length: int
-    signed: bool = True
-    byte_order: Literal["big", "little"] = "big"
-    scale: float = 1.0
-
-    def extract(self, data: bytes) -> int:
-        return int.from_bytes(data[self.start_byte:self.start_byte + self.length],
-                              self.byte_order, signed=self.signed)
-
-    def insert(self, buf: bytearray, raw: int) -> None:
-        try:
-            buf[self.start_byte:self.start_byte + self.length] = raw.to_bytes(
-                self.length, self.byte_order, signed=self.signed)
-        except OverflowError as exc:
-            raise CodecError(f"value {raw} does not fit {self.length} bytes") from exc
-
-    def quantize(self, value: float) -> int:
-        """Nearest raw value of ``value`` (physical units), clipped to the width."""
-        bits = 8 * self.length
-        lo, hi = (
-            (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if self.signed else (0, (1 << bits) - 1)
-        )
-        return max(lo, min(hi, round(value / self.scale)))
-
-
-@dataclass(frozen=True)
-class CanFrameValues:
-    """The raw contents of one verified frame."""
-
-    arbitration_id: int
-    counter: int
-    raw: tuple[tuple[str, int], ...]
+CrcKind = Literal["e2e_p01", "none"]
 
 
 @dataclass(frozen=True)
 class CanFrameLayout:
-    """Where a broadcasting gyro puts its rates, counter and CRC.
+    """Where a broadcasting gyro puts its rates, counter, CRC and status bits.
 
     Attributes
     ----------
     axes : tuple of CanSignal
-        One rate signal per axis, deg/s per LSB in ``scale``.
+        One rate signal per axis, deg/s.
     temperature : CanSignal or None
-        Temperature signal, degC per LSB.
+        Temperature signal, degC.
     accel : tuple of CanSignal
-        One acceleration signal per accelerometer axis of an IMU, m/s^2 per LSB in
-        ``scale`` (empty: a gyro, or accelerometers left out).
+        One acceleration signal per accelerometer axis of an IMU, m/s^2 (empty: a gyro,
+        or accelerometers left out).
+    status : tuple of CanBitField
+        The unit's status fields; a sample's ``device_status`` is their values side by
+        side, the first in the low bits, and its ``status`` that word's invalid bits.
     counter_byte, counter_bits : int
-        Rolling counter position (low bits of that byte) and width (4 or 8 bits).
+        The counter's byte and width: 4 (a nibble of that byte), 8, or 0 (no counter:
+        the station counts lost samples from the frames' time stamps alone).
+    counter_nibble : {"low", "high"}
+        Which nibble a 4-bit counter is in.
+    counter_modulus : int
+        The counter's wrap; 0 (the default) means Profile 1's for 4 bits (15: 0..14),
+        256 for 8 bits, 1 with no counter. A 4-bit counter that runs 0..15 says 16.
+    crc : {"e2e_p01", "none"}
+        The AUTOSAR E2E Profile 1 CRC in ``crc_byte``, or none.
     crc_byte : int
-        Position of the CRC-8/SAE-J1850.
+        Position of the CRC (Profile 1's CRCOffset / 8).
     data_id : int
-        16-bit E2E data identifier folded into the CRC.
+        16-bit E2E DataID folded into the CRC.
+    data_id_mode : {"both", "low", "alt", "nibble"}
+        How the DataID goes into the CRC (``nibble``: the low nibble of its high byte is
+        sent in the counter byte's other nibble).
     dlc : int
         Data length of every frame.
     """
@@ -101,29 +78,100 @@ class CanFrameLayout:
     axes: tuple[CanSignal, ...]
     temperature: CanSignal | None = None
     accel: tuple[CanSignal, ...] = ()
+    status: tuple[CanBitField, ...] = ()
     counter_byte: int = 6
     counter_bits: int = 8
+    counter_nibble: Literal["low", "high"] = "low"
+    counter_modulus: int = 0
+    crc: CrcKind = "e2e_p01"
     crc_byte: int = 7
     data_id: int = 0
+    data_id_mode: DataIdMode = "both"
     dlc: int = 8
 
     def __post_init__(self) -> None:
-        if self.counter_bits not in (4, 8):
-            raise CodecError("counter_bits must be 4 or 8")
-        reserved = {self.counter_byte, self.crc_byte}
-        for sig in self.signals().values():
-            used = set(range(sig.start_byte, sig.start_byte + sig.length))
-            if not 1 <= sig.length <= 4 or max(used) >= self.dlc or used & reserved:
-                raise CodecError(f"signal {sig} overlaps the counter/CRC or leaves the frame")
+        if self.counter_bits not in (0, 4, 8):
+            raise CodecError("counter_bits must be 0 (no counter), 4 or 8")
+        if self.counter_nibble not in ("low", "high"):
+            raise CodecError("counter_nibble must be \"low\" or \"high\"")
+        if not self.counter_modulus:
+            default = {0: 1, ALIVE_COUNTER_BITS: ALIVE_COUNTER_MODULUS, 8: 256}
+            object.__setattr__(self, "counter_modulus", default[self.counter_bits])
+        if self.counter_bits and not 2 <= self.counter_modulus <= 1 << self.counter_bits or \
+                not self.counter_bits and self.counter_modulus != 1:
+            raise CodecError(f"counter_modulus {self.counter_modulus} does not fit a "
+                             f"{self.counter_bits}-bit counter")
+        if self.crc not in ("e2e_p01", "none"):
+            raise CodecError("crc must be \"e2e_p01\" or \"none\"")
+        if self.data_id_mode not in DATA_ID_MODES or not 0 <= self.data_id <= 0xFFFF:
+            raise CodecError(f"data_id_mode must be one of {', '.join(DATA_ID_MODES)} and "
+                             "data_id 0..0xFFFF")
+        if self.data_id_mode == "nibble" and (self.counter_bits != ALIVE_COUNTER_BITS
+                                              or self.crc == "none"):
+            raise CodecError("data_id_mode \"nibble\" needs the CRC and a 4-bit counter "
+                             "(the DataID nibble is the counter byte's other nibble)")
+        if not self.axes or not 1 <= self.dlc <= 64:
+            raise CodecError("a layout needs at least one axis and a dlc of 1..64")
+        if sum(f.bits for f in self.status) > 32:
+            raise CodecError("the status fields hold more than 32 bits")
+        self._check_positions()
+
+    def _check_positions(self) -> None:
+        """Every field inside the frame, none overlapping another in the same frame."""
+        protection = self._protection_bits()
+        used: dict[int, set[int]] = {aid: set(protection) for aid in self.arbitration_ids}
+        if protection and not 0 <= min(protection) <= max(protection) < 8 * self.dlc:
+            raise CodecError("the counter or the CRC leaves the frame")
+        for name, item in self.fields().items():
+            if isinstance(item, CanSignal) and not 1 <= item.length <= 4 or \
+                    isinstance(item, CanBitField) and not 1 <= item.bits <= 32:
+                raise CodecError(f"{name} {item}: a signal is 1..4 bytes, a status "
+                                 "field 1..32 bits")
+            bits = item.bits_used()
+            if min(bits) < 0 or max(bits) >= 8 * self.dlc or bits & used[item.arbitration_id]:
+                raise CodecError(f"{name} {item} overlaps the counter, the CRC or another "
+                                 "field, or leaves the frame")
+            used[item.arbitration_id] |= bits
+
+    def _protection_bits(self) -> set[int]:
+        """Bits the counter, the CRC and a sent DataID nibble occupy in every frame."""
+        bits: set[int] = set()
+        if self.counter_bits:
+            low = 8 * self.counter_byte
+            whole_byte = self.counter_bits == 8 or self.data_id_mode == "nibble"
+            width = 8 if whole_byte else 4
+            first = low if whole_byte else low + self._shift
+            bits |= set(range(first, first + width))
+        if self.crc != "none":
+            bits |= set(range(8 * self.crc_byte, 8 * self.crc_byte + 8))
+        return bits
 
     @property
-    def counter_modulus(self) -> int:
-        return 1 << self.counter_bits
+    def _shift(self) -> int:
+        """Bit position of the counter in its byte."""
+        return 4 if self.counter_bits == 4 and self.counter_nibble == "high" else 0
 
     @property
+    def has_counter(self) -> bool:
+        """Whether the frames carry a counter."""
+        return self.counter_bits > 0
+
+    @property
+    def is_e2e_p01(self) -> bool:
+        """Whether the frames carry AUTOSAR E2E Profile 1's CRC and alive counter."""
+        return self.crc == "e2e_p01" and self.counter_bits == ALIVE_COUNTER_BITS and \
+            self.counter_modulus == ALIVE_COUNTER_MODULUS
+
+    @cached_property
     def arbitration_ids(self) -> tuple[int, ...]:
         """Identifiers of the frames that make one sample, sorted."""
-        return tuple(sorted({s.arbitration_id for s in self.signals().values()}))
+        return tuple(sorted({s.arbitration_id for s in self.fields().values()}))
+
+    @cached_property
+    def _fields_by_frame(self) -> dict[int, tuple[tuple[str, CanSignal | CanBitField], ...]]:
+        """The fields of each frame, by arbitration ID."""
+        return {aid: tuple((n, f) for n, f in self.fields().items() if f.arbitration_id == aid)
+                for aid in self.arbitration_ids}
 
     @property
     def n_accel_axes(self) -> int:
@@ -136,8 +184,7 @@ class CanFrameLayout:
         accelerometers)."""
         if not self.accel:
             return None
-        return min(s.scale * ((1 << (8 * s.length - 1)) - 1 if s.signed
-                              else (1 << 8 * s.length) - 1) for s in self.accel)
+        return min(s.symmetric_range() for s in self.accel)
 
     def without_accel(self) -> CanFrameLayout:
         """The same layout read as a gyro's: the accelerometer signals (and the frames
@@ -145,15 +192,21 @@ class CanFrameLayout:
         return replace(self, accel=())
 
     def signals(self) -> dict[str, CanSignal]:
+        """The value signals by name: ``axisN``, ``temperature``, ``accelN``."""
         out = {f"axis{i}": s for i, s in enumerate(self.axes)}
         if self.temperature is not None:
             out["temperature"] = self.temperature
         out.update((f"accel{i}", s) for i, s in enumerate(self.accel))
         return out
 
-    def _crc(self, data: bytes) -> int:
-        body = bytes(b for i, b in enumerate(data) if i != self.crc_byte)
-        return crc8_sae_j1850(self.data_id.to_bytes(2, "little") + body)
+    def fields(self) -> dict[str, CanSignal | CanBitField]:
+        """The signals and the status fields (``statusN``) by name."""
+        out: dict[str, CanSignal | CanBitField] = dict(self.signals())
+        out.update((f"status{i}", f) for i, f in enumerate(self.status))
+        return out
+
+    def _crc(self, data: bytes | bytearray, counter: int) -> int:
+        return p01_crc(data, self.crc_byte, self.data_id, self.data_id_mode, counter)
 
     def decode(self, arbitration_id: int, data: bytes) -> CanFrameValues:
         """Verified raw values of one frame.
@@ -163,28 +216,49 @@ class CanFrameLayout:
         FrameError
             Unknown identifier or wrong length.
         CrcError
-            CRC-8 mismatch.
+            The frame fails its check: the CRC, a counter value the counter never takes
+            (15 in Profile 1's), or a DataID nibble that is not the layout's.
         """
-        if arbitration_id not in self.arbitration_ids or len(data) != self.dlc:
+        fields = self._fields_by_frame.get(arbitration_id)
+        if fields is None or len(data) != self.dlc:
             raise FrameError(f"frame 0x{arbitration_id:X} with {len(data)} bytes is not "
                              "in the layout")
-        if self._crc(data) != data[self.crc_byte]:
-            raise CrcError(f"CRC-8 mismatch in frame 0x{arbitration_id:X}")
-        counter = data[self.counter_byte] & (self.counter_modulus - 1)
-        raw = tuple((name, sig.extract(data)) for name, sig in self.signals().items()
-                    if sig.arbitration_id == arbitration_id)
+        counter = 0
+        if self.counter_bits:
+            counter = (data[self.counter_byte] >> self._shift) & ((1 << self.counter_bits) - 1)
+            if counter >= self.counter_modulus:
+                raise CrcError(f"counter {counter} in frame 0x{arbitration_id:X}: the "
+                               f"counter runs 0..{self.counter_modulus - 1}")
+        if self.crc != "none":
+            if self.data_id_mode == "nibble" and \
+                    (data[self.counter_byte] >> (4 - self._shift)) & 0x0F != self._nibble:
+                raise CrcError(f"DataID nibble mismatch in frame 0x{arbitration_id:X}")
+            if self._crc(data, counter) != data[self.crc_byte]:
+                raise CrcError(f"E2E Profile 1 CRC mismatch in frame 0x{arbitration_id:X}")
+        raw = tuple((name, item.extract(data)) for name, item in fields)
         return CanFrameValues(arbitration_id, counter, raw)
+
+    @property
+    def _nibble(self) -> int:
+        """The DataID nibble a ``nibble``-mode frame carries."""
+        return (self.data_id >> 8) & 0x0F
 
     def encode(self, values: CanFrameValues) -> bytes:
         """Data bytes of a frame (the exact inverse of :meth:`decode`)."""
         buf = bytearray(self.dlc)
-        signals = self.signals()
+        fields = self.fields()
         for name, raw in values.raw:
-            signals[name].insert(buf, raw)
+            fields[name].insert(buf, raw)
         if not 0 <= values.counter < self.counter_modulus:
             raise CodecError(f"counter {values.counter} out of 0..{self.counter_modulus - 1}")
-        buf[self.counter_byte] = values.counter
-        buf[self.crc_byte] = self._crc(bytes(buf))
+        if self.counter_bits:
+            keep = 0xFF & ~(((1 << self.counter_bits) - 1) << self._shift)
+            buf[self.counter_byte] = ((buf[self.counter_byte] & keep)
+                                      | (values.counter << self._shift))
+        if self.crc != "none":
+            if self.data_id_mode == "nibble":
+                buf[self.counter_byte] |= self._nibble << (4 - self._shift)
+            buf[self.crc_byte] = self._crc(buf, values.counter)
         return bytes(buf)
 
     def to_reading(self, frames: Mapping[int, CanFrameValues]) -> Reading:
@@ -194,16 +268,26 @@ class CanFrameLayout:
             raw.update(f.raw)
         counter = next(iter(frames.values())).counter
         temp = self.temperature
+        device_status = status = None
+        if self.status:
+            device_status, invalid, shift = 0, 0, 0
+            for i, field in enumerate(self.status):
+                device_status |= raw[f"status{i}"] << shift
+                invalid |= (field.invalid_mask & field.mask) << shift
+                shift += field.bits
+            status = device_status & invalid
         return Reading(
-            rate_deg_s=tuple(raw[f"axis{i}"] * s.scale for i, s in enumerate(self.axes)),
-            counter=counter,
-            temperature_c=None if temp is None else raw["temperature"] * temp.scale,
-            accel_m_s2=tuple(raw[f"accel{i}"] * s.scale for i, s in enumerate(self.accel))
-            if self.accel else None)
+            rate_deg_s=tuple(s.physical(raw[f"axis{i}"]) for i, s in enumerate(self.axes)),
+            counter=counter, status=status or 0,
+            temperature_c=None if temp is None else temp.physical(raw["temperature"]),
+            accel_m_s2=tuple(s.physical(raw[f"accel{i}"]) for i, s in enumerate(self.accel))
+            if self.accel else None,
+            device_status=device_status)
 
     def from_reading(self, reading: Reading) -> list[CanFrameValues]:
         """Frames of one sample, rates (and accelerations: zero where the reading has
-        none) quantized to each signal's scale."""
+        none) quantized to each signal's scale; the status fields from the reading's
+        ``device_status`` (0 where it has none)."""
         values = {f"axis{i}": s.quantize(r) for i, (s, r) in
                   enumerate(zip(self.axes, reading.rate_deg_s, strict=True))}
         if self.temperature is not None:
@@ -212,48 +296,32 @@ class CanFrameLayout:
             accel = reading.accel_m_s2 or (0.0,) * len(self.accel)
             values.update((f"accel{i}", s.quantize(a))
                           for i, (s, a) in enumerate(zip(self.accel, accel, strict=True)))
+        word = reading.device_status or 0
+        for i, field in enumerate(self.status):
+            values[f"status{i}"] = word & field.mask
+            word >>= field.bits
         counter = reading.counter % self.counter_modulus
-        signals = self.signals()
+        fields = self.fields()
         return [CanFrameValues(aid, counter, tuple((n, v) for n, v in values.items()
-                                                   if signals[n].arbitration_id == aid))
+                                                   if fields[n].arbitration_id == aid))
                 for aid in self.arbitration_ids]
 
     @classmethod
     def from_table(cls, table: Mapping[str, Any]) -> CanFrameLayout:
-        """Layout from a profile's ``[can]`` table.
-
-        Example::
-
-            counter_byte = 6
-            counter_bits = 8
-            crc_byte = 7
-            data_id = 0x1234
-            [[can.axes]]
-            arbitration_id = 0x180
-            start_byte = 0
-            length = 2
-            signed = true
-            byte_order = "big"
-            scale = 0.00390625
-            [[can.accel]]           # an IMU: one per accelerometer axis, m/s^2 per LSB
-            arbitration_id = 0x280
-            start_byte = 1
-            length = 2
-            scale = 0.0009765625
+        """Layout from a TOML ``[can]`` table (keys and defaults:
+        :mod:`devices.codecs.can_layout_table`).
 
         Raises
         ------
         CodecError
-            Missing or malformed keys.
+            A missing, unknown or mistyped key, or a layout that does not fit together (a
+            field overlapping another, the counter or the CRC; a counter wrap its width
+            cannot hold), named in the message.
         """
+        options = layout_options(table)
         try:
-            axes = tuple(CanSignal(**a) for a in table["axes"])
-            temp = table.get("temperature")
-            return cls(axes=axes, temperature=None if temp is None else CanSignal(**temp),
-                       accel=tuple(CanSignal(**a) for a in table.get("accel", ())),
-                       **{k: int(table[k]) for k in ("counter_byte", "counter_bits", "crc_byte",
-                                                     "data_id", "dlc") if k in table})
-        except (KeyError, TypeError, ValueError) as exc:
+            return cls(**options)
+        except TypeError as exc:
             raise CodecError(f"bad CAN layout table: {exc}") from exc
 
 
@@ -265,15 +333,17 @@ class CanFrameLayout:
 #: ``[can]`` layout, e.g. one int32 frame per axis (:data:`PER_AXIS_LAYOUT`).
 SHARED_RATE_LSB_DEG_S = 2.0**-13
 
-#: One frame 0x180: CRC in byte 0, X, Y, Z as int16 big-endian at
-#: :data:`SHARED_RATE_LSB_DEG_S` in bytes 1-6, an 8-bit counter in byte 7 (classic CAN:
-#: 6 data bytes leave 16 bits per axis).
+#: One frame 0x180: the Profile 1 CRC in byte 0 (DataID 0x0180), X, Y, Z as int16
+#: big-endian at :data:`SHARED_RATE_LSB_DEG_S` in bytes 1-6, an 8-bit counter in byte 7
+#: (classic CAN: 6 data bytes leave 16 bits per axis). The 8-bit counter is not Profile 1's
+#: 4-bit alive counter: it counts outages up to 256 samples without the time stamps.
 SHARED_LAYOUT = CanFrameLayout(
     axes=tuple(CanSignal(0x180, 1 + 2 * i, 2, scale=SHARED_RATE_LSB_DEG_S) for i in range(3)),
     counter_byte=7, crc_byte=0, data_id=0x0180)
 
-#: One frame per axis (0x181..0x183), int32 little-endian at 1e-6 deg/s, 4-bit counter;
-#: the X frame also carries the temperature (int16, 1/100 degC).
+#: One frame per axis (0x181..0x183), int32 little-endian at 1e-6 deg/s, AUTOSAR E2E
+#: Profile 1 (alive counter 0..14 in the low nibble of byte 6, CRC in byte 7, DataID
+#: 0x0181); the X frame also carries the temperature (int16, 1/100 degC).
 PER_AXIS_LAYOUT = CanFrameLayout(
     axes=tuple(CanSignal(0x181 + i, 0, 4, byte_order="little", scale=1e-6) for i in range(3)),
     temperature=CanSignal(0x181, 4, 2, byte_order="little", scale=0.01),
@@ -294,7 +364,7 @@ SHARED_IMU_LAYOUT = CanFrameLayout(
     counter_byte=7, crc_byte=0, data_id=0x0180)
 
 #: :data:`PER_AXIS_LAYOUT` and one frame per accelerometer axis (0x184..0x186), int32
-#: little-endian at 1e-6 m/s^2 (range +-2147 m/s^2).
+#: little-endian at 1e-6 m/s^2 (range +-2147 m/s^2), Profile 1 as the rate frames.
 PER_AXIS_IMU_LAYOUT = CanFrameLayout(
     axes=PER_AXIS_LAYOUT.axes, temperature=PER_AXIS_LAYOUT.temperature,
     accel=tuple(CanSignal(0x184 + i, 0, 4, byte_order="little", scale=1e-6) for i in range(3)),

@@ -4,8 +4,10 @@
   XOR; check value 0x0376E6E7 for ``b"123456789"``. Used by the STIM300 (over the
   datagram padded with zero bytes to a multiple of 4) and the KVH DSP-1750.
 * CRC-8/SAE-J1850: polynomial 0x1D, initial 0xFF, not reflected, final XOR 0xFF; check
-  value 0x4B for ``b"123456789"``. The AUTOSAR E2E profile 1 CRC used by the raw CAN
-  frame layout.
+  value 0x4B for ``b"123456789"``. AUTOSAR's ``Crc_CalculateCRC8`` is this CRC; AUTOSAR
+  E2E Profile 1 chains it so that its register starts at 0x00 and ends without the final
+  XOR (the parameters of CRC-8/GSM-A, check value 0x37): :mod:`devices.codecs.e2e_p01`
+  calls it with ``initial=0x00, final_xor=0x00``.
 """
 
 from __future__ import annotations
@@ -51,10 +53,25 @@ def crc32_mpeg2(data: bytes | bytearray | memoryview) -> int:
     return int(f"{reflected:032b}"[::-1], 2)
 
 
-def crc8_sae_j1850(data: bytes | bytearray | memoryview) -> int:
-    """CRC-8/SAE-J1850 of ``data`` (poly 0x1D, init 0xFF, final XOR 0xFF)."""
-    crc = 0xFF
+def crc8_sae_j1850(data: bytes | bytearray | memoryview, *, initial: int = 0xFF,
+                   final_xor: int = 0xFF) -> int:
+    """CRC-8 with the SAE J1850 polynomial 0x1D (MSB first, no reflection) of ``data``.
+
+    Parameters
+    ----------
+    data : bytes-like
+        The bytes to protect.
+    initial, final_xor : int
+        Start value of the register and the XOR applied to the result: 0xFF and 0xFF make
+        CRC-8/SAE-J1850 (the default); 0x00 and 0x00 the CRC of AUTOSAR E2E Profile 1.
+
+    Returns
+    -------
+    int
+        The 8-bit CRC.
+    """
+    crc = initial
     table = _CRC8_TABLE
     for byte in bytes(data):
         crc = table[crc ^ byte]
-    return crc ^ 0xFF
+    return crc ^ final_xor

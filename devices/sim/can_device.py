@@ -5,7 +5,8 @@ from __future__ import annotations
 import time
 
 from devices.batching import BusClock
-from devices.codecs.can_frame import CanFrameLayout
+from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
+from devices.sim.e2e_p01_protect import Profile1Protector
 from devices.sim.faults import SimCore
 from devices.sim.loop import DeviceLoop
 from devices.transports.can import CanTransport
@@ -22,7 +23,9 @@ class CanBroadcastDevice(DeviceLoop):
         Its own bus connection (a second ``virtual`` bus on the same channel, opened
         with ``preserve_timestamps=True`` so frames carry the time they fell due).
     layout : CanFrameLayout
-        The frame layout (its encoder makes the frames).
+        The frame layout: its encoder places the values; the E2E Profile 1 counter and
+        CRC are written by :class:`~devices.sim.e2e_p01_protect.Profile1Protector`, from
+        the standard's steps, not by the codec.
     core : SimCore
         Signal, schedule, faults and ledger.
     poll_s : float
@@ -47,6 +50,9 @@ class CanBroadcastDevice(DeviceLoop):
         self.poll_s = poll_s
         self.max_lag_wall_s = max_lag_wall_s
         self.stamped = stamped
+        self._protector = None if layout.crc == "none" else Profile1Protector(
+            layout.data_id, layout.data_id_mode, layout.crc_byte, layout.counter_byte,
+            (4 if layout.counter_nibble == "high" else 0) if layout.is_e2e_p01 else None)
 
     @property
     def max_lag_s(self) -> float:
@@ -92,12 +98,23 @@ class CanBroadcastDevice(DeviceLoop):
                 stamp = stamps.wall(core.due_time(reading.counter))
                 for frame in self.layout.from_reading(reading):
                     fault = core.fault_for(reading.counter)
-                    if fault == "drop":
+                    # (without the E2E CRC only the CAN controller's own CRC-15 sees a
+                    # corrupted frame: it never reaches the station)
+                    if fault == "drop" or fault == "corrupt" and self._protector is None:
                         continue
-                    data = bytearray(self.layout.encode(frame))
-                    if fault == "corrupt":
-                        data[self.layout.crc_byte ^ 1] ^= 0x01
-                    self.transport.send(frame.arbitration_id, bytes(data), stamp)
+                    self.transport.send(frame.arbitration_id,
+                                        self._frame_data(frame, reading.counter, fault), stamp)
+
+    def _frame_data(self, frame: CanFrameValues, sample_index: int, fault: str | None
+                    ) -> bytes:
+        """The data bytes of one frame of sample ``sample_index``, E2E protected, and a
+        bit flipped after the protection for a ``corrupt`` fault."""
+        data = bytearray(self.layout.encode(frame))
+        if self._protector is not None:
+            self._protector.protect(data, sample_index, frame.counter)
+        if fault == "corrupt":
+            data[self.layout.crc_byte ^ 1] ^= 0x01
+        return bytes(data)
 
 
 def broadcast_latency_s(layout: CanFrameLayout, sample_rate_hz: float, warp: float) -> float:

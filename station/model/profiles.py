@@ -558,17 +558,21 @@ def load_profile(ref: str | Path, *, search_dir: Path | None = None) -> Profile:
 
 
 def anchored_model(url: str, profile_dir: Path | None = None) -> str:
-    """``url`` with a relative ``model=`` file made absolute, so that a profile's simulation
-    works from any folder: the file relative to the profile's folder ``profile_dir``, else
-    to the folder above it (a profile in ``profiles/`` naming ``profiles/models/X.toml``),
-    else to the shipped profiles' folder (``models/X.toml``, ``profiles/models/X.toml``).
-    A model file found nowhere is left as it is (the device URL then says so)."""
-    model = url_keys(url).get("model", "")
-    if not model.endswith(".toml") or Path(model).is_absolute():
-        return url
+    """``url`` with a relative ``model=`` file (and a raw CAN ``layout=`` file) made
+    absolute, so that a profile's URL works from any folder: the file relative to the
+    profile's folder ``profile_dir``, else to the folder above it (a profile in
+    ``profiles/`` naming ``profiles/models/X.toml``), else to the shipped profiles' folder
+    (``models/X.toml``, ``layouts/X.toml``). A file found nowhere is left as it is (the
+    device URL then says so)."""
+    keys = url_keys(url)
     bases = [] if profile_dir is None else [profile_dir, profile_dir.parent]
-    for base in (*bases, PROFILE_DIR, PROFILE_DIR.parent):
-        anchored = (base / model).resolve()
-        if anchored.is_file():
-            return with_keys(url, {"model": str(anchored)})
+    for key in ("model", "layout"):
+        name = keys.get(key, "")
+        if not name.endswith(".toml") or Path(name).is_absolute():
+            continue
+        for base in (*bases, PROFILE_DIR, PROFILE_DIR.parent):
+            anchored = (base / name).resolve()
+            if anchored.is_file():
+                url = with_keys(url, {key: str(anchored)})
+                break
     return url

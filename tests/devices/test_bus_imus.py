@@ -32,7 +32,7 @@ def _accelerations(url: str, modulus: int, n: int, rate_atol: float) -> tuple[np
 
 
 @pytest.mark.parametrize(("layout", "modulus", "half_lsb"), [
-    ("shared_imu", 256, SHARED_ACCEL_LSB_M_S2 / 2), ("per_axis_imu", 16, 0.5e-6)])
+    ("shared_imu", 256, SHARED_ACCEL_LSB_M_S2 / 2), ("per_axis_imu", 15, 0.5e-6)])
 def test_raw_can_imu_sends_the_generated_accelerations(layout: str, modulus: int,
                                                         half_lsb: float) -> None:
     got, sent = _accelerations(

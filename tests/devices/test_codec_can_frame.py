@@ -1,4 +1,6 @@
-"""Raw CAN frame layouts: E2E CRC-8/SAE-J1850 and rolling counter, fuzzed with hypothesis."""
+"""Raw CAN frame layouts: AUTOSAR E2E Profile 1 CRC and counters, signals with scale and
+offset, status fields, fuzzed with hypothesis (Profile 1's reference frames:
+test_can_e2e_p01.py; the user-written layout file: test_can_layout_file.py)."""
 
 from __future__ import annotations
 
@@ -12,27 +14,34 @@ from devices.codecs.can_frame import (
     PER_AXIS_LAYOUT,
     SHARED_IMU_LAYOUT,
     SHARED_LAYOUT,
+    CanBitField,
     CanFrameLayout,
     CanFrameValues,
     CanSignal,
 )
-from devices.codecs.crc import crc8_sae_j1850
 from devices.errors import CodecError, CrcError, FrameError
 from devices.sim.signal import SignalSource
+from tests.devices.e2e_reference import p01_reference_crc
 
 FUZZ = settings(max_examples=100, deadline=None)
+#: A unit with no CRC and no counter: offset-binary rates, status nibbles.
+UNPROTECTED = CanFrameLayout(
+    axes=tuple(CanSignal(0x300 + i, 0, 2, signed=False, byte_order="little", scale=0.005,
+                         offset=-163.84) for i in range(3)),
+    status=tuple(CanBitField(0x300 + i, 20, 4, invalid_mask=0x7) for i in range(3)),
+    crc="none", counter_bits=0)
 LAYOUTS = {"shared": SHARED_LAYOUT, "per_axis": PER_AXIS_LAYOUT,
-           "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT}
+           "shared_imu": SHARED_IMU_LAYOUT, "per_axis_imu": PER_AXIS_IMU_LAYOUT,
+           "unprotected": UNPROTECTED}
 
 
 def frame_values(layout: CanFrameLayout) -> st.SearchStrategy[CanFrameValues]:
     def build(aid: int, counter: int, data: st.DataObject) -> CanFrameValues:
         raw = []
-        for name, sig in layout.signals().items():
-            if sig.arbitration_id == aid:
-                bits = 8 * sig.length
-                lo, hi = ((-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if sig.signed
-                          else (0, (1 << bits) - 1))
+        for name, item in layout.fields().items():
+            if item.arbitration_id == aid:
+                lo, hi = (item.raw_range() if isinstance(item, CanSignal)
+                          else (0, item.mask))
                 raw.append((name, data.draw(st.integers(lo, hi))))
         return CanFrameValues(aid, counter, tuple(raw))
 
@@ -45,7 +54,8 @@ def test_shared_layout_golden() -> None:
     data = SHARED_LAYOUT.encode(CanFrameValues(0x180, 44, (("axis0", 8192), ("axis1", -4096),
                                                            ("axis2", 2048))))
     assert data[1:7] == bytes.fromhex("2000F0000800") and data[7] == 44
-    assert data[0] == crc8_sae_j1850(bytes([0x80, 0x01]) + data[1:])
+    # the Profile 1 CRC from its definition: DataID 0x0180 low byte first, then bytes 1-7
+    assert data[0] == p01_reference_crc(bytes([0x80, 0x01]) + data[1:])
     reading = SHARED_LAYOUT.to_reading({0x180: SHARED_LAYOUT.decode(0x180, data)})
     assert reading.rate_deg_s == (1.0, -0.5, 0.25) and reading.counter == 44
 
@@ -59,6 +69,8 @@ def test_round_trip_and_bit_flips(name: str) -> None:
     def check(values: CanFrameValues, bit: int) -> None:
         data = layout.encode(values)
         assert layout.decode(values.arbitration_id, data) == values
+        if layout.crc == "none":
+            return  # (nothing to see a flipped bit by)
         flipped = bytearray(data)
         flipped[bit // 8] ^= 1 << (bit % 8)
         with pytest.raises(CrcError):
@@ -72,13 +84,19 @@ def test_random_frames_raise_only_codec_errors(name: str) -> None:
     layout = LAYOUTS[name]
 
     @FUZZ
-    @given(st.integers(0, 0x7FF), st.binary(max_size=8))
+    @given(st.integers(0, 0x7FF) | st.sampled_from(layout.arbitration_ids),
+           st.binary(max_size=8))
     def check(aid: int, data: bytes) -> None:
         try:
             values = layout.decode(aid, data)
         except (CrcError, FrameError):
             return
-        assert layout.encode(values) == data  # accepted only with a valid CRC
+        assert layout.decode(aid, layout.encode(values)) == values
+        if layout.crc != "none":  # accepted only with a valid CRC (bits no field uses
+            # may hold anything: the CRC covers them, nothing reads them)
+            i = layout.crc_byte
+            assert data[i] == p01_reference_crc(
+                layout.data_id.to_bytes(2, "little") + data[:i] + data[i + 1:])
 
     check()
 
@@ -87,7 +105,7 @@ def test_random_frames_raise_only_codec_errors(name: str) -> None:
 def test_reading_round_trip_to_resolution(name: str) -> None:
     layout = LAYOUTS[name]
     # within every axis' range (the shared layout's int16 at 2^-13 deg/s: +-4 deg/s)
-    limit = min(100.0, *(s.scale * ((1 << (8 * s.length - 1)) - 1) for s in layout.axes))
+    limit = min(100.0, *(s.symmetric_range() for s in layout.axes))
     rate = st.floats(-limit, limit)
 
     @FUZZ
@@ -112,13 +130,55 @@ def test_layout_from_profile_table_and_rejections() -> None:
                        "byte_order": "little", "scale": 1e-4}]}
     layout = CanFrameLayout.from_table(table)
     assert layout.axes == (CanSignal(0x200, 0, 3, True, "little", 1e-4),)
-    assert layout.counter_modulus == 16
-    with pytest.raises(CodecError):
-        CanFrameLayout.from_table({"axes": [{"arbitration_id": 1, "start_byte": 6, "length": 2}]})
-    with pytest.raises(CodecError):
-        CanFrameLayout.from_table({"axes": [{"bogus": 1}]})
+    assert layout.counter_modulus == 15 and layout.is_e2e_p01  # a 4-bit counter: Profile 1's
+    assert CanFrameLayout.from_table({**table, "counter_modulus": 16}).counter_modulus == 16
+    bad = [
+        {"axes": [{"arbitration_id": 1, "start_byte": 6, "length": 2}]},  # on the counter
+        {"axes": [{"bogus": 1}]},
+        {**table, "crc_bytes": 7},  # a typo
+        {**table, "counter_modulus": 17},  # more than 4 bits hold
+        {**table, "counter_bits": 0, "counter_modulus": 15},
+        {**table, "data_id": "0x10"},
+        {**table, "crc": "crc16"},
+        {**table, "status": [{"arbitration_id": 0x200, "start_bit": 50, "bits": 4}]},  # counter
+        {**table, "status": [{"arbitration_id": 0x200, "start_bit": 20, "bits": 4}]},  # axis
+        {**table, "axes": [{**table["axes"][0], "byte_order": "middle"}]},
+        {**table, "axes": [{**table["axes"][0], "scale": 0}]},
+    ]
+    for t in bad:
+        with pytest.raises(CodecError):
+            CanFrameLayout.from_table(t)
     with pytest.raises(FrameError):
         layout.decode(0x201, bytes(8))
+
+
+def test_a_signal_with_an_offset() -> None:
+    """The Bosch MM7.10's rate: uint16 little-endian x 0.005 - 163.84 deg/s (raw 0x8000 is
+    0 deg/s, 0 the bottom of the range, 0xFFFF 163.835 deg/s)."""
+    sig = UNPROTECTED.axes[0]
+    assert [sig.physical(r) for r in (0, 0x8000, 0xFFFF)] == pytest.approx(
+        [-163.84, 0.0, 163.835], abs=1e-9)
+    assert sig.quantize(1.0) == 0x8000 + 200 and sig.quantize(-500.0) == 0
+    data = UNPROTECTED.encode(CanFrameValues(0x300, 0, (("axis0", 0x80C8), ("status0", 0))))
+    assert data[:2] == bytes((0xC8, 0x80))
+    assert UNPROTECTED.accel_range_m_s2 is None
+    assert sig.symmetric_range() == pytest.approx(163.835)
+
+
+def test_status_fields_make_device_status_and_status() -> None:
+    """Each status field sits in its frame's bits, side by side in ``device_status`` (the
+    first in the low bits); ``status`` keeps only the bits that flag a sample not valid
+    (here bit 3 of each nibble does not)."""
+    reading = Reading((0.0, 0.0, 0.0), 0, device_status=0x8A1)  # 1, 0xA, 8 by field
+    frames = {f.arbitration_id: UNPROTECTED.decode(f.arbitration_id, UNPROTECTED.encode(f))
+              for f in UNPROTECTED.from_reading(reading)}
+    assert [UNPROTECTED.encode(f)[2] >> 4 for f in frames.values()] == [0x1, 0xA, 0x8]
+    got = UNPROTECTED.to_reading(frames)
+    assert got.device_status == 0x8A1 and got.status == 0x021
+    plain = CanFrameValues(0x180, 1, (("axis0", 0), ("axis1", 0), ("axis2", 0)))
+    decoded = SHARED_LAYOUT.decode(0x180, SHARED_LAYOUT.encode(plain))
+    # a layout without status fields carries none
+    assert SHARED_LAYOUT.to_reading({0x180: decoded}).device_status is None
 
 
 @pytest.mark.parametrize("rate_hz", [100.0, 500.0])
