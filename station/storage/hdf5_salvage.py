@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from devices.protocols import DeviceDescription
+from devices.protocols import NO_DEVICE_STATUS, DeviceDescription
 from station.errors import RecordFormatError
 from station.model.documents import Descriptor, RunStart, data_keys
 from station.model.runs import RunMetadata
@@ -99,6 +99,9 @@ def _read_unit(g: h5py.Group, unit_id: str, size: int) -> _Unit:
     for k in ("receive_time", "status"):  # a column whose header does not read: no row reads
         read.setdefault(k, (np.zeros(limit, "<f8" if k == "receive_time" else "<u4"),
                             np.zeros(limit, bool)))
+    # A file written before the device's status word was kept: none read, none sent.
+    read.setdefault("device_status", (np.full(limit, NO_DEVICE_STATUS, np.int64),
+                                      np.ones(limit, bool)))
     mended = mend_rows({k: v for k, (v, _) in read.items()}, {k: ok for k, (_, ok) in read.items()},
                        float(attrs["sample_rate_hz"]))
     ev_limit = min(_get(lambda: g["events"].shape[0], 0),
