@@ -132,6 +132,7 @@ class BatchBuilder:
         self._times: list[float] = []
         self._status: list[int] = []
         self._device_status: list[int] = []
+        self._any_device_status = False
         self._device_time: list[float] = []
         self._temperature: list[float] = []
         self._accel: list[tuple[float, ...]] = []
@@ -214,8 +215,11 @@ class BatchBuilder:
         self._counters.append(counter)
         self._times.append(item.receive_time_s)
         self._status.append(reading.status)
-        self._device_status.append(NO_DEVICE_STATUS if reading.device_status is None
-                                   else reading.device_status)
+        if reading.device_status is None:
+            self._device_status.append(NO_DEVICE_STATUS)
+        else:
+            self._device_status.append(reading.device_status)
+            self._any_device_status = True
         self._device_time.append(np.nan if reading.device_time_s is None
                                  else reading.device_time_s)
         self._temperature.append(np.nan if reading.temperature_c is None
@@ -255,8 +259,7 @@ class BatchBuilder:
             accel_m_s2=(np.asarray(self._accel, dtype=np.float64).reshape(n, self.n_accel_axes)
                         if self.n_accel_axes else None),
             device_status=(np.asarray(self._device_status, dtype=np.int64)
-                           if any(d != NO_DEVICE_STATUS for d in self._device_status)
-                           else None),
+                           if self._any_device_status else None),
         )
         self._clear()
         return batch
