@@ -15,6 +15,7 @@ import h5py
 import numpy as np
 import pytest
 
+from analysis.allan import blocks
 from devices.codecs.base import Reading
 from devices.protocols import NO_DEVICE_STATUS, DeviceDescription
 from devices.urls import _stream_codec
@@ -23,6 +24,7 @@ from station.services.run_watch import live_allan, status_json
 from station.storage.hdf5 import open_run_file, read_run, read_unit, unit_counts
 from station.storage.hdf5_recover import recover_run
 from station.storage.hdf5_writer import RunFileWriter
+from station.storage.runs import open_run
 from station.storage.sequence_files import read_segment_unit
 from station.tui.live import RunPoller
 from tests.damage_helpers import flip_in_chunks
@@ -99,6 +101,17 @@ def test_the_analysis_leaves_flagged_samples_out(run_file: Path) -> None:
     assert record.sample_index[179] == 179 and record.sample_index[180] == 280
     assert np.all(record.rate_deg_s == [1.0, 2.0, 3.0])
     assert record.temperature_c is not None and len(record.temperature_c) == record.n_samples
+
+
+def test_the_long_record_reader_leaves_them_out_too(run_file: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(blocks, "LONG_SAMPLES", 100)  # read block-wise into scratch memmaps
+    short = read_run(run_file).units[0].record
+    (unit,) = open_run(run_file).units
+    assert unit.record.n_samples == short.n_samples == N - len(FLAGGED)
+    assert unit.record.sample_index is not None and short.sample_index is not None
+    np.testing.assert_array_equal(unit.record.sample_index, short.sample_index)
+    np.testing.assert_array_equal(unit.record.rate_deg_s, short.rate_deg_s)
 
 
 def test_the_sequence_view_keeps_the_grid_of_every_recorded_sample(run_file: Path) -> None:
