@@ -54,6 +54,8 @@ class ListeningCodec:
         self.accel_range_m_s2 = codec.accel_range_m_s2
 
     def __getattr__(self, name: str) -> Any:
+        if name == "codec":  # (not set yet: no recursion)
+            raise AttributeError(name)
         return getattr(self.codec, name)
 
     def decode(self, data: bytes) -> DecodeResult[Any]:
