@@ -9,7 +9,9 @@ clock: from the device's time stamps where the protocol carries them (Xbus
 SampleTimeFine), from the counter steps at the nominal rate otherwise (STIM300, KVH).
 :class:`DumpByteTransport` plays the cuts as a :class:`~devices.replay.ReplayByteTransport`
 does a capture's reads, on that replay clock: an outage the device's time shows is a
-proven silence to the adapter, exactly as on the wire, and none is invented. The adapter
+proven silence to the adapter, exactly as on the wire, and none is invented. One step
+holds one frame, so that a read returns one sample and stamps it with its own time (a read
+of several would give them all the time of the last). The adapter
 listens only (:class:`ListeningCodec`: a dump holds no answer to a greeting), and anything
 it would write is dropped.
 """
