@@ -144,6 +144,35 @@ def test_a_file_without_device_status_still_reads(run_file: Path) -> None:
     assert read_run(run_file).units[0].record.n_samples == N - len(FLAGGED)
 
 
+def test_an_older_xbus_file_reads_its_word_as_the_device_status(tmp_path: Path,
+                                                               monkeypatch: pytest.MonkeyPatch
+                                                               ) -> None:
+    """Before device_status, an Xbus unit's status held its StatusWord (bits that mean
+    good): such a file's samples read as valid, as the station then read them."""
+    path = tmp_path / "old.h5"
+    _write(path)
+    with h5py.File(path, "r+") as f:
+        g = f["units/unit1"]
+        del g["device_status"]
+        g.attrs["protocol"] = "xbus"
+        g["status"][:] = 0x5  # a StatusWord: self test and filter valid
+    with open_run_file(path) as f:
+        unit = read_unit(f, "unit1")
+    assert unit.valid.all() and unit.device_status is not None
+    assert (unit.device_status == 0x5).all()
+    assert read_run(path).units[0].record.n_samples == N
+    monkeypatch.setattr(blocks, "LONG_SAMPLES", 100)
+    assert open_run(path).units[0].record.n_samples == N
+    assert len(RunPoller(path).poll().rate[0].y) > 0
+    damaged = flip_in_chunks(path, tmp_path / "flipped.h5", [("units/unit1/rate", 1)])
+    salvaged = recover_run(damaged, out=tmp_path / "salvage.h5").salvaged_to
+    assert salvaged
+    with open_run_file(salvaged) as f:
+        again = read_unit(f, "unit1")
+    assert again.valid.all() and again.device_status is not None
+    assert (again.device_status == 0x5).all()
+
+
 @pytest.mark.parametrize("older", [False, True])
 def test_a_salvage_keeps_the_word_or_minus_one(run_file: Path, tmp_path: Path,
                                                older: bool) -> None:

@@ -206,10 +206,26 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
 
     _check_inside(f, g, [k for k in SAMPLE_DATASETS if k in g], start, n)
 
+    status, device_status = col("status"), col("device_status")
+    if word_in_status(g):
+        status, device_status = np.zeros_like(status), np.asarray(status, np.int64)
     return UnitData(unit_id, unit_attributes(g), col("rate"), col("counter"), col("receive_time"),
-                    col("status"), col("device_time"), col("temperature"),
+                    status, col("device_time"), col("temperature"),
                     committed_events(f, unit_id), col("accel"), accel_axis_names(g),
-                    col("device_status"))
+                    device_status)
+
+
+#: Protocols whose ``status`` held the device's own word, not validity, in files written
+#: before ``device_status`` existed (the Xsens StatusWord, whose bits mean good).
+WORD_IN_STATUS = frozenset({"xbus"})
+
+
+def word_in_status(g: h5py.Group) -> bool:
+    """Whether the unit group ``g`` is of a file written before ``device_status`` existed
+    whose ``status`` holds the device's own word (:data:`WORD_IN_STATUS`): its validity
+    is not known, and its samples are read as valid, as the station then read them
+    (its ``status`` is read as 0, the word as ``device_status``)."""
+    return "device_status" not in g and text_value(g.attrs.get("protocol", "")) in WORD_IN_STATUS
 
 
 def accel_axis_names(g: h5py.Group) -> tuple[str, ...]:

@@ -32,6 +32,7 @@ from station.storage.hdf5 import (
     open_run_file,
     text_value,
     valid_samples,
+    word_in_status,
 )
 from station.storage.hdf5_open import refresh_alone
 from station.storage.scratch import scratch_array
@@ -84,6 +85,8 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
     record = RateRecord(_matrix(g, "rate", n), float(g.attrs["sample_rate_hz"]), axes, source,
                         temperature, index, accel_m_s2=accel,
                         accel_axis_names=accel_axis_names(g))
+    if word_in_status(g):  # an older file whose status is the device's word: all valid
+        return record
     refresh_alone(g["status"])
     _check_inside(f, g, ["status"], 0, n)
     status = _column(g, "status", n, np.uint32)

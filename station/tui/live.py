@@ -27,6 +27,7 @@ from station.storage.hdf5 import (
     text_value,
     unit_counts,
     unit_ids,
+    word_in_status,
 )
 from station.storage.hdf5_open import refresh_alone
 
@@ -175,7 +176,8 @@ class RunPoller:
             refresh_alone(g["rate"])
             refresh_alone(g["status"])
             rates = np.asarray(g["rate"][st.next_index:stop, 0], dtype=np.float64)
-            valid = np.asarray(g["status"][st.next_index:stop]) == 0  # the device's "good"
+            valid = (np.asarray(g["status"][st.next_index:stop]) == 0  # the device's "good"
+                     ) | word_in_status(g)
             st.averager.add(rates[valid])
             if "temperature" in g:
                 refresh_alone(g["temperature"])
