@@ -15,7 +15,7 @@ import numpy as np
 
 from devices.codecs.base import Reading
 from devices.gaps import CounterTracker
-from devices.protocols import DeviceEvent, EventKind, Gap, SampleBatch
+from devices.protocols import NO_DEVICE_STATUS, DeviceEvent, EventKind, Gap, SampleBatch
 
 
 class BusClock:
@@ -131,6 +131,8 @@ class BatchBuilder:
         self._counters: list[int] = []
         self._times: list[float] = []
         self._status: list[int] = []
+        self._device_status: list[int] = []
+        self._any_device_status = False
         self._device_time: list[float] = []
         self._temperature: list[float] = []
         self._accel: list[tuple[float, ...]] = []
@@ -213,6 +215,11 @@ class BatchBuilder:
         self._counters.append(counter)
         self._times.append(item.receive_time_s)
         self._status.append(reading.status)
+        if reading.device_status is None:
+            self._device_status.append(NO_DEVICE_STATUS)
+        else:
+            self._device_status.append(reading.device_status)
+            self._any_device_status = True
         self._device_time.append(np.nan if reading.device_time_s is None
                                  else reading.device_time_s)
         self._temperature.append(np.nan if reading.temperature_c is None
@@ -251,6 +258,8 @@ class BatchBuilder:
             gaps=tuple(self._gaps), events=tuple(self._events), crc_errors=self._crc_errors,
             accel_m_s2=(np.asarray(self._accel, dtype=np.float64).reshape(n, self.n_accel_axes)
                         if self.n_accel_axes else None),
+            device_status=(np.asarray(self._device_status, dtype=np.int64)
+                           if self._any_device_status else None),
         )
         self._clear()
         return batch

@@ -27,6 +27,10 @@ EventKind = Literal["connect", "disconnect", "reconnect", "crc_error", "resync",
 #: (a CSV record's accel_* columns read the same; a bench's x, y, z match by last token).
 ACCEL_AXIS_NAMES: tuple[str, ...] = ("accel_x", "accel_y", "accel_z")
 
+#: :attr:`SampleBatch.device_status` (and the run file's ``device_status``) of a sample
+#: that came with no status word (the protocol, or that message, carries none).
+NO_DEVICE_STATUS = -1
+
 
 @dataclass(frozen=True)
 class DeviceDescription:
@@ -169,7 +173,10 @@ class SampleBatch:
     receive_time_s : ndarray of float64, shape (n,)
         Station time (s, the adapter's clock) at which each sample was received.
     status : ndarray of uint32, shape (n,)
-        Device status flags as sent (0 = all good for every protocol here).
+        Validity by the protocol's own status bits, one convention for every protocol:
+        0 where the device says the sample is good, non-zero where it flags the sample
+        (or a part of it, the accelerations too) as not valid
+        (:attr:`devices.codecs.base.Reading.status`).
     device_time_s : ndarray or None
         Device time stamp (s), None when the protocol has none.
     temperature_c : ndarray or None
@@ -183,6 +190,10 @@ class SampleBatch:
     accel_m_s2 : ndarray, shape (n, n_accel_axes), or None
         Specific force per accelerometer axis, m/s^2, one row per rate row (the same
         datagram, counter and times); None when the source sends no accelerometer.
+    device_status : ndarray of int64, shape (n,), or None
+        The device's status word of each sample exactly as sent, -1 where the sample
+        came with none (:data:`NO_DEVICE_STATUS`); None: no sample of the batch came with
+        one.
     """
 
     rate_deg_s: NDArray[np.float64]
@@ -197,9 +208,10 @@ class SampleBatch:
     units: tuple[tuple[str, str], ...] = field(
         default=(("rate_deg_s", "deg/s"), ("receive_time_s", "s"), ("device_time_s", "s"),
                  ("temperature_c", "degC"), ("counter", "1"), ("status", "1"),
-                 ("accel_m_s2", "m/s^2")),
+                 ("accel_m_s2", "m/s^2"), ("device_status", "1")),
     )
     accel_m_s2: NDArray[np.float64] | None = None
+    device_status: NDArray[np.int64] | None = None
 
     def __len__(self) -> int:
         return int(self.counter.shape[0])

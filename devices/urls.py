@@ -29,11 +29,13 @@ from devices.codecs.kvh1750 import SYNC as KVH_SYNC, Kvh1750Codec
 from devices.codecs.modbus_map import ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.xbus import PREAMBLE, XbusCodec
+from devices.dump_replay import DumpByteTransport, ListeningCodec, dump_steps, load_dump
 from devices.errors import CodecError, DeviceConfigurationError
 from devices.modbus import ModbusRateSource
 from devices.opened import OpenedDevice, SimulatedDevice, Simulator
 from devices.protocols import RateSource
 from devices.replay import (
+    CaptureFormatError,
     ReplayByteTransport,
     ReplayCanTransport,
     load_capture,
@@ -402,11 +404,42 @@ def _open_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool) -> O
 
 # -- replay of a capture file -------------------------------------------------------
 
+def _open_dump(file: str, query: dict[str, str]) -> OpenedDevice:
+    """``replay://FILE?protocol=P``: a raw byte dump of what a unit sent, through the
+    adapter of the URL's protocol, on the device's own time or the nominal rate
+    (:mod:`devices.dump_replay`)."""
+    protocol = query["protocol"]
+    rate = query_number("rate", query["rate"], float) if "rate" in query else None
+    # (a rate that only scales a KVH's delta output: without rate= it is refused below)
+    codec, _, model = _stream_codec(protocol, query, rate or 1.0)
+    timing = dump_steps(load_dump(file), codec, rate, source=file)
+    settings = (("protocol", protocol), ("rate", f"{timing.rate_hz:g}"),
+                ("time", timing.time_source))
+    transport = DumpByteTransport(timing.steps, settings=settings, source=file,
+                                  realtime=query.get("realtime", "0") == "1")
+    source = StreamRateSource(transport, ListeningCodec(codec), model=query.get("model", model),
+                              serial_number=query.get("serial", f"replay of {file}"),
+                              sample_rate_hz=timing.rate_hz, clock=transport.clock)
+    return OpenedDevice(source, clock=transport.clock,
+                        time_base=f"the replayed dump's clock (s since its first sample, "
+                                  f"from the {timing.time_source})")
+
+
 def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     """``replay://FILE``: a capture recorded with ``capture=FILE``, played back through
-    the adapter of the protocol it was recorded with, on the recorded time base."""
+    the adapter of the protocol it was recorded with, on the recorded time base; with
+    ``protocol=``, a raw byte dump (:func:`_open_dump`)."""
     file = host + path
-    capture = load_capture(file)
+    if "protocol" in query:
+        return _open_dump(file, query)
+    if not Path(file).is_file():
+        raise DeviceConfigurationError(f"replay://{file}: no such file")
+    try:
+        capture = load_capture(file)
+    except CaptureFormatError as exc:
+        raise DeviceConfigurationError(
+            f"{exc} (a raw byte dump of what a unit sent takes the URL keys protocol= "
+            f"and rate=: replay://{file}?protocol=xbus&rate=100)") from exc
     recorded = dict(capture.settings).get("replay_url")
     if recorded is None:
         raise DeviceConfigurationError(
@@ -508,7 +541,10 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
     if transport in ("modbus+tcp", "modbus+rtu"):
         link = {"unit", "port" if transport == "modbus+tcp" else "baud"}
         return base | {"map", "oversample", "capture", "accel"} | (set() if simulate else link)
-    return frozenset({"realtime"})  # replay://FILE
+    if "protocol" in query:  # replay://DUMP?protocol=P: a raw byte dump
+        own = SERIAL_PROTOCOL_KEYS.get(query["protocol"], frozenset())
+        return HARDWARE_KEYS | own | {"protocol", "realtime"}
+    return frozenset({"realtime"})  # replay://FILE (a capture)
 
 
 def open_device(url: str) -> OpenedDevice:

@@ -186,6 +186,8 @@ def test_a_damaged_chunk_costs_only_its_own_samples(closed_run: Path, tmp_path: 
     trailing = lost if chunk == 11 else 0
     assert after.record.span_samples == before.record.span_samples - trailing
     keep = np.isin(original["unit1"][0], salvaged["unit1"][0])
+    if dataset == "status":  # flags that do not read are not "good": the analysis leaves
+        keep[chunk * 512:chunk * 512 + 512] = False  # those samples out (status alone)
     np.testing.assert_array_equal(after.record.sample_index, before.record.sample_index[keep])
     with open_run_file(result.salvaged_to) as f:
         unit = read_unit(f, "unit1")

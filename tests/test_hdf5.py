@@ -242,7 +242,7 @@ def test_a_second_reader_in_the_process_reads_the_same_samples(tmp_path: Path) -
             holding = [first[f"units/{u}/{name}"] for u in ("unit1", "unit2")
                        for name in first[f"units/{u}"]]
             again = read_run(path)
-            assert len(holding) == 14 and all(h.shape[0] > 0 for h in holding)
+            assert len(holding) == 16 and all(h.shape[0] > 0 for h in holding)
         assert alone.interrupted == (path == killed)
         for a, b in zip(alone.units, again.units, strict=True):
             assert a.record.n_samples == 6000 and len(a.events) == 6

@@ -169,12 +169,16 @@ class ModbusRegisterMap:
         def value(f: RegisterField) -> float:
             return f.unpack(registers[f.address - start:])
 
+        # A register map's status register reads 0 when the gyro is good (a map of ours:
+        # a device whose register says otherwise needs a map that turns it round).
+        word = None if self.status is None else int(value(self.status))
         return Reading(
             rate_deg_s=tuple(value(a) for a in self.axes),
             counter=int(value(self.counter)),
-            status=0 if self.status is None else int(value(self.status)),
+            status=0 if word is None else word,
             temperature_c=None if self.temperature is None else value(self.temperature),
-            accel_m_s2=tuple(value(a) for a in self.accel) if self.accel else None)
+            accel_m_s2=tuple(value(a) for a in self.accel) if self.accel else None,
+            device_status=word)
 
     def encode(self, reading: Reading) -> list[int]:
         """Register block (at :attr:`span`) holding ``reading``."""

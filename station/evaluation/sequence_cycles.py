@@ -109,17 +109,18 @@ def first_sample_unit_s(data: SegmentUnit, *, valid_only: bool = True) -> float 
     of ``receive_time - (grid index) / fs`` over the first :data:`ENVELOPE_SAMPLES`, less
     the samples declared missing before the first one received."""
     rec = data.record
-    if rec.n_samples == 0:
+    n = len(data.receive_time_s)
+    if n == 0:
         return None
-    grid = (np.arange(rec.n_samples) if rec.sample_index is None
-            else np.asarray(rec.sample_index, dtype=np.int64))
+    grid = (np.arange(n) if data.grid_index is None
+            else np.asarray(data.grid_index, dtype=np.int64))
     start = 0
     if valid_only:
         valid = np.flatnonzero(data.status == 0)
         if valid.size == 0:
             return None
         start = int(valid[0])
-    stop = min(rec.n_samples, start + ENVELOPE_SAMPLES)
+    stop = min(n, start + ENVELOPE_SAMPLES)
     k = grid[start:stop] - grid[start] + (data.leading_missing if start == 0 else 0)
     return float(np.min(data.receive_time_s[start:stop] - k / rec.sample_rate_hz))
 

@@ -20,7 +20,13 @@ from datetime import UTC, datetime
 import numpy as np
 from numpy.typing import NDArray
 
-from devices.protocols import DeviceDescription, Gap, MissingBounds, SampleBatch
+from devices.protocols import (
+    NO_DEVICE_STATUS,
+    DeviceDescription,
+    Gap,
+    MissingBounds,
+    SampleBatch,
+)
 from station.model.kinds import LogKind, LogMethod
 from station.model.runs import RunMetadata
 
@@ -62,7 +68,11 @@ def data_keys(description: DeviceDescription) -> tuple[DataKey, ...]:
                 "device sample counter, unwrapped (monotonic across wraps and gaps)"),
         DataKey("receive_time", "float64", (), description.time_unit,
                 "station receive time since the unit's start, on the unit's time base"),
-        DataKey("status", "uint32", (), "1", "device status flags as sent (0 = all good)"),
+        DataKey("status", "uint32", (), "1",
+                "validity by the protocol's own status bits: 0 = the device says the sample "
+                "is good, non-zero = it flags the sample (or a part of it) not valid"),
+        DataKey("device_status", "int64", (), "1",
+                "the device's status word as sent (-1: the sample came with none)"),
     ]
     if description.has_device_time:
         keys.append(DataKey("device_time", "float64", (), description.time_unit,
@@ -174,6 +184,9 @@ class EventBatch:
     log: tuple[LogEntry, ...] = ()
     #: Specific force, m/s^2, shape (n, n_accel_axes); None for a gyro-only unit.
     accel_m_s2: NDArray[np.float64] | None = None
+    #: The device's status word of each sample as sent (-1: none came with it); None:
+    #: no sample of the batch came with one.
+    device_status: NDArray[np.int64] | None = None
 
     def __len__(self) -> int:
         return int(self.counter.shape[0])
@@ -191,7 +204,7 @@ class EventBatch:
         log.sort(key=lambda e: e.time_s)
         return cls(unit_id, seq, batch.rate_deg_s, batch.counter, batch.receive_time_s - t0_s,
                    batch.status, batch.device_time_s, batch.temperature_c, tuple(log),
-                   batch.accel_m_s2)
+                   batch.accel_m_s2, batch.device_status)
 
     @classmethod
     def join(cls, batches: Sequence[EventBatch]) -> EventBatch:
@@ -212,7 +225,15 @@ class EventBatch:
                    np.concatenate([b.receive_time_s for b in full]),
                    np.concatenate([b.status for b in full]), cat("device_time_s"),
                    cat("temperature_c"), tuple(e for b in batches for e in b.log),
-                   cat("accel_m_s2"))
+                   cat("accel_m_s2"),
+                   None if all(b.device_status is None for b in full)
+                   else np.concatenate([b.device_status_words() for b in full]))
+
+    def device_status_words(self) -> NDArray[np.int64]:
+        """The device's status word of each sample (-1 where none came with it)."""
+        if self.device_status is None:
+            return np.full(len(self), NO_DEVICE_STATUS, dtype=np.int64)
+        return np.asarray(self.device_status, dtype=np.int64)
 
 
 def _gap_time_s(batch: SampleBatch, gap: Gap) -> float:

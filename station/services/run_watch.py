@@ -21,7 +21,8 @@ LIVE_ALLAN_MAX_SAMPLES = 200_000
 
 
 def status_json(path: Path) -> dict[str, object]:
-    """The run's state and one object per unit (rates in deg/s), from its committed data."""
+    """The run's state and one object per unit (rates in deg/s), from its committed data;
+    the newest rates and their mean are those of the valid samples (``status`` 0)."""
     with open_run_file(path) as f:
         state = run_state(f)
         units: list[dict[str, object]] = []
@@ -29,16 +30,18 @@ def status_json(path: Path) -> dict[str, object]:
             c = unit_counts(f, uid)
             rate_hz = float(f["units"][uid].attrs["sample_rate_hz"])
             tail = read_unit(f, uid, start=max(0, c.samples_recorded - max(1, round(rate_hz))))
-            has = bool(len(tail.counter))
+            valid = tail.valid  # the samples the device says are good (status 0)
+            rates = tail.rate_deg_s[valid]
+            accel = None if tail.accel_m_s2 is None else tail.accel_m_s2[valid]
+            has = bool(len(rates))
             units.append({
                 "unit": uid, "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
                 "t_s": c.last_time_s, "gaps": c.gaps,
                 "samples_missing_declared": c.samples_missing_declared,
                 "crc_errors": c.crc_errors, "reconnects": c.reconnects,
-                "newest_deg_s": tail.rate_deg_s[-1].tolist() if has else None,
-                "mean_1s_deg_s": np.mean(tail.rate_deg_s, axis=0).tolist() if has else None,
-                "newest_accel_m_s2": (tail.accel_m_s2[-1].tolist()
-                                      if has and tail.accel_m_s2 is not None else None),
+                "newest_deg_s": rates[-1].tolist() if has else None,
+                "mean_1s_deg_s": np.mean(rates, axis=0).tolist() if has else None,
+                "newest_accel_m_s2": accel[-1].tolist() if has and accel is not None else None,
             })
     writer = run_file_state(path)
     age = writer.flush_age_s() if state["state"] == "recording" else None
@@ -55,7 +58,8 @@ def live_allan(path: Path, unit: str, *, max_samples: int = LIVE_ALLAN_MAX_SAMPL
                ) -> dict[str, object]:
     """The overlapping Allan deviation of the samples ``unit`` has committed so far (the
     newest ``max_samples``), per axis: ``{"unit", "axes", "tau_s", "adev_deg_h"}``
-    (``adev_deg_h``: one list per axis, deg/h; empty lists below 4 samples). Gaps are read
+    (``adev_deg_h``: one list per axis, deg/h; empty lists below 4 samples), of the valid
+    samples (``status`` 0). Gaps, and the samples left out, are read
     as the recorder wrote them: the samples received, one after the other (a live view; the
     graded analysis declares the gaps)."""
     with open_run_file(path) as f:
@@ -64,7 +68,8 @@ def live_allan(path: Path, unit: str, *, max_samples: int = LIVE_ALLAN_MAX_SAMPL
         data = read_unit(f, unit, start=max(0, n - max_samples))
         rate = np.asarray(data.rate_deg_s, dtype=float).reshape(len(data.counter), -1)
         names = list(data.axes)
-    rate = rate[np.all(np.isfinite(rate), axis=1)]
+        valid = data.valid  # the samples the device says are good (status 0)
+    rate = rate[valid & np.all(np.isfinite(rate), axis=1)]
     if len(rate) < 4:
         return {"unit": unit, "axes": names, "tau_s": [], "adev_deg_h": [[] for _ in names]}
     result = allan_variance(rate, rate_hz, taus="octave")

@@ -63,7 +63,7 @@ STATE_DTYPE = np.dtype([("state", "S16"), ("stop_utc", "S32"), ("stop_reason", "
                         ("last_flush_utc", "S32")])
 #: Per-sample datasets of a unit, in the order the reader checks them.
 SAMPLE_DATASETS = ("rate", "counter", "receive_time", "status", "device_time", "temperature",
-                   "accel")
+                   "accel", "device_status")
 
 
 def chunk_rows(sample_rate_hz: float) -> int:
@@ -160,6 +160,15 @@ class UnitData:
     #: Specific force, m/s^2 (N, j), one row per rate row; None for a gyro-only unit.
     accel_m_s2: NDArray[np.float64] | None = None
     accel_axes: tuple[str, ...] = ()
+    #: The device's status word of each sample as sent (-1: none came with it); None in
+    #: a file written before the station kept it. Validity is ``status`` alone.
+    device_status: NDArray[np.int64] | None = None
+
+    @property
+    def valid(self) -> NDArray[np.bool_]:
+        """Which samples the device says are good (``status == 0``: the one convention
+        of every protocol, docs/hdf5-layout.md)."""
+        return np.asarray(self.status) == 0
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -197,9 +206,26 @@ def read_unit(f: h5py.File, unit_id: str, *, start: int = 0) -> UnitData:
 
     _check_inside(f, g, [k for k in SAMPLE_DATASETS if k in g], start, n)
 
+    status, device_status = col("status"), col("device_status")
+    if word_in_status(g):
+        status, device_status = np.zeros_like(status), np.asarray(status, np.int64)
     return UnitData(unit_id, unit_attributes(g), col("rate"), col("counter"), col("receive_time"),
-                    col("status"), col("device_time"), col("temperature"),
-                    committed_events(f, unit_id), col("accel"), accel_axis_names(g))
+                    status, col("device_time"), col("temperature"),
+                    committed_events(f, unit_id), col("accel"), accel_axis_names(g),
+                    device_status)
+
+
+#: Protocols whose ``status`` held the device's own word, not validity, in files written
+#: before ``device_status`` existed (the Xsens StatusWord, whose bits mean good).
+WORD_IN_STATUS = frozenset({"xbus"})
+
+
+def word_in_status(g: h5py.Group) -> bool:
+    """Whether the unit group ``g`` is of a file written before ``device_status`` existed
+    whose ``status`` holds the device's own word (:data:`WORD_IN_STATUS`): its validity
+    is not known, and its samples are read as valid, as the station then read them
+    (its ``status`` is read as 0, the word as ``device_status``)."""
+    return "device_status" not in g and text_value(g.attrs.get("protocol", "")) in WORD_IN_STATUS
 
 
 def accel_axis_names(g: h5py.Group) -> tuple[str, ...]:
@@ -363,13 +389,44 @@ def gap_insertions(counter: NDArray[np.int64], receive_time_s: NDArray[np.float6
     return at, np.array([inserted[int(k)] for k in at], dtype=np.int64)
 
 
-def unit_record(unit: UnitData, source: str) -> RateRecord:
-    """The unit's committed samples as a :class:`RateRecord` (deg/s), gaps on its time grid."""
+def unit_record(unit: UnitData, source: str, *, keep_grid: bool = False) -> RateRecord:
+    """The unit's committed valid samples as a :class:`RateRecord` (deg/s), gaps on its
+    time grid; the samples the device flagged not valid (``status`` non-zero) are left
+    out, missing on the grid as a gap's are (:func:`valid_samples`, ``keep_grid``)."""
     index = gap_sample_index(np.asarray(unit.counter), np.asarray(unit.receive_time_s), unit.events)
     accel = None if unit.accel_m_s2 is None else np.asarray(unit.accel_m_s2, dtype=np.float64)
-    return RateRecord(np.asarray(unit.rate_deg_s, dtype=np.float64), unit.sample_rate_hz,
-                      unit.axes, source, unit.temperature_c, index, accel_m_s2=accel,
-                      accel_axis_names=unit.accel_axes)
+    record = RateRecord(np.asarray(unit.rate_deg_s, dtype=np.float64), unit.sample_rate_hz,
+                        unit.axes, source, unit.temperature_c, index, accel_m_s2=accel,
+                        accel_axis_names=unit.accel_axes)
+    return valid_samples(record, unit.status, keep_grid=keep_grid)
+
+
+def valid_samples(record: RateRecord, status: NDArray[np.integer], *,
+                  keep_grid: bool = False) -> RateRecord:
+    """``record`` without the samples whose ``status`` (one per row) is not 0: those the
+    device flagged not valid, rates and accelerations alike, by the protocol's own bits
+    (docs/hdf5-layout.md, "Sample validity"). They are missing on the record's time grid,
+    as a gap's samples are, so that no figure takes them for data.
+
+    ``keep_grid``: the grid keeps its origin at the first recorded sample, valid or not
+    (``sample_index[0]`` is then the number of flagged samples before the first valid
+    one: a view that places samples against their receive times); by default it starts
+    at the first valid sample. ``record`` itself is returned when every sample is valid.
+    """
+    flagged = np.asarray(status) != 0
+    if not flagged.any():
+        return record
+    keep = ~flagged
+    rows = (np.arange(record.n_samples, dtype=np.int64) if record.sample_index is None
+            else np.asarray(record.sample_index, dtype=np.int64))[keep]
+    if not keep_grid:
+        rows = rows - rows[0] if len(rows) else rows
+    index = None if len(rows) and rows[0] == 0 and rows[-1] == len(rows) - 1 else rows
+    return RateRecord(
+        record.rate_deg_s[keep], record.sample_rate_hz, record.axis_names, record.source,
+        None if record.temperature_c is None else record.temperature_c[keep], index,
+        None if record.accel_m_s2 is None else record.accel_m_s2[keep],
+        record.accel_axis_names)
 
 
 #: Reads one unit's record from an open run file some other way (the unit id and the

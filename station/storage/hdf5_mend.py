@@ -15,7 +15,8 @@ handles it as any gap and the books count it:
   along the counter from the readable rows around it (times extrapolated at the nominal
   rate at an end, a temperature held); a column of which no row reads is left out (the
   receive time then stands in as counter / nominal rate);
-* a status chunk that does not read is filled with :data:`STATUS_UNREADABLE`;
+* a status chunk that does not read is filled with :data:`STATUS_UNREADABLE` (not valid),
+  a device-status chunk with -1 (no word read);
 * an accel chunk (an IMU's accelerations, from the rate's datagram) that does not read
   costs its rows as a rate chunk does: they are declared a gap.
 """
@@ -28,6 +29,7 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from devices.protocols import NO_DEVICE_STATUS
 from station.model.kinds import LogMethod
 from station.storage.hdf5 import EVENT_DTYPE
 from station.storage.hdf5_open import chunks_within
@@ -130,7 +132,8 @@ def mend_rows(columns: dict[str, NDArray[np.generic]], ok: dict[str, NDArray[np.
     other columns of those rows; declare the rest as gaps (see the module docstring).
 
     ``columns`` and ``ok`` hold the same names (``rate``, ``counter``, ``receive_time``,
-    ``status``, optionally ``device_time``, ``temperature`` and ``accel``), each as long as
+    ``status``, optionally ``device_status``, ``device_time``, ``temperature`` and
+    ``accel``), each as long as
     ``rate``. An IMU's ``accel`` is mended like the rate: a row kept needs both.
     """
     counter = np.array(columns["counter"], dtype=np.int64)
@@ -147,7 +150,7 @@ def mend_rows(columns: dict[str, NDArray[np.generic]], ok: dict[str, NDArray[np.
                                            "counter": kept_counter}
     if "accel" in columns:
         out["accel"] = columns["accel"][keep]
-    for name in ("receive_time", "status", "device_time", "temperature"):
+    for name in ("receive_time", "status", "device_status", "device_time", "temperature"):
         if name not in columns:
             continue
         values, good = columns[name][keep], ok[name][keep]
@@ -158,6 +161,10 @@ def mend_rows(columns: dict[str, NDArray[np.generic]], ok: dict[str, NDArray[np.
         if name == "status":
             out[name] = np.where(good, values, np.uint32(STATUS_UNREADABLE)).astype(np.uint32)
             notes.append(f"{missing} status flags unreadable (set to {STATUS_UNREADABLE:#x})")
+        elif name == "device_status":
+            out[name] = np.where(good, values, NO_DEVICE_STATUS).astype(np.int64)
+            notes.append(f"{missing} device status words unreadable (set to "
+                         f"{NO_DEVICE_STATUS})")
         elif good.any():
             per_count = 0.0 if name == "temperature" else 1.0 / rate_hz  # s per count
             out[name] = _interpolated(np.asarray(values, np.float64), good, kept_counter,

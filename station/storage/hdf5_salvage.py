@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from devices.protocols import DeviceDescription
+from devices.protocols import NO_DEVICE_STATUS, DeviceDescription
 from station.errors import RecordFormatError
 from station.model.documents import Descriptor, RunStart, data_keys
 from station.model.runs import RunMetadata
@@ -30,6 +30,7 @@ from station.storage.hdf5 import (
     STATE_DTYPE,
     fixed_text,
     text_value,
+    word_in_status,
 )
 from station.storage.hdf5_mend import mend_rows, readable_rows
 from station.storage.hdf5_open import swmr_reader
@@ -99,6 +100,13 @@ def _read_unit(g: h5py.Group, unit_id: str, size: int) -> _Unit:
     for k in ("receive_time", "status"):  # a column whose header does not read: no row reads
         read.setdefault(k, (np.zeros(limit, "<f8" if k == "receive_time" else "<u4"),
                             np.zeros(limit, bool)))
+    if _get(lambda: word_in_status(g), False):  # an older Xbus file: status held the word
+        words, ok = read["status"]
+        read["device_status"] = (np.asarray(words, np.int64), ok)
+        read["status"] = (np.zeros(limit, "<u4"), np.ones(limit, bool))
+    # A file written before the device's status word was kept: none read, none sent.
+    read.setdefault("device_status", (np.full(limit, NO_DEVICE_STATUS, np.int64),
+                                      np.ones(limit, bool)))
     mended = mend_rows({k: v for k, (v, _) in read.items()}, {k: ok for k, (_, ok) in read.items()},
                        float(attrs["sample_rate_hz"]))
     ev_limit = min(_get(lambda: g["events"].shape[0], 0),

@@ -48,7 +48,8 @@ from station.storage.hdf5 import (
 
 _BATCH_FIELDS = {"rate": "rate_deg_s", "counter": "counter", "receive_time": "receive_time_s",
                  "status": "status", "device_time": "device_time_s",
-                 "temperature": "temperature_c", "accel": "accel_m_s2"}
+                 "temperature": "temperature_c", "accel": "accel_m_s2",
+                 "device_status": "device_status"}
 
 #: Files whose writer failed on a full disk: their HDF5 objects are kept alive so that
 #: nothing tries to flush them again at garbage collection or at exit (it would fail
@@ -200,8 +201,11 @@ class RunFileWriter:
         for name in SAMPLE_DATASETS:
             if name not in g or n == 0:
                 continue
-            parts = [getattr(b, _BATCH_FIELDS[name]) for b in batches]
-            data = np.concatenate([p for p in parts if p is not None])
+            if name == "device_status":  # -1 where a sample came with no status word
+                data = np.concatenate([b.device_status_words() for b in batches])
+            else:
+                parts = [getattr(b, _BATCH_FIELDS[name]) for b in batches]
+                data = np.concatenate([p for p in parts if p is not None])
             ds = g[name]
             ds.resize(n0 + n, axis=0)
             ds[n0:n0 + n] = data

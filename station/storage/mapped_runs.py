@@ -6,8 +6,10 @@ chunks at a time and only those columns; the :class:`RateRecord` it returns view
 (``rate_deg_s[:, i]`` is one contiguous axis). ``station analyze`` reads its unit so
 (:func:`read_long_unit`), and :func:`station.storage.runs.open_run` every unit of a run
 (grading, reports); a unit with gaps gets its sample index (the grid index of each
-sample, :func:`station.storage.hdf5.gap_sample_index`) in a scratch memmap as well. Short
-units are read by :func:`station.storage.hdf5.read_unit`.
+sample, :func:`station.storage.hdf5.gap_sample_index`) in a scratch memmap as well. Samples
+the device flagged not valid (``status`` non-zero) are left out, as
+:func:`station.storage.hdf5.unit_record` leaves them out of a short unit. Short units are
+read by :func:`station.storage.hdf5.read_unit`.
 """
 
 from __future__ import annotations
@@ -29,6 +31,8 @@ from station.storage.hdf5 import (
     gap_insertions,
     open_run_file,
     text_value,
+    valid_samples,
+    word_in_status,
 )
 from station.storage.hdf5_open import refresh_alone
 from station.storage.scratch import scratch_array
@@ -78,8 +82,16 @@ def long_unit_record(f: h5py.File, uid: str, source: str) -> RateRecord | None:
     temperature = _column(g, "temperature", n, np.float64) if "temperature" in g else None
     index = _sample_index(g, events, n) if gapped else None
     accel = _matrix(g, "accel", n) if "accel" in g else None
-    return RateRecord(_matrix(g, "rate", n), float(g.attrs["sample_rate_hz"]), axes, source,
-                      temperature, index, accel_m_s2=accel, accel_axis_names=accel_axis_names(g))
+    record = RateRecord(_matrix(g, "rate", n), float(g.attrs["sample_rate_hz"]), axes, source,
+                        temperature, index, accel_m_s2=accel,
+                        accel_axis_names=accel_axis_names(g))
+    if word_in_status(g):  # an older file whose status is the device's word: all valid
+        return record
+    refresh_alone(g["status"])
+    _check_inside(f, g, ["status"], 0, n)
+    status = _column(g, "status", n, np.uint32)
+    # the samples the device flagged not valid are left out (a copy in memory: rare)
+    return valid_samples(record, status) if np.any(status) else record
 
 
 def _matrix(g: h5py.Group, name: str, n: int) -> NDArray[np.float64]:

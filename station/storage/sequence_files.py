@@ -34,7 +34,13 @@ from station.errors import RecordFormatError
 from station.model.records import RateRecord
 from station.model.sequence_runs import JournalEntry, Segment, SequenceRun
 from station.model.sequences import Step
-from station.storage.hdf5 import open_run_file, read_unit, text_value, unit_record
+from station.storage.hdf5 import (
+    gap_sample_index,
+    open_run_file,
+    read_unit,
+    text_value,
+    unit_record,
+)
 
 FORMAT = "gyro-station-sequence"
 FORMAT_VERSION = 1
@@ -155,8 +161,9 @@ class SegmentUnit:
     Attributes
     ----------
     record : RateRecord
-        Rates (deg/s) on the sample grid (gaps as NaN rows via ``sample_index``), the
-        temperature the unit reported.
+        The valid samples' rates (deg/s) on the sample grid (gaps, and the samples the
+        device flagged not valid, as NaN rows via ``sample_index``; the grid starts at
+        the first recorded sample), the temperature the unit reported.
     receive_time_s : ndarray
         Receive time of each recorded sample, s on the unit's time base (from
         ``start_utc``).
@@ -171,6 +178,9 @@ class SegmentUnit:
     leading_missing : int
         Samples the recorder declared missing before the first it received (a simulated
         unit counts from 0 at its start: what it sent before it was first read).
+    grid_index : ndarray or None
+        The grid index of each recorded sample, valid or not (None: ``0 .. n - 1``):
+        ``record`` holds only the valid samples (``status`` 0) on the same grid.
     """
 
     record: RateRecord
@@ -181,6 +191,7 @@ class SegmentUnit:
     time_warp: float
     attrs: dict[str, Any]
     leading_missing: int = 0
+    grid_index: NDArray[np.int64] | None = None
 
 
 def read_segment_unit(path: str | Path, unit_id: str) -> SegmentUnit:
@@ -209,7 +220,8 @@ def read_segment_unit(path: str | Path, unit_id: str) -> SegmentUnit:
         before = ((ev["kind"] == b"gap") & (ev["after_counter"] < 0)
                   & (ev["time_s"] <= receive[0]))
         leading = int(ev["missing_samples"][before].sum())
-    return SegmentUnit(unit_record(u, f"{path}#{unit_id}"), receive,
-                       np.asarray(u.counter, dtype=np.int64), np.asarray(u.status),
-                       start_wall, float(u.attrs.get("time_warp", 1.0)), dict(u.attrs),
-                       leading)
+    counter = np.asarray(u.counter, dtype=np.int64)
+    return SegmentUnit(unit_record(u, f"{path}#{unit_id}", keep_grid=True), receive,
+                       counter, np.asarray(u.status), start_wall,
+                       float(u.attrs.get("time_warp", 1.0)), dict(u.attrs), leading,
+                       gap_sample_index(counter, receive, u.events))

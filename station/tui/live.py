@@ -5,7 +5,8 @@ committed since the previous poll (at most :data:`MAX_SAMPLES_PER_POLL` samples 
 that reattaching to a long run catches up over several polls without freezing), and
 returns a :class:`LiveSnapshot`: the run state, the progress, one :class:`UnitStatus` per
 unit, and per unit a decimated rate series and the Allan deviation of its first axis
-computed from 0.1-s averages (every tau from 0.1 s up grows as the run grows).
+computed from 0.1-s averages of the valid samples (``status`` 0: docs/hdf5-layout.md; every
+tau from 0.1 s up grows as the run grows).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from station.storage.hdf5 import (
     text_value,
     unit_counts,
     unit_ids,
+    word_in_status,
 )
 from station.storage.hdf5_open import refresh_alone
 
@@ -167,11 +169,16 @@ class RunPoller:
         return st
 
     def _read_new(self, g: h5py.Group, st: _UnitState, committed: int) -> bool:
-        """Read samples ``next_index:`` (bounded) of the first axis; True when caught up."""
+        """Read samples ``next_index:`` (bounded) of the first axis, the valid ones
+        (``status`` 0) into the averages; True when caught up."""
         stop = min(committed, st.next_index + self.max_samples_per_poll)
         if stop > st.next_index and st.averager is not None:
             refresh_alone(g["rate"])
-            st.averager.add(np.asarray(g["rate"][st.next_index:stop, 0], dtype=np.float64))
+            refresh_alone(g["status"])
+            rates = np.asarray(g["rate"][st.next_index:stop, 0], dtype=np.float64)
+            valid = (np.asarray(g["status"][st.next_index:stop]) == 0  # the device's "good"
+                     ) | word_in_status(g)
+            st.averager.add(rates[valid])
             if "temperature" in g:
                 refresh_alone(g["temperature"])
                 st.temperature_c = float(g["temperature"][stop - 1])
