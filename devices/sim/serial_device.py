@@ -13,6 +13,7 @@ import errno
 import os
 import tempfile
 import tty
+from collections.abc import Callable
 from typing import Any
 
 from devices.codecs.base import Reading, StreamCodec
@@ -38,12 +39,18 @@ class PtySerialDevice(DeviceLoop):
         period) are booked lost instead of sent late (see :meth:`SimCore.due`), and so
         are frames the port cannot take when they are due: a real gyro sends on time,
         whatever the host does.
+    encode : callable or None
+        The wire bytes of a sample (a reading whose ``counter`` is its index), where the
+        simulated unit builds them itself (a STIM300 from its data sheet:
+        :mod:`devices.sim.stim300_unit`); default: the codec's encoder.
     """
 
     def __init__(self, codec: StreamCodec[Any], core: SimCore, *, header: bytes = b"",
-                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05) -> None:
+                 poll_s: float = 0.002, max_lag_wall_s: float = 0.05,
+                 encode: Callable[[Reading], bytes] | None = None) -> None:
         super().__init__()
         self.codec = codec
+        self._encode = encode or (lambda r: codec.encode(codec.from_reading(r)))
         self.core = core
         self.header = header
         self.poll_s = poll_s
@@ -81,8 +88,8 @@ class PtySerialDevice(DeviceLoop):
         period, so that the samples it still sends after a stall cannot shift the stall's
         wrap count."""
         core = self.core
-        return min(self.max_lag_wall_s * core.clock.warp,
-                   self.codec.counter_modulus / core.sample_rate_hz / 4.0)
+        wrap = self.codec.counter_modulus // getattr(self.codec, "counter_step", 1)
+        return min(self.max_lag_wall_s * core.clock.warp, wrap / core.sample_rate_hz / 4.0)
 
     @property
     def max_latency_s(self) -> float:
@@ -146,8 +153,7 @@ class PtySerialDevice(DeviceLoop):
         core, frames = self.core, []
         for reading in readings:
             before = core.ledger.delivered
-            wire = core.wire(self.codec.encode(self.codec.from_reading(reading)),
-                             reading.counter, header=self.header)
+            wire = core.wire(self._encode(reading), reading.counter, header=self.header)
             frames.append((wire, reading.counter, core.ledger.delivered > before))
         return frames
 
