@@ -29,7 +29,9 @@ from tests.devices.helpers import (
 
 # (protocol, resolution of the rate on the wire in deg/s, relative float32 resolution)
 PROTOCOLS = [("stim300", 0.5 / 2**14, 0.0), ("kvh1750", 0.0, 1e-7), ("xbus", 0.0, 1e-7)]
-MODULUS = {"stim300": 256, "kvh1750": 128, "xbus": 65536}
+#: Samples per counter wrap at 500 Hz (a STIM300's 8-bit counter counts its 2000 Hz
+#: internal samples, TS1524 7.5.2.2.18: 256 counts are 64 datagrams at 500 Hz).
+MODULUS = {"stim300": 64, "kvh1750": 128, "xbus": 65536}
 
 
 @pytest.mark.parametrize(("protocol", "atol", "rtol"), PROTOCOLS)
@@ -92,7 +94,7 @@ def test_stall_longer_than_counter_period_counted_from_elapsed_time() -> None:
         dev.source.open()
         got = collect(dev.source, 2500)
         core = dev.simulator.core
-        offset = device_index(got, core, 256)
+        offset = device_index(got, core, MODULUS["stim300"])
         lo, hi = int(got.counter[0]) + offset, int(got.counter[-1]) + offset
         lost = {i for i in core.ledger.lost_indices.copy() if lo <= i <= hi}
         assert len(lost) >= 300
