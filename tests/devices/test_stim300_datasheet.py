@@ -22,6 +22,7 @@ from devices.stream import StreamRateSource
 from devices.transports.serial import SerialTransport
 from devices.urls import open_device
 from station.cli import main as station_main
+from tests.devices.helpers import collect, gap_truths
 
 CAPTURES = Path(__file__).resolve().parents[2].parent / "shared" / "real-captures" / "stim300"
 REAL = CAPTURES / "stim300_geirhovland_0xAF_reconstructed.bin"
@@ -205,3 +206,18 @@ def test_the_cli_refuses_a_rate_the_unit_does_not_offer(tmp_path: Path, capsys) 
     assert code == 2 and "Traceback" not in err
     (line,) = [x for x in err.splitlines() if "unit1" in x]
     assert "Table 5-11" in line
+
+
+def test_outages_of_a_data_sheet_unit_are_intervals_that_hold() -> None:
+    """A simulated STIM300 at 500 Hz (a counter wrap every 0.128 s, 64 datagrams) cut off
+    for 2 s at a time: only time counts the wraps, and each gap's interval holds the
+    samples really lost (found from the simulated signal, not from the counter)."""
+    url = ("sim+serial://STIM300?protocol=stim300&rate=500&warp=5&history=100000&seed=3"
+           "&disconnect_every_s=1.0&disconnect_for_s=2")
+    with open_device(url) as dev:
+        dev.source.open()
+        got = collect(dev.source, 1500, deadline_s=30)
+        truths = gap_truths(got, dev.simulator.core, dev.source.describe().counter_modulus)
+    outages = [t for t in truths if t.lost > 500]
+    assert outages and all(t.held for t in truths)
+    assert {t.declared.method for t in outages if t.declared} == {"counter+elapsed"}

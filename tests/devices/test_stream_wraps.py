@@ -112,9 +112,11 @@ def test_sim_stalls_with_a_starved_reader_are_exact() -> None:
     """A simulated STIM300 stalls for 0.1 s (50 samples, under half a counter period)
     every 0.5 s while its reader, after every silent read, is starved for 1 s of the
     device's time (500 samples, more than the pty holds: the device waits for the
-    reader): every gap is exactly the samples the device lost, no wrap invented."""
-    url = ("sim+serial://STIM300?protocol=stim300&rate=500&warp=5&seed=5&history=100000"
-           "&stall_every_s=0.5&stall_for_s=0.1")
+    reader): every gap is exactly the samples the device lost, no wrap invented. (Its
+    counter counts datagrams, ``counter=datagram``: an 8-bit counter that wraps every
+    0.512 s; a data sheet STIM300's wraps every 0.128 s, see test_stim300_datasheet.py.)"""
+    url = ("sim+serial://STIM300?protocol=stim300&counter=datagram&rate=500&warp=5&seed=5"
+           "&history=100000&stall_every_s=0.5&stall_for_s=0.1")
     with open_device(url) as dev:
         dev.source.open()
         got = Collected()
@@ -125,7 +127,7 @@ def test_sim_stalls_with_a_starved_reader_are_exact() -> None:
             if not len(batch):
                 time.sleep(0.2)  # 1 s at warp 5: 500 samples
         core = dev.simulator.core
-        offset = device_index(got, core, 64)  # samples per wrap at 500 Hz
+        offset = device_index(got, core, 256)
         declared, lost = check_accounting(got, core, offset)
         assert len(lost) >= 200  # the stalls happened
         assert declared == lost
