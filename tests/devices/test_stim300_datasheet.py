@@ -17,6 +17,7 @@ import pytest
 from devices.codecs.crc import crc32_mpeg2
 from devices.codecs.stim300 import Stim300Codec
 from devices.errors import CodecError, DeviceConfigurationError
+from devices.gaps import CounterTracker, counter_samples
 from devices.sim.stim300_unit import SimulatedStim300, sheet_crc
 from devices.stream import StreamRateSource
 from devices.transports.serial import SerialTransport
@@ -221,3 +222,23 @@ def test_outages_of_a_data_sheet_unit_are_intervals_that_hold() -> None:
     outages = [t for t in truths if t.lost > 500]
     assert outages and all(t.held for t in truths)
     assert {t.declared.method for t in outages if t.declared} == {"counter+elapsed"}
+
+
+def test_a_counter_that_steps_by_16_is_counted_in_samples() -> None:
+    """CounterTracker with the STIM300's counter at 125 Hz: modulus 256 counted at 2000 Hz
+    is 16 samples a wrap; one datagram lost is 1 missing (not 31); 2 s of silence (250
+    samples, 15.6 wraps) is counted from the time, and its interval holds the truth."""
+    tracker = CounterTracker(256, 125.0, counter_step=16)
+    assert tracker.modulus == 16
+    assert tracker.update(7, 0.0) == (0, None)
+    assert tracker.update(23, 0.008) == (1, None)
+    counter, gap = tracker.update(55, 0.024)  # 39 was lost
+    assert counter == 3 and gap is not None
+    assert (gap.missing_samples, gap.low, gap.high) == (1, 1, 1)
+    sent = 3 + 251  # 250 lost, then this one
+    counter, gap = tracker.update((7 + 16 * sent) % 256, 2.032, elapsed_s=2.008,
+                                  elapsed_range_s=(1.95, 2.14))
+    assert gap is not None and gap.method == "counter+elapsed"
+    # 190 ms of uncertainty, more than a wrap (128 ms): two wrap counts fit
+    assert gap.low <= 250 <= gap.high and gap.high - gap.low == 16
+    assert counter_samples(7, 30, 256, 16) == 1  # a step off the grid: the nearest sample
