@@ -53,7 +53,7 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   received sample found in the simulated signal, not by its counter:
   ``tests/devices/helpers.py`` ``gap_truths``). Books balanced: trials in which every
   interval held what was sent; printed per case: gaps held of gaps, and the median width
-  (samples) of the outages' intervals.
+  (samples) of the intervals of the gaps longer than a counter wrap.
 * ``results database outage``: 12 gradings stored through the station's store queue into
   a real PostgreSQL server (``tests/postgres_server.py``) stopped after a random 0-6 of
   them for a random 0.5-4 s; then the 12 stored again (a fleet run again). Data lost: the
@@ -541,7 +541,7 @@ def main() -> None:
         if case.held[1]:
             width = f"{statistics.median(case.widths):g}" if case.widths else "-"
             print(f"  intervals held {case.held[0]} of {case.held[1]} gaps; median width "
-                  f"of the outages' intervals {width} samples ({len(case.widths)} outages)")
+                  f"{width} samples over the {len(case.widths)} gaps longer than a wrap")
         bad += [f"{name}: {e}" for e in case.bad_errors]
     for line in bad[:20]:
         print("  " + line)
