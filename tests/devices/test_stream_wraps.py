@@ -1,11 +1,12 @@
 """Wrap counts of a byte-stream gyro: only a proven silence adds counter wraps.
 
 An 8-bit counter of datagrams (the STIM300 layout, its counter counting datagrams:
-``Stim300Codec`` without a rate, ``counter=datagram``) at 500 Hz wraps every 0.512 s. A reader starved for longer
-than half of that must not invent wraps (it used to date the frames after a silence by
-the time it got to them), while a real silence of 0.7 s must still be counted whole.
-The device here is scripted: a test thread writes real STIM300 datagrams into a pty (a
-real tty for pyserial), so the timing is exactly the one each test describes.
+``Stim300Codec`` without a rate, ``counter=datagram``) at 500 Hz wraps every 0.512 s.
+A reader starved for longer than half of that must not invent wraps (it used to date the
+frames after a silence by the time it got to them), while a real silence of 0.7 s must
+still be counted whole. The device here is scripted: a test thread writes real STIM300
+datagrams into a pty (a real tty for pyserial), so the timing is exactly the one each
+test describes.
 """
 
 from __future__ import annotations
