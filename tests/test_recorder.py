@@ -139,7 +139,7 @@ def test_bad_configuration_is_refused_before_the_run_starts(
         "unknown profile": (["--profile", "NO-SUCH-GYRO", "--unit", sim], "NO-SUCH-GYRO"),
         "bad url": (["--unit", "carrier-pigeon://gyro"], "bad device URL"),
         "unreachable": (["--profile", "VG951", "--unit",
-                         f"serial://{tmp_path}/ttyNOPE?protocol=stim300&rate=10"],
+                         f"serial://{tmp_path}/ttyNOPE?protocol=stim300&rate=125"],
                         "device not reachable"),
         "rate": (["--profile", "VG951", "--unit", sim.replace("rate=10", "rate=100")],
                  "reports 100 Hz, profile VG951 expects 10 Hz"),
