@@ -242,3 +242,16 @@ def test_a_counter_that_steps_by_16_is_counted_in_samples() -> None:
     # 190 ms of uncertainty, more than a wrap (128 ms): two wrap counts fit
     assert gap.low <= 250 <= gap.high and gap.high - gap.low == 16
     assert counter_samples(7, 30, 256, 16) == 1  # a step off the grid: the nearest sample
+
+
+def test_a_unit_borrowing_the_layout_counts_datagrams_at_any_rate() -> None:
+    """``counter=datagram``: a unit of another model sending STIM300 datagrams (or a
+    simulated one, where it is set for it) counts its datagrams, at a rate no STIM300
+    offers; a STIM300 at an offered rate counts samples, 64 a wrap at 500 Hz."""
+    url = "serial:///dev/does-not-exist?protocol=stim300&counter=datagram&rate=100"
+    with open_device(url) as dev:
+        assert dev.source.describe().counter_modulus == 256
+    with open_device("sim+serial://VG951?protocol=stim300&rate=10&seed=1") as dev:
+        assert dev.source.describe().counter_modulus == 256
+    with open_device("serial:///dev/does-not-exist?protocol=stim300&rate=500") as dev:
+        assert dev.source.describe().counter_modulus == 64
