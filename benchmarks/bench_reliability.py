@@ -44,6 +44,16 @@ Cases (each repeated ``--trials`` times, on this machine as it is loaded):
   (``tests/devices/test_can_devices.py``). Books balanced: the samples declared missing are
   exactly those the simulated node lost; errors: a sample the node lost returned as a
   sample (frames of two samples a wrap apart joined).
+* ``STIM300 outages (counter at 2000 Hz)`` / ``KVH DSP-1750 outages (sequence 0..127)``:
+  a simulated STIM300 at 500 Hz built from its data sheet (TS1524 7.5.2.2.18: the 8-bit
+  counter counts the 2000 Hz internal samples, so it steps by 4 and wraps every 0.128 s)
+  at warp 5 and a simulated DSP-1750 at 1000 Hz (sequence 0..127, one per message: a wrap
+  every 0.128 s too) at warp 2, cut off for 7 s every 0.5 s, read until 1500 samples came. Each
+  gap's declared interval is checked against the samples the simulator really lost (each
+  received sample found in the simulated signal, not by its counter:
+  ``tests/devices/helpers.py`` ``gap_truths``). Books balanced: trials in which every
+  interval held what was sent; printed per case: gaps held of gaps, and the median width
+  (samples) of the intervals of the gaps longer than a counter wrap.
 * ``results database outage``: 12 gradings stored through the station's store queue into
   a real PostgreSQL server (``tests/postgres_server.py``) stopped after a random 0-6 of
   them for a random 0.5-4 s; then the 12 stored again (a fleet run again). Data lost: the
@@ -69,6 +79,7 @@ import random
 import resource
 import shutil
 import signal
+import statistics
 import subprocess
 import tempfile
 import time
@@ -86,7 +97,7 @@ from station.storage.hdf5 import read_run
 from station.storage.hdf5_recover import recover_run
 from tests import sequence_kill
 from tests.damage_helpers import damaged_copies, flip_in_chunks, sweep
-from tests.devices.helpers import check_accounting, collect, device_index
+from tests.devices.helpers import check_accounting, collect, device_index, gap_truths
 from tests.test_damaged_runs import _write_run
 from tests.test_recorder_books import UNITS, _at_warp
 from tests.test_recorder_helpers import (
@@ -114,6 +125,8 @@ class Case:
     bad_errors: list[str] = field(default_factory=list)
     kept: dict[str, list[int]] = field(default_factory=dict)  # damage -> [kept, committed]
     told_after_s: list[float] = field(default_factory=list)
+    widths: list[int] = field(default_factory=list)  # outage intervals, samples
+    held: list[int] = field(default_factory=lambda: [0, 0])  # gaps held, gaps
 
     def line(self) -> str:
         lost = f"{max(self.lost_s):.3f}" if self.lost_s else "-"
@@ -457,6 +470,33 @@ def can_wraps_trial(case: Case, tmp: Path, rng: random.Random) -> None:
     case.balanced += declared == lost
 
 
+def counter_outage_trial(case: Case, rng: random.Random, protocol: str, rate_hz: int,
+                         warp: int) -> None:
+    """One device cut off for 7 s at a time; every gap's interval against the truth."""
+    seed = rng.randrange(1 << 16)
+    url = (f"sim+serial://{'STIM300' if protocol == 'stim300' else 'DSP-1750'}?"
+           f"protocol={protocol}&rate={rate_hz}&warp={warp}&history=400000&seed={seed}"
+           "&disconnect_every_s=0.5&disconnect_for_s=7")
+    case.trials += 1
+    try:
+        with open_device(url) as dev:
+            dev.source.open()
+            got = collect(dev.source, 1500, deadline_s=90)
+            modulus = dev.source.describe().counter_modulus
+            truths = gap_truths(got, dev.simulator.core, modulus)
+    except AssertionError as exc:
+        case.bad_errors.append(f"seed {seed}: {exc}")
+        return
+    held = sum(t.held for t in truths)
+    case.held[0] += held
+    case.held[1] += len(truths)
+    case.widths += [t.width for t in truths if t.lost > modulus]
+    case.books_checked += 1
+    case.balanced += held == len(truths)
+    case.bad_errors += [f"seed {seed}: {t.lost} lost, declared {t.declared}"
+                        for t in truths if not t.held]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--trials", type=int, default=10)
@@ -475,7 +515,11 @@ def main() -> None:
              "damaged files": damaged_trial, "damaged chunks": chunk_trial,
              "sequence kill -9 + resume": sequence_trial,
              "results database outage": outage_trial,
-             "raw CAN frames across outages": can_wraps_trial}
+             "raw CAN frames across outages": can_wraps_trial,
+             "STIM300 outages (counter at 2000 Hz)":
+                 lambda c, t, r: counter_outage_trial(c, r, "stim300", 500, 5),
+             "KVH DSP-1750 outages (sequence 0..127)":
+                 lambda c, t, r: counter_outage_trial(c, r, "kvh1750", 1000, 2)}
     print(f"# bench_reliability: {args.trials} trials per case, seed {args.seed}, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
     print(f"{'case':34s}{'trials':>7s}{'data lost max s':>16s}{'books balanced':>16s}"
@@ -495,6 +539,10 @@ def main() -> None:
         print(case.line(), flush=True)
         for damage, (kept, committed) in case.kept.items():
             print(f"  {damage:40s} samples kept {kept} of {committed}")
+        if case.held[1]:
+            width = f"{statistics.median(case.widths):g}" if case.widths else "-"
+            print(f"  intervals held {case.held[0]} of {case.held[1]} gaps; median width "
+                  f"{width} samples over the {len(case.widths)} gaps longer than a wrap")
         bad += [f"{name}: {e}" for e in case.bad_errors]
     for line in bad[:20]:
         print("  " + line)

@@ -184,7 +184,7 @@ class BatchBuilder:
                 self._held = item
             return
         modulus = self.tracker.modulus
-        from_held = (reading.counter - held.reading.counter) % modulus or modulus
+        from_held = self.tracker.samples_between(held.reading.counter, reading.counter)
         # Time enough between the last sample and this one for the counter to have gone
         # round: the order of counters says nothing, the jump is taken for a gap.
         span = (_sum(held.elapsed_s, elapsed_s) if elapsed_s is not None else

@@ -1,6 +1,13 @@
 """Counting lost samples from a wrapping device counter, elapsed time and nominal rate.
 
-A wrapping counter (8-bit on a STIM300, 0..127 on a KVH) alone cannot count an outage
+A counter may advance by one per sample (a KVH DSP-1750's sequence number 0..127) or by a
+fixed step per sample: a STIM300's 8-bit counter counts the unit's internal samples at
+2000 Hz (TS1524 rev. 31, section 7.5.2.2.18), so at an output rate of 125 Hz it advances
+by 16 a datagram and wraps after 16 datagrams (0.128 s at every rate). The tracker counts
+in samples: ``counter_step`` counter units make one sample, ``modulus // counter_step``
+samples one wrap, and the unwrapped counter it returns is in samples.
+
+A wrapping counter alone cannot count an outage
 longer than its period: :class:`CounterTracker` takes the counter residue as exact and
 chooses the number of wraps from the elapsed time and the nominal rate: the device's own
 time stamps where the protocol has them; else a send-time estimate (a bus's frame time
@@ -34,7 +41,7 @@ class CounterTracker:
     Parameters
     ----------
     modulus : int
-        Counter wrap (256, 128, 65536, ...).
+        Counter wrap, counter units (256, 128, 65536, ...).
     sample_rate_hz : float
         Nominal sample rate, Hz (in the clock's time base: a time-warped simulation
         runs its clock warped, so the nominal rate stays the device's).
@@ -42,6 +49,16 @@ class CounterTracker:
         How far, s, the times given to :meth:`update` may be from when the device sent
         each sample, when the caller gives no bounds of its own (a bus's frame time
         stamps: the sender's latency). Device time stamps are exact.
+    counter_step : int
+        Counter units the device counter advances by per sample (1; a STIM300:
+        2000 Hz / output rate). Must divide ``modulus``.
+
+    Attributes
+    ----------
+    modulus : int
+        Samples per counter wrap (``modulus // counter_step``): what the tracker counts in.
+    counter_modulus : int
+        The counter's own wrap, counter units.
 
     Notes
     -----
@@ -51,13 +68,18 @@ class CounterTracker:
     """
 
     def __init__(self, modulus: int, sample_rate_hz: float, *,
-                 timing_uncertainty_s: float = 0.0) -> None:
+                 timing_uncertainty_s: float = 0.0, counter_step: int = 1) -> None:
         # (modulus 1: a unit that sends no counter; every step is then counted from the
         # elapsed time alone, raw CAN layouts without a counter)
         if modulus < 1 or not sample_rate_hz > 0 or timing_uncertainty_s < 0:
             raise ValueError("modulus must be >= 1, sample_rate_hz > 0 and "
                              "timing_uncertainty_s >= 0")
-        self.modulus = modulus
+        if counter_step < 1 or modulus % counter_step or modulus // counter_step < 2:
+            raise ValueError(f"counter_step must divide the modulus {modulus} into at least "
+                             f"2 samples, got {counter_step}")
+        self.counter_modulus = modulus
+        self.counter_step = counter_step
+        self.modulus = modulus // counter_step
         self.sample_rate_hz = sample_rate_hz
         self.timing_uncertainty_s = timing_uncertainty_s
         self._last_raw: int | None = None
@@ -85,11 +107,20 @@ class CounterTracker:
         self._last_raw = None
 
     def residue_step(self, raw: int) -> int:
-        """Counter steps from the latest sample to one sent as ``raw``, no wrap counted
+        """Samples from the latest sample to one sent as ``raw``, no wrap counted
         (1..modulus; 1 before the first sample)."""
         if self._last_raw is None:
             return 1
-        return (raw - self._last_raw) % self.modulus or self.modulus
+        return self.samples_between(self._last_raw, raw)
+
+    def samples_between(self, earlier: int, later: int) -> int:
+        """Samples from a sample sent with counter ``earlier`` to one sent with ``later``,
+        no wrap counted (1..modulus, samples).
+
+        A counter difference that is not a whole number of steps (the unit was reset, or
+        the counter's phase moved) rounds to the nearest sample, at least one.
+        """
+        return counter_samples(earlier, later, self.counter_modulus, self.counter_step)
 
     def update(self, raw: int, receive_time_s: float, device_time_s: float | None = None,
                *, elapsed_s: float | None = None,
@@ -128,9 +159,9 @@ class CounterTracker:
         :data:`CONTRADICTION_FACTOR`: uncertain where both are candidates).
         """
         if self._last_raw is None:
-            self._last_raw, self._last_unwrapped = raw, raw
+            self._last_raw, self._last_unwrapped = raw, raw // self.counter_step
             self._last_time_s, self._last_device_time_s = receive_time_s, device_time_s
-            return raw, None
+            return self._last_unwrapped, None
         step = self.residue_step(raw)
         method: GapMethod = "counter"
         if device_time_s is not None and self._last_device_time_s is not None and \
@@ -207,3 +238,16 @@ class CounterTracker:
         k_lo = max(0, math.ceil((n_lo - step) / self.modulus))
         k_hi = math.floor((n_hi - step) / self.modulus)
         return None if k_hi < k_lo else (k_lo, k_hi)
+
+
+def counter_samples(earlier: int, later: int, modulus: int, step: int = 1) -> int:
+    """Samples between two counter values of a counter that wraps at ``modulus`` (counter
+    units) and advances by ``step`` per sample, no wrap counted (1..modulus // step).
+
+    A difference of zero is a whole wrap; one that is not a whole number of steps rounds
+    to the nearest sample, at least one.
+    """
+    ticks = (later - earlier) % modulus
+    if ticks == 0:
+        return modulus // step
+    return max(1, (2 * ticks + step) // (2 * step))

@@ -55,7 +55,8 @@ class DeviceDescription:
     has_counter : bool
         Whether the protocol carries a device sample counter.
     counter_modulus : int or None
-        Wrap of the device counter (256 for a STIM300, 128 for a KVH), None if unbounded.
+        Samples per wrap of the device counter (128 for a KVH; a STIM300's counts its
+        2000 Hz internal samples: 256 / (2000 / rate), 16 at 125 Hz), None if unbounded.
     has_device_time : bool
         Whether :attr:`SampleBatch.device_time_s` is filled.
     has_temperature : bool

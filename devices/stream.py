@@ -14,7 +14,7 @@ from devices.errors import (
     DeviceTimeoutError,
     FrameError,
 )
-from devices.gaps import CounterTracker
+from devices.gaps import CounterTracker, counter_samples
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.rateless import RatelessMessages
 from devices.stream_timing import StreamTiming
@@ -77,16 +77,21 @@ class StreamRateSource:
         self.clock_scale = clock_scale
         self.silence_timeout_s = silence_timeout_s
         self.ack_timeout_s = ack_timeout_s
+        # The counter may advance by a step per sample (a STIM300 counts its 2000 Hz
+        # internal samples): the tracker counts in samples, and so does the description.
+        self._counter_step: int = getattr(codec, "counter_step", 1)
+        tracker = CounterTracker(codec.counter_modulus, sample_rate_hz,
+                                 counter_step=self._counter_step)
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol=codec.name,
             transport=transport_name, axes=("x", "y", "z")[:codec.n_axes],
             sample_rate_hz=sample_rate_hz, has_counter=True,
-            counter_modulus=codec.counter_modulus, has_device_time=codec.has_device_time,
+            counter_modulus=tracker.modulus, has_device_time=codec.has_device_time,
             has_temperature=codec.has_temperature, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:codec.n_accel_axes],
         )
         self._builder = BatchBuilder(
-            codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),
+            codec.n_axes, tracker,
             has_device_time=codec.has_device_time, has_temperature=codec.has_temperature,
             check_continuity=getattr(codec, "weak_check", False),
             rate_limit_deg_s=getattr(codec, "rate_range_deg_s", None),
@@ -182,7 +187,7 @@ class StreamRateSource:
             self.open()
         # Wait in slices of 1/16 counter period: each empty slice proves the silence so
         # far, so a silence's end is known to within half a slice.
-        wrap_s = self.codec.counter_modulus / self._description.sample_rate_hz
+        wrap_s = self._builder.tracker.modulus / self._description.sample_rate_hz
         slice_s = min(timeout_s, max(0.002, wrap_s / 16.0 / self.clock_scale))
         deadline = time.monotonic() + timeout_s
         while True:
@@ -222,11 +227,11 @@ class StreamRateSource:
         # Whole counter wraps can hide only in a proven silence (StreamTiming); while
         # bytes keep coming the counter counts alone. The send-time bounds say whether
         # the count is certain.
-        modulus = self.codec.counter_modulus
         steps = []
         for reading in readings:
             last, self._last_raw = self._last_raw, reading.counter
-            steps.append(1 if last is None else (reading.counter - last) % modulus or modulus)
+            steps.append(1 if last is None else counter_samples(
+                last, reading.counter, self.codec.counter_modulus, self._counter_step))
         bounds = self._timing.send_bounds(steps, now)
         period = 1.0 / self._description.sample_rate_hz
         for i, reading in enumerate(readings):

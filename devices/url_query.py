@@ -20,7 +20,8 @@ from devices.sim.params import BENCH_KEYS, FAULT_KEYS, FIXTURE_KEYS
 SIM_KEYS = frozenset({"model", "rate", "warp", "seed", "history", *FAULT_KEYS, *BENCH_KEYS,
                       *FIXTURE_KEYS})
 #: Keys of each serial protocol on top of ``protocol``, ``capture`` and the transport's.
-SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram", "accel", "accel_range"}),
+SERIAL_PROTOCOL_KEYS = {"stim300": frozenset({"datagram", "accel", "accel_range", "termination",
+                                               "gyro_output", "accel_output", "counter"}),
                         "kvh1750": frozenset({"unit", "output", "accel", "format", "tempunits"}),
                         "xbus": frozenset({"accel", "hr"})}
 #: Keys of a simulated serial protocol only (``gnss``: Hz of an MTi-G's GNSS messages).

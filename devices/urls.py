@@ -23,11 +23,12 @@ from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
 from devices.bus_layouts import can_layout, register_map
 from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
-from devices.codecs.base import StreamCodec
+from devices.codecs.base import Reading, StreamCodec
 from devices.codecs.can_frame import CanFrameLayout
 from devices.codecs.kvh1750 import SYNC as KVH_SYNC, Kvh1750Codec
 from devices.codecs.modbus_map import ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
+from devices.codecs.stim300_sheet import max_rate_hz
 from devices.codecs.xbus import PREAMBLE, XbusCodec
 from devices.dump_replay import DumpByteTransport, ListeningCodec, dump_steps, load_dump
 from devices.errors import CodecError, DeviceConfigurationError
@@ -59,6 +60,7 @@ from devices.sim.params import (
 )
 from devices.sim.process import MulticastChannel, SimulatorProcess
 from devices.sim.serial_device import PtySerialDevice
+from devices.sim.stim300_unit import SimulatedStim300
 from devices.stream import StreamRateSource
 from devices.transports.can import CanTransport
 from devices.transports.modbus import ModbusTransport
@@ -138,10 +140,8 @@ def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
     accel = accel_switch(query)
     try:
         if protocol == "stim300":
-            ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
-            accel_g = query_number("accel_range", query.get("accel_range", "10"), int)
-            return (Stim300Codec(ident, accel_range_g=accel_g, accel=accel), bytes([ident]),
-                    "STIM300")
+            codec = _stim300_codec(query, rate_hz)
+            return codec, bytes([codec.identifier]), "STIM300"
         if protocol == "kvh1750":
             return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
                                  rate_hz, accel=accel is not False,
@@ -172,14 +172,49 @@ def _switch(query: dict[str, str], key: str) -> bool:
     return text == "1"
 
 
+def _stim300_codec(query: dict[str, str], rate_hz: float) -> Stim300Codec:
+    """The STIM300 codec a URL configures (TS1524 rev. 31: ``datagram`` Tables 5-20/5-21,
+    ``accel_range`` 5/10/30/80 g, ``termination`` none/crlf and ``gyro_output`` /
+    ``accel_output`` Table 5-11; ``counter=datagram``: the framing borrowed by a simulated
+    unit of another model, whose counter counts datagrams at any rate).
+
+    Raises
+    ------
+    CodecError
+        A rate, datagram, range or output the unit cannot send.
+    """
+    ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
+    accel_g = query_number("accel_range", query.get("accel_range", "10"), int)
+    termination = query.get("termination", "none")
+    counting = query.get("counter", "internal")
+    for key, value, known in (("termination", termination, ("none", "crlf")),
+                              ("counter", counting, ("internal", "datagram"))):
+        if value not in known:
+            raise CodecError(f"STIM300 {key} must be {' or '.join(known)}, got {value!r}")
+    return Stim300Codec(ident, accel_range_g=accel_g, accel=accel_switch(query),
+                        rate_hz=None if counting == "datagram" else rate_hz,
+                        crlf=termination == "crlf",
+                        gyro_output=query.get("gyro_output", "rate"),
+                        accel_output=query.get("accel_output", "acceleration"))
+
+
 def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     protocol = query.get("protocol", "stim300")
     params = parse_sim_params(query.get("model", host), query)
+    if protocol == "stim300" and _unit_model(host, params) != "STIM300":
+        # another model borrowing the datagram layout: its counter counts its datagrams
+        query = {"counter": "datagram", **query}
     codec, header, _ = _stream_codec(protocol, query, params.rate)
     core, clock = sim_core(params, codec.n_axes, n_accel_axes=codec.n_accel_axes)
-    message = (KvhMessageWriter(codec.message_format or "A", codec.tempunits,
-                                codec.angle_unit, codec.output, params.rate)
-               if isinstance(codec, Kvh1750Codec) else None)
+    message: Callable[[Reading], bytes] | None = None
+    if isinstance(codec, Kvh1750Codec):  # the unit's messages, from the ICD's tables
+        message = KvhMessageWriter(codec.message_format or "A", codec.tempunits,
+                                   codec.angle_unit, codec.output, params.rate)
+    elif isinstance(codec, Stim300Codec):  # the unit speaks from its data sheet
+        message = SimulatedStim300(
+            codec.identifier, codec.rate_hz, int(query.get("accel_range", "10")), codec.crlf,
+            query.get("gyro_output", "rate"),
+            query.get("accel_output", "acceleration")).datagram
     mti = None
     if isinstance(codec, XbusCodec):  # an MTi's messages, from the protocol document
         gnss_hz = query_number("gnss", query.get("gnss", "0"), float)
@@ -204,6 +239,12 @@ def _open_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     rate = query_number("rate", query.get("rate", "2000"), float)
     codec, _, model = _stream_codec(protocol, query, rate)
     baud = query_number("baud", query.get("baud", "921600"), int)
+    if isinstance(codec, Stim300Codec) and codec.rate_hz is not None:
+        top = max_rate_hz(codec.identifier, baud)
+        if top is not None and rate > top:
+            raise DeviceConfigurationError(
+                f"a STIM300 sends datagram 0x{codec.identifier:02X} at {baud} bit/s at up "
+                f"to {top} samples/s (TS1524 Table 5-12), not {rate:g}")
     transport = _captured(SerialTransport(path, baud), "serial", query, rate, 1.0)
     source = StreamRateSource(transport, codec, model=query.get("model", model),
                               serial_number=query.get("serial", "unknown"), sample_rate_hz=rate)

@@ -100,7 +100,8 @@ def test_a_salvage_keeps_the_accel_rows_of_the_rates_it_keeps(tmp_path: Path) ->
 
 @pytest.mark.slow
 def test_a_recorded_simulated_stim300_run_holds_its_accelerations(tmp_path: Path) -> None:
-    url = "sim+serial://STIM300?protocol=stim300&datagram=0xA5&rate=200&warp=10&seed=5"
+    url = ("sim+serial://STIM300?protocol=stim300&counter=datagram&datagram=0xA5&rate=200"
+           "&warp=10&seed=5")
     proc = start_recorder("--unit", url, "--duration", "10s", "--out", str(tmp_path), "--quiet")
     try:
         _, err = proc.communicate(timeout=60)

@@ -24,7 +24,7 @@ from tests.test_recorder_helpers import (
 #: A STIM300 on a pty with every frame fault, a CAN node with drops and bad CRCs, and a
 #: Modbus TCP gyro whose server goes away for 3 s.
 FAULTY_UNITS = (
-    "sim+serial://STIM300?protocol=stim300&rate=10&warp=10&seed=7&drop=0.03&corrupt=0.03"
+    "sim+serial://STIM300?protocol=stim300&counter=datagram&rate=10&warp=10&seed=7&drop=0.03&corrupt=0.03"
     "&garbage=0.03",
     "sim+can://STIM300?rate=10&warp=10&seed=8&drop=0.03&corrupt=0.03",
     "sim+modbus+tcp://STIM300?rate=10&warp=10&seed=9&drop=0.03&disconnect_every_s=15"
@@ -139,7 +139,7 @@ def test_bad_configuration_is_refused_before_the_run_starts(
         "unknown profile": (["--profile", "NO-SUCH-GYRO", "--unit", sim], "NO-SUCH-GYRO"),
         "bad url": (["--unit", "carrier-pigeon://gyro"], "bad device URL"),
         "unreachable": (["--profile", "VG951", "--unit",
-                         f"serial://{tmp_path}/ttyNOPE?protocol=stim300&rate=10"],
+                         f"serial://{tmp_path}/ttyNOPE?protocol=stim300&rate=125"],
                         "device not reachable"),
         "rate": (["--profile", "VG951", "--unit", sim.replace("rate=10", "rate=100")],
                  "reports 100 Hz, profile VG951 expects 10 Hz"),

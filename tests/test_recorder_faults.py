@@ -26,9 +26,12 @@ CANOPEN_BUS = "virtual" if multicast_unavailable() else "udp_multicast"
 #: not alias into counter wraps. (Every unit sends as many samples per wall second as at
 #: warp 8 with twice the rate, and its drop/corrupt/garbage odds are doubled beside the
 #: halved rate: as many faults per run, in half the wall time.) The STIM300's 60 s and
-#: the KVH's 56 s outages hold 300 and 140 samples: over a period of their counters.
+#: the KVH's 56 s outages hold 300 and 140 samples: over a period of their counters. (The
+#: STIM300 framing with a counter of datagrams, ``counter=datagram``: a data sheet unit
+#: offers 125 Hz and up, its counter wrapping every 0.128 s.)
 UNITS = {
-    "stim300": (f"sim+serial://STIM300?protocol=stim300&rate=5&warp={WARP}&seed=1"
+    "stim300": (f"sim+serial://STIM300?protocol=stim300&counter=datagram&rate=5&warp={WARP}"
+                "&seed=1"
                 "&disconnect_every_s=10&disconnect_for_s=60&drop=0.02&corrupt=0.02"
                 "&garbage=0.02", 5.0, 60.0),
     "kvh1750": (f"sim+serial://DSP-1750?protocol=kvh1750&rate=2.5&warp={WARP}&seed=2"

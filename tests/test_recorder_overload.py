@@ -5,7 +5,7 @@ Modbus TCP) record together while the host is made to fall behind: two processes
 beside the recorder for the whole run, and every unit's process (its reader, and the
 simulator where it runs in that process) is frozen (SIGSTOP) for 0.3-0.7 s again and
 again, first right as the units start. A frozen simulator loses the samples it could
-not send on time, whole counter wraps of them (a STIM300 at 1 kHz wraps every 0.256 s);
+not send on time, whole counter wraps of them (a STIM300 wraps every 0.128 s at any rate);
 a frozen reader finds a backlog larger than a tty read hands over at once, or a CAN
 bus queue, when it wakes. For every unit the simulator's own count of samples sent must
 lie within what was recorded plus the fewest and the most samples its gaps may have

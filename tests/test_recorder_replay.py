@@ -21,7 +21,7 @@ from station.recording.recorder import Recorder, RunConfig
 from station.storage.hdf5 import REASON_END_OF_REPLAY, open_run_file, read_run, read_unit
 
 UNITS = (
-    "sim+serial://STIM300?protocol=stim300&rate=100&warp=2&seed=3&drop=0.01"
+    "sim+serial://STIM300?protocol=stim300&counter=datagram&rate=100&warp=2&seed=3&drop=0.01"
     "&disconnect_every_s=3&disconnect_for_s=2",
     "sim+can://VG951?rate=100&warp=2&seed=4&drop=0.02",
 )

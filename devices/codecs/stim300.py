@@ -1,27 +1,33 @@
 """Safran Sensonor STIM300 normal-mode binary datagram (pure codec).
 
-Layout (STIM300 datasheet TS1524, tables 5-20 to 5-22; cross-checked against the public
-pystim300 driver's ``normal.py``, ``crc.py`` and ``scaling.py``)::
+Follows the data sheet TS1524 rev. 31 (its tables live in
+:mod:`devices.codecs.stim300_sheet`)::
 
-    ID | gyro X,Y,Z (3 x int24 BE) | gyro status | [accel 9+1] | [incl 9+1]
+    ID | rate X,Y,Z (3 x int24 BE) + status | [acceleration 9+1] | [inclination 9+1]
        | [temperature triples 3 x int16 BE + status, one per cluster present]
-       | counter (uint8) | latency (uint16 BE, us) | CRC-32 (BE)
+       | [PPS/AUX int24 + status] | counter (uint8) | latency (uint16 BE, us)
+       | CRC-32 (BE) | [CR LF]
 
-* rate = value / 2**14 deg/s; temperature = value / 2**8 degC;
-* acceleration (output unit g) = value / 2**19 g for the +-10 g accelerometers,
-  / 2**18 g for +-30 g, / 2**16 g for +-80 g (datasheet table 5-27; pystim300
-  ``scaling.py``), converted here to m/s^2 with the standard gravity 9.80665 m/s^2.
-  Checked again against a second public reader, geirhovland/stim300 ``stim300_read.py``
-  ("Acc X,Y,Z ... Assumes range 10g --> 2^19 = 524288"), whose README's sample datagram
-  of a unit at rest reads z = 1.0138 g with that divisor (2**20 would halve it to 0.51 g,
-  so 2**-20 g is not the +-10 g LSB);
-* CRC-32/MPEG-2 over ID..latency padded with zero bytes to a multiple of 4 (the padding
-  is not transmitted).
+* order and lengths: Table 5-20 (full content, identifier 0xAF) with the identifiers of
+  Table 5-21 (0x90-0xA7; 0xF0-0xF7 with PPS); lengths checked against Table 5-12;
+* CRC-32 (polynomial 0x04C11DB7, seed 0xFFFFFFFF, no reflection: CRC-32/MPEG-2) over the
+  identifier to the latency, padded with the zero dummy bytes of Table 5-22 (not sent);
+* CR/LF after the CRC where the unit is configured so (Table 5-11, "DATAGRAM
+  TERMINATION"): part of the datagram, never skipped bytes;
+* scale factors (section 7.5.2.2): angular rate and average angular rate 2**-14 deg/s;
+  incremental angle 2**-21 deg per sample (read as the mean rate over the sample, times
+  the output rate); acceleration 2**-20, 2**-19, 2**-18, 2**-16 g for the 5, 10, 30, 80 g
+  variants (to m/s^2 with 9.80665 m/s^2); incremental velocity 2**-23, 2**-22, 2**-21,
+  2**-19 m/s per sample; temperature 2**-8 degC; inclination 2**-22 g. Integrated angle
+  and velocity are refused (see :data:`~devices.codecs.stim300_sheet.REFUSED_OUTPUTS`);
+* counter (7.5.2.2.18): it counts the internal samples at 2000 Hz, so it advances by
+  ``2000 / rate`` per datagram (:attr:`Stim300Codec.counter_step`) and wraps every 0.128 s;
+* status bytes (Table 5-23): 0 = OK.
 
-Identifiers: 0x90 rate only, 0x91/0x92/0x93 with accelerometers and/or inclinometers,
-0x94 and 0xA5-0xA7 the same with temperatures. The accelerometer and inclinometer
-clusters travel in :attr:`Stim300Frame.other_clusters` as raw bytes; the accelerometer
-cluster (first of them) is decoded into :attr:`Reading.accel_m_s2` by :meth:`to_reading`.
+The accelerometer and inclinometer clusters and their temperature triples travel in
+:attr:`Stim300Frame.other_clusters` as raw bytes (:meth:`Stim300Codec.clusters` reads
+them); the accelerometer cluster is decoded into :attr:`Reading.accel_m_s2` by
+:meth:`Stim300Codec.to_reading`.
 """
 
 from __future__ import annotations
@@ -31,20 +37,25 @@ from dataclasses import dataclass
 from analysis.units.conversions import STANDARD_GRAVITY_M_S2
 from devices.codecs.base import DecodeResult, Reading, StreamingOnPowerUp, scan_frames
 from devices.codecs.crc import crc32_mpeg2
+from devices.codecs.stim300_sheet import (
+    ACCEL_LSB_PER_G,
+    ACCEL_LSB_PER_M_S,
+    ACCEL_OUTPUTS,
+    ANGLE_LSB_PER_DEG,
+    COUNTER_MODULUS,
+    DATAGRAMS,
+    GYRO_OUTPUTS,
+    INCL_LSB_PER_G,
+    OFFERED_RATES_HZ,
+    RATE_LSB_PER_DEG_S,
+    REFUSED_OUTPUTS,
+    TEMP_LSB_PER_DEGC,
+    counter_step,
+    payload_length,
+)
 from devices.errors import CodecError
 
-RATE_LSB_PER_DEG_S = 2**14
-TEMP_LSB_PER_DEGC = 2**8
-COUNTER_MODULUS = 256
-#: Accelerometer LSB per g of each range variant (g: +-10, +-30, +-80).
-ACCEL_LSB_PER_G: dict[int, int] = {10: 2**19, 30: 2**18, 80: 2**16}
-
-# identifier -> (has accelerometer cluster, has inclinometer cluster, has temperatures)
-DATAGRAMS: dict[int, tuple[bool, bool, bool]] = {
-    0x90: (False, False, False), 0x91: (True, False, False), 0x92: (False, True, False),
-    0x93: (True, True, False), 0x94: (False, False, True), 0xA5: (True, False, True),
-    0xA6: (False, True, True), 0xA7: (True, True, True),
-}
+CRLF = b"\r\n"
 
 
 @dataclass(frozen=True)
@@ -54,22 +65,27 @@ class Stim300Frame:
     Attributes
     ----------
     identifier : int
-        Datagram identifier (0x90...).
+        Datagram identifier (0x90...; Tables 5-20, 5-21).
     gyro : tuple of 3 int
-        Raw signed 24-bit rates (LSB = 2**-14 deg/s).
+        Raw signed 24-bit gyro outputs (their unit: the configured output, 7.5.2.2.2-5).
     gyro_status : int
-        Gyro status byte (0 = all good).
+        Gyro status byte (Table 5-23; 0 = all good).
     counter : int
-        Sample counter 0..255.
+        Datagram counter 0..255 (counts the 2000 Hz internal samples, 7.5.2.2.18).
     latency_us : int
-        Latency, microseconds 0..65535.
+        Latency, microseconds 0..65535 (7.5.2.2.19).
     temperature : tuple of 3 int or None
         Raw gyro temperatures (LSB = 2**-8 degC), for identifiers with temperatures.
     temperature_status : int
         Status byte of the gyro temperature triple.
     other_clusters : bytes
-        Accelerometer/inclinometer clusters and their temperature triples, raw (the
-        accelerometer cluster first: 3 x int24 BE and a status byte).
+        Accelerometer/inclinometer clusters (3 x int24 BE and a status byte each, the
+        accelerometer's first), then their temperature triples, raw, in Table 5-20 order.
+    aux : int or None
+        The PPS/AUX word as sent (24 bits, unsigned here; 7.5.2.2.15-16), for the
+        identifiers that carry it (0xF0-0xF7, 0xAF).
+    aux_status : int
+        Its status byte.
     """
 
     identifier: int
@@ -80,24 +96,41 @@ class Stim300Frame:
     temperature: tuple[int, int, int] | None = None
     temperature_status: int = 0
     other_clusters: bytes = b""
+    aux: int | None = None
+    aux_status: int = 0
 
 
-def _layout(identifier: int) -> tuple[int, int, int]:
-    """(other cluster bytes before temperatures, other temperature bytes, payload length)."""
-    accel, incl, temp = DATAGRAMS[identifier]
-    n_other = int(accel) + int(incl)
-    other = 10 * n_other
-    other_temp = 7 * n_other if temp else 0
-    payload = 10 + other + (7 if temp else 0) + other_temp + 3
-    return other, other_temp, payload
+@dataclass(frozen=True)
+class Stim300Clusters:
+    """The accelerometer and inclinometer clusters of a datagram in physical units.
 
+    Attributes
+    ----------
+    accel_g, incl_g : tuple of 3 float or None
+        Accelerations (acceleration output, g) and inclinations (g), None where absent.
+    accel_status, incl_status : int
+        Their status bytes (Table 5-23).
+    gyro_temperature_c, accel_temperature_c, incl_temperature_c : tuple of 3 float or None
+        Temperature triples, degC.
+    """
 
-def _crc_input(body: bytes) -> bytes:
-    return body + b"\x00" * (-len(body) % 4)
+    accel_g: tuple[float, ...] | None
+    accel_status: int
+    incl_g: tuple[float, ...] | None
+    incl_status: int
+    gyro_temperature_c: tuple[float, ...] | None
+    accel_temperature_c: tuple[float, ...] | None
+    incl_temperature_c: tuple[float, ...] | None
 
 
 def _int24(b: bytes) -> int:
     return int.from_bytes(b, "big", signed=True)
+
+
+def _triple16(b: bytes) -> tuple[int, int, int]:
+    return (int.from_bytes(b[0:2], "big", signed=True),
+            int.from_bytes(b[2:4], "big", signed=True),
+            int.from_bytes(b[4:6], "big", signed=True))
 
 
 def _clip24(value: float) -> int:
@@ -105,23 +138,43 @@ def _clip24(value: float) -> int:
     return max(-lim - 1, min(lim, round(value)))
 
 
+def _crc_input(body: bytes) -> bytes:
+    """The CRC's input: the datagram to the latency and the zero dummy bytes that make
+    it whole 32-bit words (Table 5-22)."""
+    return body + b"\x00" * (-len(body) % 4)
+
+
 class Stim300Codec(StreamingOnPowerUp):
-    """STIM300 datagram codec for one configured identifier.
+    """STIM300 datagram codec for one configured unit.
 
     Parameters
     ----------
     identifier : int
         The datagram the unit is configured to send (default 0x94: rates + temperatures).
-    accel_range_g : {10, 30, 80}
+    accel_range_g : {5, 10, 30, 80}
         The accelerometer variant (sets the LSB of the acceleration words), g.
     accel : bool
         Decode the accelerometers (only where the datagram carries them): False reads
         an accelerometer datagram as a gyro-only one.
+    rate_hz : float or None
+        The output sample rate the unit is configured to, Hz (125, 250, 500, 1000 or
+        2000, Table 5-11): the counter then advances by ``2000 / rate_hz`` per datagram.
+        None: the framing borrowed by a simulated unit of another model, whose counter
+        counts its datagrams (step 1); no incremental output then.
+    crlf : bool
+        The unit terminates each datagram with CR LF (Table 5-11, "DATAGRAM TERMINATION").
+    gyro_output : {"rate", "average", "incremental"}
+        The gyro output unit configured (Table 5-11): angular rate, average angular rate
+        (both deg/s) or incremental angle (deg per sample, read as deg/s over the sample).
+    accel_output : {"acceleration", "average", "incremental"}
+        The accelerometer output unit: acceleration, average acceleration (g) or
+        incremental velocity (m/s per sample, read as m/s^2 over the sample).
 
     Raises
     ------
     CodecError
-        Unknown identifier or range, or ``accel`` asked of a datagram without them.
+        An identifier, range, rate or output unit the unit does not have, or ``accel``
+        asked of a datagram without accelerometers.
     """
 
     name = "stim300"
@@ -130,29 +183,68 @@ class Stim300Codec(StreamingOnPowerUp):
     has_device_time = False
 
     def __init__(self, identifier: int = 0x94, *, accel_range_g: int = 10,
-                 accel: bool | None = None) -> None:
+                 accel: bool | None = None, rate_hz: float | None = None,
+                 crlf: bool = False, gyro_output: str = "rate",
+                 accel_output: str = "acceleration") -> None:
         if identifier not in DATAGRAMS:
-            raise CodecError(f"unknown STIM300 datagram identifier 0x{identifier:02X}")
+            raise CodecError(f"unknown STIM300 datagram identifier 0x{identifier:02X} "
+                             f"(TS1524 Tables 5-20, 5-21: "
+                             f"{', '.join(f'0x{i:02X}' for i in sorted(DATAGRAMS))})")
         if accel_range_g not in ACCEL_LSB_PER_G:
-            raise CodecError(f"STIM300 accelerometer range must be 10, 30 or 80 g, "
+            raise CodecError(f"STIM300 accelerometer range must be 5, 10, 30 or 80 g, "
                              f"got {accel_range_g}")
-        carried = DATAGRAMS[identifier][0]
-        if accel and not carried:
+        content = DATAGRAMS[identifier]
+        if accel and not content.accel:
             raise CodecError(f"STIM300 datagram 0x{identifier:02X} carries no "
-                             f"accelerometers (0x91, 0x93, 0xA5 and 0xA7 do)")
+                             f"accelerometers (0x91, 0x93, 0xA5, 0xA7, 0xF1, 0xF3, 0xF5, "
+                             f"0xF7 and 0xAF do)")
+        for what, value, offered in (("gyro_output", gyro_output, GYRO_OUTPUTS),
+                                     ("accel_output", accel_output, ACCEL_OUTPUTS)):
+            if value in REFUSED_OUTPUTS:
+                raise CodecError(f"STIM300 {what}={value} is not read: "
+                                 f"{REFUSED_OUTPUTS[value]}; use {' or '.join(offered)}")
+            if value not in offered:
+                raise CodecError(f"STIM300 {what} must be {', '.join(offered)}, got {value!r}")
+        if rate_hz is None:
+            self.counter_step = 1
+            if "incremental" in (gyro_output, accel_output):
+                raise CodecError("a STIM300 incremental output needs the unit's rate")
+        else:
+            try:
+                self.counter_step = counter_step(rate_hz)
+            except ValueError:
+                raise CodecError(
+                    f"a STIM300 sends at {', '.join(map(str, OFFERED_RATES_HZ))} samples/s "
+                    f"(TS1524 Table 5-11), not {rate_hz:g} Hz") from None
         self.identifier = identifier
-        self.has_temperature = DATAGRAMS[identifier][2]
-        self.n_accel_axes = 3 if carried and accel is not False else 0
+        self.content = content
+        self.rate_hz = rate_hz
+        self.crlf = crlf
+        self.has_temperature = content.temperature
+        self.n_accel_axes = 3 if content.accel and accel is not False else 0
         self.accel_range_m_s2: float | None = (
             accel_range_g * STANDARD_GRAVITY_M_S2 if self.n_accel_axes else None)
-        self._m_s2_per_lsb = STANDARD_GRAVITY_M_S2 / ACCEL_LSB_PER_G[accel_range_g]
-        self._other, self._other_temp, payload = _layout(identifier)
-        self.frame_length = 1 + payload + 4
+        # deg/s per gyro LSB; m/s^2 per accelerometer LSB (section 7.5.2.2)
+        per_sample = float(rate_hz or 0.0)
+        self._deg_s_per_lsb = (per_sample / ANGLE_LSB_PER_DEG if gyro_output == "incremental"
+                               else 1.0 / RATE_LSB_PER_DEG_S)
+        self._g_per_lsb = 1.0 / ACCEL_LSB_PER_G[accel_range_g]
+        self._m_s2_per_lsb = (per_sample / ACCEL_LSB_PER_M_S[accel_range_g]
+                              if accel_output == "incremental"
+                              else STANDARD_GRAVITY_M_S2 * self._g_per_lsb)
+        n_other = int(content.accel) + int(content.incl)
+        self._other = 10 * n_other
+        self._other_temp = 7 * n_other if content.temperature else 0
+        self.frame_length = payload_length(content) + 4 + (2 if crlf else 0)
 
     def _length(self, data: bytes, pos: int) -> int:
         return self.frame_length
 
     def _parse(self, raw: bytes) -> Stim300Frame | None:
+        if self.crlf:
+            if raw[-2:] != CRLF:
+                return None
+            raw = raw[:-2]
         body, crc = raw[:-4], int.from_bytes(raw[-4:], "big")
         if crc32_mpeg2(_crc_input(body)) != crc:
             return None
@@ -163,18 +255,22 @@ class Stim300Codec(StreamingOnPowerUp):
         temperature = None
         temperature_status = 0
         if self.has_temperature:
-            temperature = tuple(
-                int.from_bytes(body[pos + 2 * i:pos + 2 * i + 2], "big", signed=True)
-                for i in range(3))
+            temperature = _triple16(body[pos:pos + 6])
             temperature_status = body[pos + 6]
             pos += 7
             other += body[pos:pos + self._other_temp]
             pos += self._other_temp
+        aux = None
+        aux_status = 0
+        if self.content.aux:
+            aux = int.from_bytes(body[pos:pos + 3], "big")
+            aux_status = body[pos + 3]
+            pos += 4
         return Stim300Frame(
             identifier=body[0], gyro=gyro, gyro_status=body[10], counter=body[pos],
             latency_us=int.from_bytes(body[pos + 1:pos + 3], "big"),
-            temperature=temperature, temperature_status=temperature_status,  # type: ignore[arg-type]
-            other_clusters=other,
+            temperature=temperature, temperature_status=temperature_status,
+            other_clusters=other, aux=aux, aux_status=aux_status,
         )
 
     def decode(self, data: bytes) -> DecodeResult[Stim300Frame]:
@@ -182,7 +278,7 @@ class Stim300Codec(StreamingOnPowerUp):
         return scan_frames(data, bytes([self.identifier]), self._length, self._parse)
 
     def encode(self, frame: Stim300Frame) -> bytes:
-        """Wire bytes of ``frame`` including the CRC.
+        """Wire bytes of ``frame`` including the CRC (and CR LF where configured).
 
         Raises
         ------
@@ -194,6 +290,8 @@ class Stim300Codec(StreamingOnPowerUp):
                              f"0x{self.identifier:02X}")
         if (frame.temperature is None) == self.has_temperature:
             raise CodecError("temperature presence does not match the identifier")
+        if (frame.aux is None) == self.content.aux:
+            raise CodecError("PPS/AUX presence does not match the identifier")
         if len(frame.other_clusters) != self._other + self._other_temp:
             raise CodecError("other_clusters length does not match the identifier")
         try:
@@ -207,53 +305,99 @@ class Stim300Codec(StreamingOnPowerUp):
                     body += t.to_bytes(2, "big", signed=True)
                 body.append(frame.temperature_status)
                 body += frame.other_clusters[self._other:]
+            if frame.aux is not None:
+                body += frame.aux.to_bytes(3, "big")
+                body.append(frame.aux_status)
             body.append(frame.counter)
             body += frame.latency_us.to_bytes(2, "big")
         except (OverflowError, ValueError) as exc:
             raise CodecError(f"STIM300 field out of range: {exc}") from exc
-        return bytes(body) + crc32_mpeg2(_crc_input(bytes(body))).to_bytes(4, "big")
+        wire = bytes(body) + crc32_mpeg2(_crc_input(bytes(body))).to_bytes(4, "big")
+        return wire + CRLF if self.crlf else wire
+
+    def clusters(self, frame: Stim300Frame) -> Stim300Clusters:
+        """The frame's accelerometer and inclinometer clusters and its temperatures in
+        physical units (accelerations at the acceleration output's scale, g)."""
+        raw = frame.other_clusters
+        pos = 0
+
+        def cluster(present: bool) -> tuple[tuple[int, ...] | None, int]:
+            nonlocal pos
+            if not present:
+                return None, 0
+            words = tuple(_int24(raw[pos + 3 * i:pos + 3 * i + 3]) for i in range(3))
+            status = raw[pos + 9]
+            pos += 10
+            return words, status
+
+        accel, accel_status = cluster(self.content.accel)
+        incl, incl_status = cluster(self.content.incl)
+        temps: list[tuple[float, ...] | None] = [None, None]
+        if self.has_temperature:
+            for i, present in enumerate((self.content.accel, self.content.incl)):
+                if present:
+                    temps[i] = tuple(t / TEMP_LSB_PER_DEGC for t in _triple16(raw[pos:pos + 6]))
+                    pos += 7
+        gyro_t = (None if frame.temperature is None
+                  else tuple(t / TEMP_LSB_PER_DEGC for t in frame.temperature))
+        return Stim300Clusters(
+            accel_g=None if accel is None else tuple(a * self._g_per_lsb for a in accel),
+            accel_status=accel_status,
+            incl_g=None if incl is None else tuple(v / INCL_LSB_PER_G for v in incl),
+            incl_status=incl_status, gyro_temperature_c=gyro_t,
+            accel_temperature_c=temps[0], incl_temperature_c=temps[1])
 
     def to_reading(self, frame: Stim300Frame) -> Reading:
-        """Rates in deg/s (value / 2**14), temperature in degC (mean of the triple),
-        accelerations in m/s^2 (the range's LSB; status: the gyro and accelerometer
-        status bytes, the accelerometer's in bits 8-15)."""
+        """Rates in deg/s, temperature in degC (mean of the gyro triple), accelerations
+        in m/s^2 (section 7.5.2.2 scale factors of the configured outputs and range).
+
+        ``device_status`` is the gyro status byte, the accelerometer's in bits 8-15
+        (where decoded) and the gyro temperature's in bits 16-23 (where sent);
+        ``status`` is the same word: 0 where every one of those bytes is 0 (Table 5-23:
+        0 = OK), non-zero where the unit flags the sample or part of it.
+        """
         temperature = None
+        word = frame.gyro_status
         if frame.temperature is not None:
             temperature = sum(frame.temperature) / 3 / TEMP_LSB_PER_DEGC
+            word |= frame.temperature_status << 16
         accel = None
-        status = frame.gyro_status
         if self.n_accel_axes:
             raw = frame.other_clusters
             accel = tuple(_int24(raw[3 * i:3 * i + 3]) * self._m_s2_per_lsb for i in range(3))
-            status |= raw[9] << 8
+            word |= raw[9] << 8
         return Reading(
-            rate_deg_s=tuple(g / RATE_LSB_PER_DEG_S for g in frame.gyro),
-            counter=frame.counter, status=status, temperature_c=temperature,
-            accel_m_s2=accel,
+            rate_deg_s=tuple(g * self._deg_s_per_lsb for g in frame.gyro),
+            counter=frame.counter, status=word, temperature_c=temperature,
+            accel_m_s2=accel, device_status=word,
         )
 
     def from_reading(self, reading: Reading) -> Stim300Frame:
-        """Quantize a reading to a datagram (rates rounded to 2**-14 deg/s, clipped; the
-        accelerations to the range's LSB, clipped, zero when the reading has none)."""
-        gyro = tuple(_clip24(r * RATE_LSB_PER_DEG_S) for r in reading.rate_deg_s)
+        """Quantize a reading to a datagram (rates rounded to the gyro output's LSB,
+        clipped; the accelerations to the range's LSB, clipped, zero when the reading has
+        none). The counter is the reading's sample index times :attr:`counter_step`,
+        modulo 256 (a data sheet unit's counter: 7.5.2.2.18)."""
+        gyro = tuple(_clip24(r / self._deg_s_per_lsb) for r in reading.rate_deg_s)
         temperature = None
         if self.has_temperature:
             t = round((reading.temperature_c or 0.0) * TEMP_LSB_PER_DEGC)
             temperature = (t, t, t)
         other = bytearray(self._other + self._other_temp)
-        if DATAGRAMS[self.identifier][0]:
+        if self.content.accel:
             accel = reading.accel_m_s2 or (0.0, 0.0, 0.0)
             for i, a in enumerate(accel[:3]):
                 other[3 * i:3 * i + 3] = _clip24(a / self._m_s2_per_lsb).to_bytes(
                     3, "big", signed=True)
             other[9] = (reading.status >> 8) & 0xFF
-            if temperature is not None:  # the accelerometers' temperature triple
-                pos = self._other
+        if temperature is not None:  # the other clusters' temperature triples
+            for pos in range(self._other, self._other + self._other_temp, 7):
                 for i in range(3):
                     other[pos + 2 * i:pos + 2 * i + 2] = temperature[i].to_bytes(
                         2, "big", signed=True)
         return Stim300Frame(
             identifier=self.identifier, gyro=gyro, gyro_status=reading.status & 0xFF,  # type: ignore[arg-type]
-            counter=reading.counter % COUNTER_MODULUS, latency_us=0, temperature=temperature,
-            other_clusters=bytes(other),
+            counter=(reading.counter * self.counter_step) % COUNTER_MODULUS, latency_us=0,
+            temperature=temperature,
+            temperature_status=(reading.status >> 16) & 0xFF if temperature else 0,
+            other_clusters=bytes(other), aux=0 if self.content.aux else None,
         )

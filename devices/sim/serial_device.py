@@ -94,8 +94,8 @@ class PtySerialDevice(DeviceLoop):
         period, so that the samples it still sends after a stall cannot shift the stall's
         wrap count."""
         core = self.core
-        return min(self.max_lag_wall_s * core.clock.warp,
-                   self.codec.counter_modulus / core.sample_rate_hz / 4.0)
+        wrap = self.codec.counter_modulus // getattr(self.codec, "counter_step", 1)
+        return min(self.max_lag_wall_s * core.clock.warp, wrap / core.sample_rate_hz / 4.0)
 
     @property
     def max_latency_s(self) -> float:

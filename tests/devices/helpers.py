@@ -174,3 +174,49 @@ def serve(url: str, seconds: float) -> tuple[subprocess.Popen[str], dict[str, ob
         proc.kill()
         raise AssertionError(f"serve printed nothing: {proc.stderr.read() if proc.stderr else ''}")
     return proc, json.loads(line)
+
+
+@dataclass(frozen=True)
+class GapTruth:
+    """A gap as declared next to what the simulator really lost there."""
+
+    declared: Gap | None
+    lost: int
+
+    @property
+    def held(self) -> bool:
+        """Whether the declared interval holds the samples really lost (no gap: none)."""
+        if self.declared is None:
+            return self.lost == 0
+        return self.declared.low <= self.lost <= self.declared.high
+
+    @property
+    def width(self) -> int:
+        """Samples between the fewest and the most declared (0: certain)."""
+        return 0 if self.declared is None else self.declared.high - self.declared.low
+
+
+def gap_truths(collected: Collected, core: SimCore, modulus: int, *, atol: float = 1e-4,
+               max_wraps: int = 2000) -> list[GapTruth]:
+    """Each gap the adapter declared (and each jump it did not) against what the simulator
+    lost, found without trusting the adapter's unwrapping: every received sample is the
+    first later generated sample whose counter residue (``modulus``: samples per wrap)
+    and rate match it."""
+    counter, rate = collected.counter, collected.rate
+    history, start = core.history(), core.history_start
+    true = int(counter[0]) + device_index(collected, core, modulus, atol=atol)
+    by_after = {g.after_counter: g for g in collected.gaps}
+    out = []
+    for j in range(1, len(counter)):
+        step = (int(counter[j]) - int(counter[j - 1])) % modulus or modulus
+        for k in range(max_wraps):
+            idx = true + step + k * modulus
+            if idx - start >= len(history):
+                raise AssertionError(f"sample {j} matches no generated sample")
+            if np.allclose(history[idx - start], rate[j], atol=atol, rtol=1e-6):
+                break
+        gap = by_after.get(int(counter[j - 1]))
+        if gap is not None or idx - true > 1:
+            out.append(GapTruth(gap, idx - true - 1))
+        true = idx
+    return out

@@ -1,10 +1,12 @@
 """Wrap counts of a byte-stream gyro: only a proven silence adds counter wraps.
 
-A STIM300 (8-bit counter) at 500 Hz wraps every 0.512 s. A reader starved for longer
-than half of that must not invent wraps (it used to date the frames after a silence by
-the time it got to them), while a real silence of 0.7 s must still be counted whole.
-The device here is scripted: a test thread writes real STIM300 datagrams into a pty (a
-real tty for pyserial), so the timing is exactly the one each test describes.
+An 8-bit counter of datagrams (the STIM300 layout, its counter counting datagrams:
+``Stim300Codec`` without a rate, ``counter=datagram``) at 500 Hz wraps every 0.512 s.
+A reader starved for longer than half of that must not invent wraps (it used to date the
+frames after a silence by the time it got to them), while a real silence of 0.7 s must
+still be counted whole. The device here is scripted: a test thread writes real STIM300
+datagrams into a pty (a real tty for pyserial), so the timing is exactly the one each
+test describes.
 """
 
 from __future__ import annotations
@@ -112,9 +114,11 @@ def test_sim_stalls_with_a_starved_reader_are_exact() -> None:
     """A simulated STIM300 stalls for 0.1 s (50 samples, under half a counter period)
     every 0.5 s while its reader, after every silent read, is starved for 1 s of the
     device's time (500 samples, more than the pty holds: the device waits for the
-    reader): every gap is exactly the samples the device lost, no wrap invented."""
-    url = ("sim+serial://STIM300?protocol=stim300&rate=500&warp=5&seed=5&history=100000"
-           "&stall_every_s=0.5&stall_for_s=0.1")
+    reader): every gap is exactly the samples the device lost, no wrap invented. (Its
+    counter counts datagrams, ``counter=datagram``: an 8-bit counter that wraps every
+    0.512 s; a data sheet STIM300's wraps every 0.128 s, see test_stim300_datasheet.py.)"""
+    url = ("sim+serial://STIM300?protocol=stim300&counter=datagram&rate=500&warp=5&seed=5"
+           "&history=100000&stall_every_s=0.5&stall_for_s=0.1")
     with open_device(url) as dev:
         dev.source.open()
         got = Collected()

@@ -137,11 +137,11 @@ def test_a_simulated_unit_describes_its_product_not_a_model_file() -> None:
 def test_a_served_simulations_hardware_url_keeps_protocol_keys_only(tmp_path) -> None:
     """The URL another station records by names the protocol, not this side's
     simulation or capture file (that station would write into it)."""
-    url = (f"sim+serial://STIM300?protocol=stim300&datagram=0x94&rate=200&seed=3&drop=0.1"
+    url = (f"sim+serial://STIM300?protocol=stim300&datagram=0x94&rate=250&seed=3&drop=0.1"
            f"&capture={tmp_path / 'c.jsonl'}")
     with open_device(url) as dev:
         query = dict(parse_qsl(urlsplit(dev.hardware_url).query))
-    assert query == {"protocol": "stim300", "datagram": "0x94", "rate": "200"}
+    assert query == {"protocol": "stim300", "datagram": "0x94", "rate": "250"}
 
 
 def test_simulated_units_without_a_seed_each_have_their_own_serial() -> None:
