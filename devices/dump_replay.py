@@ -195,6 +195,8 @@ def dump_steps(data: bytes, codec: StreamCodec[Any], rate_hz: float | None, *,
             f"{source}: no {codec.name} sample decodes in its {len(data)} bytes: check the "
             f"URL's protocol= and its keys")
     modulus = codec.counter_modulus
+    # counter units a sample (a STIM300's counter counts its 2000 Hz internal samples)
+    counter_step: int = getattr(codec, "counter_step", 1)
     if rate_hz is None:
         rate_hz = device_time_rate(readings, modulus) if codec.has_device_time else None
         if rate_hz is None:
@@ -218,7 +220,8 @@ def dump_steps(data: bytes, codec: StreamCodec[Any], rate_hz: float | None, *,
                     t += dt
                     by_device += 1
                 else:
-                    t += _step(reading.counter, last.counter, modulus) / rate_hz
+                    samples = round(_step(reading.counter, last.counter, modulus) / counter_step)
+                    t += samples / rate_hz
             last = reading
         steps.append(Read(data[start:end], t))
         start = end

@@ -451,6 +451,10 @@ def _open_dump(file: str, query: dict[str, str]) -> OpenedDevice:
     (:mod:`devices.dump_replay`)."""
     protocol = query["protocol"]
     rate = query_number("rate", query["rate"], float) if "rate" in query else None
+    if rate is None and protocol == "stim300":  # (a STIM300 sends no time of its own)
+        raise DeviceConfigurationError(
+            f"{file}: protocol stim300 carries no device time: give the unit's nominal "
+            f"output rate (URL key rate=HZ)")
     # (a rate that only scales a KVH's delta output: without rate= it is refused below)
     codec, _, model = _stream_codec(protocol, query, rate or 1.0)
     timing = dump_steps(load_dump(file), codec, rate, source=file)

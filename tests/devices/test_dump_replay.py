@@ -21,10 +21,15 @@ from devices.replay import EndOfReplayError
 from devices.urls import _stream_codec, open_device
 
 
-def _dump(path: Path, protocol: str, counters: list[int], *, rate_hz: float = 200.0,
+#: a rate each protocol's unit offers (a STIM300 sends at 125-2000 Hz in octaves)
+RATE_HZ = {"stim300": 250.0, "kvh1750": 200.0, "xbus": 200.0}
+
+
+def _dump(path: Path, protocol: str, counters: list[int], *, rate_hz: float | None = None,
           times_s: list[float] | None = None, garbage_at: int | None = None) -> list[Reading]:
     """Write what a unit of ``protocol`` sends for these counters (our encoder) to ``path``;
     returns the readings as the codec reads them back."""
+    rate_hz = RATE_HZ[protocol] if rate_hz is None else rate_hz
     codec, _, _ = _stream_codec(protocol, {}, rate_hz)
     out, back = b"", []
     for i, counter in enumerate(counters):
@@ -63,7 +68,8 @@ def _cat(batches: list[SampleBatch], name: str) -> np.ndarray:
 def test_a_dump_replays_every_sample_with_no_gap(tmp_path: Path, protocol: str) -> None:
     counters = list(range(250, 250 + 600))  # across counter wraps of the 7- and 8-bit ones
     sent = _dump(tmp_path / "dump.bin", protocol, counters, garbage_at=300)
-    batches, source = _replay(f"replay://{tmp_path}/dump.bin?protocol={protocol}&rate=200")
+    rate = RATE_HZ[protocol]
+    batches, source = _replay(f"replay://{tmp_path}/dump.bin?protocol={protocol}&rate={rate:g}")
     counter = _cat(batches, "counter")
     assert len(counter) == len(sent) == 600
     assert np.all(np.diff(counter) == 1)  # unwrapped, one step each: no gap
@@ -74,9 +80,9 @@ def test_a_dump_replays_every_sample_with_no_gap(tmp_path: Path, protocol: str) 
     # the line noise is skipped and counted, nothing else
     skipped = sum(e.count for b in batches for e in b.events if e.kind == "resync")
     assert skipped == 3
-    # the unit's clock: 600 samples at 200 Hz span 599 periods, whatever the wall took
+    # the unit's clock: 600 samples span 599 periods, whatever the wall took
     times = _cat(batches, "receive_time_s")
-    assert times[-1] - times[0] == pytest.approx(599 / 200.0, abs=1e-6)
+    assert times[-1] - times[0] == pytest.approx(599 / rate, abs=1e-6)
     described = dict(source.describe().settings)
     assert described["time"] == ("device time" if protocol == "xbus"
                                  else "counter at the nominal rate")
@@ -98,9 +104,11 @@ def test_the_device_time_shows_an_outage_and_sets_the_rate(tmp_path: Path) -> No
 
 def test_dump_steps_time_the_cuts_by_counter_or_device_time() -> None:
     codec, _, _ = _stream_codec("stim300", {}, 1000.0)
+    # samples 0, 1, 2, 5 (the counter steps by 2000/1000 = 2 a sample: 0, 2, 4, 10): two
+    # samples lost, 3 periods
     frames = [codec.encode(codec.from_reading(Reading((0.0, 0.0, 0.0), c, 0,
                                                       temperature_c=20.0)))
-              for c in (0, 1, 2, 5)]  # counter 2 -> 5: two samples lost, 3 periods
+              for c in (0, 1, 2, 5)]
     timing = dump_steps(b"".join(frames), codec, 1000.0)
     assert timing.readings == 4 and timing.time_source == "counter at the nominal rate"
     assert [s.t for s in timing.steps] == pytest.approx([0.0, 0.001, 0.002, 0.005])
@@ -139,7 +147,7 @@ def test_refusals_are_one_line(tmp_path: Path, query: str, says: str) -> None:
 def test_a_dump_of_another_protocol_is_refused(tmp_path: Path) -> None:
     _dump(tmp_path / "d.bin", "xbus", list(range(20)))
     with pytest.raises(DeviceConfigurationError, match="no stim300 sample decodes"):
-        open_device(f"replay://{tmp_path}/d.bin?protocol=stim300&rate=100")
+        open_device(f"replay://{tmp_path}/d.bin?protocol=stim300&rate=125")
     with pytest.raises(DeviceConfigurationError, match="takes the URL keys protocol="):
         open_device(f"replay://{tmp_path}/d.bin")  # not a capture: a dump needs protocol=
 
