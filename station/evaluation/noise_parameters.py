@@ -59,7 +59,8 @@ def _printed_rrw(fit: NoiseCoefficients) -> tuple[float, str]:
     k, err = fit.values.get("K"), fit.stderr.get("K")
     if not fit.alternatives:
         return _rrw(k, err, what)
-    allowed = f"ambiguous: the record also allows {'; '.join(a.describe() for a in fit.alternatives)}"
+    allowed = "ambiguous: the record also allows " + "; ".join(
+        a.describe() for a in fit.alternatives)
     if _positive(k):
         return float(k or 0.0), f"{what}; {allowed}"
     printed = Reading(fit.terms, k or 0.0, None, (k or 0.0) + (err or 0.0))
