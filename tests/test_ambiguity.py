@@ -7,6 +7,7 @@ its margin). The statistics over seeds are ``benchmarks/bench_ambiguity.py``.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -17,7 +18,7 @@ from analysis.models.simulation import simulate
 from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel, RateRandomWalk
 from station.evaluation.analyze import analyze_record
 from station.evaluation.figure_intervals import Interval
-from station.evaluation.grading import grade_figure
+from station.evaluation.grading import grade_figure, grade_run
 from station.evaluation.noise_parameters import axis_noise
 from station.evaluation.readings import (
     Reading,
@@ -28,6 +29,10 @@ from station.evaluation.readings import (
 )
 from station.model.profiles import parse_profile
 from station.model.records import RateRecord
+from station.output.export_formats import ExportContext, render
+from station.output.report.common import ambiguity_lines
+from station.storage.csv_records import write_csv_record
+from station.storage.runs import open_run
 
 PROFILE = Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml"
 
@@ -193,3 +198,76 @@ def test_a_ramp_the_selection_prefers_by_less_than_the_ramp_margin_keeps_the_wal
     # the ramp reading is printed (K 0), its interval reaching the walk reading's K
     assert sheet.value == 0.0 and sheet.terms == "NR" and sheet.ci_low == 0.0
     assert sheet.ci_high >= walk.fit.values["K"] + walk.fit.stderr["K"]
+
+
+SHEET_PROFILE = """name = "NB-SHEET"
+version = "1"
+model = "TG-1"
+
+[transport]
+url = "sim+serial://GENERIC?protocol=stim300&rate=10"
+
+[test]
+sample_rate_hz = 10.0
+duration_s = 21600.0
+warmup_s = 0.0
+axes = ["x"]
+
+[grading]
+rule = "guard-banded"
+confidence = 0.95
+grades = ["A"]
+
+[figures.arw_fit]
+unit = "deg/sqrt(h)"
+limits = { A = 0.2 }
+
+[figures.bias_instability_fit]
+unit = "deg/h"
+limits = { A = 2.0 }
+
+[figures.rrw]
+unit = "deg/h^1.5"
+limits = { A = 5.0 }
+
+[figures.rate_ramp]
+unit = "deg/h^2"
+"""
+
+
+def test_a_sheet_prints_one_reading_with_intervals_covering_the_others(tmp_path: Path):
+    # N 0.1 + B 0.3 (issue 38's records): the analysis printed the walk (N+K), the
+    # selection preferred the ramp (N+R) by 0.3; the sheet prints N+R whole, never the
+    # walk's K beside another reading's N
+    model = NoiseModel((AngleRandomWalk(N_deg_rt_h=0.1), BiasInstability(B_deg_h=0.3)))
+    rate = simulate(model, 6 * 3600.0, 10.0, seed=3804).rate_deg_s
+    record = write_csv_record(tmp_path / "nb.csv", rate, 10.0, axis_names=["x"])
+    profile = parse_profile(SHEET_PROFILE)
+    unit = grade_run(open_run(record), profile).units[0]
+    axis = unit.axis("x")
+    analysed = analyze_record(RateRecord(rate, 10.0, ("x",)))[0].fit
+    assert analysed.terms == "NK"
+    sheet = axis.analysis.fit
+    assert sheet.terms == best_supported(analysed).terms == "NR"
+    figures = {f.name: f for f in axis.figures}
+    assert {figures[n].terms for n in ("arw_fit", "bias_instability_fit", "rrw",
+                                       "rate_ramp")} == {"NR"}
+    rrw, b = figures["rrw"], figures["bias_instability_fit"]
+    walk_k = analysed.values["K"] + 1.96 * analysed.stderr["K"]
+    assert rrw.value == 0.0 and rrw.ci_low == 0.0 and rrw.ci_high >= walk_k * 0.999
+    assert b.ci_low == 0.0 and b.ci_high >= 0.3  # the true B is inside
+    assert figures["arw_fit"].value == pytest.approx(sheet.values["N"])
+    lines = ambiguity_lines(unit)
+    assert lines and all("supports best (terms NR)" in t for t in lines)
+    assert not any("largest" in t for t in lines)
+
+
+def test_a_tool_of_three_axes_is_told_when_fewer_were_measured(ambiguous_axis):
+    noise = axis_noise(ambiguous_axis)
+    text = render("kalibr", [noise], ExportContext("walk.csv"))
+    assert "Kalibr applies one value to all three gyroscope axes; only 1 of three" in text
+    # the printed reading drops K: the random walk written is a bound, and says so
+    walk_line = next(t for t in text.splitlines() if t.startswith("gyroscope_random_walk"))
+    assert "UPPER BOUND" in walk_line
+    three = [replace(noise, name=n) for n in "xyz"]
+    assert "applies one value" not in render("kalibr", three, ExportContext("walk.csv"))
