@@ -22,9 +22,9 @@ Where the selected reading left K out and a reading with K is not ruled out, the
 with K is the one printed (a realised walk holds the ramp-like rise and the slow wander a
 separate R or B would claim), and the selected one becomes its alternative; the selected
 one stays printed, the reading with K its alternative, where the GMWM prefers a bias
-instability alone or only the ramp's wider margin keeps the walk. A spec sheet prints the
-largest fit of each term among the readings either way
-(:func:`station.evaluation.readings.largest_reading`). Where the
+instability alone or only the ramp's wider margin keeps the walk. A spec sheet prints
+the reading the selection's criterion supports best either way, each figure's interval
+covering the other readings (:func:`station.evaluation.readings.best_supported`). Where the
 selected reading kept K, readings that trade it for R or B within the margin of the
 information criterion are listed as alternatives. Every alternative carries its values
 and standard errors, so that a verdict can take the reading that is safe for a limit.
@@ -186,8 +186,9 @@ def _resolve_walk(result: AllanResult, fit: NoiseCoefficients, wavelet: WaveletV
     # octaves as little as they hold) prefers that: a flat Allan curve over the last
     # octaves is a bias instability's, and a record of one is not to print a walk; and
     # except where only the ramp's wider margin keeps the walk (the selection prefers the
-    # ramp by more than the margin). The sheet prints the larger K of the readings either
-    # way (station.evaluation.readings.largest_reading).
+    # ramp by more than the margin). The sheet prints the reading the selection's
+    # criterion supports best either way, its intervals covering the others
+    # (station.evaluation.readings.best_supported).
     if not within or (wic is not None and wic >= 0 and "R" not in chosen):
         which = "the GMWM prefers" if within else "the information criterion prefers"
         note = (f"{why}. Printed: the reading without K, which {which}; the reading "

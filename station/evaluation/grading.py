@@ -57,8 +57,9 @@ from station.evaluation.long_records import take_columns
 from station.evaluation.readings import (
     Reading,
     alternative_readings,
+    best_supported,
+    covering_interval,
     fit_term,
-    largest_reading,
     readings_note,
     safe_verdict,
 )
@@ -84,8 +85,9 @@ class FigureResult:
 
     ``verdicts`` maps each grade that limits this figure to its verdict; ``alternatives``
     are the other readings an ambiguous fit allows (canonical unit), which the verdicts hold
-    for too (:mod:`station.evaluation.readings`); ``terms`` those of the fitted reading the
-    value comes from ("" for a figure that is no fitted term).
+    for too and ``ci_low``/``ci_high`` cover (:mod:`station.evaluation.readings`); ``terms``
+    those of the printed reading the value comes from ("" for a figure that is no fitted
+    term).
     """
 
     spec: FigureSpec
@@ -269,10 +271,13 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
     """Convert a canonical interval to the spec's unit and decide it at every limited grade,
     safely over the ``alternatives`` (other readings, canonical unit) when there are any.
 
-    ``terms`` are those of the fit ``interval`` comes from (kept for a fitted figure only).
-    Where the record allows several readings, the figure prints the largest fit of its term
-    (:func:`station.evaluation.readings.largest_reading`: the one safe for an upper limit
-    and for an error budget), the others listed beside it."""
+    ``interval`` is the figure of the reading the sheet prints
+    (:func:`station.evaluation.readings.best_supported`), ``terms`` its terms (kept for a
+    fitted figure only). Where the record allows other readings, the value stays the
+    printed reading's and the interval is widened to cover every other reading
+    (:func:`station.evaluation.readings.covering_interval`); each reading is decided on
+    its own interval and the verdict holds for all of them
+    (:func:`station.evaluation.readings.safe_verdict`)."""
     factor = spec.unit_factor
 
     def conv(v: float | None) -> float | None:
@@ -280,15 +285,16 @@ def grade_figure(spec: FigureSpec, interval: Interval, profile: Profile,
 
     term = fit_term(spec.name, profile.figure_source) or ""
     printed = Reading(terms if term else "", interval.value, interval.low, interval.high)
-    shown, others = largest_reading(printed, alternatives, term)
-    readings = [(conv(r.value), conv(r.low), conv(r.high)) for r in (shown, *others)]
+    readings = [(conv(r.value), conv(r.low), conv(r.high)) for r in (printed, *alternatives)]
     verdicts = {g: safe_verdict([decide(*r, limit, profile.rule) for r in readings])
                 for g, limit in spec.limits.items()}
-    own = interval.note if shown is printed else (
-        f"the largest of the readings the record allows is printed (terms {shown.terms})")
-    note = "; ".join(t for t in (own, readings_note(others, spec.unit, factor)) if t)
-    value, low, high = readings[0]
-    return FigureResult(spec, value, low, high, verdicts, note, others, shown.terms)
+    low, high = covering_interval(printed, alternatives)
+    widened = (low, high) != (printed.low, printed.high)
+    own = "; ".join(t for t in (interval.note, "interval covers every reading the record "
+                                "allows" if widened else "") if t)
+    note = "; ".join(t for t in (own, readings_note(alternatives, spec.unit, factor)) if t)
+    return FigureResult(spec, conv(interval.value), conv(low), conv(high), verdicts, note,
+                        alternatives, printed.terms)
 
 
 # --- runs ----------------------------------------------------------------------------------
@@ -369,7 +375,10 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
     axes = []
-    for analysis in analyze_record(trimmed, method=profile.fit_method, bench=bench):
+    for analysed in analyze_record(trimmed, method=profile.fit_method, bench=bench):
+        # the sheet's figures are those of one reading, the one the record supports best
+        analysis = (analysed if analysed.accel is not None
+                    else replace(analysed, fit=best_supported(analysed.fit)))
         x = analysis.rate_deg_s
         assert x is not None
         z, source = normal_quantile(profile.confidence), profile.figure_source

@@ -1,7 +1,9 @@
 """The noise parameters a Kalman filter or simulator takes, from an axis' analysis.
 
 Which figure feeds which parameter (:func:`axis_noise`; ``AxisNoise.sources`` names it
-per axis):
+per axis). The fit is the reading a spec sheet prints
+(:func:`station.evaluation.readings.best_supported`: one term set, the one the record
+supports best), never the largest fit of each term taken from different readings:
 
 * angle random walk N: the five-term fit's N (``logwls``) or the GMWM's white noise
   (``gmwm``), else the IEEE 952 read-off;
@@ -10,8 +12,9 @@ per axis):
 * rate random walk K: the fit's K, or the GMWM's random walk; a K the record does not
   resolve (fitted to zero) is its 1-sigma upper bound, and the source says so, because a
   filter given no bias random walk at all trusts its bias estimate for ever; where the
-  record allows other readings (:mod:`analysis.figures.ambiguity`), the largest K of them, the
-  source naming the alternatives;
+  record allows other readings (:mod:`analysis.figures.ambiguity`) and the printed one
+  drops K, the bound covers every reading (their ``K + 1 sigma``), the source naming the
+  alternatives; a printed K above 0 is written as it is;
 * Gauss-Markov terms: the GMWM's ``gm`` terms (``gmwm``), none otherwise.
 """
 
@@ -20,8 +23,15 @@ from __future__ import annotations
 import math
 
 from analysis.figures.tool_units import AxisNoise, GaussMarkovBias
+from analysis.fit.least_squares import NoiseCoefficients
 from station.errors import UsageError
 from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, AxisAnalysis
+from station.evaluation.readings import (
+    Reading,
+    alternative_readings,
+    best_supported,
+    covering_interval,
+)
 
 #: The methods noise parameters come from: the Allan fit and read-offs, or the GMWM beside them.
 EXPORT_METHODS: tuple[str, ...] = (DEFAULT_METHOD, GMWM_METHOD)
@@ -40,20 +50,25 @@ def _rrw(value: float | None, stderr: float | None, what: str) -> tuple[float, s
     return 0.0, f"{what}: none found and no bound"
 
 
-def _safe_rrw(axis: AxisAnalysis) -> tuple[float, str]:
-    """K from the fit, the largest over its readings where the record allows several
-    (:mod:`analysis.figures.ambiguity`), its source naming the alternatives the record allowed."""
-    fit = axis.fit
-    k, k_from = _rrw(fit.values.get("K"), fit.stderr.get("K"), f"fit ({fit.method})")
+def _printed_rrw(fit: NoiseCoefficients) -> tuple[float, str]:
+    """K of the reading a sheet prints (``fit``, :func:`best_supported`); where that
+    reading drops K, the 1-sigma upper bound that covers every reading the record allows
+    (:func:`station.evaluation.readings.covering_interval`), its source saying it is a
+    bound; the source names the other readings."""
+    what = f"fit ({fit.method}, terms {fit.terms})"
+    k, err = fit.values.get("K"), fit.stderr.get("K")
     if not fit.alternatives:
-        return k, k_from
-    for alt in fit.alternatives:
-        other, _ = _rrw(alt.fit.values.get("K"), alt.fit.stderr.get("K"), "")
-        if other > k:
-            k, k_from = other, f"fit ({fit.method}, reading {alt.terms})"
-    allowed = "; ".join(alt.describe() for alt in fit.alternatives)
-    return k, (f"{k_from}; ambiguous: the record also allows {allowed} (printed terms "
-               f"{fit.terms}); the larger K of the readings is written")
+        return _rrw(k, err, what)
+    allowed = "ambiguous: the record also allows " + "; ".join(
+        a.describe() for a in fit.alternatives)
+    if _positive(k):
+        return float(k or 0.0), f"{what}; {allowed}"
+    printed = Reading(fit.terms, k or 0.0, None, (k or 0.0) + (err or 0.0))
+    _, high = covering_interval(printed, alternative_readings(fit, "K", 1.0))
+    if high is None or not _positive(high):
+        return 0.0, f"{what}: none found and no bound; {allowed}"
+    return high, (f"{what}: upper bound (1 sigma) over the readings the record allows, "
+                  f"the printed reading does not resolve K; {allowed}")
 
 
 def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
@@ -65,7 +80,8 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     UsageError
         ``method="gmwm"`` on an analysis without a GMWM, or no angle random walk at all.
     """
-    fit, fig = axis.fit, axis.figures
+    # the reading a sheet prints: one term set, the one the record supports best
+    fit, fig = best_supported(axis.fit), axis.figures
     n_fit = fit.values.get("N")
     arw, arw_from = (
         (n_fit, f"fit ({fit.method})") if _positive(n_fit) else (fig.arw_deg_rt_h, "read-off")
@@ -77,7 +93,7 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
             if _positive(fit.values.get("B"))
             else (None, "none")
         )
-    k, k_from = _safe_rrw(axis)
+    k, k_from = _printed_rrw(fit)
     gauss_markov: list[GaussMarkovBias] = []
     if method == GMWM_METHOD:
         if axis.gmwm is None:

@@ -1,21 +1,27 @@
-"""The other readings of an ambiguous fitted figure, and the verdict safe for a limit.
+"""The reading a sheet prints of an ambiguous fit, its honest intervals, and the verdict
+safe for a limit.
 
 Where the record cannot tell two term sets apart (:mod:`analysis.figures.ambiguity`: a rate
 random walk against a ramp or a bias instability, a bias instability or a walk against a
-slow Gauss-Markov process), the fit carries the other readings
-beside the one printed. A fitted figure then has several values, each with its interval;
-a limit is passed only when every reading passes it, failed only when every reading fails
-it, and indeterminate otherwise: never a pass bought by the zero of a term one reading
-dropped.
+slow Gauss-Markov process), the fit carries the other readings beside the one printed.
+A sheet prints the figures of one reading, the term set the record supports best
+(:func:`best_supported`): never the largest fit of each term taken from different
+readings, a model no reading supports (issue 38: on N 0.1 + B 0.3 records that printed K
+in 14-15 of 20 and B as 0). Each fitted figure's interval is widened to cover every
+other reading (:func:`covering_interval`): a term one allowed reading lacks has an
+interval reaching 0, a term another reading puts higher one reaching that value. A limit
+is passed only when every reading passes it, failed only when every reading fails it, and
+indeterminate otherwise: never a pass bought by the zero of a term one reading dropped.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from analysis.fit.least_squares import NoiseCoefficients
+from analysis.fit.result import Alternative
 from station.model.kinds import INDETERMINATE, Verdict
 
 #: The fitted term of each fit figure of a profile.
@@ -56,9 +62,11 @@ def fit_term(name: str, source: str) -> str | None:
 
 
 def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[Reading, ...]:
-    """The readings of ``term`` by the fit's alternatives whose value differs from the
-    printed one (``z``: the normal quantile of the profile's confidence)."""
-    printed = fit.values[term]
+    """The readings of ``term`` by the fit's alternatives, less those identical to the
+    printed one (``z``: the normal quantile of the profile's confidence). A reading that
+    dropped the term holds it as 0, its interval up to ``z`` times the error the fit gives
+    the dropped term."""
+    printed, printed_err = fit.values[term], fit.stderr[term]
     out = []
     for alt in fit.alternatives:
         value, err = alt.fit.values[term], alt.fit.stderr[term]
@@ -72,7 +80,10 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
             # limit bounds; sigma / 0.664 would charge the process an Allan deviation it
             # never reaches. The verdict takes the larger reading (safe_verdict).
             value, err = gm.bias_instability_deg_h, gm.bias_instability_stderr_deg_h
-        if value is None or (printed is not None and math.isclose(value, printed)):
+        if value is None or (printed is not None and math.isclose(value, printed)
+                             and (err == printed_err or (err is not None and printed_err
+                                                         is not None and math.isclose(
+                                                             err, printed_err)))):
             continue
         if err is None or not math.isfinite(err):
             out.append(Reading(alt.terms, value, None, None, equivalent))
@@ -82,23 +93,55 @@ def alternative_readings(fit: NoiseCoefficients, term: str, z: float) -> tuple[R
     return tuple(out)
 
 
-def largest_reading(printed: Reading, others: Sequence[Reading], term: str
-                    ) -> tuple[Reading, tuple[Reading, ...]]:
-    """The reading a sheet prints of a figure the record reads several ways, and the others.
+def best_supported(fit: NoiseCoefficients) -> NoiseCoefficients:
+    """The reading of ``fit`` the record supports best, the others its alternatives.
 
-    The largest value among the readings that fit the term ``term`` itself: of two
-    readings a record cannot tell apart, the larger is the one an upper limit and an error
-    budget are safe with (a term one reading drops comes back as 0 there, a figure the
-    realisation bought). A reading that drops the term, or reads it as a Gauss-Markov
-    process' equivalent, is listed and judged but not printed: it is no fit of the term.
-    Without such readings, ``printed`` itself."""
-    readings = (printed, *others)
-    fitted = [i for i, r in enumerate(readings) if term and term in r.terms
-              and not r.equivalent and r.value is not None and math.isfinite(r.value)]
-    if not others or not fitted:
-        return printed, tuple(others)
-    i = max(fitted, key=lambda j: (readings[j].value, -j))
-    return readings[i], tuple(r for j, r in enumerate(readings) if j != i)
+    The term set with the lowest information criterion of the ``logwls`` selection
+    (:mod:`analysis.fit.selection`) among ``fit`` and its alternatives that have one (a
+    Gauss-Markov reading has none: it stays an alternative). Where
+    :mod:`analysis.figures.ambiguity` printed the reading with K over the selection's own,
+    this is the selection's reading again: a sheet prints the figures of one reading the
+    record supports, not a mix of readings, and each figure's interval covers the others
+    (:func:`covering_interval`). Criterion differences of the alternatives are taken
+    relative to the reading returned. ``fit`` itself where no alternative is better."""
+    ranked = [a for a in fit.alternatives
+              if a.gauss_markov is None and a.criterion_delta is not None]
+    best = min(ranked, key=lambda a: a.criterion_delta or 0.0, default=None)
+    if best is None or not (best.criterion_delta or 0.0) < 0.0:
+        return fit
+    d, wd = best.criterion_delta or 0.0, best.wavelet_criterion_delta
+
+    def rebased(a: Alternative) -> Alternative:
+        cd, wcd = a.criterion_delta, a.wavelet_criterion_delta
+        return replace(a, criterion_delta=None if cd is None else cd - d,
+                       wavelet_criterion_delta=None if wcd is None or wd is None else wcd - wd)
+
+    was_printed = Alternative(replace(fit, alternatives=(), notes=()), -d,
+                              None if wd is None else -wd)
+    others = tuple(rebased(a) for a in fit.alternatives if a is not best)
+    note = (f"terms {best.fit.terms}: the reading the record supports best (information "
+            f"criterion {d:+.1f} against terms {fit.terms}); the record also allows "
+            + "; ".join(a.describe() for a in (was_printed, *others))
+            + ": each figure's interval covers every reading")
+    return replace(best.fit, notes=(note, *best.fit.notes), criteria=fit.criteria,
+                   alternatives=(was_printed, *others))
+
+
+def covering_interval(printed: Reading, others: Sequence[Reading]
+                      ) -> tuple[float | None, float | None]:
+    """The interval of a figure that covers every reading the record allows: the printed
+    reading's own, widened to each other reading's interval (its value where it has no
+    interval; a reading without the term holds 0). A bound the printed reading does not
+    know (None) stays unknown."""
+    low, high = printed.low, printed.high
+    for r in others:
+        if r.value is None or not math.isfinite(r.value):
+            continue
+        lo = r.value if r.low is None else r.low
+        hi = r.value if r.high is None else r.high
+        low = None if low is None else min(low, lo)
+        high = None if high is None else max(high, hi)
+    return low, high
 
 
 def safe_verdict(verdicts: Sequence[Verdict]) -> Verdict:

@@ -87,6 +87,27 @@ def _axis_comments(axes: Sequence[AxisNoise]) -> list[str]:
     return out
 
 
+def fewer_axes_note(tool: str, axes: Sequence[AxisNoise]) -> str:
+    """The sentence saying that ``tool`` applies its one value to all three gyroscope axes
+    while fewer were measured ('' with three or more)."""
+    if len(axes) >= 3:
+        return ""
+    names = ", ".join(a.name for a in axes)
+    return (f"{tool} applies one value to all three gyroscope axes; only {len(axes)} of three "
+            f"measured ({names}): the others are not characterized by this file")
+
+
+def _fewer_axes_comment(tool: str, axes: Sequence[AxisNoise], mark: str = "#") -> list[str]:
+    note = fewer_axes_note(tool, axes)
+    return [f"{mark} {note}"] if note else []
+
+
+def _bound_text(axis: AxisNoise) -> str:
+    """', an upper bound' where the axis' random walk is a bound, not a fit."""
+    return (", an UPPER BOUND: the record does not resolve it"
+            if "upper bound" in (axis.sources or {}).get("rrw", "") else "")
+
+
 def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
     nd_axis, rw_axis = _largest(axes)
     return [
@@ -99,7 +120,7 @@ def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
         _yaml(
             "gyroscope_random_walk",
             rw_axis.random_walk_rad_s2_rt_hz,
-            f"rad/s^2/sqrt(Hz), continuous time (axis {rw_axis.name})",
+            f"rad/s^2/sqrt(Hz), continuous time (axis {rw_axis.name}{_bound_text(rw_axis)})",
             indent,
         ),
     ]
@@ -145,6 +166,7 @@ def kalibr(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             *_header_note(ctx),
             "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
+            *_fewer_axes_comment("Kalibr", axes),
             "",
             *_gyro_lines(axes),
             *(_accel_lines(ctx) if ctx.accel else []),
@@ -169,6 +191,7 @@ def openvins(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             "calibrate them",
             "# gyroscopes: the largest value over the axes is written; per axis:",
             *_axis_comments(axes),
+            *_fewer_axes_comment("OpenVINS", axes),
             "",
             "imu0:",
             *(_accel_lines(ctx, "  ") if ctx.accel else []),
@@ -192,6 +215,7 @@ def allan_variance_ros(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
             *_header_note(ctx),
             "# gyroscopes, per axis:",
             *_axis_comments(axes),
+            *_fewer_axes_comment("allan_variance_ros", axes),
             "",
             *(["#Accelerometer", *_accel_lines(ctx), ""] if ctx.accel else []),
             "#Gyroscope",
@@ -275,6 +299,9 @@ def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     ]
     lines += [f"%   {k}: {u}" for k, u in _MATLAB_UNITS.items()]
     lines += [f"% ConstantBias is the record's mean rate ({earth})"]
+    lines += _fewer_axes_comment("gyroparams (a scalar)", axes, "%")
+    lines += [f"% {a.name}: RandomWalk is an upper bound, the record does not resolve it"
+              for a in axes if _bound_text(a)]
     lines += _matlab_call("params", "gyroparams", values)
     if ctx.accel:
         lines += [f"% accelparams of the accelerometer axes "

@@ -29,10 +29,14 @@ from station.evaluation.noise_parameters import EXPORT_METHODS, axis_noise
 from station.model.bench import Bench
 from station.model.records import RateRecord
 from station.model.wording import plural
-from station.output.export_formats import FORMATS, ExportContext, render
+from station.output.export_formats import FORMATS, ExportContext, fewer_axes_note, render
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.services.records import RecordSource, bench_of, load_record
 from station.storage.atomic_files import write_text_atomically
+
+#: The formats whose tool applies one gyroscope value to all three axes, by tool name.
+THREE_AXIS_TOOLS = {"kalibr": "Kalibr", "openvins": "OpenVINS",
+                    "allan-variance-ros": "allan_variance_ros"}
 
 
 @dataclass(frozen=True)
@@ -152,6 +156,9 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
     out = request.out if request.out is not None else default_output(file, request.format, unit)
     text = render(request.format, [a.noise for a in axes], context, suffix=out.suffix)
     notes = list(loaded.notes)
+    if request.format in THREE_AXIS_TOOLS:
+        notes += [t for t in (fewer_axes_note(THREE_AXIS_TOOLS[request.format],
+                                              [a.noise for a in axes]),) if t]
     notes += [
         f"{a.noise.name}: rate random walk is {a.noise.sources['rrw'].split(': ', 1)[1]}"
         for a in axes

@@ -122,23 +122,26 @@ def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str
 
 def ambiguity_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str]:
     """One line per fitted figure whose record allows other readings: the printed value
-    (the largest reading) and the others with their intervals (values in ``family``); the
-    sheets and the TUI show them."""
+    (of the reading the record supports best) with its interval, which covers every
+    reading, and the others with their own intervals (values in ``family``); the sheets
+    and the TUI show them."""
     out = []
     for a in unit.axes:
         for f in a.figures:
             if not f.alternatives:
                 continue
-            unit_text = family.label(f.spec.unit)
+            u, factor = f.spec.unit, f.spec.unit_factor
             others = "; ".join(
-                f"{_num(family.value(r.value / f.spec.unit_factor, f.spec.unit))} "
-                f"[{_num(family.value(_over(r.low, f.spec.unit_factor), f.spec.unit))}, "
-                f"{_num(family.value(_over(r.high, f.spec.unit_factor), f.spec.unit))}] "
+                f"{_num(family.value(_over(r.value, factor), u))} "
+                f"[{_num(family.value(_over(r.low, factor), u))}, "
+                f"{_num(family.value(_over(r.high, factor), u))}] "
                 f"(terms {r.terms})" for r in f.alternatives if r.value is not None)
             out.append(
-                f"AMBIGUOUS {a.axis} {f.spec.label}: printed the largest reading, "
-                f"{_num(family.value(f.value, f.spec.unit))} {unit_text} (terms "
-                f"{f.terms or a.analysis.fit.terms}); the record also allows {others}; verdict "
+                f"AMBIGUOUS {a.axis} {f.spec.label}: printed the reading the record supports "
+                f"best (terms {f.terms or a.analysis.fit.terms}), "
+                f"{_num(family.value(f.value, u))} [{_num(family.value(f.ci_low, u))}, "
+                f"{_num(family.value(f.ci_high, u))}] {family.label(u)}, the interval "
+                f"covering every reading; the record also allows {others}; verdict "
                 f"{f.verdicts.get(a.deciding_grade, 'not limited')}, safe for every reading")
     return out
 
