@@ -77,7 +77,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     what.add_argument(
         "--stats",
         action="store_true",
-        help="production statistics: yield per grade, Cp/Cpk, control charts, review",
+        help="production statistics, a block per model: yield per grade, Cp/Cpk, control "
+        "charts, review",
     )
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
     p.add_argument(
