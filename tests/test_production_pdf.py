@@ -27,13 +27,13 @@ def test_stats_pdf_tables_hold_the_json_numbers(line_file: str, tmp_path: Path, 
                                                 capsys) -> None:
     pdf = tmp_path / "stats.pdf"
     assert main(["results", "--stats", "--db", line_file, "--json"]) == 0
-    doc = json.loads(capsys.readouterr().out)
+    doc = json.loads(capsys.readouterr().out)["models"]["TG-1"]  # the line's one model
     assert main(["results", "--stats", "--db", line_file, "--pdf", str(pdf)]) == 0
     capsys.readouterr()
     pages = PdfReader(pdf).pages
     assert len(pages) == 1 + len(doc["figures"])
     first = _words(pages[0].extract_text())
-    assert "Production statistics" in first and "all models, all lots: 12 units" in first
+    assert "Production statistics" in first and "model TG-1, all lots: 12 units" in first
     assert "Units flagged for review: 1 unit" in first and "1 units" not in first
     for grade, share in doc["yield"].items():  # yield per grade: units and share
         n = doc["grades"][grade]

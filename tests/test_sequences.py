@@ -193,8 +193,9 @@ def test_sequence_figures_are_stored_beside_the_others(
             values.append(rows["turn_on_repeatability"]["value"])
     trend = query_results(ResultsRequest(db, "trend", figure="turn_on_repeatability")).trend
     assert [p.value for p in trend] == values and {p.axis for p in trend} == {UNIT_AXIS}
-    stats = production_stats(StatsRequest(db)).stats
-    assert stats is not None and stats.units == 2
+    by_model = production_stats(StatsRequest(db)).stats
+    assert by_model is not None and by_model.units == 2
+    (stats,) = by_model.models.values()  # the two units are of one model
     figure = stats.figures["turn_on_repeatability"]
     assert figure.limits == {"A": 30.0, "B": 60.0}  # the profile's, from the stored text
     mean, std = float(np.mean(values)), float(np.std(values, ddof=1))

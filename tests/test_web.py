@@ -18,6 +18,7 @@ from station.evaluation.grading import RunGrade
 from station.output.report.html import write_html
 from station.output.results import ResultsDatabase
 from station.web import ServeConfig, create_app
+from tests.test_capability_per_model import assert_figures_in_rad
 from tests.test_production_stats import _fill, _unit, graded  # noqa: F401  (a fixture)
 
 #: A serial number with markup, graded like any other unit.
@@ -76,6 +77,8 @@ def test_pages_show_the_numbers_of_results_stats(client: TestClient, line: Path,
                     "--output-units", "rad")
     assert client.get("/api/stats", params={"model": "TG-1", "units": "rad"}).json() == rad
     arw = cli["figures"]["arw"]
+    assert arw["fitted_median"] is not None and arw["fitted_p99865"] is not None
+    assert_figures_in_rad(cli, rad)  # every number in a figure's unit converted, fitted too
     page = client.get("/", params={"model": "TG-1"}).text
     row = page.split('<tr data-figure="arw">', 1)[1].split("</tr>", 1)[0]
     shown = [float(v) for v in re.findall(r'data-value="([^"]+)"', row)]

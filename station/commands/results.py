@@ -7,13 +7,15 @@
 * ``station results --trend FIGURE [--axis A] [--png OUT]``: a figure over test dates as a
   table, and as a PNG (value, confidence interval, limit, coloured by verdict);
 * ``station results --stats [--model M] [--lot L] [--since DATE] [--html OUT] [--pdf OUT]``:
-  the producer's statistics over the latest grading of each unit: yield per grade, per
-  graded figure mean, std, Cp and Cpk against the acceptance limit, histograms against the
-  limits and control charts (HTML, PDF), and the units flagged for review.
+  the producer's statistics over the latest grading of each unit, model by model (never
+  pooled): yield per grade, per graded figure mean, std, Cp and Cpk against the acceptance
+  limit, histograms against the limits and control charts (HTML, PDF), and the units
+  flagged for review.
 
 Every listing takes ``--json`` (one JSON document on stdout instead of a table);
-``--stats --json`` prints ``{"units", "yield": {grade: share}, "figures": {name: {"mean",
-"std", "cp", "cpk", "limits", ...}}, "review": [...]}``.
+``--stats --model M --json`` prints ``{"units", "yield": {grade: share}, "figures": {name:
+{"mean", "std", "cp", "cpk", "limits", ...}}, "review": [...], "profile", "lots",
+"lot_yield", ...}``; without ``--model``, ``{"units", "models": {model: that document}}``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ from station.model.wording import plural
 from station.output.results_backends import redacted
 
 if TYPE_CHECKING:
-    from station.output.production_stats import ProductionStats
+    from station.output.production_stats import ProductionStats, StatsByModel
     from station.output.results import GradingRow, LotYield, TrendPoint
 
 
@@ -75,7 +77,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     what.add_argument(
         "--stats",
         action="store_true",
-        help="production statistics: yield per grade, Cp/Cpk, control charts, review",
+        help="production statistics, a block per model: yield per grade, Cp/Cpk, control "
+        "charts, review",
     )
     p.add_argument("--axis", default=None, help="with --trend: only this axis")
     p.add_argument(
@@ -176,14 +179,10 @@ def run_stats(args: argparse.Namespace) -> int:
     )
     if answer.stats is None:
         if args.json:
+            empty: dict[str, object] = ({"yield": {}, "figures": {}} if args.model
+                                        else {"models": {}})
             _print_json(
-                {
-                    "database": redacted(answer.database),
-                    "exists": False,
-                    "units": 0,
-                    "yield": {},
-                    "figures": {},
-                }
+                {"database": redacted(answer.database), "exists": False, "units": 0, **empty}
             )
         else:
             print(
@@ -194,7 +193,7 @@ def run_stats(args: argparse.Namespace) -> int:
     if args.json:
         _print_json(answer.stats.as_json(), output_family(args))
     else:
-        print(format_stats(answer.stats, output_family(args)))
+        print(format_stats_by_model(answer.stats, output_family(args)))
     for path in (answer.html, answer.pdf):
         if path is not None:
             print(f"statistics: {path}", file=sys.stderr if args.json else sys.stdout)
@@ -203,6 +202,18 @@ def run_stats(args: argparse.Namespace) -> int:
 
 def _ci(ci: tuple[float, float] | None) -> str:
     return "-" if ci is None else f"[{ci[0]:.3g}, {ci[1]:.3g}]"
+
+
+def format_stats_by_model(stats: StatsByModel, family: UnitFamily = DEG_FAMILY) -> str:
+    """The statistics as terminal tables, a block per model (:func:`format_stats`); with
+    ``--model``, that model's block alone."""
+    if stats.model is not None:
+        return format_stats(stats.models[stats.model], family)
+    lines = [f"{plural(stats.units, 'unit')} of {plural(len(stats.models), 'model')} "
+             f"(latest grading each): {', '.join(stats.models) or '-'}; each model apart"]
+    for model, block in stats.models.items():
+        lines += ["", f"== model {model} ==", format_stats(block, family)]
+    return "\n".join(lines)
 
 
 def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str:

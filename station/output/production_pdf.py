@@ -1,9 +1,10 @@
 """The producer's statistics as a PDF report (``station results --stats --pdf OUT``).
 
-A4 landscape pages drawn with matplotlib, as the spec sheets are. The first page: a title
-block (what the statistics cover, the profile, when it was made), the yield per grade and
-per lot as tables with a bar chart of each lot's grades, the capability table of every
-graded figure, and the units flagged for review. Then a page per graded figure: its
+A4 landscape pages drawn with matplotlib, as the spec sheets are, model after model (the
+models are never pooled). A model's first page: a title block (what the statistics cover,
+the profile, when it was made), the yield per grade and per lot as tables with a bar chart
+of each lot's grades, the capability table of every graded figure, and the units flagged
+for review. Then a page per graded figure: its
 numbers, its distribution against the profile's limits and its control chart
 (:func:`station.output.production_report.draw_figure`, the plots the HTML page shows).
 Every number is the one ``station results --stats --json`` prints, formatted as the HTML
@@ -34,7 +35,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    from station.output.production_stats import FigureStats, ProductionStats
+    from station.output.production_stats import FigureStats, ProductionStats, StatsByModel
 
 #: A4 landscape, inches.
 PAGE_IN = (11.69, 8.27)
@@ -202,15 +203,20 @@ def figure_page(stats: ProductionStats, f: FigureStats) -> Figure:
     return page
 
 
-def write_stats_pdf(stats: ProductionStats, path: Path) -> Path:
-    """The statistics as a PDF report: the summary page, then a page per graded figure."""
+def write_stats_pdf(stats: StatsByModel, path: Path) -> Path:
+    """The statistics as a PDF report: per model, its summary page, then a page per graded
+    figure (a selection of no unit: one summary page saying so)."""
     from matplotlib.backends.backend_pdf import PdfPages
 
+    from station.output.production_stats import ProductionStats
+
+    blocks = list(stats.models.values()) or [ProductionStats(None, stats.lot, stats.since)]
     path.parent.mkdir(parents=True, exist_ok=True)
     with PdfPages(path) as pdf:
-        pdf.savefig(summary_page(stats))
-        for f in stats.figures.values():
-            pdf.savefig(figure_page(stats, f))
+        for block in blocks:
+            pdf.savefig(summary_page(block))
+            for f in block.figures.values():
+                pdf.savefig(figure_page(block, f))
     return path
 
 

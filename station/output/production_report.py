@@ -4,7 +4,8 @@ report (:mod:`station.output.production_pdf`) shares with it.
 Per graded figure, two plots side by side: the histogram of the units' values with every
 grade's limit drawn as a vertical line, and the individuals control chart (values in test
 order, the mean, the 3-sigma control limits, out-of-control points marked in red); then
-the yield per grade, the Cp/Cpk table and the units flagged for review.
+the yield per grade, the Cp/Cpk table and the units flagged for review; the page has a
+section of these per model (the models are never pooled).
 """
 
 from __future__ import annotations
@@ -23,13 +24,13 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-    from station.output.production_stats import FigureStats, ProductionStats
+    from station.output.production_stats import FigureStats, ProductionStats, StatsByModel
 
 LIMIT_COLORS = ("#2e7d32", "#e0a800", "#d9534f", "#6a1b9a")
 
 CSS = """
 body { font-family: sans-serif; font-size: 11pt; margin: 2em; color: #222; }
-h1 { font-size: 16pt; } h2 { font-size: 13pt; margin-top: 1.5em; }
+h1 { font-size: 16pt; } h2 { font-size: 13pt; margin-top: 1.5em; } h3 { font-size: 12pt; }
 table { border-collapse: collapse; margin: 0.5em 0; }
 td, th { border: 1px solid #bbb; padding: 0.15em 0.5em; text-align: left; }
 th { background: #eee; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
@@ -37,7 +38,7 @@ td.low { background: #f5c2c2; } img { max-width: 100%; }
 """
 
 
-def selection_text(stats: ProductionStats) -> str:
+def selection_text(stats: ProductionStats | StatsByModel) -> str:
     """``"model TG-1, all lots, tested since 2026-06-01"``: what the statistics cover."""
     r = stats
     parts = [
@@ -49,7 +50,7 @@ def selection_text(stats: ProductionStats) -> str:
     return ", ".join(parts)
 
 
-def _title(stats: ProductionStats) -> str:
+def _title(stats: ProductionStats | StatsByModel) -> str:
     return f"Production statistics: {selection_text(stats)} ({plural(stats.units, 'unit')})"
 
 
@@ -148,14 +149,31 @@ CAPABILITY_HEADER = ["figure", "unit", "n", "mean", "std", "limit", "Ppk (upper)
                      "Ppk fitted", "95 % CI", "fit", "out of control"]
 
 
-def write_stats_html(stats: ProductionStats, path: Path) -> Path:
-    """The statistics as one self-contained HTML file (plots embedded as PNG data URIs)."""
+def write_stats_html(stats: StatsByModel, path: Path) -> Path:
+    """The statistics as one self-contained HTML file (plots embedded as PNG data URIs), a
+    section per model."""
     title = _title(stats)
     parts = [
         f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{escape(title)}</title>"
         f"<style>{CSS}</style></head><body><h1>{escape(title)}</h1>",
+    ]
+    if not stats.models:
+        parts.append("<p>No graded unit is selected.</p>")
+    for block in stats.models.values():
+        parts += _model_section(block)
+    parts.append("</body></html>")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(parts), encoding="utf-8")
+    return path
+
+
+def _model_section(stats: ProductionStats) -> list[str]:
+    """One model's section: yield per grade, capability, plots, units flagged for review."""
+    parts = [
+        f"<section class='model' data-model='{escape(stats.model or '')}'>"
+        f"<h2>Model {escape(stats.model or 'all')}: {plural(stats.units, 'unit')}</h2>",
         f"<p>Profile {escape(stats.profile or '-')}; the latest grading of each unit.</p>",
-        "<h2>Yield per grade</h2><table class='yield'><tr><th>grade</th><th>units</th>"
+        "<h3>Yield per grade</h3><table class='yield'><tr><th>grade</th><th>units</th>"
         "<th>share</th></tr>",
     ]
     parts += [
@@ -164,7 +182,7 @@ def write_stats_html(stats: ProductionStats, path: Path) -> Path:
         for g, n in stats.grades.items()
     ]
     parts.append(
-        "</table><h2>Capability</h2><table class='capability'><tr>"
+        "</table><h3>Capability</h3><table class='capability'><tr>"
         + "".join(f"<th>{h}</th>" for h in CAPABILITY_HEADER)
         + "</tr>"
     )
@@ -183,18 +201,16 @@ def write_stats_html(stats: ProductionStats, path: Path) -> Path:
     for name, f in stats.figures.items():
         data = base64.b64encode(_png(figure_plot(f))).decode("ascii")
         parts.append(
-            f"<h2>{escape(name)} [{escape(f.unit)}]</h2>"
+            f"<h3>{escape(name)} [{escape(f.unit)}]</h3>"
             f"<img alt='{escape(name)}: histogram and control chart' "
             f"src='data:image/png;base64,{data}'>"
         )
-    parts.append(f"<h2>Units flagged for review ({len(stats.review)})</h2><ul class='review'>")
+    parts.append(f"<h3>Units flagged for review ({len(stats.review)})</h3><ul class='review'>")
     for u in stats.review:
         parts.append(
             f"<li>{escape(u.serial_number)} ({escape(u.lot or '-')}, {escape(u.test_date)}): "
             + "; ".join(escape(r) for r in u.reasons)
             + "</li>"
         )
-    parts.append("</ul></body></html>")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(parts), encoding="utf-8")
-    return path
+    parts.append("</ul></section>")
+    return parts

@@ -1,6 +1,8 @@
 """The producer's statistics of the results database, per model (profile) and lot.
 
-Over the latest grading of each unit (filtered by model, lot and test date): the yield per
+Over the latest grading of each unit (filtered by model, lot and test date), model by model
+(:func:`compute_stats_by_model`: the models' units are never pooled, each model has its own
+profile, limits and test order): the yield per
 grade; per graded figure its distribution against the profile's limits, its mean and
 standard deviation, Cp and Cpk against the acceptance limit (the loosest grade's, which
 divides the units sold from those rejected), and an individuals control chart in test
@@ -176,6 +178,54 @@ def _limits(
     )
 
 
+@dataclass(frozen=True)
+class StatsByModel:
+    """The statistics of each model among the selected units, one block per model (sorted
+    by name), never pooled: every model has its own profile, limits, control charts and run
+    rules. ``model`` set: the selection names that model, and its block is the only one."""
+
+    models: dict[str, ProductionStats] = field(default_factory=dict)
+    model: str | None = None
+    lot: str | None = None
+    since: str | None = None
+
+    @property
+    def units(self) -> int:
+        """Units over every model (the latest grading of each)."""
+        return sum(s.units for s in self.models.values())
+
+    def as_json(self) -> dict[str, object]:
+        """With ``model``: that model's document (:meth:`ProductionStats.as_json`); without:
+        ``{"units", "model": null, "lot", "since", "models": {model: its document}}``."""
+        if self.model is not None:
+            return self.models[self.model].as_json()
+        return {"units": self.units, "model": None, "lot": self.lot, "since": self.since,
+                "models": {m: s.as_json() for m, s in self.models.items()}}
+
+
+def compute_stats_by_model(
+    db: ResultsDatabase,
+    *,
+    model: str | None = None,
+    lot: str | None = None,
+    since: str | None = None,
+) -> StatsByModel:
+    """The statistics of the latest grading of each unit that ``model``, ``lot`` and
+    ``since`` (ISO 8601 test date) select, one :class:`ProductionStats` per model (with
+    ``model``: that model's alone, present with 0 units when none is selected)."""
+    rows = db.gradings(model=model, lot=lot, since=since, latest=True)
+    values = db.figure_values(model=model, lot=lot, since=since)
+    model_of = {r.id: r.model for r in rows}
+    names = [model] if model is not None else sorted(set(model_of.values()))
+    return StatsByModel(
+        {m: _model_stats(db, [r for r in rows if r.model == m],
+                         [v for v in values if model_of.get(v.grading_id) == m],
+                         model=m, lot=lot, since=since)
+         for m in names},
+        model, lot, since,
+    )
+
+
 def compute_stats(
     db: ResultsDatabase,
     *,
@@ -184,9 +234,24 @@ def compute_stats(
     since: str | None = None,
 ) -> ProductionStats:
     """The statistics of the latest grading of each unit that ``model``, ``lot`` and
-    ``since`` (ISO 8601 test date) select."""
+    ``since`` (ISO 8601 test date) select, as one block: give ``model`` (without it, the
+    units of every model are pooled under the newest grading's profile;
+    :func:`compute_stats_by_model` keeps the models apart)."""
     rows = db.gradings(model=model, lot=lot, since=since, latest=True)
     values = db.figure_values(model=model, lot=lot, since=since)
+    return _model_stats(db, rows, values, model=model, lot=lot, since=since)
+
+
+def _model_stats(
+    db: ResultsDatabase,
+    rows: list[GradingRow],
+    values: list[FigureValue],
+    *,
+    model: str | None,
+    lot: str | None,
+    since: str | None,
+) -> ProductionStats:
+    """The statistics of the gradings ``rows`` and their graded figures ``values``."""
     profile, limits, order, sold = _limits(db, rows)
     counts = Counter(r.grade for r in rows)
     grades = {g: counts[g] for g in order if counts[g]} | {

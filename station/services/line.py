@@ -1,6 +1,7 @@
 """The line's view of the results database, read-only: yield per model and lot with its
-interval, a figure's capability, control chart, run rules and trend over lots, a unit's
-grading history and its spec sheet (what ``station serve`` shows, :mod:`station.web`).
+interval, a figure's capability, control chart, run rules and trend over lots (model by
+model, never pooled), a unit's grading history and its spec sheet (what ``station serve``
+shows, :mod:`station.web`).
 
 Every document here is built from the numbers ``station results`` prints: a figure's
 statistics are :meth:`ProductionStats.as_json`'s, the gradings :class:`GradingRow`'s
@@ -19,7 +20,7 @@ from scipy import stats as scipy_stats
 
 from station.errors import ProfileError, RecordFormatError, ResultsDatabaseError, UsageError
 from station.evaluation.run_rules import run_rule_flags
-from station.output.production_stats import FigureStats, ProductionStats, compute_stats
+from station.output.production_stats import FigureStats, StatsByModel, compute_stats_by_model
 from station.output.results import GradingRow, ResultsDatabase, default_database_path
 from station.output.results_backends import DatabaseLocation, database_exists, redacted
 
@@ -153,8 +154,9 @@ def _filters_json(where: LineFilter) -> dict[str, str | None]:
             "station": where.station, "operator": where.operator}
 
 
-def line_stats(where: LineFilter) -> ProductionStats:
-    """``station results --stats`` of the filter's model, lot and first test date.
+def line_stats(where: LineFilter) -> StatsByModel:
+    """``station results --stats`` of the filter's model, lot and first test date: a block
+    per model (the filter's model alone when it names one).
 
     Raises
     ------
@@ -162,7 +164,57 @@ def line_stats(where: LineFilter) -> ProductionStats:
         The database cannot be read.
     """
     with _open(where) as db:
-        return compute_stats(db, model=where.model, lot=where.lot, since=where.since)
+        return compute_stats_by_model(db, model=where.model, lot=where.lot, since=where.since)
+
+
+def figure_by_model(stats: StatsByModel, name: str) -> dict[str, FigureStats]:
+    """Graded figure ``name`` of each model that grades it (model -> its statistics).
+
+    Raises
+    ------
+    LookupError
+        No selected model grades a figure of that name (the message lists theirs).
+    """
+    found = {m: s.figures[name] for m, s in stats.models.items() if name in s.figures}
+    if not found:
+        theirs = sorted({f for s in stats.models.values() for f in s.figures})
+        raise LookupError(f"no graded figure {name!r} among the selected units; theirs: "
+                          f"{', '.join(theirs) or 'none'}")
+    return found
+
+
+def one_model_figure(stats: StatsByModel, name: str) -> FigureStats:
+    """Graded figure ``name`` of the one model that grades it among the selected units (a
+    chart is drawn of one model's units, never of several pooled).
+
+    Raises
+    ------
+    LookupError
+        No selected model grades it.
+    UsageError
+        Several do: the request must name the model (``?model=``).
+    """
+    found = figure_by_model(stats, name)
+    if len(found) > 1:
+        raise UsageError(f"{name} is graded for several models ({', '.join(found)}): give "
+                         "model=MODEL")
+    return next(iter(found.values()))
+
+
+def figure_models_json(stats: StatsByModel, name: str) -> dict[str, object]:
+    """Figure ``name`` as ``/api/figures/NAME`` gives it: with the filter's model, that
+    model's :func:`figure_json`; without, ``{"name", "models": {model: figure_json}}``
+    (each model's values, control chart and run rules apart).
+
+    Raises
+    ------
+    LookupError
+        No selected model grades it.
+    """
+    found = figure_by_model(stats, name)
+    if stats.model is not None:
+        return figure_json(found[stats.model])
+    return {"name": name, "models": {m: figure_json(f) for m, f in found.items()}}
 
 
 def figure_json(f: FigureStats) -> dict[str, object]:

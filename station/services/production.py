@@ -1,5 +1,6 @@
-"""``results --stats``: the producer's statistics of a model (profile) and lot, as numbers,
-and drawn as an HTML page or a PDF (:mod:`station.output.production_stats`)."""
+"""``results --stats``: the producer's statistics of each model (profile) and lot, as
+numbers, and drawn as an HTML page or a PDF (:mod:`station.output.production_stats`); the
+models are never pooled."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from station.errors import UsageError
-from station.output.production_stats import ProductionStats, compute_stats
+from station.output.production_stats import StatsByModel, compute_stats_by_model
 from station.output.results import ResultsDatabase, default_database_path
 from station.output.results_backends import DatabaseLocation, database_exists
 
@@ -21,7 +22,7 @@ class StatsRequest:
     db : str, Path or None
         Results database (None: :func:`default_database_path`).
     model, lot : str or None
-        Only units of this model, of this lot.
+        Only units of this model (None: every model, each apart), of this lot.
     since : str or None
         Only units tested from this date (ISO 8601, UTC).
     html, pdf : Path or None
@@ -43,18 +44,19 @@ class StatsRequest:
 
 @dataclass(frozen=True)
 class StatsAnswer:
-    """The statistics, and the files written (``stats`` None: there is no database yet)."""
+    """The statistics, one block per model, and the files written (``stats`` None: there is
+    no database yet)."""
 
     database: DatabaseLocation
-    stats: ProductionStats | None
+    stats: StatsByModel | None
     html: Path | None = None
     pdf: Path | None = None
 
 
 def production_stats(request: StatsRequest) -> StatsAnswer:
-    """Read the selected units from the database and compute their statistics; write the
-    HTML page and the PDF when the request names them. A database that does not exist yet
-    is not created.
+    """Read the selected units from the database and compute their statistics, model by
+    model; write the HTML page and the PDF when the request names them. A database that
+    does not exist yet is not created.
 
     Raises
     ------
@@ -68,7 +70,8 @@ def production_stats(request: StatsRequest) -> StatsAnswer:
     if not database_exists(request.database):
         return StatsAnswer(request.database, None)
     with ResultsDatabase(request.database) as db:
-        stats = compute_stats(db, model=request.model, lot=request.lot, since=request.since)
+        stats = compute_stats_by_model(db, model=request.model, lot=request.lot,
+                                       since=request.since)
     html = pdf = None
     if request.html is not None or request.pdf is not None:
         from station.output.production_pdf import write_stats_pdf

@@ -13,7 +13,8 @@ Routes (every one GET or HEAD; any other method is answered 405)::
 Every page and document takes ``?units=deg|rad`` (``--output-units``); the overview and
 the figure pages take the filters ``since``, ``until``, ``model``, ``lot``, ``station``,
 ``operator``. ``/api/stats`` is ``station results --stats --json`` of ``model``, ``lot``
-and ``since``, key for key.
+and ``since``, key for key. Without ``model`` every model has its own capability table,
+charts and run rules (never pooled); a chart's URL names its model.
 
 With a token (:class:`ServeConfig`), a request must carry it: ``Authorization: Bearer
 TOKEN``, or ``?token=TOKEN`` once (the answer sets a cookie the browser sends after);
@@ -47,8 +48,10 @@ from station.services.line import (
     DatabaseUnavailableError,
     LineFilter,
     figure_json,
+    figure_models_json,
     line_overview,
     line_stats,
+    one_model_figure,
     unit_history,
     unit_sheet_html,
 )
@@ -121,18 +124,19 @@ def create_app(config: ServeConfig) -> Starlette:
 
     def overview(request: Request, family: UnitFamily) -> str:
         where = _filter(config, request)
-        return pages.overview_body(line_overview(where), line_stats(where).as_json(), family)
+        blocks = [s.as_json() for s in line_stats(where).models.values()]
+        return pages.overview_body(line_overview(where), blocks, family)
 
     def figure(request: Request) -> dict[str, Any]:
-        name = request.path_params["name"]
-        stats = line_stats(_filter(config, request))
-        if name not in stats.figures:
-            raise LookupError(f"no graded figure {name!r} among the selected units; theirs: "
-                              f"{', '.join(stats.figures) or 'none'}")
-        return figure_json(stats.figures[name])
+        return figure_models_json(line_stats(_filter(config, request)),
+                                  request.path_params["name"])
+
+    def one_figure(request: Request) -> dict[str, Any]:
+        return figure_json(one_model_figure(line_stats(_filter(config, request)),
+                                            request.path_params["name"]))
 
     def figure_page(request: Request, family: UnitFamily) -> str:
-        return pages.figure_body(figure(request), _filter(config, request).__dict__, family)
+        return pages.figures_body(figure(request), _filter(config, request).__dict__, family)
 
     def unit(request: Request) -> dict[str, Any]:
         history = unit_history(_filter(config, request), request.path_params["serial"])
@@ -179,7 +183,7 @@ def create_app(config: ServeConfig) -> Starlette:
 
     def svg(draw: Callable[[dict[str, Any]], str]) -> Handler:
         async def endpoint(request: Request) -> Response:
-            doc = await run_in_threadpool(figure, request)
+            doc = await run_in_threadpool(one_figure, request)
             text = await run_in_threadpool(draw, doc)
             return Response(text, media_type="image/svg+xml")
         return endpoint
@@ -194,10 +198,7 @@ def create_app(config: ServeConfig) -> Starlette:
             from station.output.line_charts import figure_svg
 
             stats = line_stats(_filter(config, request))
-            name = request.path_params["name"]
-            if name not in stats.figures:
-                raise LookupError(f"no graded figure {name!r} among the selected units")
-            return figure_svg(stats.figures[name])
+            return figure_svg(one_model_figure(stats, request.path_params["name"]))
 
         return Response(await run_in_threadpool(draw), media_type="image/svg+xml")
 

@@ -47,10 +47,11 @@ def _units(family: UnitFamily) -> str | None:
     return None if family.name == "deg" else family.name
 
 
-def overview_body(doc: Mapping[str, Any], stats: Mapping[str, Any], family: UnitFamily) -> str:
-    """Filters, yield per model and lot, the capability of each figure (``stats``: ``results
-    --stats --json``'s document of the filter's model, lot and first date), the newest
-    gradings."""
+def overview_body(doc: Mapping[str, Any], stats: Sequence[Mapping[str, Any]],
+                  family: UnitFamily) -> str:
+    """Filters, yield per model and lot, per model the capability of each figure (``stats``:
+    each model's ``results --stats --model M --json`` document of the filter's lot and
+    first date; the models never pooled), the newest gradings."""
     lots = [
         f'<tr data-model="{text(r["model"])}" data-lot="{text(r["lot"])}">'
         f'<td>{text(r["model"])}</td><td>{text(r["lot"] or "-")}</td>'
@@ -60,6 +61,33 @@ def overview_body(doc: Mapping[str, Any], stats: Mapping[str, Any], family: Unit
         f'{interval([100 * v for v in r["yield_ci"]] if r["yield_ci"] else None)}'
         f'<td>{text(", ".join(f"{g}: {n}" for g, n in r["grades"].items()))}</td></tr>'
         for r in doc["lots"]]
+    gradings = [
+        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{text(g["test_date"])}'
+        f'</td><td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
+        f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
+        f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
+        f'<td>{"REVIEW" if g["review"] else "-"}</td></tr>'
+        for g in doc["gradings"]]
+    return "\n".join([
+        _filters_form(doc, family),
+        "<h2>Yield per model and lot</h2>",
+        table(["model", "lot", "units", "pass", "fail", "indeterminate", "yield %",
+               "95 % interval (Wilson) %", "grades"], lots, "lots"),
+        '<p class="note">The latest grading of each unit the filters select.</p>',
+        "<h2>Capability per model</h2>",
+        *([_capability_section(s, family) for s in stats]
+          or ["<p>No graded unit the filters select.</p>"]),
+        f'<p class="note">Model, lot and "since" select these units (as station results '
+        f"--stats); each model apart, against its own profile; {text(CAPABILITY_NOTE)}</p>",
+        "<h2>Last graded units</h2>",
+        table(["test date (UTC)", "serial", "model", "lot", "grade", "verdict", "profile",
+               "review"], gradings, "gradings"),
+    ])
+
+
+def _capability_section(stats: Mapping[str, Any], family: UnitFamily) -> str:
+    """One model's yield per grade and capability table (``stats``: its ``results --stats
+    --model M --json`` document), its figures linked to their pages of that model."""
     scope = {"model": stats["model"], "lot": stats["lot"], "since": stats["since"],
              "units": _units(family)}
     figures = [
@@ -71,30 +99,16 @@ def overview_body(doc: Mapping[str, Any], stats: Mapping[str, Any], family: Unit
         f'{interval(f["cpk_ci"])}{number(f["cpk_fitted"], digits=3)}'
         f'<td class="num">{len(f["out_of_control"])}</td></tr>'
         for name, f in stats["figures"].items()]
-    gradings = [
-        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{text(g["test_date"])}'
-        f'</td><td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
-        f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
-        f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
-        f'<td>{"REVIEW" if g["review"] else "-"}</td></tr>'
-        for g in doc["gradings"]]
     grade_rows = [f'<tr data-grade="{text(g)}"><td>{text(g)}</td>'
                   f'{number(100 * share, digits=3)}</tr>' for g, share in stats["yield"].items()]
     return "\n".join([
-        _filters_form(doc, family),
-        "<h2>Yield per model and lot</h2>",
-        table(["model", "lot", "units", "pass", "fail", "indeterminate", "yield %",
-               "95 % interval (Wilson) %", "grades"], lots, "lots"),
-        '<p class="note">The latest grading of each unit the filters select.</p>',
-        f"<h2>Capability: {stats['units']} units, profile {text(stats['profile'] or '-')}</h2>",
+        f'<section class="model" data-model="{text(stats["model"])}">',
+        f"<h3>{text(stats['model'])}: {stats['units']} units, profile "
+        f"{text(stats['profile'] or '-')}</h3>",
         table(["grade", "share %"], grade_rows, "grades"),
         table(["figure", "unit", "n", "mean", "std", "limit", "Ppk (upper)", "95 % CI",
                "Ppk fitted", "out of control"], figures, "capability"),
-        f'<p class="note">Model, lot and "since" select these units (as station results '
-        f"--stats); {text(CAPABILITY_NOTE)}</p>",
-        "<h2>Last graded units</h2>",
-        table(["test date (UTC)", "serial", "model", "lot", "grade", "verdict", "profile",
-               "review"], gradings, "gradings"),
+        "</section>",
     ])
 
 
@@ -106,10 +120,29 @@ RULE_TEXT = {
 }
 
 
+def figures_body(doc: Mapping[str, Any], scope: Mapping[str, str | None],
+                 family: UnitFamily) -> str:
+    """A figure's page: of the filter's model (``doc``:
+    :func:`station.services.line.figure_json`), or, without one, a section per model that
+    grades it (``doc``: ``{"name", "models": {model: figure_json}}``), each with its own
+    limits, control chart and run rules."""
+    if "models" not in doc:
+        return figure_body(doc, scope, family)
+    sections = [
+        f'<section class="model" data-model="{text(model)}"><h2>Model {text(model)}</h2>\n'
+        + figure_body(f, {**scope, "model": model}, family, heading="h3") + "</section>"
+        for model, f in doc["models"].items()]
+    return "\n".join([
+        f'<p class="note">{len(sections)} models grade {text(doc["name"])}: each has its own '
+        "section, against its own profile's limits, with its own control chart and run rules "
+        "(never pooled).</p>", *sections])
+
+
 def figure_body(f: Mapping[str, Any], scope: Mapping[str, str | None],
-                family: UnitFamily) -> str:
+                family: UnitFamily, heading: str = "h2") -> str:
     """A figure's capability with intervals, its control chart and histogram, the run
-    rules' flags and its trend over lots (``f``: :func:`station.services.line.figure_json`)."""
+    rules' flags and its trend over lots (``f``: :func:`station.services.line.figure_json`
+    of one model; ``heading``: the tag of its sections' headings)."""
     u = f["unit"]
     limits = ", ".join(f"{g} {family.value(v, u):.4g}"
                        for g, v in zip(f["limit_grades"], f["limits"], strict=True))
@@ -138,14 +171,15 @@ def figure_body(f: Mapping[str, Any], scope: Mapping[str, str | None],
         table(["unit", "n", "mean", "std", "limits", "Cpu", "Ppk (upper)", "95 % CI",
                "Ppk fitted", "95 % CI", "fit", "centre", "UCL", "LCL"], cap, "capability"),
         f'<p class="note">{text(CAPABILITY_NOTE)}</p>',
-        "<h2>Control chart and histogram</h2>",
-        f'<img class="chart" id="control-chart" src="{text(base + "/chart.svg" + charts)}" '
+        f"<{heading}>Control chart and histogram</{heading}>",
+        f'<img class="chart control-chart" data-model="{text(scope.get("model") or "")}" '
+        f'src="{text(base + "/chart.svg" + charts)}" '
         f'alt="histogram against the limits and individuals control chart of '
         f'{text(f["name"])}">',
         '<p class="note">Values in the unit the database stores (the figure\'s deg unit).</p>',
-        "<h2>Run rules</h2>",
+        f"<{heading}>Run rules</{heading}>",
         table(["rule (Western Electric)", "values flagged", "units"], rules, "run-rules"),
-        "<h2>Trend over lots</h2>",
+        f"<{heading}>Trend over lots</{heading}>",
         f'<img class="chart" src="{text(base + "/trend.svg" + charts)}" '
         f'alt="{text(f["name"])} per lot">',
     ])
