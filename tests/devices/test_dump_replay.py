@@ -20,7 +20,6 @@ from devices.protocols import NO_DEVICE_STATUS, SampleBatch
 from devices.replay import EndOfReplayError
 from devices.urls import _stream_codec, open_device
 
-
 #: a rate each protocol's unit offers (a STIM300 sends at 125-2000 Hz in octaves)
 RATE_HZ = {"stim300": 250.0, "kvh1750": 200.0, "xbus": 200.0}
 
