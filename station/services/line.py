@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import asdict, dataclass
+from datetime import date, datetime
 from html import escape
 from pathlib import Path
 
@@ -21,7 +22,7 @@ from station.errors import ProfileError, RecordFormatError, ResultsDatabaseError
 from station.evaluation.run_rules import run_rule_flags
 from station.output.production_stats import FigureStats, ProductionStats, compute_stats
 from station.output.results import GradingRow, ResultsDatabase, default_database_path
-from station.output.results_backends import DatabaseLocation, database_exists, redacted
+from station.output.results_backends import DatabaseLocation, redacted
 
 #: How many of the newest gradings the overview lists.
 LATEST_GRADINGS = 20
@@ -62,29 +63,33 @@ class LineFilter:
         return self.db if self.db is not None else default_database_path()
 
     def check(self) -> None:
-        """Refuse a date that is not one.
+        """Refuse a date that is not one (``2026-13-45`` included).
 
         Raises
         ------
         UsageError
-            ``since`` or ``until`` is not an ISO 8601 date.
+            ``since`` or ``until`` is not an ISO 8601 date or time.
         """
         for name, value in (("since", self.since), ("until", self.until)):
-            if value is not None and not value[:10].replace("-", "").isdigit():
-                raise UsageError(f"{name}={value!r} is not a date (YYYY-MM-DD)")
+            if value is None:
+                continue
+            try:
+                date.fromisoformat(value[:10])
+                if len(value) > 10:
+                    datetime.fromisoformat(value.replace("Z", "+00:00"))
+            except ValueError:
+                raise UsageError(f"{name}={value!r} is not a date (YYYY-MM-DD)") from None
 
 
 @contextmanager
 def _open(where: LineFilter) -> Iterator[ResultsDatabase]:
-    """The database for a ``with`` block; :class:`DatabaseUnavailableError` saying why when
+    """The database for a ``with`` block, read-only (a database file not there yet, or
+    empty, reads as empty and stays so); :class:`DatabaseUnavailableError` saying why when
     it cannot be opened or stops answering inside the block."""
     where.check()
-    if not database_exists(where.database):
-        raise DatabaseUnavailableError(
-            f"no results database at {redacted(where.database)} (station grade stores into it)")
     try:
-        db = ResultsDatabase(where.database)
-    except ResultsDatabaseError as exc:
+        db = ResultsDatabase(where.database, read_only=True)
+    except (ResultsDatabaseError, UsageError) as exc:
         raise DatabaseUnavailableError(str(exc)) from exc
     try:
         yield db
@@ -151,6 +156,19 @@ def line_overview(where: LineFilter) -> dict[str, object]:
 def _filters_json(where: LineFilter) -> dict[str, str | None]:
     return {"since": where.since, "until": where.until, "model": where.model, "lot": where.lot,
             "station": where.station, "operator": where.operator}
+
+
+def line_state(where: LineFilter) -> tuple[int, ...]:
+    """The database's state (:meth:`ResultsDatabase.state`): every document and chart of
+    the filter is the same while this is.
+
+    Raises
+    ------
+    DatabaseUnavailableError
+        The database cannot be read.
+    """
+    with _open(where) as db:
+        return db.state()
 
 
 def line_stats(where: LineFilter) -> ProductionStats:
