@@ -21,6 +21,7 @@ from analysis.units.conversions import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
 from station.output.colors import VERDICT_COLORS  # noqa: E402
+from station.output.literal_text import draw_literally  # noqa: E402
 from station.output.results import TrendPoint  # noqa: E402
 
 if TYPE_CHECKING:
@@ -84,7 +85,7 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
 def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
     """Write ``fig`` to ``path`` (at ``dpi``, default the figure's) and close it."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi="figure" if dpi is None else dpi)
+    draw_literally(fig).savefig(path, dpi="figure" if dpi is None else dpi)
     plt.close(fig)
     return path
 
@@ -268,7 +269,7 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
     ax.grid(True, alpha=0.3)
     fig.autofmt_xdate()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    draw_literally(fig).savefig(path, dpi=110)
     plt.close(fig)
     return path
 

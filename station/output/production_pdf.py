@@ -203,14 +203,18 @@ def figure_page(stats: ProductionStats, f: FigureStats) -> Figure:
 
 
 def write_stats_pdf(stats: ProductionStats, path: Path) -> Path:
-    """The statistics as a PDF report: the summary page, then a page per graded figure."""
+    """The statistics as a PDF report: the summary page, then a page per graded figure;
+    whole or not at all (a failure leaves an earlier file as it was)."""
     from matplotlib.backends.backend_pdf import PdfPages
 
+    from station.output.literal_text import draw_literally
+    from station.storage.atomic_files import replacing
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    with PdfPages(path) as pdf:
-        pdf.savefig(summary_page(stats))
+    with replacing(path) as tmp, PdfPages(tmp) as pdf:  # a failure leaves the old file
+        pdf.savefig(draw_literally(summary_page(stats)))
         for f in stats.figures.values():
-            pdf.savefig(figure_page(stats, f))
+            pdf.savefig(draw_literally(figure_page(stats, f)))
     return path
 
 
