@@ -239,6 +239,20 @@ def _seconds_or_zero(text: str) -> float:
     return value
 
 
+def serial_number(text: str) -> str:
+    """A unit's serial number for argparse: text with something in it (surrounding white
+    space dropped).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is empty or only white space.
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty serial number: give the unit's serial")
+    return text.strip()
+
+
 def duration_type(text: str) -> float:
     """A duration in s for argparse (:func:`station.model.durations.parse_duration`).
 

@@ -51,6 +51,7 @@ from station.output.results_backends import (
     redacted,
 )
 from station.output.results_store import UNIT_AXIS, ReportFile, add_report, now_utc, store_run
+from station.storage.atomic_files import replacing
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
     from station.evaluation.grading import RunGrade
@@ -547,10 +548,11 @@ class ResultsDatabase:
 
 
 def export_csv(rows: Sequence[GradingRow], path: str | Path) -> Path:
-    """Write grading rows as CSV (header of :class:`GradingRow` field names)."""
+    """Write grading rows as CSV (header of :class:`GradingRow` field names), whole or
+    not at all (:func:`replacing`)."""
     path = Path(path)
     fields = list(GradingRow.__dataclass_fields__)
-    with path.open("w", newline="", encoding="utf-8") as fh:
+    with replacing(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(fields)
         for row in rows:
