@@ -9,12 +9,14 @@ import time
 from pathlib import Path
 
 import pytest
+from starlette.testclient import TestClient
 
 from station.cli import main
 from station.evaluation.grading import RunGrade
 from station.output.results import ResultsDatabase
 from station.output.results_backends import DatabaseLocationError
 from station.output.results_queue import StoreQueue
+from station.web import ServeConfig, create_app
 from tests.test_grading import make_record, profile_text, write_profile
 from tests.test_production_stats import graded  # noqa: F401  (a fixture)
 
@@ -89,3 +91,14 @@ def test_a_file_of_something_else_is_no_outage(graded: RunGrade, tmp_path: Path 
     empty.write_bytes(b"")
     with ResultsDatabase(empty) as db:
         assert db.store(graded) and len(db.gradings()) == 1
+
+
+def test_serve_reads_an_empty_server_database_as_empty(postgres_url: str) -> None:
+    import psycopg
+
+    client = TestClient(create_app(ServeConfig(postgres_url)))
+    assert client.get("/api/overview").json()["lots"] == []
+    assert client.get("/api/stats").json()["units"] == 0
+    with psycopg.connect(postgres_url) as con:  # no schema made: nothing was written
+        assert con.execute("SELECT COUNT(*) FROM pg_catalog.pg_tables"
+                           " WHERE schemaname = current_schema()").fetchone() == (0,)
