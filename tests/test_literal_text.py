@@ -49,6 +49,7 @@ def _pages(pdf: Path) -> int:
     return len(re.findall(rb"/Type\s*/Page\b", pdf.read_bytes()))
 
 
+@pytest.mark.slow
 def test_statistics_files_and_charts_draw_the_text_as_typed(line, tmp_path: Path) -> None:
     db, _ = line
     pdf, html = tmp_path / "stats.pdf", tmp_path / "stats.html"

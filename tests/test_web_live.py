@@ -12,6 +12,7 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
 from starlette.testclient import TestClient
 
 from station.web import ServeConfig, create_app
@@ -20,6 +21,7 @@ READERS = 8
 READS_EACH = 3
 
 
+@pytest.mark.slow
 def test_eight_readers_of_a_live_run_all_get_whole_answers(tmp_path: Path) -> None:
     runs = tmp_path / "runs"
     runs.mkdir()
