@@ -12,7 +12,6 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import asdict, dataclass
-from datetime import date, datetime
 from html import escape
 from pathlib import Path
 
@@ -20,6 +19,7 @@ from scipy import stats as scipy_stats
 
 from station.errors import ProfileError, RecordFormatError, ResultsDatabaseError, UsageError
 from station.evaluation.run_rules import run_rule_flags
+from station.model.dates import check_date
 from station.output.production_stats import FigureStats, ProductionStats, compute_stats
 from station.output.results import GradingRow, ResultsDatabase, default_database_path
 from station.output.results_backends import DatabaseLocation, redacted
@@ -70,15 +70,8 @@ class LineFilter:
         UsageError
             ``since`` or ``until`` is not an ISO 8601 date or time.
         """
-        for name, value in (("since", self.since), ("until", self.until)):
-            if value is None:
-                continue
-            try:
-                date.fromisoformat(value[:10])
-                if len(value) > 10:
-                    datetime.fromisoformat(value.replace("Z", "+00:00"))
-            except ValueError:
-                raise UsageError(f"{name}={value!r} is not a date (YYYY-MM-DD)") from None
+        check_date("since", self.since)
+        check_date("until", self.until)
 
 
 @contextmanager
@@ -89,7 +82,7 @@ def _open(where: LineFilter) -> Iterator[ResultsDatabase]:
     where.check()
     try:
         db = ResultsDatabase(where.database, read_only=True)
-    except (ResultsDatabaseError, UsageError) as exc:
+    except ResultsDatabaseError as exc:
         raise DatabaseUnavailableError(str(exc)) from exc
     try:
         yield db
