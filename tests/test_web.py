@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 from dataclasses import replace
 from pathlib import Path
 from urllib.parse import quote
@@ -180,6 +181,33 @@ def test_an_empty_or_new_database_is_served_empty_and_left_as_it_was(tmp_path: P
         assert client.get("/figures/arw/chart.svg").status_code == 404
     assert empty.read_bytes() == b"" and not new.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.sqlite"]
+
+
+def test_charts_are_drawn_once_per_database_state(graded: RunGrade,  # noqa: F811
+                                                  tmp_path: Path) -> None:
+    location = _fill(str(tmp_path / "line.sqlite"), graded)
+    app = create_app(ServeConfig(location))
+    client = TestClient(app)
+    answers: list[tuple[int, str]] = []
+
+    def ask() -> None:
+        answer = client.get("/figures/arw/chart.svg")
+        answers.append((answer.status_code, answer.text))
+
+    threads = [threading.Thread(target=ask) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert {status for status, _ in answers} == {200} and len({t for _, t in answers}) == 1
+    assert app.state.render_cache.computed == 2  # the statistics once, the chart once
+    assert client.get("/api/figures/arw").status_code == 200
+    assert app.state.render_cache.computed == 2  # the statistics kept
+    with ResultsDatabase(location) as db:  # a new grading: a new state, drawn again
+        db.store(replace(_unit(graded, 5), run=replace(_unit(graded, 5).run,
+                                                       path="another-run.h5")))
+    assert client.get("/figures/arw/chart.svg").status_code == 200
+    assert app.state.render_cache.computed == 4
 
 
 def test_a_bad_token_of_any_kind_is_401_and_a_bad_date_400(line: Path) -> None:

@@ -258,7 +258,9 @@ def create_app(config: ServeConfig) -> Starlette:
         yield
         cache.close()
 
-    return Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+    app = Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+    app.state.render_cache = cache  # its ``computed`` count: what was computed, not kept
+    return app
 
 
 def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response]]:
