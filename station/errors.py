@@ -91,8 +91,8 @@ class Problem:
 
 
 class RunConfigurationError(RecorderError, ValueError):
-    """A run refused before it starts: every problem found, each with its fix (one problem
-    on the message's one line; several, one per line below it).
+    """A run refused before it starts: every problem found, each with its fix, on one line
+    (``; `` between them: a refusal is one line on stderr).
 
     Attributes
     ----------
@@ -102,9 +102,8 @@ class RunConfigurationError(RecorderError, ValueError):
 
     def __init__(self, problems: Sequence[Problem | str]) -> None:
         self.problems = tuple(p if isinstance(p, Problem) else Problem(p) for p in problems)
-        sep = "\n  " if len(self.problems) > 1 else " "
-        super().__init__("the run was not started:" + sep
-                         + "\n  ".join(str(p) for p in self.problems))
+        super().__init__("the run was not started: "
+                         + "; ".join(str(p) for p in self.problems))
 
 
 class DiskSpaceError(RecorderError, OSError):

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 from dataclasses import replace
 from pathlib import Path
 from urllib.parse import quote
@@ -162,13 +163,72 @@ def test_no_endpoint_writes_and_a_token_guards_an_open_host(line: Path, tmp_path
 
 
 def test_database_gone_is_a_page_that_retries(tmp_path: Path) -> None:
-    for location in (str(tmp_path / "gone.sqlite"), "postgresql://station@127.0.0.1:1/results"):
+    for location in (str(tmp_path / "gone" / "results.sqlite"),
+                     "postgresql://station@127.0.0.1:1/results"):
         app = TestClient(create_app(ServeConfig(location)))
         page = app.get("/")
         assert page.status_code == 503 and 'http-equiv="refresh"' in page.text
         assert 'id="unavailable"' in page.text
         answer = app.get("/api/stats")
         assert answer.status_code == 503 and "error" in answer.json()
+
+
+def test_an_empty_or_new_database_is_served_empty_and_left_as_it_was(tmp_path: Path) -> None:
+    empty, new = tmp_path / "empty.sqlite", tmp_path / "new.sqlite"
+    empty.write_bytes(b"")
+    for location in (empty, new):
+        client = TestClient(create_app(ServeConfig(location)))
+        assert client.get("/api/overview").json()["lots"] == []
+        assert client.get("/api/stats").json()["units"] == 0
+        assert client.get("/").status_code == 200
+        assert client.get("/figures/arw/chart.svg").status_code == 404
+    assert empty.read_bytes() == b"" and not new.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["empty.sqlite"]
+
+
+def test_charts_are_drawn_once_per_database_state(graded: RunGrade,  # noqa: F811
+                                                  tmp_path: Path) -> None:
+    location = _fill(str(tmp_path / "line.sqlite"), graded)
+    app = create_app(ServeConfig(location))
+    client = TestClient(app)
+    answers: list[tuple[int, str]] = []
+
+    def ask() -> None:
+        answer = client.get("/figures/arw/chart.svg")
+        answers.append((answer.status_code, answer.text))
+
+    threads = [threading.Thread(target=ask) for _ in range(8)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert {status for status, _ in answers} == {200} and len({t for _, t in answers}) == 1
+    assert app.state.render_cache.computed == 2  # the statistics once, the chart once
+    assert client.get("/api/figures/arw").status_code == 200
+    assert app.state.render_cache.computed == 2  # the statistics kept
+    with ResultsDatabase(location) as db:  # a new grading: a new state, drawn again
+        db.store(replace(_unit(graded, 5), run=replace(_unit(graded, 5).run,
+                                                       path="another-run.h5")))
+    assert client.get("/figures/arw/chart.svg").status_code == 200
+    assert app.state.render_cache.computed == 4
+
+
+def test_a_bad_token_of_any_kind_is_401_and_a_bad_date_400(line: Path) -> None:
+    guarded = TestClient(create_app(ServeConfig(line, token=TOKEN)))
+    for bad in ("jeton-\u00e9t\u00e9-0123456789", "\u6e2c\u8a66", TOKEN + "\u00ff"):
+        assert guarded.get("/api/stats", params={"token": bad}).status_code == 401
+        cookie = f"station_token={bad}".encode()
+        assert guarded.get("/api/stats", headers={"Cookie": cookie}).status_code == 401
+        bearer = f"Bearer {bad}".encode()
+        assert guarded.get("/api/stats", headers={"Authorization": bearer}).status_code == 401
+    # a header carries Latin-1: a byte above 127 in it
+    answer = guarded.get("/", headers={"Authorization": "Bearer caf\u00e9".encode("latin-1")})
+    assert answer.status_code == 401
+    client = TestClient(create_app(ServeConfig(line)))
+    for since in ("2026-13-45", "2026-02-30", "yesterday"):
+        answer = client.get("/api/overview", params={"since": since})
+        assert answer.status_code == 400 and since in answer.json()["error"]
+    assert client.get("/api/overview", params={"since": "2026-06-02"}).status_code == 200
 
 
 def test_a_damaged_run_file_is_listed_with_the_rest(line: Path, tmp_path: Path,

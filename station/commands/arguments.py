@@ -15,6 +15,7 @@ from station.model.durations import parse_duration
 from station.storage.csv_records import UNIT_TO_DEG_S
 
 if TYPE_CHECKING:
+    from station.output.results_backends import DatabaseLocation
     from station.services.progress import Progress
     from station.services.records import RecordSource
 
@@ -164,12 +165,10 @@ def add_database_argument(
     """``--db FILE|URL``: the results database, an SQLite file or a PostgreSQL URL; a
     command that ``stores`` gradings also takes ``--db-retry S``, how long a database that
     is away is waited for (``args.db_retry``, s), and with ``no_store_help`` ``--no-store``."""
-    from station.output.results_backends import database_location
-
     group = p.add_argument_group("results database")
     group.add_argument(
         "--db",
-        type=database_location,
+        type=_database_argument,
         default=None,
         metavar="FILE|URL",
         help="results database: an SQLite file or a postgresql://USER@HOST/DB URL "
@@ -189,6 +188,24 @@ def add_database_argument(
     if no_store_help is not None:
         group.add_argument("--no-store", action="store_true", help=no_store_help)
     return group
+
+
+def _database_argument(text: str) -> DatabaseLocation:
+    """``--db`` as a location, refused at once (one line, exit 2, nothing created) when it
+    cannot be a results database (:class:`DatabaseLocationError`)."""
+    from station.output.results_backends import (
+        DatabaseLocationError,
+        check_database_file,
+        database_location,
+    )
+
+    try:
+        location = database_location(text)
+        if isinstance(location, Path):
+            check_database_file(location)
+    except DatabaseLocationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from exc
+    return location
 
 
 def add_profile_argument(p: argparse._ActionsContainer, *, default: str) -> None:
@@ -220,6 +237,20 @@ def _seconds_or_zero(text: str) -> float:
     if not value >= 0:
         raise argparse.ArgumentTypeError(f"{text!r}: give 0 s or more")
     return value
+
+
+def serial_number(text: str) -> str:
+    """A unit's serial number for argparse: text with something in it (surrounding white
+    space dropped).
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        If the text is empty or only white space.
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty serial number: give the unit's serial")
+    return text.strip()
 
 
 def duration_type(text: str) -> float:

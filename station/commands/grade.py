@@ -26,6 +26,7 @@ from station.commands.arguments import (
     output_family,
     print_json,
     print_warnings,
+    serial_number,
 )
 from station.commands.conventions import hint_several_runs
 from station.output.report.common import analysis_lines
@@ -49,7 +50,8 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
         metavar="ID",
         help="grade only this unit (id or serial number); repeatable",
     )
-    p.add_argument("--serial", default=None, help="serial number of a CSV record's unit")
+    p.add_argument("--serial", default=None, type=serial_number,
+                   help="serial number of a CSV record's unit")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
     add_database_argument(p, stores=True,

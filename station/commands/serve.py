@@ -17,7 +17,9 @@ TOKEN`` or ``?token=TOKEN``, and warns. Nothing it serves writes.
 from __future__ import annotations
 
 import argparse
+import errno
 import ipaddress
+import socket
 import sys
 from pathlib import Path
 
@@ -97,8 +99,37 @@ def run(args: argparse.Namespace) -> int:
         print_warnings("serve", (f"listening on {args.host}, reachable from the network: "
                                  "every request needs the access token; put it behind the "
                                  "line's HTTPS reverse proxy (docs/web.md)",))
+    listening = listen(args.host, args.port)
     app = create_app(ServeConfig(args.db, tuple(args.runs), token))
     print(f"station serve: http://{args.host}:{args.port}/ (Ctrl-C stops)", file=sys.stderr,
           flush=True)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    server = uvicorn.Server(uvicorn.Config(app, log_level="warning"))
+    server.run(sockets=[listening])
     return 0
+
+
+def listen(host: str, port: int) -> socket.socket:
+    """A TCP socket bound to ``host``:``port``, for the server to accept on.
+
+    Raises
+    ------
+    UsageError
+        The address is in use (another server on the port), cannot be had (a port below
+        1024 without the right, an address not of this machine), or the host is unknown.
+    """
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(
+            host, port, type=socket.SOCK_STREAM)[0]
+    except OSError as exc:
+        raise UsageError(f"--host {host}: {exc.strerror or exc}") from exc
+    sock = socket.socket(family, kind, proto)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind(address)
+    except OSError as exc:
+        sock.close()
+        if exc.errno == errno.EADDRINUSE:
+            raise UsageError(f"--port {port}: {host}:{port} is in use (another server): "
+                             "give another --port") from exc
+        raise UsageError(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from exc
+    return sock

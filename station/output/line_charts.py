@@ -14,6 +14,7 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from station.evaluation.run_rules import RunRule, run_rule_flags
+from station.output.literal_text import draw_literally
 from station.output.production_report import figure_plot
 
 if TYPE_CHECKING:
@@ -31,7 +32,7 @@ RULE_MARKERS: dict[RunRule, tuple[str, str]] = {
 
 def _svg(fig: Figure) -> str:
     buf = io.StringIO()
-    fig.savefig(buf, format="svg")
+    draw_literally(fig).savefig(buf, format="svg")
     return buf.getvalue()
 
 

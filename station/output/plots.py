@@ -21,7 +21,9 @@ from analysis.units.conversions import DEG_FAMILY, S_PER_H, STANDARD_GRAVITY_M_S
 from station.evaluation.analyze import AxisAnalysis  # noqa: E402
 from station.model.records import RateRecord  # noqa: E402
 from station.output.colors import VERDICT_COLORS  # noqa: E402
+from station.output.literal_text import draw_literally  # noqa: E402
 from station.output.results import TrendPoint  # noqa: E402
+from station.storage.atomic_files import replacing  # noqa: E402
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -82,10 +84,14 @@ def plot_allan(axes: Sequence[AxisAnalysis], path: str | Path, *, title: str = "
 
 
 def _save(fig: Figure, path: Path, dpi: float | None = None) -> Path:
-    """Write ``fig`` to ``path`` (at ``dpi``, default the figure's) and close it."""
+    """Write ``fig`` to ``path`` (at ``dpi``, default the figure's; whole or not at all,
+    :func:`replacing`) and close it."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi="figure" if dpi is None else dpi)
-    plt.close(fig)
+    try:
+        with replacing(path) as tmp:
+            draw_literally(fig).savefig(tmp, dpi="figure" if dpi is None else dpi)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -267,10 +273,7 @@ def plot_trend(figure: str, points: list[TrendPoint], path: Path) -> Path:
     )
     ax.grid(True, alpha=0.3)
     fig.autofmt_xdate()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, dpi=110)
 
 
 def draw_wavelet(ax: Axes, a: AxisAnalysis, *, fontsize: float = 8, title: str = "",

@@ -205,18 +205,21 @@ def figure_page(stats: ProductionStats, f: FigureStats) -> Figure:
 
 def write_stats_pdf(stats: StatsByModel, path: Path) -> Path:
     """The statistics as a PDF report: per model, its summary page, then a page per graded
-    figure (a selection of no unit: one summary page saying so)."""
+    figure (a selection of no unit: one summary page saying so); whole or not at all (a
+    failure leaves an earlier file as it was)."""
     from matplotlib.backends.backend_pdf import PdfPages
 
+    from station.output.literal_text import draw_literally
     from station.output.production_stats import ProductionStats
+    from station.storage.atomic_files import replacing
 
     blocks = list(stats.models.values()) or [ProductionStats(None, stats.lot, stats.since)]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with PdfPages(path) as pdf:
+    with replacing(path) as tmp, PdfPages(tmp) as pdf:  # a failure leaves the old file
         for block in blocks:
-            pdf.savefig(summary_page(block))
+            pdf.savefig(draw_literally(summary_page(block)))
             for f in block.figures.values():
-                pdf.savefig(figure_page(block, f))
+                pdf.savefig(draw_literally(figure_page(block, f)))
     return path
 
 

@@ -18,7 +18,9 @@ from typing import TYPE_CHECKING
 
 from station.evaluation.capability import CAPABILITY_NOTE
 from station.model.wording import plural
+from station.output.literal_text import draw_literally
 from station.output.report.common import fmt
+from station.storage.atomic_files import write_text_atomically
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -116,7 +118,7 @@ def draw_figure(hist: Axes, chart: Axes, f: FigureStats) -> None:
 
 def _png(fig: Figure) -> bytes:
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
+    draw_literally(fig).savefig(buf, format="png", dpi=100)
     return buf.getvalue()
 
 
@@ -163,8 +165,7 @@ def write_stats_html(stats: StatsByModel, path: Path) -> Path:
         parts += _model_section(block)
     parts.append("</body></html>")
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(parts), encoding="utf-8")
-    return path
+    return write_text_atomically(path, "\n".join(parts))
 
 
 def _model_section(stats: ProductionStats) -> list[str]:

@@ -42,11 +42,16 @@ from station.output.results_backends import (
     WRITE_ATTEMPTS,
     Backend,
     DatabaseLocation,
+    DatabaseLocationError,
+    SqliteBackend,
+    check_database_file,
     database_location,
     is_database_url,
     open_backend,
+    redacted,
 )
 from station.output.results_store import UNIT_AXIS, ReportFile, add_report, now_utc, store_run
+from station.storage.atomic_files import replacing
 
 if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TUI need not
     from station.evaluation.grading import RunGrade
@@ -54,6 +59,8 @@ if TYPE_CHECKING:  # grading pulls in the analysis stack; the browser and the TU
 __all__ = ["UNIT_AXIS", "ResultsDatabase", "GradingRow", "LotYield", "TrendPoint", "FigureValue",
            "default_database_path", "export_csv"]
 
+SCHEMA_MIGRATIONS_TABLE = ("CREATE TABLE IF NOT EXISTS schema_migrations "
+                           "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
 #: Numbered migrations; index + 1 is the schema version each brings the database to.
 MIGRATIONS: tuple[str, ...] = (
     # 1: the first schema
@@ -151,6 +158,13 @@ def default_database_path() -> DatabaseLocation:
     ``$XDG_DATA_HOME/gyro-station/results.sqlite``."""
     if os.environ.get(DB_ENV):
         return database_location(os.environ[DB_ENV])
+    return station_data_database()
+
+
+def station_data_database() -> Path:
+    """``$XDG_DATA_HOME/gyro-station/results.sqlite``: the one database whose folder the
+    station makes when it is not there (a ``--db`` or ``$STATION_RESULTS_DB`` in a folder
+    that does not exist is refused, not made)."""
     base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
     return base / "gyro-station" / "results.sqlite"
 
@@ -237,15 +251,26 @@ class ResultsDatabase:
     ResultsDatabaseError
         When the file is not a database, the server cannot be reached, or the database was
         written by a newer schema.
+    DatabaseLocationError
+        ``location`` cannot be a results database (a folder, a file of something else, a
+        folder that does not exist, an unknown URL scheme): not an outage.
+
+    ``read_only``: nothing is written, the schema neither created nor migrated; a database
+    file that does not exist yet or is empty, or a server database without the schema,
+    reads as an empty results database (``station serve``).
     """
 
-    def __init__(self, location: DatabaseLocation) -> None:
+    def __init__(self, location: DatabaseLocation, *, read_only: bool = False) -> None:
         self.location = location if is_database_url(location) else Path(location)
-        self._con: Backend = open_backend(self.location)
+        self.read_only = read_only
+        self._con: Backend = self._connect(read_only)
         self.name = self._con.name
         try:
-            self._migrate()
-        except ResultsDatabaseError:
+            if read_only:
+                self._check_readable()
+            else:
+                self._migrate()
+        except (ResultsDatabaseError, UsageError):
             self._con.close()
             raise
         except Exception as exc:  # sqlite3 or psycopg: a file that is no database, a server error
@@ -286,9 +311,50 @@ class ResultsDatabase:
         """The schema version of the database (0: new)."""
         return self._con.schema_version()
 
+    def _connect(self, read_only: bool) -> Backend:
+        if read_only and isinstance(self.location, Path) and (
+                not self.location.exists() or self.location.stat().st_size == 0):
+            check_database_file(self.location)
+            return self._empty(self.location)
+        default = isinstance(self.location, Path) and self.location == station_data_database()
+        return open_backend(self.location, create_folder=default, read_only=read_only)
+
+    @staticmethod
+    def _empty(location: DatabaseLocation) -> Backend:
+        """An empty results database in memory, named after ``location``."""
+        empty = SqliteBackend.in_memory()
+        empty.name = redacted(location)
+        with empty.migration():
+            empty.run_ddl(SCHEMA_MIGRATIONS_TABLE)
+            for number, script in enumerate(MIGRATIONS, start=1):
+                empty.run_ddl(script)
+                empty.set_schema_version(number)
+        return empty
+
+    def _check_readable(self) -> None:
+        """Read-only: a database without the schema reads as empty; one of another schema
+        version is refused (migrating it would write)."""
+        version = self.schema_version
+        if version == SCHEMA_VERSION:
+            return
+        if version == 0 and not self._con.has_tables():
+            self._con.close()
+            self._con = self._empty(self.location)
+            return
+        if version == 0:
+            raise DatabaseLocationError(f"{self.name} holds tables of something else: it "
+                                        "is not a results database")
+        raise ResultsDatabaseError(
+            f"{self.name}: schema version {version}, this station reads {SCHEMA_VERSION}: "
+            + ("update the station" if version > SCHEMA_VERSION else
+               "station grade (any grading stored) migrates it"))
+
     def _migrate(self) -> None:
         if self.schema_version == SCHEMA_VERSION:
             return
+        if self.schema_version == 0 and self._con.has_tables():
+            raise DatabaseLocationError(f"{self.name} holds tables of something else: it "
+                                        "is not a results database")
         with self._con.migration():  # re-read inside the lock: another station may have migrated
             con = self._con
             version = self.schema_version
@@ -297,8 +363,7 @@ class ResultsDatabase:
                     f"{self.name}: schema version {version} is newer than this "
                     f"station's {SCHEMA_VERSION}; update the station"
                 )
-            con.run_ddl("CREATE TABLE IF NOT EXISTS schema_migrations "
-                        "(version INTEGER PRIMARY KEY, applied_utc TEXT NOT NULL)")
+            con.run_ddl(SCHEMA_MIGRATIONS_TABLE)
             for number in range(version + 1, SCHEMA_VERSION + 1):
                 con.run_ddl(MIGRATIONS[number - 1])
                 con.execute("INSERT INTO schema_migrations VALUES (?, ?)", (number, now_utc()))
@@ -470,16 +535,24 @@ class ResultsDatabase:
         query = "SELECT DISTINCT name FROM figures ORDER BY name"
         return [row[0] for row in self._con.execute(query).fetchall()]
 
+    def state(self) -> tuple[int, ...]:
+        """What changes whenever a grading, a revision or a report file is stored (gradings,
+        their highest id, reports): what is drawn from the database is the same while this is."""
+        row = self._con.execute("SELECT COUNT(*), COALESCE(MAX(id), 0) FROM gradings").fetchone()
+        reports = self._con.execute("SELECT COUNT(*) FROM reports").fetchone()
+        return (int(row[0]), int(row[1]), int(reports[0]))
+
     def integrity_check(self) -> str:
         """ "ok" when sound (SQLite: its ``PRAGMA integrity_check`` answer)."""
         return self._con.integrity_check()
 
 
 def export_csv(rows: Sequence[GradingRow], path: str | Path) -> Path:
-    """Write grading rows as CSV (header of :class:`GradingRow` field names)."""
+    """Write grading rows as CSV (header of :class:`GradingRow` field names), whole or
+    not at all (:func:`replacing`)."""
     path = Path(path)
     fields = list(GradingRow.__dataclass_fields__)
-    with path.open("w", newline="", encoding="utf-8") as fh:
+    with replacing(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(fields)
         for row in rows:

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Protocol
 from urllib.parse import urlsplit, urlunsplit
 
-from station.errors import ResultsDatabaseError
+from station.errors import ResultsDatabaseError, UsageError
 
 #: Environment variable naming the results database (a file or a PostgreSQL URL).
 DB_ENV = "STATION_RESULTS_DB"
@@ -40,19 +40,79 @@ WRITE_ATTEMPTS = 8
 STORE_RETRY_S = 30.0
 
 
+#: The first 16 bytes of every SQLite database file ("Database File Format", sqlite.org,
+#: section 1.3: the header string).
+SQLITE_HEADER = b"SQLite format 3\x00"
+
+
+class DatabaseLocationError(UsageError, ResultsDatabaseError):
+    """A ``--db`` that cannot mean a results database: an unknown URL scheme, a folder, a
+    file that is not one, a folder to put it in that does not exist. Refused at once, never
+    waited for as an outage."""
+
+
 def is_database_url(location: DatabaseLocation) -> bool:
     """Whether ``location`` is a PostgreSQL URL rather than an SQLite file path."""
     return isinstance(location, str) and urlsplit(location).scheme in URL_SCHEMES
 
 
 def database_location(text: str) -> DatabaseLocation:
-    """``--db`` text as a location: a PostgreSQL URL stays text, anything else is a path."""
-    return text if is_database_url(text) else Path(text)
+    """``--db`` text as a location: a PostgreSQL URL stays text, anything else is a path.
+
+    Raises
+    ------
+    DatabaseLocationError
+        ``text`` is a URL (``scheme://``) of a scheme other than PostgreSQL's.
+    """
+    if is_database_url(text):
+        return text
+    if "://" in text:
+        raise DatabaseLocationError(
+            f"{redacted(text)}: unknown database URL scheme "
+            f"{urlsplit(text).scheme or text.split('://', 1)[0]!r}: give postgresql://USER@HOST/DB "
+            "or an SQLite file")
+    if not text.strip():
+        raise DatabaseLocationError("an empty --db: give an SQLite file or a postgresql:// URL")
+    return Path(text)
+
+
+def check_database_file(path: Path, *, create_folder: bool = False) -> None:
+    """Refuse an SQLite location that cannot be a results database, touching nothing.
+
+    A file that exists must be an SQLite database (its header, :data:`SQLITE_HEADER`) or
+    empty; a file that does not exist yet needs its folder (made first when
+    ``create_folder``: the default database's).
+
+    Raises
+    ------
+    DatabaseLocationError
+        ``path`` is a folder, a file that is no SQLite database, or sits in a folder that
+        does not exist (or is a file).
+    """
+    if path.is_dir():
+        raise DatabaseLocationError(f"{path} is a folder: give the results database's file "
+                                    f"(e.g. {path / 'results.sqlite'})")
+    if path.exists():
+        try:
+            with path.open("rb") as f:
+                head = f.read(len(SQLITE_HEADER))
+        except OSError as exc:
+            raise DatabaseLocationError(f"cannot read {path}: {exc.strerror or exc}") from exc
+        if head and head != SQLITE_HEADER:
+            raise DatabaseLocationError(f"{path} is not a results database (not an SQLite "
+                                        "file): give the database's file or a new name")
+        return
+    folder = path.parent
+    if create_folder and not folder.exists():
+        return
+    if not folder.is_dir():
+        raise DatabaseLocationError(f"no folder {folder} for the results database "
+                                    f"{path.name}: create it first, or give another --db")
 
 
 def redacted(location: DatabaseLocation) -> str:
     """The location for messages: a URL's password replaced by ``***``."""
-    if not is_database_url(location):
+    if not isinstance(location, str) or "://" not in location:
         return str(location)
     parts = urlsplit(str(location))
     if parts.password is None:
@@ -117,6 +177,10 @@ class Backend(Protocol):
         """``"ok"`` when the database is sound, else what is wrong."""
         ...
 
+    def has_tables(self) -> bool:
+        """Whether the database holds any table (of this schema or another)."""
+        ...
+
     def close(self) -> None:
         """Close the connection."""
         ...
@@ -132,21 +196,46 @@ class SqliteBackend:
     retryable: tuple[type[BaseException], ...] = ()
     errors: tuple[type[BaseException], ...] = (sqlite3.Error,)
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, create_folder: bool = False,
+                 read_only: bool = False) -> None:
         self.name = str(path)
+        check_database_file(path, create_folder=create_folder)
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            self._con = sqlite3.connect(path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            if read_only:
+                # mode=ro: nothing is written, not even the schema of an empty file
+                uri = f"{path.resolve().as_uri()}?mode=ro"
+                self._con = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S,
+                                            isolation_level=None, check_same_thread=False)
+            else:
+                if create_folder:
+                    path.parent.mkdir(parents=True, exist_ok=True)
+                self._con = sqlite3.connect(path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
         except (OSError, sqlite3.Error) as exc:
             raise ResultsDatabaseError(f"cannot open the results database {path}: {exc}") from exc
         try:
             self._con.row_factory = sqlite3.Row
-            self._con.execute("PRAGMA journal_mode=WAL")
+            if not read_only:
+                self._con.execute("PRAGMA journal_mode=WAL")
+                self._con.execute("PRAGMA synchronous=NORMAL")
             self._con.execute("PRAGMA foreign_keys=ON")
-            self._con.execute("PRAGMA synchronous=NORMAL")
         except sqlite3.DatabaseError as exc:
             self._con.close()
             raise ResultsDatabaseError(f"{path}: {exc}") from exc
+
+    @classmethod
+    def in_memory(cls) -> SqliteBackend:
+        """A new database held in memory (an empty results database to read)."""
+        backend = cls.__new__(cls)
+        backend.name = ":memory:"
+        backend._con = sqlite3.connect(":memory:", isolation_level=None,
+                                       check_same_thread=False)
+        backend._con.row_factory = sqlite3.Row
+        return backend
+
+    def has_tables(self) -> bool:
+        """Whether the file holds any table (an SQLite file of something else does)."""
+        return self._con.execute("SELECT COUNT(*) FROM sqlite_master WHERE type = 'table'"
+                                 ).fetchone()[0] > 0
 
     def execute(self, sql: str, params: Sequence[object] = ()) -> sqlite3.Cursor:
         """Run one statement."""
@@ -239,7 +328,7 @@ def _row_factory(cursor: Any) -> Any:
 class PostgresBackend:
     """A PostgreSQL database through psycopg 3 (autocommit; explicit transactions)."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, *, read_only: bool = False) -> None:
         import psycopg  # only a station that names a server needs the driver
         from psycopg import errors
 
@@ -259,6 +348,17 @@ class PostgresBackend:
             raise ResultsDatabaseError(
                 f"cannot open the results database {self.name}: {str(exc).strip().splitlines()[0]}"
             ) from exc
+        if read_only:
+            try:
+                self._con.execute("SET SESSION CHARACTERISTICS AS TRANSACTION READ ONLY")
+            except psycopg.Error as exc:
+                self._con.close()
+                raise ResultsDatabaseError(f"{self.name}: {exc}") from exc
+
+    def has_tables(self) -> bool:
+        """Whether the schema holds any table."""
+        return bool(self.execute("SELECT COUNT(*) FROM pg_catalog.pg_tables"
+                                 " WHERE schemaname = current_schema()").fetchone()[0])
 
     def execute(self, sql: str, params: Sequence[object] = ()) -> Any:
         """Run one statement; ``?`` placeholders become psycopg's ``%s``."""
@@ -327,14 +427,22 @@ class PostgresBackend:
         self._con.close()
 
 
-def open_backend(location: DatabaseLocation) -> Backend:
+def open_backend(location: DatabaseLocation, *, create_folder: bool = False,
+                 read_only: bool = False) -> Backend:
     """A connection to the database at ``location`` (URL: PostgreSQL; else an SQLite file).
+
+    ``create_folder``: an SQLite file's folder is made when missing (the default
+    database's); ``read_only``: nothing is ever written (``station serve``).
 
     Raises
     ------
+    DatabaseLocationError
+        ``location`` cannot be a results database (:func:`check_database_file`).
     ResultsDatabaseError
         The file or server cannot be opened.
     """
     if is_database_url(location):
-        return PostgresBackend(str(location))
-    return SqliteBackend(Path(location))
+        return PostgresBackend(str(location), read_only=read_only)
+    if isinstance(location, str) and "://" in location:
+        database_location(location)  # refuses the unknown scheme
+    return SqliteBackend(Path(location), create_folder=create_folder, read_only=read_only)

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 from station.errors import ResultsDatabaseError, SerialConflictError
 from station.output.results import ResultsDatabase
-from station.output.results_backends import STORE_RETRY_S, DatabaseLocation
+from station.output.results_backends import STORE_RETRY_S, DatabaseLocation, DatabaseLocationError
 from station.output.results_store import ReportFile
 
 if TYPE_CHECKING:
@@ -160,6 +160,8 @@ class StoreQueue:
                 self._pending.pop(0)
                 self._refused.append(NotStored(item.key, _units(item.graded), str(exc), True))
                 continue
+            except DatabaseLocationError:
+                raise  # not a database that is away: one that cannot be (a folder, a text file)
             except ResultsDatabaseError as exc:
                 item.error = self._last_error = str(exc)
                 self.close()  # the next try opens a new connection

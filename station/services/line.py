@@ -20,9 +20,10 @@ from scipy import stats as scipy_stats
 
 from station.errors import ProfileError, RecordFormatError, ResultsDatabaseError, UsageError
 from station.evaluation.run_rules import run_rule_flags
+from station.model.dates import check_date
 from station.output.production_stats import FigureStats, StatsByModel, compute_stats_by_model
 from station.output.results import GradingRow, ResultsDatabase, default_database_path
-from station.output.results_backends import DatabaseLocation, database_exists, redacted
+from station.output.results_backends import DatabaseLocation, redacted
 
 #: How many of the newest gradings the overview lists.
 LATEST_GRADINGS = 20
@@ -63,28 +64,25 @@ class LineFilter:
         return self.db if self.db is not None else default_database_path()
 
     def check(self) -> None:
-        """Refuse a date that is not one.
+        """Refuse a date that is not one (``2026-13-45`` included).
 
         Raises
         ------
         UsageError
-            ``since`` or ``until`` is not an ISO 8601 date.
+            ``since`` or ``until`` is not an ISO 8601 date or time.
         """
-        for name, value in (("since", self.since), ("until", self.until)):
-            if value is not None and not value[:10].replace("-", "").isdigit():
-                raise UsageError(f"{name}={value!r} is not a date (YYYY-MM-DD)")
+        check_date("since", self.since)
+        check_date("until", self.until)
 
 
 @contextmanager
 def _open(where: LineFilter) -> Iterator[ResultsDatabase]:
-    """The database for a ``with`` block; :class:`DatabaseUnavailableError` saying why when
+    """The database for a ``with`` block, read-only (a database file not there yet, or
+    empty, reads as empty and stays so); :class:`DatabaseUnavailableError` saying why when
     it cannot be opened or stops answering inside the block."""
     where.check()
-    if not database_exists(where.database):
-        raise DatabaseUnavailableError(
-            f"no results database at {redacted(where.database)} (station grade stores into it)")
     try:
-        db = ResultsDatabase(where.database)
+        db = ResultsDatabase(where.database, read_only=True)
     except ResultsDatabaseError as exc:
         raise DatabaseUnavailableError(str(exc)) from exc
     try:
@@ -152,6 +150,19 @@ def line_overview(where: LineFilter) -> dict[str, object]:
 def _filters_json(where: LineFilter) -> dict[str, str | None]:
     return {"since": where.since, "until": where.until, "model": where.model, "lot": where.lot,
             "station": where.station, "operator": where.operator}
+
+
+def line_state(where: LineFilter) -> tuple[int, ...]:
+    """The database's state (:meth:`ResultsDatabase.state`): every document and chart of
+    the filter is the same while this is.
+
+    Raises
+    ------
+    DatabaseUnavailableError
+        The database cannot be read.
+    """
+    with _open(where) as db:
+        return db.state()
 
 
 def line_stats(where: LineFilter) -> StatsByModel:

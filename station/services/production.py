@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from station.errors import UsageError
+from station.model.dates import check_date
 from station.output.production_stats import StatsByModel, compute_stats_by_model
 from station.output.results import ResultsDatabase, default_database_path
 from station.output.results_backends import DatabaseLocation, database_exists
@@ -65,8 +65,7 @@ def production_stats(request: StatsRequest) -> StatsAnswer:
     ResultsDatabaseError
         The database cannot be opened.
     """
-    if request.since is not None and not request.since[:10].replace("-", "").isdigit():
-        raise UsageError(f"--since {request.since!r} is not a date (YYYY-MM-DD)")
+    check_date("--since", request.since)
     if not database_exists(request.database):
         return StatsAnswer(request.database, None)
     with ResultsDatabase(request.database) as db:

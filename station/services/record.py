@@ -101,6 +101,8 @@ def run_config(request: RecordRequest) -> RunConfig:
         raise UsageError("give --duration (e.g. 12h) or a --profile that has one")
     if not 0 < request.flush_interval_s <= 1.0:
         raise UsageError("--flush-interval must be in (0, 1] s")
+    if request.reserve_mb is not None and not 0 <= request.reserve_mb < float("inf"):
+        raise UsageError(f"--reserve-mb {request.reserve_mb:g}: give 0 MB or more")
     reserve = None if request.reserve_mb is None else int(request.reserve_mb * 1e6)
     bench_json = ""
     if request.bench is not None:

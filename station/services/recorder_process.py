@@ -55,7 +55,7 @@ class RecorderStartError(RecorderError):
 
     def __init__(self, problems: Sequence[Problem]) -> None:
         self.problems = tuple(problems)
-        super().__init__("\n".join(str(p) for p in self.problems))
+        super().__init__("; ".join(str(p) for p in self.problems))
 
 
 @dataclass

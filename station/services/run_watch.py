@@ -5,6 +5,7 @@ recorded so far (:func:`live_allan`)."""
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,12 +19,18 @@ from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_count
 #: The most samples of a unit the live Allan curve reads (the newest ones), so that a
 #: refresh stays fast on a long run.
 LIVE_ALLAN_MAX_SAMPLES = 200_000
+#: Held while a run file is read. HDF5 opens a file once per process and shares it among
+#: the handles of every thread: a second reader's SWMR refresh of one dataset while the
+#: first reads the committed count and then the rows left the first with a count ahead of
+#: the rows it could see (an IndexError, 112 of 120 requests with 8 threads); one reader at
+#: a time sees the file as one writer's flush left it.
+RUN_FILE_READ = threading.Lock()
 
 
 def status_json(path: Path) -> dict[str, object]:
     """The run's state and one object per unit (rates in deg/s), from its committed data;
     the newest rates and their mean are those of the valid samples (``status`` 0)."""
-    with open_run_file(path) as f:
+    with RUN_FILE_READ, open_run_file(path) as f:
         state = run_state(f)
         units: list[dict[str, object]] = []
         for uid in unit_ids(f):
@@ -62,7 +69,7 @@ def live_allan(path: Path, unit: str, *, max_samples: int = LIVE_ALLAN_MAX_SAMPL
     samples (``status`` 0). Gaps, and the samples left out, are read
     as the recorder wrote them: the samples received, one after the other (a live view; the
     graded analysis declares the gaps)."""
-    with open_run_file(path) as f:
+    with RUN_FILE_READ, open_run_file(path) as f:
         rate_hz = float(f["units"][unit].attrs["sample_rate_hz"])
         n = unit_counts(f, unit).samples_recorded
         data = read_unit(f, unit, start=max(0, n - max_samples))

@@ -129,6 +129,12 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str,
                 break
         if header is None:
             raise RecordFormatError(f"{path}: no header line (only comments or empty)")
+        named = [h.lower() for h in header if h]
+        repeated = sorted({h for h in named if named.count(h) > 1})
+        if repeated:  # two columns of one axis: which would be graded?
+            raise RecordFormatError(
+                f"{path}:{header_line}: the header names each column once, it repeats "
+                f"{', '.join(repr(h) for h in repeated)} ({','.join(header)!r})")
         if any(_is_number(h) for h in header):
             raise RecordFormatError(
                 f"{path}:{header_line}: the first non-comment line must be a header naming the "

@@ -26,11 +26,12 @@ from __future__ import annotations
 import hmac
 import threading
 from collections import OrderedDict
-from collections.abc import Awaitable, Callable
+from collections.abc import AsyncIterator, Awaitable, Callable
+from contextlib import asynccontextmanager
 from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
@@ -43,6 +44,7 @@ from starlette.routing import Route
 from analysis.units.conversions import UnitFamily, unit_family
 from station.errors import UsageError
 from station.output.json_units import in_family
+from station.output.production_stats import FigureStats, StatsByModel
 from station.output.results_backends import DatabaseLocation
 from station.services.line import (
     DatabaseUnavailableError,
@@ -50,6 +52,7 @@ from station.services.line import (
     figure_json,
     figure_models_json,
     line_overview,
+    line_state,
     line_stats,
     one_model_figure,
     unit_history,
@@ -58,6 +61,7 @@ from station.services.line import (
 from station.services.run_watch import runs_in_progress
 from station.web import pages
 from station.web.html import page, query, segment, text
+from station.web.render_cache import RenderCache
 
 #: The cookie a browser keeps the access token in.
 TOKEN_COOKIE = "station_token"
@@ -103,14 +107,27 @@ def _here(request: Request) -> str:
 Handler = Callable[[Request], Awaitable[Response]]
 
 
+class NotFoundError(LookupError):
+    """What a page names is not in the database (a figure, a unit, a grading): 404."""
+
+
 def create_app(config: ServeConfig) -> Starlette:
     """The application serving ``config``'s database and run folders (:mod:`station.web.app`)."""
+    cache = RenderCache()
 
-    def html_page(title: str, build: Callable[[Request, UnitFamily], str], *,
-                  script: str | None = None) -> Handler:
+    async def stats_of(request: Request) -> StatsByModel:
+        """``line_stats`` of the request's filter, computed once per database state."""
+        where = _filter(config, request)
+        state = await run_in_threadpool(line_state, where)
+        key = ("stats", where.model, where.lot, where.since, state)
+        return cast(StatsByModel, await cache.get(key, lambda: line_stats(where)))
+
+    def html_page(title: str, build: Callable[[Request, UnitFamily, StatsByModel | None], str],
+                  *, script: str | None = None, stats: bool = False) -> Handler:
         async def endpoint(request: Request) -> Response:
             family = _family(request)
-            body = await run_in_threadpool(build, request, family)
+            found = await stats_of(request) if stats else None
+            body = await run_in_threadpool(build, request, family, found)
             return HTMLResponse(page(title.format(**request.path_params), body, family=family,
                                      here=_here(request), script=script))
         return endpoint
@@ -122,29 +139,47 @@ def create_app(config: ServeConfig) -> Starlette:
             return JSONResponse(in_family(doc, family))
         return endpoint
 
-    def overview(request: Request, family: UnitFamily) -> str:
-        where = _filter(config, request)
-        blocks = [s.as_json() for s in line_stats(where).models.values()]
-        return pages.overview_body(line_overview(where), blocks, family)
+    async def stats_api(request: Request) -> Response:
+        family = _family(request)
+        return JSONResponse(in_family((await stats_of(request)).as_json(), family))
 
-    def figure(request: Request) -> dict[str, Any]:
-        return figure_models_json(line_stats(_filter(config, request)),
-                                  request.path_params["name"])
+    def overview(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
+        assert stats is not None
+        blocks = [s.as_json() for s in stats.models.values()]
+        return pages.overview_body(line_overview(_filter(config, request)), blocks, family)
 
-    def one_figure(request: Request) -> dict[str, Any]:
-        return figure_json(one_model_figure(line_stats(_filter(config, request)),
-                                            request.path_params["name"]))
+    def figure_doc(request: Request, stats: StatsByModel) -> dict[str, Any]:
+        """The figure of each model that grades it (one model's where the filter names it)."""
+        try:
+            return figure_models_json(stats, request.path_params["name"])
+        except LookupError as exc:  # no selected model grades it
+            raise NotFoundError(str(exc)) from exc
 
-    def figure_page(request: Request, family: UnitFamily) -> str:
-        return pages.figures_body(figure(request), _filter(config, request).__dict__, family)
+    def figure_stats(request: Request, stats: StatsByModel) -> FigureStats:
+        """The figure of the one model a chart is drawn of (400 where several grade it)."""
+        try:
+            return one_model_figure(stats, request.path_params["name"])
+        except LookupError as exc:  # no selected model grades it
+            raise NotFoundError(str(exc)) from exc
+
+    async def figure_api(request: Request) -> Response:
+        family = _family(request)
+        stats = await stats_of(request)
+        return JSONResponse(in_family(await run_in_threadpool(figure_doc, request, stats),
+                                      family))
+
+    def figure_page(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
+        assert stats is not None
+        return pages.figures_body(figure_doc(request, stats), _filter(config, request).__dict__,
+                                  family)
 
     def unit(request: Request) -> dict[str, Any]:
         history = unit_history(_filter(config, request), request.path_params["serial"])
         if not history.gradings:
-            raise LookupError(f"no grading of a unit {request.path_params['serial']!r}")
+            raise NotFoundError(f"no grading of a unit {request.path_params['serial']!r}")
         return history.as_json()
 
-    def unit_page(request: Request, family: UnitFamily) -> str:
+    def unit_page(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
         doc = unit(request)
         sheet = (f"/sheets/{segment(request.path_params['serial'])}"
                  + query({"grading": str(doc["gradings"][-1]["id"])}))
@@ -159,7 +194,8 @@ def create_app(config: ServeConfig) -> Starlette:
         wanted = request.query_params.get("grading")
         chosen = [g for g in history.gradings if wanted is None or str(g.id) == wanted]
         if not chosen:
-            raise LookupError(f"no grading {wanted} of a unit {request.path_params['serial']!r}")
+            raise NotFoundError(f"no grading {wanted} of a unit "
+                                f"{request.path_params['serial']!r}")
         grading, reports = chosen[-1], history.reports[chosen[-1].id]
         # a stored grading does not change: its sheet, rendered once, is kept (a few)
         key = (grading.id, tuple(r["path"] for r in reports))
@@ -181,28 +217,30 @@ def create_app(config: ServeConfig) -> Starlette:
                                            "default-src 'none'; img-src data:; "
                                            "style-src 'unsafe-inline'; frame-ancestors 'self'"})
 
-    def svg(draw: Callable[[dict[str, Any]], str]) -> Handler:
+    def svg(kind: str, draw: Callable[[FigureStats], str]) -> Handler:
+        """A figure's chart, drawn once per database state and filter (:class:`RenderCache`)."""
         async def endpoint(request: Request) -> Response:
-            doc = await run_in_threadpool(one_figure, request)
-            text = await run_in_threadpool(draw, doc)
-            return Response(text, media_type="image/svg+xml")
+            where = _filter(config, request)
+            stats = await stats_of(request)
+            f = figure_stats(request, stats)
+            state = await run_in_threadpool(line_state, where)
+            key = (kind, f.name, where.model, where.lot, where.since, state)
+            return Response(await cache.get(key, lambda: draw(f)), media_type="image/svg+xml")
         return endpoint
 
-    def trend(doc: dict[str, Any]) -> str:
+    def trend(f: FigureStats) -> str:
         from station.output.line_charts import trend_svg
 
-        return trend_svg(doc["name"], doc["unit"], doc["lots"], doc["limit"])
+        doc = figure_json(f)
+        return trend_svg(f.name, str(doc["unit"]), cast(list[dict[str, Any]], doc["lots"]),
+                         cast(float | None, doc["limit"]))
 
-    async def chart_endpoint(request: Request) -> Response:
-        def draw() -> str:
-            from station.output.line_charts import figure_svg
+    def chart(f: FigureStats) -> str:
+        from station.output.line_charts import figure_svg
 
-            stats = line_stats(_filter(config, request))
-            return figure_svg(one_model_figure(stats, request.path_params["name"]))
+        return figure_svg(f)
 
-        return Response(await run_in_threadpool(draw), media_type="image/svg+xml")
-
-    def runs(request: Request, family: UnitFamily) -> str:
+    def runs(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
         return pages.runs_body(runs_in_progress(config.runs).as_json())
 
     async def script(request: Request) -> Response:
@@ -210,13 +248,13 @@ def create_app(config: ServeConfig) -> Starlette:
         return Response(source, media_type="text/javascript")
 
     routes = [
-        Route("/", html_page("Line overview", overview)),
+        Route("/", html_page("Line overview", overview, stats=True)),
         Route("/api/overview", api(lambda r: line_overview(_filter(config, r)))),
-        Route("/api/stats", api(lambda r: line_stats(_filter(config, r)).as_json())),
-        Route("/figures/{name}", html_page("Figure {name}", figure_page)),
-        Route("/figures/{name}/chart.svg", chart_endpoint),
-        Route("/figures/{name}/trend.svg", svg(trend)),
-        Route("/api/figures/{name}", api(figure)),
+        Route("/api/stats", stats_api),
+        Route("/figures/{name}", html_page("Figure {name}", figure_page, stats=True)),
+        Route("/figures/{name}/chart.svg", svg("chart", chart)),
+        Route("/figures/{name}/trend.svg", svg("trend", trend)),
+        Route("/api/figures/{name}", figure_api),
         Route("/units/{serial:path}", html_page("Unit {serial}", unit_page)),
         Route("/sheets/{serial:path}", sheet_endpoint),
         Route("/api/units/{serial:path}", api(unit)),
@@ -225,7 +263,15 @@ def create_app(config: ServeConfig) -> Starlette:
         Route("/static/live.js", script),
     ]
     middleware = [Middleware(BaseHTTPMiddleware, dispatch=_guard(config.token))]
-    return Starlette(routes=routes, middleware=middleware)
+
+    @asynccontextmanager
+    async def lifespan(app: Starlette) -> AsyncIterator[None]:
+        yield
+        cache.close()
+
+    app = Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+    app.state.render_cache = cache  # its ``computed`` count: what was computed, not kept
+    return app
 
 
 def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response]]:
@@ -234,7 +280,7 @@ def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response
 
     async def dispatch(request: Request, call_next: Handler) -> Response:
         given = _token_of(request)
-        if token is not None and not (given and hmac.compare_digest(given, token)):
+        if token is not None and not (given and _same_token(given, token)):
             answer: Response = PlainTextResponse(
                 "401: this station's page needs its access token (Authorization: Bearer "
                 "TOKEN, or ?token=TOKEN)", status_code=401,
@@ -244,11 +290,12 @@ def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response
                 answer = await call_next(request)
             except DatabaseUnavailableError as exc:
                 answer = _failure(request, 503, "Results database unavailable", str(exc))
-            except LookupError as exc:
+            except NotFoundError as exc:
                 answer = _failure(request, 404, "Not found", str(exc.args[0]))
             except UsageError as exc:
                 answer = _failure(request, 400, "Bad request", str(exc))
-            if token is not None and request.query_params.get("token") == token:
+            if token is not None and _same_token(request.query_params.get("token") or "",
+                                                 token):
                 answer.set_cookie(TOKEN_COOKIE, token, httponly=True, samesite="strict")
         answer.headers.setdefault("Content-Security-Policy", CONTENT_SECURITY_POLICY)
         answer.headers["X-Content-Type-Options"] = "nosniff"
@@ -257,6 +304,14 @@ def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response
         return answer
 
     return dispatch
+
+
+def _same_token(given: str, token: str) -> bool:
+    """Whether ``given`` is the token, compared in constant time as UTF-8 bytes (a token
+    of any characters, a header's Latin-1 ones included, is compared, not refused with an
+    error: :func:`hmac.compare_digest` takes text of ASCII only)."""
+    return hmac.compare_digest(given.encode("utf-8", "surrogatepass"),
+                               token.encode("utf-8", "surrogatepass"))
 
 
 def _token_of(request: Request) -> str | None:

@@ -19,13 +19,29 @@ FORMATS: tuple[ReportFormat, ...] = get_args(ReportFormat)
 
 
 def writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
-    """The function writing format ``fmt`` (imported on demand: matplotlib is slow to import).
+    """The function writing format ``fmt`` (imported on demand: matplotlib is slow to
+    import), whole or not at all: into a temporary file moved over the report only when
+    complete, so that a failure leaves an earlier report as it was
+    (:func:`station.storage.atomic_files.replacing`).
 
     Raises
     ------
     ValueError
         For an unknown format.
     """
+    write = _writer(fmt)
+
+    def write_whole(graded: RunGrade, path: Path) -> Path:
+        from station.storage.atomic_files import replacing
+
+        with replacing(path) as tmp:
+            write(graded, tmp)
+        return Path(path)
+
+    return write_whole
+
+
+def _writer(fmt: str) -> Callable[[RunGrade, Path], Path]:
     if fmt == "pdf":
         from station.output.report.pdf import write_pdf
 

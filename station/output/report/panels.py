@@ -32,6 +32,7 @@ from station.evaluation.grading import AxisGrade, UnitGrade  # noqa: E402
 from station.evaluation.limits import limit_lines  # noqa: E402
 from station.evaluation.settings import AnalysisSettings  # noqa: E402
 from station.model.profiles import Profile  # noqa: E402
+from station.output.literal_text import draw_literally  # noqa: E402
 from station.output.plots import ACCEL_PLOT_UNITS, heat_map  # noqa: E402
 
 TERM_STYLE = {"Q": ("Q", -1.0), "N": ("N", -0.5), "B": ("B", 0.0), "K": ("K", 0.5), "R": ("R", 1.0)}
@@ -189,7 +190,7 @@ def placeholder(ax: Axes, text: str, *, fontsize: float = 8) -> None:
 def figure_png(fig: Figure, *, dpi: int = 110) -> bytes:
     """A figure as PNG bytes (the figure is closed)."""
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=dpi)
+    draw_literally(fig).savefig(buffer, format="png", dpi=dpi)
     plt.close(fig)
     return buffer.getvalue()
 

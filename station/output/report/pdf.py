@@ -22,6 +22,7 @@ from matplotlib.transforms import Bbox  # noqa: E402
 
 from station.evaluation.grading import RunGrade, UnitGrade  # noqa: E402
 from station.output.colors import VERDICT_COLORS  # noqa: E402
+from station.output.literal_text import draw_literally  # noqa: E402
 from station.output.report.common import (  # noqa: E402
     LIMIT_LINE_NOTE,
     UnitSheet,
@@ -328,28 +329,28 @@ def write_pdf(graded: RunGrade, path: str | Path) -> Path:
     ) as pdf:
         for unit in graded.units:
             fig = unit_page(graded, unit)
-            pdf.savefig(fig)
+            pdf.savefig(draw_literally(fig))
             plt.close(fig)
             sheet = unit_sheet(graded, unit)
             _, rest = foot_lines(graded, sheet)
             if rest:
                 fig = notes_page(sheet.title, rest)
-                pdf.savefig(fig)
+                pdf.savefig(draw_literally(fig))
                 plt.close(fig)
             if has_accel(unit):  # the accelerometers' Allan deviation, in their own unit
                 fig = accel_page(graded, unit, sheet.title)
-                pdf.savefig(fig)
+                pdf.savefig(draw_literally(fig))
                 plt.close(fig)
             if has_gmwm(unit):  # the GMWM page follows the unit's sheet
                 fig = gmwm_page(unit, unit_sheet(graded, unit).title, A4_IN)
-                pdf.savefig(fig)
+                pdf.savefig(draw_literally(fig))
                 plt.close(fig)
             if unit.sequence is not None:
                 fig = sequence_page(graded, unit.sequence, unit.unit.unit_id)
-                pdf.savefig(fig)
+                pdf.savefig(draw_literally(fig))
                 plt.close(fig)
                 if unit.sequence.plateaus:
                     fig = plateau_page(unit.sequence, unit.unit.unit_id)
-                    pdf.savefig(fig)
+                    pdf.savefig(draw_literally(fig))
                     plt.close(fig)
     return path
