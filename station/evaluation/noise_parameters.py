@@ -68,7 +68,10 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     fit, fig = axis.fit, axis.figures
     n_fit = fit.values.get("N")
     arw, arw_from = (
-        (n_fit, f"fit ({fit.method})") if _positive(n_fit) else (fig.arw_deg_rt_h, "read-off")
+        (n_fit, f"fit ({fit.method})") if _positive(n_fit) else
+        (fig.arw_deg_rt_h, "read-off: upper bound (no -1/2 region the curve allows white "
+                           "noise in; the least sigma sqrt(tau))" if fig.arw_upper_bound
+         else "read-off")
     )
     b, b_from = fig.bias_instability_deg_h, "read-off (sigma_min / 0.664)"
     if not _positive(b):
