@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from analysis.figures.accel import STANDARD_GRAVITY_M_S2
+from analysis.gmwm.equivalent import WN_EQUIVALENT_KEY
 from analysis.gmwm.models import KINDS
 from analysis.units.conversions import S_PER_H
 from station.evaluation.grading import AxisGrade, UnitGrade
@@ -86,6 +87,8 @@ def _accel_unit_of(key: str) -> tuple[str, float]:
 
 
 def _term_of(key: str) -> str:
+    if key == WN_EQUIVALENT_KEY:
+        return "white-noise equivalent (white noise and fast Gauss-Markov / AR(1) together)"
     label = key.split("_", 1)[0]
     kind = KINDS[label.rstrip("0123456789")]
     number = label[len(kind.code):]
@@ -148,6 +151,12 @@ def gmwm_summary(axis: AxisGrade) -> str:
                  f"{runner.criterion - g.ranking[0].criterion:.3g})")
     if best.model_error > 0:
         text += f"; weights floored at {best.model_error:.0%} model error (J rejects the model)"
+    equivalent = best.white_equivalent()
+    if equivalent is not None:
+        unit = "m/s/sqrt(h)" if axis.analysis.quantity == "acceleration" else "deg/sqrt(h)"
+        text += ("; white-noise equivalent readings (the fast terms are white at every tau "
+                 "of the record): " + ", ".join(equivalent.readings()).replace(
+                     "deg/sqrt(h)", unit))
     return text
 
 
