@@ -164,7 +164,8 @@ def format_accel_table(axes: Sequence[AxisAnalysis]) -> str:
     """A plain-text table of the accelerometer figures of ``axes`` (SI, bias in mg,
     bias instability in ug), each read-off with its interval and the taus it was read at,
     each fitted term +- its standard error (``<=`` its bound where fitted to 0), a VRW that
-    only bounds the white noise marked ``<=``; then each axis' tones and notes."""
+    only bounds the white noise marked ``<=``; then each axis' tones (amplitudes in m/s^2)
+    and notes."""
     figs = [a.accel for a in axes if a.accel is not None]
     confidence = axes[0].allan.confidence if axes else 0.0
     rows = [
@@ -181,8 +182,7 @@ def format_accel_table(axes: Sequence[AxisAnalysis]) -> str:
         ("  interval [ug]", [_interval_cell(f.bias_instability_ci_ug) for f in figs]),
         ("  at tau [s]", [_cell(f.bias_instability_tau_s) for f in figs]),
         *((label, [_fit_cell(a.fit, term) for a in axes]) for term, label in _FIT_ROWS),
-        ("tones [Hz: m/s^2]", [", ".join(f"{t.freq_hz:.3g}: {t.amplitude_deg_s:.2g}"
-                                         for t in a.tones) or "none" for a in axes]),
+        ("tones", [str(len(a.tones)) if a.tones else "none" for a in axes]),
     ]
     width = max(len(label) for label, _ in rows)
     col = max(14, *(len(a.name) for a in axes), *(len(v) for _, vals in rows for v in vals))
