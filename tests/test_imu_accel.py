@@ -290,3 +290,59 @@ limits = { A = 1.0, B = 2.0 }
     assert gyro.unit == "deg/sqrt(h)" and accel.unit == "m/s/sqrt(h)"
     assert accel.value == pytest.approx(0.002 / math.sqrt(100.0) * 60.0, rel=0.05)
     assert accel.ci_low is not None and accel.ci_low < accel.value < (accel.ci_high or 0.0)
+
+
+@real
+@pytest.mark.slow
+def test_accelerometer_only_record_is_analysed_and_graded(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A CSV of the ADIS16405's accelerometer columns alone (in g): analysed (three
+    acceleration axes, every VRW within a factor 2 of the data sheet's 0.2 m/s/sqrt(h),
+    with its interval) and graded on its accelerometer figures, the unit saying that the
+    profile's rate figures went ungraded."""
+    path = tmp_path / "adis16405_accel.csv"
+    path.write_text("\n".join(_rows(ACCEL)) + "\n")
+    assert main(["analyze", str(path), "--rate", "100", "--accel-units", "g", "--json"]) == 0
+    axes = json.loads(capsys.readouterr().out)["axes"]
+    assert [a["quantity"] for a in axes] == ["acceleration"] * 3
+    for a in axes:
+        f = a["figures"]
+        assert 0.1 < f["vrw_m_s_rt_h"] < 0.4
+        assert f["vrw_ci_m_s_rt_h"][0] <= f["vrw_m_s_rt_h"] <= f["vrw_ci_m_s_rt_h"][1]
+    profile = tmp_path / "adis.toml"
+    text = (Path(__file__).resolve().parents[1] / "profiles" / "ADIS16405.toml").read_text()
+    profile.write_text(text.replace("warmup_s = 300.0", "warmup_s = 0.0"))
+    assert main(["grade", str(path), "--rate", "100", "--accel-units", "g", "--profile",
+                 str(profile), "--json", "--no-store"]) in (0, 1)
+    unit = json.loads(capsys.readouterr().out)["units"][0]
+    assert sorted(unit["axes"]) == ["accel_x", "accel_y", "accel_z"]
+    for axis in unit["axes"].values():
+        vrw = axis["figures"]["accel_vrw"]
+        assert 0.1 < vrw["value"] < 0.4 and vrw["ci_low"] is not None
+    assert any("rate figure(s) bias, arw, adev_min are not measured" in n for n in unit["notes"])
+
+
+def test_accelerometer_table_shows_intervals_and_bounds(tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]
+                                                        ) -> None:
+    """White acceleration noise only: the accelerometer table gives the VRW read-off's
+    interval and taus, and each fitted term the record does not resolve as 0 with its
+    bound (it printed K and B as bare numbers); the Kalibr file marks a random walk that
+    is only such a bound."""
+    rng = np.random.default_rng(38)
+    n = 20_000
+    path = tmp_path / "imu.csv"
+    np.savetxt(path, np.column_stack([rng.normal(0, 0.01, n), rng.normal(0, 0.002, (n, 3))]),
+               delimiter=",", header="gyro_x,accel_x,accel_y,accel_z", comments="")
+    assert main(["analyze", str(path), "--rate", "100"]) == 0
+    out = capsys.readouterr().out
+    table = out[out.index("accelerometers"):]
+    assert "  interval [m/s/sqrt(h)]" in table and "  from tau [s]" in table
+    k_row = next(line for line in table.splitlines() if line.startswith("fit K accel."))
+    assert k_row.count("0 (<= ") == 3
+    result = export_noise(ExportRequest(RecordSource(path, rate_hz=100.0), "kalibr",
+                                        out=Path("-")))
+    rw_line = next(line for line in result.text.splitlines()
+                   if line.startswith("accelerometer_random_walk"))
+    assert "UPPER BOUND" in rw_line
+    assert any("accel_random_walk written as an upper bound" in n for n in result.notes)

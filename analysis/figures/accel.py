@@ -109,8 +109,11 @@ def vertical_axis(means_m_s2: ArrayLike) -> int:
 class AccelFigures:
     """The spec-sheet figures of one accelerometer axis, each in the unit its name ends with.
 
-    ``vrw_m_s_rt_h`` is the velocity random walk read off at tau = 1 s (IEEE Std 1293
-    annex C's N), ``vrw_m_s2_rt_hz`` the same as a noise density; ``bias_instability_ug``
+    ``vrw_m_s_rt_h`` is the velocity random walk read off the -1/2 line at tau = 1 h (IEEE
+    Std 1293 annex C's N; ``vrw_upper_bound``: no -1/2 region the curve allows white noise
+    in, the value is the white-noise bound, an upper bound whose interval runs from 0,
+    :func:`analysis.figures.readoffs.white_noise_bound`), ``vrw_m_s2_rt_hz`` the same as a
+    noise density; ``bias_instability_ug``
     the read-off at the Allan minimum divided by 0.664; ``acceleration_random_walk_m_s_h1_5``
     the fitted K; ``accel_bias_mg`` the mean with the gravity projection removed
     (``gravity_removed_m_s2``; None when none was).
@@ -131,6 +134,7 @@ class AccelFigures:
     acceleration_random_walk_m_s3_rt_hz: float | None
     bias_stability_10s_ug: float | None
     notes: tuple[str, ...] = ()
+    vrw_upper_bound: bool = False
 
     def as_dict(self) -> dict[str, object]:
         """JSON form (tuples become lists)."""
@@ -188,4 +192,5 @@ def accel_figures(figures: SpecFigures, fit: NoiseCoefficients, *,
         acceleration_random_walk_m_s3_rt_hz=_scaled(k, S_PER_H**-1.5),
         bias_stability_10s_ug=_scaled(figures.bias_stability_10s_deg_h, ug),
         notes=tuple(notes),
+        vrw_upper_bound=figures.arw_upper_bound,
     )

@@ -12,6 +12,19 @@ bump or a filter's dip fail the zone test; two taus on the falling edge of a bum
 slope happens to pass -1/2 cannot make a region. Without a fitted white-rate term the
 region is chosen by the slope alone, and the note says so.
 
+**The white-noise bound.** The Allan variance of independent noises is the sum of theirs,
+and white rate noise of coefficient ``N`` contributes ``N^2 / tau`` at every tau past the
+output filter. So ``N`` is at most the least ``sigma(tau) sqrt(tau)`` of the curve outside
+an output filter's taus (:func:`white_noise_bound`; tones and quantization only add). A
+-1/2 stretch whose level is above that bound beyond both intervals (at
+:data:`WHITE_BOUND_CONFIDENCE`) and the slack of a -1/2 line (:data:`WHITE_BOUND_SLACK`)
+is not white noise: on a MEMS accelerometer whose short
+taus are all tone or filter zones and whose fit holds no white term, the falling edge of
+a bump at 700-3000 s passes the slope test and read 30 m/s/sqrt(h) where the curve at
+10 ms shows 0.2. Such a stretch is passed over; where none is left, the value is the
+bound itself, marked as an upper bound (:attr:`ReadOff.upper_bound`; its interval runs
+from 0).
+
 **Bias instability**: ``sigma_min / 0.664`` (IEEE Std 952-1997, Annex C: the flicker
 floor of the Allan deviation is ``sqrt(2 ln 2 / pi) B = 0.664 B``), where ``sigma_min`` is
 the minimum of a smoothed curve, not of the raw points: a raw minimum over noisy values
@@ -38,7 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -55,6 +68,12 @@ from analysis.units.conversions import S_PER_H
 ARW_SLOPE_TOLERANCE = 0.15
 #: Least share of the fitted model's Allan variance the white-rate term has in the ARW region.
 WHITE_DOMINANCE = 0.95
+#: Confidence at which a -1/2 stretch's level is tested against :func:`white_noise_bound`.
+WHITE_BOUND_CONFIDENCE = 0.99
+#: How far above the white-noise bound a -1/2 stretch's level may lie and still be read: a
+#: stretch's local slopes may stray :data:`ARW_SLOPE_TOLERANCE` from -1/2, so its level
+#: drifts by up to ``2^0.15`` an octave; two octaves of it are allowed.
+WHITE_BOUND_SLACK = 2.0 ** (2 * ARW_SLOPE_TOLERANCE)
 #: sqrt(2 ln 2 / pi): the Allan deviation of flicker rate noise over its coefficient B.
 BIAS_INSTABILITY_FACTOR = 0.664
 #: Width (standard deviation, octaves) of the Gaussian kernel smoothing the curve's minimum.
@@ -85,6 +104,9 @@ class ReadOff:
         What the reader should know (a fallback, an upper bound), or "".
     edf : float or None
         Equivalent degrees of freedom of the Allan variance behind the value.
+    upper_bound : bool
+        The value bounds the figure from above and does not measure it (the white-noise
+        bound where the curve shows no -1/2 stretch): its interval runs from 0.
     """
 
     value: float | None
@@ -92,17 +114,20 @@ class ReadOff:
     tau_high_s: float | None
     note: str = ""
     edf: float | None = None
+    upper_bound: bool = False
 
     def interval(self, confidence: float = ONE_SIGMA) -> tuple[float | None, float | None]:
         """Two-sided chi-square interval of the value at ``confidence`` (None, None if unknown).
 
         The value is a deviation (the root of an Allan variance with ``edf`` degrees of
-        freedom), so its bounds are ``value sqrt(edf / chi2_quantile)``.
+        freedom), so its bounds are ``value sqrt(edf / chi2_quantile)``; an upper bound's
+        interval is ``[0, high]``.
         """
         if self.value is None or self.edf is None:
             return None, None
         low, high = chi2_interval(1.0, self.edf, confidence)
-        return self.value * math.sqrt(float(low)), self.value * math.sqrt(float(high))
+        return (0.0 if self.upper_bound else self.value * math.sqrt(float(low)),
+                self.value * math.sqrt(float(high)))
 
     def log_sd(self) -> float | None:
         """Standard deviation of ``log(value)`` (``1 / sqrt(2 edf)``), None if unknown."""
@@ -163,6 +188,46 @@ def white_share(result: AllanResult, fit: NoiseCoefficients | None) -> NDArray[n
     )
 
 
+def white_noise_bound(result: AllanResult, zones: Sequence[TauZone] = ()) -> ReadOff | None:
+    """The least ``sigma(tau) sqrt(tau)`` of a 1-D Allan curve outside an output filter's
+    taus, as an angle random walk (deg/sqrt(h)) marked :attr:`ReadOff.upper_bound`: white
+    rate noise adds ``N^2 / tau`` to the Allan variance wherever the filter has not taken
+    it off, so ``N`` is at most this (the module docstring). None: no tau outside a filter.
+    Tone zones count (a tone only adds)."""
+    tau = result.tau_s
+    usable = outside_zones(tau, [z for z in zones if z.kind == "output filter"])
+    level = np.sqrt(np.asarray(result.avar, dtype=float) * tau)
+    usable &= np.isfinite(level) & (level > 0)
+    if not usable.any():
+        return None
+    i = int(np.flatnonzero(usable)[np.argmin(level[usable])])
+    return ReadOff(float(level[i]) * math.sqrt(S_PER_H), float(tau[i]), float(tau[i]),
+                   f"upper bound: the least sigma sqrt(tau), at tau {tau[i]:.3g} s (white "
+                   f"noise would put the curve at least this high there)",
+                   float(np.asarray(result.edf, dtype=float)[i]), upper_bound=True)
+
+
+def _above_bound(read: ReadOff, bound: ReadOff | None) -> bool:
+    """Whether ``read``'s level is above ``bound`` beyond both their intervals and
+    :data:`WHITE_BOUND_SLACK`."""
+    if bound is None or read.value is None:
+        return False
+    low, _ = read.interval(WHITE_BOUND_CONFIDENCE)
+    _, high = replace(bound, upper_bound=False).interval(WHITE_BOUND_CONFIDENCE)
+    return low is not None and high is not None and low > high * WHITE_BOUND_SLACK
+
+
+def _line_readoff(result: AllanResult, region: NDArray[np.bool_], note: str) -> ReadOff:
+    """The -1/2 line over ``region`` (edf-and-octave weighted geometric mean of
+    ``sigma sqrt(tau)``) read at tau = 1 h, with the region's taus and edf."""
+    tau = result.tau_s
+    weights = np.where(region, log_tau_share(tau) * np.asarray(result.edf, dtype=float), 0.0)
+    log_n = float(np.average(np.log(np.sqrt(result.avar * tau)), weights=weights))
+    value = math.exp(log_n) * math.sqrt(S_PER_H)  # deg/s*sqrt(s) = deg/sqrt(s) -> deg/sqrt(h)
+    dof = 2.0 / correlated_log_variance(weights / weights.sum(), result)
+    return ReadOff(value, float(tau[region][0]), float(tau[region][-1]), note, dof)
+
+
 def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
                 zones: Sequence[TauZone] = ()) -> ReadOff:
     """Angle random walk (deg/sqrt(h)) read off the white-rate region of a 1-D Allan curve.
@@ -181,7 +246,9 @@ def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
     -------
     ReadOff
         The -1/2 line fitted over the region (edf-and-octave weighted geometric mean of
-        ``sigma sqrt(tau)``), read at tau = 1 h, with the region's taus and edf.
+        ``sigma sqrt(tau)``), read at tau = 1 h, with the region's taus and edf; a region
+        above the white-noise bound is passed over, and where no region is left the
+        value is that bound (:func:`white_noise_bound`, an upper bound).
     """
     tau, adev = result.tau_s, np.sqrt(result.avar)
     edf = np.asarray(result.edf, dtype=float)
@@ -196,28 +263,39 @@ def arw_readoff(result: AllanResult, fit: NoiseCoefficients | None = None, *,
             notes.append("the fit has no white-rate term: region chosen by the slope alone")
     else:
         region = on_line & (share >= WHITE_DOMINANCE)
-    if not region.any():
-        pool = allowed if allowed.any() else np.ones(len(tau), dtype=bool)
-        score = np.where(pool, np.abs(slope + 0.5) if share is None else -share, np.inf)
-        i = int(np.nanargmin(score))
-        region = np.zeros(len(tau), dtype=bool)
-        region[i] = True
-        what = (f"white rate at most {share[i]:.0%} of the fitted curve" if share is not None
-                else f"nearest slope {slope[i]:.2f}")
-        notes.append(
-            f"no -1/2 region where white rate dominates; read at tau {tau[i]:.3g} s ({what})"
-        )
-    else:
-        octaves = log_tau_share(tau)
-        start, stop = max(zip(*valid_stretches(region), strict=True),
-                          key=lambda s: (octaves[s[0]:s[1]].sum(), edf[s[0]:s[1]].sum()))
-        region = np.zeros(len(tau), dtype=bool)
-        region[start:stop] = True
-    weights = np.where(region, log_tau_share(tau) * edf, 0.0)
-    log_n = float(np.average(np.log(adev * np.sqrt(tau)), weights=weights))
-    value = math.exp(log_n) * math.sqrt(S_PER_H)  # deg/s*sqrt(s) = deg/sqrt(s) -> deg/sqrt(h)
-    dof = 2.0 / correlated_log_variance(weights / weights.sum(), result)
-    return ReadOff(value, float(tau[region][0]), float(tau[region][-1]), "; ".join(notes), dof)
+    bound = white_noise_bound(result, zones)
+    octaves = log_tau_share(tau)
+    stretches = sorted(zip(*valid_stretches(region), strict=True),
+                       key=lambda s: (octaves[s[0]:s[1]].sum(), edf[s[0]:s[1]].sum()),
+                       reverse=True)
+    for start, stop in stretches:
+        mask = np.zeros(len(tau), dtype=bool)
+        mask[start:stop] = True
+        read = _line_readoff(result, mask, "; ".join(notes))
+        if not _above_bound(read, bound):
+            return read
+        notes.append(_passed_over(read, bound))
+    pool = allowed if allowed.any() else np.ones(len(tau), dtype=bool)
+    score = np.where(pool, np.abs(slope + 0.5) if share is None else -share, np.inf)
+    i = int(np.nanargmin(score))
+    what = (f"white rate at most {share[i]:.0%} of the fitted curve" if share is not None
+            else f"nearest slope {slope[i]:.2f}")
+    notes.append(f"no -1/2 region where white rate dominates; read at tau {tau[i]:.3g} s ({what})")
+    region = np.zeros(len(tau), dtype=bool)
+    region[i] = True
+    read = _line_readoff(result, region, "; ".join(notes))
+    if bound is not None and _above_bound(read, bound):
+        notes.append(_passed_over(read, bound))
+        return replace(bound, note="; ".join([*notes, bound.note]))
+    return read
+
+
+def _passed_over(read: ReadOff, bound: ReadOff | None) -> str:
+    """The note of a reading passed over for being above the white-noise bound."""
+    assert bound is not None and read.value is not None
+    return (f"the -1/2 reading {read.value:.3g} at tau {read.tau_low_s:.3g}-"
+            f"{read.tau_high_s:.3g} s is above what the curve allows white noise "
+            f"({bound.value:.3g} at tau {bound.tau_low_s:.3g} s): not white noise, passed over")
 
 
 def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES, degree: int = 2,

@@ -161,6 +161,9 @@ class SpecFigures:
     review: tuple[str, ...] = ()
     #: Earth-rate projection taken off the bias (deg/h); None when it was not removed.
     earth_rate_removed_deg_h: float | None = None
+    #: The ARW read-off bounds N from above and does not measure it (no -1/2 region the
+    #: curve allows white noise in: :func:`analysis.figures.readoffs.white_noise_bound`).
+    arw_upper_bound: bool = False
 
     def as_dict(self) -> dict[str, object]:
         """JSON form (tuples become lists)."""
@@ -396,4 +399,5 @@ def spec_figures(
         arw_ci_deg_rt_h=arw.interval(result.confidence) if arw.value is not None else None,
         bias_instability_ci_deg_h=bi.interval(result.confidence) if bi.value is not None else None,
         review=review_notes(result, fit, arw, bi),
+        arw_upper_bound=arw.upper_bound,
     )

@@ -124,11 +124,12 @@ class Tone:
             "p_value": self.p_value,
         }
 
-    def describe(self) -> str:
-        """One line for a report: frequency, amplitude, band and strength."""
+    def describe(self, unit: str = "deg/s") -> str:
+        """One line for a report: frequency, amplitude, band and strength (the amplitude in
+        ``unit``, that of the series: "m/s^2" for an accelerometer's)."""
         return (
             f"tone at {self.freq_hz:.4g} Hz ({self.band_hz[0]:.4g}-{self.band_hz[1]:.4g} Hz), "
-            f"amplitude {self.amplitude_deg_s:.3g} deg/s, {self.peak_ratio:.1f} x the background"
+            f"amplitude {self.amplitude_deg_s:.3g} {unit}, {self.peak_ratio:.1f} x the background"
         )
 
 

@@ -48,6 +48,10 @@ class AccelNoise:
         Acceleration random walk K, m/s/h^1.5.
     accel_bias_mg : float
         Mean with the gravity projection removed, mg.
+    sources : dict
+        Where each figure came from (keys ``vrw``, ``bias_instability``,
+        ``accel_random_walk``); one that says "upper bound" bounds the figure and does
+        not measure it (:attr:`upper_bounds`).
     """
 
     name: str
@@ -56,16 +60,27 @@ class AccelNoise:
     bias_instability_ug: float | None
     accel_random_walk_m_s_h1_5: float
     accel_bias_mg: float
+    sources: dict[str, str] | None = None
 
     @classmethod
     def of_series(cls, noise: AxisNoise, accel_bias_mg: float) -> AccelNoise:
         """From the :class:`AxisNoise` of a series in m/s^2 (its "deg" figures read as
         m/s^2: ``arw_deg_rt_h`` is N in m/s/sqrt(h), ``bias_instability_deg_h`` is B in
-        m/s^2 x 3600, ``rrw_deg_h_1_5`` is K in m/s/h^1.5)."""
+        m/s^2 x 3600, ``rrw_deg_h_1_5`` is K in m/s/h^1.5; its sources renamed)."""
         b = noise.bias_instability_deg_h
+        names = {"arw": "vrw", "bias_instability": "bias_instability",
+                 "rrw": "accel_random_walk"}
+        sources = {names.get(k, k): v for k, v in (noise.sources or {}).items()}
         return cls(noise.name, noise.sample_rate_hz, noise.arw_deg_rt_h,
                    None if b is None else b / S_PER_H / M_S2_PER_UG,
-                   noise.rrw_deg_h_1_5, accel_bias_mg)
+                   noise.rrw_deg_h_1_5, accel_bias_mg, sources)
+
+    @property
+    def upper_bounds(self) -> tuple[str, ...]:
+        """The figures (``vrw``, ``bias_instability``, ``accel_random_walk``) whose value is
+        an upper bound the record sets, not a measurement: a tool given it as a value must
+        be told so."""
+        return tuple(k for k, v in (self.sources or {}).items() if "upper bound" in v)
 
     @property
     def noise_density_m_s2_rt_hz(self) -> float:
@@ -106,4 +121,6 @@ class AccelNoise:
             "random_walk_m_s3_rt_hz": self.random_walk_m_s3_rt_hz,
             "accel_bias_mg": self.accel_bias_mg,
             "accel_bias_m_s2": self.accel_bias_m_s2,
+            "sources": dict(self.sources or {}),
+            "upper_bounds": list(self.upper_bounds),
         }

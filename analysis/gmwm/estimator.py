@@ -67,6 +67,7 @@ from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError, TooFewSamplesError
 from analysis.fit.least_squares import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm.covariance import wv_covariance
+from analysis.gmwm.equivalent import WN_EQUIVALENT_KEY, white_equivalent
 from analysis.gmwm.models import GmwmModel
 from analysis.gmwm.result import GmwmFit as GmwmFit  # re-exported: fits are imported from here
 from analysis.gmwm.wavelet import WaveletVariance, dyadic_m
@@ -371,6 +372,10 @@ def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence:
     for key, idx, role in model.keys(params):
         if role == "shape" and not free[idx]:
             stderr[key] = math.nan
+    equivalent = white_equivalent(model, params, cov, dt, float(problem.tau[0]))
+    if equivalent is not None:  # a fast GM / AR(1) term: the white noise it amounts to
+        values[WN_EQUIVALENT_KEY] = equivalent.value_deg_rt_h
+        stderr[WN_EQUIVALENT_KEY] = equivalent.stderr_deg_rt_h
     z = float(stats.norm.ppf(0.5 + confidence / 2))
     low, high = {}, {}
     for key, value in values.items():

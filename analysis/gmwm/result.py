@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from analysis.allan.confidence import ONE_SIGMA
+from analysis.gmwm.equivalent import WhiteEquivalent, white_equivalent
 from analysis.gmwm.models import GmwmModel
 
 
@@ -82,6 +83,13 @@ class GmwmFit:
         """Each term's WV ((deg/s)^2), shape (n_terms, n_tau)."""
         return self.model.term_wv(self.params, tau_s, 1.0 / self.sample_rate_hz)
 
+    def white_equivalent(self) -> WhiteEquivalent | None:
+        """The angle random walk the white term and the Gauss-Markov / AR(1) terms faster
+        than the shortest tau amount to, with each part (:mod:`analysis.gmwm.equivalent`);
+        None when the model has no such fast term."""
+        return white_equivalent(self.model, self.params, self.cov, 1.0 / self.sample_rate_hz,
+                                float(self.tau_s[0]))
+
     def as_json(self) -> dict[str, object]:
         """JSON form: model, params, stderr (same keys), intervals, fit statistics, the WV
         (``wv_deg2_s2``, ``model_wv_deg2_s2``, in (deg/s)^2; ``wv``, ``model_wv``: the same
@@ -89,9 +97,13 @@ class GmwmFit:
         def clean(d: dict[str, float]) -> dict[str, float | None]:
             return {k: (v if math.isfinite(v) else None) for k, v in d.items()}
 
+        equivalent = self.white_equivalent()
         return {
             "model": self.model.name,
             "params": clean(self.values),
+            **({"wn_equivalent_readings": list(equivalent.readings()),
+                "wn_equivalent_parts_deg_rt_h": dict(equivalent.parts)}
+               if equivalent is not None else {}),
             "stderr": clean(self.stderr),
             "ci_low": clean(self.ci_low),
             "ci_high": clean(self.ci_high),

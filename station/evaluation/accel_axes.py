@@ -24,6 +24,7 @@ from analysis.figures.accel import (
     vertical_axis,
 )
 from analysis.fit.model import COEFFICIENT_NAMES
+from analysis.fit.result import NoiseCoefficients
 from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from station.model.bench import Bench
 from station.model.records import RateRecord
@@ -133,29 +134,65 @@ def _cell(value: float | None, digits: int = 4) -> str:
     return "-" if value is None else f"{value:.{digits}g}"
 
 
+def _interval_cell(ci: tuple[float | None, float | None] | None) -> str:
+    if ci is None or ci[0] is None or ci[1] is None:
+        return "-"
+    return f"[{ci[0]:.4g}, {ci[1]:.4g}]"
+
+
+def _fit_cell(fit: NoiseCoefficients, term: str) -> str:
+    """A fitted term in the accelerometer unit, +- its standard error; a term fitted to 0
+    is the record's bound on it: ``<= stderr``."""
+    if term in fit.negative_terms:
+        return "negative"
+    factor = ACCEL_FIT_KEYS[term][1]
+    value, err = fit.values[term], fit.stderr[term]
+    if value is None:
+        return "-"
+    if value == 0 and err is not None and err > 0:
+        return f"0 (<= {err * factor:.2g})"
+    return f"{value * factor:.4g}" + ("" if err is None else f" +- {err * factor:.2g}")
+
+
+#: The fitted terms of the accelerometer table: (term, label with its unit).
+_FIT_ROWS = (("Q", "fit Q quantization [m/s]"), ("N", "fit N VRW [m/s/sqrt(h)]"),
+             ("B", "fit B bias instability [ug]"), ("K", "fit K accel. random walk [m/s/h^1.5]"),
+             ("R", "fit R accel. ramp [m/s/h^2]"))
+
+
 def format_accel_table(axes: Sequence[AxisAnalysis]) -> str:
     """A plain-text table of the accelerometer figures of ``axes`` (SI, bias in mg,
-    bias instability in ug), then each axis' notes."""
+    bias instability in ug), each read-off with its interval and the taus it was read at,
+    each fitted term +- its standard error (``<=`` its bound where fitted to 0), a VRW that
+    only bounds the white noise marked ``<=``; then each axis' tones (amplitudes in m/s^2)
+    and notes."""
     figs = [a.accel for a in axes if a.accel is not None]
+    confidence = axes[0].allan.confidence if axes else 0.0
     rows = [
         ("samples", [str(a.n_samples) for a in axes]),
         ("bias, gravity removed [mg]", [_cell(f.accel_bias_mg) for f in figs]),
         ("  gravity removed [m/s^2]", [_cell(f.gravity_removed_m_s2, 6) for f in figs]),
-        ("VRW read-off [m/s/sqrt(h)]", [_cell(f.vrw_m_s_rt_h) for f in figs]),
+        ("VRW read-off [m/s/sqrt(h)]", [("<= " if f.vrw_upper_bound else "")
+                                        + _cell(f.vrw_m_s_rt_h) for f in figs]),
+        ("  interval [m/s/sqrt(h)]", [_interval_cell(f.vrw_ci_m_s_rt_h) for f in figs]),
+        ("  from tau [s]", [_cell(a.figures.arw_tau_range_s[0], 3) + "-"
+                            + _cell(a.figures.arw_tau_range_s[1], 3) for a in axes]),
         ("  as density [m/s^2/sqrt(Hz)]", [_cell(f.vrw_m_s2_rt_hz) for f in figs]),
         ("bias instability read-off [ug]", [_cell(f.bias_instability_ug) for f in figs]),
+        ("  interval [ug]", [_interval_cell(f.bias_instability_ci_ug) for f in figs]),
         ("  at tau [s]", [_cell(f.bias_instability_tau_s) for f in figs]),
-        ("fit VRW [m/s/sqrt(h)]", [_cell(f.vrw_fit_m_s_rt_h) for f in figs]),
-        ("fit bias instability [ug]", [_cell(f.bias_instability_fit_ug) for f in figs]),
-        ("fit accel. random walk [m/s/h^1.5]",
-         [_cell(f.acceleration_random_walk_m_s_h1_5) for f in figs]),
+        *((label, [_fit_cell(a.fit, term) for a in axes]) for term, label in _FIT_ROWS),
+        ("tones", [str(len(a.tones)) if a.tones else "none" for a in axes]),
     ]
     width = max(len(label) for label, _ in rows)
-    col = max(14, *(len(a.name) for a in axes))
-    lines = ["accelerometers (the same Allan analysis in m/s^2)",
+    col = max(14, *(len(a.name) for a in axes), *(len(v) for _, vals in rows for v in vals))
+    lines = [f"accelerometers (the same Allan analysis in m/s^2); read-off intervals at "
+             f"{confidence:.1%}",
              " " * width + "  " + "  ".join(f"{a.name:>{col}}" for a in axes)]
     lines += [f"{label:<{width}}  " + "  ".join(f"{v:>{col}}" for v in vals)
               for label, vals in rows]
     for a, f in zip(axes, figs, strict=True):
+        lines += [f"tone ({a.name}): {t.describe('m/s^2')}" for t in a.tones]
         lines += [f"note ({a.name}): {n}" for n in f.notes]
+        lines += [f"fit note ({a.name}): {n}" for n in a.fit.notes]
     return "\n".join(lines)

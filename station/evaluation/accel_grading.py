@@ -52,6 +52,26 @@ def accel_columns(profile: Profile, record: RateRecord) -> dict[str, int]:
     return match_axes(profile.axes, record.accel_axis_names)
 
 
+def accel_only_notes(profile: Profile, record: RateRecord, accel: dict[str, int]) -> list[str]:
+    """The unit notes of a record with accelerometer axes only (none for one with a gyro
+    axis): which rate figures of the profile go ungraded.
+
+    Raises
+    ------
+    GradingError
+        The record has no gyro axis and the profile grades no accelerometer figure.
+    """
+    if record.axis_names:
+        return []
+    if not accel:
+        raise GradingError(
+            f"{record.source or 'the record'} has accelerometer axes only and profile "
+            f"{profile.name} grades no accelerometer figure (accel_*)")
+    rate = [f.name for f in profile.figures if not is_accel_figure(f.name) and f.graded]
+    return ([f"accelerometer-only record: the profile's rate figure(s) {', '.join(rate)} are "
+             f"not measured and not graded; the grade is the accelerometers'"] if rate else [])
+
+
 def figures_for(profile: Profile, analysis: AxisAnalysis) -> tuple[FigureSpec, ...]:
     """The profile figures graded on this axis: accelerometer figures on an accelerometer
     axis, the others on a rate axis."""

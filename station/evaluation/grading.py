@@ -42,6 +42,7 @@ from station.errors import RecordFormatError
 from station.evaluation.accel_grading import (
     accel_columns,
     accel_figure_interval,
+    accel_only_notes,
     figures_for,
 )
 from station.evaluation.analyze import AxisAnalysis, analyze_record
@@ -348,8 +349,9 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
             f"unit {unit.unit_id}: {record.n_samples} samples ({record.duration_s:.0f} s) "
             f"leave fewer than {MIN_SAMPLES} after the {profile.warmup_s:g} s warm-up"
         )
-    columns = match_axes(profile.axes, record.axis_names)
+    columns = match_axes(profile.axes, record.axis_names) if record.axis_names else {}
     accel = accel_columns(profile, kept)
+    notes = accel_only_notes(profile, record, accel)
     trimmed = RateRecord(
         take_columns(kept.rate_deg_s, list(columns.values())),
         fs,
@@ -361,7 +363,6 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         else take_columns(kept.accel_m_s2, list(accel.values())),
         tuple(kept.accel_axis_names[i] for i in accel.values()),
     )
-    notes = []
     if unit.model and unit.model != profile.model:
         notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
     if record.duration_s < profile.duration_s * 0.99:

@@ -6,7 +6,8 @@ per axis). The fit is the reading a spec sheet prints
 supports best), never the largest fit of each term taken from different readings:
 
 * angle random walk N: the five-term fit's N (``logwls``) or the GMWM's white noise
-  (``gmwm``), else the IEEE 952 read-off;
+  (``gmwm``; its white-noise equivalent where a Gauss-Markov or AR(1) term is faster than
+  the shortest tau, :mod:`analysis.gmwm.equivalent`), else the IEEE 952 read-off;
 * bias instability B: the IEEE 952 read-off ``sigma_min / 0.664`` (the spec figure), or
   the GMWM's flicker term when its model has one; else the fit's B;
 * rate random walk K: the fit's K, or the GMWM's random walk; a K the record does not
@@ -15,7 +16,8 @@ supports best), never the largest fit of each term taken from different readings
   record allows other readings (:mod:`analysis.figures.ambiguity`) and the printed one
   drops K, the bound covers every reading (their ``K + 1 sigma``), the source naming the
   alternatives; a printed K above 0 is written as it is;
-* Gauss-Markov terms: the GMWM's ``gm`` terms (``gmwm``), none otherwise.
+* Gauss-Markov terms: the GMWM's ``gm`` terms (``gmwm``) but those in the white-noise
+  equivalent, none otherwise.
 """
 
 from __future__ import annotations
@@ -24,6 +26,8 @@ import math
 
 from analysis.figures.tool_units import AxisNoise, GaussMarkovBias
 from analysis.fit.least_squares import NoiseCoefficients
+from analysis.gmwm.equivalent import WN_EQUIVALENT_KEY
+from analysis.gmwm.result import GmwmFit
 from station.errors import UsageError
 from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, AxisAnalysis
 from station.evaluation.readings import (
@@ -71,6 +75,14 @@ def _printed_rrw(fit: NoiseCoefficients) -> tuple[float, str]:
                   f"the printed reading does not resolve K; {allowed}")
 
 
+def _is_fast(fit: GmwmFit, sigma_key: str) -> bool:
+    """Whether the Gauss-Markov term of ``sigma_key`` is faster than the shortest tau (its
+    white noise is in the white-noise equivalent, not a bias term of its own)."""
+    equivalent = fit.white_equivalent()
+    label = sigma_key.removesuffix("_sigma_deg_h")
+    return equivalent is not None and label in dict(equivalent.correlation_times_s)
+
+
 def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     """The noise parameters of one analysed axis (the module docstring says which figure
     feeds which).
@@ -84,7 +96,10 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
     fit, fig = best_supported(axis.fit), axis.figures
     n_fit = fit.values.get("N")
     arw, arw_from = (
-        (n_fit, f"fit ({fit.method})") if _positive(n_fit) else (fig.arw_deg_rt_h, "read-off")
+        (n_fit, f"fit ({fit.method})") if _positive(n_fit) else
+        (fig.arw_deg_rt_h, "read-off: upper bound (no -1/2 region the curve allows white "
+                           "noise in; the least sigma sqrt(tau))" if fig.arw_upper_bound
+         else "read-off")
     )
     b, b_from = fig.bias_instability_deg_h, "read-off (sigma_min / 0.664)"
     if not _positive(b):
@@ -103,14 +118,17 @@ def axis_noise(axis: AxisAnalysis, method: str = DEFAULT_METHOD) -> AxisNoise:
         best = axis.gmwm.best
         values, errors = best.values, best.stderr
         model = f"GMWM ({best.model.name})"
-        if _positive(values.get("wn_deg_rt_h")):
+        if _positive(values.get(WN_EQUIVALENT_KEY)):  # fast GM / AR(1) terms are white here
+            arw, arw_from = values[WN_EQUIVALENT_KEY], f"{model}, white-noise equivalent"
+        elif _positive(values.get("wn_deg_rt_h")):
             arw, arw_from = values["wn_deg_rt_h"], model
         if _positive(values.get("bi_deg_h")):
             b, b_from = values["bi_deg_h"], model
         if "rw_deg_h_rt_h" in values:
             k, k_from = _rrw(values.get("rw_deg_h_rt_h"), errors.get("rw_deg_h_rt_h"), model)
         for key, sigma in values.items():
-            if key.startswith("gm") and key.endswith("_sigma_deg_h") and _positive(sigma):
+            if (key.startswith("gm") and key.endswith("_sigma_deg_h") and _positive(sigma)
+                    and not _is_fast(best, key)):
                 tau = values[key.removesuffix("_sigma_deg_h") + "_tau_s"]
                 gauss_markov.append(GaussMarkovBias(float(sigma), float(tau)))
     if not _positive(arw):

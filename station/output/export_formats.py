@@ -127,26 +127,37 @@ def _gyro_lines(axes: Sequence[AxisNoise], indent: str = "") -> list[str]:
 
 
 def _accel_comments(accel: Sequence[AccelNoise]) -> list[str]:
+    sources = [a.sources or {} for a in accel]
     return [
         f"#   {a.name}: noise density {a.noise_density_m_s2_rt_hz:.6g} m/s^2/sqrt(Hz) "
-        f"(VRW {a.vrw_m_s_rt_h:.4g} m/s/sqrt(h)); random walk {a.random_walk_m_s3_rt_hz:.6g} "
-        f"m/s^3/sqrt(Hz) (K {a.accel_random_walk_m_s_h1_5:.4g} m/s/h^1.5)"
-        for a in accel
+        f"(VRW {a.vrw_m_s_rt_h:.4g} m/s/sqrt(h), {s.get('vrw', '')}); random walk "
+        f"{a.random_walk_m_s3_rt_hz:.6g} m/s^3/sqrt(Hz) (K {a.accel_random_walk_m_s_h1_5:.4g} "
+        f"m/s/h^1.5, {s.get('accel_random_walk', '')})"
+        for a, s in zip(accel, sources, strict=True)
     ]
 
 
+def _bound_said(axis: AccelNoise, figure: str) -> str:
+    """``"; UPPER BOUND ..."`` where ``axis``' ``figure`` is a bound the record sets, else ""."""
+    return ("; UPPER BOUND, not a measurement: the record does not resolve it"
+            if figure in axis.upper_bounds else "")
+
+
 def _accel_lines(ctx: ExportContext, indent: str = "") -> list[str]:
-    """The accelerometer keys of Kalibr's noise model (the largest over the axes), or the
-    comment that says the record has none."""
+    """The accelerometer keys of Kalibr's noise model (the largest over the axes; a value
+    that is only an upper bound the record sets says so on its line), or the comment that
+    says the record has none."""
     if not ctx.accel:
         return [f"{indent}# {_ACCEL_NOTE}"]
     nd = max(ctx.accel, key=lambda a: a.noise_density_m_s2_rt_hz)
     rw = max(ctx.accel, key=lambda a: a.random_walk_m_s3_rt_hz)
     return [
         _yaml("accelerometer_noise_density", nd.noise_density_m_s2_rt_hz,
-              f"m/s^2/sqrt(Hz), continuous time (axis {nd.name})", indent),
+              f"m/s^2/sqrt(Hz), continuous time (axis {nd.name}){_bound_said(nd, 'vrw')}",
+              indent),
         _yaml("accelerometer_random_walk", rw.random_walk_m_s3_rt_hz,
-              f"m/s^3/sqrt(Hz), continuous time (axis {rw.name})", indent),
+              f"m/s^3/sqrt(Hz), continuous time (axis {rw.name})"
+              f"{_bound_said(rw, 'accel_random_walk')}", indent),
     ]
 
 
@@ -276,6 +287,26 @@ _ACCEL_MATLAB_UNITS = {
 }
 
 
+#: The accelerometer figure each of accelparams' fields is written from.
+_ACCEL_MATLAB_FIGURE = {"NoiseDensity": "vrw", "BiasInstability": "bias_instability",
+                        "RandomWalk": "accel_random_walk"}
+
+
+def _accel_bounds(accel: Sequence[AccelNoise]) -> dict[str, list[str]]:
+    """accelparams' fields (by name) whose value on the listed axes is an upper bound the
+    record sets, not a measurement ({} when none)."""
+    out = {field: [a.name for a in accel if figure in a.upper_bounds]
+           for field, figure in _ACCEL_MATLAB_FIGURE.items()}
+    return {k: v for k, v in out.items() if v}
+
+
+def _accel_bound_comments(accel: Sequence[AccelNoise], mark: str) -> list[str]:
+    """One comment line (``mark`` its comment sign) per accelparams field written as an
+    upper bound."""
+    return [f"{mark} UPPER BOUND, not a measurement (the record does not resolve it): {field} "
+            f"of {', '.join(names)}" for field, names in _accel_bounds(accel).items()]
+
+
 def _matlab_call(name: str, function: str, values: dict[str, list[float]]) -> list[str]:
     lines = [f"{name} = {function}( ..."]
     fields = list(values)
@@ -307,6 +338,7 @@ def matlab(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
         lines += [f"% accelparams of the accelerometer axes "
                   f"{', '.join(a.name for a in ctx.accel)}; units:"]
         lines += [f"%   {k}: {u}" for k, u in _ACCEL_MATLAB_UNITS.items()]
+        lines += _accel_bound_comments(ctx.accel, "%")
         lines += _matlab_call("aparams", "accelparams", _accel_matlab_values(ctx.accel))
     return "\n".join(lines) + "\n"
 
@@ -323,7 +355,8 @@ def matlab_json(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     }
     if ctx.accel:
         body["accelparams"] = {**_accel_matlab_values(ctx.accel), "units": _ACCEL_MATLAB_UNITS,
-                               "axes": [a.name for a in ctx.accel]}
+                               "axes": [a.name for a in ctx.accel],
+                               "upper_bounds": _accel_bounds(ctx.accel)}
     return json.dumps(body, indent=2) + "\n"
 
 
@@ -387,6 +420,7 @@ def gnss_ins_sim(axes: Sequence[AxisNoise], ctx: ExportContext) -> str:
     if len(ctx.accel) == 3:
         values = _accel_matlab_values(ctx.accel)  # the same SI figures (B checked there)
         lines += [
+            *_accel_bound_comments(ctx.accel, "#"),
             "imu_err = {",
             "    **gyro_err,",
             f"    'accel_b': {arr(values['ConstantBias'])},  # m/s^2, the mean, gravity removed",
@@ -471,6 +505,23 @@ FORMATS: dict[str, ExportFormat] = {
 }
 
 
+def check_export_axes(fmt: str, names: Sequence[str], has_accel: bool) -> None:
+    """Refuse gyro axes ``names`` that format ``fmt`` cannot hold; a record of
+    accelerometer axes only (no name, ``has_accel``) goes to ``json`` alone.
+
+    Raises
+    ------
+    UsageError
+        One line naming what the format needs.
+    """
+    if not names and has_accel:
+        if fmt != "json":
+            raise UsageError(f"the record has accelerometer axes only; {fmt} needs gyroscope "
+                             f"figures too: use --format json")
+        return
+    FORMATS[fmt].check_axes(len(names), names)
+
+
 def render(fmt: str, axes: Sequence[AxisNoise], ctx: ExportContext, *, suffix: str = "") -> str:
     """The text of ``fmt`` for ``axes`` (``suffix`` ``.json`` turns ``matlab`` into its JSON form).
 
@@ -482,7 +533,9 @@ def render(fmt: str, axes: Sequence[AxisNoise], ctx: ExportContext, *, suffix: s
     if fmt not in FORMATS:
         raise UsageError(f"unknown format {fmt!r}: one of {', '.join(FORMATS)}")
     spec = FORMATS[fmt]
-    spec.check_axes(len(axes), [a.name for a in axes])
+    check_export_axes(fmt, [a.name for a in axes], bool(ctx.accel))
+    if not axes:  # an accelerometer-only record: json alone takes it
+        return json_format(axes, ctx)
     if fmt == "matlab" and suffix.lower() == ".json":
         return matlab_json(axes, ctx)
     return spec.write(axes, ctx)

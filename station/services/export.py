@@ -29,7 +29,13 @@ from station.evaluation.noise_parameters import EXPORT_METHODS, axis_noise
 from station.model.bench import Bench
 from station.model.records import RateRecord
 from station.model.wording import plural
-from station.output.export_formats import FORMATS, ExportContext, fewer_axes_note, render
+from station.output.export_formats import (
+    FORMATS,
+    ExportContext,
+    check_export_axes,
+    fewer_axes_note,
+    render,
+)
 from station.services.progress import Progress, ProgressSink, ignore_progress
 from station.services.records import RecordSource, bench_of, load_record
 from station.storage.atomic_files import write_text_atomically
@@ -130,7 +136,7 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
         raise UsageError("--model goes with --method gmwm")
     loaded = load_record(request.source)
     record = loaded.record
-    FORMATS[request.format].check_axes(len(record.axis_names), record.axis_names)
+    check_export_axes(request.format, record.axis_names, bool(record.accel_axis_names))
     progress(
         Progress(
             "export",
@@ -164,6 +170,9 @@ def export_noise(request: ExportRequest, progress: ProgressSink = ignore_progres
         for a in axes
         if a.noise.sources and "upper bound" in a.noise.sources["rrw"]
     ]
+    notes += [f"{a.name}: {', '.join(a.upper_bounds)} written as an upper bound the record "
+              f"sets, not a measurement (marked UPPER BOUND in the file)"
+              for a in accel if a.upper_bounds]
     if request.format == "gnss-ins-sim" and not any(a.noise.gauss_markov for a in axes):
         notes.append(
             "no Gauss-Markov term (--method gmwm finds one where the record shows it): "

@@ -12,7 +12,8 @@ CSV format (the interface other commands rely on):
 * a column named ``accel_*`` or ``acc_*`` is one accelerometer axis, in m/s^2 unless
   ``accel_units`` says otherwise (``g``, ``mg``), read into ``RateRecord.accel_m_s2``;
 * every other column is one gyro axis, in deg/s unless ``units`` says otherwise
-  (``rad/s``, ``deg/h``);
+  (``rad/s``, ``deg/h``); a record of accelerometer columns only has no gyro axis
+  (``rate_deg_s`` of shape (N, 0));
 * ``.csv.gz`` files are read directly.
 """
 
@@ -163,9 +164,9 @@ def _read_csv(path: Path, sample_rate_hz: float | None, units: str,
     axis_idx = [i for i in columns if i not in accel_idx]
     for i in accel_idx:
         _check_accel_name(path, header[i])
-    if not axis_idx:
-        raise RecordFormatError(f"{path}: no rate column besides time/temperature"
-                                f"{'/accelerometers' if accel_idx else ''}")
+    if not axis_idx and not accel_idx:
+        raise RecordFormatError(f"{path}: no rate or accelerometer column besides "
+                                f"time/temperature")
     fs, index = _time_grid(path, data, time_index, sample_rate_hz)
     rate = data[:, axis_idx] * UNIT_TO_DEG_S[units]
     accel = data[:, accel_idx] * UNIT_TO_M_S2[accel_units] if accel_idx else None

@@ -90,28 +90,32 @@ def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str
         o = a.analysis.outliers
         if o.count and o.detection is not None:
             largest = max(o.detection.spikes, key=lambda sp: abs(sp.size))
+            size = (f"{largest.size:+.3g} m/s^2" if a.analysis.accel is not None else
+                    f"{family.value(largest.size * S_PER_H, 'deg/h'):+.3g} {rate}")
             spikes.append(f"{a.axis} {o.count} {'removed' if o.removed else 'kept'} (largest "
-                          f"{family.value(largest.size * S_PER_H, 'deg/h'):+.3g} {rate})")
+                          f"{size})")
         else:
             spikes.append(f"{a.axis} {o.text()}")
     lines = ["spikes: " + ", ".join(spikes)]
     gaps = axes[0].analysis.gaps if axes else None
     if gaps is not None and gaps.count:
         lines.append(f"gaps: {gaps.text()} missing; no Allan difference or average straddles a gap")
-    removed = [(a.axis, a.analysis.figures.earth_rate_removed_deg_h) for a in axes]
-    if all(v is None for _, v in removed):
+    removed = [(a.axis, a.analysis.figures.earth_rate_removed_deg_h) for a in axes
+               if a.analysis.accel is None]
+    if removed and all(v is None for _, v in removed):  # none: accelerometers only
         notes = [
             n
             for n in (axes[0].analysis.figures.notes if axes else ())
             if n.startswith("Earth rate")
         ]
         lines.append(notes[0] if notes else "Earth rate not removed from the bias")
-    else:
+    elif removed:
         lines.append("Earth rate removed from the bias: " + ", ".join(
             f"{axis} " + ("not removed" if v is None else f"{family.value(v, 'deg/h'):+.4g} {rate}")
             for axis, v in removed))
     for a in axes:
-        lines += [f"{a.axis}: {t.describe()}" for t in a.analysis.tones]
+        series_unit = "m/s^2" if a.analysis.accel is not None else "deg/s"
+        lines += [f"{a.axis}: {t.describe(series_unit)}" for t in a.analysis.tones]
         lines += [
             f"{a.axis}: fit and read-offs leave out tau {z.tau_low_s:.3g}-{z.tau_high_s:.3g} s "
             f"({z.kind})"

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from analysis.figures.accel import STANDARD_GRAVITY_M_S2
+from analysis.gmwm.equivalent import WN_EQUIVALENT_KEY
 from analysis.gmwm.models import KINDS
 from analysis.units.conversions import S_PER_H
 from station.evaluation.grading import AxisGrade, UnitGrade
@@ -86,8 +87,11 @@ def _accel_unit_of(key: str) -> tuple[str, float]:
 
 
 def _term_of(key: str) -> str:
+    if key == WN_EQUIVALENT_KEY:
+        return "white-noise equivalent (white noise and fast Gauss-Markov / AR(1) together)"
     label = key.split("_", 1)[0]
-    kind = KINDS[label.rstrip("0123456789")]
+    # the longest code the label starts with ("ar1", "ar12": AR(1); "gm2": Gauss-Markov)
+    kind = KINDS[max((c for c in KINDS if label.startswith(c)), key=len)]
     number = label[len(kind.code):]
     shape = next((name for suffix, name in SHAPE_NAMES.items() if key.endswith(suffix)), "")
     what = shape or ("sigma" if kind.has_shape else "")
@@ -109,23 +113,34 @@ def _allan_of(axis: AxisGrade, key: str) -> str:
     return f"{fmt(fit.values[term])} (fit {term}, {fit.method})"
 
 
+def _row_order(values: dict[str, float]) -> list[str]:
+    """The keys of ``values``, the white-noise equivalent first: the angle random walk the
+    record shows where a fast term took the white term's place."""
+    return sorted(values, key=lambda k: k != WN_EQUIVALENT_KEY)
+
+
 def gmwm_rows(axis: AxisGrade) -> list[GmwmRow]:
     """The GMWM parameters of ``axis`` (none when it has no GMWM); an accelerometer axis'
-    in its own units (:data:`ACCEL_KEY_UNITS`), its Allan figures being in its own table."""
+    in its own units (:data:`ACCEL_KEY_UNITS`), its Allan figures being in its own table.
+    Where a Gauss-Markov / AR(1) term is faster than the shortest tau, the white-noise
+    equivalent comes first and the white term is marked as the term alone."""
     g = axis.analysis.gmwm
     if g is None:
         return []
     best = g.best
     accel = axis.analysis.quantity == "acceleration"
     rows = []
-    for key, value in best.values.items():
+    fast = best.white_equivalent() is not None
+    for key in _row_order(best.values):
+        value = best.values[key]
         unit, k = _accel_unit_of(key) if accel else (_unit_of(key), 1.0)
 
         def scaled(x: float | None, k: float = k) -> float | None:
             x = _finite(x)
             return None if x is None else x * k
 
-        rows.append(GmwmRow(axis.axis, key, _term_of(key), unit, scaled(value),
+        term = _term_of(key) + (" (term alone)" if fast and key == "wn_deg_rt_h" else "")
+        rows.append(GmwmRow(axis.axis, key, term, unit, scaled(value),
                             scaled(best.stderr.get(key)), "" if accel else _allan_of(axis, key),
                             scaled(best.ci_low.get(key)), scaled(best.ci_high.get(key))))
     return rows
@@ -148,6 +163,12 @@ def gmwm_summary(axis: AxisGrade) -> str:
                  f"{runner.criterion - g.ranking[0].criterion:.3g})")
     if best.model_error > 0:
         text += f"; weights floored at {best.model_error:.0%} model error (J rejects the model)"
+    equivalent = best.white_equivalent()
+    if equivalent is not None:
+        unit = "m/s/sqrt(h)" if axis.analysis.quantity == "acceleration" else "deg/sqrt(h)"
+        text += ("; white-noise equivalent readings (the fast terms are white at every tau "
+                 "of the record): " + ", ".join(equivalent.readings()).replace(
+                     "deg/sqrt(h)", unit))
     return text
 
 
