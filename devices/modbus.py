@@ -11,6 +11,7 @@ from devices.codecs.modbus_map import ModbusRegisterMap, RegisterField
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.resolution import register_resolution, resolution_fields
 from devices.transports.modbus import ModbusTransport
 
 
@@ -62,7 +63,8 @@ class ModbusRateSource:
             counter_modulus=register_map.counter_modulus, has_device_time=False,
             has_temperature=has_temp,
             settings=(*transport.settings, ("device_id", str(device_id))),
-            accel_axes=ACCEL_AXIS_NAMES[:register_map.n_accel_axes])
+            accel_axes=ACCEL_AXIS_NAMES[:register_map.n_accel_axes],
+            **resolution_fields(register_resolution(register_map.axes)))
         # A poll sees a sample up to one poll period after the device produced it.
         self._builder = BatchBuilder(
             len(register_map.axes), CounterTracker(

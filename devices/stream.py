@@ -16,6 +16,7 @@ from devices.errors import (
 )
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.resolution import codec_resolution, resolution_fields
 from devices.stream_timing import StreamTiming
 from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
@@ -83,6 +84,7 @@ class StreamRateSource:
             counter_modulus=codec.counter_modulus, has_device_time=codec.has_device_time,
             has_temperature=codec.has_temperature, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:codec.n_accel_axes],
+            **resolution_fields(codec_resolution(codec.name)),
         )
         self._builder = BatchBuilder(
             codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),

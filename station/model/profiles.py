@@ -46,6 +46,7 @@ from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
+from station.model.quantization import check_limits_resolved
 from station.model.sequences import SequenceSpec, parse_sequences
 from station.model.toml_lines import key_lines
 
@@ -441,11 +442,15 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         raise c.fail(
             ("test", "warmup_s"), f"warm-up {warmup} s is not shorter than the test ({duration} s)"
         )
+    figures = _parse_figures(c, data, grades, source)
+    sample_rate = c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True)
+    check_limits_resolved(figures, transport.get("url"), sample_rate, duration - warmup,
+                          confidence, c.fail)
     return Profile(
         name=name,
         version=c.string(data, ("version",), allow_int=True),
         model=c.string(data, ("model",)),
-        sample_rate_hz=c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True),
+        sample_rate_hz=sample_rate,
         range_deg_s=c.number(test, ("test", "range_deg_s"), positive=True, optional=True),
         accel_range_g=c.number(test, ("test", "accel_range_g"), positive=True, optional=True),
         axes=c.strings(test, ("test", "axes")),
@@ -456,7 +461,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         grades=grades,
         rule=rule,
         confidence=confidence,
-        figures=_parse_figures(c, data, grades, source),
+        figures=figures,
         sequences=parse_sequences(c, data, grades),
         fit_method=fit_method,
         gmwm_model=gmwm_model,
