@@ -207,7 +207,8 @@ def _gapped_csv(path: Path, keep: float) -> Path:
     x = 0.002 + white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.5), n, FS_HZ, rng)
     t = np.arange(n) / FS_HZ
     cut = (t > 1200 * keep) & (t < 2400 - 1200 * keep)
-    lines = ["time,x"] + [f"{ti:.1f},{xi!r}" for ti, xi in zip(t[~cut].tolist(), x[~cut].tolist(), strict=True)]
+    kept = zip(t[~cut].tolist(), x[~cut].tolist(), strict=True)
+    lines = ["time,x"] + [f"{ti:.1f},{xi!r}" for ti, xi in kept]
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     return path
 
@@ -248,7 +249,8 @@ def test_a_run_recorded_for_the_profiles_duration_is_not_short(tmp_path: Path) -
     """A simulated STIM300 unit recorded at warp for exactly the profile's 5 minutes: its
     length is the recorder's span, whatever samples the link lost at its ends."""
     profile_path = write_profile(tmp_path, profile_text(duration_s=300.0, warmup_s=30.0))
-    url = f"sim+serial://CRG20?model={MODELS / 'CRG20.toml'}&protocol=stim300&rate=10&warp=250&seed=3"
+    url = (f"sim+serial://CRG20?model={MODELS / 'CRG20.toml'}&protocol=stim300&rate=10"
+           "&warp=250&seed=3")
     assert main(["record", "--profile", str(profile_path), "--unit", url, "--duration", "5m",
                  "--out", str(tmp_path / "runs"), "--quiet"]) == 0
     run_file = next((tmp_path / "runs").glob("*.h5"))

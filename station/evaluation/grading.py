@@ -67,8 +67,8 @@ from station.evaluation.readings import (
 from station.evaluation.resolution import (
     AxisResolution,
     axis_resolution,
+    below_floor,
     check_not_constant,
-    floor_figure,
 )
 from station.model.bench import Bench, bench_from_json
 from station.model.kinds import INDETERMINATE, Verdict
@@ -439,8 +439,17 @@ def _floored(figures: tuple[FigureResult, ...], resolution: AxisResolution,
     """``figures`` with those below their quantization floor made indeterminate."""
     tau = bias_instability_readoff(analysis.allan, zones=analysis.zones).tau_low_s
     record_s = analysis.n_samples / analysis.sample_rate_hz
-    return tuple(floor_figure(f, resolution, tau_s=tau, record_s=record_s,
-                              confidence=profile.confidence) for f in figures)
+    out = []
+    for f in figures:
+        below = below_floor(f.name, f.spec.unit, f.spec.unit_factor, f.value, f.ci_low,
+                            f.ci_high, resolution, tau_s=tau, record_s=record_s,
+                            confidence=profile.confidence)
+        if below is not None:
+            verdicts = {g: INDETERMINATE if v == "pass" else v for g, v in f.verdicts.items()}
+            f = replace(f, verdicts=verdicts, note="; ".join(t for t in (below.why, f.note) if t),
+                        resolved=False, floor=below.floor)
+        out.append(f)
+    return tuple(out)
 
 
 def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),

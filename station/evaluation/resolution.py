@@ -8,13 +8,16 @@ at the record's largest rate, a CSV's ``--lsb``) and the one read off the values
 
 * A figure whose upper confidence bound lies below its quantization floor
   (:mod:`station.model.quantization`) is **not resolved**: each verdict it would pass is
-  indeterminate, with a one-line note (:func:`floor_figure`). The bias' interval is
+  indeterminate, with a one-line note (:func:`below_floor`). The bias' interval is
   compared by its width, since a stuck output holds its mean to within +-q/2 whatever
   its batch means say.
 * A **stuck output** is flagged for review: one value holds at least
-  :data:`STUCK_MODE_SHARE` of the samples (the noise is under about 0.3 LSB a sample:
-  a Gaussian noise of sigma puts 0.9 of its samples in one step of q when sigma < q/3.3,
-  and quantization stops averaging out well before), or one value holds a run longer
+  :data:`STUCK_MODE_SHARE` of the samples (a Gaussian noise of sigma centred on a step
+  puts 0.9 of its samples on it when sigma < q/3.3); or the record has too few distinct
+  values for its noise: its sample-to-sample noise (rms of the first differences /
+  sqrt(2), which a drift does not raise) is under :data:`STUCK_NOISE_LSB` LSB (the
+  rounding then sets the short-tau figures: ``benchmarks/bench_resolution.py``); or one
+  value holds a run longer
   than :data:`STUCK_RUN_FACTOR` times the longest the record's own share of that value
   makes likely (Schilling's expected longest run, log(n (1 - p)) / log(1 / p)), and at
   least :data:`STUCK_MIN_RUN` samples.
@@ -24,8 +27,7 @@ at the record's largest rate, a CSV's ``--lsb``) and the one read off the values
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,11 +35,7 @@ from numpy.typing import NDArray
 from analysis.allan import blocks
 from devices.resolution import RateResolution
 from station.evaluation.decision import GradingError
-from station.model.kinds import INDETERMINATE
 from station.model.quantization import figure_floor
-
-if TYPE_CHECKING:
-    from station.evaluation.grading import FigureResult
 
 #: One value holding this share of the samples or more is a stuck output.
 STUCK_MODE_SHARE = 0.9
@@ -46,6 +44,10 @@ STUCK_MODE_SHARE = 0.9
 STUCK_RUN_FACTOR = 3.0
 #: ... when it is at least this many samples long.
 STUCK_MIN_RUN = 10
+#: A sample-to-sample noise under this many LSB is too little to move the word across
+#: its steps: too few distinct values for the noise (a record of two values toggling at
+#: random has 0.5 LSB; a Gaussian noise of 0.5 LSB rounded has 0.58).
+STUCK_NOISE_LSB = 0.55
 #: Distinct values counted exactly; beyond this many the count stops (a record that
 #: varies this much is no stuck output by its count).
 DISTINCT_CAP = 4096
@@ -77,6 +79,9 @@ class ValueCensus:
     run_value: float
     run_value_share: float
     largest_deg_s: float
+    #: The sample-to-sample noise: rms of first differences / sqrt(2), deg/s (a drift
+    #: does not count; white noise of sigma a sample gives sigma).
+    short_noise_deg_s: float
 
 
 def _block_runs(x: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -96,8 +101,12 @@ def value_census(x: NDArray[np.float64]) -> ValueCensus:
     largest = 0.0
     best_len, best_value = 0, math.nan
     run_value, run_len = math.nan, 0
+    squares = 0.0
     for a, b in blocks.spans(0, n):
         block = np.asarray(x[a:b], dtype=np.float64)
+        squares += float(np.sum(np.diff(block) ** 2))
+        if a > 0:
+            squares += (float(block[0]) - run_value) ** 2  # the step across the block edge
         values, block_counts = np.unique(block, return_counts=True)
         largest = max(largest, float(np.max(np.abs(values))))
         if len(values) > 1:
@@ -135,7 +144,8 @@ def value_census(x: NDArray[np.float64]) -> ValueCensus:
     rest = n - best_len
     return ValueCensus(n, distinct, capped, float(mode_value), mode_count / n if n else 0.0,
                        None if math.isinf(step) else step, best_len, best_value,
-                       (run_count - best_len) / rest if rest > 0 else 1.0, largest)
+                       (run_count - best_len) / rest if rest > 0 else 1.0, largest,
+                       math.sqrt(squares / (2 * (n - 1))) if n > 1 else 0.0)
 
 
 def _count(x: NDArray[np.float64], value: float) -> int:
@@ -199,6 +209,9 @@ class AxisResolution:
             "stuck": bool(self.stuck),
             "stuck_reasons": list(self.stuck),
             "stuck_mode_share_limit": STUCK_MODE_SHARE,
+            "noise_lsb": (c.short_noise_deg_s / self.lsb_deg_s if self.lsb_deg_s > 0
+                          else None),
+            "stuck_noise_lsb_limit": STUCK_NOISE_LSB,
         }
 
 
@@ -238,17 +251,25 @@ def axis_resolution(x: NDArray[np.float64], sample_rate_hz: float,
         lsb = max(steps)
         source = "link" if link_step is not None and lsb == link_step else "values"
     return AxisResolution(lsb, source, link_step, values_step, sample_rate_hz, census,
-                          stuck_reasons(census, sample_rate_hz))
+                          stuck_reasons(census, sample_rate_hz, lsb))
 
 
-def stuck_reasons(c: ValueCensus, sample_rate_hz: float) -> tuple[str, ...]:
-    """Why a record's values look like a stuck output (module docstring); empty if not."""
+def stuck_reasons(c: ValueCensus, sample_rate_hz: float, lsb_deg_s: float
+                  ) -> tuple[str, ...]:
+    """Why a record's values look like a stuck output (module docstring); empty if not.
+    ``lsb_deg_s``: the step the record is graded with (0: none known)."""
     out = []
+    noise_lsb = c.short_noise_deg_s / lsb_deg_s if lsb_deg_s > 0 else math.inf
+    if noise_lsb < STUCK_NOISE_LSB and c.mode_share < STUCK_MODE_SHARE:
+        out.append(f"too few distinct values for its noise: {c.distinct} values, a "
+                   f"sample-to-sample noise of {noise_lsb:.2f} LSB (review under "
+                   f"{STUCK_NOISE_LSB:g}): the word's rounding, not the gyro, sets the "
+                   f"short-tau figures")
     if c.mode_share >= STUCK_MODE_SHARE:
         out.append(f"stuck output: one value ({c.mode_value:.6g} deg/s) holds "
                    f"{c.mode_share:.2%} of the {c.n_samples} samples ({c.distinct}"
-                   f"{'+' if c.distinct_capped else ''} distinct values; review above "
-                   f"{STUCK_MODE_SHARE:.0%}): the noise is under about 0.3 LSB a sample")
+                   f"{'+' if c.distinct_capped else ''} distinct values; review from "
+                   f"{STUCK_MODE_SHARE:.0%}): the noise is a fraction of an LSB a sample")
     expected = expected_longest_run(c.n_samples, c.run_value_share)
     if c.longest_run >= max(STUCK_MIN_RUN, STUCK_RUN_FACTOR * expected):
         out.append(f"stuck output: {c.run_value:.6g} deg/s held for {c.longest_run} samples "
@@ -257,34 +278,38 @@ def stuck_reasons(c: ValueCensus, sample_rate_hz: float) -> tuple[str, ...]:
     return tuple(out)
 
 
-def floor_figure(figure: FigureResult, resolution: AxisResolution, *, tau_s: float | None,
-                 record_s: float, confidence: float) -> FigureResult:
-    """``figure`` with its passing verdicts made indeterminate where it lies below its
-    quantization floor (module docstring); as it is otherwise."""
-    if resolution.lsb_source == "none" or figure.value is None:
-        return figure
-    floor = figure_floor(figure.name, resolution.lsb_deg_s, resolution.sample_rate_hz,
-                         tau_s, record_s=record_s, confidence=confidence)
+@dataclass(frozen=True)
+class BelowFloor:
+    """A figure under its quantization floor: why (one line), and the floor (its unit)."""
+
+    why: str
+    floor: float
+
+
+def below_floor(name: str, unit: str, unit_factor: float, value: float | None,
+                low: float | None, high: float | None, resolution: AxisResolution, *,
+                tau_s: float | None, record_s: float, confidence: float) -> BelowFloor | None:
+    """Whether figure ``name`` (``value`` with its interval ``low``..``high``, in ``unit``
+    of ``unit_factor`` canonical units) lies under its quantization floor (module
+    docstring); None where it does not, or has no floor."""
+    if resolution.lsb_source == "none" or value is None:
+        return None
+    floor = figure_floor(name, resolution.lsb_deg_s, resolution.sample_rate_hz, tau_s,
+                         record_s=record_s, confidence=confidence)
     if floor is None:
-        return figure
-    factor = figure.spec.unit_factor
-    floor_unit = floor / factor
-    if figure.name == "bias":
-        width = (figure.ci_high - figure.ci_low if figure.ci_high is not None
-                 and figure.ci_low is not None else 0.0)
+        return None
+    floor_unit = floor / unit_factor
+    lsb, rate = resolution.lsb_deg_s, resolution.sample_rate_hz
+    if name == "bias":
+        width = high - low if high is not None and low is not None else 0.0
         if width >= floor_unit:
-            return figure
-        why = (f"not resolved: its interval, {width:.3g} {figure.spec.unit} wide, is "
-               f"narrower than the rounding of LSB {resolution.lsb_deg_s:.3g} deg/s "
-               f"allows ({floor_unit:.3g} {figure.spec.unit})")
-    else:
-        top = figure.ci_high if figure.ci_high is not None else figure.value
-        if top >= floor_unit:
-            return figure
-        why = (f"not resolved: upper bound {top:.3g} {figure.spec.unit} is below the "
-               f"quantization floor {floor_unit:.3g} {figure.spec.unit} of LSB "
-               f"{resolution.lsb_deg_s:.3g} deg/s at {resolution.sample_rate_hz:g} Hz")
-    verdicts = {g: INDETERMINATE if v == "pass" else v for g, v in figure.verdicts.items()}
-    note = "; ".join(t for t in (why, figure.note) if t)
-    return replace(figure, verdicts=verdicts, note=note, resolved=False,
-                   floor=floor_unit)
+            return None
+        return BelowFloor(f"not resolved: its interval, {width:.3g} {unit} wide, is narrower "
+                          f"than the rounding of LSB {lsb:.3g} deg/s allows "
+                          f"({floor_unit:.3g} {unit})", floor_unit)
+    top = high if high is not None else value
+    if top >= floor_unit:
+        return None
+    return BelowFloor(f"not resolved: upper bound {top:.3g} {unit} is below the quantization "
+                      f"floor {floor_unit:.3g} {unit} of LSB {lsb:.3g} deg/s at {rate:g} Hz",
+                      floor_unit)

@@ -8,7 +8,7 @@ A profile is a TOML file, ``profiles/<name>.toml`` (the keys are documented in
     model = "SRS2000"
 
     [transport]
-    url = "sim+serial://SRS2000?protocol=stim300&rate=10"
+    url = "sim+serial://SRS2000?protocol=xbus&rate=10"
 
     [test]
     sample_rate_hz = 10.0
@@ -25,7 +25,8 @@ A profile is a TOML file, ``profiles/<name>.toml`` (the keys are documented in
     unit = "deg/sqrt(h)"
     limits = { navigation = 1.0e-4, tactical = 3.0e-4 }
 
-:func:`load_profile` reads and validates one; every error is a
+:func:`load_profile` reads and validates one (a limit below what the transport's rate word
+resolves is refused: :mod:`station.model.quantization`); every error is a
 :class:`~station.errors.ProfileError` naming the file, the line and the key at fault.
 """
 
@@ -46,6 +47,10 @@ from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
+from station.model.figure_names import (
+    BIAS_STABILITY_RE,
+    bias_stability_average_s as bias_stability_average_s,
+)
 from station.model.quantization import check_limits_resolved
 from station.model.sequences import SequenceSpec, parse_sequences
 from station.model.toml_lines import key_lines
@@ -121,8 +126,6 @@ FIGURE_KINDS: dict[str, FigureKind] = {
 def is_accel_figure(name: str) -> bool:
     """Whether figure ``name`` is an accelerometer's (graded on accelerometer axes)."""
     return name.startswith("accel_")
-#: ``bias_stability_<T>s``: std of T-second averages, any T.
-BIAS_STABILITY_RE = re.compile(r"^bias_stability_(\d+(?:\.\d+)?)s$")
 
 
 def figure_kind(name: str) -> FigureKind | None:
@@ -133,12 +136,6 @@ def figure_kind(name: str) -> FigureKind | None:
     if m:
         return FigureKind("rate", f"bias stability {m.group(1)} s")
     return None
-
-
-def bias_stability_average_s(name: str) -> float | None:
-    """Averaging time (s) of a ``bias_stability_<T>s`` figure, None for other figures."""
-    m = BIAS_STABILITY_RE.match(name)
-    return float(m.group(1)) if m else None
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from scipy import stats
 
@@ -45,9 +45,7 @@ from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR
 from analysis.units.conversions import S_PER_H
 from devices.resolution import safe_url_resolution
 from devices.url_text import url_keys
-
-if TYPE_CHECKING:
-    from station.model.profiles import FigureSpec
+from station.model.figure_names import bias_stability_average_s
 
 #: Batches of the bias' batch-means interval (station.evaluation.figure_intervals).
 BIAS_BATCHES = 10
@@ -80,8 +78,6 @@ def figure_floor(name: str, lsb_deg_s: float, rate_hz: float, tau_s: float | Non
     ``tau_s``: the tau its Allan read-off is taken at (bias instability, Allan minimum;
     None: the longest, half the record); None for a figure without one (fitted Q, K, R,
     accelerometer figures)."""
-    from station.model.profiles import bias_stability_average_s  # (profiles imports this)
-
     average_s = bias_stability_average_s(name)
     if average_s is not None:
         return quantization_adev_deg_s(lsb_deg_s, rate_hz, average_s) * S_PER_H
@@ -94,6 +90,19 @@ def figure_floor(name: str, lsb_deg_s: float, rate_hz: float, tau_s: float | Non
         level = quantization_adev_deg_s(lsb_deg_s, rate_hz, tau) * S_PER_H
         return level if name == "adev_min" else level / BIAS_INSTABILITY_FACTOR
     return None
+
+
+class LimitedFigure(Protocol):
+    """A profile's figure with its limits (:class:`station.model.profiles.FigureSpec`)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def unit(self) -> str: ...
+    @property
+    def limits(self) -> dict[str, float]: ...
+    @property
+    def unit_factor(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -121,7 +130,7 @@ def unresolvable_limits(limits: Iterable[tuple[str, str, float]], lsb_deg_s: flo
     return out
 
 
-def check_limits_resolved(figures: Iterable[FigureSpec], url: object, rate_hz: float | None,
+def check_limits_resolved(figures: Iterable[LimitedFigure], url: object, rate_hz: float | None,
                           record_s: float, confidence: float,
                           fail: Callable[[tuple[str, ...], str], Exception]) -> None:
     """Refuse a profile whose transport ``url`` cannot resolve one of its limits (a
