@@ -99,13 +99,15 @@ class RecordCoverage:
         }
 
 
-def record_coverage(record: RateRecord, profile: Profile,
-                    recorded_span_s: float | None) -> RecordCoverage:
+def record_coverage(record: RateRecord, profile: Profile, recorded_span_s: float | None,
+                    test_duration_s: float | None = None) -> RecordCoverage:
     """The coverage of a unit's whole ``record`` (warm-up included) for ``profile``;
     ``recorded_span_s``: the recorder's span (None, or shorter than the record's own
-    span: the record's)."""
+    span: the record's); ``test_duration_s``: the test it is held against (None: the
+    profile's ``duration_s``; a test sequence's noise segment: its own span)."""
     fs = record.sample_rate_hz
     span, source = ((recorded_span_s, "recorder")
                     if recorded_span_s is not None and recorded_span_s >= record.duration_s
                     else (record.duration_s, "record"))
-    return RecordCoverage(span, source, record.n_samples / fs, profile.duration_s, 1.0 / fs)
+    test = profile.duration_s if test_duration_s is None else test_duration_s
+    return RecordCoverage(span, source, record.n_samples / fs, test, 1.0 / fs)

@@ -346,12 +346,14 @@ def _scratch_index(n: int) -> np.ndarray:
 
 
 def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None, *,
-               recorded_span_s: float | None = None) -> UnitGrade:
+               recorded_span_s: float | None = None,
+               test_duration_s: float | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
     ``bench`` gives the latitude and axis directions whose Earth rate the bias is reported
     without (:mod:`station.model.bench`); ``recorded_span_s`` the recorder's span of the
-    run, s (:attr:`RunInfo.recorded_span_s`; None: the record's own).
+    run, s (:attr:`RunInfo.recorded_span_s`; None: the record's own); ``test_duration_s``
+    the test its coverage is held against (None: the profile's, :mod:`.coverage`).
 
     Raises
     ------
@@ -425,7 +427,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None, *,
         review = () if is_accel else axis_review(analysis, profile)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
                               review + (resolution.stuck if resolution else ()), resolution))
-    coverage = record_coverage(record, profile, recorded_span_s)
+    coverage = record_coverage(record, profile, recorded_span_s, test_duration_s)
     if coverage.insufficient:  # no passing grade on too little of the test
         axes = [replace(a, grade=INDETERMINATE, could_reach=a.grade)
                 if a.grade in profile.grades else a for a in axes]
@@ -453,15 +455,20 @@ def _floored(figures: tuple[FigureResult, ...], resolution: AxisResolution,
 
 
 def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),
-              bench: Bench | None = None) -> RunGrade:
+              bench: Bench | None = None, own_span: bool = False) -> RunGrade:
     """Grade every unit of ``run`` (or those named in ``units``) with ``profile``.
+
+    ``own_span``: hold each record's coverage against its own span instead of the
+    profile's test (a test sequence's noise segment, shorter by design): only its
+    missing time counts.
 
     ``bench`` defaults to the one the run file recorded (none for a CSV record). Works
     on any stored run: nothing here talks to a device.
     """
     chosen = [run.unit(u) for u in units] if units else list(run.units)
     bench = bench if bench is not None else bench_from_json(run.metadata.bench)
-    graded = tuple(grade_unit(u, profile, bench, recorded_span_s=run.recorded_span_s)
+    graded = tuple(grade_unit(u, profile, bench, recorded_span_s=run.recorded_span_s,
+                              test_duration_s=u.record.duration_s if own_span else None)
                    for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return RunGrade(run, profile, graded, now, software_version(), bench=bench)
