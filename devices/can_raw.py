@@ -11,7 +11,7 @@ from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
 from devices.errors import CodecError, CrcError, DeviceDisconnectedError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
-from devices.resolution import resolution_fields, scale_resolution
+from devices.resolution import scale_resolution
 from devices.transports.can import CanLink
 
 
@@ -68,13 +68,14 @@ class CanRateSource:
         self.silence_timeout_s = silence_timeout_s
         self.clock_scale = clock_scale
         has_temp = layout.temperature is not None
+        word = scale_resolution(s.scale for s in layout.axes)
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol="can", transport="can",
             axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
             has_counter=True, counter_modulus=layout.counter_modulus, has_device_time=False,
             has_temperature=has_temp, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:layout.n_accel_axes],
-            **resolution_fields(scale_resolution(s.scale for s in layout.axes)))
+            lsb_deg_s=word.lsb_deg_s, lsb_relative=word.lsb_relative)
         self._builder = BatchBuilder(
             len(layout.axes), CounterTracker(layout.counter_modulus, sample_rate_hz,
                                              timing_uncertainty_s=max_latency_s),

@@ -74,6 +74,8 @@ def fixed(lsb_deg_s: float) -> RateResolution:
 
 
 FLOAT32 = RateResolution(lsb_relative=FLOAT32_RELATIVE_STEP)
+#: Neither step known (a :class:`~devices.protocols.DeviceDescription`'s 0.0 and 0.0).
+UNKNOWN_RESOLUTION = RateResolution()
 STIM300 = fixed(1.0 / RATE_LSB_PER_DEG_S)
 
 
@@ -132,14 +134,6 @@ def safe_url_resolution(url: str) -> RateResolution | None:
         return url_resolution(url)
     except DeviceConfigurationError:
         return None
-
-
-def resolution_fields(resolution: RateResolution | None) -> dict[str, float]:
-    """``lsb_deg_s`` and ``lsb_relative`` of a :class:`~devices.protocols.DeviceDescription`
-    (both 0.0: not known)."""
-    if resolution is None:
-        return {"lsb_deg_s": 0.0, "lsb_relative": 0.0}
-    return {"lsb_deg_s": resolution.lsb_deg_s, "lsb_relative": resolution.lsb_relative}
 
 
 def description_resolution(lsb_deg_s: float, lsb_relative: float) -> RateResolution | None:

@@ -16,7 +16,7 @@ from devices.errors import (
 )
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
-from devices.resolution import codec_resolution, resolution_fields
+from devices.resolution import UNKNOWN_RESOLUTION, codec_resolution
 from devices.stream_timing import StreamTiming
 from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
@@ -77,6 +77,7 @@ class StreamRateSource:
         self.clock_scale = clock_scale
         self.silence_timeout_s = silence_timeout_s
         self.ack_timeout_s = ack_timeout_s
+        word = codec_resolution(codec.name) or UNKNOWN_RESOLUTION
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol=codec.name,
             transport=transport_name, axes=("x", "y", "z")[:codec.n_axes],
@@ -84,7 +85,7 @@ class StreamRateSource:
             counter_modulus=codec.counter_modulus, has_device_time=codec.has_device_time,
             has_temperature=codec.has_temperature, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:codec.n_accel_axes],
-            **resolution_fields(codec_resolution(codec.name)),
+            lsb_deg_s=word.lsb_deg_s, lsb_relative=word.lsb_relative,
         )
         self._builder = BatchBuilder(
             codec.n_axes, CounterTracker(codec.counter_modulus, sample_rate_hz),
