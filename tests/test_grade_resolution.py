@@ -177,6 +177,11 @@ def test_a_constant_record_is_one_line_without_numpy_warnings(tmp_path: Path, ca
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert "axis x: all 19400 samples are 0 deg/s: a constant output" in err  # (after the warm-up)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["analyze", str(record)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "all 20000 samples are 0 deg/s" in err
 
 
 def test_a_dithered_quantized_record_is_resolved_and_not_stuck(tmp_path: Path) -> None:

@@ -234,7 +234,7 @@ def check_not_constant(x: NDArray[np.float64], where: str) -> None:
         blocks.release(x)
     raise ConstantRecordError(
         f"{where}: all {n} samples are {first:g} deg/s: a constant output (a stuck, "
-        f"unpowered or disconnected sensor) has no noise to grade")
+        f"unpowered or disconnected sensor) has no noise to measure")
 
 
 def axis_resolution(x: NDArray[np.float64], sample_rate_hz: float,
