@@ -11,6 +11,7 @@ from devices.codecs.can_frame import CanFrameLayout, CanFrameValues
 from devices.errors import CodecError, CrcError, DeviceDisconnectedError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.resolution import scale_resolution
 from devices.transports.can import CanLink
 
 
@@ -72,12 +73,14 @@ class CanRateSource:
         self.silence_timeout_s = silence_timeout_s
         self.clock_scale = clock_scale
         has_temp = layout.temperature is not None
+        word = scale_resolution(s.scale for s in layout.axes)
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol="can", transport="can",
             axes=("x", "y", "z")[:len(layout.axes)], sample_rate_hz=sample_rate_hz,
             has_counter=layout.has_counter, counter_modulus=layout.counter_modulus,
             has_device_time=False, has_temperature=has_temp, settings=transport.settings,
-            accel_axes=ACCEL_AXIS_NAMES[:layout.n_accel_axes])
+            accel_axes=ACCEL_AXIS_NAMES[:layout.n_accel_axes],
+            lsb_deg_s=word.lsb_deg_s, lsb_relative=word.lsb_relative)
         # Without a counter (modulus 1) the time stamps alone count: the node is taken to
         # keep its schedule to a quarter of a sample period (as a 4-bit counter's count
         # needs it to a quarter of the counter's period).

@@ -15,6 +15,7 @@ from devices.codecs.base import Reading
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.resolution import CANOPEN_DEFAULT_SCALE_DEG_S
 from devices.transports.can import CanTransport
 from devices.transports.canopen import canopen_network
 
@@ -118,7 +119,8 @@ class CanopenRateSource:
             has_temperature=True,
             settings=(*self.transport.settings, ("node_id", str(self.node_id)),
                       ("eds", Path(self.eds).name)),
-            accel_axes=ACCEL_AXIS_NAMES if self.accel else ())
+            accel_axes=ACCEL_AXIS_NAMES if self.accel else (),
+            lsb_deg_s=abs(CANOPEN_DEFAULT_SCALE_DEG_S if self.node is None else self._scale))
 
     # -- connection --------------------------------------------------------------------
     def open(self) -> None:

@@ -11,6 +11,7 @@ from devices.codecs.modbus_map import ModbusRegisterMap, RegisterField
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
+from devices.resolution import register_resolution
 from devices.transports.modbus import ModbusTransport
 
 
@@ -55,6 +56,7 @@ class ModbusRateSource:
         self.table = table
         self._poll_wall_s = 1.0 / (sample_rate_hz * oversample * clock_scale)
         has_temp = register_map.temperature is not None
+        word = register_resolution(register_map.axes)
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol="modbus",
             transport=f"modbus+{transport.kind}", axes=("x", "y", "z")[:len(register_map.axes)],
@@ -62,7 +64,8 @@ class ModbusRateSource:
             counter_modulus=register_map.counter_modulus, has_device_time=False,
             has_temperature=has_temp,
             settings=(*transport.settings, ("device_id", str(device_id))),
-            accel_axes=ACCEL_AXIS_NAMES[:register_map.n_accel_axes])
+            accel_axes=ACCEL_AXIS_NAMES[:register_map.n_accel_axes],
+            lsb_deg_s=word.lsb_deg_s, lsb_relative=word.lsb_relative)
         # A poll sees a sample up to one poll period after the device produced it.
         self._builder = BatchBuilder(
             len(register_map.axes), CounterTracker(

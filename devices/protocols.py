@@ -71,6 +71,10 @@ class DeviceDescription:
         here carries only its gyros).
     accel_unit : str
         Always ``"m/s^2"``: adapters convert from the wire unit (g, mg, counts).
+    lsb_deg_s, lsb_relative : float
+        The step of the rate word on the link (:mod:`devices.resolution`): a fixed-point
+        word's LSB, deg/s (STIM300 2^-14), or a floating-point word's step relative to its
+        value (float32 2^-23); 0.0 where not known or not that kind of word.
     """
 
     model: str
@@ -89,6 +93,8 @@ class DeviceDescription:
     settings: tuple[tuple[str, str], ...] = ()
     accel_axes: tuple[str, ...] = ()
     accel_unit: str = "m/s^2"
+    lsb_deg_s: float = 0.0
+    lsb_relative: float = 0.0
 
     @property
     def n_axes(self) -> int:

@@ -17,6 +17,7 @@ from devices.errors import (
 from devices.gaps import CounterTracker, counter_samples
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.rateless import RatelessMessages
+from devices.resolution import UNKNOWN_RESOLUTION, codec_resolution
 from devices.stream_timing import StreamTiming
 from devices.transports.serial import LINE_DISCIPLINE_BYTES, ByteTransport
 
@@ -82,6 +83,7 @@ class StreamRateSource:
         self._counter_step: int = getattr(codec, "counter_step", 1)
         tracker = CounterTracker(codec.counter_modulus, sample_rate_hz,
                                  counter_step=self._counter_step)
+        word = codec_resolution(codec.name) or UNKNOWN_RESOLUTION
         self._description = DeviceDescription(
             model=model, serial_number=serial_number, protocol=codec.name,
             transport=transport_name, axes=("x", "y", "z")[:codec.n_axes],
@@ -89,6 +91,7 @@ class StreamRateSource:
             counter_modulus=tracker.modulus, has_device_time=codec.has_device_time,
             has_temperature=codec.has_temperature, settings=transport.settings,
             accel_axes=ACCEL_AXIS_NAMES[:codec.n_accel_axes],
+            lsb_deg_s=word.lsb_deg_s, lsb_relative=word.lsb_relative,
         )
         self._builder = BatchBuilder(
             codec.n_axes, tracker,

@@ -192,9 +192,13 @@ def test_a_navigation_grade_unit_comes_back_with_its_bias(
     assert any("not removed" in n for n in x_raw["notes"])
     # grading: the unit passes its 0.1 deg/h bias limit only with the Earth rate removed
     assert main(["grade", str(run), "--profile", str(profile), "--json", "--no-store"]) == 0
-    graded = json.loads(capsys.readouterr().out)["units"][0]["axes"]["x"]
+    unit = json.loads(capsys.readouterr().out)["units"][0]
+    graded = unit["axes"]["x"]
+    # (a host too loaded to keep up loses over half the hour: no passing grade then, the
+    # bias' verdict all the same)
+    reached = graded["could_reach"] if unit["coverage"]["insufficient"] else graded["grade"]
     assert (
-        graded["grade"] == "nav"
+        reached == "nav" and graded["figures"]["bias"]["verdicts"]["nav"] == "pass"
         and "Earth rate +10.64 deg/h removed" in graded["figures"]["bias"]["note"]
     )
     assert main(["grade", str(run), "--profile", str(profile), "--bench", str(nowhere), "--json",

@@ -51,8 +51,10 @@ def make_record(
 
 
 def profile_text(*, rule: str = "guard-banded", grades: str = '["A", "B"]', axes: str = '["x"]',
-                 warmup_s: float = 60.0, figures: str | None = None, name: str = "TEST") -> str:
-    """A test profile; ``figures`` replaces the default figure tables."""
+                 warmup_s: float = 60.0, figures: str | None = None, name: str = "TEST",
+                 duration_s: float = 2400.0) -> str:
+    """A test profile; ``figures`` replaces the default figure tables; ``duration_s`` the
+    test's length (a record under half of it gets no passing grade)."""
     figures = figures if figures is not None else """
 [figures.arw]
 unit = "deg/sqrt(h)"
@@ -78,7 +80,7 @@ url = "sim+serial://GENERIC?protocol=stim300&rate=10"
 
 [test]
 sample_rate_hz = 10.0
-duration_s = 2400.0
+duration_s = {duration_s}
 warmup_s = {warmup_s}
 axes = {axes}
 

@@ -104,7 +104,8 @@ def test_grading_a_record_with_short_gaps_gives_a_verdict(tmp_path: Path) -> Non
 unit = "deg/h"
 limits = { A = 5.0, B = 20.0 }
 """
-    profile = load_profile(write_profile(tmp_path, profile_text(figures=figures)))
+    text = profile_text(figures=figures, duration_s=1200.0)  # the record's 20 min
+    profile = load_profile(write_profile(tmp_path, text))
     axis = grade_run(open_run(path), profile).units[0].axis("x")
     figure = next(f for f in axis.figures if f.name == "bias_stability_100s")
     assert figure.value is not None and "missing" in figure.note

@@ -168,7 +168,7 @@ def test_csv_has_one_row_per_unit_and_axis(graded: RunGrade, tmp_path: Path) -> 
 
 def test_report_command_writes_every_format(tmp_path: Path, capsys) -> None:
     record = make_record(tmp_path / "bench.csv", n=6_000, seed=4)
-    profile = write_profile(tmp_path, profile_text(warmup_s=10.0))
+    profile = write_profile(tmp_path, profile_text(warmup_s=10.0, duration_s=600.0))
     out = tmp_path / "out"
     args = [
         "report",

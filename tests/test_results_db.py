@@ -34,7 +34,7 @@ def setup(tmp_path_factory) -> tuple[Path, Path, RunGrade]:
     """A record, a profile file, and the record graded with it."""
     d = tmp_path_factory.mktemp("db")
     record = make_record(d / "unit.csv", n=6_000, seed=11)
-    profile = write_profile(d, profile_text(warmup_s=10.0))
+    profile = write_profile(d, profile_text(warmup_s=10.0, duration_s=600.0))
     return record, profile, grade_run(open_run(record), load_profile(profile))
 
 

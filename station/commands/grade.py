@@ -52,6 +52,9 @@ def add_grading_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--serial", default=None, type=serial_number,
                    help="serial number of a CSV record's unit")
+    p.add_argument("--lsb", type=float, default=None, metavar="DEG_S",
+                   help="the rate word's LSB, deg/s, of a CSV record (a run file keeps its "
+                        "link's; default: read off the values); docs/grading.md, Resolution")
     p.add_argument("--lot", default=None, help="lot of the run (overrides the run's)")
     p.add_argument("--operator", default=None, help="operator of the run (overrides the run's)")
     add_database_argument(p, stores=True,
@@ -69,6 +72,7 @@ def grade_request(args: argparse.Namespace) -> GradeRequest:
         units=args.units,
         accel_units=args.accel_units,
         serial=args.serial,
+        lsb_deg_s=args.lsb,
         lot=args.lot,
         operator=args.operator,
     )

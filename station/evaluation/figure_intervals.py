@@ -21,9 +21,7 @@ from analysis.units.conversions import S_PER_H
 from station.evaluation.analyze import AxisAnalysis
 from station.evaluation.readings import FIT_TERM as _FIT_TERM
 from station.model.profiles import DEFAULT_FIGURE_SOURCE, bias_stability_average_s
-
-#: Batches of the batch-means interval of the bias.
-BIAS_BATCHES = 10
+from station.model.quantization import BIAS_BATCHES
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ import numpy as np
 from analysis.figures.readoffs import arw_readoff, bias_instability_readoff
 from analysis.figures.spec import review_notes
 from analysis.units.conversions import DEG_FAMILY, UnitFamily
+from devices.resolution import description_resolution
 from station.errors import RecordFormatError
 from station.evaluation.accel_grading import (
     accel_columns,
@@ -46,6 +47,7 @@ from station.evaluation.accel_grading import (
     figures_for,
 )
 from station.evaluation.analyze import AxisAnalysis, analyze_record
+from station.evaluation.coverage import RecordCoverage, record_coverage
 from station.evaluation.decision import (
     GradingError,
     assign_grade,
@@ -64,8 +66,14 @@ from station.evaluation.readings import (
     readings_note,
     safe_verdict,
 )
+from station.evaluation.resolution import (
+    AxisResolution,
+    axis_resolution,
+    below_floor,
+    check_not_constant,
+)
 from station.model.bench import Bench, bench_from_json
-from station.model.kinds import Verdict
+from station.model.kinds import INDETERMINATE, Verdict
 from station.model.profiles import FigureSpec, Profile
 from station.model.records import RateRecord
 from station.model.runs import RunInfo, UnitRun
@@ -99,6 +107,11 @@ class FigureResult:
     note: str = ""
     alternatives: tuple[Reading, ...] = ()
     terms: str = ""
+    #: False where the figure lies below what the link's LSB resolves (its passing
+    #: verdicts are then indeterminate: :mod:`station.evaluation.resolution`).
+    resolved: bool = True
+    #: Its quantization floor in ``spec.unit`` (None: not checked).
+    floor: float | None = None
 
     @property
     def name(self) -> str:
@@ -125,6 +138,8 @@ class FigureResult:
             "note": self.note,
             "alternatives": [r.as_json(self.spec.unit_factor) for r in self.alternatives],
             "terms": self.terms,
+            "resolved": self.resolved,
+            "quantization_floor": self.floor,
         }
 
 
@@ -145,6 +160,8 @@ class AxisGrade:
     analysis: AxisAnalysis
     could_reach: str | None = None
     review: tuple[str, ...] = ()
+    #: The record's step, value census and stuck-output review (None: an accelerometer).
+    resolution: AxisResolution | None = None
 
     @property
     def graded_figures(self) -> tuple[FigureResult, ...]:
@@ -170,6 +187,8 @@ class AxisGrade:
             **({"earth_rate_removed_deg_h": self.analysis.figures.earth_rate_removed_deg_h}
                if accel is None else {"gravity_removed_m_s2": accel.gravity_removed_m_s2}),
             "gaps": self.analysis.gaps.as_json(),
+            **({"resolution": self.resolution.as_json()} if self.resolution is not None
+               else {}),
             "outliers": self.analysis.outliers.as_json(),
             # the GMWM beside the Allan figures, where the run was analysed with it
             **({"gmwm": self.analysis.gmwm.as_json()} if self.analysis.gmwm is not None
@@ -190,12 +209,17 @@ class UnitGrade:
     #: (:mod:`station.evaluation.sequence_grading`); ``grade`` is then the worse of the
     #: axes' grade and the sequence's.
     sequence: UnitSequence | None = None
+    #: Missing time and a short record against the profile's test
+    #: (:mod:`station.evaluation.coverage`; None: not assessed).
+    coverage: RecordCoverage | None = None
 
     @property
     def review(self) -> tuple[str, ...]:
-        """Why the unit needs a person's review (``"axis: reason"`` each); empty when it does
-        not."""
-        return tuple(f"{a.axis}: {note}" for a in self.axes for note in a.review)
+        """Why the unit needs a person's review (``"axis: reason"`` each, ``"record:
+        reason"`` for its coverage); empty when it does not."""
+        own = () if self.coverage is None else self.coverage.review
+        return (*(f"record: {note}" for note in own),
+                *(f"{a.axis}: {note}" for a in self.axes for note in a.review))
 
     def axis(self, name: str) -> AxisGrade:
         """The axis named ``name``."""
@@ -217,6 +241,8 @@ class UnitGrade:
             "notes": list(self.notes),
             "axes": {a.axis: a.as_json() for a in self.axes},
         }
+        if self.coverage is not None:
+            out["coverage"] = self.coverage.as_json()
         if self.sequence is not None:
             out["sequence_figures"] = self.sequence.as_json()
             out["sequence_plateaus"] = [p.as_json() for p in self.sequence.plateaus]
@@ -326,16 +352,22 @@ def _scratch_index(n: int) -> np.ndarray:
     return scratch_array((n,), np.int64)
 
 
-def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> UnitGrade:
+def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None, *,
+               recorded_span_s: float | None = None,
+               test_duration_s: float | None = None) -> UnitGrade:
     """Grade one unit of a run with ``profile`` (warm-up discarded, every axis the profile names).
 
     ``bench`` gives the latitude and axis directions whose Earth rate the bias is reported
-    without (:mod:`station.model.bench`).
+    without (:mod:`station.model.bench`); ``recorded_span_s`` the recorder's span of the
+    run, s (:attr:`RunInfo.recorded_span_s`; None: the record's own); ``test_duration_s``
+    the test its coverage is held against (None: the profile's, :mod:`.coverage`).
 
     Raises
     ------
     GradingError
-        When the record is too short after the warm-up or lacks a profile axis.
+        When the record is too short after the warm-up or lacks a profile axis;
+        :class:`~station.evaluation.resolution.ConstantRecordError` when an axis holds one
+        value throughout.
     """
     record = unit.record
     fs = record.sample_rate_hz
@@ -363,11 +395,10 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         else take_columns(kept.accel_m_s2, list(accel.values())),
         tuple(kept.accel_axis_names[i] for i in accel.values()),
     )
+    for i, name in enumerate(trimmed.axis_names):
+        check_not_constant(trimmed.rate_deg_s[:, i], f"unit {unit.unit_id} axis {name}")
     if unit.model and unit.model != profile.model:
         notes.append(f"unit model {unit.model!r} differs from the profile's {profile.model!r}")
-    if record.duration_s < profile.duration_s * 0.99:
-        notes.append(f"record {record.duration_s:.0f} s is shorter than the profile's test "
-                     f"({profile.duration_s:.0f} s)")
     if trimmed.missing_samples:
         notes.append(
             f"{trimmed.missing_samples} samples missing in gaps after the warm-up: no Allan "
@@ -375,6 +406,7 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
         )
     if profile.sample_rate_hz and abs(fs - profile.sample_rate_hz) > 1e-6 * fs:
         notes.append(f"sample rate {fs:g} Hz, profile says {profile.sample_rate_hz:g} Hz")
+    link = description_resolution(unit.lsb_deg_s, unit.lsb_relative)
     axes = []
     for analysed in analyze_record(trimmed, method=profile.fit_method, bench=bench):
         # the sheet's figures are those of one reading, the one the record supports best
@@ -396,24 +428,58 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None) -> U
             )
             for spec in figures_for(profile, analysis)
         )
+        resolution = None
+        if not is_accel:
+            resolution = axis_resolution(
+                trimmed.rate_deg_s[:, trimmed.axis_names.index(analysis.name)], fs, link)
+            figures = _floored(figures, resolution, analysis, profile)
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
+        review = () if is_accel else axis_review(analysis, profile)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,
-                              () if is_accel else axis_review(analysis, profile)))
+                              review + (resolution.stuck if resolution else ()), resolution))
+    coverage = record_coverage(record, profile, recorded_span_s, test_duration_s)
+    if coverage.insufficient:  # no passing grade on too little of the test
+        axes = [replace(a, grade=INDETERMINATE, could_reach=a.grade)
+                if a.grade in profile.grades else a for a in axes]
     worst = max(axes, key=lambda a: grade_rank(a.grade, profile)).grade
     return UnitGrade(unit, worst, tuple(axes), profile.warmup_s if profile.warmup_s > 0 else 0.0,
-                     tuple(notes))
+                     tuple(notes), coverage=coverage)
+
+
+def _floored(figures: tuple[FigureResult, ...], resolution: AxisResolution,
+             analysis: AxisAnalysis, profile: Profile) -> tuple[FigureResult, ...]:
+    """``figures`` with those below their quantization floor made indeterminate."""
+    tau = bias_instability_readoff(analysis.allan, zones=analysis.zones).tau_low_s
+    record_s = analysis.n_samples / analysis.sample_rate_hz
+    out = []
+    for f in figures:
+        below = below_floor(f.name, f.spec.unit, f.spec.unit_factor, f.value, f.ci_low,
+                            f.ci_high, resolution, tau_s=tau, record_s=record_s,
+                            confidence=profile.confidence)
+        if below is not None:
+            verdicts = {g: INDETERMINATE if v == "pass" else v for g, v in f.verdicts.items()}
+            f = replace(f, verdicts=verdicts, note="; ".join(t for t in (below.why, f.note) if t),
+                        resolved=False, floor=below.floor)
+        out.append(f)
+    return tuple(out)
 
 
 def grade_run(run: RunInfo, profile: Profile, *, units: tuple[str, ...] = (),
-              bench: Bench | None = None) -> RunGrade:
+              bench: Bench | None = None, own_span: bool = False) -> RunGrade:
     """Grade every unit of ``run`` (or those named in ``units``) with ``profile``.
+
+    ``own_span``: hold each record's coverage against its own span instead of the
+    profile's test (a test sequence's noise segment, shorter by design): only its
+    missing time counts.
 
     ``bench`` defaults to the one the run file recorded (none for a CSV record). Works
     on any stored run: nothing here talks to a device.
     """
     chosen = [run.unit(u) for u in units] if units else list(run.units)
     bench = bench if bench is not None else bench_from_json(run.metadata.bench)
-    graded = tuple(grade_unit(u, profile, bench) for u in chosen)
+    graded = tuple(grade_unit(u, profile, bench, recorded_span_s=run.recorded_span_s,
+                              test_duration_s=u.record.duration_s if own_span else None)
+                   for u in chosen)
     now = datetime.now(UTC).replace(microsecond=0).isoformat().replace("+00:00", "Z")
     return RunGrade(run, profile, graded, now, software_version(), bench=bench)
 

@@ -86,7 +86,8 @@ def grade_sequence(run: SequenceRun, profile: Profile, *, units: tuple[str, ...]
         try:
             if unit is None:
                 raise GradingError(f"{unit_id} is not in {segment.file}")
-            base = grade_run(replace(info, units=(unit,)), profile, bench=bench).units[0]
+            base = grade_run(replace(info, units=(unit,)), profile, bench=bench,
+                             own_span=True).units[0]
             notes = (*base.notes, f"noise figures from segment {segment.file} (step "
                                   f"{segment.step + 1}, cycle {segment.cycle})")
         except GradingError as exc:

@@ -8,7 +8,7 @@ A profile is a TOML file, ``profiles/<name>.toml`` (the keys are documented in
     model = "SRS2000"
 
     [transport]
-    url = "sim+serial://SRS2000?protocol=stim300&rate=10"
+    url = "sim+serial://SRS2000?protocol=xbus&rate=10"
 
     [test]
     sample_rate_hz = 10.0
@@ -25,7 +25,8 @@ A profile is a TOML file, ``profiles/<name>.toml`` (the keys are documented in
     unit = "deg/sqrt(h)"
     limits = { navigation = 1.0e-4, tactical = 3.0e-4 }
 
-:func:`load_profile` reads and validates one; every error is a
+:func:`load_profile` reads and validates one (a limit below what the transport's rate word
+resolves is refused: :mod:`station.model.quantization`); every error is a
 :class:`~station.errors.ProfileError` naming the file, the line and the key at fault.
 """
 
@@ -46,6 +47,11 @@ from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from devices.model_files import shipped_profiles_dir
 from devices.url_text import url_keys, with_keys
 from station.errors import ProfileError
+from station.model.figure_names import (
+    BIAS_STABILITY_RE,
+    bias_stability_average_s as bias_stability_average_s,
+)
+from station.model.quantization import check_limits_resolved
 from station.model.sequences import SequenceSpec, parse_sequences
 from station.model.toml_lines import key_lines
 
@@ -120,8 +126,6 @@ FIGURE_KINDS: dict[str, FigureKind] = {
 def is_accel_figure(name: str) -> bool:
     """Whether figure ``name`` is an accelerometer's (graded on accelerometer axes)."""
     return name.startswith("accel_")
-#: ``bias_stability_<T>s``: std of T-second averages, any T.
-BIAS_STABILITY_RE = re.compile(r"^bias_stability_(\d+(?:\.\d+)?)s$")
 
 
 def figure_kind(name: str) -> FigureKind | None:
@@ -132,12 +136,6 @@ def figure_kind(name: str) -> FigureKind | None:
     if m:
         return FigureKind("rate", f"bias stability {m.group(1)} s")
     return None
-
-
-def bias_stability_average_s(name: str) -> float | None:
-    """Averaging time (s) of a ``bias_stability_<T>s`` figure, None for other figures."""
-    m = BIAS_STABILITY_RE.match(name)
-    return float(m.group(1)) if m else None
 
 
 @dataclass(frozen=True)
@@ -441,11 +439,15 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         raise c.fail(
             ("test", "warmup_s"), f"warm-up {warmup} s is not shorter than the test ({duration} s)"
         )
+    figures = _parse_figures(c, data, grades, source)
+    sample_rate = c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True)
+    check_limits_resolved(figures, transport.get("url"), sample_rate, duration - warmup,
+                          confidence, c.fail)
     return Profile(
         name=name,
         version=c.string(data, ("version",), allow_int=True),
         model=c.string(data, ("model",)),
-        sample_rate_hz=c.number(test, ("test", "sample_rate_hz"), positive=True, optional=True),
+        sample_rate_hz=sample_rate,
         range_deg_s=c.number(test, ("test", "range_deg_s"), positive=True, optional=True),
         accel_range_g=c.number(test, ("test", "accel_range_g"), positive=True, optional=True),
         axes=c.strings(test, ("test", "axes")),
@@ -456,7 +458,7 @@ def parse_profile(text: str, *, path: str = "<string>") -> Profile:
         grades=grades,
         rule=rule,
         confidence=confidence,
-        figures=_parse_figures(c, data, grades, source),
+        figures=figures,
         sequences=parse_sequences(c, data, grades),
         fit_method=fit_method,
         gmwm_model=gmwm_model,

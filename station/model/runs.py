@@ -35,7 +35,13 @@ class RunEvent:
 
 @dataclass(frozen=True)
 class UnitRun:
-    """One gyro of a run: who it is and what it recorded."""
+    """One gyro of a run: who it is and what it recorded.
+
+    ``lsb_deg_s`` and ``lsb_relative`` are the step of its rate word on the link
+    (:class:`devices.protocols.DeviceDescription`; a CSV record's ``--lsb``): 0.0 where not
+    known (a CSV record, a file written before they were kept), when grading reads the
+    step off the values.
+    """
 
     unit_id: str
     model: str
@@ -45,6 +51,8 @@ class UnitRun:
     transport: str = ""
     settings: dict[str, str] = field(default_factory=dict)
     events: tuple[RunEvent, ...] = ()
+    lsb_deg_s: float = 0.0
+    lsb_relative: float = 0.0
 
     @property
     def n_gaps(self) -> int:
@@ -107,6 +115,10 @@ class RunInfo:
     stop_utc: str = ""
     stop_reason: str = ""
     interrupted: bool = False
+    #: The recorder's span, s: start to stop of a run that reached its requested
+    #: duration (each unit's own clock); None where the run did not (an interrupted run,
+    #: a replay that ran out, a CSV record): its records' own spans are then all there is.
+    recorded_span_s: float | None = None
 
     def unit(self, unit_id: str) -> UnitRun:
         """The unit with this id (or serial number)."""

@@ -19,6 +19,7 @@ from station.evaluation.analyze import (
     OutlierPolicy,
     analyze_record,
 )
+from station.evaluation.resolution import check_not_constant
 from station.evaluation.settings import TauGrid
 from station.model.records import RateRecord
 from station.model.wording import plural
@@ -116,7 +117,8 @@ def analyze(request: AnalyzeRequest,
     UsageError
         GMWM options without ``method="gmwm"``, or a GMWM model that does not parse.
     StationError, AnalysisError
-        An unreadable record, a bad selection or profile, a record too short.
+        An unreadable record, a bad selection or profile, a record too short, an axis
+        that holds one value throughout.
     """
     gmwm = request.method == GMWM_METHOD
     if not gmwm and (request.gmwm_model != "auto" or request.robust):
@@ -126,6 +128,8 @@ def analyze(request: AnalyzeRequest,
     check_terms(request.terms)  # a bad --terms fails before the record is read
     loaded = load_record(request.source)
     record = loaded.record
+    for i, name in enumerate(record.axis_names):  # one line, before any numpy warning
+        check_not_constant(record.rate_deg_s[:, i], f"{record.source or 'record'} axis {name}")
     if gmwm and request.gmwm_model.strip().lower() != "auto":
         from analysis.gmwm.estimator import (  # scipy: only when asked
             check_model_scales,

@@ -3,6 +3,7 @@ storing the grading in the results database."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -37,6 +38,9 @@ class RunSource:
     serial, lot, operator : str or None
         Serial number of a CSV record's unit; lot and operator of the run (override the
         run's). None: as recorded.
+    lsb_deg_s : float or None
+        The rate word's LSB, deg/s, for every unit (a CSV record's ``--lsb``; overrides a
+        run file's). None: as recorded, else read off the values.
     """
 
     path: str | Path
@@ -46,6 +50,7 @@ class RunSource:
     accel_units: str = "m/s^2"
     lot: str | None = None
     operator: str | None = None
+    lsb_deg_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -112,6 +117,12 @@ def open_run_source(source: RunSource) -> RunInfo:
             raise UsageError(f"--serial applies to a run of one unit; {source.path} has "
                              f"{len(run.units)}")
         run = replace(run, units=(replace(run.units[0], serial_number=source.serial),))
+    if source.lsb_deg_s is not None:
+        if not (math.isfinite(source.lsb_deg_s) and source.lsb_deg_s > 0):
+            raise UsageError(f"--lsb must be a finite number > 0 (deg/s), got "
+                             f"{source.lsb_deg_s:g}")
+        run = replace(run, units=tuple(replace(u, lsb_deg_s=source.lsb_deg_s, lsb_relative=0.0)
+                                       for u in run.units))
     changes = {k: v for k, v in (("lot", source.lot), ("operator", source.operator))
                if v is not None}
     return replace(run, metadata=replace(run.metadata, **changes)) if changes else run

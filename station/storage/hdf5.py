@@ -465,8 +465,11 @@ def read_run(path: str | Path, *, only: Collection[str] | None = None,
             units.append(UnitRun(
                 unit_id=uid, model=attrs["model"], serial_number=attrs["serial_number"],
                 record=record, protocol=attrs["protocol"], transport=attrs["transport"],
-                settings=json.loads(attrs["settings"]), events=events_of(uid, events)))
+                settings=json.loads(attrs["settings"]), events=events_of(uid, events),
+                lsb_deg_s=float(attrs.get("lsb_deg_s", 0.0)),
+                lsb_relative=float(attrs.get("lsb_relative", 0.0))))
         a = {k: text_value(v) for k, v in f.attrs.items()}
+        requested = f.attrs.get("duration_requested_s")
     stopped = state["state"] == "stopped"
     return RunInfo(
         path=str(path), units=tuple(units), metadata=RunMetadata.from_attributes(a),
@@ -475,7 +478,9 @@ def read_run(path: str | Path, *, only: Collection[str] | None = None,
         stop_reason=state["stop_reason"] if stopped else "interrupted: file not closed "
                                                          "(recorder killed or crashed)",
         interrupted=not (stopped and state["stop_reason"] in (REASON_DURATION,
-                                                               REASON_END_OF_REPLAY)))
+                                                               REASON_END_OF_REPLAY)),
+        recorded_span_s=float(requested) if stopped and requested is not None
+        and state["stop_reason"] == REASON_DURATION else None)
 
 
 def run_attributes(path: str | Path) -> dict[str, str]:

@@ -146,7 +146,8 @@ def _description(u: _Unit) -> DeviceDescription:
         has_counter=True, counter_modulus=None if modulus < 0 else modulus,
         has_device_time="device_time" in u.data, has_temperature="temperature" in u.data,
         settings=tuple((str(k), str(v)) for k, v in json.loads(a.get("settings", "{}")).items()),
-        accel_axes=tuple(json.loads(a.get("accel_axes", "[]"))) if "accel" in u.data else ())
+        accel_axes=tuple(json.loads(a.get("accel_axes", "[]"))) if "accel" in u.data else (),
+        lsb_deg_s=float(a.get("lsb_deg_s", 0.0)), lsb_relative=float(a.get("lsb_relative", 0.0)))
 
 
 def salvage_run(path: Path, out: Path) -> list[SalvagedUnit]:

@@ -395,7 +395,9 @@ def _unit_layout(units: h5py.Group, doc: Descriptor) -> None:
         "counter_modulus": -1 if d.counter_modulus is None else d.counter_modulus,
         "has_device_time": d.has_device_time, "has_temperature": d.has_temperature,
         "settings": json.dumps(dict(d.settings)), "start_utc": doc.start_utc,
-        "time_base": doc.time_base, "time_warp": doc.time_warp})
+        "time_base": doc.time_base, "time_warp": doc.time_warp,
+        # the rate word's step on the link (0.0: not known): devices/resolution.py
+        "lsb_deg_s": d.lsb_deg_s, "lsb_deg_s_units": "deg/s", "lsb_relative": d.lsb_relative})
     if d.accel_axes:
         g.attrs["accel_axes"] = json.dumps(list(d.accel_axes))
     rows = chunk_rows(d.sample_rate_hz)

@@ -121,7 +121,12 @@ def analysis_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str
             f"({z.kind})"
             for z in a.analysis.zones
         ]
-    return review + ambiguity_lines(unit, family) + lines
+    # a figure under the floor of the link's LSB: why its verdicts are indeterminate
+    unresolved = [
+        f"NOT RESOLVED {a.axis} {f.spec.label}: "
+        + f.note.split("; ")[0].removeprefix("not resolved: ")
+        for a in axes for f in a.figures if f.spec.graded and not f.resolved]
+    return review + unresolved + ambiguity_lines(unit, family) + lines
 
 
 def ambiguity_lines(unit: UnitGrade, family: UnitFamily = DEG_FAMILY) -> list[str]:
