@@ -19,6 +19,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from analysis.models.power_cycle import PowerCycleModel
+from devices.sim.powered import turn_on_draw
 from station.errors import RecordFormatError
 from station.model.sequence_runs import SequenceRun
 from station.services.grade import GradeRequest, RunSource, grade
@@ -46,7 +48,7 @@ duration_s = 240.0
 warmup_s = 5.0
 axes = ["x"]
 [grading]
-confidence = 0.999
+confidence = 0.95
 grades = ["A", "B"]
 [figures.arw_fit]
 unit = "deg/sqrt(h)"
@@ -72,12 +74,26 @@ unit = "deg/h"
 STEP_KINDS = ("set_chamber", "wait_stable", "power_on", "record", "power_off")
 
 
+#: The simulated units' turn-on behaviour (what :func:`unit_url` sets).
+TURN_ON = PowerCycleModel(turn_on_s=3.0, turn_on_jitter_s=0.5, turn_on_bias_deg_h=10.0,
+                          warmup_deg_h=5.0, warmup_tau_s=8.0, tempco_deg_h_per_c=TEMPCO)
+
+
+def turn_on_bias_deg_h(seed: int, switch_on: int) -> float:
+    """The turn-on bias (deg/h) the unit of ``seed`` draws at its ``switch_on``-th switch-on
+    (the truth a resumed sequence's figures are compared with)."""
+    return turn_on_draw(TURN_ON, seed, switch_on, 1).bias_deg_h[0]
+
+
 def unit_url(seed: int) -> str:
     """A simulated VG951 with a turn-on bias, a warm-up transient and a temperature
     coefficient."""
+    m = TURN_ON
     return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate={RATE_HZ:g}&warp={WARP:g}"
-            f"&seed={seed}&tempco={TEMPCO:g}&turn_on_s=3&turn_on_jitter_s=0.5"
-            f"&turn_on_bias_deg_h=10&warmup_deg_h=5&warmup_tau_s=8")
+            f"&seed={seed}&tempco={TEMPCO:g}&turn_on_s={m.turn_on_s:g}"
+            f"&turn_on_jitter_s={m.turn_on_jitter_s:g}"
+            f"&turn_on_bias_deg_h={m.turn_on_bias_deg_h:g}&warmup_deg_h={m.warmup_deg_h:g}"
+            f"&warmup_tau_s={m.warmup_tau_s:g}")
 
 
 def command(profile: Path, out: Path, seed: int) -> list[str]:
