@@ -190,9 +190,10 @@ def killed_and_resumed(profile: Path, out: Path, *, seed: int, kind: str, nth: i
                        unit["sequence_plateaus"], stderr)
 
 
-def random_kind(rng: random.Random) -> tuple[str, int, float]:
-    """A kill moment drawn over the step kinds: (kind, which of them, share of it)."""
-    kind = rng.choice(STEP_KINDS)
+def random_kind(rng: random.Random, kind: str | None = None) -> tuple[str, int, float]:
+    """A kill moment drawn over the step kinds (or in steps of ``kind``): (kind, which of
+    them, share of it)."""
+    kind = rng.choice(STEP_KINDS) if kind is None else kind
     count = {"set_chamber": 4, "wait_stable": 4, "power_on": 1, "record": 4, "power_off": 1}
     return kind, rng.randrange(count[kind]), rng.random()
 
