@@ -402,11 +402,32 @@ def _sequence_kill(case: Case, folder: Path, kind: str, nth: int, share: float) 
           f"of switch-ons {sorted({p['power_cycle'] for p in points})}, coefficient "
           f"{_fmt(coefficient)} deg/h/degC in [{_fmt(low)}, {_fmt(high)}] "
           f"{'covers' if covered else 'MISSES'} the truth {sequence_kill.TEMPCO}, "
-          f"declared missing {missing}", flush=True)
+          f"declared missing {missing}{_one_line_fit(points)}", flush=True)
     expected_cycles = 1 + by_resume
     if (f["cycles"] != expected_cycles or summary_cycles != f["cycles"] or len(points) != 4
             or not covered or (f["cycles"] == 1) != (f["turn_on_repeatability_deg_h"] is None)):
         case.bad_errors.append(f"{where}: figures differ from what the sequence measured")
+
+
+def _one_line_fit(points: list[dict[str, object]]) -> str:
+    """Where the points come from two switch-ons or more: what one line through them all
+    (one bias for every switch-on, as before issue 39) would have said, for contrast."""
+    from analysis.errors import AnalysisError
+    from analysis.sequences.temperature_sensitivity import (
+        TemperaturePoint,
+        fit_temperature_sensitivity,
+    )
+
+    if len({p["power_cycle"] for p in points}) < 2:
+        return ""
+    pooled = [TemperaturePoint(float(p["temperature_c"]), float(p["bias_deg_h"]),  # type: ignore[arg-type]
+                               float(p["stderr_deg_h"]), "plateau", 1) for p in points]  # type: ignore[arg-type]
+    try:
+        fit = fit_temperature_sensitivity(pooled, confidence=0.95)
+    except AnalysisError:
+        return ""
+    return (f"; one line through all {fit.slope_deg_h_per_c:.3f} in [{fit.ci_low[1]:.3f}, "
+            f"{fit.ci_high[1]:.3f}]")
 
 
 def _fmt(value: object) -> str:
