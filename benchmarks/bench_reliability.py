@@ -381,10 +381,14 @@ def _sequence_kill(case: Case, folder: Path, kind: str, nth: int, share: float) 
     try:
         out = sequence_kill.killed_and_resumed(profile, folder / "runs", seed=case.trials,
                                                kind=kind, nth=nth, share=share)
+    except sequence_kill.KillMissed as exc:  # not the resume's failure: printed, no error
+        print(f"  {where:24s} not killed: {exc}"[:200], flush=True)
+        return
     except Exception as exc:  # noqa: BLE001 - every failure is counted
         case.bad_errors.append(f"{where}: {type(exc).__name__}: {exc}"[:300])
         return
     f = out.figures
+    where += f", landed in {out.kind}"
     points = f["temperature_points"].get("x", [])  # type: ignore[attr-defined]
     low, high = f["temperature_coefficient_deg_h_per_c_ci"] or (None, None)  # type: ignore[misc]
     covered = low is not None and low <= sequence_kill.TEMPCO <= high
@@ -397,7 +401,7 @@ def _sequence_kill(case: Case, folder: Path, kind: str, nth: int, share: float) 
                     and any(later.kind == "segment" for later in journal[n:]))
     summary_cycles = out.summary[0]["cycles"]
     coefficient = f["temperature_coefficient_deg_h_per_c"]
-    print(f"  {where:24s} (step {out.step + 1:2d}): switch-ons {f['cycles']} "
+    print(f"  {where:40s} (step {out.step + 1:2d}): switch-ons {f['cycles']} "
           f"(summary {summary_cycles}, by the resume {by_resume}), points {len(points)} "
           f"of switch-ons {sorted({p['power_cycle'] for p in points})}, coefficient "
           f"{_fmt(coefficient)} deg/h/degC in [{_fmt(low)}, {_fmt(high)}] "

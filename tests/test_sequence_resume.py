@@ -76,6 +76,10 @@ def test_a_sequence_killed_mid_plateau_resumes_with_a_new_switch_on(tmp_path: Pa
     assert low <= TEMPCO <= high
     assert figures["temperature_coefficient_deg_h_per_c"] == pytest.approx(TEMPCO, abs=0.1)
     assert any("its own bias" in n for n in figures["notes"])  # type: ignore[attr-defined]
+    # the two switch-ons' biases, compared at one temperature: a turn-on repeatability of
+    # 2 draws, whose interval holds the spread they are drawn with
+    r_low, r_high = figures["turn_on_repeatability_deg_h_ci"]  # type: ignore[misc]
+    assert r_low <= TURN_ON.turn_on_bias_deg_h <= r_high
     h_low = (figures["hysteresis_deg_h_ci"] or [None])[0]  # type: ignore[index]
     assert h_low in (0.0, None)
     assert [p["set_point_c"] for p in out.plateaus] == list(PLATEAUS_C)

@@ -350,7 +350,7 @@ def _fits(points: list[TemperaturePoint], spec: SequenceSpec, confidence: float
     """The linear and quadratic fits (None: not measured): a switch-on's points tell the
     slope when they span ``2 * plateau_span_c`` or more; a quadratic from one residual
     degree of freedom on."""
-    spans = {}
+    spans: dict[int | None, tuple[float, float]] = {}
     for p in points:
         low, high = spans.get(p.switch_on, (p.temperature_c, p.temperature_c))
         spans[p.switch_on] = (min(low, p.temperature_c), max(high, p.temperature_c))
