@@ -9,6 +9,7 @@ resumed one finds it as after a power cut: chamber back at ambient, every relay 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import random
@@ -19,6 +20,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from analysis.models.power_cycle import PowerCycleModel
+from devices.sim.powered import turn_on_draw
 from station.errors import RecordFormatError
 from station.model.sequence_runs import SequenceRun
 from station.services.grade import GradeRequest, RunSource, grade
@@ -46,7 +49,7 @@ duration_s = 240.0
 warmup_s = 5.0
 axes = ["x"]
 [grading]
-confidence = 0.999
+confidence = 0.95
 grades = ["A", "B"]
 [figures.arw_fit]
 unit = "deg/sqrt(h)"
@@ -72,12 +75,26 @@ unit = "deg/h"
 STEP_KINDS = ("set_chamber", "wait_stable", "power_on", "record", "power_off")
 
 
+#: The simulated units' turn-on behaviour (what :func:`unit_url` sets).
+TURN_ON = PowerCycleModel(turn_on_s=3.0, turn_on_jitter_s=0.5, turn_on_bias_deg_h=10.0,
+                          warmup_deg_h=5.0, warmup_tau_s=8.0, tempco_deg_h_per_c=TEMPCO)
+
+
+def turn_on_bias_deg_h(seed: int, switch_on: int) -> float:
+    """The turn-on bias (deg/h) the unit of ``seed`` draws at its ``switch_on``-th switch-on
+    (the truth a resumed sequence's figures are compared with)."""
+    return turn_on_draw(TURN_ON, seed, switch_on, 1).bias_deg_h[0]
+
+
 def unit_url(seed: int) -> str:
     """A simulated VG951 with a turn-on bias, a warm-up transient and a temperature
     coefficient."""
+    m = TURN_ON
     return (f"sim+serial://VG951?protocol=xbus&model=VG951&rate={RATE_HZ:g}&warp={WARP:g}"
-            f"&seed={seed}&tempco={TEMPCO:g}&turn_on_s=3&turn_on_jitter_s=0.5"
-            f"&turn_on_bias_deg_h=10&warmup_deg_h=5&warmup_tau_s=8")
+            f"&seed={seed}&tempco={TEMPCO:g}&turn_on_s={m.turn_on_s:g}"
+            f"&turn_on_jitter_s={m.turn_on_jitter_s:g}"
+            f"&turn_on_bias_deg_h={m.turn_on_bias_deg_h:g}&warmup_deg_h={m.warmup_deg_h:g}"
+            f"&warmup_tau_s={m.warmup_tau_s:g}")
 
 
 def command(profile: Path, out: Path, seed: int) -> list[str]:
@@ -121,7 +138,8 @@ def _current(out: Path) -> tuple[SequenceRun | None, int]:
 
 @dataclass(frozen=True)
 class KillOutcome:
-    """A sequence killed in one step and resumed."""
+    """A sequence killed in one step and resumed: ``step`` is the step the kill landed in
+    (the one the resume found running), ``kind`` its kind."""
 
     kind: str
     step: int
@@ -132,37 +150,60 @@ class KillOutcome:
     resume_stderr: str
 
 
+class KillMissed(AssertionError):
+    """The first run finished before the kill landed (an instantaneous last step)."""
+
+
+#: Sequence seconds a ``wait_stable`` of this profile takes (the chamber's lag to within
+#: its band from 15 degC away, and the hold): where in it a kill lands.
+WAIT_STABLE_S = 32.0
+#: Steps whose start the sequence file shows while they run (the recorder's segment is
+#: saved as it starts): the others show only as the next step to run once the step
+#: before is done.
+SHOWN_RUNNING = ("record", "power_on")
+
+
 def killed_and_resumed(profile: Path, out: Path, *, seed: int, kind: str, nth: int = 0,
                        share: float = 0.5, timeout_s: float = 120.0) -> KillOutcome:
     """Run the sequence, kill -9 it ``share`` of the way into the ``nth`` step of ``kind``
-    (a timed step's duration, else a moment soon after its start), resume it with the
-    same command, and grade the result.
+    (a record's duration, a wait_stable's usual length; an instantaneous step as soon as
+    it is the next to run), resume it with the same command, and grade the result.
 
     Raises
     ------
+    KillMissed
+        The first run finished before the kill landed.
     AssertionError
-        The first run ended before the kill, or the resume failed.
+        The first run ended otherwise before the kill, or the resume failed.
     """
     args = command(profile, out, seed)
     first = _start(args)
     deadline = time.monotonic() + timeout_s
     try:
         while True:
-            assert first.poll() is None, first.communicate()
+            if first.poll() is not None:
+                raise KillMissed(f"the first run ended before the kill: {first.communicate()}")
             assert time.monotonic() < deadline, "the sequence did not reach its step in time"
             run, index = _current(out)
             steps = run.steps if run is not None else ()
             targets = [s for s in steps if s.kind == kind]
             target = targets[min(nth, len(targets) - 1)] if targets else None
-            if target is not None and index >= target.index and run is not None and \
-                    any(e.kind == "step_start" and e.step == target.index for e in run.journal):
+            if target is not None and index >= target.index and run is not None and (
+                    kind not in SHOWN_RUNNING or any(e.kind == "step_start" and
+                                                     e.step == target.index
+                                                     for e in run.journal)):
                 break
             time.sleep(0.02)  # each look reads the sequence file: 3 ms of a loaded core
-        delay = (target.duration_s or 0.0) * share / WARP if target.duration_s else 0.3 * share
-        time.sleep(delay)
+        seconds = target.duration_s if kind == "record" else (
+            WAIT_STABLE_S if kind == "wait_stable" else 0.0)
+        time.sleep((seconds or 0.0) * share / WARP)
     finally:
-        os.kill(first.pid, signal.SIGKILL)
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(first.pid, signal.SIGKILL)
         first.communicate()
+    killed, _ = _current(out)
+    if killed is None or killed.done:
+        raise KillMissed(f"the kill in {kind} #{nth + 1} landed after the last step")
     second = _start(args)
     stdout, stderr = second.communicate(timeout=timeout_s)
     assert second.returncode == 0, stderr
@@ -170,13 +211,16 @@ def killed_and_resumed(profile: Path, out: Path, *, seed: int, kind: str, nth: i
     run = read_sequence(str(summary[0]["file"]))
     doc = grade(GradeRequest(RunSource(run.path), store=False)).graded.as_json()
     unit = doc["units"][0]  # type: ignore[index]
-    return KillOutcome(kind, target.index, summary, run, unit["sequence_figures"],
+    # none: killed after the last step's end was saved, before the sequence's was
+    landed = next((e.step for e in run.journal if e.kind == "interrupted"), len(run.steps) - 1)
+    return KillOutcome(run.steps[landed].kind, landed, summary, run, unit["sequence_figures"],
                        unit["sequence_plateaus"], stderr)
 
 
-def random_kind(rng: random.Random) -> tuple[str, int, float]:
-    """A kill moment drawn over the step kinds: (kind, which of them, share of it)."""
-    kind = rng.choice(STEP_KINDS)
+def random_kind(rng: random.Random, kind: str | None = None) -> tuple[str, int, float]:
+    """A kill moment drawn over the step kinds (or in steps of ``kind``): (kind, which of
+    them, share of it)."""
+    kind = rng.choice(STEP_KINDS) if kind is None else kind
     count = {"set_chamber": 4, "wait_stable": 4, "power_on": 1, "record": 4, "power_off": 1}
     return kind, rng.randrange(count[kind]), rng.random()
 

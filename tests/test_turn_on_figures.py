@@ -137,6 +137,34 @@ def test_temperature_coefficients_and_their_intervals() -> None:
         fit_temperature_sensitivity(points[:2], order=2)
 
 
+def test_each_switch_on_gets_its_own_bias_in_the_temperature_fit() -> None:
+    """Plateaus 10, 25 | 40, 25 degC on b = b_s + 0.5 (T - 25) deg/h, the unit switched on
+    again between 25 and 40 degC with its turn-on bias 18.5 deg/h lower (issue 39's
+    campaign jump): one line through all four gets the slope wrong by more than 0.5
+    deg/h/degC, a bias per switch-on finds it within its interval, on points - switch-ons - 1
+    degrees of freedom, with each switch-on's bias at the reference; the up 25 and the
+    down 25 of two switch-ons make no hysteresis."""
+    rng = np.random.default_rng(3)
+    rows = [(10.0, 1, 4.0), (25.0, 1, 4.0), (40.0, 2, -14.5), (25.0, 2, -14.5)]
+    points = [TemperaturePoint(t, b + 0.5 * (t - 25) + 0.1 * float(rng.standard_normal()), 0.1,
+                               "plateau", 1000, on) for t, on, b in rows]
+    pooled = [TemperaturePoint(p.temperature_c, p.bias_deg_h, p.stderr_deg_h, p.direction,
+                               p.n_samples) for p in points]
+    wrong = fit_temperature_sensitivity(pooled, confidence=0.95)
+    assert abs(wrong.slope_deg_h_per_c - 0.5) > 0.5
+    fit = fit_temperature_sensitivity(points, confidence=0.95, reference_c=25.0)
+    assert fit.ci_low[1] <= 0.5 <= fit.ci_high[1]
+    assert fit.slope_deg_h_per_c == pytest.approx(0.5, abs=0.05)
+    assert fit.dof == 1 and fit.switch_ons == (1, 2)
+    assert fit.intercepts_deg_h == pytest.approx((4.0, -14.5), abs=0.5)
+    assert fit.bias_deg_h(25.0, 2) == pytest.approx(-14.5, abs=0.5)
+    assert hysteresis(points, tolerance_c=1.0, slope_deg_h_per_c=0.5) is None
+    assert hysteresis(pooled, tolerance_c=1.0, slope_deg_h_per_c=0.5) is not None
+    # one temperature per switch-on tells no slope
+    with pytest.raises(TooFewSamplesError):
+        fit_temperature_sensitivity([points[0], points[2]])
+
+
 def test_ramp_points_know_their_direction_and_hysteresis_is_found() -> None:
     """A ramp up and a ramp down whose biases differ by 0.8 deg/h at equal temperature:
     every bin has its direction, and the hysteresis is 0.8 deg/h within its error."""

@@ -12,8 +12,17 @@ thermal hysteresis.
 * :func:`ramp_points`: points from a record during a ramp, in temperature bins, with the
   ramp's direction.
 * :func:`fit_temperature_sensitivity`: weighted least squares of bias on temperature,
-  linear or quadratic, with intervals.
+  linear or quadratic, with intervals; points of several switch-ons each get their own
+  bias.
 * :func:`hysteresis`: the largest up-minus-down bias difference at a common temperature.
+
+A gyro powered again takes a new turn-on bias (the turn-on to turn-on repeatability,
+IEEE Std 952-1997 and IEEE Std 1431-2004): points measured after different switch-ons
+(a test interrupted and resumed, the unit switched on again) are not on one line. The fit
+is then a fixed-effects regression, ``bias_i = b_s(i) + c1 (T_i - T_ref) [+ c2 (...)^2]``,
+an intercept per switch-on ``s`` and one sensitivity: only the temperature differences
+within a switch-on tell the slope, and a switch-on with one point tells only its own
+bias. Hysteresis pairs points of the same switch-on only.
 """
 
 from __future__ import annotations
@@ -50,6 +59,9 @@ class TemperaturePoint:
         Whether the temperature was rising, falling or steady.
     n_samples : int
         Samples averaged.
+    switch_on : int or None
+        The switch-on the point was measured after (its number; None: unknown, one for all
+        such points).
     """
 
     temperature_c: float
@@ -57,6 +69,7 @@ class TemperaturePoint:
     stderr_deg_h: float
     direction: Direction
     n_samples: int
+    switch_on: int | None = None
 
 
 def _mean_and_stderr(x: NDArray[np.float64]) -> tuple[float, float]:
@@ -79,8 +92,10 @@ def _paired(rate_deg_s: ArrayLike, temperature_c: ArrayLike
     return x[keep], temp[keep]
 
 
-def plateau_point(rate_deg_s: ArrayLike, temperature_c: ArrayLike) -> TemperaturePoint:
-    """The mean bias (deg/h) and temperature (degC) of a record at a steady temperature.
+def plateau_point(rate_deg_s: ArrayLike, temperature_c: ArrayLike, *,
+                  switch_on: int | None = None) -> TemperaturePoint:
+    """The mean bias (deg/h) and temperature (degC) of a record at a steady temperature,
+    measured after switch-on ``switch_on``.
 
     Raises
     ------
@@ -90,12 +105,14 @@ def plateau_point(rate_deg_s: ArrayLike, temperature_c: ArrayLike) -> Temperatur
     x, temp = _paired(rate_deg_s, temperature_c)
     mean, err = _mean_and_stderr(x)
     return TemperaturePoint(float(temp.mean()), mean * S_PER_H, err * S_PER_H, "plateau",
-                            int(x.size))
+                            int(x.size), switch_on)
 
 
 def ramp_points(rate_deg_s: ArrayLike, temperature_c: ArrayLike, *, bin_c: float,
-                min_samples: int = 200) -> tuple[TemperaturePoint, ...]:
-    """Points of a record taken while the temperature changes: one per ``bin_c`` degC.
+                min_samples: int = 200, switch_on: int | None = None
+                ) -> tuple[TemperaturePoint, ...]:
+    """Points of a record taken while the temperature changes: one per ``bin_c`` degC
+    (measured after switch-on ``switch_on``).
 
     Samples are binned by temperature; each bin with at least ``min_samples`` samples
     gives a point. The direction of each bin is the sign of the temperature's trend over
@@ -122,7 +139,7 @@ def ramp_points(rate_deg_s: ArrayLike, temperature_c: ArrayLike, *, bin_c: float
         slope = np.polyfit(index[inside], temp[inside], 1)[0] if inside.sum() > 1 else 0.0
         direction: Direction = "up" if slope > 0 else "down" if slope < 0 else "plateau"
         points.append(TemperaturePoint(float(temp[inside].mean()), mean * S_PER_H, err * S_PER_H,
-                                       direction, int(inside.sum())))
+                                       direction, int(inside.sum()), switch_on))
     return tuple(points)
 
 
@@ -152,6 +169,12 @@ class TemperatureFit:
         Points fitted.
     confidence : float
         Two-sided level.
+    switch_ons : tuple
+        The switch-ons of the points, in order of first appearance (one ``None`` when the
+        points carry none); ``c0`` is the first's bias at ``T_ref``.
+    intercepts_deg_h, intercepts_stderr_deg_h : tuple of float
+        Each switch-on's bias at ``T_ref`` and its standard error, deg/h (the first is
+        ``c0``).
     """
 
     order: int
@@ -164,29 +187,41 @@ class TemperatureFit:
     chi2_reduced: float | None
     n_points: int
     confidence: float
+    switch_ons: tuple[int | None, ...] = (None,)
+    intercepts_deg_h: tuple[float, ...] = ()
+    intercepts_stderr_deg_h: tuple[float, ...] = ()
 
     @property
     def slope_deg_h_per_c(self) -> float:
         """``c1``: the bias sensitivity at ``T_ref``, deg/h per degC."""
         return self.coefficients[1]
 
-    def bias_deg_h(self, temperature_c: ArrayLike) -> NDArray[np.float64]:
-        """The fitted bias (deg/h) at ``temperature_c`` (degC)."""
+    def bias_deg_h(self, temperature_c: ArrayLike, switch_on: int | None = None
+                   ) -> NDArray[np.float64]:
+        """The fitted bias (deg/h) at ``temperature_c`` (degC), of switch-on ``switch_on``
+        (default the first)."""
         dt = np.asarray(temperature_c, dtype=np.float64) - self.reference_c
-        return np.asarray(sum(c * dt ** k for k, c in enumerate(self.coefficients)),
-                          dtype=np.float64)
+        c0 = (self.intercepts_deg_h[self.switch_ons.index(switch_on)]
+              if switch_on is not None and switch_on in self.switch_ons
+              else self.coefficients[0])
+        return np.asarray(c0 + sum(c * dt ** k for k, c in enumerate(self.coefficients)
+                                   if k > 0), dtype=np.float64)
 
 
 def fit_temperature_sensitivity(points: Sequence[TemperaturePoint], *, order: int = 1,
                                 reference_c: float | None = None, confidence: float = 0.95,
                                 error_floor_deg_h: float = 0.0) -> TemperatureFit:
-    """Weighted least squares of bias on temperature.
+    """Weighted least squares of bias on temperature, a bias per switch-on.
 
-    Each point is weighted by its inverse variance (``stderr**2 + error_floor**2``). When
-    there are more points than coefficients, the covariance is scaled up by the reduced
-    chi-square if that exceeds one (the points scatter more than their errors: a model
-    the data do not follow, or slow drifts between plateaus), and the intervals are
-    Student t with the residual degrees of freedom.
+    Each point is weighted by its inverse variance (``stderr**2 + error_floor**2``). Points
+    of different switch-ons (:attr:`TemperaturePoint.switch_on`) each get their own
+    intercept (a fixed-effects regression; see the module doc): one sensitivity, fitted to
+    the temperature differences within each switch-on. When there are more points than
+    parameters, the covariance is scaled up by the reduced chi-square of the pooled
+    residuals if that exceeds one (the points scatter more than their errors: a model the
+    data do not follow, or slow drifts between plateaus), and the intervals are Student t
+    with the residual degrees of freedom (points less intercepts less the ``order``
+    temperature coefficients).
 
     Parameters
     ----------
@@ -209,7 +244,9 @@ def fit_temperature_sensitivity(points: Sequence[TemperaturePoint], *, order: in
     Raises
     ------
     TooFewSamplesError
-        Fewer distinct temperatures (0.01 degC apart) than coefficients.
+        Too few distinct temperatures (0.01 degC apart) within the switch-ons for the
+        coefficients: the distinct temperatures less one per switch-on must be at least
+        ``order``.
     ValueError
         ``order`` not 1 or 2, or ``confidence`` outside (0, 1).
     """
@@ -219,30 +256,41 @@ def fit_temperature_sensitivity(points: Sequence[TemperaturePoint], *, order: in
     temps = np.array([p.temperature_c for p in points], dtype=np.float64)
     bias = np.array([p.bias_deg_h for p in points], dtype=np.float64)
     err = np.array([p.stderr_deg_h for p in points], dtype=np.float64)
-    n_coef = order + 1
-    distinct = len(np.unique(np.round(temps, 2)))
-    if distinct < n_coef:
-        raise TooFewSamplesError(f"{distinct} distinct temperature(s): a fit of order {order} "
-                                 f"needs at least {n_coef}")
+    groups = list(dict.fromkeys(p.switch_on for p in points))
+    member = np.array([groups.index(p.switch_on) for p in points], dtype=np.int64)
+    n_groups = len(groups)
+    # what tells the coefficients: the distinct temperatures beyond the first of each group
+    informative = sum(len(np.unique(np.round(temps[member == g], 2))) - 1
+                      for g in range(n_groups))
+    if informative < order:
+        raise TooFewSamplesError(
+            f"{informative + n_groups} distinct temperature(s) in {n_groups} switch-on(s): a "
+            f"fit of order {order} needs at least {order + 1} within one switch-on, or "
+            f"{order} more than its switch-ons")
     ref = float(temps.mean()) if reference_c is None else float(reference_c)
     sigma = np.sqrt(err ** 2 + error_floor_deg_h ** 2)
     sigma = np.where(sigma > 0, sigma, max(float(sigma.max()), 1e-12))
-    design = np.vander(temps - ref, n_coef, increasing=True)
+    design = np.hstack([(member[:, None] == np.arange(n_groups)[None, :]).astype(np.float64),
+                        np.vander(temps - ref, order + 1, increasing=True)[:, 1:]])
     w = 1.0 / sigma
-    coef, *_ = np.linalg.lstsq(design * w[:, None], bias * w, rcond=None)
+    params, *_ = np.linalg.lstsq(design * w[:, None], bias * w, rcond=None)
     cov = np.linalg.inv((design * (w ** 2)[:, None]).T @ design)
-    dof = len(points) - n_coef
+    dof = len(points) - n_groups - order
     chi2_red = None
     if dof > 0:
-        resid = (bias - design @ coef) * w
+        resid = (bias - design @ params) * w
         chi2_red = float(resid @ resid) / dof
         cov = cov * max(1.0, chi2_red)
-    se = np.sqrt(np.diag(cov))
-    half = np.array([t_half_width(float(s), dof, confidence) for s in se])
+    se_all = np.sqrt(np.diag(cov))
+    pick = [0, *range(n_groups, n_groups + order)]  # c0 (the first switch-on's), c1[, c2]
+    coef, se = params[pick], se_all[pick]
+    half = np.array([t_half_width(float(v), dof, confidence) for v in se])
     return TemperatureFit(order, ref, tuple(float(c) for c in coef),
-                          tuple(float(s) for s in se), tuple(float(c) for c in coef - half),
+                          tuple(float(v) for v in se), tuple(float(c) for c in coef - half),
                           tuple(float(c) for c in coef + half), dof, chi2_red, len(points),
-                          confidence)
+                          confidence, tuple(groups),
+                          tuple(float(c) for c in params[:n_groups]),
+                          tuple(float(v) for v in se_all[:n_groups]))
 
 
 @dataclass(frozen=True)
@@ -273,8 +321,9 @@ def hysteresis(points: Sequence[TemperaturePoint], *, tolerance_c: float = 0.5,
 
     A plateau point is "up" when its temperature is above the previous point's, "down"
     when below (the order of ``points`` is the order of the test); ramp points carry their
-    direction. An up point and a down point within ``tolerance_c`` of each other form a
-    pair; their bias difference is taken at a common temperature with the sensitivity
+    direction. An up point and a down point of the same switch-on within ``tolerance_c``
+    of each other form a pair (points of two switch-ons differ by their turn-on biases
+    too); their bias difference is taken at a common temperature with the sensitivity
     ``slope_deg_h_per_c`` (the fitted slope). None when no pair exists.
     """
     directed: list[tuple[Direction, TemperaturePoint]] = []
@@ -291,7 +340,8 @@ def hysteresis(points: Sequence[TemperaturePoint], *, tolerance_c: float = 0.5,
     best: Hysteresis | None = None
     n = 0
     for u in ups:
-        near = [q for q in downs if abs(q.temperature_c - u.temperature_c) <= tolerance_c]
+        near = [q for q in downs if abs(q.temperature_c - u.temperature_c) <= tolerance_c
+                and q.switch_on == u.switch_on]
         if not near:
             continue
         down = min(near, key=lambda q: abs(q.temperature_c - u.temperature_c))

@@ -141,7 +141,8 @@ class OutletState:
     powered : bool
         Whether the output is on.
     on_count : int
-        How many times it was switched on since the fixture started.
+        How many times it was switched on (since the fixture started, plus the count it
+        was started with).
     on_time_s : float
         Fixture time of the latest switch-on, s.
     die_c : float

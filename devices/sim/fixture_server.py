@@ -24,6 +24,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from pymodbus.constants import ExcCodes
@@ -72,13 +73,21 @@ class SimulatedFixture:
         Die temperature lag and self-heating of the units.
     port : int
         TCP port (0: a free one).
+    on_counts : sequence of int
+        Switch-ons each output has already made (default none): a fixture started again
+        for a resumed sequence continues the count, so a unit switched on again draws the
+        turn-on of its next switch-on (:func:`devices.sim.powered.turn_on_draw`), as a real
+        unit powered again takes a new turn-on bias, not the one of its first.
     """
 
     def __init__(self, n_outputs: int = 4, *, warp: float = 1.0, ambient_c: float = 25.0,
                  chamber_tau_s: float = 600.0, thermal: ThermalModel | None = None,
-                 port: int = 0) -> None:
+                 port: int = 0, on_counts: Sequence[int] = ()) -> None:
         if not 1 <= n_outputs <= 64:
             raise ValueError(f"n_outputs must be in 1..64, got {n_outputs}")
+        if len(on_counts) > n_outputs or any(c < 0 for c in on_counts):
+            raise ValueError(f"on_counts must be at most {n_outputs} counts >= 0, got "
+                             f"{list(on_counts)}")
         if not chamber_tau_s > 0:
             raise ValueError(f"chamber_tau_s must be > 0, got {chamber_tau_s}")
         self.clock = WarpClock(warp)
@@ -87,7 +96,8 @@ class SimulatedFixture:
         self.thermal = thermal or ThermalModel()
         self.chamber_tau_s = chamber_tau_s
         self.port = port or free_tcp_port()
-        self._outlets = [_Outlet(die_c=ambient_c) for _ in range(n_outputs)]
+        counts = [*on_counts, *[0] * (n_outputs - len(on_counts))]
+        self._outlets = [_Outlet(on_count=int(c), die_c=ambient_c) for c in counts]
         self._air_c = ambient_c
         self._setpoint_c = ambient_c
         self._t_s = 0.0

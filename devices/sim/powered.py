@@ -10,7 +10,9 @@ Every sample gets, on top of the noise model's signal
 
 * the turn-on bias drawn for the current switch-on (the draw is keyed by the seed and the
   fixture's switch-on count, so a unit opened again during the same switch-on, as each
-  recorded segment opens it, has the same turn-on bias and turn-on time);
+  recorded segment opens it, has the same turn-on bias and turn-on time; a fixture
+  started again for a resumed sequence continues the count from the journal, so a unit
+  the resume switches on again draws a new turn-on bias, as a real one does);
 * the warm-up transient at the sample's time since switch-on (on the fixture's clock);
 * the temperature bias at the die temperature, which the unit also reports.
 

@@ -10,10 +10,13 @@ clock, s since the epoch). Put together, every sample gets its time since power-
   reads give its send time), so a late first read does not make the turn-on look late;
 * a segment whose recorder read the unit before its supply came on holds the turn-on:
   its *turn-on time* is that of its first valid sample (status 0) since the switch-on;
-* the *switch-on number* counts the ``power_on`` steps the profile asked for and that ran
-  before the segment: a supply a resume found off and switched on again is no turn-on
-  (the time since switch-on counts from it all the same: the unit warmed up again), and
-  a turn-on redone after a resume is the same one;
+* the *switch-on number* counts every switch-on of the unit's supply the journal holds
+  up to the segment, those the profile asked for and those a resume made: a unit powered
+  again takes a new turn-on bias and warms up again, so a supply a resume found off and
+  switched on again starts a switch-on of its own in every figure (its turn-on time not
+  heard: no recorder listened), and so does a turn-on record redone after a resume (the
+  parts of the switch-on before are superseded); the time since switch-on counts from the
+  latest;
 * every sample on the grid (gaps included) follows one sample period apart.
 
 Each unit's temperature is the one it reports; a unit without one takes the chamber's air
@@ -49,13 +52,15 @@ class SegmentView:
     data : SegmentUnit
         The unit's samples.
     power_cycle : int or None
-        1-based count of the profile's ``power_on`` steps that switched the unit on up to
-        this segment's first sample (None: none did, a unit that was never switched).
+        1-based count of the unit's switch-ons (the profile's and a resume's) up to this
+        segment's first sample (None: none, a unit that was never switched).
     first_s : float or None
         Time of the first sample since the latest switch-on (the profile's or a resume's),
         s (sequence clock); None without a switch-on.
     switch_on_wall_s : float or None
         That switch-on's instant, s since the epoch (None without one).
+    by_resume : bool
+        That switch-on is one a resume made (no ``power_on`` step asked for it).
     turn_on_time_s : float or None
         Switch-on to the first valid sample, s, when the recorder read the unit from
         before its switch-on; None otherwise.
@@ -71,6 +76,7 @@ class SegmentView:
     power_cycle: int | None
     first_s: float | None
     switch_on_wall_s: float | None
+    by_resume: bool
     turn_on_time_s: float | None
     temperature_c: NDArray[np.float64] | None
     temperature_source: str
@@ -148,12 +154,14 @@ def segment_view(run: SequenceRun, segment: Segment, unit_id: str) -> SegmentVie
     warp = data.time_warp if data.time_warp > 0 else 1.0
     first_unit = first_sample_unit_s(data, valid_only=False)
     power_cycle = first_s = turn_on = switch_on = None
+    by_resume = False
     if first_unit is not None and math.isfinite(data.start_wall_s):
         first_wall = data.start_wall_s + first_unit / warp
         ons = [e for e in run.switch_ons(unit_id) if e.wall_s <= first_wall]
         if ons:
-            power_cycle = len({e.step for e in ons if run.asked_for(e)}) or None
+            power_cycle = len(ons)
             switch_on = ons[-1].wall_s
+            by_resume = not run.asked_for(ons[-1])
             on_unit = (switch_on - data.start_wall_s) * warp  # the switch-on, unit time base
             first_s = first_unit - on_unit
             valid_unit = first_sample_unit_s(data)
@@ -168,8 +176,8 @@ def segment_view(run: SequenceRun, segment: Segment, unit_id: str) -> SegmentVie
         if times.size and first_unit is not None:
             wall = data.start_wall_s + (first_unit + np.arange(span) / rec.sample_rate_hz) / warp
             temperature, source = np.interp(wall, times, values), "chamber"
-    return SegmentView(segment, step, data, power_cycle, first_s, switch_on, turn_on,
-                       temperature, source)
+    return SegmentView(segment, step, data, power_cycle, first_s, switch_on, by_resume,
+                       turn_on, temperature, source)
 
 
 def unit_segments(run: SequenceRun, unit_id: str) -> list[SegmentView]:
@@ -186,3 +194,9 @@ def unit_segments(run: SequenceRun, unit_id: str) -> list[SegmentView]:
         except (RecordFormatError, OSError):
             continue
     return views
+
+
+def switch_on_cycles(views: list[SegmentView]) -> tuple[int, ...]:
+    """The switch-ons (numbers, in order) that recorded data: what a sequence's figures and
+    its summary call its cycles."""
+    return tuple(sorted({v.power_cycle for v in views if v.power_cycle is not None}))

@@ -6,7 +6,10 @@ unit and each axis the profile grades:
 ``turn_on_repeatability``
     standard deviation of the per-switch-on mean biases, each after ``bias_after_s`` from
     power-on; chi-square interval on ``N - 1`` degrees of freedom
-    (:func:`analysis.sequences.turn_on.turn_on_repeatability`).
+    (:func:`analysis.sequences.turn_on.turn_on_repeatability`). Every switch-on counts,
+    one a resume made too (a unit powered again takes a new turn-on bias); where the
+    switch-ons' biases were measured at different temperatures (a temperature test
+    resumed), each is its bias at the temperature fit's reference temperature.
 ``turn_on_time``
     switch-on to the first valid sample, per switch-on the recorder heard; the mean with
     its Student-t interval, the spread and the largest.
@@ -18,9 +21,11 @@ unit and each axis the profile grades:
 ``temperature_coefficient``
     the slope of bias on temperature (linear weighted fit; a quadratic too with four
     points or more), from plateaus or ramps (:mod:`analysis.sequences.temperature_sensitivity`);
-    graded on its magnitude.
+    graded on its magnitude. Points of different switch-ons (a resume that switched the
+    unit on again) each get their own bias in the fit, and a note says so.
 ``hysteresis``
-    the largest up-minus-down bias difference at a common temperature.
+    the largest up-minus-down bias difference at a common temperature, within a
+    switch-on.
 
 Each figure is reported per unit as the worst of its axes. A figure the sequence did not
 measure is None (``null`` in JSON) and, when limited, indeterminate.
@@ -90,6 +95,9 @@ class CycleFigures:
         Per axis, the time (s since switch-on) the DAVAR detector finds the noise settled.
     interrupted : bool
         Its record was interrupted.
+    by_resume : bool
+        A resume switched the unit on (no ``power_on`` step asked for it; its turn-on time
+        is not heard).
     """
 
     power_cycle: int
@@ -99,6 +107,7 @@ class CycleFigures:
     warmups: dict[str, WarmupCurve | None]
     davar_settled_s: dict[str, float | None]
     interrupted: bool = False
+    by_resume: bool = False
 
     def warmup_time_s(self, axis: str) -> float | None:
         """The axis' warm-up time, s since switch-on (None: not measured, or not settled)."""
@@ -209,6 +218,7 @@ class UnitSequence:
         out["graded"] = {g.spec.name: g.as_json(self.deciding_grade or None) for g in self.graded}
         out["per_cycle"] = [{
             "power_cycle": c.power_cycle, "segment": c.segment, "interrupted": c.interrupted,
+            "by_resume": c.by_resume,
             "turn_on_time_s": c.turn_on_time_s,
             "bias_deg_h": {a: None if b is None else b.mean_deg_h for a, b in c.biases.items()},
             "bias_stderr_deg_h": {a: None if b is None else b.stderr_deg_h
@@ -217,7 +227,8 @@ class UnitSequence:
             "davar_settled_s": dict(c.davar_settled_s)} for c in self.cycles]
         out["temperature_points"] = {a.axis: [
             {"temperature_c": p.temperature_c, "bias_deg_h": p.bias_deg_h,
-             "stderr_deg_h": p.stderr_deg_h, "direction": p.direction, "n_samples": p.n_samples}
+             "stderr_deg_h": p.stderr_deg_h, "direction": p.direction, "n_samples": p.n_samples,
+             "power_cycle": p.switch_on}
             for p in a.points] for a in self.axes}
         out["notes"] = list(self.notes)
         return out
@@ -255,9 +266,8 @@ def _combined(biases: list[CycleBias]) -> CycleBias | None:
 
 def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: SequenceSpec
                   ) -> list[CycleFigures]:
-    """Per switch-on the profile asked for, the figures of its first recorded step (all its
-    attempts since the latest switch-on: a resume that had to switch the unit on again
-    leaves the parts before out of its bias)."""
+    """Per switch-on (the profile's and a resume's), the figures of its first recorded
+    step (all its attempts since that switch-on)."""
     by_cycle: dict[int, list[SegmentView]] = {}
     for v in views:
         if v.power_cycle is not None:
@@ -296,7 +306,8 @@ def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: S
                 davar[axis] = _davar_settled(x, heard.sample_rate_hz, heard.first_s)
         out.append(CycleFigures(cycle, attempts[0].segment.file,
                                 None if heard is None else heard.turn_on_time_s, biases,
-                                warmups, davar, any(v.segment.interrupted for v in attempts)))
+                                warmups, davar, any(v.segment.interrupted for v in attempts),
+                                attempts[0].by_resume))
     return out
 
 
@@ -305,16 +316,17 @@ def cycle_figures(views: Sequence[SegmentView], columns: dict[str, int], spec: S
 
 def temperature_points(views: Sequence[SegmentView], column: int, spec: SequenceSpec
                        ) -> list[TemperaturePoint]:
-    """Points of bias against temperature of one axis: a plateau point per ``record`` step
-    whose temperature moves less than ``plateau_span_c`` (the parts of a step recorded in
-    several, interrupted and resumed, joined), ramp bins otherwise; the warm-up
-    (``bias_after_s`` from switch-on) left out."""
+    """Points of bias against temperature of one axis, each with its switch-on: a plateau
+    point per ``record`` step and switch-on whose temperature moves less than
+    ``plateau_span_c`` (the parts of a step recorded in several, interrupted and resumed
+    without a new switch-on, joined), ramp bins otherwise; the warm-up (``bias_after_s``
+    from switch-on) left out."""
     points: list[TemperaturePoint] = []
-    by_step: dict[int, list[SegmentView]] = {}
+    by_step: dict[tuple[int, int | None], list[SegmentView]] = {}
     for v in views:
         if v.temperature_c is not None:
-            by_step.setdefault(v.step.index, []).append(v)
-    for parts in by_step.values():
+            by_step.setdefault((v.step.index, v.power_cycle), []).append(v)
+    for (_, switch_on), parts in by_step.items():
         keeps = [v.settled(spec.bias_after_s) for v in parts]
         x = np.concatenate([v.data.record.gridded(column)[k] for v, k in zip(parts, keeps,
                                                                             strict=True)])
@@ -325,9 +337,9 @@ def temperature_points(views: Sequence[SegmentView], column: int, spec: Sequence
             continue
         try:
             if span < spec.plateau_span_c:
-                points.append(plateau_point(x, temp))
+                points.append(plateau_point(x, temp, switch_on=switch_on))
             else:
-                points.extend(ramp_points(x, temp, bin_c=spec.ramp_bin_c))
+                points.extend(ramp_points(x, temp, bin_c=spec.ramp_bin_c, switch_on=switch_on))
         except AnalysisError:
             continue
     return points
@@ -335,21 +347,59 @@ def temperature_points(views: Sequence[SegmentView], column: int, spec: Sequence
 
 def _fits(points: list[TemperaturePoint], spec: SequenceSpec, confidence: float
           ) -> tuple[TemperatureFit | None, TemperatureFit | None]:
-    temps = [p.temperature_c for p in points]
-    if len(points) < 2 or max(temps) - min(temps) < 2 * spec.plateau_span_c:
+    """The linear and quadratic fits (None: not measured): a switch-on's points tell the
+    slope when they span ``2 * plateau_span_c`` or more; a quadratic from one residual
+    degree of freedom on."""
+    spans: dict[int | None, tuple[float, float]] = {}
+    for p in points:
+        low, high = spans.get(p.switch_on, (p.temperature_c, p.temperature_c))
+        spans[p.switch_on] = (min(low, p.temperature_c), max(high, p.temperature_c))
+    if len(points) < 2 or max(h - lo for lo, h in spans.values()) < 2 * spec.plateau_span_c:
         return None, None
     try:
         linear = fit_temperature_sensitivity(points, order=1, confidence=confidence)
     except AnalysisError:
         return None, None
     quadratic = None
-    if len(points) >= 4:
+    if len(points) >= len(spans) + 3:
         try:
             quadratic = fit_temperature_sensitivity(points, order=2, confidence=confidence,
                                                     reference_c=linear.reference_c)
         except AnalysisError:
             quadratic = None
     return linear, quadratic
+
+
+def _turn_on_biases(cycles: Sequence[CycleFigures], axis: str, linear: TemperatureFit | None
+                    ) -> list[CycleBias] | None:
+    """Each switch-on's bias at the fit's reference temperature, when a temperature fit gave
+    every switch-on with a bias its own (a temperature test a resume switched on again:
+    the switch-ons' first records were at different temperatures); None otherwise."""
+    if linear is None or len(linear.switch_ons) < 2:
+        return None
+    measured = [c for c in cycles if c.biases.get(axis) is not None]
+    if not measured or any(c.power_cycle not in linear.switch_ons for c in measured):
+        return None
+    out = []
+    for c in measured:
+        k = linear.switch_ons.index(c.power_cycle)
+        own = c.biases[axis]
+        assert own is not None
+        out.append(CycleBias(linear.intercepts_deg_h[k], linear.intercepts_stderr_deg_h[k],
+                             own.n_samples, own.after_s))
+    return out
+
+
+def _switch_on_fit_note(axis: str, linear: TemperatureFit, at_reference: bool) -> str:
+    ons = ", ".join(str(s) for s in linear.switch_ons)
+    text = (f"axis {axis}: the temperature points come from switch-ons {ons} (a resume "
+            f"switched the unit on again, with a new turn-on bias): the fit gives each "
+            f"switch-on its own bias and one coefficient ({linear.dof} residual degree(s) "
+            f"of freedom)")
+    if at_reference:
+        text += (f"; the turn-on repeatability compares their biases at "
+                 f"{linear.reference_c:.4g} degC")
+    return text
 
 
 # --- the unit --------------------------------------------------------------------------
@@ -427,6 +477,11 @@ def _notes(cycles: list[CycleFigures], spec: SequenceSpec, axes: list[AxisSequen
     if n_views and not cycles:
         notes.append("no switch-on in the journal before the records: turn-on, warm-up and "
                      "repeatability not measured (the units were not switched)")
+    resumed = [c.power_cycle for c in cycles if c.by_resume]
+    if resumed:
+        notes.append(f"switch-on(s) {', '.join(map(str, resumed))}: made by a resume that "
+                     f"found the supply off (no power_on step asked for it): a switch-on of "
+                     f"its own, with its own turn-on bias")
     if cycles and any(c.turn_on_time_s is None for c in cycles):
         missed = [c.power_cycle for c in cycles if c.turn_on_time_s is None]
         notes.append(f"switch-on(s) {', '.join(map(str, missed))}: not heard from the "
@@ -464,12 +519,17 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
         columns = match_axes(profile.axes, views[0].data.record.axis_names)
     cycles = cycle_figures(views, columns, spec)
     axes = []
+    fit_notes: list[str] = []
     for axis, col in columns.items():
-        biases = [b for c in cycles if (b := c.biases.get(axis)) is not None]
         warm = summarize_cycles([np.nan if (t := c.warmup_time_s(axis)) is None else t
                                  for c in cycles], confidence)
         points = temperature_points(views, col, spec)
         linear, quadratic = _fits(points, spec, confidence)
+        biases = _turn_on_biases(cycles, axis, linear)
+        if linear is not None and len(linear.switch_ons) > 1:
+            fit_notes.append(_switch_on_fit_note(axis, linear, biases is not None))
+        if biases is None:
+            biases = [b for c in cycles if (b := c.biases.get(axis)) is not None]
         hyst = None if linear is None else hysteresis(
             points, tolerance_c=spec.plateau_span_c, slope_deg_h_per_c=linear.slope_deg_h_per_c)
         if hyst is not None and linear is not None and linear.chi2_reduced is not None:
@@ -487,7 +547,7 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
     grade = deciding = ""
     if limited:
         grade, deciding, _ = assign_grade(limited, profile.grades, profile.reject)
-    notes = _notes(cycles, spec, axes, len(views))
+    notes = [*_notes(cycles, spec, axes, len(views)), *fit_notes]
     if not views:
         notes.append(f"{unit_id}: no segment holds this unit")
         if limited:

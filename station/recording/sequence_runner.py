@@ -23,7 +23,9 @@ redone rather than continued, so that a resumed sequence measures what an uninte
 one does:
 
 * a supply found off that the journal left on is switched on again journaled against no
-  step: a switch-on the profile did not ask for, which counts as no turn-on;
+  step: a switch-on the profile did not ask for, and a switch-on all the same (a unit
+  powered again takes a new turn-on bias): the figures count it as one of its own
+  (:mod:`station.evaluation.sequence_cycles`), the temperature fit gives it its own bias;
 * a turn-on record whose supplies were found off is redone in full from a new switch-on
   (when its recorder listens); the parts recorded before are kept, marked superseded;
 * a step resumed inside a temperature plateau (after its ``wait_stable``, up to its

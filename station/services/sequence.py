@@ -27,6 +27,7 @@ from devices.fixture import ModbusChamber, ModbusPowerSwitch, open_chamber, open
 from devices.sim.clock import WarpClock
 from devices.sim.fixture_server import SimulatedFixture
 from station.errors import RecordFormatError, UsageError
+from station.evaluation.sequence_cycles import switch_on_cycles, unit_segments
 from station.model.bench import load_bench
 from station.model.documents import Subscriber
 from station.model.profiles import Profile, load_profile
@@ -259,13 +260,19 @@ def prepare_sequence(request: SequenceRequest, *,
     fixture: SimulatedFixture | None = None
     clock: SequenceClock | None = None
     power_urls, chamber_url = list(request.power), request.chamber or ""
+    existing = find_unfinished(request.out, spec.name, profile, given)
     try:
         if SIM in (request.chamber, *request.power):
             s = request.fixture
             warp = _sim_warp(urls[0]) or 1.0
+            # started again for a resume, the fixture's count of switch-ons goes on from
+            # the journal's: a unit switched on again draws its next turn-on, not its first
+            ons = [] if existing is None else [len(existing.switch_ons(u))
+                                               for u in existing.unit_ids]
             fixture = SimulatedFixture(len(urls), warp=warp, ambient_c=s.ambient_c,
                                        chamber_tau_s=s.chamber_tau_s,
-                                       thermal=ThermalModel(s.unit_tau_s, s.self_heating_c)).start()
+                                       thermal=ThermalModel(s.unit_tau_s, s.self_heating_c),
+                                       on_counts=ons).start()
             stack.callback(fixture.stop)
             urls = [_with_key(u, "fixture", fixture.wiring(i)) for i, u in enumerate(urls)]
             power_urls = [fixture.power_url(i) for i in range(len(urls))] if request.power else []
@@ -290,7 +297,6 @@ def prepare_sequence(request: SequenceRequest, *,
     except BaseException:
         stack.close()
         raise
-    existing = find_unfinished(request.out, spec.name, profile, given)
     path = Path(existing.path) if existing else sequence_path(request.out, spec.name)
     path.parent.mkdir(parents=True, exist_ok=True)
     config = SequenceConfig(spec, profile, tuple(urls), given,
@@ -303,7 +309,11 @@ def prepare_sequence(request: SequenceRequest, *,
 
 
 def sequence_summary(run: SequenceRun) -> list[dict[str, Any]]:
-    """The ``--json-summary`` objects of a sequence: per unit, what its segments hold."""
+    """The ``--json-summary`` objects of a sequence: per unit, what its segments hold.
+
+    ``cycles`` counts the unit's switch-ons that recorded data, as ``station grade`` counts
+    them (:func:`station.evaluation.sequence_cycles.switch_on_cycles`): one a resume made
+    is one."""
     out = []
     turn_ons = sum(1 for a, b in zip(run.steps, run.steps[1:], strict=False)
                    if a.kind == "power_on" and b.kind == "record"
@@ -320,7 +330,7 @@ def sequence_summary(run: SequenceRun) -> list[dict[str, Any]]:
             missing += counts.samples_missing_declared
         out.append({"unit": url, "unit_id": unit_id, "file": run.path, "sequence": run.name,
                     "state": run.state,
-                    "cycles": len({s.cycle for s in run.segments}),
+                    "cycles": len(switch_on_cycles(unit_segments(run, unit_id))),
                     "turn_ons": turn_ons, "segments": len(run.segments),
                     "interruptions": len(run.interruptions()),
                     "samples_recorded": recorded, "samples_missing_declared": missing})

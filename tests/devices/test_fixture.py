@@ -166,3 +166,24 @@ def test_a_simulated_gyro_on_the_fixture() -> None:
     assert rate[late].mean() == pytest.approx(expected[late].mean(), abs=1.2)
     assert rate[early].mean() - rate[late].mean() > 15.0
     assert temp[-1] - temp[0] > 2.0  # the die warms by its self-heating
+
+
+def test_a_fixture_started_again_goes_on_counting_switch_ons() -> None:
+    """Started with the switch-ons a resumed sequence's journal holds, the next switch-on of
+    an output is the one after them (a unit on it draws that switch-on's turn-on bias, not
+    its first again); the other outputs count from 0; counts that do not fit are refused."""
+    with SimulatedFixture(2, warp=50.0, on_counts=(3,)) as fx:
+        assert (fx.outlet(0).on_count, fx.outlet(1).on_count) == (3, 0)
+        relays = [open_power_switch(fx.power_url(k)) for k in range(2)]
+        for relay in relays:
+            relay.open()
+        try:
+            for relay in relays:
+                relay.set_power(True)
+            assert (fx.outlet(0).on_count, fx.outlet(1).on_count) == (4, 1)
+        finally:
+            for relay in relays:
+                relay.close()
+    for bad in ((1, 2, 3), (-1,)):
+        with pytest.raises(ValueError, match="on_counts"):
+            SimulatedFixture(2, on_counts=bad)

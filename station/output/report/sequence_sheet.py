@@ -135,9 +135,12 @@ def _temperature_panel(ax: Axes, seq: UnitSequence, fontsize: float) -> None:
         temps = np.array([p.temperature_c for p in a.points])
         grid = np.linspace(temps.min(), temps.max(), 50)
         for fit, style in ((a.linear, "-"), (a.quadratic, "--")):
-            if fit is not None:
-                ax.plot(grid, fit.bias_deg_h(grid), style, lw=0.8,
-                        label=f"{a.axis} fit, order {fit.order}")
+            if fit is None:
+                continue
+            for switch_on in fit.switch_ons:  # a line per switch-on (its own bias)
+                on = "" if len(fit.switch_ons) == 1 else f", switch-on {switch_on}"
+                ax.plot(grid, fit.bias_deg_h(grid, switch_on), style, lw=0.8,
+                        label=f"{a.axis} fit, order {fit.order}{on}")
     if not drawn:
         placeholder(ax, "no bias against temperature\n(no temperature in the records)",
                     fontsize=fontsize)
