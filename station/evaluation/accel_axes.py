@@ -11,11 +11,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from analysis.allan.deviations import DeviationResult
 from analysis.figures.accel import (
     STANDARD_GRAVITY_M_S2,
     accel_figures,
@@ -23,28 +21,18 @@ from analysis.figures.accel import (
     normal_gravity_m_s2,
     vertical_axis,
 )
-from analysis.fit.model import COEFFICIENT_NAMES
 from analysis.fit.result import NoiseCoefficients
-from analysis.units.conversions import DEG_PER_URAD, S_PER_H
+from analysis.units.conversions import S_PER_H
+from station.evaluation.axis_analysis import (
+    ACCEL_FIT_KEYS as ACCEL_FIT_KEYS,
+    AxisAnalysis,
+    Quantity as Quantity,
+    accel_curve_keys as accel_curve_keys,
+    accel_fit_dict as accel_fit_dict,
+    accel_unit as accel_unit,
+)
 from station.model.bench import Bench
 from station.model.records import RateRecord
-
-if TYPE_CHECKING:
-    from station.evaluation.analyze import AxisAnalysis
-
-#: What an axis measures.
-Quantity = Literal["rate", "acceleration"]
-
-#: ug per "deg/h" of an m/s^2 series (the gyro figures' time factor taken off).
-_UG = 1e6 / STANDARD_GRAVITY_M_S2 / S_PER_H
-#: The fit's coefficients of an m/s^2 series: key and factor from the gyro key's value.
-ACCEL_FIT_KEYS = {
-    "Q": ("Q_m_s", DEG_PER_URAD),  # urad -> deg -> the series' unit times s: m/s
-    "N": ("N_m_s_rt_h", 1.0),
-    "B": ("B_ug", _UG),
-    "K": ("K_m_s_h1_5", 1.0),
-    "R": ("R_m_s_h2", 1.0),
-}
 
 
 def accel_record(record: RateRecord) -> RateRecord | None:
@@ -101,32 +89,6 @@ def analyze_accel(record: RateRecord, bench: Bench | None,
         figures = accel_figures(a.figures, a.fit, gravity_removed_m_s2=g,
                                 notes=(note, *kept))
         out.append(replace(a, quantity="acceleration", accel=figures))
-    return out
-
-
-def accel_unit(curve: DeviationResult) -> str:
-    """The unit of an accelerometer axis' deviation: m/s^2 (m/s for an angle-like tdev)."""
-    return "m/s" if curve.unit == "angle" else "m/s^2"
-
-
-def accel_curve_keys(curve: DeviationResult) -> dict[str, list[float]]:
-    """``adev_m_s2``, ``adev_ci_low_m_s2``, ``adev_ci_high_m_s2`` (tdev: ``_m_s``): an
-    accelerometer axis' deviation and its interval under keys naming their unit."""
-    suffix = "m_s" if curve.unit == "angle" else "m_s2"
-    return {f"adev{k}_{suffix}": v.tolist() for k, v in (
-        ("", curve.deviation), ("_ci_low", curve.deviation_ci_low),
-        ("_ci_high", curve.deviation_ci_high))}
-
-
-def accel_fit_dict(fit_json: dict[str, object]) -> dict[str, object]:
-    """The ``fit`` object of an accelerometer axis: the gyro keys renamed (and scaled) to
-    the accelerometer units of :data:`ACCEL_FIT_KEYS`."""
-    out = dict(fit_json)
-    for term, (key, factor) in ACCEL_FIT_KEYS.items():
-        old = COEFFICIENT_NAMES[term]
-        for suffix in ("", "_stderr"):
-            value = out.pop(f"{old}{suffix}", None)
-            out[f"{key}{suffix}"] = (value * factor if isinstance(value, float) else value)
     return out
 
 

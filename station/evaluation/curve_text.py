@@ -11,7 +11,7 @@ from analysis.allan.deviations import DEVIATION_LABELS
 from analysis.units.conversions import DEG_FAMILY, UnitFamily
 
 if TYPE_CHECKING:
-    from station.evaluation.analyze import AxisAnalysis
+    from station.evaluation.axis_analysis import AxisAnalysis
 
 
 def format_curve(axes: list[AxisAnalysis], *, per_decade: int = 3,

@@ -41,6 +41,7 @@ from starlette.requests import Request
 from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
 from starlette.routing import Route
 
+import station.web.pages as pages
 from analysis.units.conversions import UnitFamily, unit_family
 from station.errors import UsageError
 from station.output.json_units import in_family
@@ -59,7 +60,6 @@ from station.services.line import (
     unit_sheet_html,
 )
 from station.services.run_watch import runs_in_progress
-from station.web import pages
 from station.web.html import page, query, segment, text
 from station.web.render_cache import RenderCache
 
