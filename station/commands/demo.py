@@ -5,8 +5,8 @@ of Lv 2015 table 3, beside three accelerometers each, with gravity on z), time-w
 about 20 s, over their real transports (two Xsens Xbus streams, each on its own
 pseudo-terminal) into an HDF5 run file as ``station record`` does; grades both units
 against the demo's profile into a results database as ``station grade`` does, writes their
-PDF spec sheet as ``station report`` and each unit's Kalibr IMU file as ``station export``
-do; then prints a short table per unit: each figure, its value and 95 % interval, the
+PDF spec sheet as ``station report`` and the first unit's Kalibr IMU file as ``station
+export`` do; then prints a short table per unit: each figure, its value and 95 % interval, the
 limit and verdict, and the truth the simulator drew from. Every file goes into ``--out``
 (default: a new folder, printed) and is kept there. ``--verbose`` adds the grading's
 notes; ``--json`` prints everything as one JSON object (``docs/json.md``).
@@ -123,6 +123,9 @@ def run(args: argparse.Namespace) -> int:
                                lambda text: print("\n".join(wrap(f"{text} ...")), file=err,
                                                   flush=True)))
     doc["wall_s"] = round(time.monotonic() - t0, 1)
+    cpu = doc["cpu_s"]
+    assert isinstance(cpu, dict)
+    cpu["station"] = round(time.process_time(), 2)  # this process, from its start
     if args.json:
         print_json(doc, family, indent=1, allow_nan=False)
         return 0
@@ -132,7 +135,19 @@ def run(args: argparse.Namespace) -> int:
 
 class DemoProgress(ProgressLine):
     """The recording's progress in one line of at most 80 columns: the simulated time
-    recorded, and each unit's samples and gaps."""
+    recorded, and each unit's samples and gaps (off a terminal, a line only when it
+    changed)."""
+
+    _printed = ""
+
+    def draw(self) -> None:
+        """Print the line, unless off a terminal it is the one printed last."""
+        text = self.line()
+        if self.tty or text != self._printed:
+            self._printed = text
+            super().draw()
+        else:
+            self._last_draw = time.monotonic()
 
     def line(self) -> str:
         """The current line."""
@@ -151,8 +166,9 @@ def wrap(text: str, first: str = "", rest: str = "  ") -> list[str]:
                          break_on_hyphens=False, break_long_words=False)
 
 
-def _num(v: object) -> str:
-    return "-" if v is None else f"{v:.3g}"
+def _num(v: float | None) -> str:
+    """Three significant digits, a number up to 99,999 without an exponent."""
+    return "-" if v is None else f"{v:.0f}" if 1e3 <= abs(v) < 1e5 else f"{v:.3g}"
 
 
 def figure_table(figures: list[dict[str, object]], family: UnitFamily) -> list[str]:
@@ -208,7 +224,10 @@ def demo_lines(doc: dict[str, object], family: UnitFamily, *, verbose: bool) -> 
         lines.append(f"  {name:<{width}}  {FILE_ROLES.get(key, '')}"[:WIDTH].rstrip())
     notes = sum(len(u["notes"]) for u in units)
     lines += wrap(f"next: station results --db {files['database']}")
-    lines += wrap(f"done in {doc['wall_s']:.0f} s; "
-                  + ("" if verbose else f"--verbose prints the {notes} notes, ")
-                  + "--json all of it")
+    cpu = doc["cpu_s"]
+    assert isinstance(cpu, dict)
+    lines.append(f"done in {doc['wall_s']:.0f} s (CPU: {cpu['station']:.0f} s here, "
+                 f"{cpu['units']:.0f} s in the units' processes)")
+    lines.append(("" if verbose else f"--verbose prints the {notes} notes, ")
+                 + "--json all of it")
     return lines

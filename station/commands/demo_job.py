@@ -187,7 +187,8 @@ def run_demo_job(job: DemoJob) -> dict[str, object]:
 
     Returns the demo's document: ``folder``, ``files`` (run, profile, database, pdf,
     kalibr: the first unit's), ``model``, ``profile``, ``true`` (the simulated truths),
-    ``warnings`` (the grading's), and per unit its recording counts, grade, ``figures``
+    ``warnings`` (the grading's), ``cpu_s`` (``units``: the CPU time of the units'
+    processes, readers and simulators, s), and per unit its recording counts, grade, ``figures``
     (rows of :func:`figure_row`) and ``notes``.
 
     Raises
@@ -263,4 +264,5 @@ def run_demo_job(job: DemoJob) -> dict[str, object]:
                      "accel": {"vrw_m_s_rt_h": accel["accel_vrw"],
                                "bias_instability_ug": accel["accel_bias_instability"],
                                "accel_rw_m_s_h1_5": accel["accel_random_walk"]}},
-            "warnings": list(sheets.warnings)}
+            "warnings": list(sheets.warnings),
+            "cpu_s": {"units": round(sum(c.cpu_s for c in outcome.cpu), 2)}}
