@@ -1,4 +1,5 @@
-"""The analysis commands end to end: station analyze, reproduce and demo, as a user runs them."""
+"""The analysis commands end to end: station analyze and reproduce, as a user runs them
+(``station demo``: tests/test_demo.py)."""
 
 from __future__ import annotations
 
@@ -12,8 +13,7 @@ from analysis.models.noise import flicker_rate_noise, white_rate_noise
 from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, rate_deg_h_to_deg_s
 from station.cli import main
 from station.evaluation.reproduce import reproduce_lv2015
-from station.storage.csv_records import read_csv_record, write_csv_record
-from station.storage.hdf5 import read_run_record
+from station.storage.csv_records import write_csv_record
 
 REAL_DATA = Path(__file__).resolve().parents[2] / "shared" / "real-data"
 
@@ -140,58 +140,6 @@ def test_reproduce_cli_json(capsys) -> None:
     assert [g["name"] for g in out["gyros"]] == ["SRS2000", "VG951", "CRG20"]
     for gyro in out["gyros"]:
         assert {m["method"] for m in gyro["methods"]} >= {"ols", "wls", "logwls"}
-
-
-@pytest.mark.slow
-def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
-    """``station demo --json`` (in the rad family), then ``station watch --once --json`` of its
-    run file (one demo run: the recording takes most of this test's time)."""
-    # 0.03 h: 1,080 samples at 10 Hz, recorded in 1.2 s at the demo's warp 90. The
-    # accelerometer VRW read-off over 1,080 samples, 12 seeds of the demo's model: mean
-    # error +1.9 %, scatter 2.3 %, worst 5.4 % (4,500 samples: 0.8 %, worst 2.4 %); the
-    # check below allows 20 %
-    assert main(["demo", "--duration", "0.03", "--out", str(tmp_path), "--json",
-                 "--output-units", "rad"]) == 0
-    doc = json.loads(capsys.readouterr().out)  # the whole stdout is one object
-    # asked with --out, it keeps every file there (unasked: test_cli_newcomer)
-    assert all(Path(f).is_file() and Path(f).parent == tmp_path for f in doc["files"].values())
-    assert [u["unit"] for u in doc["units"]] == ["unit1", "unit2"]
-    unit = doc["units"][0]
-    assert unit["samples_recorded"] + unit["samples_missing_declared"] == unit["samples_sent"]
-    axis = unit["axes"][0]
-    assert axis["figures"]["arw_rad_s_rt_hz"] > 0 and "adev_rad_s" in axis and "adev" not in axis
-    assert doc["true"]["N_rad_s_rt_hz"] == pytest.approx(7.636e-3 * np.pi / 180 / 60)
-    assert (tmp_path / "demo-allan.png").stat().st_size > 10_000
-    # both halves: the accelerometers' figures (SI whatever --output-units) beside the gyros'
-    accel = {a["name"]: a for a in unit["axes"] if a["quantity"] == "acceleration"}
-    assert sorted(accel) == ["accel_x", "accel_y", "accel_z"]
-    true_vrw = doc["true"]["accel"]["vrw_m_s_rt_h"]
-    assert accel["accel_x"]["figures"]["vrw_m_s_rt_h"] == pytest.approx(true_vrw, rel=0.2)
-    assert (tmp_path / "demo-allan-accel.png").stat().st_size > 10_000
-    assert doc["files"]["accel_png"] == str(tmp_path / "demo-allan-accel.png")
-    csv_record = read_csv_record(tmp_path / "demo-record.csv.gz")  # both halves, read back
-    run_record = read_run_record(doc["run"], "unit1")
-    assert csv_record.accel_axis_names == ("accel_x", "accel_y", "accel_z")
-    assert csv_record.accel_m_s2 is not None and run_record.accel_m_s2 is not None
-    np.testing.assert_allclose(csv_record.accel_m_s2, run_record.accel_m_s2, rtol=1e-12)
-    assert main(["demo", "--sequence", "--json", "--out", str(tmp_path)]) == 2
-    assert "--json is not available with --sequence" in capsys.readouterr().err
-
-    run = doc["run"]
-    assert main(["watch", run, "--once", "--json"]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 1
-    state = json.loads(lines[0])
-    assert state["state"] == "stopped" and state["stop_reason"]
-    by_unit = {u["unit"]: u for u in state["units"]}
-    assert by_unit["unit1"]["samples_recorded"] == unit["samples_recorded"]
-    assert len(by_unit["unit1"]["newest_deg_s"]) == 3
-    assert main(["watch", run, "--once", "--json", "--output-units", "rad"]) == 0
-    rad = json.loads(capsys.readouterr().out)["units"][0]
-    assert rad["newest_rad_s"] == pytest.approx(
-        [v * np.pi / 180 for v in by_unit["unit1"]["newest_deg_s"]], rel=1e-13)
-    assert main(["watch", run, "--once"]) == 0
-    assert "unit1:" in capsys.readouterr().out
 
 
 @pytest.mark.skipif(

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 #: Sub-command name -> one-line summary, in the order ``station --help`` lists them.
 COMMAND_HELP: dict[str, str] = {
-    "demo": "record two simulated gyros, analyze them, print spec figures",
+    "demo": "the whole job on two simulated IMUs: record, grade, store, spec sheet, Kalibr file",
     "analyze": "Allan deviation, noise-term fit and spec figures of a record",
     "reproduce": "re-run a published Monte Carlo (lv2015: WLS Allan fit)",
     "simulate": "write a simulated gyro run (model file or ARW + bias stability)",

@@ -1,48 +1,54 @@
-"""``station demo``: the main job on simulated IMUs, start to finish, in under a minute.
+"""``station demo``: the whole job on two simulated IMUs, start to finish, in under a minute.
 
-Records a time-warped run of two simulated IMUs (tactical-grade gyros of the VG951 noise
-model of Lv 2015 table 3, beside three accelerometers each, with gravity on z) over their
-real transports (two Xsens Xbus streams, each on its own pseudo-terminal, a real tty for
-pyserial) into an HDF5 run file, exactly as ``station record`` would, then analyzes each
-unit as ``station analyze`` would, prints the spec figures of both halves (gyros, then
-accelerometers: velocity random walk, bias instability, acceleration random walk) beside
-the true values, and writes the record (CSV, both halves) and the Allan deviation plots
-(PNG: the gyros in deg/h, the accelerometers in m/s^2).
-``--json`` prints what it found as one JSON object instead (``docs/json.md``).
+Records half an hour of two simulated IMUs (tactical-grade gyros of the VG951 noise model
+of Lv 2015 table 3, beside three accelerometers each, with gravity on z), time-warped into
+about 20 s, over their real transports (two Xsens Xbus streams, each on its own
+pseudo-terminal) into an HDF5 run file as ``station record`` does; grades both units
+against the demo's profile into a results database as ``station grade`` does, writes their
+PDF spec sheet as ``station report`` and the first unit's Kalibr IMU file as ``station
+export`` do; then prints a short table per unit: each figure, its value and 95 % interval, the
+limit and verdict, and the truth the simulator drew from. Every file goes into ``--out``
+(default: a new folder, printed) and is kept there. ``--verbose`` adds the grading's
+notes; ``--json`` prints everything as one JSON object (``docs/json.md``).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import dataclasses
-import shutil
 import sys
 import tempfile
+import textwrap
 import time
-from collections.abc import Iterator
 from pathlib import Path
-from urllib.parse import quote
 
 import numpy as np
 
 from analysis.models.noise import flicker_rate_noise, white_angle_noise, white_rate_noise
-from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, rate_deg_h_to_deg_s
+from analysis.units.conversions import (
+    UnitFamily,
+    arw_deg_rt_h_to_deg_rt_s,
+    q_urad_to_deg,
+    rate_deg_h_to_deg_s,
+)
 from station.commands import COMMAND_HELP, demo_sequence
 from station.commands.arguments import add_output_options, output_family, print_json
+from station.commands.demo_job import DemoJob, run_demo_job
 from station.errors import UsageError
-from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
-from station.model.runs import RunMetadata
-from station.storage.csv_records import write_csv_record
+from station.model.wording import plural
+from station.recording.progress import ProgressLine
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
 DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}
 DEMO_BIAS_DEG_H = 3.6
-#: Wall-clock time the recording of one simulated hour takes, s (the time warp follows).
-DEMO_WALL_S_PER_H = 40.0
-#: The shortest recording, wall s (a demo shorter than 90 simulated s slows its warp to it).
-DEMO_MIN_WALL_S = 1.0
+#: The widest line the demo prints (a terminal's 80 columns).
+WIDTH = 80
+#: What each file in the demo's folder is, by its key in the document's ``files``.
+FILE_ROLES = {"run": "the run (station analyze, grade, report, export)",
+              "profile": "the profile it was graded with",
+              "database": "the gradings (station results --db, serve --db)",
+              "pdf": "the spec sheet, one page per unit and half",
+              "kalibr": "Kalibr's IMU noise file of unit1"}
 
 
 def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) -> RateRecord:
@@ -60,192 +66,168 @@ def simulate_demo_record(duration_s: float, sample_rate_hz: float, seed: int) ->
     return RateRecord(rate, sample_rate_hz, ("gyro_x", "gyro_y", "gyro_z"), "simulated demo gyro")
 
 
-def demo_model() -> str:
-    """The noise model the simulated units draw from: the VG951 model file, else the preset."""
-    from station.model.profiles import PROFILE_DIR
-
-    path = PROFILE_DIR / "models" / "VG951.toml"
-    return str(path) if path.is_file() else "VG951"
-
-
-def demo_accel_true() -> dict[str, float]:
-    """The accelerometer truths of the simulated units (their model's ``[accelerometer]``
-    table, else the generic accelerometer): ``vrw_m_s_rt_h`` (m/s/sqrt(h)),
-    ``bias_instability_ug`` (ug), ``accel_rw_m_s_h1_5`` (m/s/h^1.5)."""
-    from devices.sim.signal import accel_model
-
-    model = accel_model(demo_model())
-    return {"vrw_m_s_rt_h": model.vrw_m_s_rt_h, "bias_instability_ug": model.bias_instability_ug,
-            "accel_rw_m_s_h1_5": model.accel_rw_m_s_h1_5}
-
-
-def demo_urls(duration_s: float, rate_hz: float, seed: int) -> tuple[str, str]:
-    """Device URLs of the two simulated units, warped to record ``duration_s`` (s) in about
-    1..20 s of wall time (half an hour in 20 s: warp 90; a short demo at the same warp, not
-    slowed to fill a fixed wall time)."""
-    wall_s = min(max(duration_s / 3600.0 * DEMO_WALL_S_PER_H, DEMO_MIN_WALL_S), 20.0)
-    warp = max(1.0, duration_s / wall_s)
-    query = f"model={quote(demo_model())}&rate={rate_hz:g}&warp={warp:g}"
-    return (f"sim+serial://VG951?protocol=xbus&{query}&seed={seed}",
-            f"sim+serial://VG951?protocol=xbus&{query}&seed={seed + 1}")
-
-
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``demo`` sub-command."""
-    p = sub.add_parser("demo", help=COMMAND_HELP["demo"],
-                       description=__doc__)
+    p = sub.add_parser("demo", help=COMMAND_HELP["demo"], description=__doc__)
     p.add_argument("--duration", type=float, default=0.5, metavar="HOURS",
                    help="simulated run length in hours (default 0.5; recorded in about 20 s)")
     p.add_argument(
         "--rate", type=float, default=10.0, metavar="HZ", help="sample rate (default 10 Hz)"
     )
-    p.add_argument(
-        "--seed",
-        type=int,
-        default=1,
-        help="seed of the simulated gyros (default 1: the same demo every time)",
-    )
-    p.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="folder for the run file, the record and the plot, kept there (default: a "
-        "temporary folder, removed at the end unless --keep)",
-    )
-    p.add_argument("--keep", action="store_true",
-                   help="keep the temporary folder (without --out) and say where it is")
+    p.add_argument("--seed", type=int, default=1,
+                   help="seed of the first simulated unit, its serial SIM-SEED (default 1: "
+                        "the same units every time)")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="folder for every file the demo writes (default: a new folder, "
+                        "printed); nothing written is removed")
+    p.add_argument("--verbose", action="store_true",
+                   help="print each unit's notes (the analysis', the fit's, each figure's) "
+                        "after its table")
     demo_sequence.add_arguments(p)
-    add_output_options(p, json_help='print {"run", "units": [{"unit", "samples_recorded", ..., '
-                       '"axes": [AXIS as station analyze]}], "true", "files"} as one JSON object '
+    add_output_options(p, json_help='print {"folder", "files", "units": [{"unit", "grade", '
+                       '"figures", "notes", ...}], "true", ...} as one JSON object '
                        "(docs/json.md)")
     p.set_defaults(handler=run)
 
 
-def record_demo_run(args: argparse.Namespace, path: Path) -> list[dict[str, object]]:
-    """Record the two simulated units into ``path`` with the real recorder."""
-    from station.recording.progress import ProgressLine
-    from station.recording.recorder import Recorder, RunConfig
-
-    urls = demo_urls(args.duration * 3600.0, args.rate, args.seed)
-    recorder = Recorder(
-        RunConfig(urls, args.duration * 3600.0, path,
-                  metadata=RunMetadata(operator="station demo")),
-        [ProgressLine(sys.stderr, plain_interval_s=5.0)],
-    )
-    recorder.prepare()
-    stop = recorder.run()
-    for t in stop.totals:
-        if not args.json:
-            print(
-                f"{t.unit_id}: {t.samples_recorded} samples recorded, "
-                f"{t.samples_missing_declared} declared missing in {t.gaps} gaps, "
-                f"simulator sent {t.samples_sent}"
-            )
-    return [{"unit": t.unit_id, "samples_recorded": t.samples_recorded,
-             "samples_missing_declared": t.samples_missing_declared, "gaps": t.gaps,
-             "samples_sent": t.samples_sent} for t in stop.totals]
-
-
-@contextlib.contextmanager
-def demo_folder(out: Path | None, *, keep: bool) -> Iterator[Path]:
-    """``out`` (created; kept), or a new temporary folder removed at the end unless
-    ``keep``; where it is, and whether it was removed, goes to stderr."""
+def demo_folder(out: Path | None) -> Path:
+    """``out`` (created), or a new folder in the temporary directory; never removed."""
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
-        yield out
-        return
-    folder = Path(tempfile.mkdtemp(prefix="station-demo-"))
-    print(f"station demo: writing into the temporary folder {folder}", file=sys.stderr)
-    try:
-        yield folder
-    finally:
-        if keep:
-            print(f"station demo: kept {folder}", file=sys.stderr)
-        else:
-            shutil.rmtree(folder, ignore_errors=True)
-            print(f"station demo: removed {folder} (--keep keeps it; --out DIR writes there)",
-                  file=sys.stderr)
+        return out
+    return Path(tempfile.mkdtemp(prefix="station-demo-"))
 
 
 def run(args: argparse.Namespace) -> int:
-    """Record, analyze, print, plot (into ``--out`` or a temporary folder)."""
+    """Run the demo (or ``--sequence``) into its folder and show what it did."""
     if args.sequence and args.json:
         raise UsageError("--json is not available with --sequence (its figures are "
                          "printed as a table; station grade RUN --json gives them)")
-    with demo_folder(args.out, keep=args.keep) as folder:
-        return _run(argparse.Namespace(**{**vars(args), "out": folder}))
-
-
-def _run(args: argparse.Namespace) -> int:
+    if args.duration <= 0 or args.rate <= 0:
+        raise UsageError("--duration and --rate must be positive")
+    folder = demo_folder(args.out)
     if args.sequence:
-        return demo_sequence.run(args)
-    from station.storage.hdf5 import read_run_record
-
+        if args.out is None:
+            print(f"station demo: writing into {folder}", file=sys.stderr)
+        return demo_sequence.run(argparse.Namespace(**{**vars(args), "out": folder}))
     t0 = time.monotonic()
-    path = args.out / "demo-run.h5"
-    path.unlink(missing_ok=True)
-    print(
-        f"recording {args.duration:g} h (simulated, time-warped) of two IMUs (3-axis VG951 "
-        f"gyros, 3 accelerometers) at "
-        f"{args.rate:g} Hz over two Xbus serial links into {path} ...",
-        file=sys.stderr,
-    )
-    totals = {t["unit"]: t for t in record_demo_run(args, path)}
-    plotted: list[AxisAnalysis] = []
-    plotted_accel: list[AxisAnalysis] = []
+    duration_s = args.duration * 3600.0
+    err = sys.stderr
+    print("\n".join(wrap(f"station demo: recording two simulated IMUs (VG951 gyros, "
+                         f"accelerometers), {args.duration:g} h at {args.rate:g} Hz over two "
+                         f"Xbus serial links, time-warped, into")), file=err)
+    print(f"  {folder}", file=err, flush=True)
     family = output_family(args)
-    for unit in ("unit1", "unit2"):
-        record = read_run_record(path, unit)
-        print(f"\n{unit}: analyzing {record.n_samples} samples per axis ...", file=sys.stderr)
-        axes = analyze_record(record)
-        totals.setdefault(unit, {"unit": unit})["axes"] = [a.as_json() for a in axes]
-        if not args.json:
-            print(f"{unit} ({record.source})")
-            print(format_analysis(axes, family))
-        plotted.append(dataclasses.replace(axes[0], name=f"{unit} {axes[0].name}"))
-        plotted_accel.extend(dataclasses.replace(a, name=f"{unit} {a.name}")
-                             for a in axes if a.accel is not None and a.name == "accel_x")
-        if unit == "unit1":
-            csv_path = write_csv_record(
-                args.out / "demo-record.csv.gz",
-                record.rate_deg_s,
-                record.sample_rate_hz,
-                axis_names=record.axis_names,
-                comment=f"station demo, {record.source}, gyros deg/s, accelerometers m/s^2",
-                temperature_c=record.temperature_c,
-                accel_m_s2=record.accel_m_s2,
-                accel_axis_names=record.accel_axis_names,
-            )
-    true = {"Q": ("urad", "Q_urad"), "N": ("deg/sqrt(h)", "N_deg_rt_h"), "B": ("deg/h", "B_deg_h")}
-    if not args.json:
-        print(f"\ntrue values (model {Path(demo_model()).name}): " + ", ".join(
-            f"{term} {family.value(DEMO_TRUE[term], unit):.4g} {family.label(unit)}"
-            for term, (unit, _) in true.items()))
-        accel_true = demo_accel_true()
-        print("true accelerometer values: velocity random walk "
-              f"{accel_true['vrw_m_s_rt_h']:.4g} m/s/sqrt(h), bias instability "
-              f"{accel_true['bias_instability_ug']:.4g} ug, acceleration random walk "
-              f"{accel_true['accel_rw_m_s_h1_5']:.4g} m/s/h^1.5")
-    from station.output.plots import plot_allan  # matplotlib: imported only when a plot is made
-
-    png_path = plot_allan(
-        plotted,
-        args.out / "demo-allan.png",
-        title="station demo: two simulated VG951 gyros, axis x",
-    )
-    files = {"run": str(path), "record": str(csv_path), "png": str(png_path)}
-    if plotted_accel:
-        files["accel_png"] = str(plot_allan(
-            plotted_accel, args.out / "demo-allan-accel.png",
-            title="station demo: the two simulated units' accelerometers, axis accel_x"))
+    doc = run_demo_job(DemoJob(duration_s, args.rate, args.seed, folder, family,
+                               [DemoProgress(err, plain_interval_s=10.0)],
+                               lambda text: print("\n".join(wrap(f"{text} ...")), file=err,
+                                                  flush=True)))
+    doc["wall_s"] = round(time.monotonic() - t0, 1)
+    cpu = doc["cpu_s"]
+    assert isinstance(cpu, dict)
+    cpu["station"] = round(time.process_time(), 2)  # this process, from its start
     if args.json:
-        print_json({"run": str(path), "model": demo_model(), "units": list(totals.values()),
-                    "true": {key: DEMO_TRUE[term] for term, (_, key) in true.items()}
-                    | {"bias_deg_h": DEMO_BIAS_DEG_H, "accel": demo_accel_true()},
-                    "files": files},
-                   family)
+        print_json(doc, family, indent=1, allow_nan=False)
         return 0
-    print(f"wrote {path} (try: station analyze {path} --unit unit2), {csv_path} and "
-          + " and ".join(v for k, v in files.items() if k.endswith("png")))
-    print(f"done in {time.monotonic() - t0:.1f} s")
+    print("\n".join(demo_lines(doc, family, verbose=args.verbose)))
     return 0
+
+
+class DemoProgress(ProgressLine):
+    """The recording's progress in one line of at most 80 columns: the simulated time
+    recorded, and each unit's samples and gaps (off a terminal, a line only when it
+    changed)."""
+
+    _printed = ""
+
+    def draw(self) -> None:
+        """Print the line, unless off a terminal it is the one printed last."""
+        text = self.line()
+        if self.tty or text != self._printed:
+            self._printed = text
+            super().draw()
+        else:
+            self._last_draw = time.monotonic()
+
+    def line(self) -> str:
+        """The current line."""
+        done = min((t.last_time_s for t in self.tallies.values()), default=0.0)
+        units = "; ".join(f"{uid} {plural(t.samples, 'sample')}, {plural(t.gaps, 'gap')}"
+                          + ("" if t.connected else " DISCONNECTED")
+                          for uid, t in self.tallies.items())
+        text = f"  {max(done, 0.0) / 60:.1f} of {self.duration_s / 60:g} min: {units}"
+        return text if len(text) <= WIDTH else text[:WIDTH - 3] + "..."
+
+
+def wrap(text: str, first: str = "", rest: str = "  ") -> list[str]:
+    """``text`` in lines of at most :data:`WIDTH` columns (a word longer stays whole), the
+    first after ``first``, the others after ``rest``."""
+    return textwrap.wrap(text, WIDTH, initial_indent=first, subsequent_indent=rest,
+                         break_on_hyphens=False, break_long_words=False)
+
+
+def _num(v: float | None) -> str:
+    """Three significant digits, a number up to 99,999 without an exponent."""
+    return "-" if v is None else f"{v:.0f}" if 1e3 <= abs(v) < 1e5 else f"{v:.3g}"
+
+
+def figure_table(figures: list[dict[str, object]], family: UnitFamily) -> list[str]:
+    """A unit's table: figure [unit], value, 95 % interval, limit (grade), verdict, truth,
+    columns as wide as their cells and the figure column cut to keep it in 80 columns."""
+    rows = [("figure", "value", "95 % interval", "limit", "verdict", "truth")]
+    for f in figures:
+        unit = str(f["unit"])
+
+        def v(key: str, f: dict[str, object] = f, unit: str = unit) -> str:
+            value = f[key]
+            return _num(family.value(value if isinstance(value, float | int) else None, unit))
+
+        interval = "-" if f["ci_low"] is None else f"{v('ci_low')}-{v('ci_high')}"
+        limit = "-" if f["limit"] is None else f"{f['grade']} {v('limit')}"
+        rows.append((f"{f['label']} [{family.label(unit)}]", v("value"), interval, limit,
+                     str(f["verdict"] or "info"), v("truth")))
+    widths = [max(len(r[i]) for r in rows) for i in range(6)]
+    widths[0] = max(6, min(widths[0], WIDTH - 2 - sum(widths[1:]) - 5))
+    lines = []
+    for r in rows:
+        cells = [r[0][:widths[0]].ljust(widths[0]), r[1].rjust(widths[1]),
+                 r[2].rjust(widths[2]), r[3].rjust(widths[3]), r[4].ljust(widths[4]),
+                 r[5].rjust(widths[5])]
+        lines.append(("  " + " ".join(cells)).rstrip())
+    return lines
+
+
+def demo_lines(doc: dict[str, object], family: UnitFamily, *, verbose: bool) -> list[str]:
+    """What the demo prints from its document: per unit its grade, recording counts and
+    table (``verbose``: its notes), then the files it wrote and where to go next."""
+    lines: list[str] = []
+    units = doc["units"]
+    assert isinstance(units, list)
+    for u in units:
+        review = ", REVIEW" if u["review"] else ""
+        lines += wrap(f"{u['unit']} {u['serial_number']}: grade {u['grade']}{review}; "
+                      f"{u['samples_recorded']} samples, {u['samples_missing_declared']} "
+                      f"missing in {plural(u['gaps'], 'gap')}")
+        lines += figure_table(u["figures"], family)
+        if verbose:
+            lines += [line for n in u["notes"] for line in wrap(n, "  - ", "    ")]
+        lines.append("")
+    warnings = doc["warnings"]
+    assert isinstance(warnings, list)
+    lines += [line for w in warnings for line in wrap(f"warning: {w}")]
+    folder, files = Path(str(doc["folder"])), doc["files"]
+    assert isinstance(files, dict)
+    lines.append(f"wrote into {folder}:")
+    names = {k: Path(p).name for k, p in files.items()}
+    width = max(len(n) for n in names.values())
+    for key, name in names.items():
+        lines.append(f"  {name:<{width}}  {FILE_ROLES.get(key, '')}"[:WIDTH].rstrip())
+    notes = sum(len(u["notes"]) for u in units)
+    lines += wrap(f"next: station results --db {files['database']}")
+    cpu = doc["cpu_s"]
+    assert isinstance(cpu, dict)
+    lines.append(f"done in {doc['wall_s']:.0f} s (CPU: {cpu['station']:.0f} s here, "
+                 f"{cpu['units']:.0f} s in the units' processes)")
+    lines.append(("" if verbose else f"--verbose prints the {notes} notes, ")
+                 + "--json all of it")
+    return lines

@@ -24,8 +24,9 @@ from analysis.units.conversions import FAMILY_UNITS, UnitFamily, family_unit, fa
 #: units a model file is read in.
 KEPT_IN_DEG = frozenset({"model_after"})
 #: In an object with a ``"unit"`` field, the fields that hold values in that unit (a
-#: production statistic's fitted X50 and X99.865 too; its indexes are dimensionless).
-VALUE_FIELDS = frozenset({"value", "ci_low", "ci_high", "limit", "limits", "mean", "std",
+#: production statistic's fitted X50 and X99.865 too; its indexes are dimensionless; the
+#: simulated truth beside a figure of ``station demo``).
+VALUE_FIELDS = frozenset({"value", "ci_low", "ci_high", "limit", "limits", "truth", "mean", "std",
                           "center", "ucl", "lcl", "out_of_control", "min", "max",
                           "fitted_median", "fitted_p99865"})
 
