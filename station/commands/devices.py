@@ -67,6 +67,7 @@ def ready_url(sim_url: str) -> tuple[str, str]:
     """A shipped profile and ``sim_url`` at the rate it expects (``station record --profile
     P --unit URL`` accepts the pair): the profile the URL's host names, else one whose rate
     the URL has, else the first shipped profile."""
+    from devices.codecs.stim300_sheet import OFFERED_RATES_HZ
     from station.model.profiles import available_profiles, load_profile
 
     profiles = [load_profile(name) for name in available_profiles()]
@@ -77,7 +78,13 @@ def ready_url(sim_url: str) -> tuple[str, str]:
         (p for p in profiles if rate is not None and float(rate) == p.sample_rate_hz),
         profiles[0],
     )
-    return chosen.name, with_keys(sim_url, {"rate": f"{chosen.sample_rate_hz:g}"})
+    keys = {"rate": f"{chosen.sample_rate_hz:g}"}
+    if (url_keys(sim_url).get("protocol") == "stim300" and host == "STIM300"
+            and chosen.sample_rate_hz not in OFFERED_RATES_HZ):
+        # no STIM300 sends at the profile's rate (TS1524 Table 5-11): the simulated unit
+        # borrows the datagram layout with a counter of datagrams, as another model's would
+        keys["counter"] = "datagram"
+    return chosen.name, with_keys(sim_url, keys)
 
 
 def _unreachable_reason(opened: OpenedDevice) -> str:
