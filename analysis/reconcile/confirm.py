@@ -105,7 +105,7 @@ def periodogram_peak(rate: NDArray[np.float64], sample_rate_hz: float, period_s:
     y = block_means(rate, block)
     dt = block / sample_rate_hz
     n = len(y)
-    t = (np.arange(n) + 0.5) * dt
+    t = np.asarray((np.arange(n) + 0.5) * dt, dtype=np.float64)
     resid = y - np.polyval(np.polyfit(t, y, 1), t)
     power = np.abs(np.fft.rfft(resid)) ** 2
     freq = np.fft.rfftfreq(n, dt)
