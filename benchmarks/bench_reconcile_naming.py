@@ -7,10 +7,12 @@ the records come from textbook point-sampled recursions written in this file ins
 white noise, flicker noise by Kasdin's filter (:func:`analysis.models.noise.flicker_rate_noise`),
 a discrete AR(1) for the Gauss-Markov process (``phi = exp(-dt/T)``), a cumulative sum for
 the rate random walk, a sampled sine and more Kasdin flicker noise for a bias instability
-larger than the model's (the Gauss-Markov process' rival explanation). The base model and
+larger than the model's (the Gauss-Markov process' rival explanation) and a rate ramp of
+the random walk's variance (the walk's rival). The base model and
 the effects' parameter ranges are those of ``tests/test_reconcile.py`` (``--ranges
-narrow``: 1 h at 10 Hz, ARW 0.5 deg/sqrt(h), bias instability 2 deg/h) or wider and weaker
-ones (``wide``, default), each effect's variance under a tenth of the white noise's.
+narrow``: 1 h at 10 Hz, ARW 0.5 deg/sqrt(h), bias instability 2 deg/h), wider and weaker
+ones (``wide``, default) or the weakest (``faint``), each effect's variance under a tenth of
+the white noise's.
 
 For every seed set and effect it prints how many seeds name exactly that effect (and what
 else was named), then the negative controls (the base model alone) and how many name
@@ -39,7 +41,7 @@ FS_HZ, DURATION_S = 10.0, 3600.0
 N_SAMPLES = int(FS_HZ * DURATION_S)
 ARW_DEG_RT_H, B_DEG_H = 0.5, 2.0
 SIGMA_W_DEG_S = ARW_DEG_RT_H * 60.0 * math.sqrt(FS_HZ) / 3600.0  # white-noise std per sample
-EFFECTS = ("gauss_markov", "rate_random_walk", "sinusoid", "bias_instability", "none")
+EFFECTS = ("gauss_markov", "rate_random_walk", "sinusoid", "bias_instability", "rate_ramp", "none")
 
 _CACHE = ComparisonCache()
 
@@ -96,6 +98,11 @@ def hidden(effect: str, rng: np.random.Generator, ranges: str = "narrow") -> np.
         amp, period = rng.uniform(*r["amp"]) * SIGMA_W_DEG_S, _log_uniform(rng, r["period"])
         phase = rng.uniform(0, 2 * math.pi)
         return amp * np.sin(2 * math.pi * t / period + phase)
+    if effect == "rate_ramp":
+        # the random walk's rival: a ramp whose variance over the record, (R L)^2 / 12, is the
+        # walk's expected K^2 L / 6, of either sign
+        slope = math.sqrt(12.0 * rng.uniform(*r["rw_ratio"])) * SIGMA_W_DEG_S / DURATION_S
+        return float(rng.choice([-1.0, 1.0])) * slope * (t - DURATION_S / 2.0)
     if effect == "bias_instability":
         return flicker_rate_noise(rng.uniform(*r["bi_deg_h"]) / 3600.0, N_SAMPLES, FS_HZ, rng)
     return np.zeros(N_SAMPLES)

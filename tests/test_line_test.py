@@ -17,6 +17,7 @@ import pytest
 from analysis.models.simulation import simulate
 from analysis.models.terms import AngleRandomWalk, BiasInstability, NoiseModel
 from analysis.reconcile.candidates import MIN_CYCLES
+from analysis.reconcile.confirm import periodogram_peak
 from analysis.reconcile.discrepancy import ComparisonCache
 from analysis.reconcile.line_test import LINE_ALPHA, strongest_line
 from analysis.reconcile.loop import reconcile
@@ -67,3 +68,21 @@ def test_reconcile_names_a_faint_sinusoid_by_its_spectral_line():
         # and the same record without the line names nothing
         clean = reconcile(base_rate(seed), FS_HZ, BASE, cache=cache)
         assert not clean.effects and not clean.excess, (seed, clean.rounds)
+
+
+@pytest.mark.parametrize("cycles", [7.5, 8.5, 9.5, 11.5])
+def test_a_slow_line_between_bins_is_fitted_on_its_own_lobe(cycles):
+    # a sine of 0.1 of the white noise with a period of 310-480 s, half a bin from the
+    # nearest whole one: the fit started at a whole bin settled on a side lobe for some
+    # phases (a fifth of the amplitude, the period a bin off), which refused the sinusoid
+    # the Allan curve asked for; every phase must give the line itself
+    period = DURATION_S / cycles
+    t = np.arange(int(DURATION_S * FS_HZ)) / FS_HZ
+    amp = 0.1 * SIGMA_W_DEG_S
+    for i, phase in enumerate(np.linspace(0.0, 2.0 * math.pi, 6, endpoint=False)):
+        rate = base_rate(7400 + i) + amp * np.sin(2.0 * math.pi * t / period + phase)
+        ev = periodogram_peak(rate, FS_HZ, 0.9 * period)
+        assert ev.confirmed, (phase, ev.statistic)
+        assert ev.values["period_s"] == pytest.approx(period, rel=0.03), (phase, ev.values)
+        got = ev.values["amplitude_deg_h"] / (amp * 3600.0)
+        assert 0.75 < got < 1.25, (phase, ev.values)
