@@ -168,6 +168,12 @@ def test_html_is_self_contained_with_the_figures(graded: RunGrade, tmp_path: Pat
     assert row["data-verdict"] == arw.verdicts.get(first.deciding_grade, "pass")
     assert {r["data-verdict"] for r in parser.rows if r["data-figure"] == "rrw"} == {"info"}
     assert "http://" not in path.read_text() and "https://" not in path.read_text()
+    # page 1's part, then the test record with the event log, each with the test's footer
+    second = path.read_text().split('<section class="unit"')[2]
+    sheet, record = second.split('<div class="test-record">')
+    assert "resync" not in sheet and "resync 1" in record and "samples missing: 43" in record
+    assert sheet.count("15 min static test at 10 Hz") == record.count("15 min static test") == 1
+    assert "not graded</td><td class=\"verdict\">info" in sheet
 
 
 def test_json_follows_the_schema(graded: RunGrade, tmp_path: Path) -> None:

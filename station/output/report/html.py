@@ -72,9 +72,11 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
         f'data-grade="{escape(sheet.grade)}">'
     ]
+    company = ""
     if head is not None and (head.logo is not None or head.company):
         logo = _img(head.logo.read_bytes(), "logo") if head.logo is not None else ""
-        parts.append(f'<div class="company">{logo} {escape(head.company)}</div>')
+        company = f'<div class="company">{logo} {escape(head.company)}</div>'
+        parts.append(company)
     parts += [
         f"<h1>{escape(sheet.title)} "
         f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
@@ -135,7 +137,8 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             + "</tr></table>"
         )
     footer = _footer(graded, sheet)
-    parts += [footer, f'<div class="test-record"><h1>{escape(sheet.title)}: test record</h1>']
+    parts += [footer, f'<div class="test-record">{company}<h1>{escape(sheet.title)}: test '
+                      f"record</h1>"]
     for heading, lines in sheet.record_sections():
         parts.append(f'<h2>{escape(heading)}</h2><ul class="{escape(heading.lower())}">')
         parts += [f"<li>{escape(line)}</li>" for line in lines]

@@ -71,7 +71,7 @@ PDF_LINE_CHARS, PDF_NOTE_LINES = 150, 6
 #: (page fractions).
 VERDICT_FONT, VERDICT_SPACING, SIGNATURES_Y = 7.5, 1.35, 0.045
 #: Bottom of the DAVAR row, above the verdict.
-DAVAR_BOTTOM = 0.135
+DAVAR_BOTTOM = 0.15
 
 
 def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
@@ -108,9 +108,9 @@ def unit_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     approval = graded.sheet.approval if graded.sheet is not None else ()
     verdict = [part for line in sheet.verdict_lines()
                for part in textwrap.wrap(line, 125, subsequent_indent="  ")]
-    fig.text(0.06, DAVAR_BOTTOM - 0.04, verdict[0], fontsize=VERDICT_FONT + 1, weight="bold",
+    fig.text(0.06, DAVAR_BOTTOM - 0.042, verdict[0], fontsize=VERDICT_FONT + 1, weight="bold",
              va="top")
-    fig.text(0.06, DAVAR_BOTTOM - 0.056, "\n".join(verdict[1:]), fontsize=VERDICT_FONT,
+    fig.text(0.06, DAVAR_BOTTOM - 0.058, "\n".join(verdict[1:]), fontsize=VERDICT_FONT,
              va="top", linespacing=VERDICT_SPACING)
     if approval:  # one signature line each, above the footer
         width = 0.88 / len(approval)
