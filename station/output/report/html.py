@@ -125,9 +125,9 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
                                           "model and the Allan fit's model as a wavelet variance"))
     if unit.sequence is not None:
         parts.append(sequence_section(unit.sequence))
-    verdict = sheet.verdict_lines()
-    parts.append(f'<h2>Verdict</h2><p class="verdict"><b>{escape(verdict[0])}</b><br>'
-                 + "<br>".join(escape(line) for line in verdict[1:]) + "</p>")
+    said = sheet.verdict_lines()
+    parts.append(f'<h2>Verdict</h2><p class="verdict"><b>{escape(said[0])}</b><br>'
+                 + "<br>".join(escape(line) for line in said[1:]) + "</p>")
     if head is not None and head.approval:
         parts.append(
             '<table class="approval"><tr>'

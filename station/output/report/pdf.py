@@ -234,7 +234,7 @@ def accel_page(graded: RunGrade, unit: UnitGrade) -> Figure:
     fig = plt.figure(figsize=A4_IN)
     subtitle(fig, "Accelerometers")
     accel_unit = accel_plot_unit(graded.profile)
-    ax = fig.add_axes((0.1, 0.5, 0.84, 0.42))
+    ax = fig.add_axes((0.1, 0.48, 0.84, 0.42))
     draw_allan(ax, unit.axes, fontsize=8, quantity="acceleration", accel_unit=accel_unit)
     ax.set_title(ALLAN_TITLES["acceleration"], fontsize=9)
     shown = quantity_axes(unit, "acceleration")
