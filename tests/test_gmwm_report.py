@@ -59,7 +59,7 @@ def test_pdf_sheet_has_the_gmwm_terms_beside_the_allan_read_offs(reports: Path) 
     assert g["ranking"][0]["model"] == g["model"] and len(g["ranking"]) > 2
     assert "gm_tau_s" in g["params"]  # the hidden Gauss-Markov term is selected
     pages = PdfReader(reports / "gm_TEST.pdf").pages
-    assert len(pages) == 2  # the unit's sheet, then its GMWM page
+    assert len(pages) == 3  # the unit's sheet, its GMWM page, its test record
     text = pages[1].extract_text()
     assert "GMWM noise model" in text and f"model {g['model']}" in text
     assert "Gauss-Markov correlation time" in text and "deg/sqrt(h)" in text

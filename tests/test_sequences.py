@@ -259,6 +259,14 @@ def test_temperature_coefficient_comes_back_and_no_hysteresis_is_invented(
     assert "bias against temperature" in html
     assert html.count('<table class="plateaus">') == 2
     assert html.count('alt="Allan deviation of each temperature plateau"') == 2
+    from pypdf import PdfReader
+
+    texts = [page.extract_text() for page in PdfReader(write_report(
+        graded, "pdf", tmp_path / "sheets")).pages]
+    n = len(texts) // len(graded.units)  # each unit: sheet, sequence, plateaus, test record
+    assert n == 4 and sum("Test sequence temperature" in t for t in texts) == 2
+    assert sum("Temperature plateaus of temperature" in t for t in texts) == 2
+    assert all(f"page {k % n + 1} of {n}" in t for k, t in enumerate(texts))
 
 
 def test_each_temperature_plateau_has_its_allan_analysis(

@@ -1,9 +1,12 @@
 """``station report RUN --format pdf|html|json|csv --out DIR``: spec sheets of a graded run.
 
 Grades the run with the profile (given, or the run's) exactly as ``station grade`` does,
-writes the report file (PDF: one page per unit; HTML: self-contained; JSON: the schema of
+writes the report file (PDF: per unit a first page to send, its other pages and its test
+record, each page numbered; HTML: self-contained; JSON: the schema of
 docs/report-json-schema.md; CSV: one row per unit and axis) and records it in the results
 database against each unit's grading (storing the grading first when it is not there yet).
+--header sheet.toml puts the test house on the sheet: company, logo, station, conditions,
+signature lines.
 """
 
 from __future__ import annotations

@@ -230,6 +230,11 @@ LIMIT_LINE_NOTE = (
 )
 
 
+#: The figures table's caption: which figures are the specification.
+SPEC_CAPTION = ("Specification: the figures graded against the profile's limits of the grade "
+                "shown. info: shown for information, not graded.")
+
+
 @dataclass(frozen=True)
 class EventSummary:
     """A unit's event log in brief: counts per kind, gaps and samples lost, the first events."""
@@ -312,6 +317,24 @@ class AxisLine:
     grade: str
     could_reach: str
 
+    def text(self) -> str:
+        """``axis x A``, ``axis x B, indeterminate at A``, ``axis x indeterminate at B``."""
+        if not self.could_reach:
+            return f"axis {self.axis} {self.grade}"
+        if self.grade == "indeterminate":
+            return f"axis {self.axis} indeterminate at {self.could_reach}"
+        return f"axis {self.axis} {self.grade}, indeterminate at {self.could_reach}"
+
+
+#: The analysis lines the verdict counts: (prefix, what one is, what several are).
+FLAGGED = (
+    ("REVIEW", "review item", "review items"),
+    ("NOT RESOLVED", "figure under the link's resolution", "figures under the link's resolution"),
+    ("AMBIGUOUS", "figure of which the record allows other readings (printed: the interval "
+                  "covering all)", "figures of which the record allows other readings "
+                                   "(printed: the interval covering all)"),
+)
+
 
 @dataclass(frozen=True)
 class UnitSheet:
@@ -328,11 +351,52 @@ class UnitSheet:
     events: EventSummary
     analysis: list[str]
     notes: tuple[str, ...]
+    #: The test as it was run (the footer of every page): :func:`conducted_test`
+    test: str = ""
+    #: The figure notes the test record lists beside the analysis (spikes per axis)
+    figure_notes: tuple[str, ...] = ()
 
     @property
     def title(self) -> str:
         """``Gyro spec sheet: <model> s/n <serial>``."""
         return f"Gyro spec sheet: {self.model} s/n {self.serial}"
+
+    @property
+    def spec_rows(self) -> list[FigureRow]:
+        """The figure lines of the specification: those the profile grades."""
+        return [r for r in self.rows if r.verdict is not None]
+
+    @property
+    def info_rows(self) -> list[FigureRow]:
+        """The figures shown for information, not graded (e.g. the Allan read-off of a
+        bias instability whose specification is the fitted B)."""
+        return [r for r in self.rows if r.verdict is None]
+
+    def record_sections(self) -> list[tuple[str, list[str]]]:
+        """The test record, the sheet's second part: (heading, lines) of its events
+        (each listed), the analysis (review items, unresolved and ambiguous figures,
+        spikes, gaps, Earth rate, tones, left-out tau zones), the notes and the plot's
+        convention; a heading without lines is left out."""
+        sections = [("Events", self.events.lines()),
+                    ("Analysis", [*self.analysis, *self.figure_notes]),
+                    ("Notes", list(self.notes)),
+                    ("Conventions", [LIMIT_LINE_NOTE])]
+        return [(heading, lines) for heading, lines in sections if lines]
+
+    def verdict_lines(self) -> list[str]:
+        """The verdict under the plots: the unit's grade, each axis' grade, and what the
+        test record holds that bears on it (review items, figures other readings of the
+        record allow, figures under the link's resolution)."""
+        out = [f"Verdict: grade {self.grade}; " + "; ".join(map(AxisLine.text, self.axes))]
+        said = []
+        for prefix, one, many in FLAGGED:
+            n = sum(line.startswith(prefix) for line in self.analysis)
+            if n:
+                said.append(f"{n} {one if n == 1 else many}")
+        out.append(("Flagged: " + "; ".join(said) + ". " if said else "")
+                   + "Events, gaps, analysis and notes: the test record at the end of this "
+                     "sheet.")
+        return out
 
 
 def unit_sheet(graded: RunGrade, unit: UnitGrade) -> UnitSheet:
@@ -350,4 +414,28 @@ def unit_sheet(graded: RunGrade, unit: UnitGrade) -> UnitSheet:
         event_summary(u, graded),
         analysis_lines(unit, graded.output_units),
         unit.notes,
+        conducted_test(graded, unit),
+        tuple(f"{a.axis}: {n}" for a in unit.axes for n in a.analysis.figures.notes
+              if n.startswith("spikes:")),
     )
+
+
+def duration_text(seconds: float) -> str:
+    """A test's duration in the unit that reads best: ``12 h``, ``20.2 min``, ``45 s``."""
+    if seconds >= 3600:
+        return f"{seconds / 3600:.3g} h"
+    if seconds >= 60:
+        return f"{seconds / 60:.3g} min"
+    return f"{seconds:.3g} s"
+
+
+def conducted_test(graded: RunGrade, unit: UnitGrade) -> str:
+    """The test as it was run, from the record (not from the profile's description, which
+    says what the profile asks for): ``12 h static test at 10 Hz (warm-up 300 s
+    discarded), profile VG951@1, guard-banded``; a test sequence's run says its sequence."""
+    record, p = unit.unit.record, graded.profile
+    kind = (f"test sequence {unit.sequence.sequence}" if unit.sequence is not None
+            else "static test")
+    return (f"{duration_text(record.duration_s)} {kind} at {record.sample_rate_hz:g} Hz "
+            f"(warm-up {unit.warmup_discarded_s:g} s discarded), profile {p.ref}, "
+            f"{p.rule} at {p.confidence:.0%}")

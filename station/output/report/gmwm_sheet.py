@@ -34,18 +34,20 @@ from station.output.report.gmwm_terms import (  # noqa: E402
     has_gmwm,
 )
 from station.output.report.panels import figure_png  # noqa: E402
+from station.output.report.pdf_page import CONTENT_TOP, subtitle  # noqa: E402
 
 __all__ = ["gmwm_page", "gmwm_png", "gmwm_section", "has_gmwm"]
 
-def gmwm_page(unit: UnitGrade, title: str, size_in: tuple[float, float]) -> Figure:
-    """The PDF page of a unit's GMWM: the table, the model lines and a plot per axis."""
+def gmwm_page(unit: UnitGrade, size_in: tuple[float, float]) -> Figure:
+    """The PDF page of a unit's GMWM: the table, the model lines and a plot per axis (the
+    sheet's header and footer are drawn on it by :mod:`station.output.report.pdf`)."""
     fig = plt.figure(figsize=size_in)
-    fig.text(0.06, 0.972, f"{title}: GMWM noise model", fontsize=14, weight="bold", va="top")
+    subtitle(fig, "GMWM noise model")
     axes = fitted_axes(unit)
     rows = [r for a in axes for r in gmwm_rows(a)]
     cells = [[r.axis, r.term, r.unit, fmt(r.value), fmt(r.stderr), r.allan or "-"] for r in rows]
     row_h = min(0.016, 0.30 / (len(rows) + 1))
-    top = 0.935
+    top = CONTENT_TOP
     height = row_h * (len(rows) + 1)
     tax = fig.add_axes((0.06, top - height, 0.88, height))
     tax.axis("off")
@@ -67,7 +69,7 @@ def gmwm_page(unit: UnitGrade, title: str, size_in: tuple[float, float]) -> Figu
     plot_top = y - 0.014 * len(lines) - 0.04
     n = max(len(axes), 1)
     gap = 0.06
-    each = (plot_top - 0.05 - gap * (n - 1)) / n
+    each = (plot_top - 0.08 - gap * (n - 1)) / n
     for i, a in enumerate(axes):
         bottom = plot_top - (i + 1) * each - i * gap
         draw_wavelet(fig.add_axes((0.12, bottom, 0.82, each)), a.analysis, fontsize=7,

@@ -1,9 +1,12 @@
 """The spec sheet as one self-contained HTML file: inline CSS, PNG plots embedded as data URIs.
 
-Each unit is a ``<section class="unit">`` (a new page when printed) holding the header
-table, the figures table (``<table class="figures">``, one ``<tr>`` per axis and figure
-with ``data-axis``, ``data-figure`` and ``data-verdict`` attributes for machines), the
-Allan and DAVAR images and the event summary.
+Each unit is a ``<section class="unit">`` (a new page when printed) laid out as the PDF
+sheet: the header table, the figures table (``<table class="figures">``, one ``<tr>`` per
+axis and figure with ``data-axis``, ``data-figure`` and ``data-verdict`` attributes for
+machines; the specification's figures first, then those shown for information, marked
+``info``), the Allan and DAVAR images, the verdict and the approval block; then its test
+record (``<div class="test-record">``, a page of its own when printed: events, analysis,
+notes); every part ends with the footer naming the test as it was run.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ from typing import TYPE_CHECKING
 from station.evaluation.grading import RunGrade, UnitGrade
 from station.output.colors import VERDICT_COLORS
 from station.output.report.common import (
-    LIMIT_LINE_NOTE,
+    SPEC_CAPTION,
+    UnitSheet,
     fmt,
     fmt_interval,
     unit_sheet,
@@ -47,6 +51,10 @@ img { max-width: 100%; }
 table.approval td { height: 3em; min-width: 14em; color: #888; font-size: 8pt;
                     vertical-align: bottom; }
 p.convention { font-size: 9pt; color: #444; }
+tr.info td { color: #666; font-style: italic; }
+div.test-record { page-break-before: always; }
+footer.test { font-size: 8pt; color: #555; border-top: 1px solid #bbb; margin-top: 1.5em;
+              padding-top: 0.3em; }
 """ + "".join(f"tr.{v} td.verdict {{ background: {c}; }}\n" for v, c in VERDICT_COLORS.items() if v)
 
 
@@ -64,9 +72,11 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         f'<section class="unit" id="unit-{escape(sheet.unit_id)}" '
         f'data-grade="{escape(sheet.grade)}">'
     ]
+    company = ""
     if head is not None and (head.logo is not None or head.company):
         logo = _img(head.logo.read_bytes(), "logo") if head.logo is not None else ""
-        parts.append(f'<div class="company">{logo} {escape(head.company)}</div>')
+        company = f'<div class="company">{logo} {escape(head.company)}</div>'
+        parts.append(company)
     parts += [
         f"<h1>{escape(sheet.title)} "
         f'<span class="grade {escape(grade_class)}">GRADE {escape(sheet.grade.upper())}'
@@ -80,7 +90,7 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         "<th>confidence interval</th><th>limit</th><th>grade</th><th>verdict</th>"
         "<th>note</th></tr>"
     )
-    for r in sheet.rows:
+    for r in sheet.spec_rows + sheet.info_rows:  # the specification first
         verdict = r.verdict or "info"
         parts.append(
             f'<tr class="{verdict}" data-axis="{escape(r.axis)}" data-figure="{escape(r.name)}" '
@@ -88,18 +98,15 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             f"<td>{escape(r.axis)}</td><td>{escape(r.label)}</td><td>{escape(r.unit)}</td>"
             f'<td class="num">{fmt(r.value)}</td>'
             f'<td class="num">{fmt_interval(r.ci_low, r.ci_high)}</td>'
-            f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td><td>{escape(r.grade)}</td>'
+            f'<td class="num">{fmt(r.limit) if r.verdict else ""}</td>'
+            f'<td>{escape(r.grade) if r.verdict else "not graded"}</td>'
             f'<td class="verdict">{verdict}</td><td>{escape(r.note)}</td></tr>'
         )
-    parts.append("</table><p>")
-    parts += [f"axis {escape(a.axis)}: grade <b>{escape(a.grade)}</b>"
-              + (f" (indeterminate at {escape(a.could_reach)})" if a.could_reach else "") + "<br>"
-              for a in sheet.axes]
+    parts.append(f'</table><p class="convention">{escape(SPEC_CAPTION)}</p>')
     if unit.axes:
-        parts.append("</p><h2>Allan deviation</h2>")
+        parts.append("<h2>Allan deviation</h2>")
         parts.append(_img(allan_png(unit, graded.output_units),
                           "Allan deviation with confidence band, fitted terms and limits"))
-        parts.append(f'<p class="convention">{escape(LIMIT_LINE_NOTE)}</p>')
         if has_accel(unit):
             accel_unit = accel_plot_unit(graded.profile)
             parts.append("<h2>Allan deviation of the accelerometers</h2>")
@@ -111,24 +118,16 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
         parts.append("<h2>Dynamic Allan deviation</h2>")
         parts.append(_img(davar_png(unit, graded.output_units), "DAVAR heat map per axis"))
     else:
-        parts.append("</p><p>No noise figures: see the notes below.</p>")
+        parts.append("<p>No noise figures: see the test record.</p>")
     if has_gmwm(unit):
         parts.append(gmwm_section(unit))
         parts.append(_img(gmwm_png(unit), "Haar wavelet variance with its interval, the GMWM "
                                           "model and the Allan fit's model as a wavelet variance"))
     if unit.sequence is not None:
         parts.append(sequence_section(unit.sequence))
-    parts.append('<h2>Events</h2><ul class="events">')
-    parts += [f"<li>{escape(line)}</li>" for line in sheet.events.lines() + list(sheet.notes)]
-    parts.append('</ul><h2>Analysis</h2><ul class="analysis">')
-    parts += [f"<li>{escape(line)}</li>" for line in sheet.analysis]
-    parts += [
-        f"<li>{escape(a.axis)}: {escape(n)}</li>"
-        for a in unit.axes
-        for n in a.analysis.figures.notes
-        if n.startswith("spikes:")
-    ]
-    parts.append("</ul>")
+    said = sheet.verdict_lines()
+    parts.append(f'<h2>Verdict</h2><p class="verdict"><b>{escape(said[0])}</b><br>'
+                 + "<br>".join(escape(line) for line in said[1:]) + "</p>")
     if head is not None and head.approval:
         parts.append(
             '<table class="approval"><tr>'
@@ -137,8 +136,25 @@ def unit_section(graded: RunGrade, unit: UnitGrade) -> str:
             + "<td>name, date, signature</td>" * len(head.approval)
             + "</tr></table>"
         )
+    footer = _footer(graded, sheet)
+    parts += [footer, f'<div class="test-record">{company}<h1>{escape(sheet.title)}: test '
+                      f"record</h1>"]
+    for heading, lines in sheet.record_sections():
+        parts.append(f'<h2>{escape(heading)}</h2><ul class="{escape(heading.lower())}">')
+        parts += [f"<li>{escape(line)}</li>" for line in lines]
+        parts.append("</ul>")
+    parts += [footer, "</div>"]
     parts.append("</section>")
     return "\n".join(parts)
+
+
+def _footer(graded: RunGrade, sheet: UnitSheet) -> str:
+    """The footer of each part of a unit's section: the company and the test as it was
+    run, the software."""
+    company = graded.sheet.company if graded.sheet is not None else ""
+    return (f'<footer class="test">{escape(company) + " - " if company else ""}'
+            f"{escape(sheet.test)}<br>{escape(sheet.title)} - generated by gyro-station "
+            f"{escape(graded.software_version)}</footer>")
 
 
 def sequence_section(seq: UnitSequence) -> str:
