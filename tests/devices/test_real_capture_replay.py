@@ -19,7 +19,6 @@ are good marked valid (``status`` 0), the device's own word kept beside it
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from pathlib import Path
 
@@ -45,13 +44,16 @@ G = 9.80665
 
 def _record(tmp_path: Path, url: str, rate_hz: float) -> tuple[UnitData, object, object]:
     """Record one replayed unit as ``station record --profile ADIS16405 --unit URL`` does
-    (the profile's rate set to the unit's); returns its data, counts and the run."""
-    profile = dataclasses.replace(load_profile("ADIS16405"), sample_rate_hz=rate_hz)
+    (a replay is recorded at its own rate, ``rate_hz``, whatever the profile's 100 Hz);
+    returns its data, counts and the run."""
+    profile = load_profile("ADIS16405")
     out = tmp_path / "run.h5"
     stop = Recorder(RunConfig((url,), 3600.0, out, profile=profile)).run()
     assert stop.reason == REASON_END_OF_REPLAY
     with open_run_file(out) as f:
-        return read_unit(f, "unit1"), unit_counts(f, "unit1"), read_run(out)
+        unit = read_unit(f, "unit1")
+        assert math.isclose(float(unit.attrs["sample_rate_hz"]), rate_hz)
+        return unit, unit_counts(f, "unit1"), read_run(out)
 
 
 def _golden(path: Path) -> list[dict[str, list[str]]]:
