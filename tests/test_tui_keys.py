@@ -64,13 +64,13 @@ async def _typed_path(two_runs: tuple[Path, Path], tmp_path: Path) -> None:
         assert app.focused is field
         await pilot.press(*str(older), "enter")  # typed into the field, not lost
         assert field.value == str(older)
-        sheet = app.screen
-        assert isinstance(sheet, SpecSheetScreen) and sheet.path == older
+        first = app.screen
+        assert isinstance(first, SpecSheetScreen) and first.path == older
         await pilot.press("escape")
         assert app.screen is runs
         field.value = ""
         await pilot.press("down", "up", "down", "enter")  # nothing typed: the list's run
-        sheet = app.screen
+        sheet: object = app.screen
         assert isinstance(sheet, SpecSheetScreen) and sheet.path == older
         await pilot.press("escape")
         field.value = newer.name  # a file name of the runs folder

@@ -54,7 +54,7 @@ def test_a_time_interval_never_goes_below_zero() -> None:
     assert t.mean_high == pytest.approx(4.38, abs=0.005)
     s = summarize_cycles(warmups_min, 0.95, positive=True)
     assert s.mean == t.mean and s.std_low == t.std_low
-    assert s.mean_low is not None and s.mean_high is not None
+    assert s.mean_low is not None and s.mean_high is not None and s.mean is not None
     assert 0.0 < s.mean_low < s.mean < s.mean_high
     assert (s.mean_low, s.mean_high) == pytest.approx((0.151, 11.9), rel=0.01)
     zero = summarize_cycles([0.0, 0.2, 3.0], 0.95, positive=True)

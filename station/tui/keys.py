@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 from rich.cells import cell_len
 from rich.text import Text
@@ -90,7 +91,7 @@ def own_keys(node: object) -> set[str]:
     return keys
 
 
-def screen_keys(app: App[object], screen: Screen[object]) -> list[KeyHelp]:
+def screen_keys(app: App[Any], screen: Screen[Any]) -> list[KeyHelp]:
     """Every key ``screen`` answers now (its own, then the app's), hidden ones too: the
     binding's tooltip where it has one, else its description. Textual's own keys and those
     of the focused widget (editing a field, moving in a table) are left out."""
