@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from textual.pilot import Pilot
-from textual.widgets import DataTable, Input, Select
+from textual.widgets import DataTable, Input, Select, Static
 
 from devices.protocols import DeviceDescription
 from station.commands.demo import simulate_demo_record
@@ -202,6 +202,9 @@ async def _spec_sheet_of_a_stored_run(stored_run: Path, tmp_path: Path) -> None:
         doc = json.loads(next(reports.glob("*.json")).read_text())
         assert len(doc["units"]) == 2
         await until(pilot, lambda: "Wrote" in notifications(app), what="the notification")
+        # the folder it went to, not only the file's name
+        assert f"in {reports.resolve()}" in notifications(app)
+        assert f"in {reports.resolve()}" in str(sheet.query_one("#exported", Static).render())
         await pilot.press("f3")  # results browser: the grading was stored
         results = app.screen
         assert isinstance(results, ResultsScreen)
@@ -233,7 +236,7 @@ async def _setup_checks(tmp_path: Path) -> None:
         assert isinstance(setup, SetupScreen)
         text = screen_text(app)
         for word in ("Profile", "Unit URL", "Duration", "Operator", "Lot", "Runs folder",
-                     "f5 Start run", "f6 Add sim unit", "f3 Results"):
+                     "f5 Start", "f6 Sim unit", "f3 Results", "f4 Runs", "f7 Sequence"):
             assert word in text, word
         await pilot.press("f5")  # nothing to start yet
         assert "Add at least one unit" in notifications(app)
@@ -242,13 +245,14 @@ async def _setup_checks(tmp_path: Path) -> None:
         assert "not a device URL" in notifications(app)
         setup.query_one("#url", Input).value = "sim+serial://NOPE?protocol=stim300&rate=10"
         await pilot.press("enter")
+        # said while its toast shows (15 s of wall time: not after the second unit's check)
+        await until(pilot, lambda: "does not answer" in notifications(app), 60, "the refusal")
         await pilot.press("f6")  # a simulated unit that answers
         await until(pilot, lambda: all(setup.checks.values()), 60, "the unit checks")
         bad, good = (setup.checks[u] for u in setup.units)
         assert not bad.ok and bad.message.startswith("bad device URL")  # without unit1 (URL)
         assert good.ok and good.description is not None
         assert good.description.model == "VG951" and good.description.serial_number == "SIM-2"
-        assert "does not answer" in notifications(app)
         rows = cell_texts(setup.query_one("#units", DataTable))
         assert rows[1][3] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
         await pilot.press("f5")

@@ -86,11 +86,11 @@ async def _start_and_quit(settings: TuiSettings, started: list[RecorderProcess])
             30,
             "samples",
         )
-        # where it records is in the header, not in a toast over the Allan plot
-        assert (
-            f"recorder pid {started[0].pid}" in live.sub_title
-            and "Run started" not in notifications(app)
-        )
+        # where it records (the folder) and by which process is on the screen, not in a
+        # toast over the Allan plot
+        assert f"recorder pid {started[0].pid}" in live.where
+        assert f" in {live.path.parent.resolve()}" in live.where
+        assert "Run started" not in notifications(app)
         return live.path
 
 
@@ -123,7 +123,7 @@ async def _reattach_stop_and_grade(settings: TuiSettings, path: Path) -> None:
             "run time [s]",
             "ADEV [deg/h]",
             "tau [s]",
-            "s Stop run",
+            "s Stop",
         )
         await until(
             pilot,

@@ -78,6 +78,9 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         assert screen.process is None
         screen.query_one("#seq-units", Input).value = f"{unit_url(1)} {unit_url(2)}"
         await pilot.press("f5")
+        # where its files go: the folder is named
+        await until(pilot, lambda: "Running quick into" in notifications(app), 10, "the start")
+        assert f"in {settings.runs_dir.resolve()} (its log" in notifications(app)
         steps = screen.query_one("#steps", DataTable)
         # followed step by step: the chamber's set point and air, a record's progress
         await until(pilot, lambda: screen.progress is not None

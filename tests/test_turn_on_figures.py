@@ -12,7 +12,11 @@ import pytest
 
 from analysis.errors import TooFewSamplesError
 from analysis.models.power_cycle import PowerCycleModel, ThermalModel, first_order_step
-from analysis.sequences.cycle_stats import std_interval, summarize_cycles
+from analysis.sequences.cycle_stats import (
+    lognormal_mean_interval,
+    std_interval,
+    summarize_cycles,
+)
 from analysis.sequences.temperature_sensitivity import (
     TemperaturePoint,
     fit_temperature_sensitivity,
@@ -38,6 +42,43 @@ def test_intervals_cover_the_truth_at_their_level() -> None:
         std_hits += s.std_low <= 2.0 <= s.std_high  # type: ignore[operator]
     assert abs(mean_hits / 400 - 0.95) < 0.033
     assert abs(std_hits / 400 - 0.95) < 0.033
+
+
+def test_a_time_interval_never_goes_below_zero() -> None:
+    """Five warm-ups, one of them late: Student's t said 1.42 min [-1.54, 4.38]; a time's
+    interval is log-normal, positive, and holds the mean; with a value of 0 (no logarithm)
+    the t interval's lower bound is raised to 0."""
+    warmups_min = np.array([18.0, 25.0, 20.0, 22.0, 341.0]) / 60.0
+    t = summarize_cycles(warmups_min, 0.95)
+    assert t.mean == pytest.approx(1.42) and t.mean_low == pytest.approx(-1.54, abs=0.005)
+    assert t.mean_high == pytest.approx(4.38, abs=0.005)
+    s = summarize_cycles(warmups_min, 0.95, positive=True)
+    assert s.mean == t.mean and s.std_low == t.std_low
+    assert s.mean_low is not None and s.mean_high is not None and s.mean is not None
+    assert 0.0 < s.mean_low < s.mean < s.mean_high
+    assert (s.mean_low, s.mean_high) == pytest.approx((0.151, 11.9), rel=0.01)
+    zero = summarize_cycles([0.0, 0.2, 3.0], 0.95, positive=True)
+    assert zero.mean_low == 0.0 and zero.mean_high == summarize_cycles([0.0, 0.2, 3.0]).mean_high
+    equal = summarize_cycles([60.0, 60.0], 0.95, positive=True)
+    assert (equal.mean_low, equal.mean_high) == pytest.approx((60.0, 60.0))
+    with pytest.raises(ValueError, match="> 0"):
+        lognormal_mean_interval([1.0, -1.0], 0.95)
+
+
+def test_a_time_interval_keeps_its_level_on_skewed_draws() -> None:
+    """2000 sets of five log-normal draws (sigma 1, mean exp(1/2)): the log-normal interval
+    covers the mean 93 % (20000 draws: 93.4 %) at 95 %, within 3 sigma of 2000 trials;
+    Student's t only 82 %."""
+    rng = np.random.default_rng(11)
+    truth = math.exp(0.5)
+    draws = np.exp(rng.standard_normal((2000, 5)))
+    hits = sum(lo <= truth <= hi for lo, hi in (lognormal_mean_interval(d, 0.95) for d in draws))
+    t_hits = 0
+    for d in draws:
+        s = summarize_cycles(d, 0.95)
+        t_hits += s.mean_low <= truth <= s.mean_high  # type: ignore[operator]
+    assert 0.915 < hits / 2000 < 0.955
+    assert t_hits / 2000 < 0.87
 
 
 def test_summaries_of_few_cycles_say_what_they_cannot_tell() -> None:

@@ -6,6 +6,13 @@ variable: the mean's interval is Student's t with ``n - 1`` degrees of freedom, 
 standard deviation's interval the chi-square interval with ``n - 1`` degrees of freedom
 (the turn-on to turn-on repeatability of IEEE Std 952-1997 and IEEE Std 1431-2004 is
 this standard deviation of the per-cycle mean biases).
+
+A time or a duration (a turn-on time, a warm-up time) is positive and skewed: a few cycles
+and one late warm-up give a Student-t interval of the mean that reaches below zero (five
+warm-ups of 18, 25, 20, 22 and 341 s: 1.42 min [-1.54, 4.38]) and covers the mean of a
+skewed variable less often than it says. Summarized with ``positive=True``, the mean's
+interval is that of a log-normal variable (:func:`lognormal_mean_interval`), which never
+reaches zero (the same five: [0.15, 11.9] min) and keeps its level on skewed draws.
 """
 
 from __future__ import annotations
@@ -29,8 +36,9 @@ class CycleSummary:
     n : int
         Number of values.
     mean, mean_low, mean_high : float or None
-        Mean and its Student-t interval (None for the bounds when ``n < 2``; None
-        throughout when ``n == 0``).
+        Mean and its interval (None for the bounds when ``n < 2``; None throughout when
+        ``n == 0``): Student's t, or for a positive quantity (``positive=True``) the
+        log-normal interval of :func:`lognormal_mean_interval`, never below 0.
     std, std_low, std_high : float or None
         Standard deviation (ddof = 1) and its chi-square interval with ``n - 1`` degrees
         of freedom (None when ``n < 2``).
@@ -86,7 +94,51 @@ def t_half_width(stderr: float, dof: int, confidence: float) -> float:
     return float(q) * stderr
 
 
-def summarize_cycles(values: ArrayLike, confidence: float = 0.95) -> CycleSummary:
+def lognormal_mean_interval(values: ArrayLike, confidence: float) -> tuple[float, float]:
+    """Interval of the mean of a positive, log-normal quantity (a time, a duration).
+
+    The modified Cox interval (Olsson, "Confidence intervals for the mean of a log-normal
+    distribution", Journal of Statistics Education 13(1), 2005, eq. 5; Zhou and Gao,
+    Statistics in Medicine 16, 1997): with ``y = log(values)``, mean ``m`` and variance
+    ``s2`` (ddof = 1) of ``n`` values,
+    ``exp(m + s2/2 +- t((1 + c)/2, n - 1) * sqrt(s2/n + s2**2 / (2 (n - 1))))``.
+    Both bounds are positive. On 20000 draws of five log-normal values (sigma 1) it
+    covers the mean 93.4 % of the time at 95 %, where Student's t covers it 82.0 %
+    (``tests/test_turn_on_figures.py`` draws 2000).
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        The values, all finite and > 0, ``n >= 2``, any unit (the bounds come in it).
+    confidence : float
+        Two-sided level.
+
+    Returns
+    -------
+    (low, high) : tuple of float
+
+    Raises
+    ------
+    ValueError
+        Fewer than two values, a value that is not finite and > 0, or ``confidence``
+        outside (0, 1).
+    """
+    check_confidence(confidence)
+    v = np.asarray(values, dtype=np.float64)
+    if v.ndim != 1 or v.size < 2:
+        raise ValueError(f"the interval of a mean needs >= 2 values, got shape {v.shape}")
+    if not np.all(np.isfinite(v) & (v > 0)):
+        raise ValueError("a log-normal interval needs every value finite and > 0")
+    y = np.log(v)
+    n = int(y.size)
+    s2 = float(y.var(ddof=1))
+    centre = float(y.mean()) + s2 / 2.0
+    half = t_half_width(math.sqrt(s2 / n + s2 * s2 / (2.0 * (n - 1))), n - 1, confidence)
+    return math.exp(centre - half), math.exp(centre + half)
+
+
+def summarize_cycles(values: ArrayLike, confidence: float = 0.95, *,
+                     positive: bool = False) -> CycleSummary:
     """Mean and spread of per-cycle values (NaN entries, cycles without a value, left out).
 
     Parameters
@@ -95,6 +147,10 @@ def summarize_cycles(values: ArrayLike, confidence: float = 0.95) -> CycleSummar
         One value per cycle, any unit.
     confidence : float
         Two-sided level of the intervals.
+    positive : bool
+        The values are a positive quantity (a time, a duration): the mean's interval is
+        the log-normal one (:func:`lognormal_mean_interval`); where a value is 0 or less
+        (no logarithm) it is Student's t with its lower bound raised to 0.
 
     Returns
     -------
@@ -118,6 +174,13 @@ def summarize_cycles(values: ArrayLike, confidence: float = 0.95) -> CycleSummar
         return CycleSummary(v, 1, mean, None, None, None, None, None, float(v.max()), confidence)
     std = float(v.std(ddof=1))
     half = t_half_width(std / math.sqrt(n), n - 1, confidence)
+    mean_low, mean_high = mean - half, mean + half
+    if positive and np.all(v > 0):
+        mean_low, mean_high = lognormal_mean_interval(v, confidence)
+        # an interval of the log-normal mean about the sample mean: it holds it in any case
+        mean_low, mean_high = min(mean_low, mean), max(mean_high, mean)
+    elif positive:
+        mean_low = max(0.0, mean_low)
     low, high = std_interval(std, n - 1, confidence)
-    return CycleSummary(v, n, mean, mean - half, mean + half, std, low, high, float(v.max()),
+    return CycleSummary(v, n, mean, mean_low, mean_high, std, low, high, float(v.max()),
                         confidence)

@@ -12,7 +12,9 @@ unit and each axis the profile grades:
     resumed), each is its bias at the temperature fit's reference temperature.
 ``turn_on_time``
     switch-on to the first valid sample, per switch-on the recorder heard; the mean with
-    its Student-t interval, the spread and the largest.
+    its interval (log-normal: a time's interval never goes below 0, see
+    :func:`analysis.sequences.cycle_stats.lognormal_mean_interval`), the spread and the
+    largest.
 ``warmup_time``
     switch-on to the time the bias trend enters ``+- warmup_band_deg_h`` of the settled
     bias for good (:func:`analysis.sequences.turn_on.warmup_curve`), per switch-on; mean, interval,
@@ -522,7 +524,7 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
     fit_notes: list[str] = []
     for axis, col in columns.items():
         warm = summarize_cycles([np.nan if (t := c.warmup_time_s(axis)) is None else t
-                                 for c in cycles], confidence)
+                                 for c in cycles], confidence, positive=True)
         points = temperature_points(views, col, spec)
         linear, quadratic = _fits(points, spec, confidence)
         biases = _turn_on_biases(cycles, axis, linear)
@@ -540,7 +542,7 @@ def grade_unit_sequence(run: SequenceRun, unit_id: str, profile: Profile,
         axes.append(AxisSequence(axis, turn_on_repeatability(biases, confidence), warm,
                                  tuple(points), linear, quadratic, hyst))
     turn_on = summarize_cycles([np.nan if c.turn_on_time_s is None else c.turn_on_time_s
-                                for c in cycles], confidence)
+                                for c in cycles], confidence, positive=True)
     figures = _canonical(axes, turn_on, confidence)
     graded = tuple(_graded(s, figures[_FIGURE_OF[s.name]], profile) for s in spec.figures)
     limited = [g for g in graded if g.spec.limits]

@@ -21,6 +21,7 @@ from rich.console import Console
 from textual import on, work
 from textual.app import App, ComposeResult
 from textual.binding import Binding
+from textual.screen import ModalScreen, Screen
 from textual.worker import get_current_worker
 
 from station.output.results_backends import STORE_RETRY_S, DatabaseLocation
@@ -33,6 +34,7 @@ from station.services.recorder_process import (
     wait_for_run_file,
 )
 from station.tui.browse_screens import ResultsScreen, RunChosen, RunsScreen
+from station.tui.keys import KeysScreen, screen_keys
 from station.tui.live_screen import LiveScreen
 from station.tui.messages import explain, for_the_form
 from station.tui.sequence_screen import SequenceScreen
@@ -45,11 +47,11 @@ CSS = """
 .label2 { width: auto; padding: 1 1 0 1; }
 .short { width: 1fr; }
 .small { min-width: 8; width: auto; }
-#url, #runs_dir, #path { width: 1fr; }
+#url, #runs_dir, #path, #seq-units { width: 1fr; }
 #profile { width: 1fr; }
 SetupScreen #units { height: 1fr; min-height: 4; }
 #hint { height: auto; color: $text-muted; padding: 0 1; }
-#run-title { height: 1; padding: 0 1; }
+#run-title { height: auto; max-height: 2; padding: 0 1; }
 #progress-row { height: 1; padding: 0 1; }
 #progress { width: auto; }
 #times { width: 1fr; padding: 0 0 0 1; }
@@ -60,7 +62,7 @@ SpecSheetScreen #profile { width: 24; }
 #tabs { height: 1fr; }
 #exports { height: 3; }
 #exports Button { min-width: 10; width: auto; margin: 0 1 0 0; }
-#exported { width: 1fr; padding: 1 1 0 1; }
+#exported { width: 1fr; padding: 0 1; }  /* 3 lines: a folder's path */
 #verdict { width: 22; }
 #yield { height: auto; padding: 0 1; }
 #seq-status { height: auto; padding: 0 1; }
@@ -73,6 +75,12 @@ ConfirmScreen { align: center middle; }
 #answers { height: 3; align-horizontal: center; }
 #answers Button { margin: 0 2; }
 """
+
+
+#: The screen each of the app's keys shows.
+_SCREEN_OF_ACTION: dict[str, type[Screen[None]]] = {
+    "new_run": SetupScreen, "results": ResultsScreen, "runs": RunsScreen,
+    "sequence": SequenceScreen}
 
 
 @dataclass(frozen=True)
@@ -160,12 +168,18 @@ class StationApp(App[None]):
     TITLE = "Gyro station"
     CSS = CSS
     ENABLE_COMMAND_PALETTE = False  # the footer shows every binding; it needs the room
+    #: The footer shows the description, F1 the tooltip; a key to the screen shown is hidden.
     BINDINGS = [
-        Binding("f2", "new_run", "New run"),
-        Binding("f3", "results", "Results"),
-        Binding("f4", "runs", "Runs"),
-        Binding("f7", "sequence", "Sequence"),
-        Binding("ctrl+q", "quit", "Quit", priority=True),
+        Binding("f1", "keys", "Help", tooltip="this list: every key of the screen"),
+        Binding("f2", "new_run", "New run", tooltip="set up a new run (the first screen)"),
+        Binding("f3", "results", "Results",
+                tooltip="the results database: gradings by model, lot, verdict; yields"),
+        Binding("f4", "runs", "Runs",
+                tooltip="the run files of the runs folder, or the path of any run file"),
+        Binding("f7", "sequence", "Sequence",
+                tooltip="start, follow or resume a test sequence"),
+        Binding("ctrl+q", "quit", "Quit", priority=True,
+                tooltip="quit (a run or sequence being recorded goes on)"),
     ]
 
     def __init__(self, settings: TuiSettings | None = None) -> None:
@@ -224,6 +238,23 @@ class StationApp(App[None]):
                     f"TUI does not stop it.", title="Run in progress", timeout=10)
 
     # -- screens -----------------------------------------------------------------------
+    def check_action(self, action: str, parameters: tuple[object, ...]) -> bool | None:
+        """The key to the screen shown is off (and out of the footer, which needs the room)."""
+        screen = _SCREEN_OF_ACTION.get(action)
+        if screen is None:
+            return True
+        shown = next((s for s in reversed(self.screen_stack) if not isinstance(s, ModalScreen)),
+                     None)  # the screen under a question or the keys list
+        return not isinstance(shown, screen)
+
+    def action_keys(self) -> None:
+        """F1: every key of the screen shown, with what it does."""
+        screen = self.screen
+        if not isinstance(screen, KeysScreen):
+            # the screen's own title where it has one, else what the header says of it
+            name = screen.title if screen.title != self.title else screen.sub_title
+            self.push_screen(KeysScreen(name or self.title, screen_keys(self, screen)))
+
     def action_new_run(self) -> None:
         """Back to the set-up screen."""
         while len(self.screen_stack) > 2:

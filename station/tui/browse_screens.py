@@ -13,10 +13,11 @@ from textual.binding import Binding
 from textual.containers import Horizontal
 from textual.message import Message
 from textual.screen import Screen
-from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Static
+from textual.widgets import DataTable, Header, Input, Label, Select, Static
 
 from station.model.kinds import VERDICTS, Verdict
 from station.output.results_backends import DatabaseLocation
+from station.tui.keys import BACK, StationFooter
 from station.tui.messages import explain
 
 if TYPE_CHECKING:
@@ -66,9 +67,20 @@ def list_runs(runs_dir: Path, limit: int = 200) -> list[RunListing]:
 
 
 class RunsScreen(Screen[None]):
-    """The run files of the runs folder; Enter opens one (live, or its spec sheet)."""
+    """The run files of the runs folder; Enter opens one (live, or its spec sheet).
 
-    BINDINGS = [Binding("escape", "app.pop_screen", "Back"), Binding("f5", "refresh", "Refresh")]
+    The *Run file* field has the focus: a typed path (or a file name of the runs folder)
+    and Enter opens that file; with the field empty, up and down move in the list and
+    Enter opens the run under the cursor.
+    """
+
+    BINDINGS = [
+        Binding("escape", "app.pop_screen", "Back", tooltip=BACK),
+        Binding("f5", "refresh", "Refresh", tooltip="read the runs folder again"),
+        Binding("down", "move(1)", "Next run", show=False,
+                tooltip="(down, up) the next or previous run of the list"),
+        Binding("up", "move(-1)", "Previous run", show=False),
+    ]
 
     def __init__(self, runs_dir: Path) -> None:
         super().__init__()
@@ -79,23 +91,30 @@ class RunsScreen(Screen[None]):
         yield Header()
         with Horizontal(classes="row"):
             yield Label("Run file", classes="label")
-            yield Input(placeholder="path of any run .h5 file, Enter to open", id="path")
+            yield Input(placeholder="a run file's path + Enter; or up/down, Enter below",
+                        id="path")
         yield DataTable(id="runs", cursor_type="row", zebra_stripes=True)
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """List the runs."""
-        self.sub_title = f"Runs in {self.runs_dir}"
+        self.sub_title = f"Runs in {self.runs_dir.resolve()}"
         table = self.query_one("#runs", DataTable)
         table.add_column("run file", key="file")
         table.add_column("state", key="state")
         table.add_column("stop reason", key="reason")
-        table.focus()
+        self.query_one("#path", Input).focus()  # typing goes where the placeholder says
         self.action_refresh()
 
     def action_refresh(self) -> None:
         """Read the folder again."""
         self._list()
+
+    def action_move(self, step: int) -> None:
+        """Move the list's cursor while the Run file field has the focus."""
+        table = self.query_one("#runs", DataTable)
+        if table.row_count:
+            table.move_cursor(row=max(0, min(table.row_count - 1, table.cursor_row + step)))
 
     @work(thread=True, exclusive=True, exit_on_error=False)
     def _list(self) -> None:
@@ -111,12 +130,20 @@ class RunsScreen(Screen[None]):
             table.add_row(r.path.name, Text(r.state, style=styles.get(r.state, "")), r.detail,
                           key=str(r.path))
         if not listing:
-            self.notify(f"No run files in {self.runs_dir} yet: start one with F2 (New run), "
-                        f"or type the path of a run file above.")
+            self.notify(f"No run files in {self.runs_dir.resolve()} yet: start one with F2 "
+                        f"(New run), or type the path of a run file above.")
 
     @on(DataTable.RowSelected, "#runs")
     def _chosen(self, event: DataTable.RowSelected) -> None:
-        r = self.listing[event.cursor_row]
+        self.open_listed(event.cursor_row)
+
+    def open_listed(self, row: int) -> None:
+        """Open the run of the list's ``row`` (live when recording, else its spec sheet)."""
+        if not 0 <= row < len(self.listing):
+            self.notify(f"No run files in {self.runs_dir.resolve()}: type a run file's path.",
+                        severity="warning")
+            return
+        r = self.listing[row]
         if r.state == "interrupted":
             self.notify(f"{r.path.name} was not closed (recorder killed): run `station recover "
                         f"{r.path}` first; its spec sheet opens with the data up to the last "
@@ -125,9 +152,15 @@ class RunsScreen(Screen[None]):
 
     @on(Input.Submitted, "#path")
     def _typed(self, event: Input.Submitted) -> None:
-        path = Path(event.value.strip()).expanduser()
+        typed = event.value.strip()
+        if not typed:  # nothing typed: the run under the list's cursor
+            self.open_listed(self.query_one("#runs", DataTable).cursor_row)
+            return
+        path = Path(typed).expanduser()
+        if not path.is_file() and (self.runs_dir / path).is_file():
+            path = self.runs_dir / path  # a file name of the runs folder
         if not path.is_file():
-            self.notify(f"No file {path}: check the path.", severity="error")
+            self.notify(f"No file {path.resolve()}: check the path.", severity="error")
             return
         from station.services.recorder_process import run_file_state
 
@@ -145,7 +178,8 @@ _VERDICTS = [(v, v) for v in VERDICTS]
 class ResultsScreen(Screen[None]):
     """The results database: gradings filtered by model, lot and verdict; yield per lot."""
 
-    BINDINGS = [Binding("escape", "app.pop_screen", "Back"), Binding("f5", "refresh", "Refresh")]
+    BINDINGS = [Binding("escape", "app.pop_screen", "Back", tooltip=BACK),
+                Binding("f5", "refresh", "Refresh", tooltip="query the database again")]
 
     def __init__(self, db_path: DatabaseLocation) -> None:
         super().__init__()
@@ -162,7 +196,7 @@ class ResultsScreen(Screen[None]):
             yield Select(_VERDICTS, prompt="any verdict", id="verdict")
         yield DataTable(id="results", cursor_type="row", zebra_stripes=True)
         yield Static("", id="yield")
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """Read the database."""

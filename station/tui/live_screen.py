@@ -12,9 +12,10 @@ from textual.containers import Horizontal, Vertical
 from textual.message import Message
 from textual.reactive import reactive
 from textual.screen import ModalScreen, Screen
-from textual.widgets import Button, DataTable, Footer, Header, Label, ProgressBar, Static
+from textual.widgets import Button, DataTable, Header, Label, ProgressBar, Static
 
 from station.services.recorder_process import RecorderProcess, run_file_state, stop_run
+from station.tui.keys import StationFooter
 from station.tui.live import LiveSnapshot, RunPoller
 from station.tui.messages import explain
 from station.tui.widgets import SeriesPlot, count, hms, model_name, number
@@ -66,9 +67,10 @@ class LiveScreen(Screen[None]):
     """
 
     BINDINGS = [
-        Binding("s", "stop", "Stop run"),
-        Binding("g", "spec_sheet", "Spec sheet"),
-        Binding("escape", "detach", "Detach"),
+        Binding("s", "stop", "Stop", tooltip="stop the run now (asks first)"),
+        Binding("g", "spec_sheet", "Sheet", tooltip="the spec sheet, once the run has stopped"),
+        Binding("escape", "detach", "Detach",
+                tooltip="leave this screen; the run goes on recording (F4 shows it again)"),
     ]
 
     # always_update: a snapshot holds arrays, which == cannot compare
@@ -96,7 +98,7 @@ class LiveScreen(Screen[None]):
 
     def compose(self) -> ComposeResult:
         yield Header()
-        yield Static(f"{self.path.name}: reading the run file...", id="run-title")
+        yield Static(f"reading the run file...{self.where}", id="run-title")
         with Horizontal(id="progress-row"):
             yield ProgressBar(total=1.0, show_eta=False, show_percentage=True, id="progress")
             yield Static("", id="times")
@@ -106,16 +108,11 @@ class LiveScreen(Screen[None]):
                              id="rate-plot")
             yield SeriesPlot("Allan deviation, axis 1", "tau [s]", "ADEV [deg/h]", log=True,
                              id="adev-plot")
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """Set up the table and start polling the file."""
         self.sub_title = f"Live: {self.path.name}"
-        if self.process is not None:  # said in the header, not a toast over the plots
-            self.sub_title += (
-                f" (recorder pid {self.process.pid}, log {self.process.log_path.name}; "
-                f"it goes on if the TUI is closed)"
-            )
         table = self.query_one("#units", DataTable)
         for label, key in _COLUMNS:
             table.add_column(label, key=key)
@@ -139,6 +136,16 @@ class LiveScreen(Screen[None]):
             self.app.call_from_thread(self._failed, exc)
             return
         self.app.call_from_thread(self._arrived, snap, gone)
+
+    @property
+    def where(self) -> str:
+        """Where the run is written and, when this TUI started it, by which process (said
+        on the screen, not in a toast over the plots)."""
+        text = f" in {self.path.parent.resolve()}"
+        if self.process is not None:
+            text += (f"; recorder pid {self.process.pid} (log {self.process.log_path.name}) "
+                     f"goes on if the TUI is closed")
+        return text
 
     def _failed(self, exc: BaseException) -> None:
         self._polling = False
@@ -185,7 +192,7 @@ class LiveScreen(Screen[None]):
             else "[b green]recording[/b green]"
         )
         catching = "" if snap.caught_up else " (catching up with the file...)"
-        self.query_one("#run-title", Static).update(f"{self.path.name}: {state}{catching}")
+        self.query_one("#run-title", Static).update(f"{state}{catching}{self.where}")
         self.query_one("#progress", ProgressBar).update(progress=snap.fraction)
         self.query_one("#times", Static).update(
             f"{hms(snap.elapsed_s)} of {hms(snap.duration_s)}"

@@ -18,7 +18,7 @@ from textual.binding import Binding
 from textual.containers import Horizontal
 from textual.reactive import reactive
 from textual.screen import Screen
-from textual.widgets import DataTable, Footer, Header, Input, Label, Select, Static
+from textual.widgets import DataTable, Header, Input, Label, Select, Static
 
 from station.errors import StationError
 from station.model.sequence_runs import SequenceRun
@@ -38,6 +38,7 @@ from station.services.sequence_progress import (
     unfinished_sequences,
 )
 from station.storage.sequence_files import read_sequence
+from station.tui.keys import BACK, StationFooter
 from station.tui.messages import explain
 from station.tui.widgets import hms
 
@@ -91,9 +92,9 @@ class SequenceScreen(Screen[None]):
     """
 
     BINDINGS = [
-        Binding("f5", "start", "Start sequence"),
-        Binding("s", "stop", "Stop"),
-        Binding("escape", "app.pop_screen", "Back"),
+        Binding("f5", "start", "Start", tooltip="start the sequence of the form (or resume it)"),
+        Binding("s", "stop", "Stop", tooltip="stop the running sequence (it stays resumable)"),
+        Binding("escape", "app.pop_screen", "Back", tooltip=BACK),
     ]
 
     progress: reactive[SequenceProgress | None] = reactive(None, always_update=True)
@@ -110,6 +111,8 @@ class SequenceScreen(Screen[None]):
         #: The sequence file whose end was shown (graded when it finished).
         self.graded_path: Path | None = None
         self.unfinished: list[SequenceRun] = []
+        #: The units the last profile chosen filled in ("" none): replaced by the next one.
+        self.prefilled_units = ""
 
     def compose(self) -> ComposeResult:
         from station.model.profiles import available_profiles
@@ -134,11 +137,12 @@ class SequenceScreen(Screen[None]):
         yield DataTable(id="unfinished", cursor_type="row")
         yield DataTable(id="steps", cursor_type="row")
         yield DataTable(id="figures", cursor_type="row")
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """Set up the tables and list the unfinished sequences."""
         self.title = "Test sequence"
+        self.sub_title = f"files in {self.runs_dir.resolve()}"
         self.query_one("#unfinished", DataTable).add_columns("unfinished sequence", "profile",
                                                              "units", "where")
         self.query_one("#steps", DataTable).add_columns(*_STEP_COLUMNS)
@@ -157,7 +161,7 @@ class SequenceScreen(Screen[None]):
 
     @work(thread=True, exclusive=True, group="profile", exit_on_error=False)
     def _load_sequences(self, name: str) -> None:
-        from station.model.profiles import load_profile
+        from station.model.profiles import anchored_model, load_profile
 
         try:
             profile = load_profile(self._profile_ref(name))
@@ -165,9 +169,14 @@ class SequenceScreen(Screen[None]):
             self.app.call_from_thread(self.notify, explain(exc, f"reading profile {name}"),
                                       severity="error")
             return
-        self.app.call_from_thread(self._show_sequences, name, list(profile.sequences))
+        # the profile's unit, as the set-up screen offers it (a model file made absolute)
+        url = anchored_model(str(profile.transport.get("url", "")), self.profiles_dir)
+        self.app.call_from_thread(self._show_sequences, name, list(profile.sequences), url)
 
-    def _show_sequences(self, name: str, names: list[str]) -> None:
+    def _show_sequences(self, name: str, names: list[str], url: str = "") -> None:
+        units = self.query_one("#seq-units", Input)
+        if url and units.value.strip() in ("", self.prefilled_units):
+            units.value = self.prefilled_units = url  # never over units typed by hand
         select = self.query_one("#sequence", Select)
         select.set_options([(n, n) for n in names])
         if names:
@@ -235,8 +244,10 @@ class SequenceScreen(Screen[None]):
             self._failed(explain(exc, "The sequence did not start"))
             return
         verb = "Resuming" if self.process.resumed else "Running"
-        self.notify(f"{verb} {request.sequence} into {self.process.path.name}: quitting the "
-                    f"TUI does not stop it.", title="Sequence")
+        path = self.process.path
+        self.notify(f"{verb} {request.sequence} into {path.name} in {path.parent.resolve()} "
+                    f"(its log {self.process.log_path.name} beside it): quitting the TUI does "
+                    f"not stop it.", title="Sequence", timeout=10)
 
     def _refresh(self) -> None:
         process = self.process

@@ -12,11 +12,12 @@ from textual.binding import Binding
 from textual.containers import Horizontal
 from textual.message import Message
 from textual.screen import Screen
-from textual.widgets import Button, DataTable, Footer, Header, Input, Label, Select, Static
+from textual.widgets import Button, DataTable, Header, Input, Label, Select, Static
 
 from station.model.profiles import anchored_model
 from station.services.record import DEFAULT_SIM_URL, RecordRequest, simulated_unit_url
 from station.services.recorder_process import UnitCheck, check_unit
+from station.tui.keys import StationFooter
 from station.tui.messages import explain
 
 #: Time warp of the simulated units F6 adds (simulated seconds per wall second).
@@ -89,9 +90,10 @@ class SetupScreen(Screen[None]):
     """
 
     BINDINGS = [
-        Binding("f5", "start", "Start run"),
-        Binding("f6", "add_sim", "Add sim unit"),
-        Binding("ctrl+d", "remove_unit", "Remove unit"),
+        Binding("f5", "start", "Start", tooltip="start the run (each unit answers first)"),
+        Binding("f6", "add_sim", "Sim unit",
+                tooltip=f"add a simulated unit (the profile's, x{SIM_WARP} time warp)"),
+        Binding("ctrl+d", "remove_unit", "Remove", tooltip="remove the unit under the cursor"),
     ]
 
     class StartRequested(Message):
@@ -136,7 +138,7 @@ class SetupScreen(Screen[None]):
             yield Button("Start", id="start", variant="success", classes="small")
         yield Static("Enter a device URL and press Enter, or F6 for a simulated unit; "
                      "F5 starts the run.", id="hint")
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """Set up the units table."""

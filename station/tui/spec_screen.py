@@ -14,7 +14,6 @@ from textual.screen import Screen
 from textual.widgets import (
     Button,
     DataTable,
-    Footer,
     Header,
     Select,
     Static,
@@ -28,6 +27,7 @@ from station.evaluation.grading import RunGrade, UnitGrade
 from station.output.report import FORMATS, ReportFormat
 from station.output.results_backends import STORE_RETRY_S, DatabaseLocation
 from station.tui.heatmap import DavarHeatMap
+from station.tui.keys import BACK, StationFooter
 from station.tui.messages import explain
 from station.tui.widgets import (
     SeriesPlot,
@@ -60,16 +60,19 @@ class SpecSheetScreen(Screen[None]):
     """
 
     BINDINGS = [
-        Binding("p", "export('pdf')", "PDF"),
-        Binding("h", "export('html')", "HTML"),
-        Binding("j", "export('json')", "JSON"),
-        Binding("u", "next_unit", "Unit"),
-        Binding("n", "next_axis", "Axis"),
-        Binding("f", "tab('tab-figures')", "Figures", show=False),
-        Binding("a", "tab('tab-allan')", "Allan", show=False),
-        Binding("d", "tab('tab-davar')", "DAVAR", show=False),
-        Binding("r", "tab('tab-run')", "Run", show=False),
-        Binding("escape", "app.pop_screen", "Back"),
+        # the export buttons and the tabs say their keys: the footer has no room for them
+        Binding("p", "export('pdf')", "PDF", show=False, tooltip="write the PDF report"),
+        Binding("h", "export('html')", "HTML", show=False, tooltip="write the HTML report"),
+        Binding("j", "export('json')", "JSON", show=False, tooltip="write the JSON report"),
+        Binding("u", "next_unit", "Unit", tooltip="the next unit of the run"),
+        Binding("n", "next_axis", "Axis", tooltip="the next axis of the unit"),
+        Binding("f", "tab('tab-figures')", "Figures", show=False, tooltip="the figures tab"),
+        Binding("a", "tab('tab-allan')", "Allan", show=False,
+                tooltip="the Allan deviation tab"),
+        Binding("d", "tab('tab-davar')", "DAVAR", show=False,
+                tooltip="the dynamic Allan variance tab"),
+        Binding("r", "tab('tab-run')", "Run", show=False, tooltip="the run tab: events, notes"),
+        Binding("escape", "app.pop_screen", "Back", tooltip=BACK),
     ]
 
     # always_update: a RunGrade holds arrays, which == cannot compare
@@ -112,7 +115,7 @@ class SpecSheetScreen(Screen[None]):
             yield Button("HTML (h)", id="export-html")
             yield Button("JSON (j)", id="export-json")
             yield Static("", id="exported")
-        yield Footer()
+        yield StationFooter()
 
     def on_mount(self) -> None:
         """Set up the table and grade the run."""
@@ -327,6 +330,6 @@ class SpecSheetScreen(Screen[None]):
                                       severity="error", timeout=20)
             self.app.call_from_thread(self.query_one("#exported", Static).update, "")
             return
-        self.app.call_from_thread(self.query_one("#exported", Static).update,
-                                  f"wrote {path.name}")
-        self.app.call_from_thread(self.notify, f"Wrote {path}", title="Report")
+        where = f"{path.name} in {path.parent.resolve()}"  # the folder, not just a name
+        self.app.call_from_thread(self.query_one("#exported", Static).update, f"wrote {where}")
+        self.app.call_from_thread(self.notify, f"Wrote {where}", title="Report")
