@@ -18,6 +18,7 @@ from devices.codecs.crc import crc32_mpeg2
 from devices.codecs.stim300 import Stim300Codec
 from devices.errors import CodecError, DeviceConfigurationError
 from devices.gaps import CounterTracker, counter_samples
+from devices.replay import EndOfReplayError
 from devices.sim.stim300_unit import SimulatedStim300, sheet_crc
 from devices.stream import StreamRateSource
 from devices.transports.serial import SerialTransport
@@ -255,3 +256,56 @@ def test_a_unit_borrowing_the_layout_counts_datagrams_at_any_rate() -> None:
         assert dev.source.describe().counter_modulus == 256
     with open_device("serial:///dev/does-not-exist?protocol=stim300&rate=500") as dev:
         assert dev.source.describe().counter_modulus == 64
+
+
+def datagram_0x93(counter: int, gyro_status: int = 0, *, gyro_words: tuple[int, int, int]
+                  = (-760, 1400, -1411), accel_words: tuple[int, int, int]
+                  = (700, -7960, 261100)) -> bytes:
+    """A rate + acceleration + inclination datagram laid out by hand from Table 5-20 (ID,
+    3 x int24 rates, status, 3 x int24 accelerations, status, 3 x int24 inclinations,
+    status, counter, latency), Table 5-22's 2 dummy bytes in the CRC, CR LF ended."""
+    body = bytes([0x93])
+    for words, status in ((gyro_words, gyro_status), (accel_words, 0),
+                          ((-1000, 2000, 1 << 22), 0)):
+        body += b"".join(w.to_bytes(3, "big", signed=True) for w in words) + bytes([status])
+    body += bytes([counter]) + (506).to_bytes(2, "big")
+    assert len(body) == 38 - 4
+    return body + crc32_mpeg2(body + b"\x00" * 2).to_bytes(4, "big") + b"\r\n"
+
+
+def test_a_2000_hz_0x93_dump_with_start_up_datagrams_replays_with_no_gap(
+        tmp_path: Path) -> None:
+    """What a 30 g unit at 2000 samples/s sends from power-on (a rocket's STIM300 dump
+    has this shape): 0x93 datagrams with CR LF, the counter stepping by 1 (7.5.2.2.18: it
+    counts the 2000 Hz samples) through two wraps, the first ones flagged start-up
+    (Table 5-23: 0xFF, bit 6 Start-Up, rates at a rail) and the file cut inside its last
+    datagram. Every whole datagram is a sample, none missing; the start-up ones are not
+    valid, the rest are; 2^18 LSB/g (Equation 3, 30 g) reads 1 g."""
+    wire = b"".join(datagram_0x93((1 + i) % 256, 0xFF if i < 3 else 0,
+                                  gyro_words=(0x780000, 0x780000, -0x780000) if i < 3
+                                  else (-760, 1400, -1411))
+                    for i in range(600))
+    dump = tmp_path / "stim.bin"
+    dump.write_bytes(wire + datagram_0x93(89)[:28])
+    opened = open_device(f"replay://{dump}?protocol=stim300&datagram=0x93&"
+                         f"termination=crlf&accel_range=30&rate=2000")
+    source = opened.source
+    source.open()
+    batches = []
+    try:
+        while True:
+            batches.append(source.read(0.05))
+    except EndOfReplayError:
+        pass
+    finally:
+        source.close()
+    status = [s for b in batches for s in b.status.tolist()]
+    assert len(status) == 600
+    assert sum(g.missing_samples for b in batches for g in b.gaps) == 0
+    assert [s != 0 for s in status[:4]] == [True, True, True, False]
+    assert not any(status[3:])
+    accel = [a for b in batches if len(b) and b.accel_m_s2 is not None
+             for a in b.accel_m_s2.tolist()]
+    assert accel[-1][2] / 9.80665 == pytest.approx(261100 / 2**18)
+    rate = [r for b in batches for r in b.rate_deg_s.tolist()]
+    assert rate[-1] == pytest.approx([-760 / 2**14, 1400 / 2**14, -1411 / 2**14])

@@ -210,3 +210,35 @@ def test_a_sample_corrupted_into_a_rateless_message_still_counts_as_lost() -> No
             else:
                 counters.append(rateless.sample(reading).counter)
         assert counters == expected
+
+
+def test_items_the_station_does_not_read_are_not_held_to_their_precision() -> None:
+    """An MTi-300 sends BaroPressure (0x3010 group, type 1) as a 4-byte uint32 even where
+    its identifier's precision bits say float64 (0x3013): the item is not one the station
+    reads, so the sample stands. A temperature in FP16.32 (0x0812: the 32-bit fraction,
+    then the 16-bit integer part) is read as such; the SyncOut marker (StatusWord bit
+    22) concerns no part of the sample."""
+    reading = XbusCodec().to_reading(_message(
+        _item(0x1060, struct.pack(">I", 5719854)),
+        _item(0x8020, struct.pack(">3f", *RATES_RAD_S)),
+        _item(0x0812, struct.pack(">Ih", 0x60000000, 24)),
+        _item(0x3013, struct.pack(">I", 101669)),
+        _item(0xE020, struct.pack(">I", 0x00400003))))
+    assert reading is not None
+    assert reading.temperature_c == 24.375
+    assert reading.status == 0 and reading.device_status == 0x00400003
+    assert reading.device_time_s == pytest.approx(571.9854)
+    assert reading.rate_deg_s == pytest.approx(tuple(math.degrees(r) for r in RATES_RAD_S))
+
+
+def test_a_shaken_unit_flags_its_clipping_gyro_and_accelerometer() -> None:
+    """StatusWord 0x00481401 (self-test passed, filter not valid, accelerometer z and
+    gyroscope y clipping, the clipping indication, SyncOut): the sample is not valid, by
+    the gyro's bit alone where the accelerations are not read."""
+    items = (_item(0x4020, struct.pack(">3f", -30.28, -29.61, -71.76)),
+             _item(0x8020, struct.pack(">3f", 4.17, -10.33, -4.52)),
+             _item(0xE020, struct.pack(">I", 0x00481401)))
+    without, with_accel = (XbusCodec(accel=a).to_reading(_message(*items))
+                           for a in (False, True))
+    assert without is not None and without.status == 1 << 12
+    assert with_accel is not None and with_accel.status == (1 << 12) | (1 << 10)
