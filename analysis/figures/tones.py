@@ -46,11 +46,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import signal, stats
 
 from analysis.allan import blocks
 from analysis.allan.estimators import as_samples, check_sample_rate
 from analysis.allan.gaps import valid_stretches
+from analysis.distributions import chi2_ppf, chi2_sf
 
 #: Fewest Welch segments (each bin's edf is about 1.9 times the count).
 MIN_SEGMENTS = 32
@@ -186,6 +186,7 @@ def _welch_sum(x: NDArray[np.float64], a: int, k: int, segment: int, fs: float
     """(frequencies, sum of the ``k`` half-overlapping Hann periodograms from sample ``a``):
     scipy's Welch average times ``k``, over groups of segments of at most a block of
     samples (a long record is never copied whole)."""
+    from scipy import signal
     hop = segment // 2
     per_group = k if not blocks.is_long(k * hop) else max(1, blocks.BLOCK_SAMPLES // hop)
     total = None
@@ -241,7 +242,7 @@ def running_background(
     tested = np.flatnonzero(half)
     if tested.size == 0:
         return background, half
-    correction = float(stats.chi2.median(nu)) / nu
+    correction = float(chi2_ppf(0.5, nu)) / nu
     picks = [int(tested[0])]
     for i in tested[1:]:
         if i - picks[-1] >= max(1, half[picks[-1]] // 8) or i == tested[-1]:
@@ -301,7 +302,7 @@ def find_tones(
         return ()
     ratio = np.where(tested, power / np.where(tested, background, 1.0), 0.0)
     nu_eff = nu / (1.0 + np.pi / np.maximum(2.0 * half + 1.0, 1.0))
-    p_bin = np.where(tested, stats.chi2.sf(ratio * nu_eff, nu_eff), 1.0)
+    p_bin = np.where(tested, chi2_sf(ratio * nu_eff, nu_eff), 1.0)
     n_tested = int(tested.sum())
     significant = (p_bin * n_tested < alpha) & (ratio >= MIN_PEAK_RATIO)
     df = float(freq[1] - freq[0])

@@ -38,7 +38,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError
@@ -307,6 +306,7 @@ def _linear_solution(
     method: str, x: NDArray[np.float64], y: NDArray[np.float64], weights: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """Least squares of ``sqrt(w) x b = sqrt(w) y`` with columns scaled to unit norm."""
+    from scipy import optimize
     sw = np.sqrt(weights)[:, None]
     xs = x * sw
     scale = np.linalg.norm(xs, axis=0)

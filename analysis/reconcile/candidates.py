@@ -42,7 +42,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 from analysis.models.terms import NoiseModel, NoiseTerm, term_type
 from analysis.reconcile.discrepancy import Comparison, MeasuredCurve, allan_on_grid
@@ -173,6 +172,7 @@ def fit_candidate(name: str, model: NoiseModel, curve: MeasuredCurve, comparison
     of a realization (rate per unit coefficient for the temperature bias, the located
     steps for bias steps); the rest of the model's curve is the comparison's.
     """
+    from scipy import optimize
     present = model.get(name)
     term_now = (
         present.avar(curve.tau_s, duration_s=curve.duration_s) if present is not None else 0.0

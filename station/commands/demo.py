@@ -22,6 +22,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 import numpy as np
@@ -31,10 +32,12 @@ from analysis.units.conversions import arw_deg_rt_h_to_deg_rt_s, q_urad_to_deg, 
 from station.commands import COMMAND_HELP, demo_sequence
 from station.commands.arguments import add_output_options, output_family, print_json
 from station.errors import UsageError
-from station.evaluation.analyze import AxisAnalysis, analyze_record, format_analysis
 from station.model.records import RateRecord
 from station.model.runs import RunMetadata
 from station.storage.csv_records import write_csv_record
+
+if TYPE_CHECKING:
+    from station.evaluation.analyze import AxisAnalysis
 
 #: The demo gyro: a tactical FOG (the VG951 of Lv 2015 table 3) with a 3.6 deg/h bias.
 DEMO_TRUE = {"Q": 7.555e-2, "N": 7.636e-3, "B": 1.246e-1}
@@ -179,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     if args.sequence:
         return demo_sequence.run(args)
+    from station.evaluation.analyze import analyze_record, format_analysis
     from station.storage.hdf5 import read_run_record
 
     t0 = time.monotonic()
