@@ -30,6 +30,7 @@ import argparse
 import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -73,6 +74,37 @@ def paired(fns: dict[str, Callable[[], object]], runs: int) -> dict[str, tuple[f
 def child(code: str) -> tuple[float, float, str]:
     """(wall seconds, peak RSS MB, stdout) of ``python -c code`` in a fresh process."""
     return bench_memory.run_child(code)
+
+
+def timed_child(code: str) -> tuple[float, float, str]:
+    """(wall seconds, CPU seconds (user + system), stdout) of ``python -c code`` in a fresh
+    process. On a shared machine the CPU time is the steadier measure: other work
+    stretches the wall time of a process waiting for a core, much less its own CPU."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - start
+        if os.waitstatus_to_exitcode(status) != 0:
+            err.seek(0)
+            raise SystemExit(f"child failed: {err.read()[-2000:]}")
+        out.seek(0)
+        return seconds, usage.ru_utime + usage.ru_stime, out.read()
+
+
+def least(code: str, runs: int, peer: str = "import numpy"
+          ) -> tuple[float, float, float, float, str]:
+    """(wall, CPU) of ``code`` and of ``peer``, each the least over ``runs`` fresh processes
+    run in turns, and ``code``'s last stdout."""
+    walls, cpus, peer_walls, peer_cpus, out = [], [], [], [], ""
+    for _ in range(runs):
+        wall, cpu, out = timed_child(code)
+        walls.append(wall)
+        cpus.append(cpu)
+        wall, cpu, _ = timed_child(peer)
+        peer_walls.append(wall)
+        peer_cpus.append(cpu)
+    return min(walls), min(cpus), min(peer_walls), min(peer_cpus), out
 
 
 def row_davar(runs: int) -> str:
@@ -198,38 +230,27 @@ print(json.dumps({{"total": total, "code": code, "steps": found}}))
 """
 
 
-def fastest_child(code: str, runs: int) -> float:
-    """Least wall seconds of ``python -c code`` over ``runs`` fresh processes."""
-    return min(child(code)[0] for _ in range(runs))
-
-
 def row_help_commands(runs: int) -> list[str]:
     """Each subcommand's ``--help`` against ``import numpy``, run in turns."""
     from station.commands import COMMAND_HELP
 
     lines = []
-    names = ["", *COMMAND_HELP]
-    for name in names:
+    for name in ["", *COMMAND_HELP]:
         argv = [name, "--help"] if name else ["--help"]
         code = (f"import sys\nfrom station.cli import main\ntry:\n    main({argv!r})\n"
                 f"except SystemExit:\n    pass\n"
                 f"print('loaded:', *(m for m in {HEAVY!r} if m in sys.modules))")
-        helps, numpys, loaded = [], [], ""
-        for _ in range(runs):
-            seconds, _, out = child(code)
-            helps.append(seconds)
-            loaded = " ".join(out.strip().splitlines()[-1].split()[1:])
-            numpys.append(child("import numpy")[0])
-        h, npy = min(helps), min(numpys)
-        lines.append(f"help station {name or ''}{' ' if name else ''}--help: {h:.3f}s "
-                     f"import-numpy={npy:.3f}s ratio={h / npy:.2f} (goal <= 3) "
-                     f"heavy: {loaded or 'none'}")
+        wall, cpu, npy_wall, npy_cpu, out = least(code, runs)
+        loaded = " ".join(out.strip().splitlines()[-1].split()[1:])
+        lines.append(f"help station {' '.join(argv)}: wall {wall:.3f}s/{npy_wall:.3f}s="
+                     f"{wall / npy_wall:.2f}x cpu {cpu:.3f}s/{npy_cpu:.3f}s={cpu / npy_cpu:.2f}x "
+                     f"of import numpy (goal <= 3) heavy: {loaded or 'none'}")
     return lines
 
 
 def row_commands(hours: tuple[float, ...], runs: int, rate_hz: float = 100.0) -> list[str]:
-    """``station analyze`` and ``station grade`` of single-axis run files: wall against
-    ``import numpy``, and each step's share of one profiled run."""
+    """``station analyze`` and ``station grade`` of single-axis run files: wall and CPU
+    against ``import numpy``, and each step's share of one profiled run."""
     lines = []
     with tempfile.TemporaryDirectory() as tmp:
         profile = bench_memory.write_profile(Path(tmp) / "profile.toml", ("x",), 0.0)
@@ -238,23 +259,21 @@ def row_commands(hours: tuple[float, ...], runs: int, rate_hz: float = 100.0) ->
             n = bench_memory.write_run(path, h, rate_hz, 1)
             for command in ("analyze", "grade"):
                 argv = bench_memory.command_argv(command, path, profile, Path(tmp))
-                code = f"from station.cli import main\nmain({argv!r})\n"
-                walls, numpys = [], []
-                for _ in range(runs if h <= 1 else 1):
-                    walls.append(child(code)[0])
-                    numpys.append(child("import numpy")[0])
-                wall, npy = min(walls), min(numpys)
-                _, _, out = child(PROFILED.format(argv=argv, steps=STEPS))
+                code = (f"import contextlib, io\nfrom station.cli import main\n"
+                        f"with contextlib.redirect_stdout(io.StringIO()):\n"
+                        f"    main({argv!r})\n")
+                wall, cpu, npy_wall, npy_cpu, _ = least(code, runs if h <= 1 else 1)
+                out = timed_child(PROFILED.format(argv=argv, steps=STEPS))[2]
                 doc = json.loads(out.strip().splitlines()[-1])
                 total = doc["total"]
                 shares = " ".join(
                     f"{label}={100 * doc['steps'][label] / total:.0f}%"
                     for label in STEPS if doc["steps"].get(label, 0.0) >= 0.005 * total)
+                goal = " (goal <= 8)" if command == "analyze" and h == 1 else ""
                 lines.append(
                     f"commands station {command} {h:g} h x {rate_hz:g} Hz x 1 axis ({n} samples): "
-                    f"{wall:.2f}s import-numpy={npy:.3f}s ratio={wall / npy:.1f}"
-                    f"{' (goal <= 8)' if command == 'analyze' and h == 1 else ''}; "
-                    f"profiled run {total:.2f}s: {shares}")
+                    f"wall {wall:.2f}s={wall / npy_wall:.1f}x cpu {cpu:.2f}s={cpu / npy_cpu:.1f}x "
+                    f"of import numpy{goal}; profiled run {total:.2f}s: {shares}")
     return lines
 
 

@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +41,7 @@ from numpy.typing import NDArray
 from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError
 from analysis.fit.log import LogData, fit_log, log_data, log_tau_share
+from analysis.fit.methods import FIT_METHODS as FIT_METHODS, FitMethod as FitMethod
 from analysis.fit.model import (
     BETA_FACTOR,
     COEFFICIENT_NAMES,
@@ -76,8 +76,6 @@ __all__ = [
     "theoretical_avar",
 ]
 
-FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
-FIT_METHODS: tuple[FitMethod, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
 OLS40_MAX_ERROR = 0.40
 #: Relative error floor of the five-term model assumed by ``logwls``'s weights (2 % of avar).
 DEFAULT_MODEL_ERROR = 0.02

@@ -18,10 +18,14 @@ per axis):
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from analysis.figures.tool_units import AxisNoise, GaussMarkovBias
 from station.errors import UsageError
-from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, AxisAnalysis
+from station.evaluation.analysis_options import DEFAULT_METHOD, GMWM_METHOD
+
+if TYPE_CHECKING:
+    from station.evaluation.analyze import AxisAnalysis
 
 #: The methods noise parameters come from: the Allan fit and read-offs, or the GMWM beside them.
 EXPORT_METHODS: tuple[str, ...] = (DEFAULT_METHOD, GMWM_METHOD)
