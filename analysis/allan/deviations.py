@@ -68,7 +68,7 @@ from analysis.allan.estimators import (
     octave_m,
     overlapping_allan_variance,
 )
-from analysis.allan.kinds import DEVIATION_KINDS as DEVIATION_KINDS, DeviationKind
+from analysis.allan.kinds import DEVIATION_KINDS as DEVIATION_KINDS, DeviationKind as DeviationKind
 from analysis.allan.noise_id import identify_noise
 from analysis.allan.theo1 import theo1_sums
 from analysis.allan.variance import allan_variance

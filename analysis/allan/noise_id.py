@@ -44,6 +44,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import partial
 from typing import Literal
 
 import numpy as np
@@ -187,6 +188,11 @@ def lag1_from_moments(moments: NDArray[np.float64]) -> tuple[float, int]:
     den = s2 - n * shift * shift
     num = s11 - shift * (2.0 * s1 - y_last) + (n - 1) * shift * shift
     return (num / den if den > 0 else 0.0), n
+
+
+def _moments_lag1(rows: NDArray[np.float64], d: int) -> tuple[float, int]:
+    """:func:`lag1_from_moments` of the ``d``-th difference's row."""
+    return lag1_from_moments(rows[d - 1])
 
 
 def _alpha_from_lag1(lag1: Callable[[int], tuple[float, int]], d_max: int) -> int:
@@ -342,9 +348,8 @@ def identify_noise(
         last: int | None = None
         for i, mi in enumerate(m[picks]):
             if acf[i] and moments is not None:
-                row = moments[i]  # the acf taus come first: n_points falls with m
-                a, how = _alpha_from_lag1(lambda d, r=row: lag1_from_moments(r[d - 1]),
-                                          d_max), "acf"
+                # the acf taus come first (n_points falls with m): row i is this tau's
+                a, how = _alpha_from_lag1(partial(_moments_lag1, moments[i]), d_max), "acf"
             elif acf[i]:
                 a, how = lag1_alpha(x[:, col], int(mi), d_max=d_max), "acf"
             elif n_points[i] - 1 >= MIN_B1_AVERAGES:

@@ -216,7 +216,8 @@ def hann_welch(x: NDArray[np.float64], fs: float, segment: int
     spectra = np.fft.rfft((frames - frames.mean(axis=1, keepdims=True)) * window, axis=1)
     power = (spectra.real**2 + spectra.imag**2) / (fs * float(np.sum(window * window)))
     power[:, 1:-1] *= 2.0
-    return np.fft.rfftfreq(segment, 1.0 / fs), np.asarray(power.mean(axis=0), dtype=np.float64)
+    frequencies = np.asarray(np.fft.rfftfreq(segment, 1.0 / fs), dtype=np.float64)
+    return frequencies, np.asarray(power.mean(axis=0), dtype=np.float64)
 
 
 def _stretches_long(x: NDArray[np.float64]) -> list[tuple[int, int]]:

@@ -45,9 +45,8 @@ from numpy.typing import NDArray
 
 from analysis.models.terms import NoiseModel, NoiseTerm, term_type
 from analysis.reconcile.discrepancy import Comparison, MeasuredCurve, allan_on_grid
+from analysis.reconcile.options import BIC_THRESHOLD as BIC_THRESHOLD
 
-#: Delta BIC (C2) a candidate needs to be considered at all.
-BIC_THRESHOLD = 10.0
 #: The key of each term whose square scales its Allan variance.
 SCALE_KEYS: dict[str, str] = {
     "quantization": "Q_urad",

@@ -70,11 +70,10 @@ from analysis.errors import ReconcileError
 from analysis.fit.least_squares import log_tau_share
 from analysis.models.simulation import simulate
 from analysis.models.terms import NoiseModel
+from analysis.reconcile.options import MODEL_FLOOR as MODEL_FLOOR
 
 #: Rate samples (per axis times axes) generated per simulator call of the Monte Carlo.
 BATCH_SAMPLES = 1 << 21
-#: Relative accuracy (in Allan variance) of a library curve, ``f`` of G1.
-MODEL_FLOOR = 0.05
 #: Largest run set (samples times runs) whose per-term runs are kept in a ComparisonCache.
 TERM_CACHE_VALUES = 1 << 23
 #: Two-sided level of the per-tau Monte Carlo band.
