@@ -66,18 +66,16 @@ _SEGMENTS_MAX_OVERLAP = 32
 #: analyses in worker threads (the TUI grades a run while it computes a DAVAR), so the
 #: compiled launches take turns; each already spreads its work over every core.
 _COMPILED_LAUNCH = threading.Lock()
-#: Second-difference terms from which ``backend="auto"`` runs numba. Measured on an idle
-#: 2-core machine: numba's first call in a process 1.1 s (1.3 s against numpy's 0.2 s, a
-#: tiny record); overlapping sums of 1e7 points at 92 taus (9.2e8 terms) 2.6 s in numpy,
-#: 0.46 s compiled, so 2.3 ns saved per term: one call in a fresh process breaks even near
-#: 4.8e8 terms. The threshold is lower, 1.5e8 (2e6 samples at 100 taus: 0.19-0.26 s
-#: compiled against 0.95-1.04 s in numpy, loaded machine), because the library call is
-#: made again and again in a Python session, where the start-up is paid once: there
-#: ``overlapping_allan_variance`` of 2e6 samples is 4x allantools' ``oadev`` only with the
-#: compiled sums (the numpy kernel alone takes a third of allantools' time). A one-off
-#: command between 1.5e8 and 4.8e8 terms (a 1 h, 3-axis record at 140-440 Hz) pays up to
-#: 0.8 s of numba's start-up for it.
-COMPILED_MIN_TERMS = 150_000_000
+#: Second-difference terms from which ``backend="auto"`` starts numba in a process that has
+#: not used it yet: where the compiled kernels save their own start-up. Measured on an idle
+#: 2-core machine: numba's first call 1.1 s (1.3 s against numpy's 0.2 s, a tiny record);
+#: overlapping sums of 1e7 points at 92 taus (9.2e8 terms) 2.6 s in numpy, 0.46 s compiled,
+#: so 2.3 ns saved per term: break-even near 4.8e8 terms. (1.5e8 was tried, so that a
+#: Python session's calls of 2e6 samples run compiled, 4x allantools instead of 2.4x: then
+#: the in-process analyses of the test suite started numba's OpenMP threads before
+#: ``station reproduce`` and ``station demo`` fork their process pools, and GNU OpenMP
+#: aborts a forked child. Those pools need a spawn or forkserver context first.)
+COMPILED_MIN_TERMS = 500_000_000
 #: The same for the DAVAR's window sums, which numba runs about 5x faster than numpy (3.0
 #: ns saved per term; N = 1e6, window 1e5, step 1e4, 85 taus: 0.32 s numpy, 0.066 s
 #: compiled, 0.65 s for the first compiled call of a fresh process, measured idle). One
