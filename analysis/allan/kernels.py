@@ -138,8 +138,10 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
     m_arr = np.ascontiguousarray(m_values, dtype=np.int64)
     out = np.empty((len(m_arr), d_max, compiled.LAG1_FIELDS))
     with _COMPILED_LAUNCH:
-        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max,
-                              max(1, min(compiled.numba.get_num_threads(), len(m_arr))), out)
+        # one part: a parallel launch here started numba's OpenMP threads in processes that
+        # fork a pool afterwards (station reproduce, demo), which GNU OpenMP aborts
+        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max, 1,
+                              out)
     return out
 
 

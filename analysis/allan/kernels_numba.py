@@ -190,7 +190,7 @@ LAG1_FIELDS = 5
 _LAG1_BLOCK = 1 << 15
 
 
-@numba.njit(parallel=True, cache=True)
+@numba.njit(cache=True)
 def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max: int,
                  n_parts: int, out: NDArray[np.float64]) -> None:
     """Lag-1 sums of the ``d``-th differences of ``angle[::m]``, every m and ``d <= 3``.
@@ -207,7 +207,7 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
     n_y = angle.shape[0]
     n_m = m_values.shape[0]
     state = np.zeros((n_m, _LAG1_STATE))
-    for part in numba.prange(n_parts):
+    for part in range(n_parts):
         for b0 in range(0, n_y, _LAG1_BLOCK):
             b1 = min(b0 + _LAG1_BLOCK, n_y)
             for i in range(part, n_m, n_parts):
