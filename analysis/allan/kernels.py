@@ -73,8 +73,9 @@ _COMPILED_LAUNCH = threading.Lock()
 #: so 2.3 ns saved per term: break-even near 4.8e8 terms. (1.5e8 was tried, so that a
 #: Python session's calls of 2e6 samples run compiled, 4x allantools instead of 2.4x: then
 #: the in-process analyses of the test suite started numba's OpenMP threads before
-#: ``station reproduce`` and ``station demo`` fork their process pools, and GNU OpenMP
-#: aborts a forked child. Those pools need a spawn or forkserver context first.)
+#: ``station reproduce`` forks its process pool, and GNU OpenMP aborts a forked child. The
+#: parallel launch of noise identification's lag-1 sums, since made serial, was the
+#: likelier cause; 1.5e8 has not been tried again.)
 COMPILED_MIN_TERMS = 500_000_000
 #: The same for the DAVAR's window sums, which numba runs about 5x faster than numpy (3.0
 #: ns saved per term; N = 1e6, window 1e5, step 1e4, 85 taus: 0.32 s numpy, 0.066 s
