@@ -1,29 +1,36 @@
-"""The default install's speed and memory, row by row, each against its peer in one run.
+"""The speed of what users run, each row against its peer in the same run, as ratios.
 
-``python benchmarks/bench_speed.py [--quick]`` prints one line per row:
+``python -m benchmarks.bench_speed [--quick] [--rows ROWS]`` prints:
 
-* ``davar``: fast DAVAR, N = 1e6, window N/10, step Nw/10: the default (``auto``: numpy
-  for this much work), numba forced and the numpy fallback, medians of paired runs, with
-  the peak memory of each (tracemalloc);
-* ``oadev``: overlapping Allan deviation, N = 1e7, 100 log taus: the default against
-  numba forced (the goal: within 1.5x) and the numpy fallback;
-* ``help``: ``station --help`` in a fresh process against ``python -c "import numpy"``,
-  with its peak RSS, and whether scipy, matplotlib or numba were imported;
-* ``analyze-csv``: ``station analyze`` of a 1-hour CSV (100 Hz, 3 axes) with numba
-  installed against a process where numba cannot be imported;
-* ``analyze-h5``: ``station analyze`` of a run file (1 h at 1 kHz, 3 axes; 15 min with
-  ``--quick``) the block-wise way (forced: records over 2^16 samples) against the
-  in-memory way, peak RSS of each (:mod:`bench_memory`).
+* ``help`` (issue 40 part 1): every subcommand's ``station CMD --help`` in a fresh
+  process against ``python -c "import numpy"`` (goal: at most 3x), and whether it imported
+  scipy, matplotlib or numba;
+* ``commands`` (issue 40 part 2): ``station analyze`` and ``station grade`` of a simulated
+  single-axis run file at 100 Hz, 1 h (and 24 h without ``--quick``), wall time in a fresh
+  process against ``import numpy`` (goal for analyze of 1 h: at most 8x), then the share
+  of each step from one profiled run (a step's time includes the imports it starts;
+  the steps nest, so shares do not add up to 100 %);
+* ``library`` (issue 40 part 3): ``overlapping_allan_variance`` with its edf and
+  intervals at N = 1e6, 2e6, 1e7 (``--quick``: 1e6, 2e6) and 100 log taus, against its
+  own kernel (the overlapping sums alone; goal within 1.3x) and allantools' ``oadev`` on
+  the same taus (goals: at least 4x at 2e6, 10x at 1e7), numba already loaded (a Python
+  session's later calls);
+* ``backends``: the kernels' backends (fast DAVAR and overlapping sums: default, numba,
+  numpy), ``station --help``, ``station analyze`` of a 1 h CSV with and without numba,
+  and the block-wise against the in-memory path of a 1 kHz run file (peak RSS).
 
-Every time is a median of ``--runs`` paired runs (other work on a shared machine skews
-single ones); the header gives the versions and the load average.
+Wall times of fresh processes are the minimum of ``--runs`` runs, in-process times the
+best of three, paired with their peer (this machine is shared: the header gives the load
+average, and a busy machine stretches every time; the minimum is the least disturbed).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -67,6 +74,37 @@ def paired(fns: dict[str, Callable[[], object]], runs: int) -> dict[str, tuple[f
 def child(code: str) -> tuple[float, float, str]:
     """(wall seconds, peak RSS MB, stdout) of ``python -c code`` in a fresh process."""
     return bench_memory.run_child(code)
+
+
+def timed_child(code: str) -> tuple[float, float, str]:
+    """(wall seconds, CPU seconds (user + system), stdout) of ``python -c code`` in a fresh
+    process. On a shared machine the CPU time is the steadier measure: other work
+    stretches the wall time of a process waiting for a core, much less its own CPU."""
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        start = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        seconds = time.perf_counter() - start
+        if os.waitstatus_to_exitcode(status) != 0:
+            err.seek(0)
+            raise SystemExit(f"child failed: {err.read()[-2000:]}")
+        out.seek(0)
+        return seconds, usage.ru_utime + usage.ru_stime, out.read()
+
+
+def least(code: str, runs: int, peer: str = "import numpy"
+          ) -> tuple[float, float, float, float, str]:
+    """(wall, CPU) of ``code`` and of ``peer``, each the least over ``runs`` fresh processes
+    run in turns, and ``code``'s last stdout."""
+    walls, cpus, peer_walls, peer_cpus, out = [], [], [], [], ""
+    for _ in range(runs):
+        wall, cpu, out = timed_child(code)
+        walls.append(wall)
+        cpus.append(cpu)
+        wall, cpu, _ = timed_child(peer)
+        peer_walls.append(wall)
+        peer_cpus.append(cpu)
+    return min(walls), min(cpus), min(peer_walls), min(peer_cpus), out
 
 
 def row_davar(runs: int) -> str:
@@ -153,28 +191,179 @@ def row_analyze_h5(hours: float) -> str:
     )
 
 
+HEAVY = ("scipy", "matplotlib", "numba")
+
+#: Steps of ``station analyze`` and ``station grade`` whose share is printed:
+#: label -> (file the function is in, its name), as the profiler names them.
+STEPS: dict[str, tuple[str, str]] = {
+    "read": ("station/services/records.py", "load_record"),
+    "read run": ("station/storage/runs.py", "open_run"),
+    "Allan sums": ("analysis/allan/kernels.py", "overlapping_sums"),
+    "noise id": ("analysis/allan/noise_id.py", "identify_noise"),
+    "edf": ("analysis/allan/confidence.py", "difference_edf_grid"),
+    "spikes": ("analysis/allan/outliers.py", "detect_spikes"),
+    "tones": ("analysis/figures/tones.py", "find_tones"),
+    "fit": ("analysis/fit/least_squares.py", "fit_noise_terms"),
+    "ambiguity": ("analysis/figures/ambiguity.py", "resolve_for_rate"),
+    "bias or Markov": ("analysis/figures/bias_or_markov.py", "markov_alternative"),
+    "spec figures": ("analysis/figures/spec.py", "spec_figures"),
+    "imports": ("<frozen importlib._bootstrap>", "_find_and_load"),
+}
+
+PROFILED = """
+import cProfile, contextlib, io, json, pstats, sys, time
+start = time.perf_counter()
+profile = cProfile.Profile()
+profile.enable()
+from station.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    code = main({argv!r})
+profile.disable()
+total = time.perf_counter() - start
+steps = {steps!r}
+found = {{}}
+for (file, _, name), row in pstats.Stats(profile).stats.items():
+    for label, (where, fn) in steps.items():
+        if name == fn and file.endswith(where):
+            found[label] = found.get(label, 0.0) + row[3]
+print(json.dumps({{"total": total, "code": code, "steps": found}}))
+"""
+
+
+def row_help_commands(runs: int) -> list[str]:
+    """Each subcommand's ``--help`` against ``import numpy``, run in turns."""
+    from station.commands import COMMAND_HELP
+
+    lines = []
+    for name in ["", *COMMAND_HELP]:
+        argv = [name, "--help"] if name else ["--help"]
+        code = (f"import sys\nfrom station.cli import main\ntry:\n    main({argv!r})\n"
+                f"except SystemExit:\n    pass\n"
+                f"print('loaded:', *(m for m in {HEAVY!r} if m in sys.modules))")
+        wall, cpu, npy_wall, npy_cpu, out = least(code, runs)
+        loaded = " ".join(out.strip().splitlines()[-1].split()[1:])
+        lines.append(f"help station {' '.join(argv)}: wall {wall:.3f}s/{npy_wall:.3f}s="
+                     f"{wall / npy_wall:.2f}x cpu {cpu:.3f}s/{npy_cpu:.3f}s={cpu / npy_cpu:.2f}x "
+                     f"of import numpy (goal <= 3) heavy: {loaded or 'none'}")
+    return lines
+
+
+def row_commands(hours: tuple[float, ...], runs: int, rate_hz: float = 100.0) -> list[str]:
+    """``station analyze`` and ``station grade`` of single-axis run files: wall and CPU
+    against ``import numpy``, and each step's share of one profiled run."""
+    lines = []
+    with tempfile.TemporaryDirectory() as tmp:
+        profile = bench_memory.write_profile(Path(tmp) / "profile.toml", ("x",), 0.0)
+        for h in hours:
+            path = Path(tmp) / f"run_{h:g}h.h5"
+            n = bench_memory.write_run(path, h, rate_hz, 1)
+            for command in ("analyze", "grade"):
+                argv = bench_memory.command_argv(command, path, profile, Path(tmp))
+                code = (f"import contextlib, io\nfrom station.cli import main\n"
+                        f"with contextlib.redirect_stdout(io.StringIO()):\n"
+                        f"    main({argv!r})\n")
+                wall, cpu, npy_wall, npy_cpu, _ = least(code, runs if h <= 1 else 1)
+                out = timed_child(PROFILED.format(argv=argv, steps=STEPS))[2]
+                doc = json.loads(out.strip().splitlines()[-1])
+                total = doc["total"]
+                shares = " ".join(
+                    f"{label}={100 * doc['steps'][label] / total:.0f}%"
+                    for label in STEPS if doc["steps"].get(label, 0.0) >= 0.005 * total)
+                goal = " (goal <= 8)" if command == "analyze" and h == 1 else ""
+                lines.append(
+                    f"commands station {command} {h:g} h x {rate_hz:g} Hz x 1 axis ({n} samples): "
+                    f"wall {wall:.2f}s={wall / npy_wall:.1f}x cpu {cpu:.2f}s={cpu / npy_cpu:.1f}x "
+                    f"of import numpy{goal}; profiled run {total:.2f}s: {shares}")
+    return lines
+
+
+def row_library(sizes: tuple[int, ...], fs: float = 100.0) -> list[str]:
+    """``overlapping_allan_variance`` with edf and intervals against its kernel and
+    allantools' ``oadev`` on the same taus, numba loaded (best of three, paired)."""
+    from analysis import overlapping_allan_variance
+
+    overlapping_allan_variance(np.random.default_rng(0).standard_normal(2_000_000), fs)
+    return [_library_case(n, fs) for n in sizes]
+
+
+def _library_case(n: int, fs: float) -> str:
+    import allantools
+
+    from analysis import overlapping_allan_variance
+
+    rate = np.random.default_rng(3).standard_normal(n)
+    m = np.unique(np.rint(np.geomspace(1, n // 9, 100))).astype(np.int64)
+    taus = m / fs
+    theta = cumulative_angle(rate, fs)
+    best: dict[str, list[float]] = {"call": [], "kernel": [], "allantools": []}
+    cpu: dict[str, list[float]] = {"call": [], "kernel": [], "allantools": []}
+    fns: dict[str, Callable[[], object]] = {
+        "call": lambda: overlapping_allan_variance(rate, fs, taus=taus),
+        "kernel": lambda: kernels.overlapping_sums(theta, m),
+        "allantools": lambda: allantools.oadev(rate, rate=fs, data_type="freq", taus=taus),
+    }
+    for turn in range(3):
+        for name, fn in fns.items():
+            if name == "allantools" and n > 5_000_000 and turn:
+                continue  # 20+ s a call: once
+            start, start_cpu = time.perf_counter(), time.process_time()
+            fn()
+            best[name].append(time.perf_counter() - start)
+            cpu[name].append(time.process_time() - start_cpu)
+    call, kern, peer = (min(best[k]) for k in ("call", "kernel", "allantools"))
+    c_call, c_kern, c_peer = (min(cpu[k]) for k in ("call", "kernel", "allantools"))
+    goal = {2_000_000: " (goal >= 4)", 10_000_000: " (goal >= 10)"}.get(n, "")
+    return (f"library overlapping_allan_variance N={n:.0e} taus={len(m)}: wall call={call:.3f}s "
+            f"kernel={kern:.3f}s allantools={peer:.3f}s call/kernel={call / kern:.2f} "
+            f"(goal <= 1.3) allantools/call={peer / call:.1f}{goal}; cpu call={c_call:.3f}s "
+            f"kernel={c_kern:.3f}s allantools={c_peer:.3f}s call/kernel={c_call / c_kern:.2f} "
+            f"allantools/call={c_peer / c_call:.1f} (the compiled kernel's CPU counts every "
+            f"core it ran on)")
+
+
+ROWS = ("help", "commands", "library", "backends")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--quick", action="store_true", help="smaller records, fewer runs")
     p.add_argument(
-        "--runs", type=int, default=None, help="paired runs per row (default 5; 3 quick)"
+        "--runs", type=int, default=None, help="runs per row (default 5; 3 quick)"
     )
+    p.add_argument("--rows", default=",".join(ROWS[:3]),
+                   help=f"comma-separated rows of {', '.join(ROWS)} (default the first three)")
     args = p.parse_args(argv)
     runs = args.runs or (3 if args.quick else 5)
+    rows = args.rows.split(",")
+    unknown = set(rows) - set(ROWS)
+    if unknown:
+        p.error(f"unknown rows {sorted(unknown)}; use {', '.join(ROWS)}")
     import numba
 
     print(
         f"# bench_speed{' --quick' if args.quick else ''}: numpy {np.__version__}, numba "
         f"{numba.__version__}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}, "
-        f"medians of {runs} paired runs",
+        f"least of {runs} runs (fresh processes), best of 3 (in process)",
         flush=True,
     )
-    print(row_davar(runs), flush=True)
-    print(row_oadev(runs, 10_000_000), flush=True)
-    print(row_help(runs), flush=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        print(row_analyze_csv(runs, Path(tmp)), flush=True)
-    print(row_analyze_h5(0.25 if args.quick else 1.0), flush=True)
+    if "help" in rows:
+        for line in row_help_commands(runs):
+            print(line, flush=True)
+    if "commands" in rows:
+        for line in row_commands((1.0,) if args.quick else (1.0, 24.0), runs):
+            print(line, flush=True)
+    if "library" in rows:
+        sizes = (1_000_000, 2_000_000) if args.quick else (1_000_000, 2_000_000, 10_000_000)
+        for line in row_library(sizes):
+            print(line, flush=True)
+    if "backends" in rows:
+        print(row_davar(runs), flush=True)
+        print(row_oadev(runs, 10_000_000), flush=True)
+        print(row_help(runs), flush=True)
+        with tempfile.TemporaryDirectory() as tmp:
+            print(row_analyze_csv(runs, Path(tmp)), flush=True)
+        print(row_analyze_h5(0.25 if args.quick else 1.0), flush=True)
+    print(f"# load average at the end {os.getloadavg()[0]:.1f}", flush=True)
     return 0
 
 

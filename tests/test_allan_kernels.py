@@ -198,3 +198,39 @@ def test_auto_picks_by_the_work_alone() -> None:
                          timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.split() == ["False", "True", "True", "True"]
+
+
+@needs_numba
+def test_compiled_lag1_sums_give_the_numpy_noise_types() -> None:
+    """The compiled lag-1 sums (one blocked pass for every tau) give the lag-1
+    autocorrelations of the numpy path to rounding, and the same noise type at every
+    tau, for white, flicker and random-walk rate noise with a bias, up to the third
+    difference (the Hadamard family's)."""
+    from analysis.allan import noise_id
+    from analysis.allan.estimators import resolve_m
+    from analysis.models.noise import flicker_rate_noise
+
+    rng = np.random.default_rng(11)
+    n = 200_000
+    records = {
+        "white": rng.standard_normal(n) + 3.0,
+        "flicker": flicker_rate_noise(1.0, n, 100.0, rng) + 0.5 * rng.standard_normal(n),
+        "walk": np.cumsum(rng.standard_normal(n)) * 1e-2 + rng.standard_normal(n),
+    }
+    theta = cumulative_angle(np.column_stack(list(records.values())), 100.0)
+    m = resolve_m("log", n, 100.0)
+    for d_max in (2, 3):
+        numpy_id = noise_id.identify_noise(theta, m, d_max=d_max, backend="numpy")
+        compiled_id = noise_id.identify_noise(theta, m, d_max=d_max, backend="numba")
+        assert np.array_equal(numpy_id.alpha, compiled_id.alpha)
+        assert np.array_equal(numpy_id.method, compiled_id.method)
+    assert {-2, -1, 0} <= set(np.unique(numpy_id.alpha))  # the three types are there
+    acf_m = m[n // m + 1 >= noise_id.MIN_ACF_POINTS]
+    moments = kernels.lag1_moments(theta[:, 0], acf_m, 3, kernels._compiled())
+    for i, mi in enumerate(acf_m):
+        z = np.diff(theta[::mi, 0])
+        for d in range(3):
+            r1, length = noise_id.lag1_from_moments(moments[i, d])
+            assert length == len(z)
+            assert abs(r1 - noise_id.lag1_autocorrelation(z)) < 1e-11
+            z = np.diff(z)

@@ -47,6 +47,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from analysis.distributions import chi2_ppf
+
 #: Confidence level of a +-1 sigma interval of a normal variable.
 ONE_SIGMA = 0.6826894921370859
 #: Rate-noise exponents the edf is computed for: white angle (2), flicker angle (1), white
@@ -347,10 +349,8 @@ def chi2_interval(
     e = np.asarray(edf, dtype=float)
     # the quantiles depend on edf only; grids of every m repeat edf values many times
     unique, inverse = np.unique(e, return_inverse=True)
-    from scipy import stats  # on first use (see the module's note)
-
-    upper = stats.chi2.ppf(0.5 + confidence / 2, unique)[inverse].reshape(e.shape)
-    lower = stats.chi2.ppf(0.5 - confidence / 2, unique)[inverse].reshape(e.shape)
+    upper = chi2_ppf(0.5 + confidence / 2, unique)[inverse].reshape(e.shape)
+    lower = chi2_ppf(0.5 - confidence / 2, unique)[inverse].reshape(e.shape)
     return v * e / upper, v * e / lower
 
 

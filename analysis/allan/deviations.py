@@ -68,23 +68,12 @@ from analysis.allan.estimators import (
     octave_m,
     overlapping_allan_variance,
 )
+from analysis.allan.kinds import DEVIATION_KINDS as DEVIATION_KINDS, DeviationKind as DeviationKind
 from analysis.allan.noise_id import identify_noise
 from analysis.allan.theo1 import theo1_sums
 from analysis.allan.variance import allan_variance
 from analysis.errors import InvalidTauError, TooFewSamplesError
 
-DeviationKind = Literal["oadev", "adev", "mdev", "hdev", "ohdev", "tdev", "totdev", "theo1"]
-#: Every deviation :func:`deviation` computes, the overlapping Allan deviation first.
-DEVIATION_KINDS: tuple[DeviationKind, ...] = (
-    "oadev",
-    "adev",
-    "mdev",
-    "hdev",
-    "ohdev",
-    "tdev",
-    "totdev",
-    "theo1",
-)
 #: What each deviation is called in a table or a plot.
 DEVIATION_LABELS: dict[str, str] = {
     "oadev": "overlapping Allan deviation", "adev": "Allan deviation (clusters)",

@@ -29,6 +29,7 @@ from analysis.allan.confidence import (  # re-exported: part of this module's AP
     local_noise_alpha as local_noise_alpha,
     overlapping_edf as overlapping_edf,
 )
+from analysis.allan.kinds import Estimator as Estimator
 from analysis.allan.noise_id import identify_noise
 from analysis.errors import (
     InvalidSampleRateError,
@@ -37,7 +38,6 @@ from analysis.errors import (
     TooFewSamplesError,
 )
 
-Estimator = Literal["overlapping", "clusters"]
 InputKind = Literal["rate", "angle_increment"]
 TauGrid = Literal["log", "octave", "all"]
 Missing = Literal["raise", "gap"]

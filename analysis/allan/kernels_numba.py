@@ -181,3 +181,113 @@ def window_sums_segments(
                 total += segments[r]
                 r += 1
             out[j, i] = total
+
+
+#: Moments per (m, difference order) that :func:`lag1_moments` fills.
+LAG1_FIELDS = 5
+#: Angle samples per block of :func:`lag1_moments`: every m reads a block while it is in
+#: cache, so the record is read from memory once for all m (not once per small m).
+_LAG1_BLOCK = 1 << 15
+
+
+@numba.njit(cache=True)
+def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max: int,
+                 n_parts: int, out: NDArray[np.float64]) -> None:
+    """Lag-1 sums of the ``d``-th differences of ``angle[::m]``, every m and ``d <= 3``.
+
+    ``out[i, d - 1] = (n, S1, S2, S11, y_last)`` (``d <= d_max``) for the series ``z`` of
+    the d-th difference at ``m_values[i]``, taken about its first value ``c = z[0]``
+    (``y = z - c``): ``n`` terms, ``S1 = sum y``, ``S2 = sum y^2``, ``S11 = sum y_i
+    y_(i+1)``, and the last ``y``. The m values are dealt to ``n_parts`` cores in turn;
+    each walks the angle a cache-sized block at a time and every m of its share reads the
+    block, so the record comes from memory once per core for all m, with no temporary.
+    :func:`analysis.allan.noise_id.lag1_from_moments` turns the sums into the lag-1
+    autocorrelation about the mean.
+    """
+    n_y = angle.shape[0]
+    n_m = m_values.shape[0]
+    state = np.zeros((n_m, _LAG1_STATE))
+    for part in range(n_parts):
+        for b0 in range(0, n_y, _LAG1_BLOCK):
+            b1 = min(b0 + _LAG1_BLOCK, n_y)
+            for i in range(part, n_m, n_parts):
+                _lag1_block(angle, m_values[i], b0, b1, d_max >= 3, state[i])
+    for i in range(n_m):
+        count = (n_y - 1) // m_values[i] + 1  # decimated points
+        for d in range(1, d_max + 1):
+            out[i, d - 1, 0] = max(count - d, 0)
+            for f in range(4):
+                out[i, d - 1, 1 + f] = state[i, 3 + 5 * (d - 1) + 1 + f]
+
+
+#: Per m: the previous angle, 1st and 2nd difference, then per difference order its
+#: shift (first value), S1, S2, S11 and last shifted value.
+_LAG1_STATE = 3 + 5 * 3
+
+
+@numba.njit(cache=True)
+def _lag1_block(angle: NDArray[np.float64], m: int, b0: int, b1: int, third: bool,
+                st: NDArray[np.float64]) -> None:
+    """The decimated points ``k m`` in ``[b0, b1)`` added to one m's sums ``st`` (the
+    third difference's too when ``third``)."""
+    p0, p1, p2 = st[0], st[1], st[2]
+    c1, s1a, s1b, s1c, l1 = st[3], st[4], st[5], st[6], st[7]
+    c2, s2a, s2b, s2c, l2 = st[8], st[9], st[10], st[11], st[12]
+    c3, s3a, s3b, s3c, l3 = st[13], st[14], st[15], st[16], st[17]
+    k = (b0 + m - 1) // m  # first decimated point in the block
+    while k * m < b1:
+        a = angle[k * m]
+        if k >= 4:  # the common case: every difference has its first value and a last one
+            d1 = a - p0
+            d2 = d1 - p1
+            y1 = d1 - c1
+            y2 = d2 - c2
+            s1a += y1
+            s1b += y1 * y1
+            s1c += l1 * y1
+            s2a += y2
+            s2b += y2 * y2
+            s2c += l2 * y2
+            if third:
+                y3 = d2 - p2 - c3
+                s3a += y3
+                s3b += y3 * y3
+                s3c += l3 * y3
+                l3 = y3
+            l1, l2 = y1, y2
+            p0, p1, p2 = a, d1, d2
+        else:
+            d1 = a - p0
+            d2 = d1 - p1
+            d3 = d2 - p2
+            if k == 1:
+                c1 = d1
+            elif k == 2:
+                c2 = d2
+            elif k == 3:
+                c3 = d3
+            if k >= 1:
+                y1 = d1 - c1
+                s1a += y1
+                s1b += y1 * y1
+                if k > 1:
+                    s1c += l1 * y1
+                l1 = y1
+            if k >= 2:
+                y2 = d2 - c2
+                s2a += y2
+                s2b += y2 * y2
+                if k > 2:
+                    s2c += l2 * y2
+                l2 = y2
+            if k >= 3:
+                y3 = d3 - c3
+                s3a += y3
+                s3b += y3 * y3
+                l3 = y3
+            p0, p1, p2 = a, d1, d2
+        k += 1
+    st[0], st[1], st[2] = p0, p1, p2
+    st[3], st[4], st[5], st[6], st[7] = c1, s1a, s1b, s1c, l1
+    st[8], st[9], st[10], st[11], st[12] = c2, s2a, s2b, s2c, l2
+    st[13], st[14], st[15], st[16], st[17] = c3, s3a, s3b, s3c, l3

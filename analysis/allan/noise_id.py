@@ -42,14 +42,15 @@ are reported as -2, the steepest the edf computation knows.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from functools import partial
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import blocks
+from analysis.allan import blocks, kernels
 from analysis.allan.long_sums import box_square_sum, second_differences
 
 #: Decimated angle points the lag-1 method needs (Riley and Greenhall: about 30).
@@ -160,16 +161,49 @@ def lag1_alpha(angle: NDArray[np.float64], m: int, *, d_max: int = 2) -> int:
     """
     long = blocks.is_long((len(angle) - 1) // m)
     z = None if long else np.diff(blocks.decimated(angle, m))
+
+    def lag1(d: int) -> tuple[float, int]:
+        nonlocal z
+        if z is None:
+            return _lag1_long(angle, m, d)
+        if d > 1:
+            z = np.diff(z)
+        return lag1_autocorrelation(z), len(z)
+
+    return _alpha_from_lag1(lag1, d_max)
+
+
+def lag1_from_moments(moments: NDArray[np.float64]) -> tuple[float, int]:
+    """(lag-1 autocorrelation about the mean, length) of a series from its sums about its
+    first value (one row of :func:`analysis.allan.kernels_numba.lag1_moments`:
+    ``n, S1, S2, S11, y_last``): the centred sums of :func:`lag1_autocorrelation`
+    rewritten, ``sum (y - s)^2 = S2 - n s^2`` and ``sum (y_i - s)(y_(i+1) - s) = S11 -
+    s (2 S1 - y_last) + (n - 1) s^2`` with ``s = S1 / n`` (``y_0 = 0``); they agree with
+    it to rounding."""
+    n = int(moments[0])
+    if n < 1:
+        return 0.0, n
+    s1, s2, s11, y_last = (float(v) for v in moments[1:5])
+    shift = s1 / n
+    den = s2 - n * shift * shift
+    num = s11 - shift * (2.0 * s1 - y_last) + (n - 1) * shift * shift
+    return (num / den if den > 0 else 0.0), n
+
+
+def _moments_lag1(rows: NDArray[np.float64], d: int) -> tuple[float, int]:
+    """:func:`lag1_from_moments` of the ``d``-th difference's row."""
+    return lag1_from_moments(rows[d - 1])
+
+
+def _alpha_from_lag1(lag1: Callable[[int], tuple[float, int]], d_max: int) -> int:
+    """alpha from the lag-1 autocorrelations ``lag1(d)`` (with the series' length) of the
+    1st, 2nd, ... differences, as :func:`lag1_alpha` describes."""
     d = 1
     while True:
-        if z is None:
-            r1, length = _lag1_long(angle, m, d)
-        else:
-            r1, length = lag1_autocorrelation(z), len(z)
+        r1, length = lag1(d)
         delta = r1 / (1.0 + r1) if r1 > -1.0 else -np.inf
         if delta < 0.25 or d >= d_max or length < 4:
             break
-        z = None if z is None else np.diff(z)
         d += 1
     if not np.isfinite(delta):
         return ALPHA_RANGE[1]
@@ -257,7 +291,8 @@ def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:
 
 
 def identify_noise(
-    angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2
+    angle: NDArray[np.float64], m: NDArray[np.int64], *, d_max: int = 2,
+    backend: kernels.Backend = "auto",
 ) -> NoiseIdentification:
     """Dominant noise exponent at each averaging factor, for one axis or several.
 
@@ -269,6 +304,11 @@ def identify_noise(
         Averaging factors, increasing.
     d_max : int
         2 for the Allan family, 3 for the Hadamard one (one more difference).
+    backend : {"auto", "numpy", "numba"}
+        Where the overlapping Allan sums of this record and grid run compiled
+        (:func:`analysis.allan.kernels.overlapping_backend`), the lag-1 sums of every
+        tau are taken in one compiled pass per tau (:func:`lag1_from_moments`; the same
+        types, the autocorrelations agreeing to rounding); else in numpy, tau by tau.
 
     Returns
     -------
@@ -296,10 +336,21 @@ def identify_noise(
     n_points = (x.shape[0] - 1) // m[picks] + 1
     alpha = np.zeros((len(picks), x.shape[1]), dtype=np.int64)
     method = np.empty((len(picks), x.shape[1]), dtype="<U7")
+    acf = n_points >= MIN_ACF_POINTS
+    # a long memory-mapped record keeps the block-wise reads below (pages handed back)
+    long_mapped = blocks.is_mapped(angle) and blocks.is_long(x.shape[0])
+    compiled = None if long_mapped else kernels.overlapping_backend(
+        x.shape[0], m, x.shape[1], backend)
     for col in range(x.shape[1]):
+        moments = None
+        if compiled is not None and acf.any():
+            moments = kernels.lag1_moments(x[:, col], m[picks][acf], d_max, compiled)
         last: int | None = None
         for i, mi in enumerate(m[picks]):
-            if n_points[i] >= MIN_ACF_POINTS:
+            if acf[i] and moments is not None:
+                # the acf taus come first (n_points falls with m): row i is this tau's
+                a, how = _alpha_from_lag1(partial(_moments_lag1, moments[i]), d_max), "acf"
+            elif acf[i]:
                 a, how = lag1_alpha(x[:, col], int(mi), d_max=d_max), "acf"
             elif n_points[i] - 1 >= MIN_B1_AVERAGES:
                 a, how = b1_alpha(x[:, col], int(mi))

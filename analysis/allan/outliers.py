@@ -52,9 +52,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
 from analysis.allan import blocks
+from analysis.distributions import normal_isf
 
 #: Probability that a clean Gaussian record shows one false spike (any length).
 FALSE_ALARM = 0.01
@@ -181,7 +181,7 @@ def spike_threshold(n_samples: int, false_alarm: float = FALSE_ALARM) -> float:
     """Residual threshold, in scales, for a false-alarm probability over ``n_samples``."""
     if not 0 < false_alarm < 1:
         raise ValueError(f"false_alarm must be in (0, 1), got {false_alarm}")
-    return float(stats.norm.isf(false_alarm / (2.0 * max(n_samples, 1))))
+    return float(normal_isf(false_alarm / (2.0 * max(n_samples, 1))))
 
 
 def resolution(x: NDArray[np.float64]) -> float:

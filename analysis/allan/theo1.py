@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import fft as sp_fft
 
 #: Taus whose direct double sum has at most this many terms are summed directly.
 DIRECT_TERMS = 20_000_000
@@ -64,6 +63,7 @@ def theo1_sum_direct(x: NDArray[np.float64], m: int) -> float:
 
 def _autocorrelation(x: NDArray[np.float64], max_lag: int) -> NDArray[np.float64]:
     """``sum_j x_j x_{j+L}`` for ``L = 0 .. max_lag`` (zero past the end), by FFT."""
+    from scipy import fft as sp_fft
     size = sp_fft.next_fast_len(len(x) + max_lag + 1, real=True)
     spec = sp_fft.rfft(x, size)
     out = np.asarray(sp_fft.irfft(spec * np.conj(spec), size)[: max_lag + 1], dtype=np.float64)
@@ -104,6 +104,7 @@ def _triangle_sum(x: NDArray[np.float64], c: int, roots: NDArray[np.int64]) -> f
     ``n - h`` at (a + h, b) and (a, b + h). All squares of one level are done in one
     batched FFT; triangles of at most :data:`_LEAF` are summed as dense blocks.
     """
+    from scipy import fft as sp_fft
     tasks = np.asarray(roots, dtype=np.int64).reshape(-1, 3)
     table = _kernel_table(c)
     total = 0.0

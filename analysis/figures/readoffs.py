@@ -55,7 +55,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import special
 
 from analysis.allan.confidence import ONE_SIGMA, chi2_interval, local_noise_alpha
 from analysis.allan.estimators import AllanResult
@@ -312,6 +311,7 @@ def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES
     pooled into 1/:data:`CORRELATION_BINS_PER_OCTAVE`-octave bins (precision-weighted
     means), far finer than the kernel, so the cost does not grow with the grid.
     """
+    from scipy import special
     x = np.log(result.tau_s)
     edf = np.asarray(result.edf, dtype=float)
     y = np.log(result.avar) - (special.digamma(edf / 2.0) - np.log(edf / 2.0))

@@ -16,7 +16,6 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
 from analysis.allan import blocks
 from analysis.allan.estimators import AllanResult, as_samples, check_sample_rate, chi2_interval
@@ -26,6 +25,7 @@ from analysis.allan.partial_clusters import (
     partial_means,
     white_level,
 )
+from analysis.distributions import normal_ppf
 from analysis.figures.readoffs import (
     BIAS_INSTABILITY_FACTOR,
     ReadOff,
@@ -190,7 +190,7 @@ def _disagree(read: ReadOff, value: float | None, stderr: float | None, confiden
     """
     if read.value is None or read.edf is None or read.value <= 0 or value is None:
         return None
-    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    z = float(normal_ppf(0.5 + confidence / 2))
     known = stderr is not None and math.isfinite(stderr)
     if value <= 0:
         low, _ = read.interval(confidence)

@@ -34,15 +34,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 from analysis.allan.estimators import AllanResult
 from analysis.errors import FitError
 from analysis.fit.log import LogData, fit_log, log_data, log_tau_share
+from analysis.fit.methods import FIT_METHODS as FIT_METHODS, FitMethod as FitMethod
 from analysis.fit.model import (
     BETA_FACTOR,
     COEFFICIENT_NAMES,
@@ -77,8 +76,6 @@ __all__ = [
     "theoretical_avar",
 ]
 
-FitMethod = Literal["ols", "ols40", "wls", "nnls", "logwls"]
-FIT_METHODS: tuple[FitMethod, ...] = ("ols", "ols40", "wls", "nnls", "logwls")
 OLS40_MAX_ERROR = 0.40
 #: Relative error floor of the five-term model assumed by ``logwls``'s weights (2 % of avar).
 DEFAULT_MODEL_ERROR = 0.02
@@ -307,6 +304,7 @@ def _linear_solution(
     method: str, x: NDArray[np.float64], y: NDArray[np.float64], weights: NDArray[np.float64]
 ) -> NDArray[np.float64]:
     """Least squares of ``sqrt(w) x b = sqrt(w) y`` with columns scaled to unit norm."""
+    from scipy import optimize
     sw = np.sqrt(weights)[:, None]
     xs = x * sw
     scale = np.linalg.norm(xs, axis=0)

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, special
 
 from analysis.allan.estimators import AllanResult
 from analysis.fit.model import TERMS, design_matrix, full_beta
@@ -90,6 +89,7 @@ class LogData:
 
 def log_data(result: AllanResult, keep: NDArray[np.bool_], model_error: float) -> LogData:
     """Targets and weights of the log fit (module docstring) for the rows ``keep`` of ``result``."""
+    from scipy import special
     edf = np.asarray(result.edf, dtype=float)[keep]
     avar = np.asarray(result.avar, dtype=float)[keep]
     tau = np.asarray(result.tau_s, dtype=float)[keep]
@@ -127,6 +127,7 @@ def fit_log(data: LogData, terms: str, *, start: NDArray[np.float64] | None = No
     iterations : int
         Gauss-Newton steps taken.
     """
+    from scipy import optimize
     cols = [TERMS.index(t) for t in terms]
     x = data.design[:, cols]
     sw = np.sqrt(data.weights)

@@ -37,8 +37,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import linalg
-from scipy.linalg import lapack
 
 from analysis.allan.estimators import AllanResult
 from analysis.fit.log import LogData, fit_log, log_tau_share
@@ -161,6 +159,7 @@ def _cholesky_jittered(c: NDArray[np.float64]) -> NDArray[np.float64]:
     by 1e-9 of itself, then by ten times more each time the factorization fails (up to
     1e-6); past that, the eigenvalues are floored at 1e-9 of the largest (the nearest
     positive definite matrix of the same eigenvectors)."""
+    from scipy import linalg
     diag = np.diag_indices_from(c)
     base = c[diag].copy()
     for jitter in (1e-9, 1e-8, 1e-7, 1e-6):
@@ -189,6 +188,7 @@ def _deviance(
     Gaussian in the log values, with the covariance the model itself implies: a model
     that claims precise values (a deterministic ramp) must also meet them.
     """
+    from scipy.linalg import lapack
     c = value_covariance(result, beta, keep=data.keep, random_ramp=True).sandwich(
         picks, log=True, misfit=misfit
     )

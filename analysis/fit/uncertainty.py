@@ -31,7 +31,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import special
 
 from analysis.allan.covariance import CovarianceBasis, covariance_basis
 from analysis.allan.estimators import AllanResult
@@ -205,6 +204,7 @@ def value_covariance(
         Take the ramp term as a random rise (see
         :meth:`analysis.allan.covariance.CovarianceBasis.covariance`).
     """
+    from scipy import special
     m = np.asarray(result.m, dtype=np.int64)
     if keep is not None:
         m = m[keep]

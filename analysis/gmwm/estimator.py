@@ -60,10 +60,10 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import linalg, optimize, stats
 
 from analysis.allan.confidence import ONE_SIGMA, local_noise_alpha
 from analysis.allan.estimators import AllanResult
+from analysis.distributions import chi2_sf, normal_ppf
 from analysis.errors import FitError, TooFewSamplesError
 from analysis.fit.least_squares import BETA_FACTOR, DEFAULT_MODEL_ERROR, fit_noise_terms
 from analysis.gmwm.covariance import wv_covariance
@@ -143,6 +143,7 @@ class _Problem:
         FitError
             ``V`` with a variance that is not positive (a model nil at some scale).
         """
+        from scipy import linalg
         var = np.diag(v)
         if not np.all(var > 0) or not np.all(np.isfinite(var)):
             raise FitError("the weights' covariance has no positive variance at some scale "
@@ -202,6 +203,7 @@ class _Problem:
     def grid_starts(self, count: int) -> list[NDArray[np.float64]]:
         """The ``count`` best grid points: NNLS in the variances at every combination of grid
         correlation times (increasing within a repeated term)."""
+        from scipy import optimize
         b = self._apply(self.nu)
         n_shaped = len(self.shape_idx)
         x = np.zeros(self.model.n_params)
@@ -288,6 +290,7 @@ class _Problem:
 
     def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
         """Least squares from the ``count`` starts of lowest objective; the best solution."""
+        from scipy import optimize
         ready = []
         for x0 in starts:
             x0 = np.clip(np.nan_to_num(x0, nan=0.0), self.lower, self.upper)
@@ -356,7 +359,7 @@ def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence:
     r = problem.residual(x)
     obj = float(r @ r)
     dof = len(problem.tau) - int(free.sum())
-    p_value = float(stats.chi2.sf(obj, dof)) if dof > 0 else math.nan
+    p_value = float(chi2_sf(obj, dof)) if dof > 0 else math.nan
     jac = problem.jacobian(x)
     cov_x = np.zeros((len(x), len(x)))
     # every variance gets a standard error (a zero one: the size the data cannot exclude)
@@ -376,7 +379,7 @@ def _finish(problem: _Problem, x: NDArray[np.float64], weights: str, confidence:
     if equivalent is not None:  # a fast GM / AR(1) term: the white noise it amounts to
         values[WN_EQUIVALENT_KEY] = equivalent.value_deg_rt_h
         stderr[WN_EQUIVALENT_KEY] = equivalent.stderr_deg_rt_h
-    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    z = float(normal_ppf(0.5 + confidence / 2))
     low, high = {}, {}
     for key, value in values.items():
         se = stderr[key]
@@ -498,7 +501,7 @@ def gmwm(wv: WaveletVariance, model: GmwmModel | str, *, weights: str = "efficie
         # (a fast Gauss-Markov term at the finest scales) that the efficient ones do not prefer
         x = problem.solve(previous=x, fresh=step == steps - 1)
     dof = len(wv.tau_s) - int(problem.free(x).sum())
-    if model_error > 0 < steps and dof > 0 and stats.chi2.sf(problem.objective(x), dof) < REJECT_P:
+    if model_error > 0 < steps and dof > 0 and chi2_sf(problem.objective(x), dof) < REJECT_P:
         # the model does not hold: weights from the data, capped by the model error
         floor = model_error
         problem.set_weights(weight_covariance(model, problem.theta(x), wv, floor), diagonal=True)

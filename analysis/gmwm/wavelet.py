@@ -60,7 +60,6 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, stats
 
 from analysis.allan import blocks
 from analysis.allan.confidence import ONE_SIGMA, chi2_interval
@@ -70,6 +69,7 @@ from analysis.allan.estimators import (
     cumulative_angle,
     overlapping_sums,
 )
+from analysis.distributions import normal_cdf, normal_pdf, normal_ppf, normal_sf
 from analysis.errors import TooFewSamplesError
 
 CiMethod = Literal["pw", "eta3", "asymptotic"]
@@ -256,7 +256,7 @@ def _thinned_lag_sum(take: Callable[[NDArray[np.int64]], NDArray[np.float64]], n
 def huber_delta(c: float) -> float:
     """``E[min(Z^2, c^2)]`` for a standard normal Z (consistency constant of proposal 2)."""
     return float(
-        (2 * stats.norm.cdf(c) - 1) - 2 * c * stats.norm.pdf(c) + 2 * c**2 * stats.norm.sf(c)
+        (2 * normal_cdf(c) - 1) - 2 * c * normal_pdf(c) + 2 * c**2 * normal_sf(c)
     )
 
 
@@ -266,15 +266,16 @@ def huber_efficiency(c: float) -> float:
     ``2 gamma^2 / Var(min(Z^2, c^2))`` with ``gamma = E[Z^2; |Z| < c]`` (the slope of the
     estimating equation), for independent Gaussian values.
     """
-    p = 2 * stats.norm.cdf(c) - 1
-    phi = stats.norm.pdf(c)
+    p = 2 * normal_cdf(c) - 1
+    phi = normal_pdf(c)
     gamma = p - 2 * c * phi
-    fourth = 3 * p - 2 * phi * (c**3 + 3 * c) + c**4 * 2 * stats.norm.sf(c)
+    fourth = 3 * p - 2 * phi * (c**3 + 3 * c) + c**4 * 2 * normal_sf(c)
     return float(2 * gamma**2 / (fourth - huber_delta(c) ** 2))
 
 
 def huber_constant(efficiency: float) -> float:
     """The ``c`` whose proposal-2 scale has this Gaussian efficiency (0 < efficiency < 1)."""
+    from scipy import optimize
     if not 0.05 < efficiency < 0.999:
         raise ValueError(f"robust efficiency must be in (0.05, 0.999), got {efficiency}")
     return float(optimize.brentq(lambda c: huber_efficiency(c) - efficiency, 0.05, 10.0))
@@ -443,7 +444,7 @@ def haar_wavelet_variance(
         variance = 2.0 * a_sum / n_coef[:, None] / eff
         edf = np.maximum(2.0 * wv**2 / np.maximum(variance, np.finfo(float).tiny), 1.0)
     if ci == "asymptotic":
-        z = float(stats.norm.ppf(0.5 + confidence / 2))
+        z = float(normal_ppf(0.5 + confidence / 2))
         half = z * np.sqrt(variance)
         low, high = np.maximum(wv - half, 0.0), wv + half
     else:

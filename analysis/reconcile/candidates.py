@@ -42,13 +42,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize
 
 from analysis.models.terms import NoiseModel, NoiseTerm, term_type
 from analysis.reconcile.discrepancy import Comparison, MeasuredCurve, allan_on_grid
+from analysis.reconcile.options import BIC_THRESHOLD as BIC_THRESHOLD
 
-#: Delta BIC (C2) a candidate needs to be considered at all.
-BIC_THRESHOLD = 10.0
 #: The key of each term whose square scales its Allan variance.
 SCALE_KEYS: dict[str, str] = {
     "quantization": "Q_urad",
@@ -173,6 +171,7 @@ def fit_candidate(name: str, model: NoiseModel, curve: MeasuredCurve, comparison
     of a realization (rate per unit coefficient for the temperature bias, the located
     steps for bias steps); the rest of the model's curve is the comparison's.
     """
+    from scipy import optimize
     present = model.get(name)
     term_now = (
         present.avar(curve.tau_s, duration_s=curve.duration_s) if present is not None else 0.0

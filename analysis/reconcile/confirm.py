@@ -53,8 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import optimize, stats
 
+from analysis.distributions import normal_isf
 from analysis.figures.tones import Tone, find_tones
 from analysis.models.simulation import simulate
 from analysis.models.terms import (
@@ -101,6 +101,7 @@ class Evidence:
 def periodogram_peak(rate: NDArray[np.float64], sample_rate_hz: float, period_s: float,
                      *, alpha: float = ALPHA_CONFIRM) -> Evidence:
     """Test for a periodogram peak near ``period_s`` and fit the sinusoid there (S1)."""
+    from scipy import optimize
     block = max(1, int(period_s * sample_rate_hz / 16))
     y = block_means(rate, block)
     dt = block / sample_rate_hz
@@ -239,7 +240,7 @@ def detect_steps(
     duration_h = len(rate) / sample_rate_hz / units.S_PER_H
     lengths = sorted({max(1, len(rate) // k) for k in STEP_BLOCK_COUNTS})
     n_tests = sum(len(rate) // b for b in lengths)
-    t_bound = float(stats.norm.isf(alpha / (2.0 * n_tests)))
+    t_bound = float(normal_isf(alpha / (2.0 * n_tests)))
     best: tuple[int, list[int], int] | None = None
     for b in lengths:
         y = block_means(rate, b)
@@ -328,6 +329,7 @@ def fit_temperature_profile(
     nonlinear least squares, then the cycle at the residual's strongest Fourier frequency
     if it halves the residual variance. ``reference_c`` is the mean temperature.
     """
+    from scipy import optimize
     block = max(1, len(temperature_c) // 2000)
     y = block_means(temperature_c, block)
     dt = block / sample_rate_hz

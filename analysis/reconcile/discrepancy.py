@@ -61,20 +61,19 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import special, stats
 
 from analysis.allan import blocks
 from analysis.allan.confidence import allan_edf_grid, local_noise_alpha
 from analysis.allan.estimators import check_sample_rate, cumulative_angle, log_m, overlapping_sums
+from analysis.distributions import chi2_ppf, chi2_sf, normal_ppf
 from analysis.errors import ReconcileError
 from analysis.fit.least_squares import log_tau_share
 from analysis.models.simulation import simulate
 from analysis.models.terms import NoiseModel
+from analysis.reconcile.options import MODEL_FLOOR as MODEL_FLOOR
 
 #: Rate samples (per axis times axes) generated per simulator call of the Monte Carlo.
 BATCH_SAMPLES = 1 << 21
-#: Relative accuracy (in Allan variance) of a library curve, ``f`` of G1.
-MODEL_FLOOR = 0.05
 #: Largest run set (samples times runs) whose per-term runs are kept in a ComparisonCache.
 TERM_CACHE_VALUES = 1 << 23
 #: Two-sided level of the per-tau Monte Carlo band.
@@ -150,6 +149,7 @@ class LogPrecision:
 def log_precision(avar: NDArray[np.float64], m: NDArray[np.int64], n_samples: int,
                   tau_s: NDArray[np.float64], *, floor: float = MODEL_FLOOR) -> LogPrecision:
     """edf of each tau for the noise type a curve shows (its local slope), and the G1 constants."""
+    from scipy import special
     alpha = local_noise_alpha(m, np.maximum(avar, np.finfo(float).tiny), n_samples)
     edf = allan_edf_grid(n_samples, m, alpha[:, None], overlapping=True)[:, 0]
     half = edf / 2.0
@@ -295,12 +295,12 @@ class GapNull:
     def p_value(self, gap: float) -> float:
         """Probability of a gap at least ``gap`` if the model is right."""
         h = self.dof
-        return float(stats.chi2.sf(h * gap / self.mean, h))
+        return float(chi2_sf(h * gap / self.mean, h))
 
     def quantile(self, q: float) -> float:
         """The ``q`` quantile of the matched chi-square."""
         h = self.dof
-        return float(self.mean * stats.chi2.ppf(q, h) / h)
+        return float(self.mean * chi2_ppf(q, h) / h)
 
 
 @dataclass(frozen=True)
@@ -396,7 +396,7 @@ def monte_carlo_band(model: NoiseModel, curve: MeasuredCurve, *, runs: int = 20,
     a = np.concatenate(avars, axis=1)
     loga = np.log(np.maximum(a, np.finfo(float).tiny))
     mu, sd = loga.mean(axis=1), loga.std(axis=1, ddof=1)
-    k95 = stats.norm.ppf(0.5 + BAND_LEVEL / 2)
+    k95 = normal_ppf(0.5 + BAND_LEVEL / 2)
     return MonteCarloBand(
         avar=a, low=np.exp(mu - k95 * sd), high=np.exp(mu + k95 * sd), centre=np.exp(mu),
         trend_slopes=np.concatenate(trends),

@@ -59,10 +59,9 @@ from analysis.models.terms import (
     NoiseTerm,
     term_type,
 )
-from analysis.reconcile.candidates import BIC_THRESHOLD, SCALE_KEYS, CandidateFit, tau_range
+from analysis.reconcile.candidates import SCALE_KEYS, CandidateFit, tau_range
 from analysis.reconcile.confirm import Evidence, RoundEvidence, StepEvidence
 from analysis.reconcile.discrepancy import (
-    MODEL_FLOOR,
     Comparison,
     ComparisonCache,
     MeasuredCurve,
@@ -70,52 +69,9 @@ from analysis.reconcile.discrepancy import (
     measure_curve,
 )
 from analysis.reconcile.gmwm_naming import Alternative
+from analysis.reconcile.options import ReconcileOptions as ReconcileOptions
 from analysis.reconcile.ranking import alternatives, ranked
 from analysis.units.conversions import rate_deg_s_to_deg_h
-
-
-@dataclass(frozen=True)
-class ReconcileOptions:
-    """Settings of :func:`reconcile` (defaults are the stated thresholds).
-
-    Attributes
-    ----------
-    runs, seed : int
-        Monte Carlo runs per comparison and the seed they are drawn from.
-    alpha : float
-        Level of the gap test: the model disagrees when ``p < alpha``.
-    bic_threshold : float
-        Delta BIC (C2) a candidate needs.
-    shrink_sigmas : float
-        How many simulated standard deviations of G the gap must drop by.
-    max_effects, max_tries : int
-        Most changes to the model; most candidates tried per round.
-    max_samples : int
-        Longer records are decimated by block means to at most this many samples.
-    points_per_octave, min_clusters : int
-        Tau grid of the comparison.
-    floor : float
-        Relative accuracy of a library curve (``f`` of eq. G1).
-    min_shrink : float
-        Least relative drop of the gap an effect must bring, besides ``shrink_sigmas``.
-    gmwm : bool
-        Let the GMWM order the candidates the Allan curve cannot tell apart
-        (:mod:`analysis.reconcile.gmwm_naming`); False keeps the Allan curve's order alone.
-    """
-
-    runs: int = 20
-    seed: int = 0
-    alpha: float = 0.01
-    bic_threshold: float = BIC_THRESHOLD
-    shrink_sigmas: float = 3.0
-    max_effects: int = 4
-    max_tries: int = 3
-    max_samples: int = 1 << 20
-    points_per_octave: int = 4
-    min_clusters: int = 4
-    floor: float = MODEL_FLOOR
-    min_shrink: float = 0.1
-    gmwm: bool = True
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+
+from analysis.distributions import chi2_ppf, normal_ppf, t_ppf
 
 
 @dataclass(frozen=True)
@@ -79,8 +80,8 @@ def std_interval(std: float, dof: int, confidence: float) -> tuple[float, float]
     check_confidence(confidence)
     if dof < 1:
         raise ValueError(f"a standard deviation needs >= 1 degree of freedom, got {dof}")
-    upper = float(stats.chi2.ppf(0.5 + confidence / 2.0, dof))
-    lower = float(stats.chi2.ppf(0.5 - confidence / 2.0, dof))
+    upper = float(chi2_ppf(0.5 + confidence / 2.0, dof))
+    lower = float(chi2_ppf(0.5 - confidence / 2.0, dof))
     return std * math.sqrt(dof / upper), std * math.sqrt(dof / lower)
 
 
@@ -89,8 +90,8 @@ def t_half_width(stderr: float, dof: int, confidence: float) -> float:
     (the normal quantile when ``dof`` is 0 or less: the standard error is then known,
     not estimated)."""
     check_confidence(confidence)
-    q = (stats.t.ppf(0.5 + confidence / 2.0, dof) if dof >= 1
-         else stats.norm.ppf(0.5 + confidence / 2.0))
+    q = (t_ppf(0.5 + confidence / 2.0, dof) if dof >= 1
+         else normal_ppf(0.5 + confidence / 2.0))
     return float(q) * stderr
 
 

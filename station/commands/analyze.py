@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from analysis.allan.deviations import DEVIATION_KINDS
-from analysis.fit.least_squares import FIT_METHODS
+from analysis.allan.kinds import DEVIATION_KINDS
+from analysis.fit.methods import FIT_METHODS
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_bench_argument,
@@ -19,12 +19,7 @@ from station.commands.arguments import (
 )
 from station.commands.conventions import hint_several_runs
 from station.commands.terminal import plural
-from station.evaluation.analyze import (
-    DEFAULT_METHOD,
-    GMWM_METHOD,
-    OUTLIER_POLICIES,
-    format_analysis,
-)
+from station.evaluation.analysis_options import DEFAULT_METHOD, GMWM_METHOD, OUTLIER_POLICIES
 from station.evaluation.settings import TAU_GRIDS
 
 if TYPE_CHECKING:
@@ -85,6 +80,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Read the record, analyze every axis, print a table or JSON."""
+    from station.evaluation.analyze import format_analysis
     from station.services.analyze import AnalyzeRequest, analyze
 
     result = analyze(AnalyzeRequest(record_source(args), estimator=args.estimator,

@@ -22,7 +22,6 @@ import numpy as np
 
 from analysis.models.power_cycle import PowerCycleModel
 from analysis.sequences.cycle_stats import summarize_cycles
-from devices.sim.powered import turn_on_draw
 
 #: The simulated units' turn-on behaviour (their truths).
 DEMO_POWER = PowerCycleModel(turn_on_s=4.0, turn_on_jitter_s=0.8, turn_on_bias_deg_h=2.0,
@@ -101,6 +100,9 @@ def demo_units(seed: int) -> tuple[str, str]:
 def _truths(seed: int, cycles: int) -> dict[str, float]:
     """What the simulation drew for one unit: the spread of its turn-on biases, the mean
     of its turn-on times (to its first sample's end), its warm-up time."""
+    # here: the simulated devices import the transports' libraries, not for ``--help``
+    from devices.sim.powered import turn_on_draw
+
     draws = [turn_on_draw(DEMO_POWER, seed, n, 1) for n in range(1, cycles + 1)]
     biases = summarize_cycles([d.bias_deg_h[0] for d in draws])
     ons = summarize_cycles([d.turn_on_s + 1.0 / DEMO_RATE_HZ for d in draws])

@@ -11,12 +11,14 @@ import sys
 import threading
 from dataclasses import asdict
 from types import FrameType
+from typing import TYPE_CHECKING
 
-from devices.opened import OpenedDevice, SimulatedDevice
 from devices.url_text import is_simulated, url_keys, with_keys
-from devices.urls import SUPPORTED, open_device
 from station.commands import COMMAND_HELP
 from station.errors import UsageError
+
+if TYPE_CHECKING:
+    from devices.opened import OpenedDevice
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -44,6 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the supported protocols as a table or as JSON."""
+    # here: the table of protocols imports every transport's library (python-can, pyserial,
+    # pymodbus, canopen), which ``station devices --help`` does not need
+    from devices.urls import SUPPORTED
+
     if args.json:
         print(json.dumps([{k: v for k, v in asdict(p).items() if k != "description"}
                           for p in SUPPORTED], indent=2))
@@ -98,6 +104,9 @@ def _unreachable_reason(opened: OpenedDevice) -> str:
 def run_serve(args: argparse.Namespace) -> int:
     """Serve the simulated device until stopped; returns 0 (2 for a URL that cannot be
     served)."""
+    from devices.opened import SimulatedDevice
+    from devices.urls import open_device
+
     if not is_simulated(args.url):
         raise UsageError(f"serve takes a simulated device URL (sim+...), not {args.url!r}")
     stop = threading.Event()

@@ -30,7 +30,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
@@ -40,10 +40,13 @@ from station.commands.arguments import (
     add_profile_argument,
     print_warnings,
 )
-from station.evaluation.grading import UnitGrade
 from station.output.report import FORMATS
 from station.output.results_backends import redacted
-from station.services.fleet import ACTIONS, LOCAL, FleetProgress, FleetRequest, FleetResult, fleet
+from station.services.fleet_actions import ACTIONS, LOCAL
+
+if TYPE_CHECKING:
+    from station.evaluation.grading import UnitGrade
+    from station.services.fleet import FleetProgress, FleetResult
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -98,6 +101,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Build the request, run it with a progress bar, print the result."""
+    from station.services.fleet import FleetRequest, fleet
+
     request = FleetRequest(
         action=args.action,
         sources=tuple(args.runs),

@@ -29,9 +29,6 @@ from station.commands.arguments import (
     serial_number,
 )
 from station.commands.conventions import hint_several_runs
-from station.output.report.common import analysis_lines
-from station.output.report.plateau_sheet import plateau_lines
-from station.output.report.sequence_sheet import sequence_lines
 
 if TYPE_CHECKING:
     from station.evaluation.grading import RunGrade
@@ -127,6 +124,12 @@ def _num(v: float | None) -> str:
 def format_grade(graded: RunGrade, family: UnitFamily = DEG_FAMILY) -> str:
     """Plain-text tables: per unit, per axis, each figure's value, interval, limit and verdict
     (in ``family``)."""
+    # here, not at the top: these modules draw sheets too (matplotlib), and ``--help`` and a
+    # refused argument must not import it
+    from station.output.report.common import analysis_lines
+    from station.output.report.plateau_sheet import plateau_lines
+    from station.output.report.sequence_sheet import sequence_lines
+
     p = graded.profile
     lines = [
         f"profile {p.ref} ({p.path}), rule {p.rule}, {p.confidence:.0%} intervals, "

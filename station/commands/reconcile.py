@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import argparse
 
-from analysis.reconcile.loop import ReconcileOptions
+from analysis.reconcile.options import ReconcileOptions
 from station.commands import COMMAND_HELP
 from station.commands.arguments import (
     add_output_options,

@@ -35,7 +35,6 @@ from station.commands.arguments import (
     print_json,
 )
 from station.errors import UsageError
-from station.evaluation.capability import CAPABILITY_NOTE
 from station.model.kinds import Verdict
 from station.model.wording import plural
 from station.output.results_backends import redacted
@@ -219,6 +218,8 @@ def format_stats_by_model(stats: StatsByModel, family: UnitFamily = DEG_FAMILY) 
 def format_stats(stats: ProductionStats, family: UnitFamily = DEG_FAMILY) -> str:
     """The statistics as terminal tables: yield per grade, capability per figure (in
     ``family``), review."""
+    from station.evaluation.capability import CAPABILITY_NOTE  # scipy.stats: not for --help
+
     lines = [f"{stats.units} units (latest grading each), profile {stats.profile or '-'}"]
     if not stats.units:
         return lines[0]

@@ -24,7 +24,6 @@ from pathlib import Path
 
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_output_options, output_family, print_json
-from station.services.record import EXIT_RUN_FAULT
 from station.services.run_watch import status_json
 
 __all__ = ["register", "run", "status_json", "status_lines"]
@@ -65,6 +64,8 @@ def status_lines(path: Path) -> tuple[str, list[str]]:
 
 def _exit_status(state: str) -> int | None:
     """How the watch ends on ``state`` (a status line): None while the run goes on."""
+    from station.services.record import EXIT_RUN_FAULT  # the recorder: not for --help
+
     if state.startswith("stopped"):
         return 0
     return EXIT_RUN_FAULT if state.startswith("RECORDER GONE") else None
@@ -87,6 +88,8 @@ def run(args: argparse.Namespace) -> int:
 
 def run_json(args: argparse.Namespace) -> int:
     """``--json``: one object per refresh until the run stops (one with ``--once``)."""
+    from station.services.record import EXIT_RUN_FAULT
+
     while True:
         doc = status_json(args.run)
         print_json(doc, output_family(args))

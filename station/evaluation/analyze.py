@@ -7,7 +7,7 @@ it is what tests call directly.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,6 +44,13 @@ from analysis.gmwm.selection import gmwm_analysis
 from analysis.units.conversions import DEG_FAMILY, S_PER_H, UnitFamily, family_unit_of_key
 from station.errors import UsageError
 from station.evaluation.accel_axes import analyze_accel, format_accel_table
+from station.evaluation.analysis_options import (
+    DEFAULT_METHOD as DEFAULT_METHOD,
+    GMWM_METHOD as GMWM_METHOD,
+    OUTLIER_POLICIES as OUTLIER_POLICIES,
+    AnalysisMethod as AnalysisMethod,
+    OutlierPolicy as OutlierPolicy,
+)
 from station.evaluation.axis_analysis import (
     SPIKES_LISTED as SPIKES_LISTED,
     AxisAnalysis as AxisAnalysis,
@@ -55,16 +62,6 @@ from station.evaluation.long_records import angle_buffer
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
 from station.storage.scratch import scratch_array
-
-DEFAULT_METHOD: FitMethod = "logwls"
-#: ``--method gmwm``: the GMWM beside the default Allan fit (whose read-offs and terms stay).
-GMWM_METHOD: Literal["gmwm"] = "gmwm"
-#: What ``method`` may name: an Allan fit method, or the GMWM beside the default one.
-AnalysisMethod = FitMethod | Literal["gmwm"]
-#: What to do with isolated spikes: remove them when the rule of :mod:`analysis.allan.outliers`
-#: says they are few (default), always keep them, or remove whatever is flagged.
-OutlierPolicy = Literal["auto", "keep", "remove"]
-OUTLIER_POLICIES: tuple[str, ...] = ("auto", "keep", "remove")
 
 
 def _spikes(x: NDArray[np.float64], positions: NDArray[np.int64] | None, fs: float,

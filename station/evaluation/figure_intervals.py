@@ -9,11 +9,11 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import stats
 
 from analysis.allan import blocks
 from analysis.allan.confidence import chi2_interval
 from analysis.allan.partial_clusters import white_level
+from analysis.distributions import normal_ppf, t_ppf
 from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR, arw_readoff, bias_instability_readoff
 from analysis.figures.spec import bias_stability
 from analysis.fit.least_squares import NoiseCoefficients
@@ -36,7 +36,7 @@ class Interval:
 
 def normal_quantile(confidence: float) -> float:
     """The two-sided normal quantile of a confidence level (1.96 at 0.95)."""
-    return float(stats.norm.ppf(0.5 + confidence / 2))
+    return float(normal_ppf(0.5 + confidence / 2))
 
 
 def _chi2_scaled(value: float, edf: float, confidence: float) -> tuple[float, float]:
@@ -58,7 +58,7 @@ def bias_interval(x: np.ndarray, confidence: float) -> Interval:
         mean = float(np.mean(x)) * S_PER_H
         size = len(x) // BIAS_BATCHES
         means = x[: size * BIAS_BATCHES].reshape(BIAS_BATCHES, size).mean(axis=1) * S_PER_H
-    half = float(stats.t.ppf(0.5 + confidence / 2, BIAS_BATCHES - 1)) * float(
+    half = float(t_ppf(0.5 + confidence / 2, BIAS_BATCHES - 1)) * float(
         np.std(means, ddof=1)) / math.sqrt(BIAS_BATCHES)
     low, high = mean - half, mean + half
     if low <= 0 <= high:

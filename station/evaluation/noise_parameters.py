@@ -23,19 +23,23 @@ supports best), never the largest fit of each term taken from different readings
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 from analysis.figures.tool_units import AxisNoise, GaussMarkovBias
 from analysis.fit.least_squares import NoiseCoefficients
 from analysis.gmwm.equivalent import WN_EQUIVALENT_KEY
 from analysis.gmwm.result import GmwmFit
 from station.errors import UsageError
-from station.evaluation.analyze import DEFAULT_METHOD, GMWM_METHOD, AxisAnalysis
+from station.evaluation.analysis_options import DEFAULT_METHOD, GMWM_METHOD
 from station.evaluation.readings import (
     Reading,
     alternative_readings,
     best_supported,
     covering_interval,
 )
+
+if TYPE_CHECKING:
+    from station.evaluation.axis_analysis import AxisAnalysis
 
 #: The methods noise parameters come from: the Allan fit and read-offs, or the GMWM beside them.
 EXPORT_METHODS: tuple[str, ...] = (DEFAULT_METHOD, GMWM_METHOD)

@@ -41,10 +41,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from analysis.davar.estimators import dynamic_allan_variance
 from analysis.davar.warmup import detect_warmup
+from analysis.distributions import normal_ppf
 from analysis.errors import AnalysisError
 from analysis.sequences.cycle_stats import CycleSummary, summarize_cycles
 from analysis.sequences.temperature_sensitivity import (
@@ -420,7 +420,7 @@ def _summary_figure(s: CycleSummary, axis: str = "", *, spread: bool = False) ->
 
 def _canonical(axes: list[AxisSequence], turn_on: CycleSummary, confidence: float
                ) -> dict[str, Figure]:
-    z = float(stats.norm.ppf(0.5 + confidence / 2))
+    z = float(normal_ppf(0.5 + confidence / 2))
     rep = _worst([Figure(a.repeatability.value_deg_h, a.repeatability.ci_low_deg_h,
                          a.repeatability.ci_high_deg_h, a.axis) for a in axes])
     warm = _worst([_summary_figure(a.warmup, a.axis) for a in axes])

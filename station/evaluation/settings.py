@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from analysis.allan.estimators import Estimator
-from analysis.fit.least_squares import FitMethod
+from analysis.allan.kinds import Estimator
+from analysis.fit.methods import FitMethod
 from station.model.profiles import DEFAULT_FIT_METHOD
 
 if TYPE_CHECKING:

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-from analysis.fit.least_squares import FIT_METHODS, FitMethod
+from analysis.fit.methods import FIT_METHODS, FitMethod
 from analysis.gmwm.models import GmwmModel, GmwmModelError
 from analysis.units.conversions import DEG_PER_URAD, S_PER_H
 from devices.model_files import shipped_profiles_dir

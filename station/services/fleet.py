@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from station.errors import StationError, UsageError
 from station.evaluation.grading import RunGrade
@@ -36,6 +36,7 @@ from station.output.report import FORMATS, ReportFormat
 from station.output.results import default_database_path
 from station.output.results_backends import DatabaseLocation
 from station.output.results_queue import STORE_RETRY_S, NotStored, StoreQueue
+from station.services.fleet_actions import ACTIONS as ACTIONS, LOCAL as LOCAL, FleetAction
 from station.services.fleet_tasks import (
     UnitOutcome,
     analyze_task,
@@ -45,9 +46,6 @@ from station.services.fleet_tasks import (
     report_task,
 )
 
-FleetAction = Literal["grade", "analyze", "report"]
-ACTIONS: tuple[str, ...] = ("grade", "analyze", "report")
-LOCAL = "local"
 #: Suffixes of the run files a directory is searched for.
 RUN_SUFFIXES = (".h5", ".hdf5")
 

@@ -13,7 +13,6 @@ import numpy as np
 
 from analysis.allan.variance import allan_variance
 from station.errors import StationError
-from station.services.recorder_process import run_file_state
 from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
 
 #: The most samples of a unit the live Allan curve reads (the newest ones), so that a
@@ -30,6 +29,10 @@ RUN_FILE_READ = threading.Lock()
 def status_json(path: Path) -> dict[str, object]:
     """The run's state and one object per unit (rates in deg/s), from its committed data;
     the newest rates and their mean are those of the valid samples (``status`` 0)."""
+    # here: the recorder's module imports the device libraries, which ``station watch
+    # --help`` does not need
+    from station.services.recorder_process import run_file_state
+
     with RUN_FILE_READ, open_run_file(path) as f:
         state = run_state(f)
         units: list[dict[str, object]] = []
