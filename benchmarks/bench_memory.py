@@ -12,14 +12,15 @@ included) and its wall time. ``--command`` is ``analyze`` (``station analyze FIL
 --json``, the default), ``grade`` (``station grade FILE --json --no-store``) or ``report``
 (``station report FILE --format pdf --no-store``), ``davar`` (``station davar FILE --window-s
 W --json``, W an hour or a quarter of a shorter run) or ``reconcile`` (``station reconcile
-FILE --model mems-typical --json --runs 5 --axis x``); grade and report use a profile written
-beside the run: ADIS16405's figures and limits on the run's axes, its warm-up cut to a
-tenth of the run. ``--keep FILE`` keeps the run file (and reuses it when it exists);
-``--long-samples N`` makes records longer than N samples count as long (the block-wise
-path, :mod:`analysis.allan.blocks`), so a short run exercises it. ``--compare`` (every
-command but report) runs the command a second time with every record read in one piece and appends
-``max_rel_diff=...``: the largest relative difference between the numbers of the two
-JSON documents.
+FILE --model mems-typical --json --runs 5 --axis x``); ``--method gmwm`` adds ``--method
+gmwm`` to analyze (the GMWM beside the Allan fit) or report (its GMWM page); grade and
+report use a profile written beside the run: ADIS16405's figures and limits on the run's
+axes, its warm-up cut to a tenth of the run. ``--keep FILE`` keeps the run file (and reuses
+it when it exists); ``--long-samples N`` makes records longer than N samples count as long
+(the block-wise path, :mod:`analysis.allan.blocks`), so a short run exercises it.
+``--compare`` (every command but report) runs the command a second time with every record
+read in one piece and appends ``max_rel_diff=...``: the largest relative difference between
+the numbers of the two JSON documents.
 """
 
 from __future__ import annotations
@@ -237,11 +238,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--gaps", type=int, default=0, metavar="K",
                    help=f"K gaps of {GAP_SAMPLES} samples spread over the run (default 0)")
     p.add_argument("--command", choices=COMMANDS, default="analyze")
+    p.add_argument("--method", choices=("gmwm",), default=None,
+                   help="analyze or report: add --method gmwm")
     p.add_argument("--compare", action="store_true",
                    help="also run it with records read in one piece; print max_rel_diff")
     args = p.parse_args(argv)
     if not 1 <= args.axes <= 6 or args.hours <= 0 or args.rate_hz <= 0:
         p.error("--hours and --rate-hz must be positive, --axes 1..6")
+    if args.method and args.command not in ("analyze", "report"):
+        p.error("--method applies to analyze and report")
     if args.compare and args.command == "report":
         p.error("--compare applies to the commands that print JSON, not report")
     with tempfile.TemporaryDirectory() as tmp:
@@ -252,6 +257,8 @@ def main(argv: list[str] | None = None) -> int:
                                 min(300.0, args.hours * 360.0))
         command = command_argv(args.command, path, profile, Path(tmp),
                                window_s=min(3600.0, args.hours * 900.0))
+        if args.method:
+            command += ["--method", args.method]
         peak, seconds, out = measure(command, args.long_samples)
         line = f"peak_rss_mb={peak:.0f} seconds={seconds:.1f}"
         if args.compare:

@@ -31,7 +31,7 @@ from analysis.allan.noise_id import b1_ratio, lag1_alpha
 from analysis.allan.outliers import detect_spikes, replace_flagged, replace_spikes
 from analysis.figures.spec import bias_stability
 from analysis.figures.tones import find_tones
-from analysis.gmwm.wavelet import haar_wavelet_variance
+from analysis.gmwm.wavelet import _lag_sum_long, haar_wavelet_variance
 
 ROOT = Path(__file__).resolve().parents[1]
 T = TypeVar("T")
@@ -178,6 +178,40 @@ def test_noise_identification_of_a_memmap_maps_in_about_one_block(
     assert b1_ratio(angle, 64) == 1.0  # a constant angle: no Allan variance to divide by
     grown = _rss_kb() - before
     assert grown < 16_000, grown  # kB; the whole 64 MB before the fix
+
+
+def _peak_reset() -> bool:
+    """Reset the process's peak resident set (VmHWM) to its current one; False where the
+    system does not offer it (``/proc/self/clear_refs``, Linux 4.0 on)."""
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        return False
+    return True
+
+
+def _peak_kb() -> int:
+    status = Path("/proc/self/status").read_text()
+    return int(re.search(r"VmHWM:\s+(\d+)", status).group(1))  # type: ignore[union-attr]
+
+
+@pytest.mark.skipif(not _peak_reset(), reason="needs a resettable VmHWM (Linux 4.0 on)")
+def test_wavelet_lag_window_of_a_memmap_maps_in_about_one_block(tmp_path: Path) -> None:
+    """The lag-window estimate of a wide level gathers thinned coefficients spread over
+    the whole angle: the pages they map in go back each time the rows span a block (a
+    24 h run at 1 kHz mapped in all of its 691 MB angle at once before)."""
+    n = 8 << 20
+    path = tmp_path / "angle.f8"
+    with open(path, "wb") as fh:  # written, as the analysis writes its angle: in the
+        for _ in range(n >> 20):  # file cache, where a fault maps in its neighbours too
+            fh.write(np.ones(1 << 20).tobytes())
+    angle = np.memmap(path, dtype=np.float64, mode="r", shape=(n, 1))
+    before = _rss_kb()
+    _peak_reset()
+    m = 1 << 16  # thinned to every 16384th coefficient: 512 rows over the 64 MB
+    assert _lag_sum_long(angle, m, 100.0, 2 * m)[0] == 0.0  # a constant angle
+    grown = _peak_kb() - before  # the peak: the pages go back before it returns
+    assert grown < 16_000, grown  # kB; most of the 64 MB before the fix
 
 
 def _bench_line(minutes: float, *options: str) -> re.Match[str]:

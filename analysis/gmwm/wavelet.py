@@ -192,8 +192,11 @@ def _lag_sum_long(theta: NDArray[np.float64], m: int, sample_rate_hz: float, wid
         t = np.asarray(rows, dtype=np.int64) * thin
         flat = t.reshape(-1)
         w = np.empty((len(flat), theta.shape[1]))
-        # a gathered coefficient maps in up to three pages: hand them back every few thousand
-        for a, b in blocks.spans(0, len(flat), LAG_BLOCK):
+        # a gathered coefficient maps in up to three pages and the system's fault-around
+        # their neighbours: hand them back each time the rows read span a block of the
+        # angle (a few thousand rows of a wide level's thinned coefficients span all of it)
+        per_release = max(1, min(LAG_BLOCK, blocks.BLOCK_SAMPLES // thin))
+        for a, b in blocks.spans(0, len(flat), per_release):
             f = flat[a:b]
             w[a:b] = (2.0 * theta[f + m] - theta[f] - theta[f + 2 * m]) * (
                 sample_rate_hz / (2.0 * m))
