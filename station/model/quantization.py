@@ -39,8 +39,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Protocol
 
-from scipy import stats
-
+from analysis.distributions import t_ppf
 from analysis.figures.readoffs import BIAS_INSTABILITY_FACTOR
 from analysis.units.conversions import S_PER_H
 from devices.resolution import safe_url_resolution
@@ -67,7 +66,7 @@ def bias_floor_deg_h(lsb_deg_s: float, rate_hz: float, record_s: float,
                      confidence: float) -> float:
     """Half-width (deg/h) of the bias' batch-means interval that the rounding error alone
     gives a record of ``record_s`` seconds."""
-    t = float(stats.t.ppf(0.5 + confidence / 2, BIAS_BATCHES - 1))
+    t = float(t_ppf(0.5 + confidence / 2, BIAS_BATCHES - 1))
     sigma = quantization_adev_deg_s(lsb_deg_s, rate_hz, record_s / BIAS_BATCHES)
     return t * sigma * S_PER_H / math.sqrt(BIAS_BATCHES)
 
