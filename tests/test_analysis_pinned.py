@@ -57,7 +57,8 @@ def test_analyze_numbers_are_todays_within_1e12(tmp_path: Path) -> None:
     ours.pop("file")
     expected = numbers(json.loads(REFERENCE.read_text()))
     got = numbers(ours)
-    assert set(got) == set(expected)
+    # every number of then is there (keys added since, as figures' bound flags, may join)
+    assert set(expected) <= set(got)
     assert any(k.startswith("/axes[0]/tones[0]") for k in got)  # the tone is found
     off = {}
     for key, value in expected.items():
