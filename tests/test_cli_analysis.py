@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -191,7 +192,15 @@ def test_demo_runs_and_writes_its_files(tmp_path: Path, capsys) -> None:
     assert rad["newest_rad_s"] == pytest.approx(
         [v * np.pi / 180 for v in by_unit["unit1"]["newest_deg_s"]], rel=1e-13)
     assert main(["watch", run, "--once"]) == 0
-    assert "unit1:" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    # the text's rates in deg/h, as every rate the station prints (the JSON keeps deg/s)
+    newest = re.search(r"unit1: .*newest \[([^\]]+)\] deg/h, last 1 s mean \[[^\]]+\] deg/h",
+                       text)
+    assert newest is not None, text
+    assert [float(v) for v in newest[1].split()] == pytest.approx(
+        [v * 3600 for v in by_unit["unit1"]["newest_deg_s"]], rel=1e-4)
+    assert main(["watch", run, "--once", "--output-units", "rad"]) == 0
+    assert "] rad/s, last 1 s mean [" in capsys.readouterr().out
 
 
 @pytest.mark.skipif(

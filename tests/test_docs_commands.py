@@ -164,6 +164,40 @@ def tutorial_folder(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Folder
     yield folder
 
 
+def test_a_shown_output_matches_the_programs_only_where_they_agree() -> None:
+    shown = """\
+recording 1 unit(s) to runs/run-20261206T215939Z-9b7aa3a4.h5
+  unit1: 33090 samples @10 Hz, newest [+1.5577 -0.2] deg/h
+...
+station export: note: x: rate random walk is upper bound (1 sigma)...
+1 grading
+"""
+    printed = """\
+recording 1 unit(s) to runs/run-20270101T000000Z-0123abcd.h5
+  unit1:   120 samples @10 Hz,   newest [-3 +4.25e-05] deg/h
+  note: 83 samples missing in gaps after the warm-up: no Allan difference straddles a gap
+station export: note: x: rate random walk is upper bound (1 sigma), the record does not resolve K
+1 grading
+"""
+    assert differences(shown, printed) == []
+    # a gap note the host's load decides is left out on both sides, wherever it is
+    assert differences(shown.replace("\n...\n", "\n"), printed) == []
+    # the words are compared, the numbers are not
+    for wrong in ("1 gradings", "] deg/s", "lower bound"):
+        changed = printed.replace({"1 gradings": "1 grading", "] deg/s": "] deg/h",
+                                   "lower bound": "upper bound"}[wrong], wrong)
+        assert differences(shown, changed) != [], wrong
+    assert differences(shown, printed + "one line more\n") != []
+    # the blocks of a page: a text block right after the commands is their output, a
+    # titled block the file of that name
+    page = blocks(DOCS / "getting-started.md")
+    kalibr = next(b for b in page if "--format kalibr" in b.commands[0])
+    assert kalibr.shown is not None and "written to imu.yaml" in kalibr.shown
+    assert "gyroscope_noise_density" in kalibr.files["imu.yaml"]
+    assert all("--db results.db" in c for b in page for c in b.commands
+               if c.startswith(("station grade", "station results", "station report")))
+
+
 def test_every_command_of_the_how_to_pages_is_run_or_said_why_not() -> None:
     how_tos = sorted(p.relative_to(DOCS).as_posix() for p in (DOCS / "how-to").glob("*.md"))
     assert sorted([p for p in PAGES if p.startswith("how-to/")] + list(PAGES_NOT_RUN)) \
