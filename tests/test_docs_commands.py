@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import subprocess
 import sys
 import time
@@ -31,10 +32,12 @@ BUSY_LOSS = 0.05
 
 #: The pages whose commands run here, in this order, in one folder.
 PAGES = ("getting-started.md", "how-to/grade-a-run.md", "how-to/export.md",
-         "how-to/add-a-device-protocol.md")
+         "how-to/add-a-device-protocol.md", "how-to/add-a-profile.md")
+#: What a page writes for the checkout's folder; the folder the commands run in stands for it
+#: (it gets a copy of the checkout's profiles/).
+CHECKOUT = "/path/to/checkout"
 #: The how-to pages whose commands do not run here, and why.
 PAGES_NOT_RUN = {
-    "how-to/add-a-profile.md": "its second step is an edit by hand of the copied profile",
     "how-to/write-a-can-layout.md": "its layout file is written by hand in its first steps",
     "how-to/results-postgresql.md": "it needs a PostgreSQL server with a 'station' role "
                                     "(tests/test_results_postgres.py covers the storage)",
@@ -45,7 +48,31 @@ COMMANDS_NOT_RUN = {
         "the install: these tests run in the installed checkout",
     "python -m pytest -q -n 0 tests/devices/test_codecs_serial.py "
     "tests/devices/test_conformance.py": "runs tests of this suite",
+    "python -m pytest -q -n 0 tests/test_profiles.py": "runs tests of this suite",
 }
+TOML_BLOCK = re.compile(r"^```toml\n(?P<body>.*?)^```$", re.MULTILINE | re.DOTALL)
+
+
+def edit_by_hand(page: str, folder: Path, commands: list[str]) -> None:
+    """The edit a page asks for after a ``cp`` of a profile: each ``key = value`` of the
+    page's TOML block replaces that key's line in its table of the copied file."""
+    copied = folder / commands[-1].split()[-1]
+    lines = copied.read_text().splitlines()
+    table = ""
+    edits: dict[tuple[str, str], str] = {}
+    for line in TOML_BLOCK.search((DOCS / page).read_text())["body"].splitlines():  # type: ignore[index]
+        if line.startswith("["):
+            table = line
+        elif "=" in line:
+            edits[(table, line.split("=")[0].strip())] = line
+    table = ""
+    for i, line in enumerate(lines):
+        if line.startswith("["):
+            table = line.strip()
+        elif "=" in line and (table, line.split("=")[0].strip()) in edits:
+            lines[i] = edits.pop((table, line.split("=")[0].strip()))
+    assert edits == {}, f"{page}: keys not in {copied.name}: {sorted(edits)}"
+    copied.write_text("\n".join(lines) + "\n")
 
 
 def _environment(folder: Path) -> dict[str, str]:
@@ -83,7 +110,7 @@ def _watch_while_recording(command: str, folder: Path,
 
 def _check(block: Block, printed: str, folder: Path, page: str, compare: bool = True) -> None:
     # the pages shorten the checkout's paths (profiles/VG951.toml)
-    printed = printed.replace(f"{ROOT}/", "")
+    printed = printed.replace(f"{ROOT}/", "").replace(str(folder), CHECKOUT)
     for name in block.files:
         assert (folder / name).exists(), f"{page}: no file {name}"
     if not compare:
@@ -149,9 +176,12 @@ def run_page(page: str, at: Folder) -> list[str]:
             assert books, out
             at.lost = max(missing / (recorded + missing) for recorded, missing in books)
             recorder = None
-        printed = "".join(_run(command, folder) for command in commands)
+        printed = "".join(_run(command.replace(CHECKOUT, str(folder)), folder)
+                          for command in commands)
         _check(block, printed, folder, page, compare=not at.too_busy)
         ran += commands
+        if commands[-1].startswith("cp profiles/"):
+            edit_by_hand(page, folder, commands)
     assert recorder is None, f"{page}: nothing reads the recording it starts"
     return ran
 
@@ -160,6 +190,7 @@ def run_page(page: str, at: Folder) -> list[str]:
 def tutorial_folder(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Folder]:
     """The folder the tutorial's commands ran in (its run, results.db, sheets/, imu.yaml)."""
     folder = Folder(tmp_path_factory.mktemp("tutorial"))
+    shutil.copytree(ROOT / "profiles", folder.path / "profiles")
     assert run_page("getting-started.md", folder)
     yield folder
 
