@@ -7,6 +7,7 @@ sheet and the Kalibr file the rest of each test's time)."""
 from __future__ import annotations
 
 import json
+import re
 import tempfile
 from pathlib import Path
 
@@ -60,6 +61,14 @@ def test_demo_writes_the_whole_job_in_40_short_lines(
     assert main(["watch", "d/demo-run.h5", "--once", "--json"]) == 0
     state = json.loads(capsys.readouterr().out)
     assert state["state"] == "stopped" and len(state["units"]) == 2
+    newest = state["units"][0]["newest_deg_s"]
+    # its text in deg/h, as every rate the station prints (the JSON keeps deg/s)
+    assert main(["watch", "d/demo-run.h5", "--once"]) == 0
+    text = capsys.readouterr().out
+    found = re.search(r"unit1: .*newest \[([^\]]+)\] deg/h", text)
+    assert found is not None, text
+    assert [float(v) for v in found[1].split()] == pytest.approx(
+        [v * 3600 for v in newest], rel=1e-3)
 
 
 @pytest.mark.slow

@@ -3,15 +3,21 @@ whose navigation holds every page of docs/ and whose pages' links resolve."""
 
 from __future__ import annotations
 
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
+import pytest
 import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 #: a Markdown link or image whose target is a relative path (not a URL, not an anchor)
 LINK = re.compile(r"!?\[[^\]]*\]\((?!https?:|#|mailto:)([^)\s#]+)(?:#[^)]*)?\)")
+#: a Sphinx role left as text in a built page (docs/hooks/sphinx_roles.py renders them)
+LITERAL_ROLE = re.compile(r":(?:py:)?(?:func|meth|class|mod|data|attr|exc|obj|const):")
 
 
 def _nav_pages(nav: list) -> list[str]:
@@ -52,3 +58,31 @@ def test_the_command_reference_is_the_live_help() -> None:
 
     assert PAGE.read_text() == render(), (
         "docs/reference/commands.md is stale: python -m tests.command_reference rewrites it")
+
+
+@pytest.mark.slow
+def test_the_site_builds_strict_and_its_api_pages_link_the_docstrings_roles(
+        tmp_path: Path) -> None:
+    # the docs extras (pyproject.toml), which .ci/run installs
+    pytest.importorskip("mkdocstrings", reason="the site needs pip install -e '.[docs]'")
+    site = tmp_path / "site"
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "--site-dir", str(site)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1", "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stdout + done.stderr
+    pages = {p.relative_to(site).as_posix(): p.read_text() for p in site.rglob("*.html")}
+    left = {name: LITERAL_ROLE.findall(text) for name, text in pages.items()
+            if LITERAL_ROLE.search(text)}
+    assert left == {}, "Sphinx roles left as text in the built site"
+    assert not (site / "hooks").exists(), "docs/hooks/ is the build's code, not a page"
+    davar = pages["reference/api/davar/index.html"]
+    # by full dotted path, to another page (an imported name followed to its definition) ...
+    assert ('href="../allan/#analysis.allan.estimators.overlapping_allan_variance">'
+            "<code>analysis.allan.overlapping_allan_variance</code></a>") in davar
+    # ... and relative to the docstring's module, on the same page
+    assert 'href="#analysis.davar.estimators.davar_plain"><code>davar_plain</code></a>' in davar
+    # a name the site does not render (a module-level constant) is inline code, no link
+    allan = pages["reference/api/allan/index.html"]
+    assert ('<span title="analysis.allan.deviations.DEVIATION_KINDS"><code>DEVIATION_KINDS'
+            "</code></span>") in allan

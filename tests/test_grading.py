@@ -394,7 +394,7 @@ def test_a_unit_whose_read_off_and_fit_disagree_is_flagged_for_review(
     )
     assert main(["results", "--db", str(db), "--review"]) == 0
     out = capsys.readouterr().out
-    assert "REVIEW" in out and "1 gradings" in out and "not a flicker floor" in out
+    assert "REVIEW" in out and "1 grading\n" in out and "not a flicker floor" in out
     from station.output.results import ResultsDatabase
     with ResultsDatabase(db) as store:
         (row,) = store.gradings(review=True)

@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(format_gradings(list(answer.gradings)))
         if answer.csv is not None:
-            print(f"{len(answer.gradings)} gradings written to {answer.csv}")
+            print(f"{plural(len(answer.gradings), 'grading')} written to {answer.csv}")
     return 0
 
 
@@ -300,7 +300,7 @@ def format_gradings(rows: list[GradingRow]) -> str:
         "run",
     ]
     reasons = [f"review {r.id}: {line}" for r in rows for line in r.review.splitlines()]
-    return "\n".join([_table(header, body) + f"\n{len(rows)} gradings", *reasons])
+    return "\n".join([_table(header, body) + "\n" + plural(len(rows), "grading"), *reasons])
 
 
 def format_yield(rows: list[LotYield]) -> str:

@@ -2,7 +2,8 @@
 
 Prints, every ``--interval`` seconds, one line per unit: samples, sample rate, gaps and
 missing samples, CRC errors, reconnects, the unit time reached, the newest rate per axis
-(deg/s) and the mean of the last second; stops when the run stops (or on Ctrl-C).
+and the mean of the last second (in deg/h, like every rate the station prints; rad/s with
+``--output-units rad``); stops when the run stops (or on Ctrl-C).
 A run whose recorder is gone (no flush past its flush interval plus 2 s, and the
 recorder's process, named in the file with its station, not running) is said so, with
 what to do (``station recover RUN``), and the watch ends with exit status 3.
@@ -22,6 +23,7 @@ import sys
 import time
 from pathlib import Path
 
+from analysis.units import S_PER_H, UnitFamily, unit_family
 from station.commands import COMMAND_HELP
 from station.commands.arguments import add_output_options, output_family, print_json
 from station.services.run_watch import status_json
@@ -42,16 +44,23 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def status_lines(path: Path) -> tuple[str, list[str]]:
-    """(run state, one line per unit) of a run file, from its committed data."""
+def _rates(values_deg_s: list[float], family: UnitFamily) -> str:
+    """Rates given in deg/s, printed in the family's rate unit (deg/h or rad/s)."""
+    return " ".join(f"{family.value(v * S_PER_H, 'deg/h'):+.5g}" for v in values_deg_s)
+
+
+def status_lines(path: Path, family: UnitFamily | None = None) -> tuple[str, list[str]]:
+    """(run state, one line per unit) of a run file, from its committed data; the rates in
+    ``family``'s rate unit (deg/h by default)."""
+    family = family if family is not None else unit_family("deg")
+    unit = family.label("deg/h")
     doc = status_json(path)
     lines = []
     for u in doc["units"]:  # type: ignore[attr-defined]
         values = ""
         if u["newest_deg_s"] is not None:
-            newest = " ".join(f"{v:+.5g}" for v in u["newest_deg_s"])
-            mean = " ".join(f"{v:+.5g}" for v in u["mean_1s_deg_s"])
-            values = f", newest [{newest}] deg/s, last 1 s mean [{mean}] deg/s"
+            values = (f", newest [{_rates(u['newest_deg_s'], family)}] {unit}, "
+                      f"last 1 s mean [{_rates(u['mean_1s_deg_s'], family)}] {unit}")
         lines.append(f"{u['unit']}: {u['samples_recorded']} samples @{u['sample_rate_hz']:g} Hz to "
                      f"t={u['t_s']:.1f} s, gaps {u['gaps']} "
                      f"({u['samples_missing_declared']} missing), CRC errors {u['crc_errors']}, "
@@ -76,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         return run_json(args)
     while True:
-        state, lines = status_lines(args.run)
+        state, lines = status_lines(args.run, output_family(args))
         print(f"{args.run}: {state}")
         for line in lines:
             print("  " + line)

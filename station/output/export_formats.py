@@ -34,8 +34,8 @@ from analysis.figures.tool_units_accel import AccelNoise
 from station.errors import UsageError
 
 _ACCEL_NOTE = (
-    "gyroscope only: this station does not measure accelerometers; add "
-    "accelerometer_noise_density and accelerometer_random_walk before use"
+    "gyroscope only: this record has no accelerometer axes (a gyro, or an IMU recorded "
+    "without them); add accelerometer_noise_density and accelerometer_random_walk before use"
 )
 
 
