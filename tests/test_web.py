@@ -112,6 +112,16 @@ def test_pages_show_the_numbers_of_results_stats(client: TestClient, line: Path,
     l2 = next(r for r in overview["lots"] if r["lot"] == "L2")
     assert l2["yield"] == next(y["yield"] for y in yields if y["lot"] == "L2")
     assert l2["yield_ci"][0] < l2["yield"] < l2["yield_ci"][1]
+    whole = client.get("/").text  # the charts: inline SVG, drawn from the same numbers
+    chart = whole.split('<svg class="chart yield-chart"', 1)[1].split("</svg>", 1)[0]
+    assert chart.count('<g class="lot"') == len(overview["lots"])
+    low, high = (100 * v for v in l2["yield_ci"])
+    assert (f'data-lot="L2"><title>TG-1 L2 (n={l2["total"]}): yield {100 * l2["yield"]:.1f} %, '
+            f"95 % interval [{low:.1f}, {high:.1f}] %</title>") in chart
+    models = re.findall(r'<section class="model" data-model="([^"]+)">', whole)
+    assert models and whole.count('<svg class="chart capability-chart"') == len(models)
+    ppk = whole.split('<svg class="chart capability-chart"', 1)[1].split("</svg>", 1)[0]
+    assert f'data-figure="arw"><title>arw: Ppk {arw["cpk"]:.3g}' in ppk
     assert client.get("/api/overview", params={"station": "bench-2"}).json()["lots"][0][
         "total"] == 1
     assert client.get("/api/overview", params={"until": "2026-06-03"}).json()["lots"][0][
@@ -248,10 +258,48 @@ def test_a_damaged_run_file_is_listed_with_the_rest(line: Path, tmp_path: Path,
     assert unit["samples_recorded"] == 1200
     curve = doc["runs"][0]["allan"][0]
     assert len(curve["tau_s"]) > 3 and len(curve["adev_deg_h"]) == 3
+    assert (unit["model"], unit["progress"], unit["time_left_s"]) == ("VG951", 1.0, 0.0)
+    assert unit["serial_number"] and doc["runs"][0]["duration_requested_s"] == 120.0
     page = client.get("/runs").text
-    assert "broken.h5" in page and 'data-field="samples_recorded">1200<' in page
+    assert "broken.h5" in page
+    assert 'data-field="samples_recorded" data-format="number">1200<' in page
+    # a stopped run is listed apart from those being recorded, its times as h:mm:ss
+    assert page.index("Recording now") < page.index("No run is being recorded") < page.index(
+        "Finished, or recorder gone") < page.index('data-phase="finished"')
+    assert f'data-field="serial_number" data-format="text">{unit["serial_number"]}<' in page
+    assert 'data-field="progress" data-format="percent">100 %<' in page
+    assert 'data-field="t_s" data-format="clock">2:00<' in page  # 119.9 s, to the second
+    assert not re.search(r"\d\.\d{4,}", page.split("</style>")[1])  # no raw float anywhere
     assert '<script src="/static/live.js"' in page
     assert "fetch(\"/api/runs\"" in client.get("/static/live.js").text
+
+
+def test_api_has_an_index_and_every_api_error_is_json(line: Path) -> None:
+    client = TestClient(create_app(ServeConfig(line)))
+    index = client.get("/api").json()
+    paths = [entry["path"] for entry in index["api"]]
+    assert {"/api/overview", "/api/stats", "/api/runs", "/api/units/{serial}"} <= set(paths)
+    for answer, status in ((client.get("/api/units/NOPE"), 404),
+                           (client.get("/api/no-such-document"), 404),
+                           (client.get("/api/stats", params={"units": "grad"}), 400),
+                           (client.post("/api/stats"), 405)):
+        assert answer.status_code == status
+        assert answer.headers["content-type"] == "application/json", answer.text
+        assert answer.json()["error"]
+    guarded = TestClient(create_app(ServeConfig(line, token="s3cret")))
+    answer = guarded.get("/api")
+    assert answer.status_code == 401 and "access token" in answer.json()["error"]
+    assert guarded.get("/").headers["content-type"].startswith("text/html")
+    assert client.get("/no-such-page").headers["content-type"].startswith("text/html")
+
+
+def test_the_units_switch_marks_the_family_shown(line: Path) -> None:
+    client = TestClient(create_app(ServeConfig(line)))
+    for shown, other in (("deg", "rad"), ("rad", "deg")):
+        page = client.get("/runs", params={"units": shown}).text
+        switch = page.split('<span class="units">')[1].split("</span>")[0]
+        assert f'<b class="active" aria-current="true">{shown}</b>' in switch
+        assert f"units={other}\">{other}</a>" in switch and f">{shown}</a>" not in switch
 
 
 def test_the_line_on_postgresql(graded: RunGrade, postgres_url: str,  # noqa: F811
