@@ -147,6 +147,13 @@ def test_markup_in_a_serial_lot_or_operator_is_shown_as_text(client: TestClient)
     assert sheet.text.count('<section class="unit"') == 1 and "OTHER-1" not in sheet.text
     assert "&lt;script&gt;" in sheet.text  # this unit's section, its serial escaped
     assert "default-src 'none'" in sheet.headers["content-security-policy"]
+    # a sheet not rendered yet is said to be rendering (static/sheet.js drops the note once
+    # the frame has loaded); one the server keeps is shown at once
+    assert 'id="sheet-rendering"' in unit.text and '"/static/sheet.js"' in unit.text
+    again = client.get(f"/units/{quote(SCRIPT_SERIAL, safe='')}").text
+    assert 'id="sheet-rendering"' not in again
+    assert "sheet-rendering" in client.get("/static/sheet.js").text
+    assert client.get("/static/nothing.js").status_code == 404
     assert client.get("/units/nobody").status_code == 404
 
 

@@ -87,7 +87,7 @@ def capability_chart(stats: Mapping[str, Any], width: int = 760) -> str:
     figures = [(name, f) for name, f in stats["figures"].items()]
     if not figures:
         return ""
-    row, left, right, top = 20, 190, 60, 26
+    row, left, right, top = 20, 190, 60, 34
     height = top + row * len(figures) + 26
     plot_w = width - left - right
 
@@ -102,9 +102,11 @@ def capability_chart(stats: Mapping[str, Any], width: int = 760) -> str:
                      f'stroke="#ddd"></line><text x="{x(tick):.1f}" y="{bottom + 14}" '
                      f'text-anchor="middle" fill="#555">{tick}</text>')
     for ref in PPK_REFERENCES:
-        parts.append(f'<line class="reference" x1="{x(ref):.1f}" x2="{x(ref):.1f}" y1="{top}" '
-                     f'y2="{bottom}" stroke="{BAD if ref < 1.3 else GOOD}" '
-                     'stroke-dasharray="4 3"></line>')
+        color = BAD if ref < PPK_REFERENCES[1] else GOOD
+        parts.append(f'<line class="reference" x1="{x(ref):.1f}" x2="{x(ref):.1f}" y1="{top - 4}" '
+                     f'y2="{bottom}" stroke="{color}" stroke-dasharray="4 3"></line>'
+                     f'<text x="{x(ref):.1f}" y="{top - 6}" text-anchor="middle" '
+                     f'font-size="9" fill="{color}">{ref:g}</text>')
     for i, (name, f) in enumerate(figures):
         cy = top + row * (i + 0.5)
         parts.append(f'<text x="{left - 6}" y="{cy + 4:.1f}" text-anchor="end">'
@@ -125,7 +127,7 @@ def capability_chart(stats: Mapping[str, Any], width: int = 760) -> str:
             f'{cpk:.3g}' + (f', 95 % interval [{f["cpk_ci"][0]:.3g}, {f["cpk_ci"][1]:.3g}]'
                             if f["cpk_ci"] else "") + f' (n={f["n"]})</title>{bar}'
             f'<circle cx="{x(cpk):.1f}" cy="{cy:.1f}" r="5" fill="{color}"></circle>'
-            f'<text x="{width - right + 6}" y="{cy + 4:.1f}" fill="{color}">{cpk:.3g}'
-            "</text></g>")
+            f'<text x="{width - right + 6}" y="{cy + 4:.1f}" fill="{color}">'
+            f'{">" if cpk > PPK_AXIS_MAX else ""}{cpk:.3g}</text></g>')
     return _frame("capability-chart", width, height, f"capability of {stats['model']}",
                   "".join(parts))

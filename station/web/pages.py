@@ -10,7 +10,7 @@ from typing import Any
 from analysis.units.conversions import UnitFamily
 from station.evaluation.capability import CAPABILITY_NOTE
 from station.web.charts import capability_chart, yield_chart
-from station.web.html import clock, interval, utc, link, number, query, segment, table, text
+from station.web.html import clock, interval, link, number, query, segment, table, text, utc
 
 #: Seconds the database-unavailable page waits before it tries again.
 RETRY_S = 10.0
@@ -326,7 +326,7 @@ def _run_section(run: Mapping[str, Any]) -> str:
     if run.get("start_utc"):
         about += (", " if about else "") + f"started {utc(run['start_utc'])}"
     planned = run.get("duration_requested_s")
-    about += (", " if about else "") + (f"requested {clock(planned, 0)}" if planned else "")
+    about += (", " if about else "") + (f"duration requested {clock(planned, 0)}" if planned else "")
     return (
         f'<section class="run {phase}" data-run="{text(run["run"])}" data-phase="{phase}">'
         f'<h3>{text(run["run"].rsplit("/", 1)[-1])}</h3>'
