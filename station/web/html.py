@@ -31,7 +31,8 @@ tr.indeterminate td.verdict { background: #ffe082; }
 form.filters label { margin-right: 1em; } img.chart { max-width: 100%; }
 iframe.sheet { width: 100%; height: 60em; border: 1px solid #bbb; }
 p.note { font-size: 9pt; color: #555; } .damaged { color: #b71c1c; }
-svg.chart { display: block; margin: 0.5em 0; } table.units td { white-space: nowrap; } .state { padding: 0.1em 0.5em; border-radius: 3px; }
+svg.chart { display: block; margin: 0.5em 0; } table.units td { white-space: nowrap; }
+.state { padding: 0.1em 0.5em; border-radius: 3px; }
 .state.live { background: #c8e6c9; } .state.gone { background: #f5c2c2; }
 .state.finished { background: #e0e0e0; } progress { width: 6em; vertical-align: middle; }
 p.rendering { background: #fff8e1; border: 1px solid #ffe082; padding: 0.4em 0.8em; }

@@ -326,7 +326,8 @@ def _run_section(run: Mapping[str, Any]) -> str:
     if run.get("start_utc"):
         about += (", " if about else "") + f"started {utc(run['start_utc'])}"
     planned = run.get("duration_requested_s")
-    about += (", " if about else "") + (f"duration requested {clock(planned, 0)}" if planned else "")
+    if planned:
+        about += (", " if about else "") + f"duration requested {clock(planned, 0)}"
     return (
         f'<section class="run {phase}" data-run="{text(run["run"])}" data-phase="{phase}">'
         f'<h3>{text(run["run"].rsplit("/", 1)[-1])}</h3>'
