@@ -21,7 +21,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import WebDriverWait
 
 from station.evaluation.grading import RunGrade
-from tests.browser import chromium, served
+from tests.browser import chromium, screenshot, served
 from tests.test_production_stats import _fill, graded  # noqa: F401  (a fixture)
 
 #: A simulated VG951 recorded at 20 times real time: samples arrive every poll.
@@ -65,11 +65,7 @@ def _raw_floats(seen: str) -> list[str]:
 def _seen(driver, folder: Path, name: str) -> str:
     """The page's visible text, once its screenshot (the whole page, up to 3000 pixels
     high) is saved as ``folder/name.png``."""
-    size = driver.get_window_size()
-    high = driver.execute_script("return document.documentElement.scrollHeight;")
-    driver.set_window_size(size["width"], min(3000, max(size["height"], int(high) + 120)))
-    driver.save_screenshot(str(folder / f"{name}.png"))
-    driver.set_window_size(size["width"], size["height"])
+    screenshot(driver, folder / f"{name}.png")
     return str(driver.find_element(By.TAG_NAME, "body").text)
 
 
@@ -131,7 +127,6 @@ def test_overview_unit_sheet_and_a_live_run(graded: RunGrade, tmp_path: Path,  #
             By.CSS_SELECTOR, "[data-field='samples_recorded']").text) > first)
         assert driver.execute_script("return window.stationMarker;") == 1
         assert driver.find_elements(By.CSS_SELECTOR, "svg.allan polyline")
-        _seen(driver, shots, "runs")
         words = driver.execute_script(  # what the page says, less the plots' corner labels
             "const b = document.body.cloneNode(true);"
             "b.querySelectorAll('svg').forEach((s) => s.remove()); return b.innerText;")
@@ -146,3 +141,12 @@ def test_overview_unit_sheet_and_a_live_run(graded: RunGrade, tmp_path: Path,  #
         assert re.fullmatch(r"\d+:\d\d(:\d\d)?(\.\d)?", shown["t_s"]), shown
         assert driver.find_element(By.CSS_SELECTOR, "section.run.live .state").text == (
             "recording")
+        recorder.kill()  # the recorder gone: the run leaves "Recording now", said so
+        recorder.wait(timeout=20)
+        wait.until(lambda d: d.find_elements(By.CSS_SELECTOR, "section.run.gone"))
+        seen = _seen(driver, shots, "runs-recorder-gone")
+        state = driver.find_element(By.CSS_SELECTOR, "section.run.gone .state").text
+        assert state.startswith("recorder gone") and "No run is being recorded" in seen
+        assert driver.find_element(By.CSS_SELECTOR, "section.run.gone [data-field="
+                                   "'time_left_s']").text == "-"  # nothing more to wait for
+        assert not driver.find_elements(By.CSS_SELECTOR, "section.run.live")

@@ -68,6 +68,9 @@ def status_json(path: Path) -> dict[str, object]:
     writer = run_file_state(path)
     age = writer.flush_age_s() if state["state"] == "recording" else None
     gone = writer.recorder_gone()
+    if gone:  # nothing more will come: no time left to wait for
+        for u in units:
+            u["time_left_s"] = None
     return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
             "stop_reason": state.get("stop_reason"),
             "last_flush_utc": state.get("last_flush_utc"),
