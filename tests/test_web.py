@@ -335,3 +335,30 @@ def test_run_rules_worked_by_hand() -> None:
     assert run_rule_flags(drift[:7], 0.0, 1.0)["8_on_one_side"] == ()
     assert set(run_rule_flags([float("nan")] * 9, 0.0, 1.0).values()) == {()}
     assert run_rule_flags(x, None, None)["beyond_3_sigma"] == ()
+
+
+def test_capability_chart_places_every_ppk_and_histogram_bars_show() -> None:
+    """Ppk from below 0 to 97 on one log axis: each dot between the edges, the one off the
+    axis at its edge with ``<`` written; a figure without Ppk said so. Five values 0.1 %
+    apart, limits far off: bars of 1/60 of the axis, not 1e-5 of it."""
+    from station.output.production_report import MIN_BAR_SHARE, histogram_edges
+    from station.web.charts import capability_chart
+
+    doc = {"model": "M<1>", "figures": {
+        "arw": {"cpk": 97.2, "cpk_ci": [59.8, 135.0], "n": 14},
+        "bias": {"cpk": 1.1, "cpk_ci": [0.7, 1.5], "n": 14},
+        "drift": {"cpk": -0.5, "cpk_ci": None, "n": 3},
+        "noise": {"cpk": None, "cpk_ci": None, "n": 2}}}
+    svg = capability_chart(doc)
+    assert "M&lt;1&gt;" in svg and "<1>" not in svg
+    dots = {name: float(x) for name, x in re.findall(
+        r'data-figure="([^"]+)">.*?<circle cx="([-\d.]+)"', svg)}
+    left, right = 190, 760 - 70
+    assert set(dots) == {"arw", "bias", "drift"}
+    assert all(left <= x <= right for x in dots.values())
+    assert dots["drift"] == left < dots["bias"] < dots["arw"] < right
+    assert "&lt;-0.5" in svg and "no Ppk" in svg
+    values = [1.0, 1.001, 1.002, 1.0005, 1.0015]
+    edges = histogram_edges(values, [10.0, 0.0, None])
+    assert edges[0] <= min(values) and edges[-1] >= max(values)
+    assert min(b - a for a, b in zip(edges, edges[1:])) >= 10.0 * MIN_BAR_SHARE - 1e-12

@@ -8,7 +8,7 @@ tables (no image request, no script): the yield of each lot with its 95 % interv
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from math import isfinite
+from math import isfinite, log10
 from typing import Any
 
 from station.web.html import text
@@ -17,9 +17,11 @@ from station.web.html import text
 #: 1.33 (4 sigma), the customary minimum of a capable process (AIAG, Statistical Process
 #: Control, 2nd ed., ch. IV).
 PPK_REFERENCES = (1.0, 1.33)
-#: The largest Ppk the capability chart's axis reaches; a larger one is drawn at the edge
-#: with its value written.
-PPK_AXIS_MAX = 4.0
+#: The capability chart's logarithmic Ppk axis: from PPK_AXIS_MIN to the largest Ppk or
+#: interval end (at least PPK_AXIS_LEAST, at most PPK_AXIS_MAX); one outside is drawn at
+#: the edge, its value written with ``<`` or ``>``.
+PPK_AXIS_MIN, PPK_AXIS_LEAST, PPK_AXIS_MAX = 0.3, 4.0, 1000.0
+PPK_TICKS = (0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0)
 INK = "#37474f"
 GOOD, BAD = "#2e7d32", "#c62828"
 
@@ -81,26 +83,33 @@ def yield_chart(lots: Sequence[Mapping[str, Any]], width: int = 760) -> str:
 
 
 def capability_chart(stats: Mapping[str, Any], width: int = 760) -> str:
-    """One model's Ppk of each figure (a dot) with its 95 % interval (a bar), against the
-    references 1.0 and 1.33 (``stats``: the model's ``results --stats --json`` document);
-    a figure below 1.33 is drawn red; Ppk past :data:`PPK_AXIS_MAX` sits at the edge."""
+    """One model's Ppk of each figure (a dot) with its 95 % interval (a bar), on a
+    logarithmic axis (a line's Ppk spans 0.5 to 100), against the references 1.0 and 1.33
+    (``stats``: the model's ``results --stats --json`` document); a figure below 1.33 is
+    drawn red; a Ppk off the axis (:data:`PPK_AXIS_MIN`, :data:`PPK_AXIS_MAX`) sits at its
+    edge."""
     figures = [(name, f) for name, f in stats["figures"].items()]
     if not figures:
         return ""
-    row, left, right, top = 20, 190, 60, 34
+    row, left, right, top = 20, 190, 70, 34
     height = top + row * len(figures) + 26
     plot_w = width - left - right
+    ends = [v for _, f in figures for v in [f["cpk"], *(f["cpk_ci"] or [])]
+            if v is not None and isfinite(v)]
+    axis_lo = log10(PPK_AXIS_MIN)
+    axis_hi = log10(min(PPK_AXIS_MAX, max([PPK_AXIS_LEAST, *ends]) * 1.2))
 
     def x(v: float) -> float:
-        return left + min(max(v, 0.0), PPK_AXIS_MAX) / PPK_AXIS_MAX * plot_w
+        at = log10(min(max(v, PPK_AXIS_MIN), 10 ** axis_hi))
+        return left + (at - axis_lo) / (axis_hi - axis_lo) * plot_w
 
     parts = [f'<text x="4" y="14" fill="{INK}">{text(stats["model"])}: Ppk (upper) per figure, '
-             "with its 95 % interval; references 1.0 and 1.33</text>"]
+             "with its 95 % interval (log axis); references 1.0 and 1.33</text>"]
     bottom = top + row * len(figures)
-    for tick in range(int(PPK_AXIS_MAX) + 1):
+    for tick in (t for t in PPK_TICKS if log10(t) <= axis_hi + 1e-9):
         parts.append(f'<line x1="{x(tick):.1f}" x2="{x(tick):.1f}" y1="{top}" y2="{bottom}" '
                      f'stroke="#ddd"></line><text x="{x(tick):.1f}" y="{bottom + 14}" '
-                     f'text-anchor="middle" fill="#555">{tick}</text>')
+                     f'text-anchor="middle" fill="#555">{tick:g}</text>')
     for ref in PPK_REFERENCES:
         color = BAD if ref < PPK_REFERENCES[1] else GOOD
         parts.append(f'<line class="reference" x1="{x(ref):.1f}" x2="{x(ref):.1f}" y1="{top - 4}" '
@@ -128,6 +137,7 @@ def capability_chart(stats: Mapping[str, Any], width: int = 760) -> str:
                             if f["cpk_ci"] else "") + f' (n={f["n"]})</title>{bar}'
             f'<circle cx="{x(cpk):.1f}" cy="{cy:.1f}" r="5" fill="{color}"></circle>'
             f'<text x="{width - right + 6}" y="{cy + 4:.1f}" fill="{color}">'
-            f'{">" if cpk > PPK_AXIS_MAX else ""}{cpk:.3g}</text></g>')
+            f'{"&gt;" if cpk > 10 ** axis_hi else "&lt;" if cpk < PPK_AXIS_MIN else ""}{cpk:.3g}'
+            "</text></g>")
     return _frame("capability-chart", width, height, f"capability of {stats['model']}",
                   "".join(parts))

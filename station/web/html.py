@@ -73,14 +73,15 @@ def clock(seconds: float | None, decimals: int = 1) -> str:
     return f"{h}:{m:02d}:{sec}" if h else f"{m}:{sec}"
 
 
-def utc(stamp: str | None) -> str:
+def utc(stamp: str | None, zone: bool = True) -> str:
     """An ISO 8601 UTC time stamp (``2026-06-01T08:00:00.123456Z``) to the second,
-    ``2026-06-01 08:00:00 UTC``; ``-`` when there is none. ``static/live.js`` writes it
-    alike."""
+    ``2026-06-01 08:00:00 UTC`` (without `` UTC`` where not ``zone``: a column that says
+    so); ``-`` when there is none. ``static/live.js`` writes it alike."""
     if not stamp:
         return "-"
-    return f"{stamp[:19].replace('T', ' ')} UTC" if len(stamp) >= 19 and stamp[10] == "T" \
-        else stamp
+    if len(stamp) < 19 or stamp[10] != "T":
+        return stamp
+    return stamp[:19].replace("T", " ") + (" UTC" if zone else "")
 
 
 def interval(ci: Iterable[float] | None, family: UnitFamily | None = None,

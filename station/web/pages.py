@@ -63,8 +63,9 @@ def overview_body(doc: Mapping[str, Any], stats: Sequence[Mapping[str, Any]],
         f'<td>{text(", ".join(f"{g}: {n}" for g, n in r["grades"].items()))}</td></tr>'
         for r in doc["lots"]]
     gradings = [
-        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{text(g["test_date"])}'
-        f'</td><td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
+        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}">'
+        f'<td>{text(utc(g["test_date"], zone=False))}</td>'
+        f'<td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
         f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
         f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
         f'<td>{"REVIEW" if g["review"] else "-"}</td></tr>'
@@ -195,7 +196,7 @@ def unit_body(doc: Mapping[str, Any], family: UnitFamily, sheet_url: str | None,
     note says it is being rendered until the frame has loaded (``static/sheet.js``)."""
     history = [
         f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{g["id"]}</td>'
-        f'<td>{text(g["test_date"])}</td><td>{text(g["model"])}</td>'
+        f'<td>{text(utc(g["test_date"], zone=False))}</td><td>{text(g["model"])}</td>'
         f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
         f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
         f'<td>{text(g["run_path"])} ({text(g["run_unit"])})</td><td>{g["revision"]}</td>'
