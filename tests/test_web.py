@@ -4,6 +4,7 @@ in two lots, one out of control), and real run files under ``--runs``."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import threading
@@ -361,4 +362,4 @@ def test_capability_chart_places_every_ppk_and_histogram_bars_show() -> None:
     values = [1.0, 1.001, 1.002, 1.0005, 1.0015]
     edges = histogram_edges(values, [10.0, 0.0, None])
     assert edges[0] <= min(values) and edges[-1] >= max(values)
-    assert min(b - a for a, b in zip(edges, edges[1:])) >= 10.0 * MIN_BAR_SHARE - 1e-12
+    assert min(b - a for a, b in itertools.pairwise(edges)) >= 10.0 * MIN_BAR_SHARE - 1e-12
