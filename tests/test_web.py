@@ -277,6 +277,7 @@ def test_a_damaged_run_file_is_listed_with_the_rest(line: Path, tmp_path: Path,
     assert f'data-field="serial_number" data-format="text">{unit["serial_number"]}<' in page
     assert 'data-field="progress" data-format="percent">100 %<' in page
     assert 'data-field="t_s" data-format="clock">2:00<' in page  # 119.9 s, to the second
+    assert 'data-field="time_left_s" data-format="countdown">0:00<' in page
     assert not re.search(r"\d\.\d{4,}", page.split("</style>")[1])  # no raw float anywhere
     assert '<script src="/static/live.js"' in page
     assert "fetch(\"/api/runs\"" in client.get("/static/live.js").text

@@ -61,6 +61,7 @@
   function shown(value, how) {
     if (value === null || value === undefined) return "-";
     if (how === "clock") return clock(Number(value), Number(value) >= 60 ? 0 : 1);
+    if (how === "countdown") return clock(Number(value), 0);
     if (how === "percent") return (100 * Number(value)).toFixed(0) + " %";
     return String(value);
   }

@@ -267,9 +267,10 @@ def allan_svg(curve: Mapping[str, Any], width: int = 320, height: int = 200) -> 
 
 AXIS_COLORS = ("#1565c0", "#2e7d32", "#c62828")
 #: The unit columns of the runs page: the JSON field, its header, how it is written
-#: (``static/live.js`` writes each format alike: ``clock``, ``percent``, ``number``).
+#: (``static/live.js`` writes each format alike: ``clock``, h:mm:ss, tenths under a
+#: minute; ``countdown``, h:mm:ss; ``percent``; ``number``).
 UNIT_COLUMNS = (("model", "model", "text"), ("serial_number", "serial", "text"),
-                ("progress", "progress", "percent"), ("time_left_s", "time left", "clock"),
+                ("progress", "progress", "percent"), ("time_left_s", "time left", "countdown"),
                 ("t_s", "recorded (run time)", "clock"), ("samples_recorded", "samples", "number"),
                 ("sample_rate_hz", "rate Hz", "number"), ("gaps", "gaps", "number"),
                 ("samples_missing_declared", "missing", "number"),
@@ -287,8 +288,9 @@ def run_phase(run: Mapping[str, Any]) -> str:
 def _shown(value: object, how: str) -> str:
     if value is None:
         return "-"
-    if how == "clock":
-        return clock(float(value), 0 if float(value) >= 60 else 1)  # type: ignore[arg-type]
+    if how in ("clock", "countdown"):
+        seconds = float(value)  # type: ignore[arg-type]
+        return clock(seconds, 0 if how == "countdown" or seconds >= 60 else 1)
     if how == "percent":
         return f"{100 * float(value):.0f} %"  # type: ignore[arg-type]
     if how == "number" and isinstance(value, float):
