@@ -60,6 +60,20 @@ def chromium(width: int = 1280, height: int = 900) -> Iterator[object]:
         driver.quit()
 
 
+def screenshot(driver: object, path: Path, most_px: int = 3000) -> None:
+    """Save the whole page (up to ``most_px`` pixels high) as the PNG ``path``: the window
+    made as high as the page for the shot, then set back."""
+    size = driver.get_window_size()  # type: ignore[attr-defined]
+    high = driver.execute_script(  # type: ignore[attr-defined]
+        "return document.documentElement.scrollHeight;")
+    driver.set_window_size(  # type: ignore[attr-defined]
+        size["width"], min(most_px, max(size["height"], int(high) + 120)))
+    try:
+        driver.save_screenshot(str(path))  # type: ignore[attr-defined]
+    finally:
+        driver.set_window_size(size["width"], size["height"])  # type: ignore[attr-defined]
+
+
 @dataclass
 class Server:
     """A ``station serve`` process starting on 127.0.0.1 and ``url``'s port."""

@@ -4,6 +4,7 @@ in two lots, one out of control), and real run files under ``--runs``."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import threading
@@ -112,6 +113,16 @@ def test_pages_show_the_numbers_of_results_stats(client: TestClient, line: Path,
     l2 = next(r for r in overview["lots"] if r["lot"] == "L2")
     assert l2["yield"] == next(y["yield"] for y in yields if y["lot"] == "L2")
     assert l2["yield_ci"][0] < l2["yield"] < l2["yield_ci"][1]
+    whole = client.get("/").text  # the charts: inline SVG, drawn from the same numbers
+    chart = whole.split('<svg class="chart yield-chart"', 1)[1].split("</svg>", 1)[0]
+    assert chart.count('<g class="lot"') == len(overview["lots"])
+    low, high = (100 * v for v in l2["yield_ci"])
+    assert (f'data-lot="L2"><title>TG-1 L2 (n={l2["total"]}): yield {100 * l2["yield"]:.1f} %, '
+            f"95 % interval [{low:.1f}, {high:.1f}] %</title>") in chart
+    models = re.findall(r'<section class="model" data-model="([^"]+)">', whole)
+    assert models and whole.count('<svg class="chart capability-chart"') == len(models)
+    ppk = whole.split('<svg class="chart capability-chart"', 1)[1].split("</svg>", 1)[0]
+    assert f'data-figure="arw"><title>arw: Ppk {arw["cpk"]:.3g}' in ppk
     assert client.get("/api/overview", params={"station": "bench-2"}).json()["lots"][0][
         "total"] == 1
     assert client.get("/api/overview", params={"until": "2026-06-03"}).json()["lots"][0][
@@ -137,6 +148,13 @@ def test_markup_in_a_serial_lot_or_operator_is_shown_as_text(client: TestClient)
     assert sheet.text.count('<section class="unit"') == 1 and "OTHER-1" not in sheet.text
     assert "&lt;script&gt;" in sheet.text  # this unit's section, its serial escaped
     assert "default-src 'none'" in sheet.headers["content-security-policy"]
+    # a sheet not rendered yet is said to be rendering (static/sheet.js drops the note once
+    # the frame has loaded); one the server keeps is shown at once
+    assert 'id="sheet-rendering"' in unit.text and '"/static/sheet.js"' in unit.text
+    again = client.get(f"/units/{quote(SCRIPT_SERIAL, safe='')}").text
+    assert 'id="sheet-rendering"' not in again
+    assert "sheet-rendering" in client.get("/static/sheet.js").text
+    assert client.get("/static/nothing.js").status_code == 404
     assert client.get("/units/nobody").status_code == 404
 
 
@@ -248,10 +266,49 @@ def test_a_damaged_run_file_is_listed_with_the_rest(line: Path, tmp_path: Path,
     assert unit["samples_recorded"] == 1200
     curve = doc["runs"][0]["allan"][0]
     assert len(curve["tau_s"]) > 3 and len(curve["adev_deg_h"]) == 3
+    assert (unit["model"], unit["progress"], unit["time_left_s"]) == ("VG951", 1.0, 0.0)
+    assert unit["serial_number"] and doc["runs"][0]["duration_requested_s"] == 120.0
     page = client.get("/runs").text
-    assert "broken.h5" in page and 'data-field="samples_recorded">1200<' in page
+    assert "broken.h5" in page
+    assert 'data-field="samples_recorded" data-format="number">1200<' in page
+    # a stopped run is listed apart from those being recorded, its times as h:mm:ss
+    assert page.index("Recording now") < page.index("No run is being recorded") < page.index(
+        "Finished, or recorder gone") < page.index('data-phase="finished"')
+    assert f'data-field="serial_number" data-format="text">{unit["serial_number"]}<' in page
+    assert 'data-field="progress" data-format="percent">100 %<' in page
+    assert 'data-field="t_s" data-format="clock">2:00<' in page  # 119.9 s, to the second
+    assert 'data-field="time_left_s" data-format="countdown">0:00<' in page
+    assert not re.search(r"\d\.\d{4,}", page.split("</style>")[1])  # no raw float anywhere
     assert '<script src="/static/live.js"' in page
     assert "fetch(\"/api/runs\"" in client.get("/static/live.js").text
+
+
+def test_api_has_an_index_and_every_api_error_is_json(line: Path) -> None:
+    client = TestClient(create_app(ServeConfig(line)))
+    index = client.get("/api").json()
+    paths = [entry["path"] for entry in index["api"]]
+    assert {"/api/overview", "/api/stats", "/api/runs", "/api/units/{serial}"} <= set(paths)
+    for answer, status in ((client.get("/api/units/NOPE"), 404),
+                           (client.get("/api/no-such-document"), 404),
+                           (client.get("/api/stats", params={"units": "grad"}), 400),
+                           (client.post("/api/stats"), 405)):
+        assert answer.status_code == status
+        assert answer.headers["content-type"] == "application/json", answer.text
+        assert answer.json()["error"]
+    guarded = TestClient(create_app(ServeConfig(line, token="s3cret")))
+    answer = guarded.get("/api")
+    assert answer.status_code == 401 and "access token" in answer.json()["error"]
+    assert guarded.get("/").headers["content-type"].startswith("text/html")
+    assert client.get("/no-such-page").headers["content-type"].startswith("text/html")
+
+
+def test_the_units_switch_marks_the_family_shown(line: Path) -> None:
+    client = TestClient(create_app(ServeConfig(line)))
+    for shown, other in (("deg", "rad"), ("rad", "deg")):
+        page = client.get("/runs", params={"units": shown}).text
+        switch = page.split('<span class="units">')[1].split("</span>")[0]
+        assert f'<b class="active" aria-current="true">{shown}</b>' in switch
+        assert f"units={other}\">{other}</a>" in switch and f">{shown}</a>" not in switch
 
 
 def test_the_line_on_postgresql(graded: RunGrade, postgres_url: str,  # noqa: F811
@@ -280,3 +337,30 @@ def test_run_rules_worked_by_hand() -> None:
     assert run_rule_flags(drift[:7], 0.0, 1.0)["8_on_one_side"] == ()
     assert set(run_rule_flags([float("nan")] * 9, 0.0, 1.0).values()) == {()}
     assert run_rule_flags(x, None, None)["beyond_3_sigma"] == ()
+
+
+def test_capability_chart_places_every_ppk_and_histogram_bars_show() -> None:
+    """Ppk from below 0 to 97 on one log axis: each dot between the edges, the one off the
+    axis at its edge with ``<`` written; a figure without Ppk said so. Five values 0.1 %
+    apart, limits far off: bars of 1/60 of the axis, not 1e-5 of it."""
+    from station.output.production_report import MIN_BAR_SHARE, histogram_edges
+    from station.web.charts import capability_chart
+
+    doc = {"model": "M<1>", "figures": {
+        "arw": {"cpk": 97.2, "cpk_ci": [59.8, 135.0], "n": 14},
+        "bias": {"cpk": 1.1, "cpk_ci": [0.7, 1.5], "n": 14},
+        "drift": {"cpk": -0.5, "cpk_ci": None, "n": 3},
+        "noise": {"cpk": None, "cpk_ci": None, "n": 2}}}
+    svg = capability_chart(doc)
+    assert "M&lt;1&gt;" in svg and "<1>" not in svg
+    dots = {name: float(x) for name, x in re.findall(
+        r'data-figure="([^"]+)">.*?<circle cx="([-\d.]+)"', svg)}
+    left, right = 190, 760 - 70
+    assert set(dots) == {"arw", "bias", "drift"}
+    assert all(left <= x <= right for x in dots.values())
+    assert dots["drift"] == left < dots["bias"] < dots["arw"] < right
+    assert "&lt;-0.5" in svg and "no Ppk" in svg
+    values = [1.0, 1.001, 1.002, 1.0005, 1.0015]
+    edges = histogram_edges(values, [10.0, 0.0, None])
+    assert edges[0] <= min(values) and edges[-1] >= max(values)
+    assert min(b - a for a, b in itertools.pairwise(edges)) >= 10.0 * MIN_BAR_SHARE - 1e-12

@@ -5,22 +5,26 @@ Chromium.
 (two simulated VG951 gyros), grades it into a fresh results database as lot ``DEMO-1``
 with its HTML spec sheet recorded (``station report --format html --db``), grades ``N``
 (default 16) simulated VG951 runs beside it in lots ``DEMO-2`` and ``DEMO-3``, serves the
-database and saves ``web-overview.png``, ``web-figure.png`` (a figure's control chart) and
-``web-unit.png`` (a unit's sheet) into OUT_DIR (default docs/figures). About two minutes.
+database and saves ``web-overview.png``, ``web-figure.png`` (a figure's control chart),
+``web-unit.png`` (a unit's sheet) and ``web-runs.png`` (the runs page: a simulated VG951
+being recorded at 20 times real time beside the demo's finished run) into OUT_DIR (default
+docs/figures), each of the whole page. About three minutes.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from urllib.parse import quote
 from urllib.request import urlopen
 
-from tests.browser import chromium, served
+from tests.browser import chromium, screenshot, served
 
 
 def station(*args: str) -> None:
@@ -46,7 +50,7 @@ def demo_database(folder: Path, runs: int) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Build the database, serve it, take the three screenshots."""
+    """Build the database, serve it, take the four screenshots."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", nargs="?", type=Path, default=Path("docs/figures"))
     parser.add_argument("--runs", type=int, default=16)
@@ -55,18 +59,33 @@ def main(argv: list[str] | None = None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="station-web-") as tmp:
         db = demo_database(Path(tmp), args.runs)
-        with served(db) as server, chromium(1280, 1400) as driver:
-            base = server.wait()
-            driver.get(base + "/")
-            driver.save_screenshot(str(args.out / "web-overview.png"))
-            figure = driver.find_element(By.CSS_SELECTOR, "table.capability a")
-            figure.click()
-            driver.save_screenshot(str(args.out / "web-figure.png"))
-            with urlopen(base + "/api/overview?lot=DEMO-1") as answer:
-                serial = json.load(answer)["gradings"][0]["serial_number"]
-            driver.get(f"{base}/units/{quote(serial, safe='')}")
-            driver.save_screenshot(str(args.out / "web-unit.png"))
-    for name in ("web-overview", "web-figure", "web-unit"):
+        runs = Path(tmp) / "runs"
+        runs.mkdir()
+        shutil.copy(Path(tmp) / "demo-run.h5", runs / "demo-run.h5")
+        recorder = subprocess.Popen(
+            [sys.executable, "-m", "station", "record", "--profile", "VG951", "--unit",
+             "sim+serial://VG951?protocol=xbus&rate=10&warp=20&seed=4", "--duration", "20m",
+             "--lot", "DEMO-4", "--operator", "line 1", "--quiet", "--out", str(runs)],
+            stdout=subprocess.DEVNULL)
+        try:
+            with served(db, (runs,)) as server, chromium(1280, 900) as driver:
+                base = server.wait()
+                driver.get(base + "/")
+                screenshot(driver, args.out / "web-overview.png")
+                figure = driver.find_element(By.CSS_SELECTOR, "table.capability a")
+                figure.click()
+                screenshot(driver, args.out / "web-figure.png")
+                with urlopen(base + "/api/overview?lot=DEMO-1") as answer:
+                    serial = json.load(answer)["gradings"][0]["serial_number"]
+                driver.get(f"{base}/units/{quote(serial, safe='')}")  # waits for the sheet
+                screenshot(driver, args.out / "web-unit.png", most_px=1400)
+                time.sleep(20)  # a minute of the 20 recorded at 20 times real time
+                driver.get(base + "/runs")
+                screenshot(driver, args.out / "web-runs.png")
+        finally:
+            recorder.kill()
+            recorder.wait(timeout=20)
+    for name in ("web-overview", "web-figure", "web-unit", "web-runs"):
         print(args.out / f"{name}.png")
     return 0
 

@@ -66,12 +66,36 @@ def figure_plot(f: FigureStats) -> Figure:
     return fig
 
 
+#: The most serials written under a control chart (beyond, every n-th value is named).
+MAX_SERIAL_TICKS = 40
+#: The narrowest histogram bar, as a share of the span the histogram's axis shows.
+MIN_BAR_SHARE = 1 / 60
+
+
+def histogram_edges(x: list[float], marks: list[float | None]) -> list[float]:
+    """Bin edges of a histogram of ``x`` drawn on an axis that also shows ``marks`` (the
+    limits, the mean): ``len(x) // 3`` bins (5 to 30) over the values, each bar at least
+    :data:`MIN_BAR_SHARE` of the axis wide, so that a few close values far from a limit
+    still show as a bar (a bar of a 1e-6 share is not drawn at all)."""
+    lo, hi = min(x), max(x)
+    shown = [v for v in (*x, *marks) if v is not None]
+    span = max(shown) - min(shown)
+    bins = min(30, max(5, len(x) // 3))
+    width = max((hi - lo) / bins, span * MIN_BAR_SHARE)
+    if width <= 0:  # every value the same, no limit elsewhere
+        width = abs(lo) * 0.01 or 1.0
+    count = max(1, int(-(-(hi - lo) // width)))
+    start = (lo + hi) / 2 - count * width / 2
+    return [start + i * width for i in range(count + 1)]
+
+
 def draw_figure(hist: Axes, chart: Axes, f: FigureStats) -> None:
     """Draw a figure's histogram against its limits on ``hist`` and its individuals control
     chart on ``chart``."""
     x = [v.value for v in f.values if v.value is not None]
     if x:
-        hist.hist(x, bins=min(30, max(5, len(x) // 3)), color="#90a4ae", edgecolor="#37474f")
+        hist.hist(x, bins=histogram_edges(x, [*f.limits.values(), f.capability.mean]),
+                  color="#90a4ae", edgecolor="#37474f")
     for (grade, limit), color in zip(f.limits.items(), LIMIT_COLORS, strict=False):
         hist.axvline(limit, color=color, ls="--", lw=1.5, label=f"limit {grade} = {limit:.4g}")
     if f.capability.mean is not None:
@@ -105,7 +129,11 @@ def draw_figure(hist: Axes, chart: Axes, f: FigureStats) -> None:
             mew=2,
             label="out of control",
         )
-    chart.set_xlabel("unit x axis, in test order")
+    step = max(1, -(-len(idx) // MAX_SERIAL_TICKS))  # every value named, or every step-th
+    chart.set_xticks(idx[::step], [f"{v.serial_number} {v.axis}".strip()
+                                   for v in f.values[::step]], rotation=60, ha="right",
+                     fontsize=6)
+    chart.set_xlabel("unit and axis, in test order")
     chart.set_ylabel(f"{f.name} [{f.unit}]")
     chart.set_title(
         f"control chart (individuals, 3-sigma from the moving range): "

@@ -13,7 +13,14 @@ import numpy as np
 
 from analysis.allan.variance import allan_variance
 from station.errors import StationError
-from station.storage.hdf5 import open_run_file, read_unit, run_state, unit_counts, unit_ids
+from station.storage.hdf5 import (
+    open_run_file,
+    read_unit,
+    run_state,
+    text_value,
+    unit_counts,
+    unit_ids,
+)
 
 #: The most samples of a unit the live Allan curve reads (the newest ones), so that a
 #: refresh stays fast on a long run.
@@ -35,6 +42,8 @@ def status_json(path: Path) -> dict[str, object]:
 
     with RUN_FILE_READ, open_run_file(path) as f:
         state = run_state(f)
+        meta = {k: text_value(f.attrs.get(k, "")) for k in ("lot", "operator", "start_utc")}
+        planned = float(f.attrs.get("duration_requested_s", 0.0) or 0.0) or None
         units: list[dict[str, object]] = []
         for uid in unit_ids(f):
             c = unit_counts(f, uid)
@@ -44,9 +53,15 @@ def status_json(path: Path) -> dict[str, object]:
             rates = tail.rate_deg_s[valid]
             accel = None if tail.accel_m_s2 is None else tail.accel_m_s2[valid]
             has = bool(len(rates))
+            attrs = f["units"][uid].attrs
             units.append({
-                "unit": uid, "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
-                "t_s": c.last_time_s, "gaps": c.gaps,
+                "unit": uid, "model": text_value(attrs.get("model", "")),
+                "serial_number": text_value(attrs.get("serial_number", "")),
+                **_progress(c.last_time_s + 1.0 / rate_hz if c.samples_recorded else 0.0,
+                            planned, float(attrs.get("time_warp", 1.0)),
+                            state["state"]),
+                "samples_recorded": c.samples_recorded, "sample_rate_hz": rate_hz,
+                "t_s": round(c.last_time_s, 3), "gaps": c.gaps,
                 "samples_missing_declared": c.samples_missing_declared,
                 "crc_errors": c.crc_errors, "reconnects": c.reconnects,
                 "newest_deg_s": rates[-1].tolist() if has else None,
@@ -56,12 +71,32 @@ def status_json(path: Path) -> dict[str, object]:
     writer = run_file_state(path)
     age = writer.flush_age_s() if state["state"] == "recording" else None
     gone = writer.recorder_gone()
+    if gone:  # nothing more will come: no time left to wait for
+        for u in units:
+            u["time_left_s"] = None
     return {"run": str(path), "state": state["state"], "stop_utc": state.get("stop_utc"),
             "stop_reason": state.get("stop_reason"),
             "last_flush_utc": state.get("last_flush_utc"),
             "last_flush_age_s": None if age is None else round(age, 3),
             "recorder_gone": gone, "advice": writer.gone_advice() if gone else None,
+            "lot": meta["lot"] or None, "operator": meta["operator"] or None,
+            "start_utc": meta["start_utc"] or None, "duration_requested_s": planned,
             "units": units}
+
+
+def _progress(t_s: float, planned_s: float | None, time_warp: float,
+              state: str) -> dict[str, float | None]:
+    """How far a unit is into its run, ``t_s`` recorded (s, its last sample's time and one
+    sample period): ``progress`` (0 to 1, of the requested duration)
+    and ``time_left_s`` (wall-clock seconds left, the run's time divided by its time warp;
+    0 once the run has stopped; None without a requested duration)."""
+    if planned_s is None:
+        return {"progress": None, "time_left_s": None}
+    done = min(1.0, max(0.0, t_s / planned_s))
+    if state != "recording":
+        return {"progress": round(done, 4), "time_left_s": 0.0}
+    left = max(0.0, planned_s - t_s) / (time_warp if time_warp > 0 else 1.0)
+    return {"progress": round(done, 4), "time_left_s": round(left, 1)}
 
 
 def live_allan(path: Path, unit: str, *, max_samples: int = LIVE_ALLAN_MAX_SAMPLES

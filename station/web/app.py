@@ -8,7 +8,8 @@ Routes (every one GET or HEAD; any other method is answered 405)::
     /units/{serial}            a unit's page           /api/units/{serial}
     /sheets/{serial}           its spec sheet (?grading=ID: that grading's)
     /runs                      runs in progress        /api/runs
-    /static/live.js            the runs page's script
+    /static/live.js            the runs page's script  /static/sheet.js (a unit page's)
+    /api                       the index of the API (JSON)
 
 Every page and document takes ``?units=deg|rad`` (``--output-units``); the overview and
 the figure pages take the filters ``since``, ``until``, ``model``, ``lot``, ``station``,
@@ -18,7 +19,8 @@ charts and run rules (never pooled); a chart's URL names its model.
 
 With a token (:class:`ServeConfig`), a request must carry it: ``Authorization: Bearer
 TOKEN``, or ``?token=TOKEN`` once (the answer sets a cookie the browser sends after);
-without it the answer is 401.
+without it the answer is 401. Every failure under ``/api`` (400, 401, 404, 405, 503) is
+JSON, ``{"error": reason}``; elsewhere it is a page.
 """
 
 from __future__ import annotations
@@ -35,10 +37,11 @@ from typing import Any, cast
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException
 from starlette.middleware import Middleware
 from starlette.middleware.base import BaseHTTPMiddleware
 from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
+from starlette.responses import HTMLResponse, JSONResponse, Response
 from starlette.routing import Route
 
 import station.web.pages as pages
@@ -73,6 +76,26 @@ CONTENT_SECURITY_POLICY = ("default-src 'self'; img-src 'self' data:; "
 #: How many rendered spec sheets the server keeps (a sheet rendered afresh takes seconds).
 SHEETS_KEPT = 32
 FILTERS = ("since", "until", "model", "lot", "station", "operator")
+#: The scripts under /static/.
+SCRIPTS = ("live.js", "sheet.js")
+#: What ``/api`` answers: each document's path, its parameters and what it holds.
+API_INDEX: tuple[dict[str, str], ...] = (
+    {"path": "/api", "params": "", "what": "this index"},
+    {"path": "/api/overview", "params": "since, until, model, lot, station, operator, units",
+     "what": "the filters' choices, yield per model and lot with its 95 % interval "
+             "(Wilson), the newest gradings"},
+    {"path": "/api/stats", "params": "model, lot, since, units",
+     "what": "station results --stats --json: per model, yield per grade and each "
+             "figure's capability"},
+    {"path": "/api/figures/{name}", "params": "model, lot, since, units",
+     "what": "a figure's capability, control chart, run rules and trend over lots "
+             "(per model where none is named)"},
+    {"path": "/api/units/{serial}", "params": "units",
+     "what": "a unit's gradings and their figures"},
+    {"path": "/api/runs", "params": "units",
+     "what": "the run files under --runs: state, per unit model, serial, progress, time "
+             "left, counts and the live Allan deviation; the damaged files"},
+)
 
 
 @dataclass(frozen=True)
@@ -179,14 +202,17 @@ def create_app(config: ServeConfig) -> Starlette:
             raise NotFoundError(f"no grading of a unit {request.path_params['serial']!r}")
         return history.as_json()
 
-    def unit_page(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
-        doc = unit(request)
-        sheet = (f"/sheets/{segment(request.path_params['serial'])}"
-                 + query({"grading": str(doc["gradings"][-1]["id"])}))
-        return pages.unit_body(doc, family, sheet)
-
     sheets: OrderedDict[tuple[int, tuple[str, ...]], str] = OrderedDict()
     sheets_lock = threading.Lock()
+
+    def unit_page(request: Request, family: UnitFamily, stats: StatsByModel | None) -> str:
+        doc = unit(request)
+        grading = doc["gradings"][-1]["id"]
+        sheet = (f"/sheets/{segment(request.path_params['serial'])}"
+                 + query({"grading": str(grading)}))
+        with sheets_lock:
+            kept = any(key[0] == grading for key in sheets)
+        return pages.unit_body(doc, family, sheet, rendering=not kept)
 
     def sheet(request: Request) -> str:
         where = _filter(config, request)
@@ -244,8 +270,16 @@ def create_app(config: ServeConfig) -> Starlette:
         return pages.runs_body(runs_in_progress(config.runs).as_json())
 
     async def script(request: Request) -> Response:
-        source = files("station.web").joinpath("live.js").read_text(encoding="utf-8")
+        name = request.path_params["name"]
+        if name not in SCRIPTS:
+            raise NotFoundError(f"no script {name!r}")
+        source = files("station.web").joinpath(name).read_text(encoding="utf-8")
         return Response(source, media_type="text/javascript")
+
+    async def api_index(request: Request) -> Response:
+        return JSONResponse({"api": list(API_INDEX), "errors": '{"error": reason}, with '
+                             "the status 400, 401, 404, 405 or 503",
+                             "pages": ["/", "/figures/{name}", "/units/{serial}", "/runs"]})
 
     routes = [
         Route("/", html_page("Line overview", overview, stats=True)),
@@ -255,12 +289,14 @@ def create_app(config: ServeConfig) -> Starlette:
         Route("/figures/{name}/chart.svg", svg("chart", chart)),
         Route("/figures/{name}/trend.svg", svg("trend", trend)),
         Route("/api/figures/{name}", figure_api),
-        Route("/units/{serial:path}", html_page("Unit {serial}", unit_page)),
+        Route("/units/{serial:path}", html_page("Unit {serial}", unit_page,
+                                                script="/static/sheet.js")),
         Route("/sheets/{serial:path}", sheet_endpoint),
         Route("/api/units/{serial:path}", api(unit)),
         Route("/runs", html_page("Runs in progress", runs, script="/static/live.js")),
         Route("/api/runs", api(lambda r: runs_in_progress(config.runs).as_json())),
-        Route("/static/live.js", script),
+        Route("/static/{name}", script),
+        Route("/api", api_index),
     ]
     middleware = [Middleware(BaseHTTPMiddleware, dispatch=_guard(config.token))]
 
@@ -269,7 +305,14 @@ def create_app(config: ServeConfig) -> Starlette:
         yield
         cache.close()
 
-    app = Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+    async def http_error(request: Request, exc: Exception) -> Response:
+        assert isinstance(exc, HTTPException)
+        answer = _failure(request, exc.status_code, str(exc.detail), str(exc.detail))
+        answer.headers.update(exc.headers or {})
+        return answer
+
+    app = Starlette(routes=routes, middleware=middleware, lifespan=lifespan,
+                    exception_handlers={HTTPException: http_error})
     app.state.render_cache = cache  # its ``computed`` count: what was computed, not kept
     return app
 
@@ -281,10 +324,10 @@ def _guard(token: str | None) -> Callable[[Request, Handler], Awaitable[Response
     async def dispatch(request: Request, call_next: Handler) -> Response:
         given = _token_of(request)
         if token is not None and not (given and _same_token(given, token)):
-            answer: Response = PlainTextResponse(
-                "401: this station's page needs its access token (Authorization: Bearer "
-                "TOKEN, or ?token=TOKEN)", status_code=401,
-                headers={"WWW-Authenticate": "Bearer"})
+            answer = _failure(request, 401, "Access token needed",
+                              "this station's page needs its access token (Authorization: "
+                              "Bearer TOKEN, or ?token=TOKEN)")
+            answer.headers["WWW-Authenticate"] = "Bearer"
         else:
             try:
                 answer = await call_next(request)
@@ -324,7 +367,7 @@ def _token_of(request: Request) -> str | None:
 def _failure(request: Request, status: int, title: str, reason: str) -> Response:
     """A failure as JSON (``{"error"}``) under ``/api``, else as a page; a 503 page retries
     (meta refresh)."""
-    if request.url.path.startswith("/api/"):
+    if request.url.path == "/api" or request.url.path.startswith("/api/"):
         return JSONResponse({"error": reason}, status_code=status)
     family = unit_family("deg")
     refresh = pages.RETRY_S if status == 503 else None

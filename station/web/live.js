@@ -39,25 +39,57 @@
     });
   }
 
+  // as station/web/html.py's clock(): h:mm:ss (mm:ss.s under a minute's worth of digits)
+  function clock(seconds, decimals) {
+    const scale = 10 ** decimals;
+    const total = Math.round(Math.max(0, seconds) * scale);
+    const h = Math.floor(total / (3600 * scale));
+    const m = Math.floor((total % (3600 * scale)) / (60 * scale));
+    const s = (total % (60 * scale)) / scale;
+    const sec = s.toFixed(decimals).padStart(decimals ? 3 + decimals : 2, "0");
+    return h ? `${h}:${String(m).padStart(2, "0")}:${sec}` : `${m}:${sec}`;
+  }
+
+  // as station/web/html.py's utc(): to the second
+  function utc(stamp) {
+    if (!stamp) return "-";
+    return stamp.length >= 19 && stamp[10] === "T"
+      ? stamp.slice(0, 19).replace("T", " ") + " UTC" : stamp;
+  }
+
+  // as station/web/pages.py's _shown()
+  function shown(value, how) {
+    if (value === null || value === undefined) return "-";
+    if (how === "clock") return clock(Number(value), Number(value) >= 60 ? 0 : 1);
+    if (how === "countdown") return clock(Number(value), 0);
+    if (how === "percent") return (100 * Number(value)).toFixed(0) + " %";
+    return String(value);
+  }
+
+  // as station/web/pages.py's run_phase()
+  function phase(run) {
+    if (run.state !== "recording") return "finished";
+    return run.recorder_gone ? "gone" : "live";
+  }
+
   function update(doc) {
     const sections = Array.from(document.querySelectorAll("section.run"));
-    const shown = sections.map((s) => s.dataset.run).sort().join("\n");
-    const now = doc.runs.map((r) => r.run).sort().join("\n");
-    if (shown !== now) { window.location.reload(); return; }
+    const seen = sections.map((s) => s.dataset.run + " " + s.dataset.phase).sort().join("\n");
+    const now = doc.runs.map((r) => r.run + " " + phase(r)).sort().join("\n");
+    if (seen !== now) { window.location.reload(); return; }
     for (const run of doc.runs) {
       const section = sections.find((s) => s.dataset.run === run.run);
-      for (const key of ["state", "last_flush_utc"]) {
-        const cell = section.querySelector(`[data-field="${key}"]`);
-        if (cell) cell.textContent = run[key] === null ? "" : String(run[key]);
-      }
+      const flush = section.querySelector('[data-field="last_flush_utc"]');
+      if (flush) flush.textContent = utc(run.last_flush_utc);
       for (const unit of run.units) {
         const row = Array.from(section.querySelectorAll("tr[data-unit]"))
           .find((r) => r.dataset.unit === unit.unit);
         if (!row) continue;
         row.querySelectorAll("[data-field]").forEach((cell) => {
-          const value = unit[cell.dataset.field];
-          cell.textContent = value === null ? "" : String(value);
+          cell.textContent = shown(unit[cell.dataset.field], cell.dataset.format);
         });
+        const bar = row.querySelector("progress[data-bar]");
+        if (bar && unit.progress !== null) bar.value = unit.progress;
         const curve = run.allan.find((c) => c.unit === unit.unit);
         const svg = row.querySelector("svg.allan");
         if (curve && svg) drawAllan(svg, curve);

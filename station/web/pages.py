@@ -9,7 +9,8 @@ from typing import Any
 
 from analysis.units.conversions import UnitFamily
 from station.evaluation.capability import CAPABILITY_NOTE
-from station.web.html import interval, link, number, query, segment, table, text
+from station.web.charts import capability_chart, yield_chart
+from station.web.html import clock, interval, link, number, query, segment, table, text, utc
 
 #: Seconds the database-unavailable page waits before it tries again.
 RETRY_S = 10.0
@@ -62,8 +63,9 @@ def overview_body(doc: Mapping[str, Any], stats: Sequence[Mapping[str, Any]],
         f'<td>{text(", ".join(f"{g}: {n}" for g, n in r["grades"].items()))}</td></tr>'
         for r in doc["lots"]]
     gradings = [
-        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{text(g["test_date"])}'
-        f'</td><td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
+        f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}">'
+        f'<td>{text(utc(g["test_date"], zone=False))}</td>'
+        f'<td>{_unit_link(g["serial_number"], family)}</td><td>{text(g["model"])}</td>'
         f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
         f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
         f'<td>{"REVIEW" if g["review"] else "-"}</td></tr>'
@@ -71,6 +73,7 @@ def overview_body(doc: Mapping[str, Any], stats: Sequence[Mapping[str, Any]],
     return "\n".join([
         _filters_form(doc, family),
         "<h2>Yield per model and lot</h2>",
+        yield_chart(doc["lots"]),
         table(["model", "lot", "units", "pass", "fail", "indeterminate", "yield %",
                "95 % interval (Wilson) %", "grades"], lots, "lots"),
         '<p class="note">The latest grading of each unit the filters select.</p>',
@@ -106,6 +109,7 @@ def _capability_section(stats: Mapping[str, Any], family: UnitFamily) -> str:
         f"<h3>{text(stats['model'])}: {stats['units']} units, profile "
         f"{text(stats['profile'] or '-')}</h3>",
         table(["grade", "share %"], grade_rows, "grades"),
+        capability_chart(stats),
         table(["figure", "unit", "n", "mean", "std", "limit", "Ppk (upper)", "95 % CI",
                "Ppk fitted", "out of control"], figures, "capability"),
         "</section>",
@@ -185,12 +189,14 @@ def figure_body(f: Mapping[str, Any], scope: Mapping[str, str | None],
     ])
 
 
-def unit_body(doc: Mapping[str, Any], family: UnitFamily, sheet_url: str | None) -> str:
+def unit_body(doc: Mapping[str, Any], family: UnitFamily, sheet_url: str | None,
+              rendering: bool = False) -> str:
     """A unit's gradings (newest first), its latest grading's figures (a test sequence's
-    too) and its spec sheet in a frame."""
+    too) and its spec sheet in a frame; ``rendering``: the sheet is not rendered yet, and a
+    note says it is being rendered until the frame has loaded (``static/sheet.js``)."""
     history = [
         f'<tr class="{text(g["verdict"])}" data-grading="{g["id"]}"><td>{g["id"]}</td>'
-        f'<td>{text(g["test_date"])}</td><td>{text(g["model"])}</td>'
+        f'<td>{text(utc(g["test_date"], zone=False))}</td><td>{text(g["model"])}</td>'
         f'<td>{text(g["lot"] or "-")}</td><td>{text(g["grade"])}</td>'
         f'<td class="verdict">{text(g["verdict"])}</td><td>{text(g["profile"])}</td>'
         f'<td>{text(g["run_path"])} ({text(g["run_unit"])})</td><td>{g["revision"]}</td>'
@@ -205,7 +211,10 @@ def unit_body(doc: Mapping[str, Any], family: UnitFamily, sheet_url: str | None)
         f'{interval(_ci(x), family, x["unit"])}{number(x["limit"], family, x["unit"])}'
         f'<td class="verdict">{text(x["verdict"] or "info")}</td></tr>'
         for x in latest["figures"]]
-    sheet = (f'<p>{link(sheet_url, "open the spec sheet alone", id="sheet-link")}</p>'
+    busy = ('<p class="rendering" id="sheet-rendering">Rendering the spec sheet of this '
+            "grading (its plots are drawn afresh on a first view, which takes several "
+            "seconds); it appears below when ready.</p>" if rendering else "")
+    sheet = (f'<p>{link(sheet_url, "open the spec sheet alone", id="sheet-link")}</p>{busy}'
              f'<iframe class="sheet" sandbox src="{text(sheet_url)}" title="spec sheet">'
              "</iframe>" if sheet_url else "<p>No grading to show a sheet of.</p>")
     return "\n".join([
@@ -257,34 +266,105 @@ def allan_svg(curve: Mapping[str, Any], width: int = 320, height: int = 200) -> 
 
 
 AXIS_COLORS = ("#1565c0", "#2e7d32", "#c62828")
-UNIT_FIELDS = ("samples_recorded", "sample_rate_hz", "t_s", "gaps", "samples_missing_declared",
-               "crc_errors", "reconnects")
+#: The unit columns of the runs page: the JSON field, its header, how it is written
+#: (``static/live.js`` writes each format alike: ``clock``, h:mm:ss, tenths under a
+#: minute; ``countdown``, h:mm:ss; ``percent``; ``number``).
+UNIT_COLUMNS = (("model", "model", "text"), ("serial_number", "serial", "text"),
+                ("progress", "progress", "percent"), ("time_left_s", "time left", "countdown"),
+                ("t_s", "recorded (run time)", "clock"), ("samples_recorded", "samples", "number"),
+                ("sample_rate_hz", "rate Hz", "number"), ("gaps", "gaps", "number"),
+                ("samples_missing_declared", "missing", "number"),
+                ("crc_errors", "CRC errors", "number"), ("reconnects", "reconnects", "number"))
+
+
+def run_phase(run: Mapping[str, Any]) -> str:
+    """``live`` (being recorded by a running recorder), ``gone`` (the file says recording
+    but its recorder is gone) or ``finished`` (stopped or interrupted)."""
+    if run["state"] != "recording":
+        return "finished"
+    return "gone" if run["recorder_gone"] else "live"
+
+
+def _shown(value: object, how: str) -> str:
+    if value is None:
+        return "-"
+    if how in ("clock", "countdown"):
+        seconds = float(value)  # type: ignore[arg-type]
+        return clock(seconds, 0 if how == "countdown" or seconds >= 60 else 1)
+    if how == "percent":
+        return f"{100 * float(value):.0f} %"  # type: ignore[arg-type]
+    if how == "number" and isinstance(value, float):
+        return f"{value:g}"
+    return text(value)
+
+
+def _state_text(run: Mapping[str, Any]) -> str:
+    phase = run_phase(run)
+    if phase == "live":
+        return "recording"
+    if phase == "gone":
+        return "recorder gone: the file was left open (interrupted)"
+    stop = f" at {utc(run['stop_utc'])}" if run.get("stop_utc") else ""
+    why = f" ({run['stop_reason']})" if run.get("stop_reason") else ""
+    return f"{run['state']}{stop}{why}"
+
+
+def _run_section(run: Mapping[str, Any]) -> str:
+    curves = {c["unit"]: c for c in run["allan"]}
+    rows = []
+    for u in run["units"]:
+        cells = []
+        for key, _, how in UNIT_COLUMNS:
+            css = "" if how == "text" else ' class="num"'
+            shown = f'<span data-field="{key}" data-format="{how}">{_shown(u.get(key), how)}</span>'
+            if key == "progress" and u.get("progress") is not None:
+                shown = (f'<progress data-bar="progress" max="1" value="{u["progress"]}">'
+                         f"</progress> {shown}")
+            cells.append(f"<td{css}>{shown}</td>")
+        rows.append(f'<tr data-unit="{text(u["unit"])}"><td>{text(u["unit"])}</td>'
+                    + "".join(cells) + f"<td>{allan_svg(curves[u['unit']])}</td></tr>")
+    phase = run_phase(run)
+    about = ", ".join(f"{name} {text(run.get(key))}" for key, name in
+                      (("lot", "lot"), ("operator", "operator")) if run.get(key))
+    if run.get("start_utc"):
+        about += (", " if about else "") + f"started {utc(run['start_utc'])}"
+    planned = run.get("duration_requested_s")
+    if planned:
+        about += (", " if about else "") + f"duration requested {clock(planned, 0)}"
+    return (
+        f'<section class="run {phase}" data-run="{text(run["run"])}" data-phase="{phase}">'
+        f'<h3>{text(run["run"].rsplit("/", 1)[-1])}</h3>'
+        f'<p>state: <span class="state {phase}" data-field="state_text">'
+        f'{text(_state_text(run))}</span>; last flush '
+        f'<span data-field="last_flush_utc">{text(utc(run["last_flush_utc"]))}</span>'
+        + (f' <span class="damaged">{text(run["advice"])}</span>' if run["advice"] else "")
+        + f'</p><p class="note">{text(run["run"])}{"; " + about if about else ""}</p>'
+        + table(["unit", *(h for _, h, _ in UNIT_COLUMNS), "Allan deviation"], rows, "units")
+        + "</section>")
 
 
 def runs_body(doc: Mapping[str, Any]) -> str:
-    """Each run file under ``--runs``: state, per unit samples, gaps and the live Allan
-    deviation; the damaged files with the reason. The page's script keeps the numbers and
-    curves current (``data-run``, ``data-unit``, ``data-field`` name the cells)."""
+    """The run files under ``--runs``: those being recorded first (per unit its model,
+    serial, progress, time left and counts, the live Allan deviation), then the finished
+    ones and those whose recorder is gone, then the damaged files with the reason. The
+    page's script keeps the numbers and curves current (``data-run``, ``data-unit``,
+    ``data-field`` name the cells) and reloads when a run starts or ends."""
     parts = [f'<p class="note">Refreshed every {POLL_S:g} s from '
-             f'{link("/api/runs", "/api/runs")}; Allan deviation in deg/h against tau '
-             "(log-log; x blue, y green, z red).</p>"]
+             f'{link("/api/runs", "/api/runs")}; times as h:mm:ss (time left in wall-clock '
+             "time); Allan deviation in deg/h against tau (log-log; x blue, y green, "
+             "z red).</p>"]
     if not doc["runs"] and not doc["damaged"]:
         parts.append("<p>No run files under the folders given to --runs.</p>")
-    for run in doc["runs"]:
-        curves = {c["unit"]: c for c in run["allan"]}
-        rows = [
-            f'<tr data-unit="{text(u["unit"])}"><td>{text(u["unit"])}</td>'
-            + "".join(f'<td class="num" data-field="{k}">{text(u[k])}</td>' for k in UNIT_FIELDS)
-            + f"<td>{allan_svg(curves[u['unit']])}</td></tr>"
-            for u in run["units"]]
-        parts.append(
-            f'<section class="run" data-run="{text(run["run"])}"><h2>{text(run["run"])}</h2>'
-            f'<p>state: <b data-field="state">{text(run["state"])}</b>, last flush '
-            f'<span data-field="last_flush_utc">{text(run["last_flush_utc"])}</span>'
-            + (f' <span class="damaged">{text(run["advice"])}</span>' if run["advice"] else "")
-            + "</p>"
-            + table(["unit", "samples", "rate Hz", "t s", "gaps", "missing", "CRC errors",
-                     "reconnects", "Allan deviation"], rows, "units") + "</section>")
+    live = [r for r in doc["runs"] if run_phase(r) == "live"]
+    ended = [r for r in doc["runs"] if run_phase(r) != "live"]
+    if doc["runs"]:
+        parts.append("<h2>Recording now</h2>")
+        parts.extend(_run_section(r) for r in live)
+        if not live:
+            parts.append('<p id="none-live">No run is being recorded.</p>')
+    if ended:
+        parts.append("<h2>Finished, or recorder gone</h2>")
+        parts.extend(_run_section(r) for r in ended)
     if doc["damaged"]:
         parts.append("<h2>Damaged run files</h2><ul class=\"damaged\">" + "".join(
             f'<li data-run="{text(d["run"])}">{text(d["run"])}: {text(d["reason"])}</li>'
