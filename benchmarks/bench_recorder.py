@@ -13,6 +13,13 @@ Run::
 
     python benchmarks/bench_recorder.py                       # 16 x 2 kHz, 60 s
     python benchmarks/bench_recorder.py --units 4 --seconds 10
+    python benchmarks/bench_recorder.py --starts 10           # 16 x 2 kHz started 10 times
+
+``--starts N`` records nothing: it starts the units N times in a row as a run starts
+them (each unit's process opens its device, the units start, every unit must send a
+first sample within the first-sample timeout), releases them, and prints per start
+whether every unit started, how long it took, and the load average, then how many of
+the N starts started.
 """
 
 from __future__ import annotations
@@ -23,6 +30,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from station.errors import RunConfigurationError
 from station.recording.recorder import Recorder, RunConfig
 
 KINDS = ("serial/stim300", "serial/kvh1750", "serial/xbus", "can/shared")
@@ -38,14 +46,45 @@ def unit_urls(n: int, rate_hz: float, warp: float) -> tuple[tuple[str, str], ...
     return tuple((KINDS[i % 4], urls[KINDS[i % 4]].format(q=q, s=i + 1)) for i in range(n))
 
 
+def starts(units: tuple[tuple[str, str], ...], n: int, seconds: float, rate_hz: float) -> int:
+    """Start ``units`` ``n`` times in a row (nothing recorded); print each start and
+    return how many started (every unit sent its first sample in time)."""
+    started = 0
+    config = RunConfig(tuple(url for _, url in units), seconds, Path(tempfile.gettempdir()))
+    for i in range(n):
+        load0, t0 = os.getloadavg(), time.monotonic()
+        try:
+            Recorder(config).check_units()
+        except RunConfigurationError as exc:
+            problems = exc.problems
+        else:
+            problems = []
+        started += not problems
+        load1 = os.getloadavg()
+        print(f"start {i + 1:2d}: {'started' if not problems else 'FAILED':8s} "
+              f"{time.monotonic() - t0:5.1f} s; load average {load0[0]:.1f} before, "
+              f"{load1[0]:.1f} after", flush=True)
+        for problem in problems:
+            print(f"    {problem}")
+    print(f"{len(units)} units x {rate_hz:g} Hz: "
+          f"started {started} of {n} times ({os.cpu_count()} cores; load average "
+          f"{os.getloadavg()[0]:.1f} now)")
+    return started
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--units", type=int, default=16, help="units (4 kinds in turn)")
     parser.add_argument("--seconds", type=float, default=60.0, help="run length, s")
     parser.add_argument("--rate", type=float, default=2000.0, help="sample rate, Hz")
     parser.add_argument("--warp", type=float, default=1.0, help="time-warp factor")
+    parser.add_argument("--starts", type=int, default=0,
+                        help="start the units this many times in a row, record nothing")
     args = parser.parse_args()
     units = unit_urls(args.units, args.rate, args.warp)
+    if args.starts:
+        starts(units, args.starts, args.seconds, args.rate)
+        return
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         recorder = Recorder(RunConfig(tuple(url for _, url in units), args.seconds,

@@ -78,8 +78,9 @@ class RunConfig:
     backoff_initial_s, backoff_max_s : float
         Reconnect delays, s (wall): doubled after each failed attempt up to the maximum.
     answer_timeout_s : float
-        Each unit must deliver a first sample within this time (wall s) or the run is
-        refused.
+        Each unit must deliver a first sample within this time (wall s) of reporting that
+        it reads its device (of the supplies' switch-on in a test sequence) or the run is
+        refused: the time its process took to start and open the device does not count.
     reserve_bytes : int or None
         Stop once less than this can be written (default: 8 MiB + 10 s of data).
     """
@@ -241,10 +242,12 @@ class Recorder:
                 problems = self._check_disk()
             if not problems:
                 self._start_units()
+                since = 0.0
                 if self._on_listening is not None:
                     self._await_units(lambda w: w.started.is_set(), self.open_timeout_s)
                     self._on_listening()
-                problems = [*self._await_first_samples()]
+                    since = time.monotonic()  # the units answer from their switch-on
+                problems = [*self._await_first_samples(since)]
         except BaseException:
             self._abort()
             raise
@@ -289,15 +292,30 @@ class Recorder:
                     w.receive()
             waiting = [w for w in waiting if not ready(w) and not w.done]
 
-    def _await_first_samples(self) -> list[Problem]:
-        self._await_units(lambda w: w.answered.is_set(), self.config.answer_timeout_s)
+    def _await_first_samples(self, since: float = 0.0) -> list[Problem]:
+        """Wait for every unit's first sample: ``answer_timeout_s`` from the moment the
+        unit reported that it reads its device (or from ``since``, ``time.monotonic``,
+        if later); returns a problem for each unit that sent none."""
+        timeout_s, asked = self.config.answer_timeout_s, time.monotonic()
+
+        def settled(w: UnitProcess) -> bool:
+            now = time.monotonic()
+            if w.answered.is_set():
+                return True
+            if w.started_at is None:  # not reading yet: its process is still starting
+                return now - asked > self.open_timeout_s
+            return now - max(w.started_at, since) > timeout_s
+
+        self._await_units(settled, self.open_timeout_s + timeout_s)
         return [Problem(
             # a unit that ended on an error before its first sample says why (a device
             # configured without the output the protocol needs: devices.errors.NoRateError)
             f"ended before its first sample: {w.error}" if w.done and w.error else
             f"no sample within {self.config.answer_timeout_s:g} s: check the "
             f"protocol and rate in the URL, and that the device is streaming"
-            + (f" ({w.error})" if w.error else ""), w.unit_id, w.url)
+            + (f" ({w.error})" if w.error else "") + ("" if w.started_at is not None else
+                                                      " (it did not start reading)"),
+            w.unit_id, w.url)
             for w in self.workers if not w.answered.is_set()]
 
     def _abort(self) -> None:

@@ -45,8 +45,15 @@ from station.model.documents import Descriptor, EventBatch, UnitTally, data_keys
 #: What the engine tells a unit's process, and what the unit reports back (the table above).
 Command = Literal["start", "stop", "close"]
 Report = Literal["opened", "started", "batch", "done", "error"]
-#: Modules the fork server imports once, so that each unit starts without importing them.
-PRELOAD = ["station.recording.unit_worker", "devices.urls"]
+#: Modules the fork server imports once, so that each unit starts without importing them:
+#: everything a unit's process imports to open and read any device (the adapters and the
+#: simulators behind ``sim+`` URLs: ``devices.urls``; the reader: ``unit_worker``; this
+#: module, its target) and what they import only when a device opens or starts (a
+#: simulator's random generator, python-can's virtual bus, the CPU-time reading). Nothing
+#: of the analysis' fitting (scipy), plotting (matplotlib), JIT (numba) or HDF5 (h5py):
+#: ``tests/test_recorder_start.py`` checks both.
+PRELOAD = ["station.recording.unit_process", "station.recording.unit_worker", "devices.urls",
+           "numpy.random", "can.interfaces.virtual", "resource"]
 
 
 @dataclass(frozen=True)
@@ -212,6 +219,10 @@ class UnitProcess:
         self.answered = threading.Event()
         #: The unit reads its device (its ``started`` message came).
         self.started = threading.Event()
+        #: When (``time.monotonic``) its ``started`` message came: the unit reads from here.
+        self.started_at: float | None = None
+        #: When its first sample came (``time.monotonic``).
+        self.answered_at: float | None = None
         self.pending: list[EventBatch] = []
         ctx = _context()
         self.conn, child = ctx.Pipe()
@@ -300,12 +311,14 @@ class UnitProcess:
         if kind == "batch":
             self.pending.append(payload)
             self.tally.add(payload)
-            if len(payload):
+            if len(payload) and not self.answered.is_set():
+                self.answered_at = time.monotonic()
                 self.answered.set()
         elif kind == "opened":
             self.opened = payload
         elif kind == "started":  # the instant its time base starts, not when we asked
             self.start_utc = payload
+            self.started_at = time.monotonic()
             self.started.set()
         elif kind == "done":
             self.end = payload
