@@ -74,7 +74,8 @@ class CounterTracker:
         if modulus < 1 or not sample_rate_hz > 0 or timing_uncertainty_s < 0:
             raise ValueError("modulus must be >= 1, sample_rate_hz > 0 and "
                              "timing_uncertainty_s >= 0")
-        if counter_step < 1 or modulus % counter_step or modulus // counter_step < 2:
+        if counter_step < 1 or modulus % counter_step or (
+                modulus > 1 and modulus // counter_step < 2):
             raise ValueError(f"counter_step must divide the modulus {modulus} into at least "
                              f"2 samples, got {counter_step}")
         self.counter_modulus = modulus

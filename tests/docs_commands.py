@@ -29,6 +29,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 FENCE = re.compile(r"^```(?P<lang>[\w-]*)(?P<attrs>[^\n]*)\n(?P<body>.*?)^```[ \t]*$",
                    re.MULTILINE | re.DOTALL)
 TITLE = re.compile(r'title="(?P<title>[^"]+)"')
+HEREDOC = re.compile(r"<<-?\s*'?(?P<word>[A-Za-z_]+)'?\s*$")
 
 #: What changes from run to run: the run's name, UTC time stamps, numbers.
 VOLATILE = (
@@ -57,6 +58,27 @@ class Block:
     files: dict[str, str] = field(default_factory=dict)
 
 
+def _commands(body: str) -> list[str]:
+    """A shell block's commands, one a line (a line ending in a backslash continues; a
+    here-document, ``cat > f <<'EOF'`` to its ``EOF`` line, is one command)."""
+    out: list[str] = []
+    lines = body.replace("\\\n", " ").splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i].strip()
+        here = HEREDOC.search(line)
+        if here:
+            end = next((j for j in range(i + 1, len(lines))
+                        if lines[j].strip() == here["word"]), len(lines) - 1)
+            out.append("\n".join([line, *lines[i + 1:end + 1]]))
+            i = end + 1
+            continue
+        if line:
+            out.append(line)
+        i += 1
+    return out
+
+
 def blocks(page: Path) -> list[Block]:
     """The page's command blocks, each with the outputs shown after it."""
     text = page.read_text()
@@ -67,8 +89,7 @@ def blocks(page: Path) -> list[Block]:
         end = fence.end()
         title = TITLE.search(fence["attrs"])
         if fence["lang"] == "sh":
-            lines = fence["body"].replace("\\\n", " ").splitlines()
-            found.append(Block([line.strip() for line in lines if line.strip()]))
+            found.append(Block(_commands(fence["body"])))
         elif found and title:
             found[-1].files[title["title"]] = fence["body"]
         elif found and adjacent and fence["lang"] == "text" and found[-1].shown is None:

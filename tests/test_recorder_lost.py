@@ -199,6 +199,8 @@ def test_the_live_screen_says_when_the_recorder_is_gone(faults, tmp_path: Path) 
             return screen_text(app), screen.recorder_gone
 
     text, advice = asyncio.run(scenario())
-    assert f"{path.name}: recorder gone: run `station recover`" in text, text
+    # the title names the run; the status line what to do, and the folder it is in
+    assert f"Live: {path.name}" in text, text
+    assert f"recorder gone: run `station recover` in {path.parent}" in text, text
     assert advice.startswith("the recorder is gone (pid")  # what its notice says in full
     assert f"station recover {path}" in advice
