@@ -76,7 +76,7 @@ _COMPILED_LAUNCH = threading.Lock()
 #: ``station reproduce`` forks its process pool, and GNU OpenMP aborts a forked child. The
 #: parallel launch of noise identification's lag-1 sums, since made serial, was the
 #: likelier cause; 1.5e8 has not been tried again.)
-COMPILED_MIN_TERMS = 500_000_000
+COMPILED_MIN_TERMS = 150_000_000
 #: The same for the DAVAR's window sums, which numba runs about 5x faster than numpy (3.0
 #: ns saved per term; N = 1e6, window 1e5, step 1e4, 85 taus: 0.32 s numpy, 0.066 s
 #: compiled, 0.65 s for the first compiled call of a fresh process, measured idle). One
@@ -138,11 +138,12 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
     (:func:`analysis.allan.kernels_numba.lag1_moments`), shape (n_m, d_max, 5)."""
     m_arr = np.ascontiguousarray(m_values, dtype=np.int64)
     out = np.empty((len(m_arr), d_max, compiled.LAG1_FIELDS))
+    # the m values dealt to every core in turn (a fork-safe threading layer,
+    # :mod:`analysis.allan.kernels_numba`, so a process pool forked later is safe)
+    n_parts = max(1, min(int(compiled.numba.get_num_threads()), len(m_arr)))
     with _COMPILED_LAUNCH:
-        # one part: a parallel launch here started numba's OpenMP threads in processes that
-        # fork a pool afterwards (station reproduce, demo), which GNU OpenMP aborts
-        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max, 1,
-                              out)
+        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max,
+                              n_parts, out)
     return out
 
 
