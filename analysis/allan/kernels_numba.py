@@ -22,7 +22,7 @@ if "NUMBA_THREADING_LAYER" not in os.environ:
     # "workqueue" layer is not thread-safe, which the launch lock of
     # :mod:`analysis.allan.kernels` covers. Measured on the 2-core machine, loaded: 1e7
     # points x 92 taus 0.9-1.7 s under either layer, first call 0.8-1.4 s under either.
-    numba.config.THREADING_LAYER = "forksafe"
+    numba.config.THREADING_LAYER = "forksafe"  # type: ignore[attr-defined]
 
 #: Terms per partial sum of a long reduction (bounds its rounding error).
 _BLOCK = 1 << 12
