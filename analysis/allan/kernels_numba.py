@@ -21,7 +21,9 @@ if "NUMBA_THREADING_LAYER" not in os.environ:
     # process pool forked after an in-process analysis does (``station reproduce``). The
     # "workqueue" layer is not thread-safe, which the launch lock of
     # :mod:`analysis.allan.kernels` covers. Measured on the 2-core machine, loaded: 1e7
-    # points x 92 taus 0.9-1.7 s under either layer, first call 0.8-1.4 s under either.
+    # points x 92 taus 0.9-1.7 s under either layer, first call 0.8-1.4 s under either;
+    # the other cure, pools started by "forkserver" or "spawn", costs 4.7-6.5 s to bring up
+    # two workers that import the reproduce study (0.05 s forked), so the pools stay forked.
     numba.config.THREADING_LAYER = "forksafe"  # type: ignore[attr-defined]
 
 #: Terms per partial sum of a long reduction (bounds its rounding error).
