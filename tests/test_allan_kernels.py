@@ -152,6 +152,46 @@ def test_compiled_kernels_from_several_threads_under_numbas_workqueue_layer() ->
     assert run.stdout.split() == ["workqueue", "0"]
 
 
+def test_a_process_forked_after_compiled_kernels_runs_them_too() -> None:
+    """An analysis in process (parallel kernels launched) and then a forked process pool
+    that runs kernels again (``station reproduce``): GNU OpenMP, numba's default threading
+    layer on Linux, cannot run in a forked child and numba kills it ("fork() called from a
+    process already using GNU OpenMP"); the compiled kernels pick a fork-safe layer."""
+    pytest.importorskip("numba")
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent("""
+        import multiprocessing
+        import numpy as np
+        from analysis.allan import kernels
+        theta = np.cumsum(np.random.default_rng(1).normal(size=(20_001, 1)), axis=0)
+        m = np.arange(1, 200, dtype=np.int64)
+        def child(_):
+            return float(kernels.overlapping_sums(theta, m, backend="numba")[-1, 0])
+        parent = child(0)
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            print(pool.map(child, range(2)) == [parent] * 2)
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["True"]
+
+
+@needs_numba
+def test_compiled_rn_sums_match_numpy_rn_ratio() -> None:
+    """R(n)'s one-pass compiled sums give the numpy ratio to rounding (m from 1 to N/3)."""
+    from analysis.allan import kernels_numba, noise_id
+
+    angle = np.cumsum(np.random.default_rng(7).standard_normal(30_001))
+    for m in (1, 2, 7, 1_000, 9_999):
+        assert noise_id.rn_ratio(angle, m, kernels_numba) == pytest.approx(
+            noise_id.rn_ratio(angle, m), rel=1e-12)
+
+
 @pytest.mark.parametrize("step", [1_000, 50])
 def test_numpy_window_sums_hold_no_record_long_array(step: int) -> None:
     """The numpy DAVAR kernel walks the terms a chunk at a time, whatever the step: its

@@ -70,13 +70,12 @@ _COMPILED_LAUNCH = threading.Lock()
 #: not used it yet: where the compiled kernels save their own start-up. Measured on an idle
 #: 2-core machine: numba's first call 1.1 s (1.3 s against numpy's 0.2 s, a tiny record);
 #: overlapping sums of 1e7 points at 92 taus (9.2e8 terms) 2.6 s in numpy, 0.46 s compiled,
-#: so 2.3 ns saved per term: break-even near 4.8e8 terms. (1.5e8 was tried, so that a
-#: Python session's calls of 2e6 samples run compiled, 4x allantools instead of 2.4x: then
-#: the in-process analyses of the test suite started numba's OpenMP threads before
-#: ``station reproduce`` forks its process pool, and GNU OpenMP aborts a forked child. The
-#: parallel launch of noise identification's lag-1 sums, since made serial, was the
-#: likelier cause; 1.5e8 has not been tried again.)
-COMPILED_MIN_TERMS = 500_000_000
+#: so 2.3 ns saved per term: break-even near 4.8e8 terms for a process that has not loaded
+#: numba, but 1.5e8 is taken so that a Python session's calls of 2e6 samples (1.8e8 terms)
+#: run compiled: 6-9x allantools' ``oadev`` instead of 2.4x. (GNU OpenMP, numba's default
+#: threading layer on Linux, killed process pools forked after such a call; the kernels
+#: now pick a fork-safe layer, :mod:`analysis.allan.kernels_numba`.)
+COMPILED_MIN_TERMS = 150_000_000
 #: The same for the DAVAR's window sums, which numba runs about 5x faster than numpy (3.0
 #: ns saved per term; N = 1e6, window 1e5, step 1e4, 85 taus: 0.32 s numpy, 0.066 s
 #: compiled, 0.65 s for the first compiled call of a fresh process, measured idle). One
@@ -138,11 +137,12 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
     (:func:`analysis.allan.kernels_numba.lag1_moments`), shape (n_m, d_max, 5)."""
     m_arr = np.ascontiguousarray(m_values, dtype=np.int64)
     out = np.empty((len(m_arr), d_max, compiled.LAG1_FIELDS))
+    # the m values dealt to every core in turn (a fork-safe threading layer,
+    # :mod:`analysis.allan.kernels_numba`, so a process pool forked later is safe)
+    n_parts = max(1, min(int(compiled.numba.get_num_threads()), len(m_arr)))
     with _COMPILED_LAUNCH:
-        # one part: a parallel launch here started numba's OpenMP threads in processes that
-        # fork a pool afterwards (station reproduce, demo), which GNU OpenMP aborts
-        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max, 1,
-                              out)
+        compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max,
+                              n_parts, out)
     return out
 
 

@@ -7,9 +7,24 @@ on disk by numba (``cache=True``). Callers pass checked, contiguous float64/int6
 
 from __future__ import annotations
 
+import os
+
 import numba
 import numpy as np
 from numpy.typing import NDArray
+
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    # A fork-safe threading layer (TBB where installed, else numba's own "workqueue"), set
+    # before the first parallel launch: numba's default prefers GNU OpenMP on Linux, whose
+    # threads do not survive fork(), and numba then kills a forked child that launches a
+    # parallel kernel ("fork() called from a process already using GNU OpenMP"), as a
+    # process pool forked after an in-process analysis does (``station reproduce``). The
+    # "workqueue" layer is not thread-safe, which the launch lock of
+    # :mod:`analysis.allan.kernels` covers. Measured on the 2-core machine, loaded: 1e7
+    # points x 92 taus 0.9-1.7 s under either layer, first call 0.8-1.4 s under either;
+    # the other cure, pools started by "forkserver" or "spawn", costs 4.7-6.5 s to bring up
+    # two workers that import the reproduce study (0.05 s forked), so the pools stay forked.
+    numba.config.THREADING_LAYER = "forksafe"  # type: ignore[attr-defined]
 
 #: Terms per partial sum of a long reduction (bounds its rounding error).
 _BLOCK = 1 << 12
@@ -190,7 +205,7 @@ LAG1_FIELDS = 5
 _LAG1_BLOCK = 1 << 15
 
 
-@numba.njit(cache=True)
+@numba.njit(parallel=True, cache=True)
 def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max: int,
                  n_parts: int, out: NDArray[np.float64]) -> None:
     """Lag-1 sums of the ``d``-th differences of ``angle[::m]``, every m and ``d <= 3``.
@@ -207,7 +222,7 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
     n_y = angle.shape[0]
     n_m = m_values.shape[0]
     state = np.zeros((n_m, _LAG1_STATE))
-    for part in range(n_parts):
+    for part in numba.prange(n_parts):
         for b0 in range(0, n_y, _LAG1_BLOCK):
             b1 = min(b0 + _LAG1_BLOCK, n_y)
             for i in range(part, n_m, n_parts):
@@ -291,3 +306,33 @@ def _lag1_block(angle: NDArray[np.float64], m: int, b0: int, b1: int, third: boo
     st[3], st[4], st[5], st[6], st[7] = c1, s1a, s1b, s1c, l1
     st[8], st[9], st[10], st[11], st[12] = c2, s2a, s2b, s2c, l2
     st[13], st[14], st[15], st[16], st[17] = c3, s3a, s3b, s3c, l3
+
+
+@numba.njit(cache=True)
+def rn_sums(th: NDArray[np.float64], m: int) -> tuple[float, float]:
+    """Overlapping and modified Allan sums of a 1-D angle at m, in one pass on one core.
+
+    Returns ``(sum_k d(k)^2, sum_j ((S[j+m] - S[j]) / m)^2)`` with ``d(k) = th[k+2m] -
+    2 th[k+m] + th[k]`` (``k < len(th) - 2m``) and ``S`` the running sum of ``d`` from
+    ``S[0] = 0`` (``j <= len(th) - 3m``): the sums of :func:`analysis.allan.noise_id.rn_ratio`,
+    ``S`` taken in the same order as ``np.cumsum`` and kept for the last m entries only.
+    """
+    length = th.shape[0] - 2 * m
+    ring = np.empty(m)  # S[j] at j % m, for the m entries behind the newest
+    ring[0] = 0.0
+    running = 0.0
+    d_square = 0.0
+    box_square = 0.0
+    slot = 1 % m
+    for k in range(length):
+        d = th[k + 2 * m] - 2.0 * th[k + m] + th[k]
+        d_square += d * d
+        running += d
+        if k + 1 >= m:
+            box = (running - ring[slot]) / m
+            box_square += box * box
+        ring[slot] = running
+        slot += 1
+        if slot == m:
+            slot = 0
+    return d_square, box_square

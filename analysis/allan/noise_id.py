@@ -45,6 +45,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import partial
+from types import ModuleType
 from typing import Literal
 
 import numpy as np
@@ -236,12 +237,21 @@ def b1_ratio(angle: NDArray[np.float64], m: int) -> float:
     return float(np.var(means, ddof=1)) / avar if avar > 0 else 1.0
 
 
-def rn_ratio(angle: NDArray[np.float64], m: int) -> float:
+def rn_ratio(angle: NDArray[np.float64], m: int, compiled: ModuleType | None = None) -> float:
     """R(n): modified over overlapping Allan variance at averaging factor m (same scale).
 
-    A long record (a memmap) is read a block at a time, with the same sums."""
+    A long record (a memmap) is read a block at a time, with the same sums. With
+    ``compiled`` (the numba kernels the record's Allan sums ran on), the two sums are
+    taken in one pass (:func:`analysis.allan.kernels_numba.rn_sums`; the same sums, to
+    rounding) instead of five numpy passes and two record-long temporaries."""
     x = np.asarray(angle, dtype=float)
     length = len(x) - 2 * m
+    if compiled is not None:
+        d_square, box_square = compiled.rn_sums(np.ascontiguousarray(x), m)
+        avar = d_square / length
+        n_box = length + 1 - m
+        mvar = box_square / n_box if n_box > 0 else avar
+        return float(mvar / avar) if avar > 0 else 1.0
     if blocks.is_long(length):
         return _rn_ratio_long(x, m, length)
     d2 = x[2 * m:] - 2.0 * x[m:-m] + x[: len(x) - 2 * m]
@@ -272,8 +282,10 @@ def _rn_expected_flicker_angle(m: int) -> float:
     return float(mvar / avar)
 
 
-def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:
-    """Noise exponent from the B1 ratio, white against flicker angle split by R(n)."""
+def b1_alpha(angle: NDArray[np.float64], m: int, compiled: ModuleType | None = None
+             ) -> tuple[int, IdMethod]:
+    """Noise exponent from the B1 ratio, white against flicker angle split by R(n)
+    (:func:`rn_ratio`, compiled with ``compiled``)."""
     n = (len(angle) - 1) // m
     b1 = b1_ratio(angle, m)
     alphas = sorted(_MU_OF_ALPHA, key=lambda a: _MU_OF_ALPHA[a])  # mu ascending: 2, 0, -1, -2
@@ -285,7 +297,7 @@ def b1_alpha(angle: NDArray[np.float64], m: int) -> tuple[int, IdMethod]:
             break
     if alpha != 2 or m < 2:
         return alpha, "b1"
-    rn = rn_ratio(angle, m)
+    rn = rn_ratio(angle, m, compiled)
     boundary = np.sqrt(_rn_expected_flicker_angle(m) / m)
     return (2 if rn < boundary else 1), "rn"
 
@@ -353,7 +365,7 @@ def identify_noise(
             elif acf[i]:
                 a, how = lag1_alpha(x[:, col], int(mi), d_max=d_max), "acf"
             elif n_points[i] - 1 >= MIN_B1_AVERAGES:
-                a, how = b1_alpha(x[:, col], int(mi))
+                a, how = b1_alpha(x[:, col], int(mi), compiled)
             else:
                 a, how = (last if last is not None else 0), "carried"
             blocks.release(x)  # a decimated read of a memmap maps in every page it strides over
