@@ -58,7 +58,7 @@ from station.evaluation.axis_analysis import (
     OutlierReport as OutlierReport,
     Quantity as Quantity,
 )
-from station.evaluation.long_records import angle_buffer
+from station.evaluation.long_records import angle_buffer, return_freed_heap
 from station.model.bench import Bench, earth_rate_note
 from station.model.records import RateRecord
 from station.storage.scratch import scratch_array
@@ -269,6 +269,8 @@ def analyze_rates(
                             angle_out=angle_buffer(grid_rate)) if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],
                                 analysed, alternative, label, tones, zones, curve, gm))
+        if long:
+            return_freed_heap()
     return out
 
 

@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from analysis.allan import blocks
 from analysis.figures.readoffs import arw_readoff, bias_instability_readoff
 from analysis.figures.spec import review_notes
 from analysis.units.conversions import DEG_FAMILY, UnitFamily
@@ -56,7 +57,7 @@ from station.evaluation.decision import (
     match_axes,
 )
 from station.evaluation.figure_intervals import Interval, figure_interval, normal_quantile
-from station.evaluation.long_records import take_columns
+from station.evaluation.long_records import return_freed_heap, take_columns
 from station.evaluation.readings import (
     Reading,
     alternative_readings,
@@ -433,6 +434,8 @@ def grade_unit(unit: UnitRun, profile: Profile, bench: Bench | None = None, *,
             resolution = axis_resolution(
                 trimmed.rate_deg_s[:, trimmed.axis_names.index(analysis.name)], fs, link)
             figures = _floored(figures, resolution, analysis, profile)
+            if blocks.is_long(len(x)):
+                return_freed_heap()
         grade, deciding, could = assign_grade(figures, profile.grades, profile.reject)
         review = () if is_accel else axis_review(analysis, profile)
         axes.append(AxisGrade(analysis.name, grade, deciding, figures, analysis, could,

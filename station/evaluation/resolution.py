@@ -114,6 +114,8 @@ def value_census(x: NDArray[np.float64]) -> ValueCensus:
         top = int(np.argmax(block_counts))
         if block_counts[top] >= STUCK_MODE_SHARE * len(block):
             candidates.add(float(values[top]))
+        if counts is not None and len(values) > DISTINCT_CAP:
+            counts = None  # over the cap already: no Python dict of a block's every value
         if counts is not None:
             for v, c in zip(values.tolist(), block_counts.tolist(), strict=True):
                 counts[v] = counts.get(v, 0) + c
@@ -123,9 +125,9 @@ def value_census(x: NDArray[np.float64]) -> ValueCensus:
         first = float(block[0])
         if first == run_value:  # the run before this block goes on
             lengths[0] += run_len
-        for length, start in zip(lengths.tolist(), starts.tolist(), strict=True):
-            if length > best_len:
-                best_len, best_value = length, float(block[start])
+        longest = int(np.argmax(lengths))  # the block's first longest run
+        if lengths[longest] > best_len:
+            best_len, best_value = int(lengths[longest]), float(block[starts[longest]])
         run_value, run_len = float(block[-1]), int(lengths[-1])
         blocks.release(x)
     if counts is not None:
