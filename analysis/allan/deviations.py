@@ -53,7 +53,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.allan import blocks, long_sums
+import analysis.allan.blocks as blocks
+import analysis.allan.long_sums as long_sums
 from analysis.allan.confidence import ONE_SIGMA, chi2_interval, difference_edf_grid, estimator_terms
 from analysis.allan.estimators import (
     AllanResult,

@@ -20,7 +20,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.allan import blocks, kernels, long_sums
+import analysis.allan.blocks as blocks
+import analysis.allan.kernels as kernels
+import analysis.allan.long_sums as long_sums
 from analysis.allan.confidence import (  # re-exported: part of this module's API
     ONE_SIGMA as ONE_SIGMA,
     allan_edf_grid as allan_edf_grid,

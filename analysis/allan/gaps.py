@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.allan import blocks, kernels
+import analysis.allan.blocks as blocks
+import analysis.allan.kernels as kernels
 from analysis.allan.confidence import ONE_SIGMA, allan_edf, chi2_interval, local_noise_alpha
 from analysis.allan.estimators import AllanResult, TauGrid, check_sample_rate, resolve_m
 from analysis.allan.noise_id import identify_noise

@@ -44,7 +44,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import blocks
+import analysis.allan.blocks as blocks
 
 Backend = Literal["auto", "numpy", "numba"]
 
@@ -89,7 +89,7 @@ def _compiled() -> ModuleType | None:
     """The numba kernels (:mod:`analysis.allan.kernels_numba`), or None when numba is not
     installed."""
     try:
-        from analysis.allan import kernels_numba
+        import analysis.allan.kernels_numba as kernels_numba
     except ImportError:
         return None
     return kernels_numba

@@ -26,7 +26,7 @@ from collections.abc import Iterator
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import blocks
+import analysis.allan.blocks as blocks
 
 
 def second_differences(x: NDArray[np.float64], m: int, a: int, b: int) -> NDArray[np.float64]:

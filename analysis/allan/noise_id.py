@@ -51,7 +51,8 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from analysis.allan import blocks, kernels
+import analysis.allan.blocks as blocks
+import analysis.allan.kernels as kernels
 from analysis.allan.long_sums import box_square_sum, second_differences
 
 #: Decimated angle points the lag-1 method needs (Riley and Greenhall: about 30).

@@ -53,7 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from analysis.allan import blocks
+import analysis.allan.blocks as blocks
 from analysis.distributions import normal_isf
 
 #: Probability that a clean Gaussian record shows one false spike (any length).
