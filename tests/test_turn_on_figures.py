@@ -63,6 +63,10 @@ def test_a_time_interval_never_goes_below_zero() -> None:
     assert (equal.mean_low, equal.mean_high) == pytest.approx((60.0, 60.0))
     with pytest.raises(ValueError, match="> 0"):
         lognormal_mean_interval([1.0, -1.0], 0.95)
+    # two switch-ons of 5 s and 30 s at 99.9 %: exp(centre + 636.6 x 1.44) is beyond the
+    # float range; no upper bound, not an overflow (a sequence's grading once died of it)
+    low, high = lognormal_mean_interval([5.0, 30.0], 0.999)
+    assert high == math.inf and 0.0 <= low < 5.0
 
 
 def test_a_time_interval_keeps_its_level_on_skewed_draws() -> None:

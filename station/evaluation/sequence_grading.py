@@ -212,8 +212,9 @@ class UnitSequence:
                                   "cycles": len(self.cycles)}
         for key, fig in self.figures.items():
             out[key] = fig.value
+            # an upper bound the values cannot give (inf) is null: "no upper bound"
             out[f"{key}_ci"] = (None if fig.low is None or fig.high is None
-                                else [fig.low, fig.high])
+                                else [fig.low, fig.high if math.isfinite(fig.high) else None])
         out["turn_on_time_max_s"] = self.turn_on.maximum
         out["grade"] = self.grade or None
         out["deciding_grade"] = self.deciding_grade or None
