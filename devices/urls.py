@@ -18,31 +18,26 @@ from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Any
-from urllib.parse import parse_qsl, unquote, urlencode, urlsplit
+from urllib.parse import unquote, urlencode, urlsplit
 
 from devices.bus_layouts import can_layout, register_map
 from devices.can_raw import CanRateSource
 from devices.canopen_node import CanopenRateSource
-from devices.codecs.base import Reading, StreamCodec
+from devices.codecs.base import Reading
 from devices.codecs.can_frame import CanFrameLayout
-from devices.codecs.kvh1750 import SYNC as KVH_SYNC, Kvh1750Codec
+from devices.codecs.kvh1750 import Kvh1750Codec
 from devices.codecs.modbus_map import ModbusRegisterMap
 from devices.codecs.stim300 import Stim300Codec
 from devices.codecs.stim300_sheet import max_rate_hz
-from devices.codecs.xbus import PREAMBLE, XbusCodec
-from devices.dump_replay import DumpByteTransport, ListeningCodec, dump_steps, load_dump
-from devices.errors import CodecError, DeviceConfigurationError
+from devices.codecs.xbus import XbusCodec
+from devices.errors import DeviceConfigurationError
 from devices.modbus import ModbusRateSource
 from devices.opened import OpenedDevice, SimulatedDevice, Simulator
-from devices.protocols import RateSource
 from devices.replay import (
-    CaptureFormatError,
-    ReplayByteTransport,
-    ReplayCanTransport,
-    load_capture,
     recording_transport,
-    replay_transport,
 )
+from devices.replay_urls import open_replay
+from devices.serial_codecs import stream_codec
 from devices.sim.can_device import CanBroadcastDevice, broadcast_latency_s
 from devices.sim.canopen_device import GYRO_EDS, CanopenGyroNode
 from devices.sim.clock import WarpClock
@@ -131,80 +126,13 @@ def _no_capture(query: dict[str, str], what: str) -> None:
 
 # -- serial protocols ----------------------------------------------------------------
 
-SERIAL_PROTOCOLS = ("stim300", "kvh1750", "xbus")
-
-
-def _stream_codec(protocol: str, query: dict[str, str], rate_hz: float
-                  ) -> tuple[StreamCodec[Any], bytes, str]:
-    """(codec, sync header, default model name) of a serial protocol."""
-    accel = accel_switch(query)
-    try:
-        if protocol == "stim300":
-            codec = _stim300_codec(query, rate_hz)
-            return codec, bytes([codec.identifier]), "STIM300"
-        if protocol == "kvh1750":
-            return (Kvh1750Codec(query.get("unit", "deg"), query.get("output", "rate"),  # type: ignore[arg-type]
-                                 rate_hz, accel=accel is not False,
-                                 message_format=query["format"].upper() if "format" in query  # type: ignore[arg-type]
-                                 else None,
-                                 tempunits=query.get("tempunits", "C").upper()),  # type: ignore[arg-type]
-                    KVH_SYNC, "DSP-1750")
-        if protocol == "xbus":
-            return (XbusCodec(accel=accel is not False, high_rate=_switch(query, "hr")),
-                    bytes([PREAMBLE]), "MTi")
-    except CodecError as exc:
-        raise DeviceConfigurationError(str(exc)) from exc
-    raise DeviceConfigurationError(f"unknown serial protocol {protocol!r}; "
-                                   f"known: {', '.join(SERIAL_PROTOCOLS)}")
-
-
-def _switch(query: dict[str, str], key: str) -> bool:
-    """A 0/1 URL key (absent: 0).
-
-    Raises
-    ------
-    DeviceConfigurationError
-        A value other than 0 or 1.
-    """
-    text = query.get(key, "0")
-    if text not in ("0", "1"):
-        raise DeviceConfigurationError(f"URL key {key}={text!r} must be 0 or 1")
-    return text == "1"
-
-
-def _stim300_codec(query: dict[str, str], rate_hz: float) -> Stim300Codec:
-    """The STIM300 codec a URL configures (TS1524 rev. 31: ``datagram`` Tables 5-20/5-21,
-    ``accel_range`` 5/10/30/80 g, ``termination`` none/crlf and ``gyro_output`` /
-    ``accel_output`` Table 5-11; ``counter=datagram``: the framing borrowed by a simulated
-    unit of another model, whose counter counts datagrams at any rate).
-
-    Raises
-    ------
-    CodecError
-        A rate, datagram, range or output the unit cannot send.
-    """
-    ident = query_number("datagram", query.get("datagram", "0x94"), lambda t: int(t, 0))
-    accel_g = query_number("accel_range", query.get("accel_range", "10"), int)
-    termination = query.get("termination", "none")
-    counting = query.get("counter", "internal")
-    for key, value, known in (("termination", termination, ("none", "crlf")),
-                              ("counter", counting, ("internal", "datagram"))):
-        if value not in known:
-            raise CodecError(f"STIM300 {key} must be {' or '.join(known)}, got {value!r}")
-    return Stim300Codec(ident, accel_range_g=accel_g, accel=accel_switch(query),
-                        rate_hz=None if counting == "datagram" else rate_hz,
-                        crlf=termination == "crlf",
-                        gyro_output=query.get("gyro_output", "rate"),
-                        accel_output=query.get("accel_output", "acceleration"))
-
-
 def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     protocol = query.get("protocol", "stim300")
     params = parse_sim_params(query.get("model", host), query)
     if protocol == "stim300" and _unit_model(host, params) != "STIM300":
         # another model borrowing the datagram layout: its counter counts its datagrams
         query = {"counter": "datagram", **query}
-    codec, header, _ = _stream_codec(protocol, query, params.rate)
+    codec, header, _ = stream_codec(protocol, query, params.rate)
     core, clock = sim_core(params, codec.n_axes, n_accel_axes=codec.n_accel_axes)
     message: Callable[[Reading], bytes] | None = None
     if isinstance(codec, Kvh1750Codec):  # the unit's messages, from the ICD's tables
@@ -237,7 +165,7 @@ def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevic
 def _open_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
     protocol = query.get("protocol", "stim300")
     rate = query_number("rate", query.get("rate", "2000"), float)
-    codec, _, model = _stream_codec(protocol, query, rate)
+    codec, _, model = stream_codec(protocol, query, rate)
     baud = query_number("baud", query.get("baud", "921600"), int)
     if isinstance(codec, Stim300Codec) and codec.rate_hz is not None:
         top = max_rate_hz(codec.identifier, baud)
@@ -443,80 +371,6 @@ def _open_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool) -> O
     return OpenedDevice(source)
 
 
-# -- replay of a capture file -------------------------------------------------------
-
-def _open_dump(file: str, query: dict[str, str]) -> OpenedDevice:
-    """``replay://FILE?protocol=P``: a raw byte dump of what a unit sent, through the
-    adapter of the URL's protocol, on the device's own time or the nominal rate
-    (:mod:`devices.dump_replay`)."""
-    protocol = query["protocol"]
-    rate = query_number("rate", query["rate"], float) if "rate" in query else None
-    if rate is None and protocol == "stim300":  # (a STIM300 sends no time of its own)
-        raise DeviceConfigurationError(
-            f"{file}: protocol stim300 carries no device time: give the unit's nominal "
-            f"output rate (URL key rate=HZ)")
-    # (a rate that only scales a KVH's delta output: without rate= it is refused below)
-    codec, _, model = _stream_codec(protocol, query, rate or 1.0)
-    timing = dump_steps(load_dump(file), codec, rate, source=file)
-    settings = (("protocol", protocol), ("rate", f"{timing.rate_hz:g}"),
-                ("time", timing.time_source))
-    transport = DumpByteTransport(timing.steps, settings=settings, source=file,
-                                  realtime=query.get("realtime", "0") == "1")
-    source = StreamRateSource(transport, ListeningCodec(codec), model=query.get("model", model),
-                              serial_number=query.get("serial", f"replay of {file}"),
-                              sample_rate_hz=timing.rate_hz, clock=transport.clock)
-    return OpenedDevice(source, clock=transport.clock,
-                        time_base=f"the replayed dump's clock (s since its first sample, "
-                                  f"from the {timing.time_source})")
-
-
-def _open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
-    """``replay://FILE``: a capture recorded with ``capture=FILE``, played back through
-    the adapter of the protocol it was recorded with, on the recorded time base; with
-    ``protocol=``, a raw byte dump (:func:`_open_dump`)."""
-    file = host + path
-    if "protocol" in query:
-        return _open_dump(file, query)
-    if not Path(file).is_file():
-        raise DeviceConfigurationError(f"replay://{file}: no such file")
-    try:
-        capture = load_capture(file)
-    except CaptureFormatError as exc:
-        raise DeviceConfigurationError(
-            f"{exc} (a raw byte dump of what a unit sent takes the URL keys protocol= "
-            f"and rate=: replay://{file}?protocol=xbus&rate=100)") from exc
-    recorded = dict(capture.settings).get("replay_url")
-    if recorded is None:
-        raise DeviceConfigurationError(
-            f"{file}: the capture does not say how it was recorded (no replay_url in its "
-            f"header): record it with a device URL's capture=FILE key, or replay it in "
-            f"code with devices.replay.replay_transport")
-    parts = urlsplit(recorded)
-    keys = dict(parse_qsl(parts.query))
-    rate = query_number("rate", keys.get("rate", "0"), float)
-    warp = query_number("warp", keys.get("warp", "1"), float)
-    transport = replay_transport(capture, realtime=query.get("realtime", "0") == "1")
-    unit_clock = transport.clock if warp == 1.0 else (lambda: warp * transport.clock())
-    name = f"replay of {file}"
-    source: RateSource
-    if isinstance(transport, ReplayByteTransport) and parts.scheme == "serial":
-        codec, _, model = _stream_codec(keys.get("protocol", "stim300"), keys, rate)
-        source = StreamRateSource(transport, codec, model=keys.get("model", model),
-                                  serial_number=name, sample_rate_hz=rate, clock=unit_clock,
-                                  clock_scale=warp)
-    elif isinstance(transport, ReplayCanTransport) and parts.scheme == "can":
-        source = CanRateSource(transport, can_layout(keys.get("layout", "shared"),
-                                                     accel_switch(keys)),
-                               model=keys.get("model", "CAN gyro"), serial_number=name,
-                               sample_rate_hz=rate, clock=unit_clock, clock_scale=warp)
-    else:
-        raise DeviceConfigurationError(
-            f"{file}: a {capture.kind} capture whose header says it was recorded over "
-            f"{parts.scheme!r}: serial and raw CAN captures replay, as they were recorded")
-    return OpenedDevice(source, clock=unit_clock,
-                        time_base="the replayed capture's clock (s since it started)")
-
-
 @dataclass(frozen=True)
 class SupportedProtocol:
     """A protocol the station can record, its transport, a URL of its simulation, and the
@@ -638,7 +492,7 @@ _OPENERS: dict[str, _Opener] = {
     "canopen": _open_canopen,
     "modbus+tcp": partial(_open_modbus, rtu=False),
     "modbus+rtu": partial(_open_modbus, rtu=True),
-    "replay": _open_replay,
+    "replay": open_replay,
 }
 #: A simulated device and the adapter talking to it, of each ``sim+`` transport.
 _SIMULATORS: dict[str, _Opener] = {

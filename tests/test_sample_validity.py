@@ -18,7 +18,7 @@ import pytest
 from analysis.allan import blocks
 from devices.codecs.base import Reading
 from devices.protocols import NO_DEVICE_STATUS, DeviceDescription
-from devices.urls import _stream_codec
+from devices.serial_codecs import stream_codec
 from station.model.documents import Descriptor, EventBatch, RunStart, data_keys, utc_now
 from station.services.run_watch import live_allan, status_json
 from station.storage.hdf5 import open_run_file, read_run, read_unit, unit_counts
@@ -195,7 +195,7 @@ def test_a_salvage_keeps_the_word_or_minus_one(run_file: Path, tmp_path: Path,
 
 
 def _xbus_dump(path: Path, n: int) -> None:
-    codec, _, _ = _stream_codec("xbus", {}, RATE_HZ)
+    codec, _, _ = stream_codec("xbus", {}, RATE_HZ)
     out = b""
     for i in range(n):
         reading = Reading((0.1, -0.2, 0.3), (60000 + i) % codec.counter_modulus, 0,

@@ -18,7 +18,8 @@ from devices.errors import DeviceConfigurationError
 from devices.gaps import CounterTracker
 from devices.protocols import NO_DEVICE_STATUS, SampleBatch
 from devices.replay import EndOfReplayError
-from devices.urls import _stream_codec, open_device
+from devices.serial_codecs import stream_codec
+from devices.urls import open_device
 
 #: a rate each protocol's unit offers (a STIM300 sends at 125-2000 Hz in octaves)
 RATE_HZ = {"stim300": 250.0, "kvh1750": 200.0, "xbus": 200.0}
@@ -29,7 +30,7 @@ def _dump(path: Path, protocol: str, counters: list[int], *, rate_hz: float | No
     """Write what a unit of ``protocol`` sends for these counters (our encoder) to ``path``;
     returns the readings as the codec reads them back."""
     rate_hz = RATE_HZ[protocol] if rate_hz is None else rate_hz
-    codec, _, _ = _stream_codec(protocol, {}, rate_hz)
+    codec, _, _ = stream_codec(protocol, {}, rate_hz)
     out, back = b"", []
     for i, counter in enumerate(counters):
         t = (times_s[i] if times_s is not None else 100.0 + i / rate_hz)
@@ -102,7 +103,7 @@ def test_the_device_time_shows_an_outage_and_sets_the_rate(tmp_path: Path) -> No
 
 
 def test_dump_steps_time_the_cuts_by_counter_or_device_time() -> None:
-    codec, _, _ = _stream_codec("stim300", {}, 1000.0)
+    codec, _, _ = stream_codec("stim300", {}, 1000.0)
     # samples 0, 1, 2, 5 (the counter steps by 2000/1000 = 2 a sample: 0, 2, 4, 10): two
     # samples lost, 3 periods
     frames = [codec.encode(codec.from_reading(Reading((0.0, 0.0, 0.0), c, 0,
@@ -116,7 +117,7 @@ def test_dump_steps_time_the_cuts_by_counter_or_device_time() -> None:
 
 def test_the_adapter_only_listens_to_a_dump(tmp_path: Path) -> None:
     """A dump holds no answer to the Xbus greeting: nothing is written, nothing awaited."""
-    codec, _, _ = _stream_codec("xbus", {}, 100.0)
+    codec, _, _ = stream_codec("xbus", {}, 100.0)
     assert codec.greeting()  # (the live adapter does send GoToConfig, GoToMeasurement)
     listening = ListeningCodec(codec)
     assert listening.greeting() == b"" and listening.n_axes == codec.n_axes

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from devices.urls import SERIAL_PROTOCOLS
+from devices.serial_codecs import SERIAL_PROTOCOLS
 from station.services.record import RecordRequest, record
 from station.storage.hdf5 import open_run_file, read_unit
 from tests.devices.helpers import serve
