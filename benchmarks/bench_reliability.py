@@ -88,9 +88,10 @@ import statistics
 import subprocess
 import tempfile
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
+from benchmarks.reliability_case import Case, one_line
+from benchmarks.reliability_sequences import sequence_every_kind_trial, sequence_trial
 from devices.codecs.can_frame import PER_AXIS_LAYOUT
 from devices.urls import open_device
 from station.cli import main as station_main
@@ -100,7 +101,6 @@ from station.recording.recorder import Recorder, RunConfig
 from station.services.record import EXIT_RUN_FAULT
 from station.storage.hdf5 import read_run
 from station.storage.hdf5_recover import recover_run
-from tests import sequence_kill
 from tests.damage_helpers import damaged_copies, flip_in_chunks, sweep
 from tests.devices.helpers import check_accounting, collect, device_index, gap_truths
 from tests.test_damaged_runs import _write_run
@@ -116,34 +116,6 @@ from tests.test_recorder_helpers import (
 from tests.test_recorder_overload import record_overloaded
 
 URL = "sim+serial://STIM300?protocol=xbus&rate=500&seed={seed}"
-
-
-@dataclass
-class Case:
-    """Tallies of one case."""
-
-    name: str
-    trials: int = 0
-    lost_s: list[float] = field(default_factory=list)
-    balanced: int = 0
-    books_checked: int = 0
-    bad_errors: list[str] = field(default_factory=list)
-    kept: dict[str, list[int]] = field(default_factory=dict)  # damage -> [kept, committed]
-    told_after_s: list[float] = field(default_factory=list)
-    widths: list[int] = field(default_factory=list)  # outage intervals, samples
-    held: list[int] = field(default_factory=lambda: [0, 0])  # gaps held, gaps
-
-    def line(self) -> str:
-        lost = f"{max(self.lost_s):.3f}" if self.lost_s else "-"
-        books = f"{self.balanced}/{self.books_checked}" if self.books_checked else "-"
-        told = f"{max(self.told_after_s):.1f}" if self.told_after_s else "-"
-        return (f"{self.name:34s}{self.trials:7d}{lost:>16s}{books:>16s}"
-                f"{len(self.bad_errors):>12d}{told:>14s}")
-
-
-def _one_line(text: str) -> bool:
-    lines = [line for line in text.strip().splitlines() if line.strip()]
-    return len(lines) <= 1 and "Traceback" not in text
 
 
 def kill_trial(case: Case, tmp: Path, rng: random.Random) -> None:
@@ -202,7 +174,7 @@ def _disk_full_outcome(case: Case, proc: subprocess.Popen, folder: Path, url: st
     stdout, stderr = proc.communicate(timeout=120)
     case.trials += 1
     message = "\n".join(line for line in stderr.splitlines() if not line.startswith("recording"))
-    if proc.returncode != EXIT_RUN_FAULT or not _one_line(message):
+    if proc.returncode != EXIT_RUN_FAULT or not one_line(message):
         case.bad_errors.append(f"rc {proc.returncode}: {message[:300]}")
         return
     path = next(folder.glob("*.h5"))
@@ -259,7 +231,7 @@ def _stopped_by_fault(case: Case, proc: subprocess.Popen, expect: str) -> str:
     _, stderr = proc.communicate(timeout=120)
     case.trials += 1
     message = "\n".join(line for line in stderr.splitlines() if not line.startswith("recording"))
-    if proc.returncode != EXIT_RUN_FAULT or not _one_line(message) or expect not in message:
+    if proc.returncode != EXIT_RUN_FAULT or not one_line(message) or expect not in message:
         case.bad_errors.append(f"rc {proc.returncode}: {message[:300]}")
     return message
 
@@ -377,91 +349,6 @@ def chunk_trial(case: Case, tmp: Path, rng: random.Random) -> None:
     (cut,) = damaged_copies(sim, folder / "cut", flips=0, seed=0, cuts=(0.5,))
     _count_kept(case, "simulated run cut to half", cut, folder / "sim.rec.h5")
     case.trials += 1
-
-
-# --- sequences killed and resumed ------------------------------------------------------
-
-
-def _sequence_kill(case: Case, folder: Path, kind: str, nth: int, share: float) -> None:
-    """Kill the temperature sequence in the ``nth`` step of ``kind``, resume it, print the
-    coefficient and its interval against the truth; count figures that differ from what
-    the sequence measured (switch-ons: the asked-for one plus each a resume made)."""
-    folder.mkdir()
-    profile = folder / "p.toml"
-    profile.write_text(sequence_kill.PROFILE, encoding="utf-8")
-    case.trials += 1
-    where = f"{kind} #{nth + 1} at {share:.2f}"
-    try:
-        out = sequence_kill.killed_and_resumed(profile, folder / "runs", seed=case.trials,
-                                               kind=kind, nth=nth, share=share)
-    except sequence_kill.KillMissed as exc:  # not the resume's failure: printed, no error
-        print(f"  {where:24s} not killed: {exc}"[:200], flush=True)
-        return
-    except Exception as exc:  # noqa: BLE001 - every failure is counted
-        case.bad_errors.append(f"{where}: {type(exc).__name__}: {exc}"[:300])
-        return
-    f = out.figures
-    where += f", landed in {out.kind}"
-    points = f["temperature_points"].get("x", [])  # type: ignore[attr-defined]
-    low, high = f["temperature_coefficient_deg_h_per_c_ci"] or (None, None)  # type: ignore[misc]
-    covered = low is not None and low <= sequence_kill.TEMPCO <= high
-    missing = sum(int(s["samples_missing_declared"]) for s in out.summary)  # type: ignore[call-overload]
-    # the switch-ons with data: the profile's one (or its redo) and each a resume made that
-    # a record followed (one made before the last power_off records nothing)
-    journal = out.run.journal
-    by_resume = sum(1 for n, e in enumerate(journal)
-                    if e.kind == "power_on" and not out.run.asked_for(e)
-                    and any(later.kind == "segment" for later in journal[n:]))
-    summary_cycles = out.summary[0]["cycles"]
-    coefficient = f["temperature_coefficient_deg_h_per_c"]
-    print(f"  {where:40s} (step {out.step + 1:2d}): switch-ons {f['cycles']} "
-          f"(summary {summary_cycles}, by the resume {by_resume}), points {len(points)} "
-          f"of switch-ons {sorted({p['power_cycle'] for p in points})}, coefficient "
-          f"{_fmt(coefficient)} deg/h/degC in [{_fmt(low)}, {_fmt(high)}] "
-          f"{'covers' if covered else 'MISSES'} the truth {sequence_kill.TEMPCO}, "
-          f"declared missing {missing}{_one_line_fit(points)}", flush=True)
-    expected_cycles = 1 + by_resume
-    if (f["cycles"] != expected_cycles or summary_cycles != f["cycles"] or len(points) != 4
-            or not covered or (f["cycles"] == 1) != (f["turn_on_repeatability_deg_h"] is None)):
-        case.bad_errors.append(f"{where}: figures differ from what the sequence measured")
-
-
-def _one_line_fit(points: list[dict[str, object]]) -> str:
-    """Where the points come from two switch-ons or more: what one line through them all
-    (one bias for every switch-on, as before issue 39) would have said, for contrast."""
-    from analysis.errors import AnalysisError
-    from analysis.sequences.temperature_sensitivity import (
-        TemperaturePoint,
-        fit_temperature_sensitivity,
-    )
-
-    if len({p["power_cycle"] for p in points}) < 2:
-        return ""
-    pooled = [TemperaturePoint(float(p["temperature_c"]), float(p["bias_deg_h"]),  # type: ignore[arg-type]
-                               float(p["stderr_deg_h"]), "plateau", 1) for p in points]  # type: ignore[arg-type]
-    try:
-        fit = fit_temperature_sensitivity(pooled, confidence=0.95)
-    except AnalysisError:
-        return ""
-    return (f"; one line through all {fit.slope_deg_h_per_c:.3f} in [{fit.ci_low[1]:.3f}, "
-            f"{fit.ci_high[1]:.3f}]")
-
-
-def _fmt(value: object) -> str:
-    return f"{value:.3f}" if isinstance(value, float) else str(value)
-
-
-def sequence_trial(case: Case, tmp: Path, rng: random.Random) -> None:
-    kind, nth, share = sequence_kill.random_kind(rng)
-    _sequence_kill(case, tmp / f"seq{case.trials}", kind, nth, share)
-
-
-def sequence_every_kind_trial(case: Case, tmp: Path, rng: random.Random) -> None:
-    """One kill in each step kind of the temperature test (which of its steps and how far
-    into it drawn)."""
-    for kind in sequence_kill.STEP_KINDS:
-        _, nth, share = sequence_kill.random_kind(rng, kind)
-        _sequence_kill(case, tmp / f"seq{case.trials}", kind, nth, share)
 
 
 _GRADED: list[object] = []
