@@ -78,6 +78,9 @@ class OpenedDevice:
         That time base in words, for the run file.
     time_warp : float
         Seconds of the unit's time base per wall second (1 for hardware).
+    replayed : bool
+        The samples come from a file (a capture or a byte dump), at the rate they were
+        recorded at, not from a unit set up now.
     """
 
     source: RateSource
@@ -86,6 +89,7 @@ class OpenedDevice:
     clock: Callable[[], float] | None = None
     time_base: str = STATION_CLOCK
     time_warp: float = 1.0
+    replayed: bool = False
 
     @property
     def unit_clock(self) -> Callable[[], float]:

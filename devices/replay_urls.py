@@ -43,7 +43,7 @@ def _open_dump(file: str, query: dict[str, str]) -> OpenedDevice:
     source = StreamRateSource(transport, ListeningCodec(codec), model=query.get("model", model),
                               serial_number=query.get("serial", f"replay of {file}"),
                               sample_rate_hz=timing.rate_hz, clock=transport.clock)
-    return OpenedDevice(source, clock=transport.clock,
+    return OpenedDevice(source, clock=transport.clock, replayed=True,
                         time_base=f"the replayed dump's clock (s since its first sample, "
                                   f"from the {timing.time_source})")
 
@@ -91,5 +91,5 @@ def open_replay(path: str, query: dict[str, str], host: str) -> OpenedDevice:
         raise DeviceConfigurationError(
             f"{file}: a {capture.kind} capture whose header says it was recorded over "
             f"{parts.scheme!r}: serial and raw CAN captures replay, as they were recorded")
-    return OpenedDevice(source, clock=unit_clock,
+    return OpenedDevice(source, clock=unit_clock, replayed=True,
                         time_base="the replayed capture's clock (s since it started)")

@@ -206,7 +206,7 @@ class Recorder:
                     f"holds the port")
             elif profile is not None:
                 problems += _check_against_profile(
-                    w.opened.description, profile, replayed=w.url.startswith("replay://"))
+                    w.opened.description, profile, replayed=w.opened.replayed)
             found += [Problem(text, w.unit_id, w.url) for text in problems]
         return found
 

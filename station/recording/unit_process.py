@@ -63,6 +63,7 @@ class UnitOpened:
     description: DeviceDescription
     time_base: str
     time_warp: float
+    replayed: bool = False
 
 
 @dataclass(frozen=True)
@@ -163,7 +164,8 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
     if isinstance(opened.source, AccelLimited):
         opened.source.limit_accel(getattr(settings, "accel_limit_m_s2", None))
     worker = UnitWorker(unit_id, opened, settings, lambda doc: send("batch", doc))
-    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp))
+    send("opened", UnitOpened(worker.description, worker.time_base, worker.time_warp,
+                                opened.replayed))
     started = False
     while not worker.done.is_set():
         try:
