@@ -5,8 +5,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import runpy
+import stat
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -246,6 +249,21 @@ def test_atomic_write_refuses_a_missing_folder_and_leaves_nothing(tmp_path: Path
         write_text_atomically(tmp_path / "d", "x")
     assert write_text_atomically(tmp_path / "f.yaml", "a: 1\n").read_text() == "a: 1\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["d", "f.yaml"]
+
+
+def test_atomic_write_into_a_pipe_writes_through_it_and_keeps_it(tmp_path: Path) -> None:
+    """An output named ``/dev/null``, ``/dev/stdout`` or a pipe is written in place: a
+    rename over it would replace the device with a file (as root, ``--out /dev/null``
+    turned the machine's /dev/null into a plain file)."""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got: list[bytes] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    write_text_atomically(fifo, "a: 1\n")
+    reader.join(10)
+    assert got == [b"a: 1\n"] and stat.S_ISFIFO(fifo.stat().st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe"]  # no temporary left
 
 
 def test_gmwm_export_gives_gnss_ins_sim_its_correlation_time(tmp_path: Path) -> None:

@@ -17,6 +17,8 @@ def replacing(path: str | Path) -> Iterator[Path]:
     when the block ends without an exception it is flushed to disk and renamed over
     ``path`` (``os.replace``, atomic on one file system), else removed: a reader sees the
     old file or the whole new one, and a failure or a crash leaves the old file as it was.
+    A ``path`` that is not a regular file (``/dev/null``, ``/dev/stdout``, a pipe) is
+    written in place: renaming over it would replace the device with a file.
 
     Raises
     ------
@@ -29,6 +31,9 @@ def replacing(path: str | Path) -> Iterator[Path]:
         raise UsageError(f"{path} is a folder: give a file name to write")
     if not folder.is_dir():
         raise UsageError(f"no folder {folder} to write {path.name} into: create it first")
+    if path.exists() and not path.is_file():  # a device or a pipe: no file to replace
+        yield path
+        return
     try:
         fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix or ".tmp",
                                     dir=folder)
