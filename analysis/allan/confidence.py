@@ -264,7 +264,12 @@ def difference_edf(
 
 
 def allan_edf(n_terms: int, m: int, alpha: int, *, stride: int = 1) -> float:
-    """edf of one Allan variance estimate: :func:`difference_edf` with ``order=2``."""
+    """edf of one Allan variance estimate: :func:`difference_edf` with ``order=2``, in closed
+    form for the overlapping estimator (``stride=1``) of white angle, white rate and rate
+    random walk noise (:func:`analysis.allan.edf_closed_form.overlapping_allan_edf_closed`,
+    as :func:`allan_edf_grid` takes it)."""
+    if stride == 1 and alpha in CLOSED_FORM_ALPHAS:
+        return float(overlapping_allan_edf_closed(n_terms, m, alpha))
     return difference_edf(n_terms, m, alpha, stride=stride)
 
 
