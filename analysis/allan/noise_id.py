@@ -70,13 +70,13 @@ MONOTONE_BELOW_POINTS = 100
 #: is the midpoint of the two. Stable32's references hold neither type where this applies.
 FLICKER_RATE_BOUNDARY = -1.92
 #: Most decimated points the lag-1 autocorrelation reads at one tau. A tau with more (the
-#: shortest taus of a long record: every m below N / 2^17) reads :data:`ACF_PIECES` runs of
+#: shortest taus of a long record: every m below N / 2^16) reads :data:`ACF_PIECES` runs of
 #: consecutive decimated points spread evenly over the record instead: the standard error
-#: of ``r1`` is about ``1 / sqrt(n)``, 0.003 here, against 0.25 in ``delta`` between two
+#: of ``r1`` is about ``1 / sqrt(n)``, 0.004 here, against 0.25 in ``delta`` between two
 #: types, and the cost of the shortest taus no longer grows with the record (the whole
 #: series was 3.5 N points over a log grid of 100 taus, half the time the overlapping
 #: sums took at N = 2e6).
-ACF_MAX_POINTS = 1 << 17
+ACF_MAX_POINTS = 1 << 16
 #: Runs the :data:`ACF_MAX_POINTS` points of a long series are read in.
 ACF_PIECES = 16
 #: Noise exponents reported (white angle .. rate random walk).
@@ -169,9 +169,10 @@ def _acf_runs(angle: NDArray[np.float64], m: int) -> NDArray[np.float64]:
     ``angle[::m]``, spread evenly from its first point to its last, shape (pieces, run)."""
     n_points = (len(angle) - 1) // m + 1
     run = ACF_MAX_POINTS // ACF_PIECES
-    starts = np.rint(np.linspace(0, n_points - run, ACF_PIECES)).astype(np.int64)
-    index = (starts[:, None] + np.arange(run)[None, :]) * m
-    y = np.asarray(angle[index.ravel()], dtype=float).reshape(index.shape)
+    starts = np.rint(np.linspace(0, n_points - run, ACF_PIECES)).astype(np.int64) * m
+    y = np.empty((ACF_PIECES, run))
+    for row, start in zip(y, starts, strict=True):
+        row[:] = angle[start: start + (run - 1) * m + 1: m]  # a strided copy, no index array
     blocks.release(angle)
     return y
 
