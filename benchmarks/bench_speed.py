@@ -347,7 +347,8 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"# bench_speed{' --quick' if args.quick else ''}: numpy {np.__version__}, numba "
         f"{numba.__version__}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}, "
-        f"least of {runs} runs (fresh processes), best of 3 (in process)",
+        f"least of {runs} runs (fresh processes), best of 3 (in process; library: of "
+        f"{max(3, runs)} paired)",
         flush=True,
     )
     if "help" in rows:
