@@ -37,10 +37,13 @@ rate noise, whose ``c(k)`` has logarithms and a tail, keep the lag sum of
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
+
+if TYPE_CHECKING:
+    from numpy.polynomial import Polynomial
 
 #: Noise exponents whose overlapping Allan edf is taken in closed form here.
 CLOSED_FORM_ALPHAS = (2, 0, -2)
@@ -57,6 +60,9 @@ _EM_TERMS = ((1, 1.0 / 12.0), (3, -1.0 / 720.0), (5, 1.0 / 30240.0))
 @lru_cache(maxsize=4)
 def _pieces(alpha: int) -> tuple[float, tuple[tuple[Polynomial, Polynomial], ...]]:
     """``g(0)`` and, per piece ``[i, i + 1]`` of ``u`` (i = 0, 1), ``g^2`` and ``u g^2``."""
+    # on first use: a simulated device's process imports the estimators and never an edf
+    from numpy.polynomial import Polynomial
+
     power, scale = _POWER_LAW_ACV[alpha]
     u = Polynomial([0.0, 1.0])
     pieces = []
