@@ -20,8 +20,9 @@
   and the block-wise against the in-memory path of a 1 kHz run file (peak RSS).
 
 Wall times of fresh processes are the minimum of ``--runs`` runs, in-process times the
-best of three, paired with their peer (this machine is shared: the header gives the load
-average, and a busy machine stretches every time; the minimum is the least disturbed).
+best of three (``library``: of ``--runs`` paired runs, with their median ratio), paired
+with their peer (this machine is shared: the header gives the load average, and a busy
+machine stretches every time; the minimum is the least disturbed).
 """
 
 from __future__ import annotations
@@ -277,16 +278,17 @@ def row_commands(hours: tuple[float, ...], runs: int, rate_hz: float = 100.0) ->
     return lines
 
 
-def row_library(sizes: tuple[int, ...], fs: float = 100.0) -> list[str]:
+def row_library(sizes: tuple[int, ...], fs: float = 100.0, turns: int = 3) -> list[str]:
     """``overlapping_allan_variance`` with edf and intervals against its kernel and
-    allantools' ``oadev`` on the same taus, numba loaded (best of three, paired)."""
+    allantools' ``oadev`` on the same taus, numba loaded (best of ``turns`` paired runs,
+    and the median of the paired call/kernel ratios)."""
     from analysis import overlapping_allan_variance
 
     overlapping_allan_variance(np.random.default_rng(0).standard_normal(2_000_000), fs)
-    return [_library_case(n, fs) for n in sizes]
+    return [_library_case(n, fs, turns) for n in sizes]
 
 
-def _library_case(n: int, fs: float) -> str:
+def _library_case(n: int, fs: float, turns: int = 3) -> str:
     import allantools
 
     from analysis import overlapping_allan_variance
@@ -302,10 +304,10 @@ def _library_case(n: int, fs: float) -> str:
         "kernel": lambda: kernels.overlapping_sums(theta, m),
         "allantools": lambda: allantools.oadev(rate, rate=fs, data_type="freq", taus=taus),
     }
-    for turn in range(3):
+    for turn in range(turns):
         for name, fn in fns.items():
-            if name == "allantools" and n > 5_000_000 and turn:
-                continue  # 20+ s a call: once
+            if name == "allantools" and (n > 5_000_000 or turn >= 3) and turn:
+                continue  # 20+ s a call at 1e7: once (and at most three times)
             start, start_cpu = time.perf_counter(), time.process_time()
             fn()
             best[name].append(time.perf_counter() - start)
@@ -313,9 +315,11 @@ def _library_case(n: int, fs: float) -> str:
     call, kern, peer = (min(best[k]) for k in ("call", "kernel", "allantools"))
     c_call, c_kern, c_peer = (min(cpu[k]) for k in ("call", "kernel", "allantools"))
     goal = {2_000_000: " (goal >= 4)", 10_000_000: " (goal >= 10)"}.get(n, "")
+    paired = np.median(np.array(best["call"]) / np.array(best["kernel"]))
     return (f"library overlapping_allan_variance N={n:.0e} taus={len(m)}: wall call={call:.3f}s "
             f"kernel={kern:.3f}s allantools={peer:.3f}s call/kernel={call / kern:.2f} "
-            f"(goal <= 1.3) allantools/call={peer / call:.1f}{goal}; cpu call={c_call:.3f}s "
+            f"(median of {turns} paired: {paired:.2f}; goal <= 1.3) "
+            f"allantools/call={peer / call:.1f}{goal}; cpu call={c_call:.3f}s "
             f"kernel={c_kern:.3f}s allantools={c_peer:.3f}s call/kernel={c_call / c_kern:.2f} "
             f"allantools/call={c_peer / c_call:.1f} (the compiled kernel's CPU counts every "
             f"core it ran on)")
@@ -343,7 +347,8 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"# bench_speed{' --quick' if args.quick else ''}: numpy {np.__version__}, numba "
         f"{numba.__version__}, {os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}, "
-        f"least of {runs} runs (fresh processes), best of 3 (in process)",
+        f"least of {runs} runs (fresh processes), best of 3 (in process; library: of "
+        f"{max(3, runs)} paired)",
         flush=True,
     )
     if "help" in rows:
@@ -354,7 +359,7 @@ def main(argv: list[str] | None = None) -> int:
             print(line, flush=True)
     if "library" in rows:
         sizes = (1_000_000, 2_000_000) if args.quick else (1_000_000, 2_000_000, 10_000_000)
-        for line in row_library(sizes):
+        for line in row_library(sizes, turns=max(3, runs)):
             print(line, flush=True)
     if "backends" in rows:
         print(row_davar(runs), flush=True)

@@ -15,6 +15,7 @@ grid of the cluster form costs O(N log N) in total.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Literal
 
 import numpy as np
@@ -208,7 +209,7 @@ def as_samples(samples: ArrayLike) -> NDArray[np.float64]:
 
 def cumulative_angle(
     samples: ArrayLike, sample_rate_hz: float, *, input_kind: InputKind = "rate",
-    out: NDArray[np.float64] | None = None,
+    out: NDArray[np.float64] | None = None, backend: kernels.Backend = "numpy",
 ) -> NDArray[np.float64]:
     """Cumulative angle ``theta`` (N + 1 x k, leading zero) of a rate or angle-increment record.
 
@@ -227,6 +228,12 @@ def cumulative_angle(
         What the samples are.
     out : ndarray, shape (N + 1, k), optional
         Where to write the angle (e.g. a memmap, for a record too long for memory).
+    backend : {"numpy", "numba", "auto"}
+        ``"numba"`` (or ``"auto"``, numba where installed) takes the running sum of an
+        in-memory record in one compiled pass instead of numpy's subtract, divide and
+        cumsum (the same angle, bit for bit); the overlapping Allan variance asks for it
+        where its sums run compiled. A memory-mapped record or ``out`` keeps the
+        block-wise numpy path.
 
     Returns
     -------
@@ -234,9 +241,15 @@ def cumulative_angle(
         Angle in (unit) of the mean-free record, ``theta[0] = 0`` (``out`` when given).
     """
     fs = check_sample_rate(sample_rate_hz)
-    arr = as_samples(samples)
     if input_kind not in ("rate", "angle_increment"):
         raise ValueError(f"input_kind must be 'rate' or 'angle_increment', got {input_kind!r}")
+    divisor = fs if input_kind == "rate" else 1.0
+    compiled = None if backend == "numpy" else kernels.compiled_kernels(backend)
+    if compiled is not None:
+        theta_compiled = _compiled_angle(samples, divisor, out, compiled)
+        if theta_compiled is not None:
+            return theta_compiled
+    arr = as_samples(samples)
     n, k = arr.shape
     theta = np.empty((n + 1, k)) if out is None else out
     if theta.shape != (n + 1, k):
@@ -260,6 +273,26 @@ def cumulative_angle(
         carry = increments[-1].copy()
         blocks.release(arr)
         blocks.release(theta)
+    return theta
+
+
+def _compiled_angle(samples: ArrayLike, divisor: float, out: NDArray[np.float64] | None,
+                    compiled: ModuleType) -> NDArray[np.float64] | None:
+    """:func:`cumulative_angle` of an in-memory record in one compiled pass, or None where
+    the numpy path must take it (a memory map, a shape or a sample it refuses)."""
+    arr = np.asarray(samples, dtype=np.float64)
+    arr = arr[:, None] if arr.ndim == 1 else arr
+    if (arr.ndim != 2 or arr.shape[0] == 0 or blocks.is_mapped(arr)
+            or (out is not None and (blocks.is_mapped(out) or out.shape != (arr.shape[0] + 1,
+                                                                           arr.shape[1])))):
+        return None
+    n = arr.shape[0]
+    # the mean of the numpy path (its pairwise mean, or block sums for a long record)
+    mean = np.atleast_1d(blocks.column_sums(arr) / n if blocks.is_long(n) else arr.mean(axis=0))
+    if not np.isfinite(mean).all():
+        return None  # a NaN or an infinity: as_samples names it (or the sum overflowed)
+    theta = np.empty((n + 1, arr.shape[1])) if out is None else out
+    kernels.running_angle(arr, mean, divisor, theta, compiled)
     return theta
 
 
@@ -520,9 +553,17 @@ def overlapping_allan_variance(
     IEEE Std 952-1997, Annex C; Zhang et al., Acta Optica Sinica 35(4), 2015, eq. 5.
     """
     fs = check_sample_rate(sample_rate_hz)
-    theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
-    n = theta.shape[0] - 1
-    m = resolve_m(taus, n, fs)
+    shape = np.shape(samples)
+    if len(shape) in (1, 2) and shape[0] > 0:
+        # the grid first, so that the angle's running sum runs compiled where the sums will
+        m = resolve_m(taus, shape[0], fs)
+        compiled = kernels.overlapping_backend(shape[0] + 1, m, 1 if len(shape) == 1 else shape[1])
+        backend: kernels.Backend = "numpy" if compiled is None else "numba"
+        theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out,
+                                 backend=backend)
+    else:
+        theta = cumulative_angle(samples, fs, input_kind=input_kind, out=angle_out)
+        m = resolve_m(taus, theta.shape[0] - 1, fs)
     sums = overlapping_sums(theta, m)
     return _finish(sums, m, theta, estimator="overlapping", fs=fs, squeeze=np.ndim(samples) == 1,
                    confidence=confidence)

@@ -95,6 +95,12 @@ def _compiled() -> ModuleType | None:
     return kernels_numba
 
 
+def compiled_kernels(backend: Backend) -> ModuleType | None:
+    """The compiled kernels for a pass whose cost is the record's alone (``"auto"``: where
+    numba is installed; ``"numpy"``: None)."""
+    return _pick(backend, COMPILED_MIN_TERMS)
+
+
 def have_compiled() -> bool:
     """True when the compiled (numba) kernels can be used."""
     return _compiled() is not None
@@ -144,6 +150,16 @@ def lag1_moments(angle: NDArray[np.float64], m_values: NDArray[np.int64], d_max:
         compiled.lag1_moments(np.ascontiguousarray(angle, dtype=np.float64), m_arr, d_max,
                               n_parts, out)
     return out
+
+
+def running_angle(samples: NDArray[np.float64], mean: NDArray[np.float64], divisor: float,
+                  out: NDArray[np.float64], compiled: ModuleType) -> None:
+    """The cumulative angle of in-memory ``samples`` (N, k) into ``out`` (N + 1, k) in one
+    compiled pass (:func:`analysis.allan.kernels_numba.running_angle`: the numbers of
+    :func:`analysis.allan.estimators.cumulative_angle`'s numpy path, bit for bit)."""
+    with _COMPILED_LAUNCH:
+        compiled.running_angle(np.ascontiguousarray(samples, dtype=np.float64),
+                               np.ascontiguousarray(mean, dtype=np.float64), float(divisor), out)
 
 
 def _check_m(

@@ -198,6 +198,22 @@ def window_sums_segments(
             out[j, i] = total
 
 
+@numba.njit(cache=True)
+def running_angle(samples: NDArray[np.float64], mean: NDArray[np.float64], divisor: float,
+                  out: NDArray[np.float64]) -> None:
+    """``out[i + 1, c] = out[i, c] + (samples[i, c] - mean[c]) / divisor``, ``out[0] = 0``:
+    the cumulative angle in one pass, the same operations in the same order as numpy's
+    subtract, divide and cumsum (bit for bit; a divisor of 1 divides exactly)."""
+    n, k = samples.shape
+    for c in range(k):  # an axis at a time: the running sum stays in a register
+        running = 0.0
+        centre = mean[c]
+        out[0, c] = 0.0
+        for i in range(n):
+            running += (samples[i, c] - centre) / divisor
+            out[i + 1, c] = running
+
+
 #: Moments per (m, difference order) that :func:`lag1_moments` fills.
 LAG1_FIELDS = 5
 #: Angle samples per block of :func:`lag1_moments`: every m reads a block while it is in
