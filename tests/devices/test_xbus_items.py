@@ -160,7 +160,9 @@ def test_a_simulated_mti_g_streams_without_false_gaps() -> None:
         while len(got.counter) < 600 and time.monotonic() < deadline:
             got.batches.append(dev.source.read(0.05))
     assert len(got.counter) >= 600
-    np.testing.assert_array_equal(got.counter, np.arange(len(got.counter)))
+    # one apart from the first sample read (on a loaded machine the first messages the
+    # simulated unit sends can go before the adapter listens: not a gap)
+    np.testing.assert_array_equal(np.diff(got.counter), 1)
     assert got.gaps == []
     assert not np.any(np.concatenate([b.status for b in got.batches]))
 
