@@ -85,7 +85,7 @@ async def _start_kill_resume(settings: TuiSettings) -> None:
         steps = screen.query_one("#steps", DataTable)
         # followed step by step: the chamber's set point and air, a record's progress
         await until(pilot, lambda: screen.progress is not None
-                    and screen.progress.steps[3].state == "running", 20, "the first record")
+                    and screen.progress.steps[3].state == "running", 60, "the first record")
         rows = cell_texts(steps)
         assert [r[3] for r in rows[:3]] == ["done"] * 3 and rows[3][3] == "running"
         assert rows[0][5].startswith("set 25 °C, air 25") and rows[3][2] == "record 40s"
