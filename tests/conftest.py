@@ -2,10 +2,31 @@
 
 from __future__ import annotations
 
+import compileall
+import os
+import sys
+from pathlib import Path
+
 import pytest
 
 from tests.allantools_reference import allantools_tests  # noqa: F401  (a session fixture)
 from tests.postgres_server import postgres_server, postgres_url  # noqa: F401  (a server per session)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """The project's bytecode, compiled once before the workers start.
+
+    Where ``PYTHONDONTWRITEBYTECODE`` is set (as on the machines that run the suite), no
+    Python process writes its ``.pyc`` files, and every command, recorder unit, simulated
+    device and worker the suite starts compiled the ~300 modules it imports again: about
+    0.2 s of CPU each (``import station.services.grade, station.output.report``: 0.58 s
+    from source, 0.38 s from bytecode). Compiled here, they read it (files up to date are
+    skipped)."""
+    if not sys.dont_write_bytecode or os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    root = Path(__file__).resolve().parents[1]
+    for package in ("analysis", "devices", "station", "tests", "benchmarks"):
+        compileall.compile_dir(root / package, quiet=2)
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
