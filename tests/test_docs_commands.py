@@ -5,8 +5,9 @@ them).
 
 The tutorial records a simulated VG951 for 2 h of simulated time at 200 times real time
 (about 36 s of wall time); while it records, the pages that need no run work in folders of
-their own and a PostgreSQL server starts. Then the how-to pages work on its run, in its
-folder, as they say they do, all at once (a command two pages write is run once).
+their own, at a lower priority. Then the how-to pages work on its run, in its folder, as they
+say they do, all at once (a command two pages write is run once), and a PostgreSQL server
+starts for the page that needs one.
 """
 
 from __future__ import annotations
@@ -81,9 +82,15 @@ def write_the_layout(page: Page) -> None:
     (page.folder.path / "layouts" / "MYUNIT.toml").write_text(layout)
 
 
-def _server(stack: ExitStack) -> PostgresServer | None:
+def _server(stack: ExitStack, folder: Folder, tutorial: Future[PageRun]) -> PostgresServer | None:
+    """A PostgreSQL server for the page that needs one, started once the tutorial's run is
+    recorded (not to take the cores from the recording); None where none is installed or
+    the tutorial recorded nothing."""
     if not (PG_BIN / "initdb").exists() or not (PG_BIN / "pg_ctl").exists():
         return None
+    while not folder.recorded.wait(0.1):
+        if tutorial.done():
+            return None
     return stack.enter_context(running_server())
 
 
@@ -128,10 +135,13 @@ def ran(tmp_path_factory: pytest.TempPathFactory) -> Ran:
     tutorial = Folder(tmp_path_factory.mktemp("tutorial"))
     shutil.copytree(ROOT / "profiles", tutorial.path / "profiles")
     folders = {name: tutorial for name in (TUTORIAL, *ON_THE_TUTORIALS_RUN)}
-    folders |= {name: Folder(tmp_path_factory.mktemp(Path(name).stem)) for name in ON_THEIR_OWN}
+    # the pages that need no run give the cores to the tutorial's recording first: a
+    # simulated unit not run in time loses its samples
+    folders |= {name: Folder(tmp_path_factory.mktemp(Path(name).stem), niceness=10)
+                for name in ON_THEIR_OWN}
     with ExitStack() as stack, ThreadPoolExecutor(max_workers=len(PAGES) + 1) as pool:
-        server = pool.submit(_server, stack)
         runs = {TUTORIAL: pool.submit(run_page, Page(TUTORIAL, tutorial))}
+        server = pool.submit(_server, stack, tutorial, runs[TUTORIAL])
         runs |= {name: pool.submit(run_page, Page(
             name, folders[name], before=write_the_layout if "can-layout" in name else None))
             for name in ON_THEIR_OWN}
