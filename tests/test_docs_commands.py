@@ -193,7 +193,10 @@ def test_every_how_to_page_runs() -> None:
     how_tos = sorted(p.relative_to(DOCS).as_posix() for p in (DOCS / "how-to").glob("*.md"))
     assert sorted(p for p in PAGES if p.startswith("how-to/")) == how_tos
     for page in PAGES:
-        assert any(block.commands for block in blocks(DOCS / page)), page
+        commands = [c for block in blocks(DOCS / page) for c in block.commands]
+        assert commands, page
+        # one results database throughout a page: every --db names the same one
+        assert len({m[1] for c in commands for m in re.finditer(r"--db (\S+)", c)}) <= 1, page
 
 
 @pytest.mark.slow
