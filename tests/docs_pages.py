@@ -53,12 +53,9 @@ OPTIONAL_PROGRAMS = ("pdftoppm",)
 def environment(folder: Path) -> dict[str, str]:
     """The environment the pages' commands run in (this checkout's ``station``)."""
     bin_dir = str(Path(sys.executable).parent)
-    env = {k: v for k, v in os.environ.items()
-           if k not in ("STATION_RESULTS_DB", "PYTHONDONTWRITEBYTECODE")}
+    # (the project's bytecode is compiled once for the suite: tests/conftest.py)
+    env = {k: v for k, v in os.environ.items() if k != "STATION_RESULTS_DB"}
     return {**env, "PYTHONPATH": str(ROOT), "PYTHONUNBUFFERED": "1", "COLUMNS": "200",
-            # the commands' compiled modules, kept for the next command (compiling them
-            # again costs each command about 1 s of CPU where the host writes no bytecode)
-            "PYTHONPYCACHEPREFIX": str(folder.parent / "pycache"),
             "PATH": bin_dir + os.pathsep + env.get("PATH", ""),
             # the database a command without --db would write: it must stay absent
             "XDG_DATA_HOME": str(folder / "default-data")}
