@@ -120,6 +120,8 @@ def run(args: argparse.Namespace) -> int:
         for unit in outcome.units:
             print(json.dumps(dataclasses.asdict(unit)))
     else:
+        from station.model.wording import plural
+
         print(f"{outcome.path}: stopped ({outcome.stop.reason})")
         for u in outcome.units:
             sent_text = "" if u.samples_sent is None else f", sent {u.samples_sent}"
@@ -127,8 +129,8 @@ def run(args: argparse.Namespace) -> int:
                       f" (between {u.samples_missing_low} and {u.samples_missing_high}: wrap "
                       f"counts not certain)")
             print(f"  {u.unit}: recorded {u.samples_recorded}, declared missing "
-                  f"{u.samples_missing_declared}{bounds} in {u.gaps} gaps{sent_text}, CRC "
-                  f"errors {u.crc_errors}, reconnects {u.reconnects}")
+                  f"{u.samples_missing_declared}{bounds} in {plural(u.gaps, 'gap')}"
+                  f"{sent_text}, CRC errors {u.crc_errors}, reconnects {u.reconnects}")
     if not args.quiet:
         print("\n".join(outcome.cpu_lines()),
               file=sys.stderr if args.json_summary else sys.stdout)
