@@ -267,7 +267,7 @@ def analyze_rates(
         if deviation_kind is not None and deviation_kind != own:
             curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked,
                               angle_out=angle_buffer(cleaned[i]))
-        if long and use_gmwm:  # the GMWM starts from what is in use (24 h: 284 -> 217 MB)
+        if long and use_gmwm:  # the GMWM starts from what is in use
             return_freed_heap()
         gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped,
                             angle_out=angle_buffer(grid_rate)) if use_gmwm else None)
