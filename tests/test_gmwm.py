@@ -273,3 +273,16 @@ def test_a_stuck_axis_or_a_model_nil_at_some_scale_is_a_fit_error_not_nan():
     v[3, 3] = 0.0
     with pytest.raises(FitError, match="no positive variance"):
         gmwm_with_covariance(wv, "wn", v)
+
+
+def test_an_analysis_keeps_no_quadrature_rules_for_the_next_record():
+    """``gmwm_analysis`` drops the quadrature rules of its record's levels when done (those
+    of a long record take 5-7 MB each, up to 8 kept while it is fitted); the same record
+    analysed again gives the same fit."""
+    from analysis.gmwm import covariance
+
+    rate = rate_of(TRUE_MODEL, 3, 8_000)
+    first = gmwm_analysis(rate, FS, model="wn+rw")
+    assert covariance._rules.cache_info().currsize == 0
+    again = gmwm_analysis(rate, FS, model="wn+rw")
+    np.testing.assert_array_equal(again.best.params, first.best.params)

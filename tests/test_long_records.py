@@ -19,7 +19,7 @@ from typing import TypeVar
 import numpy as np
 import pytest
 
-from analysis.allan import blocks
+from analysis.allan import blocks, kernels
 from analysis.allan.deviations import deviation
 from analysis.allan.estimators import (
     cluster_allan_variance,
@@ -32,7 +32,11 @@ from analysis.allan.outliers import detect_spikes, replace_flagged, replace_spik
 from analysis.figures.spec import bias_stability
 from analysis.figures.tones import find_tones
 from analysis.gmwm.wavelet import _lag_sum_long, haar_wavelet_variance
-from station.evaluation.long_records import return_freed_heap
+from station.evaluation.long_records import (
+    COMPILER_LIBRARIES,
+    release_compiler_pages,
+    return_freed_heap,
+)
 from station.evaluation.resolution import value_census
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -243,6 +247,42 @@ def test_returning_the_freed_heap_keeps_the_arrays_in_use() -> None:
     del freed
     return_freed_heap()
     assert float(kept.sum()) == (1 << 20) * ((1 << 20) - 1) / 2
+
+
+def _compiler_resident_kb() -> int:
+    """Resident kB of the compiler library's mappings (``/proc/self/smaps``)."""
+    total, inside = 0, False
+    with open("/proc/self/smaps") as smaps:
+        for line in smaps:
+            head = line.split()
+            if "-" in head[0] and not head[0].endswith(":"):
+                inside = any(n in line for n in COMPILER_LIBRARIES)
+            elif inside and head[0] == "Rss:":
+                total += int(head[1])
+    return total
+
+
+@pytest.mark.skipif(not kernels.have_compiled() or not sys.platform.startswith("linux"),
+                    reason="numba is not installed, or not Linux (/proc/self/smaps)")
+def test_releasing_the_compiler_pages_keeps_the_compiled_kernels() -> None:
+    """After the compiled kernels ran, the compiler library's pages leave the resident set
+    (loading numba leaves 40-70 MB of them); the kernels give the same sums afterwards and
+    a new compilation still works (its pages are read in again from the file)."""
+    theta = np.cumsum(np.random.default_rng(3).standard_normal((20_000, 2)), axis=0)
+    m = np.array([1, 4, 16, 256])
+    before = kernels.overlapping_sums(theta, m, backend="numba")
+    resident = _compiler_resident_kb()
+    release_compiler_pages()
+    released = _compiler_resident_kb()
+    assert resident > 10_000 and released < resident / 4, (resident, released)
+    np.testing.assert_array_equal(kernels.overlapping_sums(theta, m, backend="numba"), before)
+    import numba
+
+    @numba.njit(cache=False)
+    def twice(v: float) -> float:
+        return 2.0 * v
+
+    assert twice(21.0) == 42.0
 
 
 def _bench_line(minutes: float, *options: str) -> re.Match[str]:

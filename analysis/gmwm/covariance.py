@@ -116,6 +116,13 @@ def _tail(model: GmwmModel, params: NDArray[np.float64], m_max: int, fs: float) 
     return 0 if tail == 0 else 1 << int(math.ceil(math.log2(tail)))
 
 
+def clear_rules() -> None:
+    """Drop the quadrature rules kept for the record analysed last (up to 8, each four
+    arrays of the record's pairs of levels: 3-7 MB at 7.2e6 samples): the next record's
+    fit starts without them."""
+    _rules.cache_clear()
+
+
 @functools.lru_cache(maxsize=8)
 def _rules(m: tuple[int, ...], n_samples: int, tail: int) -> tuple[NDArray[np.float64], ...]:
     """Lags, weights and level indices of the quadrature of V1 for every pair ``i <= j``."""

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from analysis.allan.confidence import ONE_SIGMA
+from analysis.gmwm.covariance import clear_rules
 from analysis.gmwm.estimator import (
     GMWM_MIN_BLOCKS,
     GmwmFit,
@@ -224,9 +225,12 @@ def gmwm_analysis(
     )
     if np.ndim(wv.wv) != 1:
         raise GmwmModelError("gmwm_analysis takes one axis; pass a 1-D rate")
-    if model.strip().lower() == "auto":
-        return select_model(wv, confidence=confidence)
-    fit = gmwm(wv, model, confidence=confidence)
+    try:
+        if model.strip().lower() == "auto":
+            return select_model(wv, confidence=confidence)
+        fit = gmwm(wv, model, confidence=confidence)
+    finally:  # the rules of this record's levels serve no other record
+        clear_rules()
     ranked = RankedModel(
         fit.model.name,
         fit.objective + 2.0 * fit.n_free,

@@ -232,6 +232,8 @@ def analyze_rates(
         grid_rate = _on_grid(record, cleaned[i])
         axis = (joint.axis(i) if joint is not None
                 else _allan(grid_rate, fs, gapped, estimator, taus, record.n_samples))
+        if long:  # the compiled kernels are loaded: the compiler's pages can go
+            return_freed_heap()
         alternative, label = None, ""
         if reports[i].count:
             detection = reports[i].detection
@@ -265,6 +267,8 @@ def analyze_rates(
         if deviation_kind is not None and deviation_kind != own:
             curve = deviation(cleaned[i], fs, kind=deviation_kind, taus=asked,
                               angle_out=angle_buffer(cleaned[i]))
+        if long and use_gmwm:  # the GMWM starts from what is in use
+            return_freed_heap()
         gm = (gmwm_analysis(grid_rate, fs, model=gmwm_model, robust=robust, gaps=gapped,
                             angle_out=angle_buffer(grid_rate)) if use_gmwm else None)
         out.append(AxisAnalysis(name, fs, record.n_samples, axis, fit, figures, gaps, reports[i],

@@ -11,6 +11,7 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import functools
+import sys
 from collections.abc import Callable
 
 import numpy as np
@@ -64,3 +65,68 @@ def return_freed_heap() -> None:
     trim = _malloc_trim()
     if trim is not None:
         trim(0)
+    release_compiler_pages()
+
+
+#: Shared libraries whose code pages :func:`release_compiler_pages` drops from the resident
+#: set: llvmlite's (numba's compiler, a 170 MB library of which loading and compiling the
+#: kernels touches 40-70 MB).
+COMPILER_LIBRARIES = ("libllvmlite",)
+#: ``madvise``'s MADV_DONTNEED (Linux).
+_MADV_DONTNEED = 4
+
+
+@functools.cache
+def _madvise() -> Callable[[int, int, int], int] | None:
+    """The C library's ``madvise`` (None off Linux or without it)."""
+    name = ctypes.util.find_library("c")
+    if not sys.platform.startswith("linux") or not name:
+        return None
+    try:
+        advise = ctypes.CDLL(name, use_errno=True).madvise
+    except (OSError, AttributeError):
+        return None
+    advise.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
+    advise.restype = ctypes.c_int
+    return advise
+
+
+def _clean_library_ranges(names: tuple[str, ...]) -> list[tuple[int, int]]:
+    """(start, end) of the read-only mappings of the libraries ``names`` that hold no
+    private (copy-on-write) page: their pages are the file's, read again from the page
+    cache when touched (``/proc/self/smaps``)."""
+    ranges, current = [], None
+    with open("/proc/self/smaps") as smaps:
+        for line in smaps:
+            head = line.split(maxsplit=6)
+            if "-" in head[0] and not head[0].endswith(":"):  # a mapping's first line
+                path = head[5] if len(head) > 5 else ""
+                start, end = (int(v, 16) for v in head[0].split("-"))
+                current = None
+                if "w" not in head[1] and any(n in path for n in names):
+                    current = (start, end)
+            elif head[0] == "Anonymous:" and current is not None:
+                if int(head[1]) == 0:
+                    ranges.append(current)
+                current = None
+    return ranges
+
+
+def release_compiler_pages() -> None:
+    """Drop numba's compiler library's code pages from the process' resident set
+    (``madvise(MADV_DONTNEED)`` on its read-only mappings without private pages; nothing
+    when numba was not loaded or off Linux). Those pages are the library file's, shared
+    with the page cache: calling the compiled kernels does not touch them (their machine
+    code is in the JIT's own memory), a later compilation reads them in again. Compiling
+    and loading the kernels leaves 40-70 MB of them resident for the rest of the process."""
+    if "llvmlite" not in sys.modules:
+        return
+    advise = _madvise()
+    if advise is None:
+        return
+    try:
+        ranges = _clean_library_ranges(COMPILER_LIBRARIES)
+    except OSError:
+        return
+    for start, end in ranges:
+        advise(start, end - start, _MADV_DONTNEED)
