@@ -220,3 +220,22 @@ def gap_truths(collected: Collected, core: SimCore, modulus: int, *, atol: float
             out.append(GapTruth(gap, idx - true - 1))
         true = idx
     return out
+
+
+def replay_batches(url: str) -> tuple[list[SampleBatch], RateSource]:
+    """Every batch a ``replay://`` URL's adapter gives until the end of its file, and the
+    adapter (closed; :meth:`describe` still answers)."""
+    from devices.replay import EndOfReplayError
+    from devices.urls import open_device
+
+    source = open_device(url).source
+    source.open()
+    batches = []
+    try:
+        while True:
+            batches.append(source.read(0.05))
+    except EndOfReplayError:
+        pass
+    finally:
+        source.close()
+    return batches, source

@@ -17,9 +17,9 @@ from devices.dump_replay import ListeningCodec, dump_steps
 from devices.errors import DeviceConfigurationError
 from devices.gaps import CounterTracker
 from devices.protocols import NO_DEVICE_STATUS, SampleBatch
-from devices.replay import EndOfReplayError
 from devices.serial_codecs import stream_codec
 from devices.urls import open_device
+from tests.devices.helpers import replay_batches
 
 #: a rate each protocol's unit offers (a STIM300 sends at 125-2000 Hz in octaves)
 RATE_HZ = {"stim300": 250.0, "kvh1750": 200.0, "xbus": 200.0}
@@ -47,19 +47,6 @@ def _dump(path: Path, protocol: str, counters: list[int], *, rate_hz: float | No
     return back
 
 
-def _replay(url: str) -> tuple[list[SampleBatch], object]:
-    opened = open_device(url)
-    source = opened.source
-    source.open()
-    batches = []
-    try:
-        while True:
-            batches.append(source.read(0.05))
-    except EndOfReplayError:
-        pass
-    return batches, source
-
-
 def _cat(batches: list[SampleBatch], name: str) -> np.ndarray:
     return np.concatenate([getattr(b, name) for b in batches if len(b)])
 
@@ -69,7 +56,7 @@ def test_a_dump_replays_every_sample_with_no_gap(tmp_path: Path, protocol: str) 
     counters = list(range(250, 250 + 600))  # across counter wraps of the 7- and 8-bit ones
     sent = _dump(tmp_path / "dump.bin", protocol, counters, garbage_at=300)
     rate = RATE_HZ[protocol]
-    batches, source = _replay(f"replay://{tmp_path}/dump.bin?protocol={protocol}&rate={rate:g}")
+    batches, source = replay_batches(f"replay://{tmp_path}/dump.bin?protocol={protocol}&rate={rate:g}")
     counter = _cat(batches, "counter")
     assert len(counter) == len(sent) == 600
     assert np.all(np.diff(counter) == 1)  # unwrapped, one step each: no gap
@@ -94,7 +81,7 @@ def test_the_device_time_shows_an_outage_and_sets_the_rate(tmp_path: Path) -> No
     counters = [*range(1000, 1200), *range(1500, 1700)]
     times = [c / 100.0 for c in counters]
     _dump(tmp_path / "mti.bin", "xbus", counters, times_s=times)
-    batches, source = _replay(f"replay://{tmp_path}/mti.bin?protocol=xbus")
+    batches, source = replay_batches(f"replay://{tmp_path}/mti.bin?protocol=xbus")
     assert source.describe().sample_rate_hz == 100.0
     gaps = [g for b in batches for g in b.gaps]
     assert [(g.missing_samples, g.low, g.high) for g in gaps] == [(300, 300, 300)]
