@@ -255,6 +255,8 @@ async def _setup_checks(tmp_path: Path) -> None:
         assert good.description.model == "VG951" and good.description.serial_number == "SIM-2"
         rows = cell_texts(setup.query_one("#units", DataTable))
         assert rows[1][3] == "ok: VG951 SIM-2, 10 Hz, 3 ax"
+        # the four columns fit 80 columns: the answer is not cut on a small terminal
+        assert setup.query_one("#units", DataTable).virtual_size.width <= 80
         await pilot.press("f5")
         assert "did not answer" in notifications(app)
         assert not list((tmp_path / "runs").glob("*.h5"))  # nothing was started

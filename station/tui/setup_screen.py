@@ -24,8 +24,12 @@ from station.tui.messages import explain
 SIM_WARP = 60
 _NO_PROFILE = "(none: simulated units only)"
 #: Characters of a unit's URL the units table shows (the middle is elided, so that the
-#: query keys at the end, seed and warp, stay in view).
-URL_WIDTH = 48
+#: query keys at the end, seed and warp, stay in view): at 80 columns the table's four
+#: columns (2 + 26 + a time of up to 16 + an answer of up to 28, a space either side of
+#: each) fit, and the answer is not cut.
+URL_WIDTH = 26
+#: Characters of the "answers?" column.
+ANSWER_WIDTH = 28
 
 
 def short_url(url: str, width: int = URL_WIDTH) -> str:
@@ -53,7 +57,9 @@ def time_text(url: str, duration_s: float | None = None) -> str:
 def check_summary(check: UnitCheck) -> str:
     """One line of the units table for a unit's check."""
     if not check.ok or check.description is None:
-        return f"no: {check.message.splitlines()[0] if check.message else 'no answer'}"
+        # cut to the column (the whole message is the refusal's notification)
+        text = f"no: {check.message.splitlines()[0] if check.message else 'no answer'}"
+        return text if len(text) <= ANSWER_WIDTH else text[: ANSWER_WIDTH - 1] + "\u2026"
     d = check.description
     model = Path(d.model).stem if "/" in d.model else d.model
     return f"ok: {model} {d.serial_number or '-'}, {d.sample_rate_hz:g} Hz, {d.n_axes} ax"
