@@ -20,8 +20,8 @@ import io
 import os
 import re
 import sys
-from collections.abc import Callable
-from typing import NoReturn
+from collections.abc import Callable, Sequence
+from typing import Any, NoReturn
 
 from station.model.version import software_version
 
@@ -95,7 +95,8 @@ class _VersionAction(argparse._VersionAction):
     lookup imports importlib.metadata (40-60 ms), which no other use of a parser needs."""
 
     def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
-                 values: object, option_string: str | None = None) -> None:
+                 values: str | Sequence[Any] | None, option_string: str | None = None
+                 ) -> None:
         self.version = f"%(prog)s {software_version()}"
         super().__call__(parser, namespace, values, option_string)
 
