@@ -10,7 +10,7 @@ import pytest
 
 from analysis.allan.estimators import overlapping_allan_variance
 from analysis.figures.readoffs import ReadOff, arw_readoff, bias_instability_readoff
-from analysis.figures.zones import TauZone, fit_outside_zones
+from analysis.figures.zones import fit_outside_zones
 from analysis.fit.least_squares import fit_noise_terms
 from analysis.models.noise import (
     flicker_rate_noise,
@@ -162,23 +162,3 @@ def test_adis16405_tone_and_output_filter_are_recognised(adis) -> None:
     assert any(
         r.startswith("bias instability") and "not a flicker floor" in r for r in z.figures.review
     )
-
-
-def test_bias_instability_readoff_of_the_same_result_is_taken_once() -> None:
-    """A second call with the same result object and zones returns the first call's read-off;
-    other zones, or an equal result that is another object, are read off afresh, and agree
-    with a fresh reading."""
-    fs, n = 10.0, 20_000
-    rng = np.random.default_rng(3)
-    x = white_rate_noise(arw_deg_rt_h_to_deg_rt_s(0.05), n, fs, rng) + flicker_rate_noise(
-        rate_deg_h_to_deg_s(0.5), n, fs, rng)
-    r = overlapping_allan_variance(x, fs)
-    first = bias_instability_readoff(r)
-    assert bias_instability_readoff(r) is first
-    twin = overlapping_allan_variance(x, fs)
-    again = bias_instability_readoff(twin)
-    assert again is not first and again == first
-    zone = TauZone(float(r.tau_s[-6]), float(r.tau_s[-1]), "tone", "a tone")
-    zoned = bias_instability_readoff(r, zones=(zone,))
-    assert zoned is not first and bias_instability_readoff(r, zones=[zone]) is zoned
-    assert zoned.tau_low_s is not None and zoned.tau_low_s < zone.tau_low_s

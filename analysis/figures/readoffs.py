@@ -343,33 +343,13 @@ def smoothed_log_avar(result: AllanResult, *, octaves: float = SMOOTHING_OCTAVES
     return smooth, var
 
 
-#: The last few read-offs by their result (the object itself) and zones: a grading takes
-#: an axis' bias instability read-off five times (its figure, its interval, the review,
-#: the quantization floor), 10-20 ms each on a 1 h record.
-_RECENT_BIAS_INSTABILITY: list[tuple[AllanResult, tuple[TauZone, ...], ReadOff]] = []
-_RECENT = 4
-
-
 def bias_instability_readoff(result: AllanResult, *, zones: Sequence[TauZone] = ()) -> ReadOff:
     """Bias instability (deg/h): the smoothed curve's minimum / 0.664 (IEEE 952 Annex C).
 
     See the module docstring for the smoothing. When the minimum is at the longest tau
     the curve had not turned yet: the value is then an upper bound and the note says so.
     Taus inside ``zones`` (tones, an output filter) are not candidates for the minimum.
-    A call with the same result object and zones as one of the last few returns that
-    call's read-off (results are frozen).
     """
-    key = tuple(zones)
-    for seen, seen_zones, readoff in _RECENT_BIAS_INSTABILITY:
-        if seen is result and seen_zones == key:
-            return readoff
-    readoff = _bias_instability_readoff(result, key)
-    _RECENT_BIAS_INSTABILITY.insert(0, (result, key, readoff))
-    del _RECENT_BIAS_INSTABILITY[_RECENT:]
-    return readoff
-
-
-def _bias_instability_readoff(result: AllanResult, zones: tuple[TauZone, ...]) -> ReadOff:
     tau = result.tau_s
     allowed = outside_zones(tau, zones)
     if not allowed.any():
