@@ -187,10 +187,10 @@ class CanRateSource:
 
     def quiet_until_now(self) -> None:
         """The station held a simulated node until now (the run starts): frames stamped
-        before now are not read. A node that sent a few frames before the hold took
-        effect continues its counter after it without a gap while its time stamps jump by
-        the hold; read together, the hold would count as counter wraps. The samples of
-        those frames are the recorder's leading gap, counted by the counter."""
+        before now are not read. The recorder's nodes start held
+        (:func:`devices.urls.open_device` with ``held``), so none was sent before: their
+        counter starts at 0 with the run. A guard all the same: a frame sent before a
+        hold, read with those after it, would count the hold as counter wraps."""
         self._not_before_s = self.clock()
         self._last_sent_s = None  # (the hold is no silence of the node)
 

@@ -228,8 +228,8 @@ class CanopenRateSource:
 
     def quiet_until_now(self) -> None:
         """The station held a simulated node until now (the run starts): PDOs stamped
-        before now are not read (see :meth:`devices.can_raw.CanRateSource.quiet_until_now`;
-        their samples are the recorder's leading gap)."""
+        before now are not read (see :meth:`devices.can_raw.CanRateSource.quiet_until_now`:
+        the recorder's nodes start held, so there are none)."""
         self._not_before_s = self.clock()
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
