@@ -158,8 +158,8 @@ class UnitWorker:
             # it: a starved reader must not find (and declare lost) the samples of the
             # time it overran. Set with the release itself (a second request to its
             # process would come late on a loaded host); its time line is this reader's
-            # from the release on (the gaps' wrap counts are bounded by that timing), so
-            # the few samples a loaded host let out before the hold come on top
+            # from the release on (the gaps' wrap counts are bounded by that timing), and
+            # samples it made before a hold come on top (none when it was opened held)
             run_s = self.settings.duration_s - self.elapsed_s()
             self.simulated.resume(run_for_s=max(run_s, 0.0))
         self._thread.start()
