@@ -187,11 +187,18 @@ class CanRateSource:
 
     def quiet_until_now(self) -> None:
         """The station held a simulated node until now (the run starts): frames stamped
-        before now are not read. A node that sent a few frames before the hold took
-        effect continues its counter after it without a gap while its time stamps jump by
-        the hold; read together, the hold would count as counter wraps. The samples of
-        those frames are the recorder's leading gap, counted by the counter."""
-        self._not_before_s = self.clock()
+        before now are not read. The recorder's nodes start held
+        (:func:`devices.urls.open_device` with ``held``), so none was sent before: their
+        counter starts at 0 with the run. A guard all the same: a frame sent before a
+        hold, read with those after it, would count the hold as counter wraps.
+
+        Less half a sample period: the first sample falls due at the release, just
+        after now, and the node and this adapter pair the bus's wall clock with the
+        unit's clock each on its own (:class:`~devices.batching.BusClock`): its frames
+        came stamped up to 6 us before now (2 runs in 8 of ``station record --unit
+        "sim+can://STIM300?rate=100&layout=shared" --duration 5s``), which lost the
+        run's first sample."""
+        self._not_before_s = self.clock() - 0.5 / self._description.sample_rate_hz
         self._last_sent_s = None  # (the hold is no silence of the node)
 
     def limit_rates(self, limit_deg_s: float | None) -> None:

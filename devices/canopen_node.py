@@ -228,9 +228,10 @@ class CanopenRateSource:
 
     def quiet_until_now(self) -> None:
         """The station held a simulated node until now (the run starts): PDOs stamped
-        before now are not read (see :meth:`devices.can_raw.CanRateSource.quiet_until_now`;
-        their samples are the recorder's leading gap)."""
-        self._not_before_s = self.clock()
+        before now are not read (see :meth:`devices.can_raw.CanRateSource.quiet_until_now`:
+        the recorder's nodes start held, so there are none; less half a sample period,
+        as there)."""
+        self._not_before_s = self.clock() - 0.5 / self.sample_rate_hz
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""

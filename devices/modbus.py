@@ -12,7 +12,7 @@ from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 from devices.gaps import CounterTracker
 from devices.protocols import ACCEL_AXIS_NAMES, DeviceDescription, SampleBatch
 from devices.resolution import register_resolution
-from devices.transports.modbus import ModbusTransport
+from devices.transports.modbus import SERVER_DEVICE_BUSY, ModbusExceptionResponse, ModbusTransport
 
 
 class ModbusRateSource:
@@ -76,6 +76,8 @@ class ModbusRateSource:
         self._last_counter: int | None = None
         self._connected = False
         self._ever = False
+        #: The station held the device until its run started and no sample came since.
+        self._held_since_start = False
 
     def describe(self) -> DeviceDescription:
         return self._description
@@ -94,8 +96,11 @@ class ModbusRateSource:
         try:
             registers = self.transport.read_registers(start, count, self.device_id, self.table)
         except DeviceProtocolError as exc:
-            self._builder.event("timeout", self.clock(), detail=str(exc))
+            if not (self._held_since_start and isinstance(exc, ModbusExceptionResponse)
+                    and exc.exception_code == SERVER_DEVICE_BUSY):
+                self._builder.event("timeout", self.clock(), detail=str(exc))
             return
+        self._held_since_start = False
         now = self.clock()
         reading = self.map.decode(registers)
         if reading.counter == self._last_counter:
@@ -123,6 +128,12 @@ class ModbusRateSource:
             self._builder.event("disconnect", self.clock())
             raise
         return self._builder.take(self.clock())
+
+    def quiet_until_now(self) -> None:
+        """The station held the device until now (a simulated unit, held until its run
+        starts): it has no sample yet. Until its first, a SERVER DEVICE BUSY answer
+        is that device, not a fault, and is not logged."""
+        self._held_since_start = True
 
     def limit_rates(self, limit_deg_s: float | None) -> None:
         """Samples beyond this magnitude (deg/s, any axis) are bad samples."""

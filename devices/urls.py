@@ -14,10 +14,10 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 from urllib.parse import unquote, urlencode, urlsplit
 
 from devices.bus_layouts import can_layout, register_map
@@ -124,11 +124,18 @@ def _no_capture(query: dict[str, str], what: str) -> None:
         raise DeviceConfigurationError(f"capture= records serial and raw CAN links, not {what}")
 
 
+def _sim_params(host: str, query: dict[str, str], held: bool) -> SimParams:
+    """The simulation parameters of a ``sim+`` URL; ``held``: its device starts held
+    (:attr:`SimParams.held`)."""
+    return replace(parse_sim_params(query.get("model", host), query), held=held)
+
+
 # -- serial protocols ----------------------------------------------------------------
 
-def _simulate_serial(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+def _simulate_serial(path: str, query: dict[str, str], host: str, *, held: bool = False
+                     ) -> OpenedDevice:
     protocol = query.get("protocol", "stim300")
-    params = parse_sim_params(query.get("model", host), query)
+    params = _sim_params(host, query, held)
     if protocol == "stim300" and _unit_model(host, params) != "STIM300":
         # another model borrowing the datagram layout: its counter counts its datagrams
         query = {"counter": "datagram", **query}
@@ -236,9 +243,10 @@ def _can_bus_kwargs(query: dict[str, str]) -> dict[str, Any]:
             if key in query}
 
 
-def _simulate_can(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+def _simulate_can(path: str, query: dict[str, str], host: str, *, held: bool = False
+                  ) -> OpenedDevice:
     layout = can_layout(query.get("layout", "shared"), accel_switch(query))
-    params = parse_sim_params(query.get("model", host), query)
+    params = _sim_params(host, query, held)
     simulator: Simulator
     multicast = _sim_bus(query) == "udp_multicast"
     if multicast:
@@ -288,10 +296,11 @@ def _canopen_node(path: str, query: dict[str, str]) -> tuple[int, bool]:
     return node_id, query.get("tpdo", "event") == "sync"
 
 
-def _simulate_canopen(path: str, query: dict[str, str], host: str) -> OpenedDevice:
+def _simulate_canopen(path: str, query: dict[str, str], host: str, *, held: bool = False
+                      ) -> OpenedDevice:
     node_id, sync = _canopen_node(path, query)
     accel = bool(accel_switch(query))  # (the node's TPDO3/4 are off until mapped: accel=1)
-    params = parse_sim_params(query.get("model", host), query)
+    params = _sim_params(host, query, held)
     simulator: Simulator
     if _sim_bus(query) == "udp_multicast":
         simulator, clock, bus = _node_in_a_process(_start_canopen_node, params, node_id, accel,
@@ -333,10 +342,10 @@ def _modbus_setup(query: dict[str, str]) -> tuple[ModbusRegisterMap, float]:
             query_number("oversample", query.get("oversample", "2"), float))
 
 
-def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool
-                     ) -> OpenedDevice:
+def _simulate_modbus(path: str, query: dict[str, str], host: str, *, rtu: bool,
+                     held: bool = False) -> OpenedDevice:
     regs, oversample = _modbus_setup(query)
-    params = parse_sim_params(query.get("model", host), query)
+    params = _sim_params(host, query, held)
     core, clock = sim_core(params, len(regs.axes), n_accel_axes=regs.n_accel_axes)
     server = ModbusGyroServer(regs, core, rtu=rtu).start()
     transport = (ModbusTransport("rtu", server.serial_port, baudrate=115200) if rtu
@@ -446,13 +455,17 @@ def _allowed_keys(transport: str, simulate: bool, query: dict[str, str]) -> froz
     return frozenset({"realtime"})  # replay://FILE (a capture)
 
 
-def open_device(url: str) -> OpenedDevice:
+def open_device(url: str, *, held: bool = False) -> OpenedDevice:
     """The adapter (and simulator) a device URL names; the adapter is not opened yet.
 
     Parameters
     ----------
     url : str
         ``[sim+]serial://...``, see the module docstring.
+    held : bool
+        A simulated device starts held (paused) and samples nothing until it is resumed
+        (:meth:`~devices.opened.SimulatedDevice.resume`): the recorder's units, whose
+        samples start with the run. No effect on hardware.
 
     Returns
     -------
@@ -478,13 +491,20 @@ def open_device(url: str) -> OpenedDevice:
     if simulate and transport not in _SIMULATORS:
         raise DeviceConfigurationError("replay://FILE plays a capture file back; there is "
                                        "no sim+replay")
-    opener = (_SIMULATORS if simulate else _OPENERS)[transport]
-    opened = opener(unquote(parts.path), query, host)
+    path = unquote(parts.path)
+    opened = (_SIMULATORS[transport](path, query, host, held=held) if simulate
+              else _OPENERS[transport](path, query, host))
     opened.url = url
     return opened
 
 
 _Opener = Callable[[str, dict[str, str], str], OpenedDevice]
+
+
+class _SimOpener(Protocol):
+    def __call__(self, path: str, query: dict[str, str], host: str, *, held: bool
+                 ) -> OpenedDevice: ...
+
 #: The adapter of each transport's hardware URL (path, query, host).
 _OPENERS: dict[str, _Opener] = {
     "serial": _open_serial,
@@ -495,7 +515,7 @@ _OPENERS: dict[str, _Opener] = {
     "replay": open_replay,
 }
 #: A simulated device and the adapter talking to it, of each ``sim+`` transport.
-_SIMULATORS: dict[str, _Opener] = {
+_SIMULATORS: dict[str, _SimOpener] = {
     "serial": _simulate_serial,
     "can": _simulate_can,
     "canopen": _simulate_canopen,

@@ -77,6 +77,11 @@ class SimParams:
     power_cycle : PowerCycleModel
         Turn-on, warm-up and temperature behaviour on the fixture (URL keys of
         :data:`POWER_CYCLE_KEYS`).
+    held : bool
+        The device starts held (the operator's hold, :meth:`SimCore.pause`): it samples
+        nothing until it is resumed, so that a recorded unit's first sample (counter 0)
+        falls due when the run starts. Not a URL key: the recorder asks for it
+        (:func:`devices.urls.open_device`).
     """
 
     model: str = "STIM300"
@@ -89,6 +94,7 @@ class SimParams:
     orientation: str = ""
     fixture: str = ""
     power_cycle: PowerCycleModel = field(default_factory=PowerCycleModel)
+    held: bool = False
 
     @property
     def serial_number(self) -> str:
@@ -166,6 +172,7 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None, *,
 
     It keeps counts of what it generated and lost, and the rates and lost indices of
     the latest ``params.history`` samples only: memory is bounded whatever the run length.
+    With ``params.held`` it is returned held (paused) until :meth:`SimCore.resume`.
 
     Parameters
     ----------
@@ -180,6 +187,15 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None, *,
         Accelerometer axes of a simulated IMU (0: a gyro): their gravity comes from the
         bench orientation when the URL gives one, else +g on z.
     """
+    core = _new_core(params, n_axes, clock, n_accel_axes)
+    if params.held:
+        core.pause()  # (before its device's thread starts: no sample before the resume)
+    return core, core.clock
+
+
+def _new_core(params: SimParams, n_axes: int, clock: WarpClock | None, n_accel_axes: int
+              ) -> SimCore:
+    """The core of :func:`sim_core`, running."""
     clock = clock if clock is not None else WarpClock(params.warp)
     earth = None
     if params.latitude is not None:
@@ -194,7 +210,7 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None, *,
                             gravity_m_s2=gravity)
     if not params.fixture:
         signal = signal_source(seed=params.seed)
-        return SimCore(signal, params.rate, clock, params.faults, history=params.history), clock
+        return SimCore(signal, params.rate, clock, params.faults, history=params.history)
     # On a fixture, each opening of the unit (each recorded segment) draws fresh noise:
     # keyed by the seed, the switch-on count and the fixture time of the opening.
     unit = PoweredUnit(params.fixture, params.power_cycle, seed=params.seed or 0, n_axes=n_axes)
@@ -206,4 +222,4 @@ def sim_core(params: SimParams, n_axes: int, clock: WarpClock | None = None, *,
     powered.bind(core)
     unit.attach(core)
     core.on_close(unit.stop)
-    return core, clock
+    return core

@@ -14,6 +14,25 @@ from pymodbus.exceptions import ModbusException
 
 from devices.errors import DeviceDisconnectedError, DeviceProtocolError
 
+#: Exception code of a server that cannot answer now and asks to be polled again
+#: (Modbus Application Protocol Specification V1.1b3, section 7, code 06).
+SERVER_DEVICE_BUSY = 0x06
+
+
+class ModbusExceptionResponse(DeviceProtocolError):
+    """The server answered a request with a Modbus exception response.
+
+    Attributes
+    ----------
+    exception_code : int or None
+        Its exception code (Modbus Application Protocol V1.1b3, section 7), None where
+        the response carries none.
+    """
+
+    def __init__(self, message: str, exception_code: int | None) -> None:
+        super().__init__(message)
+        self.exception_code = exception_code
+
 
 class ModbusTransport:
     """A Modbus client to one server, TCP (``host:port``) or RTU (a serial port).
@@ -70,14 +89,15 @@ class ModbusTransport:
 
     def _call(self, what: str, request: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         """One request through the client: a lost link is DeviceDisconnectedError (the
-        client closed), a Modbus exception response DeviceProtocolError naming ``what``."""
+        client closed), a Modbus exception response ModbusExceptionResponse naming ``what``."""
         try:
             response = request(*args, **kwargs)
         except (ModbusException, OSError) as exc:  # OSError: a reset mid-request
             self.close()
             raise DeviceDisconnectedError(f"Modbus {self.target}: {exc}") from exc
         if response.isError():
-            raise DeviceProtocolError(f"Modbus exception response to {what}: {response}")
+            raise ModbusExceptionResponse(f"Modbus exception response to {what}: {response}",
+                                          getattr(response, "exception_code", None))
         return response
 
     def read_coils(self, address: int, count: int, device_id: int) -> list[bool]:

@@ -124,7 +124,7 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
               rate_limit_deg_s: float | None) -> None:
     """The unit's process: open the device, wait for the start, read, report the end."""
     from devices.errors import DeviceConfigurationError
-    from devices.protocols import AccelLimited, RateLimited, Simulated
+    from devices.protocols import AccelLimited, RateLimited
     from devices.urls import open_device
     from station.logs import configure_logging
     from station.recording.unit_worker import UnitWorker
@@ -144,7 +144,9 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
                 pass  # the engine is gone
 
     try:
-        opened = open_device(url)
+        # (a simulation starts held: its samples start when the recorder listens, at
+        # the run's start, never before)
+        opened = open_device(url, held=True)
     except (DeviceConfigurationError, ValueError) as exc:
         send("error", ("url", str(exc)))
         return
@@ -152,8 +154,6 @@ def unit_main(conn: Connection, unit_id: str, url: str, settings: Any,
         send("error", ("open", f"{type(exc).__name__}: {exc}"))
         return
     try:
-        if isinstance(opened, Simulated):
-            opened.pause()  # sampling starts when the recorder listens
         opened.source.open()
     except Exception as exc:  # noqa: BLE001 - reported to the engine, which says what to do
         send("error", ("open", str(exc) or type(exc).__name__))

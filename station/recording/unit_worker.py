@@ -7,10 +7,12 @@ disconnect, turns every adapter batch into an :class:`~station.model.documents.E
 and hands it to ``send``. It stops at the run's duration, when asked, or when a replayed
 capture ends.
 
-A simulated unit (a ``sim+`` URL) is held paused until the recorder listens, as a bench
-gyro switched on by the operator, and ends exactly: its faults are turned off, it is told
-to stop after a sample index a little ahead, and the unit reads up to that sample (if the
-last frames were lost, the simulator runs on, so that a later sample shows the gap).
+A simulated unit (a ``sim+`` URL) starts held (paused: ``open_device(url, held=True)``)
+and samples from when the recorder listens, as a bench gyro switched on by the operator
+(its first sample, counter 0, falls due at the run's start), and ends exactly: its
+faults are turned off, it is told to stop after a sample index a little ahead, and the
+unit reads up to that sample (if the last frames were lost, the simulator runs on, so
+that a later sample shows the gap).
 Every sample it generated is then recorded or declared missing.
 """
 
@@ -148,15 +150,16 @@ class UnitWorker:
         if self.simulated is not None:
             if isinstance(self.opened.source, HeldQuiet):
                 self.opened.source.quiet_until_now()  # held since it was opened
-            # Samples it made between being opened and being held: the leading gap's
-            # count starts there (an 8-bit counter cannot say how many wraps that was).
+            # Samples it made before it was held (none when it was opened held, as the
+            # unit's process opens it): the leading gap's count starts there (an 8-bit
+            # counter cannot say how many wraps that was).
             self._held_at = self.simulated.samples_sent()
             # it ends at the duration on its own clock, however late this process reads
             # it: a starved reader must not find (and declare lost) the samples of the
             # time it overran. Set with the release itself (a second request to its
             # process would come late on a loaded host); its time line is this reader's
-            # from the release on (the gaps' wrap counts are bounded by that timing), so
-            # the few samples a loaded host let out before the hold come on top
+            # from the release on (the gaps' wrap counts are bounded by that timing), and
+            # samples it made before a hold come on top (none when it was opened held)
             run_s = self.settings.duration_s - self.elapsed_s()
             self.simulated.resume(run_for_s=max(run_s, 0.0))
         self._thread.start()
