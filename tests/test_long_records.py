@@ -268,6 +268,13 @@ def test_releasing_the_compiler_pages_keeps_the_compiled_kernels() -> None:
     """After the compiled kernels ran, the compiler library's pages leave the resident set
     (loading numba leaves 40-70 MB of them); the kernels give the same sums afterwards and
     a new compilation still works (its pages are read in again from the file)."""
+    import numba
+
+    @numba.njit(cache=False)
+    def compiled_here(v: float) -> float:  # the compiler runs in this process (the kernels
+        return v + 1.0                     # may load from numba's cache without it)
+
+    assert compiled_here(1.0) == 2.0
     theta = np.cumsum(np.random.default_rng(3).standard_normal((20_000, 2)), axis=0)
     m = np.array([1, 4, 16, 256])
     before = kernels.overlapping_sums(theta, m, backend="numba")
@@ -276,7 +283,6 @@ def test_releasing_the_compiler_pages_keeps_the_compiled_kernels() -> None:
     released = _compiler_resident_kb()
     assert resident > 10_000 and released < resident / 4, (resident, released)
     np.testing.assert_array_equal(kernels.overlapping_sums(theta, m, backend="numba"), before)
-    import numba
 
     @numba.njit(cache=False)
     def twice(v: float) -> float:
@@ -324,13 +330,15 @@ def _bench_memory(minutes: float, *options: str) -> int:
 def test_bench_memory_peak_is_flat_in_the_run_length() -> None:
     """``station analyze`` of 16- and 48-minute runs at 2 kHz through the block-wise path
     (records over 2^16 samples count as long): one line ``peak_rss_mb=... seconds=...``
-    each, and the peak grows by less than 20 MB (measured 215 -> 226 MB). Both runs are
-    past the compiled kernels' threshold (``analysis.allan.kernels.COMPILED_MIN_TERMS``):
-    a shorter run takes the numpy path, and the compiler's fixed ~100 MB would read as
-    growth (2 min: 106-125 MB)."""
+    each, and the peak grows by less than 35 MB (measured 193 -> 222 MB; 215 -> 226 MB
+    before the compiler's pages left the resident set after each axis' Allan analysis: the
+    shorter run's peak now falls after they leave, the longer run's during that analysis,
+    with them). Both runs are past the compiled kernels' threshold
+    (``analysis.allan.kernels.COMPILED_MIN_TERMS``): a shorter run takes the numpy path,
+    and the compiler's fixed ~100 MB would read as growth (2 min: 106-125 MB)."""
     short, long = _bench_memory(16), _bench_memory(48)
     assert 50 < short < 400 and 50 < long < 400, (short, long)
-    assert long - short < 20, (short, long)
+    assert long - short < 35, (short, long)
 
 
 @pytest.mark.slow
