@@ -20,7 +20,7 @@ import pytest
 
 from devices.stream import StreamRateSource
 from station.recording.recorder import Recorder, RunConfig
-from station.recording.unit_worker import leading_gap_bounds
+from station.recording.unit_worker import leading_gap_bounds, trailing_gap_count
 from station.storage.hdf5 import gap_bounds, open_run_file, read_unit
 from tests.devices.helpers import multicast_unavailable
 from tests.test_recorder_helpers import assert_books
@@ -121,3 +121,14 @@ def test_leading_gap_bounds() -> None:
     assert leading_gap_bounds(17, 0, 0.01, 2000.0, 256) == (17, 17, 17)  # certain
     assert leading_gap_bounds(17, 300, 0.01, 2000.0, 256) == (17, 17 + 256, 17 + 256)
     assert leading_gap_bounds(17, 0, 60.0, 2000.0, None) == (17, 17, 17)  # no wrap
+
+
+def test_trailing_gap_count() -> None:
+    """The samples a simulated unit sent after the last one received: from the unwrapped
+    counter to its end, whole wraps included (a STIM300 at 1 kHz, 128 samples a wrap,
+    whose host froze 0.33 s before the end: 333 samples, not their residue 77); an
+    unwrapped counter already at the end leaves the residue; none received, all."""
+    assert trailing_gap_count(3000, 2666, 128) == 333
+    assert trailing_gap_count(3000, 2999, 128) == 0
+    assert trailing_gap_count(3000, 3050, 128) == (2999 - 3050) % 128
+    assert trailing_gap_count(3000, -1, 128) == 3000

@@ -304,9 +304,16 @@ class SimCore:
         hold would put a silence in it that no counter shows), it just produces nothing
         more. Lifted again, it finds its samples due since then: those overdue by more
         than the lateness allowance are lost, as a running gyro's would be.
+
+        Under the lock :meth:`due` generates under: a device thread that took its samples
+        due just before (a starved thread catching up) has generated them all, and the
+        count it ends on is then that many (what it generated stays generated).
         """
-        self._last_index = n_samples
-        return self._final_index()
+        with self._hold_lock:
+            if n_samples is not None:
+                n_samples = max(n_samples, self.ledger.generated)
+            self._last_index = n_samples
+            return self._final_index()
 
     def _final_index(self) -> int | None:
         """The sample count generation stops at (None: none set)."""

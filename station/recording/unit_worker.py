@@ -277,19 +277,22 @@ class UnitWorker:
         end = end if final is None else final
         # (its last sample is recognized by its counter as sent: the unwrapped count may
         # differ from the simulator's by the wraps a gap could not pin down)
-        if not self._read_until(partial(self._read_through, end, modulus), quiet_s=2.0,
-                                limit_s=20.0):
+        read_through = self._read_until(partial(self._read_through, end, modulus),
+                                        quiet_s=2.0, limit_s=20.0)
+        # Held first, so that its count is final: a starved simulator thread may still be
+        # generating the samples that fell due before its end.
+        sim.pause()
+        if not read_through:
             # (a unit held meanwhile, by its supply or the operator, generated fewer: those
             # it never generated are no loss)
             self._emit(None, self._trailing_gap(min(end, sim.samples_sent()), modulus))
-        sim.pause()
 
     def _trailing_gap(self, end: int, modulus: int) -> list[LogEntry]:
         """Its last samples up to index ``end`` never arrived (frames lost on a starved
         host): a gap after the last sample received, counted by the simulator's own count
         (it ended on that index; no later sample will show the gap, and letting it run on
-        to show one would record past the run's end)."""
-        missing = (end - 1 - self.last_counter) % modulus if self.last_counter >= 0 else end
+        to show one would record past the run's end): see :func:`trailing_gap_count`."""
+        missing = trailing_gap_count(end, self.last_counter, modulus)
         if missing <= 0:
             return []
         return [LogEntry("gap", self.elapsed_s(), 1, missing, self.last_counter, "counter",
@@ -332,6 +335,25 @@ class UnitWorker:
                     self.samples_sent = None  # its process is gone
             self.opened.close()
             self.done.set()
+
+
+def trailing_gap_count(end: int, last_counter: int, modulus: int) -> int:
+    """Samples a simulated unit that ended on sample count ``end`` sent after the last one
+    received (unwrapped counter ``last_counter``; -1: none received), samples.
+
+    The count runs from the last sample's unwrapped counter to ``end``, whole counter
+    wraps included (a host frozen from before the end loses more than a wrap: a STIM300's
+    wraps every 0.128 s), so that the best counts of the unit's gaps add up to what it
+    sent; where earlier gaps could not pin their wraps, their bounds hold that
+    uncertainty. Only an unwrapped counter already at or past ``end`` (an earlier gap's
+    best count too high by wraps) falls back to the counter's residue modulo ``modulus``
+    (samples per wrap).
+    """
+    if last_counter < 0:
+        return end
+    if end - 1 - last_counter >= 0:
+        return end - 1 - last_counter
+    return (end - 1 - last_counter) % modulus
 
 
 def leading_gap_bounds(first: int, held_at: int, elapsed_s: float, sample_rate_hz: float,

@@ -67,3 +67,42 @@ def test_a_hold_asked_for_during_a_batch_outlives_it() -> None:
         stop.set()
         thread.join()
     assert core.ledger.generated > 0
+
+
+def test_an_end_set_below_what_it_generated_ends_on_what_it_generated() -> None:
+    """A run's end asked for after the device's thread generated past it (a starved thread
+    catching up while the station read its count) is the count it generated, never one
+    it has already overrun: the station declares the samples up to it."""
+    clock = SteppedClock()
+    core = _core(clock)
+    clock.now = 2.0
+    assert len(core.due()) == 100
+    assert core.stop_after(60) == 100  # (the 40 after sample 60 were generated all the same)
+    clock.now = 4.0
+    assert core.due() == [] and core.ledger.generated == 100
+    assert core.stop_after(150) == 150
+
+
+def test_an_end_set_while_a_batch_is_generated_counts_the_whole_batch() -> None:
+    """``stop_after`` waits for a batch being generated: the count it returns is one the
+    device never passes (20 tries against a thread generating all the time)."""
+    core = _core(WarpClock(50.0))
+    stop = threading.Event()
+
+    def reader() -> None:
+        while not stop.is_set():
+            core.due()
+
+    thread = threading.Thread(target=reader, daemon=True)
+    thread.start()
+    try:
+        for _ in range(20):
+            end = core.stop_after(core.ledger.generated + 5)
+            assert end is not None
+            threading.Event().wait(0.01)
+            assert core.ledger.generated <= end
+            core.stop_after(None)
+            threading.Event().wait(0.005)
+    finally:
+        stop.set()
+        thread.join()
