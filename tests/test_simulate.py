@@ -4,7 +4,10 @@ Carlo."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,6 +31,7 @@ from analysis.models.terms import (
     TemperatureBias,
 )
 from devices.model_files import load_noise_model
+from devices.sim.signal import SignalSource
 
 FS = 10.0
 EVERYTHING = NoiseModel(
@@ -51,6 +55,8 @@ EVERYTHING = NoiseModel(
         BiasSteps(rate_per_h=360.0, size_deg_h=20.0),
     )
 )
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _read_in_pieces(sim: GyroSimulator, sizes: list[int]) -> SimulatedChunk:
@@ -81,14 +87,47 @@ def test_chunks_join_without_seams_whatever_the_cut():
 
 def test_a_devices_short_reads_give_the_samples_of_scipys_filter_bit_for_bit():
     """A simulated device's simulator (``short_reads``: the Gauss-Markov recursions stepped
-    in numpy for reads up to 4096 samples) gives the samples of the offline one (scipy's
-    lfilter pole by pole) exactly, over reads of every size, one past the limit included."""
-    cuts = [1, 0, 57, 4096, 4097, 3, 1200]
+    in numpy, 4096 samples a block) gives the samples of the offline one (scipy's lfilter
+    pole by pole) exactly, over reads of every size, a block and one past it, and two
+    blocks and more (a starved simulator booking its late samples lost) included."""
+    cuts = [1, 0, 57, 4096, 4097, 3, 1200, 9000]
     offline = _read_in_pieces(GyroSimulator(EVERYTHING, FS, n_axes=3, seed=4), cuts)
     device = _read_in_pieces(GyroSimulator(EVERYTHING, FS, n_axes=3, seed=4, short_reads=True),
                              cuts)
     np.testing.assert_array_equal(device.rate_deg_s, offline.rate_deg_s)
     np.testing.assert_array_equal(device.temperature_c, offline.temperature_c)
+
+
+def test_a_devices_long_read_imports_no_scipy() -> None:
+    """A simulated device's read of 9000 samples at once (a simulator two seconds behind at
+    4 kHz) steps its recursions in numpy: importing scipy.signal in a device's process is
+    over a second of CPU that starves the other units on the host."""
+    code = ("import sys\nfrom devices.sim.signal import SignalSource\n"
+            "SignalSource('DSP-1750', 4000.0, seed=1).read(9000)\n"
+            "print(sorted(m for m in sys.modules if m.startswith('scipy')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, cwd=ROOT).stdout
+    assert out.strip() == "[]"
+
+
+def test_a_devices_signal_is_the_same_however_it_is_read() -> None:
+    """The device signal (drawn 256 samples ahead at least, and handed out as asked) gives
+    the numbers of one read of the whole run, rates, temperatures and an IMU's
+    accelerations, over reads of 0, 1, 3, 255, 256, 257 and 5000 samples."""
+    whole = SignalSource("DSP-1750", 2000.0, seed=2, n_accel_axes=3).read(12_000)
+    source = SignalSource("DSP-1750", 2000.0, seed=2, n_accel_axes=3)
+    parts, got = [], 0
+    for k in [0, 1, 3, 255, 256, 257, 5000] * 3:
+        k = min(k, 12_000 - got)
+        chunk = source.read(k)
+        assert chunk.rate_deg_s.shape == (k, 3) and chunk.temperature_c.shape == (k,)
+        parts.append(chunk)
+        got += k
+    rest = source.read(12_000 - got)
+    parts.append(rest)
+    for name in ("rate_deg_s", "temperature_c", "accel_m_s2"):
+        np.testing.assert_array_equal(np.concatenate([getattr(p, name) for p in parts]),
+                                      getattr(whole, name))
 
 
 def test_a_seed_reproduces_a_run_and_terms_keep_their_draws_when_others_are_added():

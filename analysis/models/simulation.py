@@ -124,7 +124,7 @@ class _WhiteRate(_TermStream):
         return self.std * self.rng.standard_normal((n, self.n_axes))
 
 
-#: Longest read a bank in ``short_reads`` mode steps through in numpy (see :class:`_Bank`).
+#: Block a bank in ``short_reads`` mode steps through in numpy at once (see :class:`_Bank`).
 _SHORT_BLOCK = 4096
 
 
@@ -176,13 +176,11 @@ class _Bank(_TermStream):
         out = self.p.shared * self.rngs[-1].standard_normal((n, self.n_axes))
         if n == 0:
             return out
-        if self.short_reads and n <= _SHORT_BLOCK:
-            n_poles = len(self.p.a)
-            e = np.stack([self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
-                          for i in range(n_poles)], axis=1)
-            x = _ar1_steps(np.asarray(self.p.a, dtype=np.float64), e, self.state)
-            for i in range(n_poles):
-                self._add_pole(out, i, e[:, i], x[:, i])
+        if self.short_reads:
+            # (a long read of a device, a starved simulator's lost samples: block by block,
+            # the same numbers, and still no scipy import in the device's process)
+            for lo in range(0, n, _SHORT_BLOCK):
+                self._step_block(out[lo:lo + _SHORT_BLOCK])
             return out
         if self._filter is None:
             self._filter = _lfilter()
@@ -191,6 +189,16 @@ class _Bank(_TermStream):
             x_next, _ = self._filter([1.0], [1.0, -a], e1, axis=0, zi=a * self.state[i][None, :])
             self._add_pole(out, i, e1, x_next)
         return out
+
+    def _step_block(self, out: NDArray[np.float64]) -> None:
+        """Add every pole's share of one block's sample means to ``out`` (a view of at
+        most :data:`_SHORT_BLOCK` rows), stepping all poles at once in numpy."""
+        n, n_poles = len(out), len(self.p.a)
+        e = np.stack([self.p.innovation[i] * self.rngs[i].standard_normal((n, self.n_axes))
+                      for i in range(n_poles)], axis=1)
+        x = _ar1_steps(np.asarray(self.p.a, dtype=np.float64), e, self.state)
+        for i in range(n_poles):
+            self._add_pole(out, i, e[:, i], x[:, i])
 
     def _add_pole(self, out: NDArray[np.float64], i: int, e: NDArray[np.float64],
                   x: NDArray[np.float64]) -> None:
@@ -326,10 +334,11 @@ class GyroSimulator:
         Lowest corner of the bias-instability bank in Hz; the plateau holds for
         ``tau <= 0.01 / flicker_floor_hz``.
     short_reads : bool
-        True where the run is read a few samples at a time (a simulated device): reads of
-        up to 4096 samples then step the Gauss-Markov recursions in numpy and never import
-        :mod:`scipy.signal` (over a second at a device's start). The samples are the same
-        bit for bit either way.
+        True where the run is read a few samples at a time (a simulated device): reads then
+        step the Gauss-Markov recursions in numpy, 4096 samples at a time, and never import
+        :mod:`scipy.signal` (over a second of CPU in a device's process: a simulator that
+        fell behind and books a few thousand samples lost read them in one go). The
+        samples are the same bit for bit either way.
 
     Raises
     ------

@@ -107,6 +107,10 @@ class SignalChunk:
     accel_m_s2: NDArray[np.float64] | None = None
 
 
+#: Fewest samples :meth:`SignalSource.read` draws at once (at 2 kHz, 0.128 s of signal).
+READ_AHEAD = 256
+
+
 class SignalSource:
     """Streaming rate signal of a simulated gyro.
 
@@ -143,9 +147,29 @@ class SignalSource:
         self.accel = (AccelSimulator(accel_model(model), sample_rate_hz, n_axes=n_accel_axes,
                                      seed=seed, gravity_m_s2=gravity_m_s2, short_reads=True)
                       if n_accel_axes else None)
+        #: Samples drawn and not yet read.
+        self._ahead = SignalChunk(np.empty((0, n_axes)), np.empty(0),
+                                  None if self.accel is None else np.empty((0, n_accel_axes)))
 
     def read(self, n_samples: int) -> SignalChunk:
-        """The next ``n_samples`` samples of the signal."""
+        """The next ``n_samples`` samples of the signal.
+
+        The samples are drawn :data:`READ_AHEAD` at a time at least and handed out from
+        what was drawn: a device takes a few samples a pass, and a draw costs about as
+        much for 4 samples as for 256 (0.6 ms, a third of a 2 kHz device's pass). The
+        numbers are those of one draw of the whole run, however it is read."""
+        short = n_samples - len(self._ahead.temperature_c)
+        if short > 0:
+            self._ahead = _joined(self._ahead, self._draw(max(short, READ_AHEAD)))
+        ahead = self._ahead
+        self._ahead = SignalChunk(ahead.rate_deg_s[n_samples:], ahead.temperature_c[n_samples:],
+                                  None if ahead.accel_m_s2 is None
+                                  else ahead.accel_m_s2[n_samples:])
+        return SignalChunk(ahead.rate_deg_s[:n_samples], ahead.temperature_c[:n_samples],
+                           None if ahead.accel_m_s2 is None else ahead.accel_m_s2[:n_samples])
+
+    def _draw(self, n_samples: int) -> SignalChunk:
+        """The next ``n_samples`` samples from the simulators."""
         chunk = self._sim.read(n_samples)
         rate = chunk.rate_deg_s if self._earth is None else chunk.rate_deg_s + self._earth
         temp = chunk.temperature_c
@@ -154,3 +178,11 @@ class SignalSource:
         temp = np.asarray(temp, dtype=np.float64)
         accel = None if self.accel is None else self.accel.read(n_samples, temp)
         return SignalChunk(rate, temp, accel)
+
+
+def _joined(first: SignalChunk, second: SignalChunk) -> SignalChunk:
+    """The samples of ``first`` followed by those of ``second``."""
+    accel = (None if first.accel_m_s2 is None or second.accel_m_s2 is None
+             else np.concatenate([first.accel_m_s2, second.accel_m_s2]))
+    return SignalChunk(np.concatenate([first.rate_deg_s, second.rate_deg_s]),
+                       np.concatenate([first.temperature_c, second.temperature_c]), accel)
