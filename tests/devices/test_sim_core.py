@@ -4,6 +4,8 @@ that no sample generated meanwhile outlives."""
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 from devices.sim.clock import WarpClock
 from devices.sim.faults import SimCore
@@ -27,6 +29,24 @@ def _core(clock: WarpClock) -> SimCore:
     return SimCore(SignalSource("STIM300", RATE_HZ, seed=3), RATE_HZ, clock)
 
 
+@contextmanager
+def generating(core: SimCore) -> Iterator[None]:
+    """A device thread taking its samples due all the time, until the block ends."""
+    stop = threading.Event()
+
+    def device() -> None:
+        while not stop.is_set():
+            core.due()
+
+    thread = threading.Thread(target=device, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
 def test_a_run_set_with_its_release_ends_on_its_own_clock_however_late_it_is_read() -> None:
     """Held 3 s (3.5 sample periods after it was made, none generated yet), released for
     a 10 s run, read first 40 s later: 500 samples, not one more (the hold is no part of
@@ -47,15 +67,7 @@ def test_a_run_set_with_its_release_ends_on_its_own_clock_however_late_it_is_rea
 def test_a_hold_asked_for_during_a_batch_outlives_it() -> None:
     """``pause`` returns once no batch is being generated: nothing is generated after it."""
     core = _core(WarpClock(50.0))
-    stop = threading.Event()
-
-    def reader() -> None:
-        while not stop.is_set():
-            core.due()
-
-    thread = threading.Thread(target=reader, daemon=True)
-    thread.start()
-    try:
+    with generating(core):
         for _ in range(20):
             core.pause()
             before = core.ledger.generated
@@ -63,9 +75,6 @@ def test_a_hold_asked_for_during_a_batch_outlives_it() -> None:
             assert core.ledger.generated == before
             core.resume()
             threading.Event().wait(0.005)
-    finally:
-        stop.set()
-        thread.join()
     assert core.ledger.generated > 0
 
 
@@ -87,15 +96,7 @@ def test_an_end_set_while_a_batch_is_generated_counts_the_whole_batch() -> None:
     """``stop_after`` waits for a batch being generated: the count it returns is one the
     device never passes (20 tries against a thread generating all the time)."""
     core = _core(WarpClock(50.0))
-    stop = threading.Event()
-
-    def reader() -> None:
-        while not stop.is_set():
-            core.due()
-
-    thread = threading.Thread(target=reader, daemon=True)
-    thread.start()
-    try:
+    with generating(core):
         for _ in range(20):
             end = core.stop_after(core.ledger.generated + 5)
             assert end is not None
@@ -103,6 +104,3 @@ def test_an_end_set_while_a_batch_is_generated_counts_the_whole_batch() -> None:
             assert core.ledger.generated <= end
             core.stop_after(None)
             threading.Event().wait(0.005)
-    finally:
-        stop.set()
-        thread.join()
