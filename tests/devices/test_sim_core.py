@@ -1,5 +1,5 @@
-"""The simulated device's core: a run's end set with the release of its hold, and a hold
-that no sample generated meanwhile outlives."""
+"""The simulated device's core: a run's end set with the release of its hold, a hold that no
+sample generated meanwhile outlives, and a run's end never below what it generated."""
 
 from __future__ import annotations
 
