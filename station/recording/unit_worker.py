@@ -11,9 +11,10 @@ A simulated unit (a ``sim+`` URL) starts held (paused: ``open_device(url, held=T
 and samples from when the recorder listens, as a bench gyro switched on by the operator
 (its first sample, counter 0, falls due at the run's start), and ends exactly: its
 faults are turned off, it is told to stop after a sample index a little ahead, and the
-unit reads up to that sample (if the last frames were lost, the simulator runs on, so
-that a later sample shows the gap).
-Every sample it generated is then recorded or declared missing.
+unit reads up to that sample; where the last frames were lost, it is held and the samples
+after the last one received are declared missing by its own count
+(:func:`trailing_gap_count`). Every sample it generated is then recorded or declared
+missing.
 """
 
 from __future__ import annotations
