@@ -37,6 +37,8 @@ VOLATILE = (
     (re.compile(r"\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d(?:\.\d+)?Z?"), "UTC"),
     (re.compile(r"\d\d:\d\d:\d\d"), "HH:MM:SS"),
     (re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?k?"), "#"),
+    # how many gaps the host's load makes decides the noun's number: "0 gaps", "1 gap"
+    (re.compile(r"# gaps?\b"), "# gaps"),
     # the review flag the gaps may raise: at the end of a unit's line, in the results' column
     (re.compile(r"\s+REVIEW$"), ""),
     (re.compile(r"\bREVIEW\b"), "-"),

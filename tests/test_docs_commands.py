@@ -179,6 +179,10 @@ station export: note: x: rate random walk is upper bound (1 sigma), the record d
                                    "lower bound": "upper bound"}[wrong], wrong)
         assert differences(shown, changed) != [], wrong
     assert differences(shown, printed + "one line more\n") != []
+    # a unit the host did not run in time declares a gap: "1 gap" where the page has "0 gaps"
+    books = "sim: recorded #, declared missing 0 in 0 gaps, sent 120\n"
+    assert differences(books, books.replace("0 in 0 gaps", "3 in 1 gap")) == []
+    assert differences(books, books.replace("0 in 0 gaps", "3 in 1 hole")) != []
     # the blocks of a page: a text block right after the commands is their output, a
     # titled block the file of that name
     page = blocks(DOCS / "getting-started.md")

@@ -123,6 +123,7 @@ class _Problem:
                 self.lower[ish], self.upper[ish] = self.t_lo, self.t_hi
         self.scale[self.scale <= 0] = 1.0
         self.whiten = np.eye(len(self.tau))
+        self._allan_beta: NDArray[np.float64] | None = None
 
     def theta(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         p = np.array(x, dtype=float)
@@ -255,9 +256,28 @@ class _Problem:
 
     def allan_start(self, base: NDArray[np.float64]) -> NDArray[np.float64] | None:
         """``base`` with the terms the five-term Allan fit shares set from its logwls fit."""
+        if self._allan_beta is None:
+            self._allan_beta = self._allan_fit()
+        beta5 = self._allan_beta
+        if not beta5.size:
+            return None
+        x = np.array(base, dtype=float)
+        for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
+            if code in ALLAN_TERM:
+                beta = float(beta5["QNBKR".index(ALLAN_TERM[code])])
+                beta = (
+                    beta if np.isfinite(beta) and beta > 0.0 else 0.0
+                )  # NaN: a term the fit left out
+                x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
+        return x
+
+    def _allan_fit(self) -> NDArray[np.float64]:
+        """The logwls fit's five betas of the terms the model shares with the Allan fit (empty
+        where it shares none or the fit fails): the same for every start of this problem, so
+        fitted once (a re-weighted search starts from it again)."""
         letters = "".join(ALLAN_TERM[c] for c in self.model.codes if c in ALLAN_TERM)
         if not letters:
-            return None
+            return np.empty(0)
         wv = self.wv
         allan = AllanResult(
             tau_s=wv.tau_s,
@@ -277,16 +297,8 @@ class _Problem:
         try:
             fit = fit_noise_terms(allan, method="logwls", terms=letters)
         except FitError:
-            return None
-        x = np.array(base, dtype=float)
-        for code, (iv, _) in zip(self.model.codes, self.slices, strict=True):
-            if code in ALLAN_TERM:
-                beta = float(fit.beta["QNBKR".index(ALLAN_TERM[code])])
-                beta = (
-                    beta if np.isfinite(beta) and beta > 0.0 else 0.0
-                )  # NaN: a term the fit left out
-                x[iv] = beta / BETA_FACTOR[ALLAN_TERM[code]] / self.scale[iv]
-        return x
+            return np.empty(0)
+        return np.asarray(fit.beta, dtype=float)
 
     def refine(self, starts: list[NDArray[np.float64]], count: int) -> NDArray[np.float64]:
         """Least squares from the ``count`` starts of lowest objective; the best solution."""
