@@ -5,7 +5,8 @@
 * ``help`` (issue 40 part 1): every subcommand's ``station CMD --help`` in a fresh
   process against ``python -c "import numpy"`` (goal: at most 3x), and whether it imported
   scipy, matplotlib or numba;
-* ``commands`` (issue 40 part 2): ``station analyze`` and ``station grade`` of a simulated
+* ``commands`` (issue 40 part 2): the imports ``station analyze`` cannot do without
+  (:data:`FLOOR`), then ``station analyze`` and ``station grade`` of a simulated
   single-axis run file at 100 Hz, 1 h (and 24 h without ``--quick``), wall time in a fresh
   process against ``import numpy`` (goal for analyze of 1 h: at most 8x), then the share
   of each step from one profiled run (a step's time includes the imports it starts;
@@ -275,10 +276,22 @@ def row_help_commands(runs: int) -> list[str]:
     return lines
 
 
+#: What ``station analyze`` of a run file imports and cannot do without: the file's reader,
+#: the chi-square and digamma functions of the intervals and weights (``scipy.special``) and
+#: the bounded least squares of the fits (``scipy.optimize``: ``lsq_linear``, ``nnls``,
+#: ``least_squares``). scipy 1.17 (the newest for Python 3.11) imports its array-API layer
+#: with any subpackage, which touches every attribute of numpy (``numpy.f2py`` and
+#: ``numpy.testing`` included): 0.23 s here of ``import scipy.special``'s 0.27 s.
+FLOOR = "import numpy, h5py, scipy.special, scipy.optimize"
+
+
 def row_commands(hours: tuple[float, ...], runs: int, rate_hz: float = 100.0) -> list[str]:
-    """``station analyze`` and ``station grade`` of single-axis run files: wall and CPU
-    against ``import numpy``, and each step's share of one profiled run."""
-    lines = []
+    """The floor (:data:`FLOOR`), then ``station analyze`` and ``station grade`` of
+    single-axis run files: wall and CPU against ``import numpy``, and each step's share of
+    one profiled run."""
+    wall, cpu, npy_wall, npy_cpu, _ = least(FLOOR, runs)
+    lines = [f"commands floor ({FLOOR}): wall {wall:.2f}s={wall / npy_wall:.1f}x "
+             f"cpu {cpu:.2f}s={cpu / npy_cpu:.1f}x of import numpy"]
     with tempfile.TemporaryDirectory() as tmp:
         profile = bench_memory.write_profile(Path(tmp) / "profile.toml", ("x",), 0.0)
         for h in hours:

@@ -1,0 +1,39 @@
+"""The spectra the ceiling of reconcile's naming rests on (benchmarks/bench_reconcile_ceiling.py):
+the naming bench's clean records average to the base spectrum the tests use, in both of
+their domains, and the first difference needs its taper."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from benchmarks.bench_reconcile_ceiling import DOMAINS, Domain, parameters, record, statistic
+
+#: Bands of Fourier frequencies (indices from the lowest): the lowest few, where the walk and
+#: the slow processes are, up to the highest.
+BANDS = ((0, 3), (3, 10), (10, 100), (100, 1000), (1000, 17_000))
+
+
+def _band_ratios(domain: Domain, clean: np.ndarray) -> list[float]:
+    ratio = domain.periodogram(clean).mean(axis=0) / domain.base(domain.w)
+    return [float(ratio[a:b].mean()) for a, b in BANDS]
+
+
+def test_clean_records_average_to_the_base_spectrum_in_each_domain() -> None:
+    clean = np.array([record("none", 700_000 + i, "faint") for i in range(60)])
+    for effect, domain in DOMAINS.items():
+        ratios = _band_ratios(domain, clean)
+        # 60 records: about 13 % scatter in the lowest band (3 x 60 exponentials), 1 % above
+        assert all(0.7 < r < 1.35 for r in ratios[:2]), (effect, ratios)
+        assert all(0.95 < r < 1.05 for r in ratios[2:]), (effect, ratios)
+    # the difference untapered: its two ends leak far above the base at the lowest frequencies
+    assert _band_ratios(Domain(True, 0.0), clean)[0] > 20.0
+
+
+def test_a_told_test_separates_a_strong_process_from_clean_records() -> None:
+    clean = np.array([record("none", 710_000 + i, "faint") for i in range(40)])
+    for effect in DOMAINS:
+        p = parameters(effect, 1, "narrow")
+        rate = record(effect, 1, "narrow")[None, :]
+        null = statistic(effect, p, clean, DOMAINS[effect].periodogram(clean))
+        value = statistic(effect, p, rate, DOMAINS[effect].periodogram(rate))[0]
+        assert value > null.max(), effect
