@@ -345,13 +345,17 @@ class CovarianceBasis:
         ramp = beta[4] if np.isfinite(beta[4]) and beta[4] > 0 else 0.0
         tau = self.tau_s
         norm = 4.0 * np.outer(tau**2 * self.n_terms, tau**2 * self.n_terms)
-        if random_ramp:
-            qij = np.broadcast_to(q, tau.shape * 2 + (4,)).copy()
-            qij[..., 3] += ramp * np.sqrt(np.outer(tau, tau)) / (2.0 * self.sample_rate_hz**3)
-            random: NDArray[np.float64] = np.einsum("ijts,ijt,ijs->ij", self.g2, qij, qij)
-            return 2.0 * random / norm
-        mu = math.sqrt(2.0 * ramp) * tau**2
         quad = np.einsum("ijts,t,s->ij", self.g2, q, q)
+        if random_ramp:
+            # the walk's coefficient of the pair (i, j) raised by r_ij: g2 is symmetric in
+            # (t, s), so sum_ts g2 (q + r e_K)_t (q + r e_K)_s = q'g2 q + 2 r (g2 q)_K + r^2 g2_KK
+            if ramp > 0:
+                r = ramp * np.sqrt(np.outer(tau, tau)) / (2.0 * self.sample_rate_hz**3)
+                quad = (quad + 2.0 * r * np.einsum("ijt,t->ij", self.g2[..., 3, :], q)
+                        + r**2 * self.g2[..., 3, 3])
+            random: NDArray[np.float64] = 2.0 * quad / norm
+            return random
+        mu = math.sqrt(2.0 * ramp) * tau**2
         lin = np.einsum("ijt,t->ij", self.g1, q)
         out: NDArray[np.float64] = (2.0 * quad + 4.0 * np.outer(mu, mu) * lin) / norm
         return out
