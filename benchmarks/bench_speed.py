@@ -278,7 +278,7 @@ def row_help_commands(runs: int) -> list[str]:
 
 #: What ``station analyze`` of a run file imports and cannot do without: the file's reader,
 #: the chi-square and digamma functions of the intervals and weights (``scipy.special``) and
-#: the bounded least squares of the fits (``scipy.optimize``: ``lsq_linear``, ``nnls``,
+#: the bounded least squares of the fits (``scipy.optimize``: ``nnls``, the GMWM's
 #: ``least_squares``). scipy 1.17 (the newest for Python 3.11) imports its array-API layer
 #: with any subpackage, which touches every attribute of numpy (``numpy.f2py`` and
 #: ``numpy.testing`` included): 0.23 s here of ``import scipy.special``'s 0.27 s.

@@ -22,7 +22,7 @@ def test_clean_records_average_to_the_base_spectrum_in_each_domain() -> None:
     clean = np.array([record("none", 700_000 + i, "faint") for i in range(60)])
     for effect, domain in DOMAINS.items():
         ratios = _band_ratios(domain, clean)
-        # 60 records: about 13 % scatter in the lowest band (3 x 60 exponentials), 1 % above
+        # 60 records: about 8 % scatter in the lowest band (3 x 60 exponentials), 1 % above
         assert all(0.7 < r < 1.35 for r in ratios[:2]), (effect, ratios)
         assert all(0.95 < r < 1.05 for r in ratios[2:]), (effect, ratios)
     # the difference untapered: its two ends leak far above the base at the lowest frequencies
