@@ -44,13 +44,12 @@ from scipy.signal import windows
 
 from benchmarks.bench_reconcile_naming import (
     B_DEG_H,
-    DURATION_S,
     FS_HZ,
     N_SAMPLES,
     RANGES,
     SIGMA_W_DEG_S,
-    _log_uniform,
     base_rate,
+    effect_parameters,
     hidden,
 )
 
@@ -112,18 +111,17 @@ DOMAINS = {"gauss_markov": Domain(False, 0.0), "sinusoid": Domain(False, 0.0),
 
 
 def parameters(effect: str, seed: int, ranges: str) -> dict[str, float]:
-    """The hidden effect's parameters the naming bench draws for ``seed`` (the same draws)."""
+    """The hidden effect's parameters the naming bench draws for ``seed`` (the same draws),
+    with a walk's step variance ``q`` ((deg/s)^2) and a sine's frequency ``w0`` (rad per
+    sample)."""
     rng = np.random.default_rng(seed)
     base_rate(rng)
-    r = RANGES[ranges]
-    if effect == "gauss_markov":
-        return {"sigma": rng.uniform(*r["gm_sigma"]) * SIGMA_W_DEG_S,
-                "tau": _log_uniform(rng, r["gm_tau"])}
+    p = effect_parameters(effect, rng, ranges)
     if effect == "rate_random_walk":
-        k = math.sqrt(6.0 * rng.uniform(*r["rw_ratio"]) / DURATION_S) * SIGMA_W_DEG_S
-        return {"q": k**2 / FS_HZ}
-    amp, period = rng.uniform(*r["amp"]) * SIGMA_W_DEG_S, _log_uniform(rng, r["period"])
-    return {"amp": amp, "w0": 2.0 * math.pi / (period * FS_HZ)}
+        p["q"] = p["k"] ** 2 / FS_HZ
+    if effect == "sinusoid":
+        p["w0"] = 2.0 * math.pi / (p["period"] * FS_HZ)
+    return p
 
 
 def record(effect: str, seed: int, ranges: str) -> np.ndarray:
@@ -132,15 +130,16 @@ def record(effect: str, seed: int, ranges: str) -> np.ndarray:
     return base_rate(rng) + hidden(effect, rng, ranges)
 
 
-def statistic(effect: str, p: dict[str, float], rates: np.ndarray,
+def statistic(effect: str, p: dict[str, float], series: np.ndarray,
               periodograms: np.ndarray) -> np.ndarray:
-    """The test's statistic on each row of ``rates`` (their ``periodograms`` in the effect's
-    domain): Whittle's log-likelihood ratio, or for a sine the power at its frequency over
-    the base spectrum there."""
+    """The test's statistic on each record, given in the effect's domain as rows of
+    ``series`` (:meth:`Domain.series`, for a sine) and ``periodograms`` (the others):
+    Whittle's log-likelihood ratio, or for a sine the power at its frequency over the base
+    spectrum there."""
     domain = DOMAINS[effect]
     if effect == "sinusoid":
         w0 = np.array([p["w0"]])
-        tone = domain.series(rates) @ np.exp(-1j * w0[0] * np.arange(domain.n))
+        tone = series @ np.exp(-1j * w0[0] * np.arange(domain.n))
         out: np.ndarray = np.abs(tone) ** 2 / domain.base(w0)[0]
         return out
     w = domain.w
@@ -171,14 +170,15 @@ def main() -> None:
     print(f"reconcile's ceiling on the naming bench ({args.ranges} ranges; {args.seeds} records "
           f"per effect from seed {args.first}, thresholds from {args.clean} clean records)")
     for effect in ("gauss_markov", "rate_random_walk", "sinusoid"):
-        clean_pg = DOMAINS[effect].periodogram(clean)
+        domain = DOMAINS[effect]
+        clean_series, clean_pg = domain.series(clean), domain.periodogram(clean)
         hits = {a: 0 for a in args.alpha}
         for i in range(args.seeds):
             seed = args.first + i
             p = parameters(effect, seed, args.ranges)
             rate = record(effect, seed, args.ranges)[None, :]
-            null = statistic(effect, p, clean, clean_pg)
-            value = statistic(effect, p, rate, DOMAINS[effect].periodogram(rate))[0]
+            null = statistic(effect, p, clean_series, clean_pg)
+            value = statistic(effect, p, domain.series(rate), domain.periodogram(rate))[0]
             for a in args.alpha:
                 hits[a] += int(value > np.quantile(null, 1.0 - a))
         shares = ", ".join(f"alpha {a:g}: {hits[a]}/{args.seeds} "

@@ -80,22 +80,41 @@ def _log_uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float
     return float(math.exp(rng.uniform(math.log(bounds[0]), math.log(bounds[1]))))
 
 
+def effect_parameters(effect: str, rng: np.random.Generator, ranges: str = "narrow",
+                      ) -> dict[str, float]:
+    """The parameters of a Gauss-Markov process (``sigma`` deg/s, ``tau`` s), a rate random
+    walk (``k`` deg/s^1.5) or a sinusoid (``amp`` deg/s, ``period`` s), drawn from
+    ``RANGES[ranges]`` (the first draws :func:`hidden` takes for them)."""
+    r = RANGES[ranges]
+    if effect == "gauss_markov":
+        return {"sigma": rng.uniform(*r["gm_sigma"]) * SIGMA_W_DEG_S,
+                "tau": _log_uniform(rng, r["gm_tau"])}
+    if effect == "rate_random_walk":
+        return {"k": math.sqrt(6.0 * rng.uniform(*r["rw_ratio"]) / DURATION_S) * SIGMA_W_DEG_S}
+    if effect == "sinusoid":
+        return {"amp": rng.uniform(*r["amp"]) * SIGMA_W_DEG_S,
+                "period": _log_uniform(rng, r["period"])}
+    raise ValueError(f"no drawn parameters for {effect!r}")
+
+
 def hidden(effect: str, rng: np.random.Generator, ranges: str = "narrow") -> np.ndarray:
     """The effect's rate (deg/s), parameters drawn from ``RANGES[ranges]``."""
     r = RANGES[ranges]
     t = np.arange(N_SAMPLES) / FS_HZ
     if effect == "gauss_markov":
-        sigma, tau = rng.uniform(*r["gm_sigma"]) * SIGMA_W_DEG_S, _log_uniform(rng, r["gm_tau"])
+        p = effect_parameters(effect, rng, ranges)
+        sigma, tau = p["sigma"], p["tau"]
         phi = math.exp(-1.0 / (FS_HZ * tau))
         e = sigma * math.sqrt(1 - phi**2) * rng.standard_normal(N_SAMPLES)
         x0 = sigma * rng.standard_normal()
         out, _ = signal.lfilter([1.0], [1.0, -phi], e, zi=[phi * x0])
         return out
     if effect == "rate_random_walk":
-        k = math.sqrt(6.0 * rng.uniform(*r["rw_ratio"]) / DURATION_S) * SIGMA_W_DEG_S
+        k = effect_parameters(effect, rng, ranges)["k"]
         return np.cumsum(k / math.sqrt(FS_HZ) * rng.standard_normal(N_SAMPLES))
     if effect == "sinusoid":
-        amp, period = rng.uniform(*r["amp"]) * SIGMA_W_DEG_S, _log_uniform(rng, r["period"])
+        p = effect_parameters(effect, rng, ranges)
+        amp, period = p["amp"], p["period"]
         phase = rng.uniform(0, 2 * math.pi)
         return amp * np.sin(2 * math.pi * t / period + phase)
     if effect == "rate_ramp":

@@ -34,6 +34,7 @@ def test_a_told_test_separates_a_strong_process_from_clean_records() -> None:
     for effect in DOMAINS:
         p = parameters(effect, 1, "narrow")
         rate = record(effect, 1, "narrow")[None, :]
-        null = statistic(effect, p, clean, DOMAINS[effect].periodogram(clean))
-        value = statistic(effect, p, rate, DOMAINS[effect].periodogram(rate))[0]
+        domain = DOMAINS[effect]
+        null = statistic(effect, p, domain.series(clean), domain.periodogram(clean))
+        value = statistic(effect, p, domain.series(rate), domain.periodogram(rate))[0]
         assert value > null.max(), effect
