@@ -342,19 +342,29 @@ class ResultsDatabase:
             self._con = self._empty(self.location)
             return
         if version == 0:
-            raise DatabaseLocationError(f"{self.name} holds tables of something else: it "
-                                        "is not a results database")
+            self._refuse_foreign_tables()
+            version = self.schema_version  # a station migrated it meanwhile
+            if version == SCHEMA_VERSION:
+                return
         raise ResultsDatabaseError(
             f"{self.name}: schema version {version}, this station reads {SCHEMA_VERSION}: "
             + ("update the station" if version > SCHEMA_VERSION else
                "station grade (any grading stored) migrates it"))
 
+    def _refuse_foreign_tables(self) -> None:
+        """Refuse a database whose tables are not a results database's: tables with no schema
+        version, read in that order. A station's migration commits its tables and its version
+        together, so a version still 0 after its tables were seen is no migration's; the
+        other order can straddle one's commit (eight stations opening one new PostgreSQL
+        database: a version of 0 read just before it, the tables just after)."""
+        if self._con.has_tables() and self.schema_version == 0:
+            raise DatabaseLocationError(f"{self.name} holds tables of something else: it "
+                                        "is not a results database")
+
     def _migrate(self) -> None:
         if self.schema_version == SCHEMA_VERSION:
             return
-        if self.schema_version == 0 and self._con.has_tables():
-            raise DatabaseLocationError(f"{self.name} holds tables of something else: it "
-                                        "is not a results database")
+        self._refuse_foreign_tables()
         with self._con.migration():  # re-read inside the lock: another station may have migrated
             con = self._con
             version = self.schema_version
