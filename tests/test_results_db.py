@@ -264,40 +264,6 @@ def _check_complete(db: str | Path, n_figures: int) -> int:
     return len(rows)
 
 
-def _open_at_once(location: str, start: object, out: object) -> None:
-    """One station (a forked process): open (and migrate) the database when all do."""
-    try:
-        start.wait(timeout=60)  # type: ignore[attr-defined]
-        with ResultsDatabase(location):
-            pass
-        out.put("")  # type: ignore[attr-defined]
-    except BaseException as exc:  # the test shows it
-        out.put(f"{type(exc).__name__}: {exc}")  # type: ignore[attr-defined]
-
-
-def test_sixteen_stations_open_one_new_postgresql_database_at_once(postgres_server) -> None:
-    """Sixteen processes open one new PostgreSQL database at the same instant, four times
-    over: every one finds a results database, none takes the tables another is committing
-    for a stranger's. (A station read the schema version, then the tables: another's
-    migration committed between the two read "holds tables of something else", in 12 of 60
-    such rounds here before the tables were read first, 0 of 60 after.)"""
-    import multiprocessing
-
-    ctx = multiprocessing.get_context("fork")
-    for _ in range(4):
-        url = postgres_server.create_database()
-        start, out = ctx.Barrier(16), ctx.Queue()
-        procs = [ctx.Process(target=_open_at_once, args=(url, start, out)) for _ in range(16)]
-        for p in procs:
-            p.start()
-        errors = [out.get(timeout=120) for _ in procs]
-        for p in procs:
-            p.join(timeout=60)
-        assert [e for e in errors if e] == []
-        with ResultsDatabase(url) as db:
-            assert db.schema_version == SCHEMA_VERSION
-
-
 WRITERS = 8
 STORES = 25
 
