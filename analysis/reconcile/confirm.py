@@ -59,6 +59,7 @@ from analysis.figures.tones import Tone, find_tones
 from analysis.models.simulation import simulate
 from analysis.models.terms import (
     BiasSteps,
+    GaussMarkov,
     NoiseModel,
     NoiseTerm,
     RateRamp,
@@ -66,8 +67,15 @@ from analysis.models.terms import (
     TemperatureBias,
 )
 from analysis.reconcile.candidates import MIN_CYCLES, CandidateFit
-from analysis.reconcile.discrepancy import Comparison, MeasuredCurve, block_means, regression_slopes
+from analysis.reconcile.discrepancy import (
+    Comparison,
+    ComparisonCache,
+    MeasuredCurve,
+    block_means,
+    regression_slopes,
+)
 from analysis.reconcile.line_test import LineDetection, strongest_line
+from analysis.reconcile.process_test import detect_process
 from analysis.units import conversions as units
 
 #: Null standard deviations a regression slope must clear (S3, S4): p about 6e-5 if normal.
@@ -436,6 +444,20 @@ class RoundEvidence:
             return None
         return Sinusoid(**ev.values), Evidence(True, f"{line.statistic}; {ev.statistic}",
                                                ev.values, ev.stderr)
+
+    def missing_process(self, alpha: float, seed: int, cache: ComparisonCache | None = None,
+                        ) -> tuple[GaussMarkov, Evidence] | None:
+        """The Gauss-Markov process the spectral process test finds the model lacking
+        (:mod:`analysis.reconcile.process_test`, P3 at level ``alpha``, its thresholds kept in
+        ``cache``); None when it finds none or the model has a Gauss-Markov process already."""
+        if "gauss_markov" in self.comparison.model:
+            return None
+        found = detect_process(self.residual, self.curve.sample_rate_hz, self.comparison.model,
+                               alpha=alpha, seed=seed, cache=cache)
+        if found is None or not found.significant:
+            return None
+        term = found.term()
+        return term, Evidence(True, found.describe(), term.to_table(), {})
 
     def step_series(self) -> NDArray[np.float64] | None:
         """The bias the located steps make (deg/s per sample), when steps were found."""

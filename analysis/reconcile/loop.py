@@ -25,7 +25,10 @@ The workflow (:func:`reconcile`), each step reported in a :class:`ReconcileResul
    beyond its interval, but stands 30 times over the background of an hour's
    periodogram): its sinusoid, fitted to the time series, is tried first
    (:mod:`analysis.reconcile.ranking`), and the loop runs while the gap is significant or
-   such a line is left.
+   such a line is left. When neither the gap nor a line contradicts the model, the
+   spectral process test (:mod:`analysis.reconcile.process_test`, level ``alpha``) may: a
+   faint Gauss-Markov process the Allan curve cannot see, tried alone and kept like the
+   line's sinusoid, in rounds where every change so far was led by a spectral test.
 3. **Add and re-check**: the best candidate is put into the model, the comparison is run
    again (new curve, new simulated band and null) and the effect is kept only if the gap
    shrinks significantly: ``G_after < G_before - shrink_sigmas * sd(G_null_before)``
@@ -299,7 +302,9 @@ def reconcile_curve(
         steps = evidence.step_series()
         order, judgement, line_fit = ranked(evidence, current, curve, steps,
                                             significant=significant,
-                                            bic_threshold=opt.bic_threshold, gmwm=opt.gmwm)
+                                            bic_threshold=opt.bic_threshold, gmwm=opt.gmwm,
+                                            alpha=opt.alpha, seed=opt.seed, cache=cache,
+                                            process=all(e.name in by_line for e in changes))
         if not significant and line_fit is None:
             break
         for fit, change, (term, ev, refusal) in order:

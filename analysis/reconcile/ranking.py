@@ -14,7 +14,7 @@ from numpy.typing import NDArray
 from analysis.models.terms import NoiseTerm
 from analysis.reconcile.candidates import CandidateFit, change_of, fit_candidate, fit_candidates
 from analysis.reconcile.confirm import Evidence, RoundEvidence
-from analysis.reconcile.discrepancy import Comparison, MeasuredCurve
+from analysis.reconcile.discrepancy import Comparison, ComparisonCache, MeasuredCurve
 from analysis.reconcile.gmwm_naming import (
     ALTERNATIVE_SCORE,
     Alternative,
@@ -123,15 +123,22 @@ def ranked(
     bic_threshold: float,
     gmwm: bool,
     significant: bool,
+    alpha: float = 0.01,
+    seed: int = 0,
+    cache: ComparisonCache | None = None,
+    process: bool = True,
 ) -> tuple[list[Ranked], GmwmJudgement | None, CandidateFit | None]:
     """The candidates of a round in the order they are tried, the GMWM's judgement, and the
-    line's sinusoid when one leads (None otherwise).
+    candidate a spectral test leads with (None when none does).
 
     A spectral line the line test detects (L2 of :mod:`analysis.reconcile.line_test`) contradicts
     the model whether or not the Allan gap is significant: its sinusoid, fitted to the
     time series, is tried first (and is the only candidate when the gap is not
     significant); the Allan curve's sinusoid then gives way to it. The rest follow in the
-    order of :func:`allan_ranked` when the gap is significant.
+    order of :func:`allan_ranked` when the gap is significant. When neither the gap nor a
+    line contradicts the model, the spectral process test
+    (:mod:`analysis.reconcile.process_test`, P3 at level ``alpha``) may, where ``process``
+    allows it: the Gauss-Markov process it finds is then the only candidate.
     """
     rows: list[Ranked] = []
     judgement = None
@@ -140,7 +147,9 @@ def ranked(
                                        bic_threshold=bic_threshold, gmwm=gmwm)
     found = evidence.line_sinusoid()
     if found is None:
-        return rows, judgement, None
+        if significant or not process:
+            return rows, judgement, None
+        return _process_led(evidence, current, curve, alpha, seed, cache)
     term, ev = found
     fit = fit_candidate("sinusoid", current.model, curve, current)
     if fit is None:
@@ -148,3 +157,19 @@ def ranked(
     line_fit = fit.with_term(term)
     rows = [r for r in rows if r[0].name != "sinusoid"]
     return [(line_fit, "added", (term, ev, "")), *rows], judgement, line_fit
+
+
+def _process_led(evidence: RoundEvidence, current: Comparison, curve: MeasuredCurve,
+                 alpha: float, seed: int, cache: ComparisonCache | None,
+                 ) -> tuple[list[Ranked], GmwmJudgement | None, CandidateFit | None]:
+    """The Gauss-Markov process of the spectral process test as the round's only candidate
+    (no candidate when the test finds none)."""
+    process = evidence.missing_process(alpha, seed, cache)
+    if process is None:
+        return [], None, None
+    term, ev = process
+    fit = fit_candidate("gauss_markov", current.model, curve, current)
+    if fit is None:
+        return [], None, None
+    led = fit.with_term(term)
+    return [(led, "added", (term, ev, ""))], None, led
