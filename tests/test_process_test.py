@@ -9,15 +9,8 @@ import math
 import numpy as np
 import pytest
 
+from analysis.models import terms as t
 from analysis.models.simulation import simulate
-from analysis.models.terms import (
-    AngleRandomWalk,
-    BiasInstability,
-    GaussMarkov,
-    NoiseModel,
-    Quantization,
-    RateRandomWalk,
-)
 from analysis.reconcile.discrepancy import ComparisonCache
 from analysis.reconcile.loop import reconcile
 from analysis.reconcile.process_test import (
@@ -28,20 +21,20 @@ from analysis.reconcile.process_test import (
 )
 
 FS_HZ = 10.0
-BASE = NoiseModel(terms=(AngleRandomWalk(N_deg_rt_h=0.5), BiasInstability(B_deg_h=2.0)))
+BASE = t.NoiseModel(terms=(t.AngleRandomWalk(N_deg_rt_h=0.5), t.BiasInstability(B_deg_h=2.0)))
 #: The base's white noise, deg/s per sample.
 SIGMA_W = 0.5 / 60.0 * math.sqrt(FS_HZ)
 
 
 @pytest.mark.parametrize("terms", [
     BASE.terms,
-    (AngleRandomWalk(N_deg_rt_h=0.5), GaussMarkov(sigma_deg_h=20.0, tau_s=5.0)),
-    (AngleRandomWalk(N_deg_rt_h=0.5), GaussMarkov(sigma_deg_h=20.0, tau_s=0.05)),
-    (Quantization(Q_urad=20.0), AngleRandomWalk(N_deg_rt_h=0.5)),
-    (AngleRandomWalk(N_deg_rt_h=0.5), RateRandomWalk(K_deg_h_1_5=3.0)),
+    (t.AngleRandomWalk(N_deg_rt_h=0.5), t.GaussMarkov(sigma_deg_h=20.0, tau_s=5.0)),
+    (t.AngleRandomWalk(N_deg_rt_h=0.5), t.GaussMarkov(sigma_deg_h=20.0, tau_s=0.05)),
+    (t.Quantization(Q_urad=20.0), t.AngleRandomWalk(N_deg_rt_h=0.5)),
+    (t.AngleRandomWalk(N_deg_rt_h=0.5), t.RateRandomWalk(K_deg_h_1_5=3.0)),
 ], ids=["arw+bi", "arw+gm", "arw+fast-gm", "quantization+arw", "arw+rw"])
 def test_the_model_spectrum_is_what_the_simulator_draws(terms: tuple) -> None:
-    model = NoiseModel(terms=terms)
+    model = t.NoiseModel(terms=terms)
     rates = simulate(model, 3600.0, FS_HZ, n_axes=40, seed=3).rate_deg_s
     w, _ = periodogram(rates[:, 0])
     mean = np.mean([periodogram(rates[:, i])[1] for i in range(40)], axis=0)
@@ -78,7 +71,7 @@ def test_clean_records_are_rarely_called_a_process() -> None:
 
 
 def test_a_faint_process_the_gap_passes_is_named_by_its_spectrum() -> None:
-    truth = GaussMarkov(sigma_deg_h=0.05 * SIGMA_W * 3600.0, tau_s=3.0)
+    truth = t.GaussMarkov(sigma_deg_h=0.05 * SIGMA_W * 3600.0, tau_s=3.0)
     rate = simulate(BASE.with_term(truth), 3600.0, FS_HZ, seed=10).rate_deg_s[:, 0]
     result = reconcile(rate, FS_HZ, BASE)
     assert not result.before.significant(0.01)  # the Allan gap alone names nothing here
