@@ -8,6 +8,8 @@ sinusoid the time series fits there; then the candidates of the Allan curve
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -171,5 +173,6 @@ def _process_led(evidence: RoundEvidence, current: Comparison, curve: MeasuredCu
     fit = fit_candidate("gauss_markov", current.model, curve, current)
     if fit is None:
         return [], None, None
-    led = fit.with_term(term)
+    # the curve's fit lends its Delta BIC, not its parameters' errors (those of another fit)
+    led = replace(fit.with_term(term), stderr={})
     return [(led, "added", (term, ev, ""))], None, led
