@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import json
 import os
+import subprocess
 import threading
 import time
 import tty
@@ -17,7 +19,12 @@ import numpy as np
 import pytest
 
 from station.storage.hdf5 import open_run_file, read_unit
-from tests.test_recorder_helpers import assert_summary_books, run_station, summaries
+from tests.test_recorder_helpers import (
+    assert_summary_books,
+    run_station,
+    station_cmd,
+    summaries,
+)
 
 CAPTURE = (Path(__file__).resolve().parents[2] / "shared" / "real-captures" / "xsens-mtig710"
            / "1" / "output.bin")
@@ -106,6 +113,23 @@ def test_recording_the_real_capture_gives_valid_samples_and_no_false_gap(
         unit = read_unit(f, "unit1")
         np.testing.assert_array_equal(np.diff(unit.counter), 1)
         assert not np.any(unit.status)
+
+
+@pytest.mark.skipif(not CAPTURE.is_file(), reason=f"the real MTi-G-710 capture is not at "
+                                                  f"{CAPTURE}")
+def test_the_json_summary_ends_the_output_with_stderr_merged(tmp_path: Path) -> None:
+    """``station record --json-summary 2>&1 | tail -1`` is the unit's summary: the CPU report
+    (stderr) comes before it. The real capture replayed: 96 samples, none missing."""
+    done = subprocess.run(
+        station_cmd("record", "--profile", PROFILE, "--unit",
+                    f"replay://{CAPTURE}?protocol=xbus&rate=100", "--duration", "60",
+                    "--json-summary", "--out", str(tmp_path / "mti.h5")),
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, timeout=120.0, check=False)
+    assert done.returncode == 0, done.stdout
+    lines = done.stdout.strip().splitlines()
+    assert any("of a core" in line for line in lines[:-1]), done.stdout
+    last = json.loads(lines[-1])
+    assert (last["samples_recorded"], last["samples_missing_declared"]) == (96, 0)
 
 
 def test_a_simulated_mti_g_records_with_exact_books(tmp_path: Path) -> None:

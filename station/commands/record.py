@@ -13,8 +13,9 @@ JSON object per unit: ``{"unit", "samples_recorded", "samples_missing_declared",
 of generated samples, null for hardware; it lies within ``samples_recorded`` plus the low
 and the high count of missing samples, which differ only where a counter's wrap count
 was not certain). Each unit runs in a process of its own; at the end the CPU time of each
-(reading, and its simulator) and of the recorder's process is printed (to stderr with
-``--json-summary``; not with ``--quiet``). A fault that stops the run early (a full
+(reading, and its simulator) and of the recorder's process is printed (to stderr and
+before the summary with ``--json-summary``, so that the summary ends the output even with
+stderr merged into stdout; not with ``--quiet``). A fault that stops the run early (a full
 disk or a failed write, the output folder or file removed, a unit's device or its
 process lost) ends with one line saying what happened, what the file kept (each unit's
 samples up to its last flush, the file, and ``station recover FILE`` if it needs
@@ -117,8 +118,11 @@ def run(args: argparse.Namespace) -> int:
     subscribers = [] if args.quiet else [ProgressLine(sys.stderr)]
     outcome = record(request, subscribers, status=args.status, on_start=started)
     if args.json_summary:
+        if not args.quiet:  # before the summary, which ends the output, stderr merged or not
+            print("\n".join(outcome.cpu_lines()), file=sys.stderr, flush=True)
         for unit in outcome.units:
             print(json.dumps(dataclasses.asdict(unit)))
+        sys.stdout.flush()
     else:
         from station.model.wording import plural
 
@@ -131,9 +135,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {u.unit}: recorded {u.samples_recorded}, declared missing "
                   f"{u.samples_missing_declared}{bounds} in {plural(u.gaps, 'gap')}"
                   f"{sent_text}, CRC errors {u.crc_errors}, reconnects {u.reconnects}")
-    if not args.quiet:
-        print("\n".join(outcome.cpu_lines()),
-              file=sys.stderr if args.json_summary else sys.stdout)
+        if not args.quiet:
+            print("\n".join(outcome.cpu_lines()))
     message = outcome.fault_message()
     if message:
         print(f"station record: {message}", file=sys.stderr)
