@@ -68,7 +68,7 @@ from analysis.models.terms import (
     Quantization,
     RateRandomWalk,
 )
-from analysis.reconcile.discrepancy import ComparisonCache
+from analysis.reconcile.discrepancy import ComparisonCache, block_means
 from analysis.units.conversions import rate_deg_s_to_deg_h
 
 #: Correlation times searched per octave.
@@ -206,9 +206,7 @@ def detect_process(rate_deg_s: NDArray[np.float64], sample_rate_hz: float, model
         grid of correlation times.
     """
     block = max(1, -(-rate_deg_s.shape[0] // MAX_SAMPLES))
-    if block > 1:
-        n = rate_deg_s.shape[0] // block * block
-        rate_deg_s = rate_deg_s[:n].reshape(-1, block).mean(axis=1)
+    rate_deg_s = block_means(rate_deg_s, block)
     fs = sample_rate_hz / block
     dt = 1.0 / fs
     w, obs = periodogram(np.asarray(rate_deg_s, dtype=np.float64))
